@@ -1,0 +1,34 @@
+"""terracone: Bekker-Wong terrain parameters from cone penetrometer data.
+
+The method is that of Huang, Wong, Preston-Thomas and Jayakumar, "Predicting
+terrain parameters for physics-based vehicle mobility models from cone index
+data".  Forward models live in :mod:`terracone.cone` and
+:mod:`terracone.plate`, the inversion in :mod:`terracone.inverse`.
+"""
+
+from importlib.metadata import PackageNotFoundError, version
+
+from .cone import CONES, Cone, cone_index, get_cone
+from .data import CIProfile, InputError, PlateTest, ShearTest, TerrainParameters
+from .metrics import agreement
+from .plate import plate_pressure
+
+try:
+    __version__ = version("terracone")
+except PackageNotFoundError:  # pragma: no cover - running from a source tree
+    __version__ = "0.0.0+unknown"
+
+__all__ = [
+    "CONES",
+    "CIProfile",
+    "Cone",
+    "InputError",
+    "PlateTest",
+    "ShearTest",
+    "TerrainParameters",
+    "agreement",
+    "cone_index",
+    "get_cone",
+    "plate_pressure",
+    "__version__",
+]

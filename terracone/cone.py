@@ -1,0 +1,510 @@
+"""Cone geometry and the cone-index models of Huang et al. [1]_.
+
+The improved cone-terrain interaction model (eqs. (2-2) to (2-7) in [1]_)
+integrates the Bekker normal pressure and the Janosi-Hanamoto shear stress
+over the conical surface.  With ``u`` the depth of a surface element below
+the terrain surface, ``u1 = z + H`` the depth of the tip and ``r`` the local
+radius of the cone, the integrals reduce to incomplete moments
+
+    G_k(eps) = integral_0^eps w^k (1 - w)^n dw,   k = 0, 1, 2,
+
+of the distance from the tip scaled by the tip depth.  They are evaluated in
+closed form (``expm1``/``log1p``, no cancellation at shallow depth) or, deep
+below the surface where the closed form would cancel, by their binomial
+series.  Everything broadcasts over depths and parameter sets.
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Section 2 and section 3.2.
+.. [2] ASABE S313.3, Soil cone penetrometer.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from . import units as u
+from .plate import PressureLaw, pressure_law
+
+__all__ = [
+    "Cone",
+    "CONES",
+    "get_cone",
+    "cone_index",
+    "cone_index_basis",
+    "janosi",
+    "improved",
+]
+
+
+@dataclass(frozen=True)
+class Cone:
+    """A right circular cone penetrometer tip.
+
+    Parameters
+    ----------
+    name : str
+        Label of the cone.
+    base_area : float
+        Area of the cone base [m^2].
+    angle_deg : float
+        Included (apex) angle [deg]; the half angle is the paper's 15 deg for
+        the standard 30 deg cone.
+    """
+
+    name: str
+    base_area: float
+    angle_deg: float
+
+    def __post_init__(self) -> None:
+        if not (self.base_area > 0 and math.isfinite(self.base_area)):
+            raise ValueError(f"cone base_area must be positive (got {self.base_area})")
+        if not (0 < self.angle_deg < 180):
+            raise ValueError(f"cone angle_deg must be in (0, 180) (got {self.angle_deg})")
+
+    @classmethod
+    def from_diameter(cls, diameter: float, angle_deg: float, name: str | None = None) -> Cone:
+        """Cone from its base diameter [m] and included angle [deg]."""
+        if not diameter > 0:
+            raise ValueError(f"cone diameter must be positive (got {diameter})")
+        label = name or f"custom-{diameter * 1000:g}mm-{angle_deg:g}deg"
+        return cls(label, math.pi * diameter**2 / 4.0, angle_deg)
+
+    @property
+    def radius(self) -> float:
+        """Base radius R = sqrt(A / pi) [m]."""
+        return math.sqrt(self.base_area / math.pi)
+
+    @property
+    def half_angle(self) -> float:
+        """Half of the included angle [rad] (15 deg in the paper)."""
+        return math.radians(self.angle_deg) / 2.0
+
+    @property
+    def height(self) -> float:
+        """Height from base to tip H = R / tan(angle / 2) [m] (Figure 2-2 in [1])."""
+        return self.radius / math.tan(self.half_angle)
+
+
+#: Named cones of ASABE S313 [2]_: 30 deg, 0.5 in^2 (large) and 0.2 in^2 (small).
+CONES: dict[str, Cone] = {
+    "asabe-large": Cone("asabe-large", 0.5 * u.INCH**2, 30.0),
+    "asabe-small": Cone("asabe-small", 0.2 * u.INCH**2, 30.0),
+}
+
+_CUSTOM = re.compile(r"^\s*([0-9.eE+-]+)\s*(m|cm|mm|in)\s*[:@]\s*([0-9.eE+-]+)\s*(deg)?\s*$")
+
+
+def get_cone(cone: str | Cone) -> Cone:
+    """Return a :class:`Cone` from a name, ``"DIAMETER<unit>:ANGLE"`` or a Cone.
+
+    ``"20.27mm:30"`` is a custom cone of 20.27 mm base diameter and 30 deg
+    included angle.
+    """
+    if isinstance(cone, Cone):
+        return cone
+    if cone in CONES:
+        return CONES[cone]
+    m = _CUSTOM.match(str(cone))
+    if m:
+        d = float(m.group(1)) * u.LENGTH_UNITS[m.group(2)]
+        return Cone.from_diameter(d, float(m.group(3)), name=str(cone).strip())
+    raise ValueError(
+        f"cone must be one of {sorted(CONES)} or 'DIAMETER<m|cm|mm|in>:ANGLE' (got {cone!r})"
+    )
+
+
+# ---------------------------------------------------------------------------
+# incomplete moments
+# ---------------------------------------------------------------------------
+
+_SERIES_EPS = 0.05  # below this the series is used (closed form loses ~1e-16/eps^2)
+_SERIES_TERMS = 14  # 0.05**14 ~ 6e-19
+
+
+def _tail_moments(eps: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """G_k(eps) = int_0^eps w^k (1-w)^n dw for k = 0, 1, 2 (eps in [0, 1])."""
+    eps, n = np.broadcast_arrays(eps, n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lx = np.log1p(-eps)
+        a = -np.expm1((n + 1.0) * lx) / (n + 1.0)
+        b = -np.expm1((n + 2.0) * lx) / (n + 2.0)
+        c = -np.expm1((n + 3.0) * lx) / (n + 3.0)
+    g0 = a
+    g1 = a - b
+    g2 = a - 2.0 * b + c
+    small = eps < _SERIES_EPS
+    if small.any():
+        e = eps[small]
+        nn = n[small]
+        s0 = np.zeros_like(e)
+        s1 = np.zeros_like(e)
+        s2 = np.zeros_like(e)
+        coef = np.ones_like(e)  # binom(n, j) (-1)^j
+        power = e.copy()  # eps^(j+1)
+        for j in range(_SERIES_TERMS):
+            s0 += coef * power / (j + 1)
+            s1 += coef * power * e / (j + 2)
+            s2 += coef * power * e * e / (j + 3)
+            coef = coef * (j - nn) / (j + 1)
+            power = power * e
+        g0 = np.array(g0, dtype=float)
+        g1 = np.array(g1, dtype=float)
+        g2 = np.array(g2, dtype=float)
+        g0[small] = s0
+        g1[small] = s1
+        g2[small] = s2
+    return g0, g1, g2
+
+
+# Double-exponential (tanh-sinh) rule on [0, 1], used only for finite Kc.
+def _de_rule(h: float = 1.0 / 16.0, tmax: float = 3.6) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    t = np.arange(-tmax, tmax + h / 2, h)
+    v = 0.5 * math.pi * np.sinh(t)
+    sigma = 1.0 / (1.0 + np.exp(-2.0 * v))
+    one_minus = 1.0 / (1.0 + np.exp(2.0 * v))
+    w = h * 0.5 * math.pi * np.cosh(t) / (2.0 * np.cosh(v) ** 2)
+    return sigma, one_minus, w
+
+
+_DE_SIGMA, _DE_ONE_MINUS, _DE_W = _de_rule()
+
+
+def _check_nonneg(name: str, value: ArrayLike) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite")
+    if np.any(a < 0):
+        raise ValueError(f"{name} must be >= 0 (got min {a.min()})")
+    return a
+
+
+def _check_n(n: ArrayLike) -> np.ndarray:
+    a = np.asarray(n, dtype=float)
+    if not np.all(np.isfinite(a)) or np.any(a <= 0) or np.any(a > 3):
+        raise ValueError("n must satisfy 0 < n <= 3")
+    return a
+
+
+def _check_phic(phic_deg: ArrayLike) -> np.ndarray:
+    a = np.asarray(phic_deg, dtype=float)
+    if not np.all(np.isfinite(a)) or np.any(a < 0) or np.any(a >= 90):
+        raise ValueError("phic must satisfy 0 <= phic < 90 deg")
+    return a
+
+
+def _check_depth(depth: ArrayLike, cone: Cone) -> np.ndarray:
+    z = np.asarray(depth, dtype=float)
+    if not np.all(np.isfinite(z)):
+        raise ValueError("depth must be finite")
+    if np.any(z < -cone.height * (1 + 1e-12)):
+        raise ValueError(
+            f"depth must be >= -H = {-cone.height:.6g} m (the tip above the surface carries no load)"
+        )
+    return np.maximum(z, -cone.height)
+
+
+def cone_index_basis(
+    depth: ArrayLike,
+    *,
+    n: ArrayLike,
+    phic: ArrayLike = 0.0,
+    Kc: ArrayLike | None = None,
+    law: PressureLaw | None = None,
+    cone: str | Cone = "asabe-large",
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Columns A, B, C with CI = kc*A + kphi*B + cc*C, all in SI.
+
+    For fixed n, phic, Kc and pressure law, the improved model (eq. (2-7)) is
+    linear in kc, kphi and cc.  This returns its three columns.
+
+    Parameters
+    ----------
+    depth : array_like
+        Depth of the cone base below the surface [m]; -H <= z.
+    n : array_like
+        Sinkage exponent [-].
+    phic : array_like
+        Cone-terrain friction angle [deg].
+    Kc : array_like or None
+        Cone-terrain shear deformation parameter [m]; None for fully
+        mobilised shear.
+    law : PressureLaw
+        RM0 or RM1 pressure law (section 3.2); RM0 when None.
+    cone : str or Cone
+
+    Returns
+    -------
+    A, B, C : ndarray
+        [kPa per kN/m^(n+1)], [kPa per kN/m^(n+2)] and [-].
+    """
+    cone = get_cone(cone)
+    law = law or pressure_law("rm0")
+    z = _check_depth(depth, cone)
+    n = _check_n(n)
+    phic = _check_phic(phic)
+    R, H = cone.radius, cone.height
+    t = R / H  # tan(half angle), tan 15 deg in the paper
+    tan_phic = np.tan(np.radians(phic))
+
+    u1 = z + H  # depth of the tip
+    L = np.where(z >= 0.0, H, u1)  # embedded length along the axis (rec. F of [1])
+    live = u1 > 0.0
+    u1s = np.where(live, u1, 1.0)
+    eps_L = np.where(live, L / u1s, 0.0)
+
+    r_t, alpha, beta = law.coefficients()
+    # distance from the tip below which the linear (RM1) branch applies: r < r_t
+    d_s = np.minimum(np.asarray(r_t, dtype=float) / t, L)
+    eps_s = np.where(live, d_s / u1s, 0.0)
+
+    g0L, g1L, _ = _tail_moments(eps_L, n)
+    lu = np.log(u1s)
+    p1 = np.exp((n + 1.0) * lu)  # u1^(n+1)
+    p2 = p1 * u1s
+    p3 = p2 * u1s
+
+    # int p*r du over the embedded cone, eqs. (2-2), (2-3), (2-5); per unit kc and kphi
+    I_phi = t * p2 * g1L
+    if law.is_rm0:
+        I_c = p1 * g0L
+    else:
+        g0s, g1s, g2s = _tail_moments(eps_s, n)
+        # Bekker branch above r_t, tangent/secant line below it (section 3.2)
+        I_c = p1 * (g0L - g0s) + alpha * t * p2 * g1s - beta * t * t * p3 * g2s
+    I_c = np.where(live, I_c, 0.0)
+    I_phi = np.where(live, I_phi, 0.0)
+    I_cc = np.where(live, 0.5 * t * L * L, 0.0)  # int r du
+
+    if Kc is None:
+        # fully mobilised shear: eq. (2-6) with 1 - exp(-j/Kc) = 1
+        S_c, S_phi, S_cc = I_c, I_phi, I_cc
+    else:
+        S_c, S_phi, S_cc = _mobilised(z, u1, L, d_s, n, law, np.asarray(Kc, float), cone)
+
+    # eq. (2-7): CI = (Fp + Fs) / (pi R^2), Fp = 2 pi tan(a) I, Fs = 2 pi (cc I_cc + tan(phic) I)
+    A = 2.0 * (t * I_c + tan_phic * S_c) / (R * R)
+    B = 2.0 * (t * I_phi + tan_phic * S_phi) / (R * R)
+    C = 2.0 * S_cc / (R * R)
+    return A, B, C
+
+
+def _mobilised(z, u1, L, d_s, n, law, Kc, cone):
+    """Shear integrals of eq. (2-6) with 1 - exp(-j/Kc), j = u / cos(a) (eq. (2-4)).
+
+    Tanh-sinh quadrature in the distance from the tip, split where the
+    pressure law changes branch; exact to rounding for these integrands.
+    """
+    if np.any(~np.isfinite(Kc)) or np.any(Kc <= 0):
+        raise ValueError("Kc must be > 0 (or None for fully mobilised shear)")
+    R, H = cone.radius, cone.height
+    t = R / H
+    cos_a = math.cos(cone.half_angle)
+    r_t, alpha, beta = law.coefficients()
+    u0 = np.maximum(z, 0.0)
+    shape = np.broadcast_shapes(np.shape(z), np.shape(n), np.shape(Kc), np.shape(d_s))
+    ex = (Ellipsis, None)
+    u1 = np.broadcast_to(u1, shape)[ex]
+    n_ = np.broadcast_to(n, shape)[ex]
+    K_ = np.broadcast_to(Kc, shape)[ex]
+    L_ = np.broadcast_to(L, shape)[ex]
+    ds = np.broadcast_to(d_s, shape)[ex]
+    u0 = np.broadcast_to(u0, shape)[ex]
+    alpha = np.broadcast_to(np.asarray(alpha, float), shape)[ex]
+    beta = np.broadcast_to(np.asarray(beta, float), shape)[ex]
+
+    def segment(d_lo, d_hi, u_far, linear):
+        # nodes in d = distance from the tip, d in [d_lo, d_hi]; u = u1 - d
+        width = d_hi - d_lo
+        d = d_lo + width * _DE_SIGMA
+        uu = u_far + width * _DE_ONE_MINUS  # accurate near the far (shallow) end
+        uu = np.maximum(uu, 0.0)
+        r = t * d
+        un = np.where(uu > 0, uu, 0.0) ** n_
+        mob = -np.expm1(-uu / (cos_a * K_))
+        if linear:
+            pc = alpha * r - beta * r * r
+        else:
+            pc = np.ones_like(r)
+        wts = width * _DE_W * mob
+        return (
+            np.sum(wts * pc * un, axis=-1),
+            np.sum(wts * r * un, axis=-1),
+            np.sum(wts * r, axis=-1),
+        )
+
+    zero = np.zeros_like(L_)
+    bc, bp, bcc = segment(ds, L_, u0, False)
+    if law.is_rm0:
+        return bc, bp, bcc
+    lc, lp, lcc = segment(zero, ds, u1 - ds, True)
+    return bc + lc, bp + lp, bcc + lcc
+
+
+def improved(
+    depth: ArrayLike,
+    *,
+    kc: ArrayLike,
+    kphi: ArrayLike,
+    n: ArrayLike,
+    cc: ArrayLike = 0.0,
+    phic: ArrayLike = 0.0,
+    Kc: ArrayLike | None = None,
+    law: PressureLaw | None = None,
+    cone: str | Cone = "asabe-large",
+) -> np.ndarray:
+    """Cone index of the improved model, eqs. (2-2) to (2-7) in [1]_, in SI.
+
+    Parameters
+    ----------
+    depth : array_like
+        Depth of the cone base [m] (origin where the base is flush, Figure 2-2).
+    kc : array_like
+        [kN/m^(n+1)]
+    kphi : array_like
+        [kN/m^(n+2)]
+    n : array_like
+        [-]
+    cc : array_like
+        Cone-terrain adhesion [kPa].
+    phic : array_like
+        Cone-terrain friction angle [deg].
+    Kc : array_like or None
+        Shear deformation parameter [m]; None: fully mobilised shear.
+    law : PressureLaw
+        RM0 (default) or RM1.
+    cone : str or Cone
+
+    Returns
+    -------
+    ndarray
+        Cone index [kPa].
+    """
+    kc = _check_nonneg("kc", kc)
+    kphi = _check_nonneg("kphi", kphi)
+    cc = _check_nonneg("cc", cc)
+    A, B, C = cone_index_basis(depth, n=n, phic=phic, Kc=Kc, law=law, cone=cone)
+    return kc * A + kphi * B + cc * C
+
+
+def janosi(depth: ArrayLike, *, kc: ArrayLike, kphi: ArrayLike, n: ArrayLike) -> np.ndarray:
+    """Janosi's cone index, eq. (2-1) in [1]_, for the standard cone.
+
+    US customary units throughout, as in the paper: depth z [in] from the
+    point where the cone base is flush, kc [lb/in^(n+1)], kphi
+    [lb/in^(n+2)], CI [psi].
+    """
+    z = np.asarray(depth, dtype=float)
+    if np.any(z < 0) or not np.all(np.isfinite(z)):
+        raise ValueError("depth must be >= 0 for the Janosi equation (2-1)")
+    kc = _check_nonneg("kc", kc)
+    kphi = _check_nonneg("kphi", kphi)
+    n = _check_n(n)
+    zz = z + 1.5
+    # eq. (2-1)
+    return 1.625 * (
+        kc / (n + 1.0) * (zz ** (n + 1.0) - z ** (n + 1.0))
+        + 0.517
+        * kphi
+        * (
+            zz ** (n + 2.0) / ((n + 1.0) * (n + 2.0))
+            + z ** (n + 2.0) / (n + 2.0)
+            - zz * z ** (n + 1.0) / (n + 1.0)
+        )
+    )
+
+
+def cone_index(
+    depth: ArrayLike,
+    *,
+    kc: ArrayLike,
+    kphi: ArrayLike,
+    n: ArrayLike,
+    cc: ArrayLike = 0.0,
+    phic: ArrayLike = 0.0,
+    Kc: ArrayLike | None = None,
+    model: str = "rm0",
+    r_min: ArrayLike | None = None,
+    cone: str | Cone = "asabe-large",
+    units: str = "si",
+    plate_pair: tuple[float, float] | None = None,
+) -> np.ndarray:
+    """Cone index against depth for given terrain parameters.
+
+    Parameters
+    ----------
+    depth : array_like
+        Depth of the cone base below the surface (origin where the base is
+        flush; -H <= depth), in the length unit of ``units`` [m or in].
+    kc, kphi, n : array_like
+        Bekker pressure-sinkage parameters [kN/m^(n+1), kN/m^(n+2), -] or
+        [lb/in^(n+1), lb/in^(n+2), -].
+    cc : array_like
+        Cone (metal)-terrain adhesion [kPa or psi].
+    phic : array_like
+        Cone-terrain friction angle [deg].
+    Kc : array_like or None
+        Cone-terrain shear deformation parameter [m or in]; None means fully
+        mobilised shear (the paper's setting), a number uses eq. (2-4).
+    model : {"rm0", "rm1", "janosi"}
+        Pressure model of section 3.2, or eq. (2-1).
+    r_min : array_like, optional
+        Transition radius of RM1 [m or in].
+    cone : str or Cone
+        ``"asabe-large"`` (default), ``"asabe-small"`` or ``"D<unit>:ANGLE"``.
+    units : {"si", "us"}
+    plate_pair : (r1, r2), optional
+        Radii of the bevameter plate pair [m or in]; with RM1 and r_min above
+        r2 the linear branch is the line through the two plates' Bekker
+        pressures (section 3.2).
+
+    Returns
+    -------
+    ndarray
+        Cone index [kPa or psi], the broadcast shape of the inputs.
+
+    Examples
+    --------
+    >>> cone_index([0.0, 0.1], kc=0, kphi=1000, n=1)  # doctest: +SKIP
+    """
+    units = u.check_system(units)
+    n_arr = _check_n(n)
+    if model == "janosi":
+        if get_cone(cone) != CONES["asabe-large"]:
+            raise ValueError(
+                "cone: the Janosi equation (2-1) holds for the standard asabe-large cone"
+            )
+        if Kc is not None or np.any(np.asarray(cc) != 0) or np.any(np.asarray(phic) != 0):
+            raise ValueError("cc, phic and Kc are not parameters of the Janosi equation (2-1)")
+        z_in = u.length_to_si(depth, units) / u.INCH
+        kc_us = u.kc_from_si(u.kc_to_si(kc, n_arr, units), n_arr, "us")
+        kphi_us = u.kphi_from_si(u.kphi_to_si(kphi, n_arr, units), n_arr, "us")
+        ci_psi = janosi(z_in, kc=kc_us, kphi=kphi_us, n=n_arr)
+        return u.pressure_from_si(u.pressure_to_si(ci_psi, "us"), units)
+    pair = (
+        None if plate_pair is None else tuple(float(v) for v in u.length_to_si(plate_pair, units))
+    )
+    law = pressure_law(
+        model,
+        r_min=None if r_min is None else u.length_to_si(r_min, units),
+        plate_pair=pair,
+    )
+    ci = improved(
+        u.length_to_si(depth, units),
+        kc=u.kc_to_si(_check_nonneg("kc", kc), n_arr, units),
+        kphi=u.kphi_to_si(_check_nonneg("kphi", kphi), n_arr, units),
+        n=n_arr,
+        cc=u.pressure_to_si(_check_nonneg("cc", cc), units),
+        phic=phic,
+        Kc=None if Kc is None else u.length_to_si(Kc, units),
+        law=law,
+        cone=cone,
+    )
+    return u.pressure_from_si(ci, units)
