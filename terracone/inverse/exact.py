@@ -1,0 +1,304 @@
+"""The ``exact`` solver of the prediction process.
+
+For fixed n and phic the improved model (eq. (2-7) in [1]_) is linear in kc,
+kphi and cc, so the inner problem is bounded linear least squares, solved to
+its global optimum by :func:`terracone.inverse.boxlsq.box_lsq3`.  The
+remaining nonlinear parameters are searched globally: a dense grid over n
+and phic (and Kc when it is fitted), then a bounded scalar refinement of n
+around the best grid cell.
+
+With fully mobilised shear, phic enters only through the factor
+(1 + tan(phic)/tan(a)) that multiplies both kc and kphi, so phic trades
+exactly against their common scale.  The solver reports the whole interval
+of phic that attains the optimum and picks its middle, never one arbitrary
+point of the ridge.
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Eqs. (2-2) to (2-7), section 3.3.2.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from ..cone import Cone, cone_index_basis
+from ..plate import PressureLaw
+from .bounds import Bounds
+from .boxlsq import box_lsq3, gram
+
+__all__ = ["ExactSolution", "solve_exact", "design"]
+
+CHI2_1_95 = 3.841458820694124  # 95% quantile of chi-square with 1 dof
+
+
+@dataclass
+class ExactSolution:
+    """Raw output of :func:`solve_exact` (SI)."""
+
+    kc: float
+    kphi: float
+    n: float
+    cc: float
+    phic_deg: float
+    Kc: float | None
+    sse: float
+    nfev: int
+    nit: int
+    phic_range: tuple[float, float]
+    profile_intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
+    undetermined: list[str] = field(default_factory=list)
+    sigma: float = float("nan")
+
+
+def design(
+    z: np.ndarray,
+    n: np.ndarray,
+    phic: np.ndarray,
+    *,
+    cone: Cone,
+    law: PressureLaw,
+    Kc: np.ndarray | float | None,
+) -> np.ndarray:
+    """Design matrix X (..., Z, 3) with CI = X @ (kc, kphi, cc); n, phic broadcast."""
+    if Kc is None:
+        # eq. (2-6) fully mobilised: phic only scales the kc and kphi columns
+        A, B, C = cone_index_basis(z, n=n, phic=0.0, law=law, cone=cone)
+        s = 1.0 + np.tan(np.radians(phic)) / math.tan(cone.half_angle)
+        A, B = s * A, s * B
+    else:
+        A, B, C = cone_index_basis(z, n=n, phic=phic, Kc=Kc, law=law, cone=cone)
+    A, B, C = np.broadcast_arrays(A, B, C)
+    return np.stack([A, B, C], axis=-1)
+
+
+def _bounds_arrays(bounds: Bounds, n: np.ndarray):
+    kc_lo, kc_hi = bounds.kc_si(n)
+    kp_lo, kp_hi = bounds.kphi_si(n)
+    lo = np.stack([kc_lo, kp_lo, np.full(np.shape(n), bounds.cc[0])], axis=-1)
+    hi = np.stack([kc_hi, kp_hi, np.full(np.shape(n), bounds.cc[1])], axis=-1)
+    return lo, hi
+
+
+def _grid(lo: float, hi: float, k: int) -> np.ndarray:
+    return np.array([lo]) if lo == hi else np.linspace(lo, hi, k)
+
+
+def solve_exact(
+    z: np.ndarray,
+    y: np.ndarray,
+    *,
+    cone: Cone,
+    law: PressureLaw,
+    bounds: Bounds,
+    Kc: float | None = None,
+    fit_Kc: bool = False,
+    n_grid: int = 97,
+    phic_grid: int = 19,
+    noise_floor: float = 0.01,
+    profiles: bool = True,
+) -> ExactSolution:
+    """Global least-squares fit of the improved model to one CI profile.
+
+    Parameters
+    ----------
+    z : (Z,) ndarray
+        Base depths [m].
+    y : (Z,) ndarray
+        Measured CI [kPa].
+    cone, law, bounds
+        Cone, pressure law (RM0/RM1) and search bounds.
+    Kc : float or None
+        Fixed shear deformation parameter [m]; None for fully mobilised.
+    fit_Kc : bool
+        Search Kc (log grid within ``bounds.Kc``) as a sixth parameter.
+    n_grid, phic_grid : int
+        Grid sizes of the global stage.
+    noise_floor : float
+        Smallest noise standard deviation assumed, as a fraction of the mean
+        CI, when judging which parameters the data leave free.
+    profiles : bool
+        Compute profile intervals and the ``undetermined`` list.
+    """
+    z = np.asarray(z, float)
+    y = np.asarray(y, float)
+    nfev = 0
+    ns = _grid(*bounds.n, n_grid)
+    phis = _grid(*bounds.phic, phic_grid)
+    if fit_Kc:
+        Kcs = (
+            np.exp(np.linspace(*np.log(bounds.Kc), 7))
+            if bounds.Kc[0] != bounds.Kc[1]
+            else np.array([bounds.Kc[0]])
+        )
+    else:
+        Kcs = np.array([np.nan])
+
+    def cell_sse(n, phi, kc_val):
+        """Box-LS over (kc, kphi, cc) for arrays of n, phi, Kc (broadcast)."""
+        K = kc_val[..., None] if fit_Kc else Kc
+        X = design(z, n[..., None], phi[..., None], cone=cone, law=law, Kc=K)
+        G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
+        lo, hi = _bounds_arrays(bounds, np.broadcast_to(n, G.shape[:-2]))
+        return box_lsq3(G, g, yy, lo, hi)
+
+    N, P, K = np.meshgrid(ns, phis, Kcs, indexing="ij")
+    x_grid, sse_grid = cell_sse(N, P, K)
+    nfev += sse_grid.size
+    i, j, k = np.unravel_index(np.argmin(sse_grid), sse_grid.shape)
+    best_phi = phis[j]
+    best_K = Kcs[k]
+
+    # refine n around the best grid point, phic and Kc held
+    n_best = ns[i]
+    nit = 1
+    if ns.size > 1:
+        a = ns[max(i - 1, 0)]
+        b = ns[min(i + 1, ns.size - 1)]
+
+        def f_n(nv):
+            _, s = cell_sse(np.array([nv]), np.array([best_phi]), np.array([best_K]))
+            return float(s[0])
+
+        res = minimize_scalar(f_n, bounds=(a, b), method="bounded", options={"xatol": 1e-10})
+        nfev += int(res.nfev)
+        nit += int(res.nit)
+        if res.fun <= sse_grid[i, j, k]:
+            n_best = float(res.x)
+
+    # phic: the interval that attains the optimum (exact ridge with fully mobilised shear)
+    phi_fine = _grid(*bounds.phic, 181)
+    _, sse_phi = cell_sse(
+        np.full(phi_fine.shape, n_best), phi_fine, np.full(phi_fine.shape, best_K)
+    )
+    nfev += sse_phi.size
+    smin = float(sse_phi.min())
+    flat = sse_phi <= smin * (1 + 1e-9) + 1e-12 * float(y @ y)
+    phic_range = (float(phi_fine[flat].min()), float(phi_fine[flat].max()))
+    mid = 0.5 * (phic_range[0] + phic_range[1])
+    cand = phi_fine[flat]
+    phi_best = float(cand[np.argmin(np.abs(cand - mid))])
+    if phic_range[0] == phic_range[1] and phi_fine.size > 1:
+        h = phi_fine[1] - phi_fine[0]
+
+        def f_phi(pv):
+            _, s = cell_sse(np.array([n_best]), np.array([pv]), np.array([best_K]))
+            return float(s[0])
+
+        res = minimize_scalar(
+            f_phi,
+            bounds=(max(bounds.phic[0], phi_best - h), min(bounds.phic[1], phi_best + h)),
+            method="bounded",
+            options={"xatol": 1e-9},
+        )
+        nfev += int(res.nfev)
+        if res.fun <= smin:
+            phi_best = float(res.x)
+            phic_range = (phi_best, phi_best)
+
+    x, sse = cell_sse(np.array([n_best]), np.array([phi_best]), np.array([best_K]))
+    x = x[0]
+    Kc_out = float(best_K) if fit_Kc else Kc
+    # report the SSE from the residuals themselves
+    X = design(z, np.array(n_best), np.array(phi_best), cone=cone, law=law, Kc=Kc_out)
+    resid = X @ x - y
+    sse_val = float(resid @ resid)
+    sol = ExactSolution(
+        kc=float(x[0]),
+        kphi=float(x[1]),
+        n=float(n_best),
+        cc=float(x[2]),
+        phic_deg=float(phi_best),
+        Kc=Kc_out,
+        sse=sse_val,
+        nfev=nfev,
+        nit=nit,
+        phic_range=phic_range,
+    )
+    if profiles:
+        _identify(sol, z, y, ns, sse_grid.min(axis=(1, 2)), bounds, cone, law, noise_floor, fit_Kc)
+    return sol
+
+
+def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, fit_Kc) -> None:
+    """Approximate 95% profile-likelihood intervals and the undetermined list.
+
+    A parameter is called undetermined when its profile interval (the set of
+    values whose best fit raises the sum of squares by less than
+    3.84 sigma^2) covers half or more of its search range.  sigma is the
+    residual standard deviation, floored at ``noise_floor`` times the mean
+    CI because no penetrometer reads better than that.
+    """
+    N = y.size
+    dof = max(N - 5, 1)
+    sigma2 = max(sol.sse / dof, (noise_floor * float(np.mean(np.abs(y)))) ** 2)
+    sol.sigma = math.sqrt(sigma2)
+    thr = sol.sse + CHI2_1_95 * sigma2
+    und: list[str] = []
+    intervals: dict[str, tuple[float, float]] = {}
+
+    # n: profile from the global grid (min over phic, Kc and the linear parameters)
+    ok = sse_n <= thr
+    if ok.any():
+        n_lo, n_hi = float(ns[ok].min()), float(ns[ok].max())
+        step = (ns[1] - ns[0]) if ns.size > 1 else 0.0
+        n_lo, n_hi = (
+            max(bounds.n[0], min(n_lo - step, sol.n)),
+            min(bounds.n[1], max(n_hi + step, sol.n)),
+        )
+    else:
+        n_lo = n_hi = sol.n
+    intervals["n"] = (n_lo, n_hi)
+    if ns.size > 1 and (n_hi - n_lo) >= 0.5 * (bounds.n[1] - bounds.n[0]):
+        und.append("n")
+
+    # kc, kphi, cc: pin one on a grid, re-fit the others (and n on a coarse grid near the optimum)
+    n_loc = np.unique(np.clip(sol.n + np.linspace(-0.1, 0.1, 9), *bounds.n))
+    X = design(
+        z, n_loc[:, None], np.array(sol.phic_deg), cone=cone, law=law, Kc=sol.Kc
+    )  # (Nn, Z, 3)
+    G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
+    lo, hi = _bounds_arrays(bounds, n_loc)
+    names = ("kc", "kphi", "cc")
+    at_sol = (sol.kc, sol.kphi, sol.cc)
+    for idx, name in enumerate(names):
+        lo_s, hi_s = lo[..., idx], hi[..., idx]
+        if np.all(lo_s == hi_s):
+            continue
+        vals = np.linspace(0.0, 1.0, 61)  # fractions of each n's range
+        v = lo_s[:, None] + vals[None, :] * (hi_s - lo_s)[:, None]  # (Nn, V)
+        lo2 = np.repeat(lo[:, None, :], vals.size, axis=1).copy()
+        hi2 = np.repeat(hi[:, None, :], vals.size, axis=1).copy()
+        lo2[..., idx] = v
+        hi2[..., idx] = v
+        _, sse_v = box_lsq3(G[:, None], g[:, None], yy[:, None], lo2, hi2)
+        inside = sse_v <= thr  # (Nn, V)
+        frac_ok = inside.any(axis=0)
+        if frac_ok.any():
+            f_lo, f_hi = vals[frac_ok].min(), vals[frac_ok].max()
+            # express in SI at the solution's n
+            lo_n, hi_n = (bounds.kc_si(sol.n), bounds.kphi_si(sol.n), (bounds.cc[0], bounds.cc[1]))[
+                idx
+            ]
+            lo_n, hi_n = float(lo_n), float(hi_n)
+            a = min(lo_n + max(f_lo - 1 / 60, 0) * (hi_n - lo_n), at_sol[idx])
+            b = max(lo_n + min(f_hi + 1 / 60, 1) * (hi_n - lo_n), at_sol[idx])
+            intervals[name] = (a, b)
+            if f_hi - f_lo >= 0.5:
+                und.append(name)
+        else:
+            intervals[name] = (at_sol[idx], at_sol[idx])
+    if sol.phic_range[1] - sol.phic_range[0] > 1e-9 or (
+        sol.Kc is None and bounds.phic[0] != bounds.phic[1]
+    ):
+        und.insert(0, "phic")
+        intervals["phic_deg"] = sol.phic_range
+        und.append("phic~scale(kc,kphi)")
+    sol.undetermined = und
+    sol.profile_intervals = intervals

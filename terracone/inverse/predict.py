@@ -1,0 +1,371 @@
+"""The prediction process (section 3.3.2 of [1]_): CI profile -> parameters.
+
+Two solvers behind :func:`predict`:
+
+* ``"exact"`` (default): global optimum from the linear structure of the
+  model (:mod:`terracone.inverse.exact`);
+* ``"pso"``: the paper's particle swarm (:mod:`terracone.inverse.pso`) on the
+  same objective and bounds.
+
+The objective is the RMSD between measured CI and model CI at the measured
+depths.
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Section 3.3.2.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .. import units as u
+from ..cone import improved
+from ..data import CIProfile, InputError, TerrainParameters
+from ..plate import PressureLaw, pressure_law
+from .bounds import Bounds
+from .exact import solve_exact
+from .pso import pso
+
+__all__ = ["PredictionResult", "predict", "predict_many", "rmsd_objective"]
+
+
+@dataclass
+class PredictionResult:
+    """Result of the prediction process for one profile (SI inside).
+
+    Attributes
+    ----------
+    id : str
+        Profile id.
+    status : {"ok", "error"}
+    error : str or None
+        Why the profile could not be fitted.
+    params : TerrainParameters or None
+        kc, kphi, n, cc, phic (and Kc, model, r_min).
+    rmsd : float
+        RMSD between measured and model CI [kPa].
+    r2_ci : float
+        Coefficient of determination of the CI fit [-].
+    longest_run : int
+        Largest number of consecutive residuals of one sign.
+    depth, ci, ci_model : ndarray
+        Base depths [m], measured and model CI [kPa].
+    undetermined : list of str
+        Parameters (or combinations, written ``a~b``) that the data leave
+        free within the bounds.
+    phic_range : (float, float)
+        Interval of phic [deg] attaining the optimum.
+    profile_intervals : dict
+        Approximate 95% profile-likelihood intervals (SI).
+    solver, nfev, nit, time_s, converged, message
+        Diagnostics.
+    """
+
+    id: str
+    status: str
+    error: str | None = None
+    params: TerrainParameters | None = None
+    rmsd: float = float("nan")
+    r2_ci: float = float("nan")
+    longest_run: int = 0
+    depth: np.ndarray | None = None
+    ci: np.ndarray | None = None
+    ci_model: np.ndarray | None = None
+    undetermined: list[str] = field(default_factory=list)
+    phic_range: tuple[float, float] | None = None
+    profile_intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
+    sigma: float = float("nan")
+    solver: str = "exact"
+    nfev: int = 0
+    nit: int = 0
+    time_s: float = 0.0
+    converged: bool = False
+    message: str = ""
+    cone: str = "asabe-large"
+    metadata: dict[str, Any] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    source: str | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    def as_dict(self, units: str = "si", *, curves: bool = True) -> dict[str, Any]:
+        """JSON-ready dict in a unit system (the ``predict --json`` contract)."""
+        units = u.check_system(units)
+        d: dict[str, Any] = {"id": self.id, "status": self.status, "error": self.error}
+        keys = ("kc", "kphi", "n", "cc", "phic_deg", "Kc", "model", "r_min")
+        if self.params is not None:
+            p = self.params.as_dict(units)
+            d.update({k: p[k] for k in keys})
+        else:
+            d.update({k: None for k in keys})
+        d["rmsd"] = _num(u.pressure_from_si(self.rmsd, units)) if self.ok else None
+        d["r2_ci"] = _num(self.r2_ci) if self.ok else None
+        d["longest_run"] = self.longest_run if self.ok else None
+        d["units"] = units
+        d["undetermined"] = list(self.undetermined)
+        d["phic_range_deg"] = list(self.phic_range) if self.phic_range else None
+        if self.ok and self.params is not None:
+            d["profile_intervals"] = _intervals_in(self.profile_intervals, self.params.n, units)
+        d["solver"] = self.solver
+        d["diagnostics"] = {
+            "nfev": self.nfev,
+            "nit": self.nit,
+            "time_s": self.time_s,
+            "converged": self.converged,
+            "message": self.message,
+        }
+        d["cone"] = self.cone
+        d["metadata"] = self.metadata
+        d["notes"] = list(self.notes)
+        d["source"] = self.source
+        if curves and self.ok:
+            d["depth"] = [float(v) for v in u.length_from_si(self.depth, units)]
+            d["ci"] = [float(v) for v in u.pressure_from_si(self.ci, units)]
+            d["ci_model"] = [float(v) for v in u.pressure_from_si(self.ci_model, units)]
+        d.update(self.extra)
+        return d
+
+
+def _num(v) -> float | None:
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def _intervals_in(
+    iv: dict[str, tuple[float, float]], n: float, units: str
+) -> dict[str, list[float]]:
+    conv = {
+        "kc": lambda v: u.kc_from_si(v, n, units),
+        "kphi": lambda v: u.kphi_from_si(v, n, units),
+        "cc": lambda v: u.pressure_from_si(v, units),
+    }
+    out = {}
+    for k, (lo, hi) in iv.items():
+        f = conv.get(k, lambda v: v)
+        out[k] = [float(f(lo)), float(f(hi))]
+    return out
+
+
+def rmsd_objective(profile: CIProfile, law: PressureLaw, bounds: Bounds, Kc: float | None = None):
+    """RMSD [kPa] of positions (P, 5) = (kc, kphi, n, cc, phic) in the bounds' units.
+
+    With ``bounds`` in US units the kc and kphi coordinates are in
+    lb/in^(n+1) and lb/in^(n+2); cc is in kPa and phic in degrees.
+    """
+    z, y = profile.depth, profile.ci
+
+    def f(x: np.ndarray) -> np.ndarray:
+        x = np.atleast_2d(x)
+        n = x[:, 2:3]
+        kc = u.kc_to_si(x[:, 0:1], n, bounds.kc_units)
+        kphi = u.kphi_to_si(x[:, 1:2], n, bounds.kphi_units)
+        K = x[:, 5:6] if x.shape[1] > 5 else Kc
+        ci = improved(
+            z, kc=kc, kphi=kphi, n=n, cc=x[:, 3:4], phic=x[:, 4:5], Kc=K, law=law, cone=profile.cone
+        )
+        r = ci - y
+        return np.sqrt(np.mean(r * r, axis=-1))
+
+    return f
+
+
+def _fit_stats(y: np.ndarray, m: np.ndarray) -> tuple[float, float, int]:
+    r = m - y
+    rmsd = float(np.sqrt(np.mean(r * r)))
+    ss_tot = float(np.sum((y - y.mean()) ** 2))
+    r2 = 1.0 - float(r @ r) / ss_tot if ss_tot > 0 else float("nan")
+    s = np.sign(r)
+    s = s[s != 0]
+    run = best = 0
+    prev = 0.0
+    for v in s:
+        run = run + 1 if v == prev else 1
+        prev = v
+        best = max(best, run)
+    return rmsd, r2, int(best)
+
+
+def predict(
+    profile: CIProfile,
+    *,
+    model: str = "rm0",
+    r_min: float | None = None,
+    plate_pair: tuple[float, float] | None = None,
+    calibration: Any = None,
+    solver: str = "exact",
+    bounds: Bounds | None = None,
+    Kc: float | None = None,
+    fit_Kc: bool = False,
+    seed: int | None = None,
+    noise_floor: float = 0.01,
+    pso_options: dict[str, Any] | None = None,
+) -> PredictionResult:
+    """Fit the improved cone model to one CI profile (prediction process).
+
+    Parameters
+    ----------
+    profile : CIProfile
+    model : {"rm0", "rm1"}
+    r_min : float, optional
+        RM1 transition radius [m].
+    plate_pair : (r1, r2), optional
+        Plate radii [m] defining the RM1 secant when r_min > r2.
+    calibration : Calibration, optional
+        A learned calibration (section 3.3.1): fixes model, r_min, phic and cc.
+    solver : {"exact", "pso"}
+    bounds : Bounds, optional
+        Search bounds (defaults in SI: kc 0-1000, kphi 0-20000, n 0.05-2,
+        cc 0-100 kPa, phic 0-45 deg).
+    Kc : float, optional
+        Fixed shear deformation parameter [m]; None: fully mobilised shear.
+    fit_Kc : bool
+        Search Kc as a sixth parameter within ``bounds.Kc``.
+    seed : int, optional
+        Seed of the particle swarm.
+    noise_floor : float
+        Smallest relative noise assumed when judging identifiability.
+    """
+    t0 = time.perf_counter()
+    bounds = bounds or Bounds()
+    try:
+        profile.validate()
+    except InputError as exc:
+        return _error(profile, str(exc))
+    if calibration is not None:
+        model = calibration.model
+        r_min = calibration.r_min
+        plate_pair = calibration.plate_pair
+        bounds = bounds.fixed(phic=calibration.phic_deg, cc=calibration.cc)
+    law = pressure_law(model, r_min=r_min, plate_pair=plate_pair)
+    z, y = profile.depth, profile.ci
+    try:
+        if solver == "exact":
+            sol = solve_exact(
+                z,
+                y,
+                cone=profile.cone,
+                law=law,
+                bounds=bounds,
+                Kc=Kc,
+                fit_Kc=fit_Kc,
+                noise_floor=noise_floor,
+            )
+            params = TerrainParameters(
+                sol.kc, sol.kphi, sol.n, sol.cc, sol.phic_deg, sol.Kc, model, r_min
+            )
+            extra = dict(
+                undetermined=sol.undetermined,
+                phic_range=sol.phic_range,
+                profile_intervals=sol.profile_intervals,
+                sigma=sol.sigma,
+                nfev=sol.nfev,
+                nit=sol.nit,
+                converged=True,
+                message="global optimum of the bounded linear least squares over the n, phic grid",
+            )
+        elif solver == "pso":
+            f = rmsd_objective(profile, law, bounds, Kc)
+            lo = [bounds.kc[0], bounds.kphi[0], bounds.n[0], bounds.cc[0], bounds.phic[0]]
+            hi = [bounds.kc[1], bounds.kphi[1], bounds.n[1], bounds.cc[1], bounds.phic[1]]
+            if fit_Kc:
+                lo.append(bounds.Kc[0])
+                hi.append(bounds.Kc[1])
+            res = pso(f, np.array(lo), np.array(hi), seed=seed, **(pso_options or {}))
+            x = res.x
+            n = float(x[2])
+            params = TerrainParameters(
+                float(u.kc_to_si(x[0], n, bounds.kc_units)),
+                float(u.kphi_to_si(x[1], n, bounds.kphi_units)),
+                n,
+                float(x[3]),
+                float(x[4]),
+                float(x[5]) if fit_Kc else Kc,
+                model,
+                r_min,
+            )
+            und = (
+                ["phic", "phic~scale(kc,kphi)"]
+                if (not fit_Kc and Kc is None and bounds.phic[0] != bounds.phic[1])
+                else []
+            )
+            extra = dict(
+                undetermined=und,
+                nfev=res.nfev,
+                nit=res.nit,
+                converged=res.converged,
+                message=res.message + " (pso does not analyse identifiability beyond phic)",
+            )
+        else:
+            raise ValueError(f"solver must be 'exact' or 'pso' (got {solver!r})")
+        m = improved(
+            z,
+            kc=params.kc,
+            kphi=params.kphi,
+            n=params.n,
+            cc=params.cc,
+            phic=params.phic_deg,
+            Kc=params.Kc,
+            law=law,
+            cone=profile.cone,
+        )
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
+        return _error(profile, f"solver failed: {exc}")
+    rmsd, r2, run = _fit_stats(y, m)
+    notes = list(profile.notes)
+    if calibration is not None:
+        notes.append(f"calibration {calibration.terrain!r}: model, r_min, phic and cc fixed")
+    return PredictionResult(
+        id=profile.id,
+        status="ok",
+        params=params,
+        rmsd=rmsd,
+        r2_ci=r2,
+        longest_run=run,
+        depth=z,
+        ci=y,
+        ci_model=m,
+        solver=solver,
+        time_s=time.perf_counter() - t0,
+        cone=profile.cone.name,
+        metadata=dict(profile.metadata),
+        notes=notes,
+        source=profile.source,
+        **extra,
+    )
+
+
+def _error(profile: CIProfile, reason: str) -> PredictionResult:
+    return PredictionResult(
+        id=profile.id,
+        status="error",
+        error=reason,
+        cone=profile.cone.name,
+        metadata=dict(profile.metadata),
+        notes=list(profile.notes),
+        source=profile.source,
+    )
+
+
+def predict_many(items: Iterable[CIProfile | InputError], **kwargs: Any) -> list[PredictionResult]:
+    """:func:`predict` for each item; reader errors become error results."""
+    out = []
+    for it in items:
+        if isinstance(it, InputError):
+            out.append(
+                PredictionResult(id=str(it.profile), status="error", error=str(it), source=it.file)
+            )
+        else:
+            out.append(predict(it, **kwargs))
+    return out
