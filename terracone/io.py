@@ -553,8 +553,10 @@ def read_ci_profiles(
     pressure unit from the "... In KPa" / "... In PSI" line, the depths from
     the depth column labels; every point of a push has the push line as
     its row.  Metadata: ``logger``, ``serial``, ``datum``, ``push``,
-    ``line``, ``longitude`` and ``latitude`` (when present), ``ci_unit``,
-    ``depth_unit`` and ``trailing_zeros_dropped``.
+    ``line``, ``longitude`` and ``latitude`` (when present),
+    ``pressure_unit`` and ``length_unit`` (the file's CI and depth units)
+    and ``trailing_zeros_dropped``; none of these names reads as a data
+    column, so :func:`write_ci_profiles` can write the profiles to CSV.
 
     Examples
     --------
@@ -789,8 +791,8 @@ def _read_sc900(
             notes.append(
                 f"dropped {dropped} trailing zero reading{s} (push stopped at {labels[keep]})"
             )
-        metadata["ci_unit"] = ci_unit
-        metadata["depth_unit"] = depth_units[0] if len(depth_units) == 1 else ",".join(depth_units)
+        metadata["pressure_unit"] = ci_unit
+        metadata["length_unit"] = depth_units[0] if len(depth_units) == 1 else ",".join(depth_units)
         metadata["trailing_zeros_dropped"] = dropped
         z = depths[:keep]
         if depth_ref == "tip":

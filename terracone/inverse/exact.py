@@ -65,8 +65,13 @@ def design(
     cone: Cone,
     law: PressureLaw,
     Kc: np.ndarray | float | None,
+    ratio: float | None = None,
 ) -> np.ndarray:
-    """Design matrix X (..., Z, 3) with CI = X @ (kc, kphi, cc); n, phic broadcast."""
+    """Design matrix X (..., Z, 3) with CI = X @ (kc, kphi, cc); n, phic broadcast.
+
+    With ``ratio`` (kc/kphi [m] held fixed) the kc column is folded into the
+    kphi column, CI = X @ (0, kphi, cc), and kc = ratio * kphi.
+    """
     if Kc is None:
         # eq. (2-6) fully mobilised: phic only scales the kc and kphi columns
         A, B, C = cone_index_basis(z, n=n, phic=0.0, law=law, cone=cone)
@@ -75,12 +80,20 @@ def design(
     else:
         A, B, C = cone_index_basis(z, n=n, phic=phic, Kc=Kc, law=law, cone=cone)
     A, B, C = np.broadcast_arrays(A, B, C)
+    if ratio is not None:
+        return np.stack([np.zeros_like(A), ratio * A + B, C], axis=-1)
     return np.stack([A, B, C], axis=-1)
 
 
-def _bounds_arrays(bounds: Bounds, n: np.ndarray):
+def _bounds_arrays(bounds: Bounds, n: np.ndarray, ratio: float | None = None):
     kc_lo, kc_hi = bounds.kc_si(n)
     kp_lo, kp_hi = bounds.kphi_si(n)
+    if ratio is not None:
+        # kc = ratio * kphi: both bounds apply to kphi, kc is pinned at 0 in the solve
+        kp_lo = np.maximum(kp_lo, kc_lo / ratio) if ratio > 0 else kp_lo
+        kp_hi = np.minimum(kp_hi, kc_hi / ratio) if ratio > 0 else kp_hi
+        kp_hi = np.maximum(kp_hi, kp_lo)
+        kc_lo = kc_hi = np.zeros(np.shape(n))
     lo = np.stack([kc_lo, kp_lo, np.full(np.shape(n), bounds.cc[0])], axis=-1)
     hi = np.stack([kc_hi, kp_hi, np.full(np.shape(n), bounds.cc[1])], axis=-1)
     return lo, hi
@@ -103,6 +116,7 @@ def solve_exact(
     phic_grid: int = 19,
     noise_floor: float = 0.01,
     profiles: bool = True,
+    kc_over_kphi: float | None = None,
 ) -> ExactSolution:
     """Global least-squares fit of the improved model to one CI profile.
 
@@ -125,7 +139,11 @@ def solve_exact(
         CI, when judging which parameters the data leave free.
     profiles : bool
         Compute profile intervals and the ``undetermined`` list.
+    kc_over_kphi : float, optional
+        Hold the ratio kc/kphi [m] fixed (from a calibration): the cone
+        alone barely separates kc from kphi, plates of two sizes do.
     """
+    ratio = kc_over_kphi
     z = np.asarray(z, float)
     y = np.asarray(y, float)
     nfev = 0
@@ -143,9 +161,9 @@ def solve_exact(
     def cell_sse(n, phi, kc_val):
         """Box-LS over (kc, kphi, cc) for arrays of n, phi, Kc (broadcast)."""
         K = kc_val[..., None] if fit_Kc else Kc
-        X = design(z, n[..., None], phi[..., None], cone=cone, law=law, Kc=K)
+        X = design(z, n[..., None], phi[..., None], cone=cone, law=law, Kc=K, ratio=ratio)
         G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
-        lo, hi = _bounds_arrays(bounds, np.broadcast_to(n, G.shape[:-2]))
+        lo, hi = _bounds_arrays(bounds, np.broadcast_to(n, G.shape[:-2]), ratio)
         return box_lsq3(G, g, yy, lo, hi)
 
     N, P, K = np.meshgrid(ns, phis, Kcs, indexing="ij")
@@ -203,11 +221,13 @@ def solve_exact(
             phic_range = (phi_best, phi_best)
 
     x, sse = cell_sse(np.array([n_best]), np.array([phi_best]), np.array([best_K]))
-    x = x[0]
+    x = x[0].copy()
     Kc_out = float(best_K) if fit_Kc else Kc
     # report the SSE from the residuals themselves
-    X = design(z, np.array(n_best), np.array(phi_best), cone=cone, law=law, Kc=Kc_out)
+    X = design(z, np.array(n_best), np.array(phi_best), cone=cone, law=law, Kc=Kc_out, ratio=ratio)
     resid = X @ x - y
+    if ratio is not None:
+        x[0] = ratio * x[1]
     sse_val = float(resid @ resid)
     sol = ExactSolution(
         kc=float(x[0]),
@@ -222,11 +242,11 @@ def solve_exact(
         phic_range=phic_range,
     )
     if profiles:
-        _identify(sol, z, y, ns, sse_grid.min(axis=(1, 2)), bounds, cone, law, noise_floor, fit_Kc)
+        _identify(sol, z, y, ns, sse_grid.min(axis=(1, 2)), bounds, cone, law, noise_floor, ratio)
     return sol
 
 
-def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, fit_Kc) -> None:
+def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> None:
     """Approximate 95% profile-likelihood intervals and the undetermined list.
 
     A parameter is called undetermined when its profile interval (the set of
@@ -261,10 +281,11 @@ def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, fit_Kc) -> N
     # kc, kphi, cc: pin one on a grid, re-fit the others (and n on a coarse grid near the optimum)
     n_loc = np.unique(np.clip(sol.n + np.linspace(-0.1, 0.1, 9), *bounds.n))
     X = design(
-        z, n_loc[:, None], np.array(sol.phic_deg), cone=cone, law=law, Kc=sol.Kc
+        z, n_loc[:, None], np.array(sol.phic_deg), cone=cone, law=law, Kc=sol.Kc, ratio=ratio
     )  # (Nn, Z, 3)
     G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
-    lo, hi = _bounds_arrays(bounds, n_loc)
+    lo, hi = _bounds_arrays(bounds, n_loc, ratio)
+    lo_at, hi_at = _bounds_arrays(bounds, np.array(sol.n), ratio)
     names = ("kc", "kphi", "cc")
     at_sol = (sol.kc, sol.kphi, sol.cc)
     for idx, name in enumerate(names):
@@ -283,10 +304,7 @@ def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, fit_Kc) -> N
         if frac_ok.any():
             f_lo, f_hi = vals[frac_ok].min(), vals[frac_ok].max()
             # express in SI at the solution's n
-            lo_n, hi_n = (bounds.kc_si(sol.n), bounds.kphi_si(sol.n), (bounds.cc[0], bounds.cc[1]))[
-                idx
-            ]
-            lo_n, hi_n = float(lo_n), float(hi_n)
+            lo_n, hi_n = float(lo_at[idx]), float(hi_at[idx])
             a = min(lo_n + max(f_lo - 1 / 60, 0) * (hi_n - lo_n), at_sol[idx])
             b = max(lo_n + min(f_hi + 1 / 60, 1) * (hi_n - lo_n), at_sol[idx])
             intervals[name] = (a, b)
@@ -294,6 +312,8 @@ def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, fit_Kc) -> N
                 und.append(name)
         else:
             intervals[name] = (at_sol[idx], at_sol[idx])
+    if ratio is not None and "kphi" in intervals:
+        intervals["kc"] = (ratio * intervals["kphi"][0], ratio * intervals["kphi"][1])
     if sol.phic_range[1] - sol.phic_range[0] > 1e-9 or (
         sol.Kc is None and bounds.phic[0] != bounds.phic[1]
     ):

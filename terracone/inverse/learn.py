@@ -143,6 +143,7 @@ class LearnResult:
     nfev: int
     time_s: float
     r_min_profile: list[tuple[float, float]] = field(default_factory=list)
+    intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def calibration(
         self, terrain: str, cone: str = "asabe-large", **provenance: Any
@@ -186,6 +187,19 @@ class LearnResult:
                     for ds in self.datasets
                 ],
                 "undetermined": self.undetermined,
+                "profile_intervals": {
+                    k: [
+                        float(v)
+                        for v in (
+                            u.length_from_si(iv, units)
+                            if k == "r_min"
+                            else u.pressure_from_si(iv, units)
+                            if k == "cc"
+                            else iv
+                        )
+                    ]
+                    for k, iv in self.intervals.items()
+                },
                 "criteria": self.criteria,
                 "diagnostics": {"nfev": self.nfev, "time_s": self.time_s},
             }
@@ -208,6 +222,7 @@ def learn(
     Kc: float | None = None,
     grid: tuple[int, int, int] = (33, 16, 13),
     max_cv: float = 0.25,
+    noise_floor: float = 0.01,
 ) -> LearnResult:
     """Fit kc, kphi, n, cc, phic (and r_min for RM1) to CI and plate data.
 
@@ -226,6 +241,8 @@ def learn(
         Grid sizes for n, phic and r_min.
     max_cv : float
         Fit criterion: every data set's CV = RMSD/mean must be below this.
+    noise_floor : float
+        Smallest relative noise assumed when judging what the data leave free.
     """
     t0 = time.perf_counter()
     bounds = bounds or Bounds()
@@ -256,7 +273,6 @@ def learn(
 
     ys = [p.ci for p in profiles] + [b.pressure for b in branches]
     a_d = np.array([1.0 / (np.mean(y) * math.sqrt(y.size)) for y in ys])  # J = sum a_d sqrt(SSE_d)
-    n_ci = len(profiles)
 
     def grams(n, phi, rm):
         """Per-data-set Gram terms for arrays n, phi, rm of one shape S -> (D, S, ...)."""
@@ -282,12 +298,14 @@ def learn(
             yys.append(np.broadcast_to(yy, np.shape(n)))
         return np.stack(Gs), np.stack(gs), np.stack(yys)
 
-    def solve(n, phi, rm, iters=25):
+    def solve(n, phi, rm, iters=25, cc_pin=None):
         Gd, gd, yyd = grams(n, phi, rm)
         lo_kc, hi_kc = bounds.kc_si(n)
         lo_kp, hi_kp = bounds.kphi_si(n)
-        lo = np.stack([lo_kc, lo_kp, np.full(np.shape(n), bounds.cc[0])], axis=-1)
-        hi = np.stack([hi_kc, hi_kp, np.full(np.shape(n), bounds.cc[1])], axis=-1)
+        cc_lo = np.full(np.shape(n), bounds.cc[0]) if cc_pin is None else cc_pin
+        cc_hi = np.full(np.shape(n), bounds.cc[1]) if cc_pin is None else cc_pin
+        lo = np.stack([lo_kc, lo_kp, cc_lo], axis=-1)
+        hi = np.stack([hi_kc, hi_kp, cc_hi], axis=-1)
         shp = (-1,) + (1,) * np.ndim(n)
         w = (a_d**2).reshape(shp) * np.ones(np.shape(n))
         x = None
@@ -396,22 +414,44 @@ def learn(
         "satisfied": bool(worst <= max_cv),
     }
 
-    # identifiability of r_min and phic from the grid profiles (1% rise of J)
-    und = []
+    # Identifiability: approximate 95% profile intervals.  A change of SSE_d by
+    # 3.84 sigma_d^2 moves RMSD_d/mean_d by about 1.92 CV_d / N_d, so J may rise by
+    # dJ = sum_d 1.92 max(CV_d, noise_floor) / N_d before a value is rejected.
+    dJ = float(sum(1.92 * max(ds["cv"], noise_floor) / y.size for ds, y in zip(datasets, ys)))
+    thr = best_J + dJ
+    und: list[str] = []
+    intervals: dict[str, tuple[float, float]] = {}
+
+    def grid_interval(name, values, prof, at, log=False):
+        ok = prof <= thr
+        if values.size < 2:
+            return
+        if ok.any():
+            lo_v, hi_v = float(values[ok].min()), float(values[ok].max())
+        else:
+            lo_v = hi_v = at
+        intervals[name] = (min(lo_v, at), max(hi_v, at))
+        span = (np.log(values[-1]) - np.log(values[0])) if log else (values[-1] - values[0])
+        width = (
+            (np.log(intervals[name][1]) - np.log(intervals[name][0]))
+            if log
+            else (intervals[name][1] - intervals[name][0])
+        )
+        if width >= 0.5 * span:
+            und.append(name)
+
     r_profile: list[tuple[float, float]] = []
+    grid_interval("n", n_grid, J_grid.min(axis=(1, 2)), n)
+    grid_interval("phic_deg", phi_grid, J_grid.min(axis=(0, 2)), phi)
     if rb:
         Jr = J_grid.min(axis=(0, 1))
         r_profile = [(float(a), float(b)) for a, b in zip(r_grid, Jr)]
-        flat = Jr <= best_J * 1.01
-        if flat.sum() >= max(2, math.ceil(0.5 * r_grid.size)):
-            und.append("r_min")
-    if phi_grid.size > 1:
-        Jp = J_grid.min(axis=(0, 2))
-        if (Jp <= best_J * 1.01).sum() >= max(2, math.ceil(0.5 * phi_grid.size)):
-            und.append("phic")
-    Jc = J_grid.min(axis=(1, 2))
-    if n_grid.size > 1 and (Jc <= best_J * 1.01).sum() >= max(2, math.ceil(0.5 * n_grid.size)):
-        und.append("n")
+        grid_interval("r_min", r_grid, Jr, rm, log=True)
+    if bounds.cc[0] != bounds.cc[1]:
+        cc_vals = np.linspace(bounds.cc[0], bounds.cc[1], 41)
+        ones = np.ones_like(cc_vals)
+        _, Jcc, _ = solve(n * ones, phi * ones, rm * ones, cc_pin=cc_vals)
+        grid_interval("cc", cc_vals, Jcc, float(x[2]))
     return LearnResult(
         params=params,
         plate_pair=pair,
@@ -424,4 +464,5 @@ def learn(
         nfev=nfev,
         time_s=time.perf_counter() - t0,
         r_min_profile=r_profile,
+        intervals=intervals,
     )

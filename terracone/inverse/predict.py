@@ -211,6 +211,7 @@ def predict(
     seed: int | None = None,
     noise_floor: float = 0.01,
     pso_options: dict[str, Any] | None = None,
+    fix_ratio: bool = True,
 ) -> PredictionResult:
     """Fit the improved cone model to one CI profile (prediction process).
 
@@ -223,7 +224,8 @@ def predict(
     plate_pair : (r1, r2), optional
         Plate radii [m] defining the RM1 secant when r_min > r2.
     calibration : Calibration, optional
-        A learned calibration (section 3.3.1): fixes model, r_min, phic and cc.
+        A learned calibration (section 3.3.1): fixes model, r_min, phic and
+        cc, and (``fix_ratio``) the ratio kc/kphi of the calibrated terrain.
     solver : {"exact", "pso"}
     bounds : Bounds, optional
         Search bounds (defaults in SI: kc 0-1000, kphi 0-20000, n 0.05-2,
@@ -236,6 +238,10 @@ def predict(
         Seed of the particle swarm.
     noise_floor : float
         Smallest relative noise assumed when judging identifiability.
+    fix_ratio : bool
+        With a calibration, hold kc/kphi at the calibrated terrain's value:
+        the cone barely separates kc from kphi (their columns are nearly
+        collinear), plates of two sizes do.  Only the exact solver uses it.
     """
     t0 = time.perf_counter()
     bounds = bounds or Bounds()
@@ -248,6 +254,9 @@ def predict(
         r_min = calibration.r_min
         plate_pair = calibration.plate_pair
         bounds = bounds.fixed(phic=calibration.phic_deg, cc=calibration.cc)
+    ratio = None
+    if calibration is not None and fix_ratio and calibration.kphi > 0:
+        ratio = calibration.kc / calibration.kphi
     law = pressure_law(model, r_min=r_min, plate_pair=plate_pair)
     z, y = profile.depth, profile.ci
     try:
@@ -261,6 +270,7 @@ def predict(
                 Kc=Kc,
                 fit_Kc=fit_Kc,
                 noise_floor=noise_floor,
+                kc_over_kphi=ratio,
             )
             params = TerrainParameters(
                 sol.kc, sol.kphi, sol.n, sol.cc, sol.phic_deg, sol.Kc, model, r_min
@@ -325,7 +335,10 @@ def predict(
     rmsd, r2, run = _fit_stats(y, m)
     notes = list(profile.notes)
     if calibration is not None:
-        notes.append(f"calibration {calibration.terrain!r}: model, r_min, phic and cc fixed")
+        fixed = "model, r_min, phic, cc" + (
+            " and kc/kphi" if ratio is not None and solver == "exact" else ""
+        )
+        notes.append(f"calibration {calibration.terrain!r}: {fixed} fixed")
     return PredictionResult(
         id=profile.id,
         status="ok",

@@ -1,0 +1,639 @@
+"""The ``terracone`` command line.
+
+Every sub-command reads files in terracone's formats (units in the column
+names) or instrument exports, computes in SI, and prints a table, or JSON
+with ``--json`` (a stable contract).  Bad input ends with one message naming
+the file, profile, row and column, and a non-zero exit; never a traceback.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from . import __version__
+from . import units as u
+from .cone import CONES, cone_index
+from .data import InputError, TerrainParameters
+from .plate import plate_pressure
+
+_UNITS = click.Choice(["si", "us"])
+_LEN_RE = re.compile(r"^\s*([-+0-9.eE]+)\s*(m|cm|mm|in)?\s*$")
+
+
+# ---------------------------------------------------------------------------
+# helpers
+# ---------------------------------------------------------------------------
+
+
+def _floats(text: str, what: str) -> np.ndarray:
+    try:
+        vals = [float(s) for s in text.split(",") if s.strip()]
+    except ValueError as exc:
+        raise click.BadParameter(f"{what}: expected comma-separated numbers, got {text!r}") from exc
+    if not vals:
+        raise click.BadParameter(f"{what}: no values given")
+    return np.array(vals)
+
+
+def _length_si(text: str, units: str, what: str) -> float:
+    """'1.5in' or '3.75cm' or a bare number in the unit system's length unit -> m."""
+    m = _LEN_RE.match(text)
+    if not m:
+        raise click.BadParameter(
+            f"{what}: expected a length such as 0.05, 5cm or 2in, got {text!r}"
+        )
+    v = float(m.group(1))
+    if m.group(2):
+        return v * u.LENGTH_UNITS[m.group(2)]
+    return float(u.length_to_si(v, units))
+
+
+def _lengths_si(text: str | None, units: str, what: str) -> list[float]:
+    if not text:
+        return []
+    return [_length_si(s, units, what) for s in text.split(",") if s.strip()]
+
+
+def _fmt(v: Any, digits: int = 4) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, float | np.floating):
+        if not np.isfinite(v):
+            return "-"
+        return f"{v:.{digits}g}"
+    return str(v)
+
+
+def _table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
+    cells = [[str(h) for h in headers]] + [[_fmt(c) for c in r] for r in rows]
+    widths = [max(len(r[i]) for r in cells) for i in range(len(headers))]
+    lines = [
+        "  ".join(c.rjust(w) if j else c.ljust(w) for j, (c, w) in enumerate(zip(r, widths)))
+        for r in cells
+    ]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def _emit_json(obj: Any, out: str | None = None) -> None:
+    text = json.dumps(obj, indent=2, default=_json_default)
+    if out:
+        Path(out).write_text(text + "\n")
+    else:
+        click.echo(text)
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.floating | np.integer):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, tuple):
+        return list(o)
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+class _Group(click.Group):
+    """Turns every error into one message and a non-zero exit."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort):
+            raise
+        except InputError as exc:
+            raise click.ClickException(str(exc)) from None
+        except (ValueError, OSError, KeyError) as exc:
+            raise click.ClickException(str(exc)) from None
+        except Exception as exc:  # pragma: no cover - a bug, but no traceback for users
+            if os.environ.get("TERRACONE_DEBUG"):
+                raise
+            raise click.ClickException(
+                f"internal error ({type(exc).__name__}: {exc}); set TERRACONE_DEBUG=1 for a traceback"
+            ) from None
+
+
+@click.group(
+    cls=_Group, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100}
+)
+@click.version_option(__version__, prog_name="terracone")
+def cli() -> None:
+    """terracone: Bekker-Wong terrain parameters from cone penetrometer data.
+
+    Forward models (ci, plate), the prediction and learning processes of
+    Huang, Wong, Preston-Thomas and Jayakumar (predict, learn), evaluation
+    against plate tests (evaluate), and a worked example (demo).
+
+    Units: --units si (m, kPa, kN/m^(n+1), kN/m^(n+2)) or us (in, psi,
+    lb/in^(n+1), lb/in^(n+2)); files carry their unit in every column name.
+    """
+
+
+def main() -> None:
+    """Console-script entry point."""
+    cli(prog_name="terracone")
+
+
+# ---------------------------------------------------------------------------
+# forward models
+# ---------------------------------------------------------------------------
+
+
+@cli.command("ci")
+@click.option("--kc", type=float, required=True, help="kc [kN/m^(n+1) or lb/in^(n+1)].")
+@click.option("--kphi", type=float, required=True, help="kphi [kN/m^(n+2) or lb/in^(n+2)].")
+@click.option("--n", "n", type=float, required=True, help="Sinkage exponent n [-].")
+@click.option(
+    "--cc", type=float, default=0.0, show_default=True, help="Cone-terrain adhesion [kPa or psi]."
+)
+@click.option(
+    "--phic", type=float, default=0.0, show_default=True, help="Cone-terrain friction angle [deg]."
+)
+@click.option(
+    "--Kc",
+    "Kc",
+    type=float,
+    default=None,
+    help="Shear deformation parameter [m or in]; omit for fully mobilised shear.",
+)
+@click.option(
+    "--model", type=click.Choice(["rm0", "rm1", "janosi"]), default="rm0", show_default=True
+)
+@click.option("--r-min", type=float, default=None, help="RM1 transition radius [m or in].")
+@click.option(
+    "--cone",
+    default="asabe-large",
+    show_default=True,
+    help=f"{' | '.join(CONES)} | DIAMETER<unit>:ANGLE",
+)
+@click.option("--units", type=_UNITS, default="si", show_default=True)
+@click.option("--depths", required=True, help="Cone-base depths, comma separated [m or in].")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def ci_cmd(kc, kphi, n, cc, phic, Kc, model, r_min, cone, units, depths, as_json):
+    """Cone index at given depths (eqs. (2-1) to (2-7))."""
+    z = _floats(depths, "--depths")
+    ci = cone_index(
+        z,
+        kc=kc,
+        kphi=kphi,
+        n=n,
+        cc=cc,
+        phic=phic,
+        Kc=Kc,
+        model=model,
+        r_min=r_min,
+        cone=cone,
+        units=units,
+    )
+    if as_json:
+        _emit_json({"depth": z.tolist(), "ci": np.asarray(ci).tolist(), "units": units})
+        return
+    click.echo(
+        _table(
+            [f"depth [{u.length_unit(units)}]", f"CI [{u.pressure_unit(units)}]"], list(zip(z, ci))
+        )
+    )
+
+
+@cli.command("plate")
+@click.option("--kc", type=float, required=True, help="kc [kN/m^(n+1) or lb/in^(n+1)].")
+@click.option("--kphi", type=float, required=True, help="kphi [kN/m^(n+2) or lb/in^(n+2)].")
+@click.option("--n", "n", type=float, required=True, help="Sinkage exponent n [-].")
+@click.option("--radius", type=float, default=None, help="Circular plate radius [m or in].")
+@click.option(
+    "--width", type=float, default=None, help="Rectangular plate, smaller side [m or in]."
+)
+@click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True)
+@click.option("--r-min", type=float, default=None, help="RM1 transition radius [m or in].")
+@click.option(
+    "--plate-pair",
+    default=None,
+    help="R1,R2: plate radii of the RM1 secant (section 3.2) [m or in].",
+)
+@click.option("--units", type=_UNITS, default="si", show_default=True)
+@click.option("--sinkages", required=True, help="Sinkages, comma separated [m or in].")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def plate_cmd(kc, kphi, n, radius, width, model, r_min, plate_pair, units, sinkages, as_json):
+    """Plate pressure at given sinkages (Bekker, or RM1 of section 3.2)."""
+    if (radius is None) == (width is None):
+        raise click.UsageError("give exactly one of --radius and --width")
+    s = _floats(sinkages, "--sinkages")
+    pair = tuple(_floats(plate_pair, "--plate-pair")) if plate_pair else None
+    if pair is not None and len(pair) != 2:
+        raise click.BadParameter("--plate-pair: expected two radii R1,R2")
+    p = plate_pressure(
+        s,
+        kc=kc,
+        kphi=kphi,
+        n=n,
+        radius=radius,
+        width=width,
+        model=model,
+        r_min=r_min,
+        units=units,
+        plate_pair=pair,
+    )
+    if as_json:
+        _emit_json({"sinkage": s.tolist(), "pressure": np.asarray(p).tolist(), "units": units})
+        return
+    click.echo(
+        _table(
+            [f"sinkage [{u.length_unit(units)}]", f"pressure [{u.pressure_unit(units)}]"],
+            list(zip(s, p)),
+        )
+    )
+
+
+# ---------------------------------------------------------------------------
+# prediction, learning, evaluation
+# ---------------------------------------------------------------------------
+
+
+def _read_profiles(path, cone, fmt, depth_ref, collect=True):
+    from .io import read_ci_profiles
+
+    return read_ci_profiles(
+        path, cone=cone, depth_ref=depth_ref, format=fmt, on_error="collect" if collect else "raise"
+    )
+
+
+def _plate_curves(params: TerrainParameters, radii: list[float], units: str, plate_pair=None):
+    from .inverse.evaluate import predicted_plate_pressure
+
+    s_max = 0.0508 if units == "us" else 0.05
+    s = np.linspace(0.0, s_max, 26)
+    out = []
+    for r in radii:
+        p = predicted_plate_pressure(params, s, r, plate_pair)
+        out.append(
+            {
+                "radius": float(u.length_from_si(r, units)),
+                "sinkage": [float(v) for v in u.length_from_si(s, units)],
+                "pressure": [float(v) for v in u.pressure_from_si(p, units)],
+            }
+        )
+    return out
+
+
+def _load_calibration(calibration: str | None, terrain: str | None, library: str | None):
+    from .inverse.learn import Calibration
+
+    if calibration and terrain:
+        raise click.UsageError("give at most one of --calibration and --terrain")
+    if calibration:
+        return Calibration.load(calibration)
+    if terrain:
+        from .library import Library
+
+        rec = Library(library).get(terrain)
+        return Calibration.from_library_record(rec)
+    return None
+
+
+def _predict_table(results, units: str) -> str:
+    rows = []
+    for r in results:
+        d = r.as_dict(units, curves=False)
+        rows.append(
+            [
+                d["id"],
+                d["status"],
+                d["kc"],
+                d["kphi"],
+                d["n"],
+                d["cc"],
+                d["phic_deg"],
+                d["rmsd"],
+                d["r2_ci"],
+                ",".join(d["undetermined"]) or "-",
+            ]
+        )
+    heads = [
+        "profile",
+        "status",
+        f"kc [{u.kc_unit(units)}]",
+        f"kphi [{u.kphi_unit(units)}]",
+        "n",
+        f"cc [{u.pressure_unit(units)}]",
+        "phic [deg]",
+        f"RMSD [{u.pressure_unit(units)}]",
+        "R2 CI",
+        "undetermined",
+    ]
+    text = _table(heads, rows)
+    errs = [r for r in results if not r.ok]
+    if errs:
+        text += "\n\nProfiles not fitted:\n" + "\n".join(f"  {r.id}: {r.error}" for r in errs)
+    if any("phic" in r.undetermined for r in results if r.ok):
+        text += (
+            "\n\nphic is undetermined: with fully mobilised shear it trades exactly against a common"
+            "\nscale of kc and kphi (shown at the middle of the phic interval that fits equally well)."
+            "\nUse --calibration or --terrain from a learning run to fix it."
+        )
+    return text
+
+
+@cli.command("predict")
+@click.argument("ci_file", type=click.Path(dir_okay=False))
+@click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True)
+@click.option(
+    "--r-min",
+    default=None,
+    help="RM1 transition radius (e.g. 0.01, 1cm, 0.4in; bare numbers in --units).",
+)
+@click.option(
+    "--calibration",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Calibration JSON from `terracone learn --save`.",
+)
+@click.option("--terrain", default=None, help="Use a calibration stored in the terrain library.")
+@click.option(
+    "--library",
+    default=None,
+    help="Terrain library path (default: $TERRACONE_LIBRARY or the user data dir).",
+)
+@click.option("--solver", type=click.Choice(["exact", "pso"]), default="exact", show_default=True)
+@click.option("--seed", type=int, default=None, help="Seed of the particle swarm.")
+@click.option(
+    "--bounds", default=None, help="kc=LO:HI,kphi=LO:HI,n=LO:HI,cc=LO:HI,phic=LO:HI in --units."
+)
+@click.option("--units", type=_UNITS, default="si", show_default=True)
+@click.option(
+    "--plates", default=None, help="Plate radii for predicted P-S curves, e.g. 1.5in,2.5in."
+)
+@click.option(
+    "--cone", default="asabe-large", show_default=True, help="Cone when the file does not name one."
+)
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["csv", "sc900"]),
+    default=None,
+    help="Input format (detected by default).",
+)
+@click.option(
+    "--depth-ref",
+    type=click.Choice(["base", "tip"]),
+    default="base",
+    show_default=True,
+    help="Whether file depths are those of the cone base or tip.",
+)
+@click.option(
+    "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
+)
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def predict_cmd(
+    ci_file,
+    model,
+    r_min,
+    calibration,
+    terrain,
+    library,
+    solver,
+    seed,
+    bounds,
+    units,
+    plates,
+    cone,
+    fmt,
+    depth_ref,
+    out,
+    as_json,
+):
+    """Predict kc, kphi, n, cc, phic from CI profiles (section 3.3.2)."""
+    from .inverse import Bounds, predict_many
+
+    b = Bounds.parse(bounds, units)
+    rm = _length_si(r_min, units, "--r-min") if r_min else None
+    if model == "rm1" and rm is None and not (calibration or terrain):
+        raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
+    cal = _load_calibration(calibration, terrain, library)
+    radii = _lengths_si(plates, units, "--plates")
+    items = _read_profiles(ci_file, cone, fmt, depth_ref)
+    results = predict_many(
+        items, model=model, r_min=rm, calibration=cal, solver=solver, bounds=b, seed=seed
+    )
+    doc = {
+        "terracone": __version__,
+        "command": "predict",
+        "input": str(ci_file),
+        "settings": {
+            "model": cal.model if cal else model,
+            "r_min": None
+            if (cal.r_min if cal else rm) is None
+            else float(u.length_from_si(cal.r_min if cal else rm, units)),
+            "solver": solver,
+            "seed": seed,
+            "bounds": b.as_dict(units),
+            "calibration": (cal.terrain if cal else None),
+            "units": units,
+        },
+        "profiles": [],
+    }
+    for r in results:
+        d = r.as_dict(units)
+        if r.ok and radii:
+            d["plates"] = _plate_curves(r.params, radii, units, cal.plate_pair if cal else None)
+        doc["profiles"].append(d)
+    if out:
+        _emit_json(doc, out)
+    if as_json:
+        _emit_json(doc)
+    else:
+        click.echo(_predict_table(results, units))
+    if not any(r.ok for r in results):
+        sys.exit(1)
+
+
+@cli.command("learn")
+@click.option(
+    "--ci",
+    "ci_file",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="CI profiles of the terrain.",
+)
+@click.option(
+    "--plates",
+    "plates_file",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Plate tests of the terrain.",
+)
+@click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm1", show_default=True)
+@click.option("--bounds", default=None, help="kc=LO:HI,... as for predict, in --units.")
+@click.option("--units", type=_UNITS, default="si", show_default=True)
+@click.option("--cone", default="asabe-large", show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["csv", "sc900"]), default=None)
+@click.option("--depth-ref", type=click.Choice(["base", "tip"]), default="base", show_default=True)
+@click.option(
+    "--terrain-name", default=None, help="Label of the calibration (default: the CI file's stem)."
+)
+@click.option(
+    "--save",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Save the calibration (JSON) here.",
+)
+@click.option("--json", "as_json", is_flag=True)
+def learn_cmd(
+    ci_file, plates_file, model, bounds, units, cone, fmt, depth_ref, terrain_name, save, as_json
+):
+    """Learn r_min, cc, phic and the P-S parameters from CI and plate tests (section 3.3.1)."""
+    from .inverse import Bounds
+    from .inverse.learn import learn
+    from .io import read_plate_tests
+
+    profiles = _read_profiles(ci_file, cone, fmt, depth_ref, collect=False)
+    plates = read_plate_tests(plates_file)
+    res = learn(profiles, plates, model=model, bounds=Bounds.parse(bounds, units))
+    label = terrain_name or Path(ci_file).stem
+    if save:
+        res.calibration(
+            label, cone=profiles[0].cone.name, ci_file=str(ci_file), plates_file=str(plates_file)
+        ).save(save)
+    d = res.as_dict(units)
+    d.update({"terrain": label, "terracone": __version__, "command": "learn", "saved": save})
+    if as_json:
+        _emit_json(d)
+        return
+    click.echo(_learn_text(d, units))
+
+
+def _learn_text(d: dict[str, Any], units: str) -> str:
+    rows = [
+        ["kc", d["kc"], u.kc_unit(units)],
+        ["kphi", d["kphi"], u.kphi_unit(units)],
+        ["n", d["n"], "-"],
+        ["cc", d["cc"], u.pressure_unit(units)],
+        ["phic", d["phic_deg"], "deg"],
+        ["r_min", d["r_min"], u.length_unit(units)],
+        ["RMSD CI", d["rmsd_ci"], u.pressure_unit(units)],
+        ["RMSD plates", d["rmsd_plates"], u.pressure_unit(units)],
+    ]
+    text = f"Learned calibration for {d['terrain']!r} ({d['model']}):\n" + _table(
+        ["parameter", "value", "unit"], rows
+    )
+    ds = [[x["kind"], x["id"], x["rmsd"], x["cv"]] for x in d["datasets"]]
+    text += "\n\nPer data set:\n" + _table(
+        ["kind", "id", f"RMSD [{u.pressure_unit(units)}]", "CV"], ds
+    )
+    c = d["criteria"]
+    text += f"\n\nFit criterion CV <= {c['max_cv']:g}: {'satisfied' if c['satisfied'] else 'NOT satisfied'} (worst {c['worst_cv']:.3g})"
+    if d["undetermined"]:
+        text += f"\nLeft free by the data: {', '.join(d['undetermined'])}"
+    if d.get("saved"):
+        text += f"\nCalibration saved to {d['saved']}"
+    return text
+
+
+def _params_from_json(path: str) -> list[tuple[str, TerrainParameters]]:
+    try:
+        doc = json.loads(Path(path).read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ValueError(f"file {path}: cannot read JSON ({exc})") from exc
+    out = []
+    if isinstance(doc, dict) and "profiles" in doc:
+        for p in doc["profiles"]:
+            if p.get("status") == "ok":
+                out.append((str(p["id"]), TerrainParameters.from_dict(p)))
+    elif isinstance(doc, dict) and "kc" in doc:
+        out.append((str(doc.get("terrain", Path(path).stem)), TerrainParameters.from_dict(doc)))
+    if not out:
+        raise ValueError(
+            f"file {path}: no fitted parameters found (expected predict or learn JSON)"
+        )
+    return out
+
+
+@cli.command("evaluate")
+@click.option("--plates", "plates_file", required=True, type=click.Path(dir_okay=False))
+@click.option("--kc", type=float, default=None)
+@click.option("--kphi", type=float, default=None)
+@click.option("--n", "n", type=float, default=None)
+@click.option(
+    "--params",
+    "params_file",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="JSON of predict or learn.",
+)
+@click.option("--units", type=_UNITS, default="si", show_default=True)
+@click.option("--json", "as_json", is_flag=True)
+def evaluate_cmd(plates_file, kc, kphi, n, params_file, units, as_json):
+    """R, R2, RMSD and CV of predicted against measured plate P-S curves (Tables 4-2, 4-4)."""
+    from .inverse.evaluate import cross_table
+    from .io import read_plate_tests
+
+    if params_file and any(v is not None for v in (kc, kphi, n)):
+        raise click.UsageError("give either --kc/--kphi/--n or --params, not both")
+    if params_file:
+        preds = _params_from_json(params_file)
+    else:
+        if kc is None or kphi is None or n is None:
+            raise click.UsageError("give --kc, --kphi and --n, or --params")
+        preds = [
+            ("given", TerrainParameters.from_dict({"kc": kc, "kphi": kphi, "n": n, "units": units}))
+        ]
+    plates = read_plate_tests(plates_file)
+    rows = cross_table(preds, plates)
+    if as_json:
+        _emit_json({"plates": [r.as_dict(units) for r in rows], "units": units})
+        return
+    click.echo(_evaluate_text(rows, units))
+
+
+def _evaluate_text(rows, units: str) -> str:
+    tab = [
+        [
+            r.prediction,
+            r.test,
+            float(u.length_from_si(r.b, units)),
+            r.agreement.R,
+            r.agreement.R2,
+            float(u.pressure_from_si(r.agreement.RMSD, units)),
+            r.agreement.CV,
+        ]
+        for r in rows
+    ]
+    return _table(
+        [
+            "prediction",
+            "plate test",
+            f"b [{u.length_unit(units)}]",
+            "R",
+            "R2",
+            f"RMSD [{u.pressure_unit(units)}]",
+            "CV",
+        ],
+        tab,
+    )
+
+
+@cli.command("demo")
+@click.option("--units", type=_UNITS, default="si", show_default=True)
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Also write the JSON results here.",
+)
+def demo_cmd(units, out):
+    """Learn, predict and evaluate on the bundled synthetic LETE-sand example."""
+    from .example import run_demo
+
+    click.echo(run_demo(units=units, out=out))
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

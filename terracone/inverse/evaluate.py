@@ -1,0 +1,113 @@
+"""Evaluation: predicted against measured plate pressure-sinkage curves.
+
+For each plate test, the pressure predicted from a parameter set at the
+measured sinkages (loading branch) is compared with the measured pressure by
+R, R^2, RMSD and CV, as in Tables 4-2 and 4-4 of [1]_.  With several
+predictions and several plate tests, every prediction is compared with every
+test (the cross table of Table 4-2).
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Section 4, Tables 4-2 and 4-4.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .. import units as u
+from ..data import PlateTest, TerrainParameters
+from ..metrics import Agreement, agreement
+from ..plate import plate_basis, pressure_law
+
+__all__ = ["PlateEvaluation", "evaluate", "cross_table", "predicted_plate_pressure"]
+
+
+@dataclass(frozen=True)
+class PlateEvaluation:
+    """Agreement of one prediction with one plate test.
+
+    Attributes
+    ----------
+    prediction : str
+        Id of the parameter set (CI profile or label).
+    test : str
+        Plate test id.
+    b : float
+        Plate size [m] (radius of a circular plate).
+    shape : str
+    agreement : Agreement
+        R, R2, RMSD [kPa], CV.
+    """
+
+    prediction: str
+    test: str
+    b: float
+    shape: str
+    agreement: Agreement
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        a = self.agreement
+        key = "plate_radius" if self.shape == "circular" else "plate_width"
+        return {
+            "prediction": self.prediction,
+            "test": self.test,
+            key: float(u.length_from_si(self.b, units)),
+            "R": a.R,
+            "R2": a.R2,
+            "RMSD": float(u.pressure_from_si(a.RMSD, units)),
+            "CV": a.CV,
+            "n_points": a.n_points,
+            "units": units,
+        }
+
+
+def predicted_plate_pressure(
+    params: TerrainParameters,
+    sinkage: np.ndarray,
+    b: float,
+    plate_pair: tuple[float, float] | None = None,
+) -> np.ndarray:
+    """Pressure [kPa] under a plate of size b [m] at sinkages [m] (eq. (2-2), section 3.2)."""
+    law = (
+        pressure_law("rm1", r_min=params.r_min, plate_pair=plate_pair)
+        if params.model == "rm1" and params.r_min is not None
+        else pressure_law("rm0")
+    )
+    A, B = plate_basis(sinkage, n=params.n, b=b, law=law)
+    return params.kc * A + params.kphi * B
+
+
+def evaluate(
+    params: TerrainParameters,
+    plates: list[PlateTest],
+    *,
+    label: str = "prediction",
+    plate_pair: tuple[float, float] | None = None,
+) -> list[PlateEvaluation]:
+    """Compare the P-S curves predicted from ``params`` with each plate test."""
+    out = []
+    for t in plates:
+        br = t.loading_branch()
+        if br.sinkage.size < 2:
+            raise ValueError(f"plate test {t.id}: fewer than 2 loading points with sinkage > 0")
+        pred = predicted_plate_pressure(params, br.sinkage, br.b, plate_pair)
+        out.append(PlateEvaluation(label, t.id, t.b, t.shape, agreement(br.pressure, pred)))
+    return out
+
+
+def cross_table(
+    predictions: list[tuple[str, TerrainParameters]],
+    plates: list[PlateTest],
+    plate_pair: tuple[float, float] | None = None,
+) -> list[PlateEvaluation]:
+    """Every prediction against every plate test (Table 4-2 of [1]_)."""
+    rows: list[PlateEvaluation] = []
+    for label, params in predictions:
+        rows.extend(evaluate(params, plates, label=label, plate_pair=plate_pair))
+    return rows
