@@ -61,6 +61,12 @@ def box_lsq3(
     x : (..., 3)
     sse : (...)
         The objective at x (the weighted sum of squared residuals).
+
+    Notes
+    -----
+    Each of the 27 faces is solved in closed form (1x1, 2x2 or 3x3
+    Cramer's rule on the reduced normal equations, after scaling to unit
+    diagonal), elementwise over the leading dimensions.
     """
     G, g, lo, hi = (np.asarray(a, dtype=float) for a in (G, g, lo, hi))
     shape = np.broadcast_shapes(
@@ -73,31 +79,74 @@ def box_lsq3(
     yy = np.broadcast_to(np.asarray(yy, dtype=float), shape)
 
     # scale to unit diagonal for conditioning
-    d = np.sqrt(np.clip(np.einsum("...ii->...i", G), 1e-300, None))
-    Gs = G / (d[..., :, None] * d[..., None, :])
-    gs = g / d
-    los, his = lo * d, hi * d
+    d = [np.sqrt(np.clip(G[..., i, i], 1e-300, None)) for i in range(3)]
+    S = [[G[..., i, j] / (d[i] * d[j]) for j in range(3)] for i in range(3)]
+    for i in range(3):
+        S[i][i] = S[i][i] + 1e-13  # tiny ridge: keeps collinear faces solvable
+    b = [g[..., i] / d[i] for i in range(3)]
+    L = [lo[..., i] * d[i] for i in range(3)]
+    H = [hi[..., i] * d[i] for i in range(3)]
+    tol = [1e-9 * np.maximum(H[i] - L[i], 1e-300) + 1e-12 for i in range(3)]
 
-    S = _STATES.reshape((27,) + (1,) * len(shape) + (3,))
-    free = S == 0
-    fixed_val = np.where(S == 1, los, his)  # (27, ..., 3)
-    eye = np.eye(3)
-    # reduced normal equations: identity rows for variables held at a bound
-    A = np.where(free[..., :, None], Gs, eye)
-    b = np.where(free, gs, fixed_val)
-    ridge = 1e-13 * np.where(free, 1.0, 0.0)
-    A = A + ridge[..., :, None] * eye
-    try:
-        xs = np.linalg.solve(A, b[..., None])[..., 0]
-    except np.linalg.LinAlgError:
-        xs = np.einsum("...ij,...j->...i", np.linalg.pinv(A), b)
-    span = his - los
-    tol = 1e-9 * np.maximum(span, 1e-300) + 1e-12
-    feasible = np.all((xs >= los - tol) & (xs <= his + tol), axis=-1)
-    xs = np.clip(xs, los, his)
-    obj = np.einsum("...i,...ij,...j->...", xs, Gs, xs) - 2.0 * np.einsum("...i,...i->...", gs, xs)
-    obj = np.where(feasible, obj, np.inf)
-    k = np.argmin(obj, axis=0)
-    x = np.take_along_axis(xs, k[None, ..., None], axis=0)[0] / d
-    sse = np.take_along_axis(obj, k[None], axis=0)[0] + yy
-    return x, np.maximum(sse, 0.0)
+    best = np.full(shape, np.inf)
+    bx = [np.zeros(shape) for _ in range(3)]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for state in _STATES:
+            free = [i for i in range(3) if state[i] == 0]
+            x: list = [None, None, None]
+            for i in range(3):
+                if state[i] == 1:
+                    x[i] = L[i]
+                elif state[i] == 2:
+                    x[i] = H[i]
+            # right-hand sides of the free rows, fixed variables moved over
+            r = {}
+            for i in free:
+                r[i] = b[i]
+                for j in range(3):
+                    if state[j] != 0:
+                        r[i] = r[i] - S[i][j] * x[j]
+            if len(free) == 1:
+                (i,) = free
+                x[i] = r[i] / S[i][i]
+            elif len(free) == 2:
+                i, j = free
+                det = S[i][i] * S[j][j] - S[i][j] * S[j][i]
+                x[i] = (r[i] * S[j][j] - S[i][j] * r[j]) / det
+                x[j] = (S[i][i] * r[j] - S[j][i] * r[i]) / det
+            elif len(free) == 3:
+                a00, a01, a02 = S[0]
+                a10, a11, a12 = S[1]
+                a20, a21, a22 = S[2]
+                c00 = a11 * a22 - a12 * a21
+                c01 = a12 * a20 - a10 * a22
+                c02 = a10 * a21 - a11 * a20
+                det = a00 * c00 + a01 * c01 + a02 * c02
+                r0, r1, r2 = r[0], r[1], r[2]
+                x[0] = (
+                    r0 * c00 + r1 * (a02 * a21 - a01 * a22) + r2 * (a01 * a12 - a02 * a11)
+                ) / det
+                x[1] = (
+                    r0 * c01 + r1 * (a00 * a22 - a02 * a20) + r2 * (a02 * a10 - a00 * a12)
+                ) / det
+                x[2] = (
+                    r0 * c02 + r1 * (a01 * a20 - a00 * a21) + r2 * (a00 * a11 - a01 * a10)
+                ) / det
+            feas = np.ones(shape, dtype=bool)
+            for i in free:
+                feas &= (x[i] >= L[i] - tol[i]) & (x[i] <= H[i] + tol[i])
+                x[i] = np.clip(x[i], L[i], H[i])
+            obj = (
+                S[0][0] * x[0] * x[0]
+                + S[1][1] * x[1] * x[1]
+                + S[2][2] * x[2] * x[2]
+                + 2.0 * (S[0][1] * x[0] * x[1] + S[0][2] * x[0] * x[2] + S[1][2] * x[1] * x[2])
+                - 2.0 * (b[0] * x[0] + b[1] * x[1] + b[2] * x[2])
+            )
+            better = feas & (obj < best)
+            best = np.where(better, obj, best)
+            for i in range(3):
+                bx[i] = np.where(better, x[i], bx[i])
+    xs = np.stack([bx[i] / d[i] for i in range(3)], axis=-1)
+    sse = best + yy
+    return xs, np.maximum(sse, 0.0)
