@@ -140,6 +140,9 @@ class PlateFit:
             "b": float(u.length_from_si(self.b, units)),
             "shape": self.shape,
             "radius": None if self.radius is None else float(u.length_from_si(self.radius, units)),
+            "plate_radius": None
+            if self.radius is None
+            else float(u.length_from_si(self.radius, units)),
             "k": float(u.kphi_from_si(self.k, self.n, units)),
             "n": float(self.n),
             "points_used": int(self.points_used),

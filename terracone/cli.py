@@ -485,9 +485,29 @@ def predict_cmd(
     default=None,
     help="Save the calibration (JSON) here.",
 )
+@click.option(
+    "--save-as", default=None, help="Store the calibration in the terrain library under this name."
+)
+@click.option(
+    "--library",
+    default=None,
+    help="Terrain library path (default: $TERRACONE_LIBRARY or the user data dir).",
+)
 @click.option("--json", "as_json", is_flag=True)
 def learn_cmd(
-    ci_file, plates_file, model, bounds, units, cone, fmt, depth_ref, terrain_name, save, as_json
+    ci_file,
+    plates_file,
+    model,
+    bounds,
+    units,
+    cone,
+    fmt,
+    depth_ref,
+    terrain_name,
+    save,
+    save_as,
+    library,
+    as_json,
 ):
     """Learn r_min, cc, phic and the P-S parameters from CI and plate tests (section 3.3.1)."""
     from .inverse import Bounds
@@ -497,13 +517,27 @@ def learn_cmd(
     profiles = _read_profiles(ci_file, cone, fmt, depth_ref, collect=False)
     plates = read_plate_tests(plates_file)
     res = learn(profiles, plates, model=model, bounds=Bounds.parse(bounds, units))
-    label = terrain_name or Path(ci_file).stem
+    label = save_as or terrain_name or Path(ci_file).stem
+    cal = res.calibration(
+        label, cone=profiles[0].cone.name, ci_file=str(ci_file), plates_file=str(plates_file)
+    )
     if save:
-        res.calibration(
-            label, cone=profiles[0].cone.name, ci_file=str(ci_file), plates_file=str(plates_file)
-        ).save(save)
+        cal.save(save)
+    if save_as:
+        from .library import Library
+
+        with Library(library) as lib:
+            lib.add(save_as, "calibration", cal.library_params(), cal.provenance, replace=True)
     d = res.as_dict(units)
-    d.update({"terrain": label, "terracone": __version__, "command": "learn", "saved": save})
+    d.update(
+        {
+            "terrain": label,
+            "terracone": __version__,
+            "command": "learn",
+            "saved": save,
+            "saved_as": save_as,
+        }
+    )
     if as_json:
         _emit_json(d)
         return
@@ -534,6 +568,8 @@ def _learn_text(d: dict[str, Any], units: str) -> str:
         text += f"\nLeft free by the data: {', '.join(d['undetermined'])}"
     if d.get("saved"):
         text += f"\nCalibration saved to {d['saved']}"
+    if d.get("saved_as"):
+        text += f"\nCalibration stored in the terrain library as {d['saved_as']!r}"
     return text
 
 
@@ -633,6 +669,259 @@ def demo_cmd(units, out):
     from .example import run_demo
 
     click.echo(run_demo(units=units, out=out))
+
+
+# ---------------------------------------------------------------------------
+# bevameter fits, terrain library, export
+# ---------------------------------------------------------------------------
+
+
+def _store(library: str | None, name: str, kind: str, params: dict, provenance: dict) -> None:
+    from .library import Library
+
+    with Library(library) as lib:
+        lib.add(name, kind, params, provenance, replace=True)
+
+
+@cli.command("fit-plates")
+@click.argument("plates_file", type=click.Path(dir_okay=False))
+@click.option(
+    "--method",
+    type=click.Choice(["wong", "loglog", "nonlinear"]),
+    default="wong",
+    show_default=True,
+)
+@click.option("--units", type=_UNITS, default="si", show_default=True)
+@click.option(
+    "--save-as", default=None, help="Store the fit in the terrain library under this name."
+)
+@click.option("--library", default=None, help="Terrain library path.")
+@click.option("--json", "as_json", is_flag=True)
+def fit_plates_cmd(plates_file, method, units, save_as, library, as_json):
+    """Fit p = k z^n per plate test, and kc, kphi from k = kc/b + kphi (two or more sizes)."""
+    from .bevameter import fit_plates
+    from .io import read_plate_tests
+
+    fit = fit_plates(read_plate_tests(plates_file), method=method)
+    if save_as:
+        from .library import make_provenance
+
+        _store(
+            library,
+            save_as,
+            "bevameter-fit",
+            fit.params(),
+            make_provenance(source=str(plates_file), method=f"fit-plates ({method})"),
+        )
+    d = fit.as_dict(units)
+    d["saved_as"] = save_as
+    if as_json:
+        _emit_json(d)
+        return
+    rows = [[t["test"], t["b"], t["k"], t["n"], t["points_used"], t["r2"]] for t in d["tests"]]
+    text = _table(
+        ["test", f"b [{u.length_unit(units)}]", f"k [{u.kphi_unit(units)}]", "n", "points", "R2"],
+        rows,
+    )
+    text += f"\n\nCommon n = {d['n']:.4g}" + (
+        f", 95% interval {d['n_ci'][0]:.3g} to {d['n_ci'][1]:.3g}" if d["n_ci"] else ""
+    )
+    if d["kc"] is not None:
+        text += (
+            f"\nkc = {d['kc']:.4g} {u.kc_unit(units)}, kphi = {d['kphi']:.4g} {u.kphi_unit(units)}"
+        )
+    for note in d["notes"]:
+        text += f"\n{note}"
+    if d["undetermined"]:
+        text += f"\nUndetermined: {', '.join(d['undetermined'])}"
+    click.echo(text)
+
+
+@cli.command("fit-shear")
+@click.argument("shear_file", type=click.Path(dir_okay=False))
+@click.option("--units", type=_UNITS, default="si", show_default=True)
+@click.option(
+    "--save-as", default=None, help="Store the fit in the terrain library under this name."
+)
+@click.option("--library", default=None, help="Terrain library path.")
+@click.option("--json", "as_json", is_flag=True)
+def fit_shear_cmd(shear_file, units, save_as, library, as_json):
+    """Fit Janosi-Hanamoto tau = (c + sigma tan phi)(1 - exp(-j/K)) to shear tests."""
+    from .io import read_shear_tests
+    from .shear import fit_shear
+
+    fit = fit_shear(read_shear_tests(shear_file))
+    if save_as:
+        from .library import make_provenance
+
+        _store(
+            library,
+            save_as,
+            "bevameter-fit",
+            fit.params(),
+            make_provenance(source=str(shear_file), method="fit-shear"),
+        )
+    d = fit.as_dict(units)
+    d["saved_as"] = save_as
+    if as_json:
+        _emit_json(d)
+        return
+    L, Pu = u.length_unit(units), u.pressure_unit(units)
+    rows = [
+        [t["test"], t["normal_pressure"], t["tau_max"], t["K"], t["points_used"]]
+        for t in d["tests"]
+    ]
+    text = _table(["test", f"sigma [{Pu}]", f"tau_max [{Pu}]", f"K [{L}]", "points"], rows)
+    text += f"\n\nc = {_fmt(d['c'])} {Pu}, phi = {_fmt(d['phi_deg'])} deg, common K = {_fmt(d['K'])} {L}"
+    for note in d["notes"]:
+        text += f"\n{note}"
+    click.echo(text)
+
+
+@cli.group("library", cls=_Group)
+@click.option(
+    "--library",
+    "library_path",
+    default=None,
+    help="Library path (default: $TERRACONE_LIBRARY or the user data dir).",
+)
+@click.pass_context
+def library_grp(ctx, library_path):
+    """The terrain library: reference terrains, calibrations, bevameter fits."""
+    ctx.obj = {"library": library_path}
+
+
+@library_grp.command("list")
+@click.option(
+    "--kind", default=None, help="Only this kind (reference, calibration, bevameter-fit)."
+)
+@click.option("--json", "as_json", is_flag=True)
+@click.pass_context
+def library_list(ctx, kind, as_json):
+    """List the stored terrains."""
+    from .library import Library
+
+    with Library(ctx.obj["library"]) as lib:
+        recs = lib.list(kind)
+    if as_json:
+        _emit_json([r.to_dict() for r in recs])
+        return
+    rows = [
+        [r.name, r.kind, r.params.get("kc"), r.params.get("kphi"), r.params.get("n")] for r in recs
+    ]
+    click.echo(_table(["name", "kind", "kc [kN/m^(n+1)]", "kphi [kN/m^(n+2)]", "n"], rows))
+
+
+@library_grp.command("show")
+@click.argument("name")
+@click.pass_context
+def library_show(ctx, name):
+    """Show one terrain (JSON, SI)."""
+    from .library import Library
+
+    with Library(ctx.obj["library"]) as lib:
+        _emit_json(lib.get(name).to_dict())
+
+
+@library_grp.command("add")
+@click.argument("name")
+@click.option("--kind", default="user", show_default=True)
+@click.option(
+    "--param",
+    "params",
+    multiple=True,
+    help="KEY=VALUE in SI (kc, kphi, n, c_kpa, phi_deg, K_m, cc, phic_deg, r_min, ...).",
+)
+@click.option(
+    "--from-json",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Parameters from a JSON object (SI).",
+)
+@click.option("--source", default=None, help="Provenance: where the values come from.")
+@click.option("--replace", is_flag=True)
+@click.pass_context
+def library_add(ctx, name, kind, params, from_json, source, replace):
+    """Add a terrain."""
+    from .library import Library, make_provenance
+
+    p: dict[str, Any] = {}
+    if from_json:
+        p.update(json.loads(Path(from_json).read_text()))
+    for kv in params:
+        if "=" not in kv:
+            raise click.BadParameter(f"--param: expected KEY=VALUE, got {kv!r}")
+        k, v = kv.split("=", 1)
+        try:
+            p[k.strip()] = float(v)
+        except ValueError:
+            p[k.strip()] = v.strip()
+    with Library(ctx.obj["library"]) as lib:
+        rec = lib.add(
+            name, kind, p, make_provenance(source=source, method="library add"), replace=replace
+        )
+    click.echo(f"added {rec.name!r} ({rec.kind})")
+
+
+@library_grp.command("remove")
+@click.argument("name")
+@click.pass_context
+def library_remove(ctx, name):
+    """Remove a terrain (reference terrains cannot be removed)."""
+    from .library import Library
+
+    with Library(ctx.obj["library"]) as lib:
+        lib.remove(name)
+    click.echo(f"removed {name!r}")
+
+
+@library_grp.command("import")
+@click.argument("path", type=click.Path(dir_okay=False))
+@click.option("--replace", is_flag=True)
+@click.pass_context
+def library_import(ctx, path, replace):
+    """Import terrains from a JSON file written by `library export`."""
+    from .library import Library
+
+    with Library(ctx.obj["library"]) as lib:
+        rep = lib.import_(path, replace=replace)
+    click.echo(f"imported {len(rep.imported)}, skipped {len(rep.skipped)}")
+    for name, why in rep.skipped:
+        click.echo(f"  skipped {name!r}: {why}", err=True)
+
+
+@library_grp.command("export")
+@click.argument("path", type=click.Path(dir_okay=False))
+@click.option("--include-builtin", is_flag=True, help="Also the packaged reference terrains.")
+@click.pass_context
+def library_export(ctx, path, include_builtin):
+    """Export terrains to a JSON file."""
+    from .library import Library
+
+    with Library(ctx.obj["library"]) as lib:
+        k = lib.export(path, include_builtin=include_builtin)
+    click.echo(f"exported {k} terrains to {path}")
+
+
+@cli.command("export")
+@click.option("--terrain", required=True, help="Name of a terrain in the library.")
+@click.option("--format", "fmt", type=click.Choice(["chrono-scm", "json", "csv"]), required=True)
+@click.option("--out", required=True, type=click.Path(dir_okay=False))
+@click.option("--units", type=_UNITS, default="si", show_default=True, help="For json/csv.")
+@click.option("--library", default=None, help="Terrain library path.")
+def export_cmd(terrain, fmt, out, units, library):
+    """Write a stored terrain for a simulator (Chrono SCM JSON) or as plain B-W parameters."""
+    from .export import export_terrain
+    from .library import Library
+
+    with Library(library) as lib:
+        rec = lib.get(terrain)
+    missing = export_terrain(rec, fmt, out, units=units)
+    if missing:
+        click.echo(
+            f"terracone: {terrain!r} lacks {', '.join(missing)}: left out of {out}", err=True
+        )
+    click.echo(f"wrote {out}")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -115,6 +115,35 @@ class Calibration:
             provenance=dict(d.get("provenance", {})),
         )
 
+    def library_params(self) -> dict[str, Any]:
+        """Parameters to store in the terrain library (SI keys)."""
+        d = {
+            "kc": self.kc,
+            "kphi": self.kphi,
+            "n": self.n,
+            "cc": self.cc,
+            "phic_deg": self.phic_deg,
+            "model": self.model,
+            "r_min": self.r_min,
+            "plate_pair": list(self.plate_pair) if self.plate_pair else None,
+            "cone": self.cone,
+        }
+        return {k: v for k, v in d.items() if v is not None}
+
+    @classmethod
+    def from_library_record(cls, rec: Any) -> Calibration:
+        """Calibration from a terrain-library record of kind "calibration"."""
+        if rec.kind != "calibration":
+            raise ValueError(
+                f"terrain {rec.name!r} is a {rec.kind!r} record, not a calibration from "
+                "`terracone learn --save-as`: it has no learned phic, cc and r_min"
+            )
+        d = dict(rec.params)
+        d.update({"terracone_calibration": 1, "units": "si", "terrain": rec.name})
+        d["provenance"] = dict(rec.provenance or {})
+        d.setdefault("cc", 0.0)
+        return cls.from_json(d)
+
     @classmethod
     def load(cls, path: str | Path) -> Calibration:
         """Read a calibration written by :meth:`save`."""
