@@ -81,8 +81,9 @@ def box_lsq3(
     # scale to unit diagonal for conditioning
     d = [np.sqrt(np.clip(G[..., i, i], 1e-300, None)) for i in range(3)]
     S = [[G[..., i, j] / (d[i] * d[j]) for j in range(3)] for i in range(3)]
+    diag = [S[i][i] for i in range(3)]  # the objective uses the unperturbed diagonal
     for i in range(3):
-        S[i][i] = S[i][i] + 1e-13  # tiny ridge: keeps collinear faces solvable
+        S[i][i] = S[i][i] + 1e-13  # tiny ridge in the solves: keeps collinear faces solvable
     b = [g[..., i] / d[i] for i in range(3)]
     L = [lo[..., i] * d[i] for i in range(3)]
     H = [hi[..., i] * d[i] for i in range(3)]
@@ -90,6 +91,7 @@ def box_lsq3(
 
     best = np.full(shape, np.inf)
     bx = [np.zeros(shape) for _ in range(3)]
+    bstate = [np.zeros(shape, dtype=np.int8) for _ in range(3)]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         for state in _STATES:
             free = [i for i in range(3) if state[i] == 0]
@@ -137,9 +139,9 @@ def box_lsq3(
                 feas &= (x[i] >= L[i] - tol[i]) & (x[i] <= H[i] + tol[i])
                 x[i] = np.clip(x[i], L[i], H[i])
             obj = (
-                S[0][0] * x[0] * x[0]
-                + S[1][1] * x[1] * x[1]
-                + S[2][2] * x[2] * x[2]
+                diag[0] * x[0] * x[0]
+                + diag[1] * x[1] * x[1]
+                + diag[2] * x[2] * x[2]
                 + 2.0 * (S[0][1] * x[0] * x[1] + S[0][2] * x[0] * x[2] + S[1][2] * x[1] * x[2])
                 - 2.0 * (b[0] * x[0] + b[1] * x[1] + b[2] * x[2])
             )
@@ -147,6 +149,20 @@ def box_lsq3(
             best = np.where(better, obj, best)
             for i in range(3):
                 bx[i] = np.where(better, x[i], bx[i])
-    xs = np.stack([bx[i] / d[i] for i in range(3)], axis=-1)
+                bstate[i] = np.where(better, state[i], bstate[i])
+    # variables held at a bound get the bound itself, not a rescaled copy of it
+    xs = np.stack(
+        [
+            np.clip(
+                np.where(
+                    bstate[i] == 1, lo[..., i], np.where(bstate[i] == 2, hi[..., i], bx[i] / d[i])
+                ),
+                lo[..., i],
+                hi[..., i],
+            )
+            for i in range(3)
+        ],
+        axis=-1,
+    )
     sse = best + yy
     return xs, np.maximum(sse, 0.0)
