@@ -63,6 +63,39 @@ def _lengths_si(text: str | None, units: str, what: str) -> list[float]:
     return [_length_si(s, units, what) for s in text.split(",") if s.strip()]
 
 
+def _depth_range(text: str | None, units: str) -> tuple[float | None, float | None]:
+    """'LO:HI' (either side may be empty; numbers with a unit suffix or in --units) -> m."""
+    if not text:
+        return None, None
+    if ":" not in text:
+        raise click.BadParameter(f"--depth-range: expected LO:HI, got {text!r}")
+    lo_s, hi_s = text.split(":", 1)
+    lo = _length_si(lo_s, units, "--depth-range") if lo_s.strip() else None
+    hi = _length_si(hi_s, units, "--depth-range") if hi_s.strip() else None
+    if lo is not None and hi is not None and lo >= hi:
+        raise click.BadParameter(f"--depth-range: LO must be below HI, got {text!r}")
+    return lo, hi
+
+
+def _windowed(items, rng: tuple[float | None, float | None], units: str):
+    """Restrict profiles to a depth window, with a note; reader errors pass through."""
+    lo, hi = rng
+    if lo is None and hi is None:
+        return items
+    out = []
+    lu = u.length_unit(units)
+    for it in items:
+        if isinstance(it, InputError):
+            out.append(it)
+            continue
+        w = it.window(lo, hi)
+        a = "-" if lo is None else f"{float(u.length_from_si(lo, units)):g}"
+        b = "-" if hi is None else f"{float(u.length_from_si(hi, units)):g}"
+        w.notes = list(it.notes) + [f"depth window {a}:{b} {lu}: {len(w)} of {len(it)} points"]
+        out.append(w)
+    return out
+
+
 def _fmt(v: Any, digits: int = 4) -> str:
     if v is None:
         return "-"
@@ -315,6 +348,7 @@ def _predict_table(results, units: str) -> str:
                 d["rmsd"],
                 d["r2_ci"],
                 ",".join(d["undetermined"]) or "-",
+                ("LACK OF FIT" if d.get("lack_of_fit") else "ok") if d["status"] == "ok" else "-",
             ]
         )
     heads = [
@@ -328,8 +362,13 @@ def _predict_table(results, units: str) -> str:
         f"RMSD [{u.pressure_unit(units)}]",
         "R2 CI",
         "undetermined",
+        "fit",
     ]
     text = _table(heads, rows)
+    lof = [r for r in results if r.ok and r.lack_of_fit]
+    if lof:
+        text += "\n\nLack of fit (these parameters are not the terrain's; try --depth-range or a layered model):"
+        text += "".join(f"\n  {r.id}: {r.lack_of_fit}" for r in lof)
     errs = [r for r in results if not r.ok]
     if errs:
         text += "\n\nProfiles not fitted:\n" + "\n".join(f"  {r.id}: {r.error}" for r in errs)
@@ -389,6 +428,11 @@ def _predict_table(results, units: str) -> str:
     help="Whether file depths are those of the cone base or tip.",
 )
 @click.option(
+    "--depth-range",
+    default=None,
+    help="Fit only LO:HI (base depths; e.g. 0.05:0.30, 5cm:30cm; bare numbers in --units).",
+)
+@click.option(
     "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
@@ -407,6 +451,7 @@ def predict_cmd(
     cone,
     fmt,
     depth_ref,
+    depth_range,
     out,
     as_json,
 ):
@@ -419,7 +464,9 @@ def predict_cmd(
         raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
     cal = _load_calibration(calibration, terrain, library)
     radii = _lengths_si(plates, units, "--plates")
-    items = _read_profiles(ci_file, cone, fmt, depth_ref)
+    items = _windowed(
+        _read_profiles(ci_file, cone, fmt, depth_ref), _depth_range(depth_range, units), units
+    )
     results = predict_many(
         items, model=model, r_min=rm, calibration=cal, solver=solver, bounds=b, seed=seed
     )
@@ -436,6 +483,8 @@ def predict_cmd(
             "seed": seed,
             "bounds": b.as_dict(units),
             "calibration": (cal.terrain if cal else None),
+            "depth_ref": depth_ref,
+            "depth_range": depth_range,
             "units": units,
         },
         "profiles": [],
@@ -477,6 +526,9 @@ def predict_cmd(
 @click.option("--format", "fmt", type=click.Choice(["csv", "sc900"]), default=None)
 @click.option("--depth-ref", type=click.Choice(["base", "tip"]), default="base", show_default=True)
 @click.option(
+    "--depth-range", default=None, help="Fit only LO:HI of the CI profiles (as for predict)."
+)
+@click.option(
     "--terrain-name", default=None, help="Label of the calibration (default: the CI file's stem)."
 )
 @click.option(
@@ -503,6 +555,7 @@ def learn_cmd(
     cone,
     fmt,
     depth_ref,
+    depth_range,
     terrain_name,
     save,
     save_as,
@@ -515,6 +568,7 @@ def learn_cmd(
     from .io import read_plate_tests
 
     profiles = _read_profiles(ci_file, cone, fmt, depth_ref, collect=False)
+    profiles = _windowed(profiles, _depth_range(depth_range, units), units)
     plates = read_plate_tests(plates_file)
     res = learn(profiles, plates, model=model, bounds=Bounds.parse(bounds, units))
     label = save_as or terrain_name or Path(ci_file).stem

@@ -30,6 +30,7 @@ import numpy as np
 from .. import units as u
 from ..cone import improved
 from ..data import CIProfile, InputError, TerrainParameters
+from ..metrics import check_fit
 from ..plate import PressureLaw, pressure_law
 from .bounds import Bounds
 from .exact import solve_exact
@@ -57,6 +58,10 @@ class PredictionResult:
         Coefficient of determination of the CI fit [-].
     longest_run : int
         Largest number of consecutive residuals of one sign.
+    lack_of_fit : str or None
+        None, or why the model does not follow the data
+        (:func:`terracone.metrics.check_fit`): then the parameters must not
+        be taken as the terrain's.
     depth, ci, ci_model : ndarray
         Base depths [m], measured and model CI [kPa].
     undetermined : list of str
@@ -77,6 +82,7 @@ class PredictionResult:
     rmsd: float = float("nan")
     r2_ci: float = float("nan")
     longest_run: int = 0
+    lack_of_fit: str | None = None
     depth: np.ndarray | None = None
     ci: np.ndarray | None = None
     ci_model: np.ndarray | None = None
@@ -113,6 +119,7 @@ class PredictionResult:
         d["rmsd"] = _num(u.pressure_from_si(self.rmsd, units)) if self.ok else None
         d["r2_ci"] = _num(self.r2_ci) if self.ok else None
         d["longest_run"] = self.longest_run if self.ok else None
+        d["lack_of_fit"] = self.lack_of_fit
         d["units"] = units
         d["undetermined"] = list(self.undetermined)
         d["phic_range_deg"] = list(self.phic_range) if self.phic_range else None
@@ -179,22 +186,6 @@ def rmsd_objective(profile: CIProfile, law: PressureLaw, bounds: Bounds, Kc: flo
         return np.sqrt(np.mean(r * r, axis=-1))
 
     return f
-
-
-def _fit_stats(y: np.ndarray, m: np.ndarray) -> tuple[float, float, int]:
-    r = m - y
-    rmsd = float(np.sqrt(np.mean(r * r)))
-    ss_tot = float(np.sum((y - y.mean()) ** 2))
-    r2 = 1.0 - float(r @ r) / ss_tot if ss_tot > 0 else float("nan")
-    s = np.sign(r)
-    s = s[s != 0]
-    run = best = 0
-    prev = 0.0
-    for v in s:
-        run = run + 1 if v == prev else 1
-        prev = v
-        best = max(best, run)
-    return rmsd, r2, int(best)
 
 
 def predict(
@@ -332,7 +323,9 @@ def predict(
         )
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
         return _error(profile, f"solver failed: {exc}")
-    rmsd, r2, run = _fit_stats(y, m)
+    r = m - y
+    rmsd = float(np.sqrt(np.mean(r * r)))
+    chk = check_fit(z, y, m)
     notes = list(profile.notes)
     if calibration is not None:
         fixed = "model, r_min, phic, cc" + (
@@ -344,8 +337,9 @@ def predict(
         status="ok",
         params=params,
         rmsd=rmsd,
-        r2_ci=r2,
-        longest_run=run,
+        r2_ci=chk.r2,
+        longest_run=chk.longest_run,
+        lack_of_fit=chk.lack_of_fit,
         depth=z,
         ci=y,
         ci_model=m,
