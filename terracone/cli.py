@@ -332,6 +332,28 @@ def _load_calibration(calibration: str | None, terrain: str | None, library: str
     return None
 
 
+def _layered_text(layered: dict, units: str) -> str:
+    rows = []
+    for pid, lr in layered.items():
+        if not lr.ok:
+            rows.append([pid, "error", lr.error, "-", "-", "-", "-", "-"])
+            continue
+        iface = ",".join(f"{float(u.length_from_si(v, units)):.3g}" for v in lr.interfaces)
+        ns = ",".join(f"{p.n:.3g}" for p in lr.layers)
+        rows.append([pid, "ok", iface, ns, lr.r2_ci, lr.bic_single, lr.bic, lr.preferred_layers])
+    heads = [
+        "profile",
+        "status",
+        f"interfaces [{u.length_unit(units)}]",
+        "n per layer",
+        "R2 CI",
+        "BIC 1 layer",
+        "BIC layered",
+        "preferred layers",
+    ]
+    return "\n\nLayered fits (element-wise integration; lower BIC wins):\n" + _table(heads, rows)
+
+
 def _predict_table(results, units: str) -> str:
     rows = []
     for r in results:
@@ -433,6 +455,13 @@ def _predict_table(results, units: str) -> str:
     help="Fit only LO:HI (base depths; e.g. 0.05:0.30, 5cm:30cm; bare numbers in --units).",
 )
 @click.option(
+    "--layers",
+    type=click.IntRange(1, 4),
+    default=1,
+    show_default=True,
+    help="Also fit a terrain of this many layers (interfaces fitted) and compare by BIC.",
+)
+@click.option(
     "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
@@ -452,6 +481,7 @@ def predict_cmd(
     fmt,
     depth_ref,
     depth_range,
+    layers,
     out,
     as_json,
 ):
@@ -489,10 +519,18 @@ def predict_cmd(
         },
         "profiles": [],
     }
+    by_id = {it.id: it for it in items if not isinstance(it, InputError)}
+    layered = {}
     for r in results:
         d = r.as_dict(units)
         if r.ok and radii:
             d["plates"] = _plate_curves(r.params, radii, units, cal.plate_pair if cal else None)
+        if r.ok and layers > 1:
+            from .layers import fit_layered
+
+            lr = fit_layered(by_id[r.id], layers=layers, model=model, r_min=rm, bounds=b)
+            layered[r.id] = lr
+            d["layered"] = lr.as_dict(units)
         doc["profiles"].append(d)
     if out:
         _emit_json(doc, out)
@@ -500,6 +538,8 @@ def predict_cmd(
         _emit_json(doc)
     else:
         click.echo(_predict_table(results, units))
+        if layered:
+            click.echo(_layered_text(layered, units))
     if not any(r.ok for r in results):
         sys.exit(1)
 

@@ -258,30 +258,13 @@ def cone_index_basis(
     L = np.where(z >= 0.0, H, u1)  # embedded length along the axis (rec. F of [1])
     live = u1 > 0.0
     u1s = np.where(live, u1, 1.0)
-    eps_L = np.where(live, L / u1s, 0.0)
+    r_t = law.coefficients()[0]
+    d_s = np.minimum(np.asarray(r_t, dtype=float) / t, L)  # for the Kc quadrature
 
-    r_t, alpha, beta = law.coefficients()
-    # distance from the tip below which the linear (RM1) branch applies: r < r_t
-    d_s = np.minimum(np.asarray(r_t, dtype=float) / t, L)
-    eps_s = np.where(live, d_s / u1s, 0.0)
-
-    g0L, g1L, _ = _tail_moments(eps_L, n)
-    lu = np.log(u1s)
-    p1 = np.exp((n + 1.0) * lu)  # u1^(n+1)
-    p2 = p1 * u1s
-    p3 = p2 * u1s
-
-    # int p*r du over the embedded cone, eqs. (2-2), (2-3), (2-5); per unit kc and kphi
-    I_phi = t * p2 * g1L
-    if law.is_rm0:
-        I_c = p1 * g0L
-    else:
-        g0s, g1s, g2s = _tail_moments(eps_s, n)
-        # Bekker branch above r_t, tangent/secant line below it (section 3.2)
-        I_c = p1 * (g0L - g0s) + alpha * t * p2 * g1s - beta * t * t * p3 * g2s
+    I_c, I_phi, I_cc = _normal_integrals(u1s, None, L, n, law, t)
     I_c = np.where(live, I_c, 0.0)
     I_phi = np.where(live, I_phi, 0.0)
-    I_cc = np.where(live, 0.5 * t * L * L, 0.0)  # int r du
+    I_cc = np.where(live, I_cc, 0.0)
 
     if Kc is None:
         # fully mobilised shear: eq. (2-6) with 1 - exp(-j/Kc) = 1
@@ -294,6 +277,44 @@ def cone_index_basis(
     B = 2.0 * (t * I_phi + tan_phic * S_phi) / (R * R)
     C = 2.0 * S_cc / (R * R)
     return A, B, C
+
+
+def _normal_integrals(u1, a, b, n, law: PressureLaw, t: float):
+    """Integrals of p*r over the part of the cone between distances a and b from the tip.
+
+    With u the depth of a surface element, d = u1 - u its distance from the
+    tip and r = t d its radius (eq. (2-3)), returns per unit kc and kphi
+    int p r du (eqs. (2-2), (2-5); RM1 of section 3.2 below r_t) and
+    int r du, over a <= d <= b (a = None means 0).  u1 > 0 is the depth of
+    the tip [m].
+    """
+    r_t, alpha, beta = law.coefficients()
+    lu = np.log(u1)
+    p1 = np.exp((n + 1.0) * lu)  # u1^(n+1)
+    p2 = p1 * u1
+    p3 = p2 * u1
+    g0b, g1b, g2b = _tail_moments(np.clip(b / u1, 0.0, 1.0), n)
+    if a is None:
+        g0a = g1a = g2a = 0.0
+        a_ = 0.0
+    else:
+        g0a, g1a, g2a = _tail_moments(np.clip(a / u1, 0.0, 1.0), n)
+        a_ = a
+    I_phi = t * p2 * (g1b - g1a)
+    I_cc = 0.5 * t * (b * b - a_ * a_)
+    if law.is_rm0:
+        return p1 * (g0b - g0a), I_phi, I_cc
+    # distance from the tip below which the linear branch applies: r < r_t
+    d_s = np.asarray(r_t, dtype=float) / t
+    lin_hi = np.minimum(b, d_s)  # linear branch over [a, lin_hi] when a < d_s
+    g0s, g1s, g2s = _tail_moments(np.clip(lin_hi / u1, 0.0, 1.0), n)
+    below = a_ < d_s
+    # Bekker branch over [max(a, d_s), b]; linear over [a, min(b, d_s)]
+    bek = np.where(below, g0b - g0s, g0b - g0a)
+    lin1 = np.where(below, g1s - g1a, 0.0)
+    lin2 = np.where(below, g2s - g2a, 0.0)
+    I_c = p1 * bek + alpha * t * p2 * lin1 - beta * t * t * p3 * lin2
+    return I_c, I_phi, I_cc
 
 
 def _mobilised(z, u1, L, d_s, n, law, Kc, cone):

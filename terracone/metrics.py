@@ -93,6 +93,7 @@ def check_fit(
     max_runs_z: float = -3.0,
     max_drop: float = 0.15,
     min_cv: float = 0.05,
+    monotone_model: bool = True,
 ) -> FitCheck:
     """Lack-of-fit diagnostics of a CI fit.
 
@@ -114,6 +115,9 @@ def check_fit(
         Base depths [m].
     measured, model : array_like
         Measured and model CI (same unit).
+    monotone_model : bool
+        The model's CI can only rise with depth (one homogeneous layer), so
+        falling measured CI is a lack of fit; False for layered models.
     """
     z = np.asarray(depth, float)
     y = np.asarray(measured, float)
@@ -149,7 +153,7 @@ def check_fit(
             f"residuals keep one sign over long stretches (longest run {best} of {y.size} points, "
             f"runs test z = {z_runs:.1f}): the model's shape does not follow the data"
         )
-    if y.size >= 4:
+    if monotone_model and y.size >= 4:
         sm = y.copy()
         sm[1:-1] = np.median(np.stack([y[:-2], y[1:-1], y[2:]]), axis=0)
         peak = np.maximum.accumulate(sm)
