@@ -125,42 +125,64 @@ def get_cone(cone: str | Cone) -> Cone:
 # incomplete moments
 # ---------------------------------------------------------------------------
 
-_SERIES_EPS = 0.05  # below this the series is used (closed form loses ~1e-16/eps^2)
-_SERIES_TERMS = 14  # 0.05**14 ~ 6e-19
+_SERIES_EPS = 0.01  # below this the series is used (closed form loses ~1e-16/eps^2)
+_SERIES_TERMS = 10  # 0.01**10 = 1e-20
 
 
-def _tail_moments(eps: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """G_k(eps) = int_0^eps w^k (1-w)^n dw for k = 0, 1, 2 (eps in [0, 1])."""
-    eps, n = np.broadcast_arrays(eps, n)
+def _tail_moments(eps: np.ndarray, n: np.ndarray, second: bool = True):
+    """G_k(eps) = int_0^eps w^k (1-w)^n dw for k = 0, 1 (and 2), eps in [0, 1].
+
+    With x = 1 - eps and e1 = x^(n+1) - 1 (one ``expm1``), the closed forms
+    are G_0 = (1 - x^(n+1))/(n+1) and G_1 = G_0 - (1 - x^(n+2))/(n+2), with
+    1 - x^(n+2) = eps - e1 x and 1 - x^(n+3) = eps(2 - eps) - e1 x^2, sums
+    of non-negative terms.  Below eps = 0.01 (deep below the surface) G_1
+    and G_2 would cancel, and the binomial series
+    G_k = sum_j binom(n, j) (-1)^j eps^(j+k+1)/(j+k+1) is used instead.
+    """
+    eps = np.asarray(eps, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
-        lx = np.log1p(-eps)
-        a = -np.expm1((n + 1.0) * lx) / (n + 1.0)
-        b = -np.expm1((n + 2.0) * lx) / (n + 2.0)
-        c = -np.expm1((n + 3.0) * lx) / (n + 3.0)
-    g0 = a
-    g1 = a - b
-    g2 = a - 2.0 * b + c
+        x = 1.0 - eps
+        e1 = np.expm1((n + 1.0) * np.log1p(-eps))
+        n1 = n + 1.0
+        n2 = n + 2.0
+        g0 = -e1 / n1
+        g1 = g0 - (eps - e1 * x) / n2
+        g2 = (
+            g1 - (eps - e1 * x) / n2 + (eps * (2.0 - eps) - e1 * x * x) / (n + 3.0)
+            if second
+            else None
+        )
     small = eps < _SERIES_EPS
     if small.any():
-        e = eps[small]
-        nn = n[small]
+        shape = np.broadcast_shapes(eps.shape, np.shape(n))
+        sm = np.broadcast_to(small, shape)
+        e = np.broadcast_to(eps, shape)[sm]
+        nn = np.broadcast_to(n, shape)[sm]
+        # terms needed for 1e-17 at the largest eps of the subset
+        emax = float(e.max()) if e.size else 0.0
+        terms = (
+            _SERIES_TERMS
+            if emax <= 0
+            else min(_SERIES_TERMS, max(2, int(math.ceil(-17 / math.log10(max(emax, 1e-300)))) + 1))
+        )
         s0 = np.zeros_like(e)
         s1 = np.zeros_like(e)
-        s2 = np.zeros_like(e)
-        coef = np.ones_like(e)  # binom(n, j) (-1)^j
-        power = e.copy()  # eps^(j+1)
-        for j in range(_SERIES_TERMS):
-            s0 += coef * power / (j + 1)
-            s1 += coef * power * e / (j + 2)
-            s2 += coef * power * e * e / (j + 3)
-            coef = coef * (j - nn) / (j + 1)
-            power = power * e
-        g0 = np.array(g0, dtype=float)
-        g1 = np.array(g1, dtype=float)
-        g2 = np.array(g2, dtype=float)
-        g0[small] = s0
-        g1[small] = s1
-        g2[small] = s2
+        s2 = np.zeros_like(e) if second else None
+        cp = e.copy()  # binom(n, j) (-1)^j eps^(j+1)
+        for jj in range(terms):
+            s0 += cp / (jj + 1)
+            ce = cp * e
+            s1 += ce / (jj + 2)
+            if second:
+                s2 += ce * e / (jj + 3)
+            cp = ce * ((jj - nn) / (jj + 1))
+        g0 = np.array(np.broadcast_to(g0, shape), dtype=float)
+        g1 = np.array(np.broadcast_to(g1, shape), dtype=float)
+        g0[sm] = s0
+        g1[sm] = s1
+        if second:
+            g2 = np.array(np.broadcast_to(g2, shape), dtype=float)
+            g2[sm] = s2
     return g0, g1, g2
 
 
@@ -179,36 +201,45 @@ _DE_SIGMA, _DE_ONE_MINUS, _DE_W = _de_rule()
 
 def _check_nonneg(name: str, value: ArrayLike) -> np.ndarray:
     a = np.asarray(value, dtype=float)
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must be finite")
-    if np.any(a < 0):
-        raise ValueError(f"{name} must be >= 0 (got min {a.min()})")
+    lo, hi = (a.min(), a.max()) if a.size else (0.0, 0.0)
+    if not (lo >= 0 and hi < np.inf):  # NaN fails both comparisons
+        raise ValueError(f"{name} must be finite and >= 0 (got {lo if lo < 0 else hi})")
     return a
 
 
 def _check_n(n: ArrayLike) -> np.ndarray:
     a = np.asarray(n, dtype=float)
-    if not np.all(np.isfinite(a)) or np.any(a <= 0) or np.any(a > 3):
+    if a.size and not (a.min() > 0 and a.max() <= 3):
         raise ValueError("n must satisfy 0 < n <= 3")
     return a
 
 
 def _check_phic(phic_deg: ArrayLike) -> np.ndarray:
     a = np.asarray(phic_deg, dtype=float)
-    if not np.all(np.isfinite(a)) or np.any(a < 0) or np.any(a >= 90):
+    if a.size and not (a.min() >= 0 and a.max() < 90):
         raise ValueError("phic must satisfy 0 <= phic < 90 deg")
+    return a
+
+
+def _check_Kc(Kc: ArrayLike | None) -> np.ndarray | None:
+    if Kc is None:
+        return None
+    a = np.asarray(Kc, dtype=float)
+    if a.size and not (a.min() > 0 and a.max() < np.inf):
+        raise ValueError("Kc must be > 0 (or None for fully mobilised shear)")
     return a
 
 
 def _check_depth(depth: ArrayLike, cone: Cone) -> np.ndarray:
     z = np.asarray(depth, dtype=float)
-    if not np.all(np.isfinite(z)):
+    lo, hi = (z.min(), z.max()) if z.size else (0.0, 0.0)
+    if not (np.isfinite(lo) and np.isfinite(hi)):
         raise ValueError("depth must be finite")
-    if np.any(z < -cone.height * (1 + 1e-12)):
+    if lo < -cone.height * (1 + 1e-12):
         raise ValueError(
             f"depth must be >= -H = {-cone.height:.6g} m (the tip above the surface carries no load)"
         )
-    return np.maximum(z, -cone.height)
+    return np.maximum(z, -cone.height) if lo < -cone.height else z
 
 
 def cone_index_basis(
@@ -250,26 +281,35 @@ def cone_index_basis(
     z = _check_depth(depth, cone)
     n = _check_n(n)
     phic = _check_phic(phic)
-    R, H = cone.radius, cone.height
-    t = R / H  # tan(half angle), tan 15 deg in the paper
-    tan_phic = np.tan(np.radians(phic))
+    return _basis(z, n, phic, Kc, law, cone)
 
+
+def _integrals(z: np.ndarray, n: np.ndarray, law: PressureLaw, cone: Cone):
+    """int p r du per unit kc and kphi, and int r du, over the embedded cone (unchecked)."""
+    H = cone.height
+    t = cone.radius / H  # tan(half angle), tan 15 deg in the paper
     u1 = z + H  # depth of the tip
     L = np.where(z >= 0.0, H, u1)  # embedded length along the axis (rec. F of [1])
     live = u1 > 0.0
+    if live.all():
+        return _normal_integrals(u1, None, L, n, law, t), u1, L
     u1s = np.where(live, u1, 1.0)
-    r_t = law.coefficients()[0]
-    d_s = np.minimum(np.asarray(r_t, dtype=float) / t, L)  # for the Kc quadrature
+    ints = _normal_integrals(u1s, None, L, n, law, t)
+    return tuple(np.where(live, v, 0.0) for v in ints), u1, L
 
-    I_c, I_phi, I_cc = _normal_integrals(u1s, None, L, n, law, t)
-    I_c = np.where(live, I_c, 0.0)
-    I_phi = np.where(live, I_phi, 0.0)
-    I_cc = np.where(live, I_cc, 0.0)
 
+def _basis(z, n, phic, Kc, law: PressureLaw, cone: Cone):
+    """Columns A, B, C of :func:`cone_index_basis` without input checks."""
+    R, H = cone.radius, cone.height
+    t = R / H
+    tan_phic = np.tan(np.radians(phic))
+    (I_c, I_phi, I_cc), u1, L = _integrals(z, n, law, cone)
     if Kc is None:
         # fully mobilised shear: eq. (2-6) with 1 - exp(-j/Kc) = 1
         S_c, S_phi, S_cc = I_c, I_phi, I_cc
     else:
+        r_t = law.coefficients()[0]
+        d_s = np.minimum(np.asarray(r_t, dtype=float) / t, L)
         S_c, S_phi, S_cc = _mobilised(z, u1, L, d_s, n, law, np.asarray(Kc, float), cone)
 
     # eq. (2-7): CI = (Fp + Fs) / (pi R^2), Fp = 2 pi tan(a) I, Fs = 2 pi (cc I_cc + tan(phic) I)
@@ -277,6 +317,36 @@ def cone_index_basis(
     B = 2.0 * (t * I_phi + tan_phic * S_phi) / (R * R)
     C = 2.0 * S_cc / (R * R)
     return A, B, C
+
+
+def _improved(z, kc, kphi, n, cc, phic, Kc, law: PressureLaw, cone: Cone) -> np.ndarray:
+    """Eq. (2-7) without input checks (SI)."""
+    if Kc is not None:
+        A, B, C = _basis(z, n, phic, Kc, law, cone)
+        return kc * A + kphi * B + cc * C
+    R, H = cone.radius, cone.height
+    t = R / H
+    fac = (2.0 / (R * R)) * (t + np.tan(np.radians(phic)))
+    u1 = z + H
+    if law.is_rm0 and u1.size and u1.min() > 0:
+        L = np.where(z >= 0.0, H, u1)
+        eps = L / u1
+        if eps.min() >= _SERIES_EPS:
+            # fast path of the same closed form (RM0, fully mobilised, no series needed):
+            # kc I_c + kphi I_phi = u1^(n+1) [e1 (-kc/(n+1) + kphi t (u0/(n+2) - u1/(n+1)))
+            #                                 - kphi t L/(n+2)],  e1 = (u0/u1)^(n+1) - 1
+            n1 = n + 1.0
+            n2 = n + 2.0
+            kpt = kphi * t
+            with np.errstate(divide="ignore"):  # eps = 1 (tip entering): log1p(-1) = -inf
+                e1 = np.expm1(n1 * np.log1p(-eps))
+            p1 = np.exp(n1 * np.log(u1))
+            u0 = u1 - L
+            inner = e1 * (kpt * (u0 / n2 - u1 / n1) - kc / n1) - (kpt / n2) * L
+            return (fac * p1) * inner + ((2.0 / (R * R)) * cc) * (0.5 * t * L * L)
+    (I_c, I_phi, I_cc), _, _ = _integrals(z, n, law, cone)
+    # fully mobilised: CI = 2/R^2 [(t + tan phic)(kc I_c + kphi I_phi) + cc I_cc]
+    return fac * (kc * I_c + kphi * I_phi) + ((2.0 / (R * R)) * cc) * I_cc
 
 
 def _normal_integrals(u1, a, b, n, law: PressureLaw, t: float):
@@ -289,21 +359,21 @@ def _normal_integrals(u1, a, b, n, law: PressureLaw, t: float):
     the tip [m].
     """
     r_t, alpha, beta = law.coefficients()
-    lu = np.log(u1)
-    p1 = np.exp((n + 1.0) * lu)  # u1^(n+1)
+    rm1 = not law.is_rm0
+    p1 = np.exp((n + 1.0) * np.log(u1))  # u1^(n+1)
     p2 = p1 * u1
-    p3 = p2 * u1
-    g0b, g1b, g2b = _tail_moments(np.clip(b / u1, 0.0, 1.0), n)
+    g0b, g1b, g2b = _tail_moments(np.clip(b / u1, 0.0, 1.0), n, rm1)
     if a is None:
         g0a = g1a = g2a = 0.0
         a_ = 0.0
     else:
-        g0a, g1a, g2a = _tail_moments(np.clip(a / u1, 0.0, 1.0), n)
+        g0a, g1a, g2a = _tail_moments(np.clip(a / u1, 0.0, 1.0), n, rm1)
         a_ = a
     I_phi = t * p2 * (g1b - g1a)
     I_cc = 0.5 * t * (b * b - a_ * a_)
-    if law.is_rm0:
+    if not rm1:
         return p1 * (g0b - g0a), I_phi, I_cc
+    p3 = p2 * u1
     # distance from the tip below which the linear branch applies: r < r_t
     d_s = np.asarray(r_t, dtype=float) / t
     lin_hi = np.minimum(b, d_s)  # linear branch over [a, lin_hi] when a < d_s
@@ -411,8 +481,12 @@ def improved(
     kc = _check_nonneg("kc", kc)
     kphi = _check_nonneg("kphi", kphi)
     cc = _check_nonneg("cc", cc)
-    A, B, C = cone_index_basis(depth, n=n, phic=phic, Kc=Kc, law=law, cone=cone)
-    return kc * A + kphi * B + cc * C
+    cone = get_cone(cone)
+    z = _check_depth(depth, cone)
+    Kc = _check_Kc(Kc)
+    return _improved(
+        z, kc, kphi, _check_n(n), cc, _check_phic(phic), Kc, law or pressure_law("rm0"), cone
+    )
 
 
 def janosi(depth: ArrayLike, *, kc: ArrayLike, kphi: ArrayLike, n: ArrayLike) -> np.ndarray:
@@ -517,15 +591,17 @@ def cone_index(
         r_min=None if r_min is None else u.length_to_si(r_min, units),
         plate_pair=pair,
     )
-    ci = improved(
-        u.length_to_si(depth, units),
-        kc=u.kc_to_si(_check_nonneg("kc", kc), n_arr, units),
-        kphi=u.kphi_to_si(_check_nonneg("kphi", kphi), n_arr, units),
-        n=n_arr,
-        cc=u.pressure_to_si(_check_nonneg("cc", cc), units),
-        phic=phic,
-        Kc=None if Kc is None else u.length_to_si(Kc, units),
-        law=law,
-        cone=cone,
+    cone = get_cone(cone)
+    # checked once here, then the unchecked SI core
+    ci = _improved(
+        _check_depth(u.length_to_si(depth, units), cone),
+        u.kc_to_si(_check_nonneg("kc", kc), n_arr, units),
+        u.kphi_to_si(_check_nonneg("kphi", kphi), n_arr, units),
+        n_arr,
+        u.pressure_to_si(_check_nonneg("cc", cc), units),
+        _check_phic(phic),
+        _check_Kc(None if Kc is None else u.length_to_si(Kc, units)),
+        law,
+        cone,
     )
-    return u.pressure_from_si(ci, units)
+    return ci if units == "si" else u.pressure_from_si(ci, units)

@@ -101,7 +101,7 @@ def _k_factor(n: ArrayLike, extra: int) -> np.ndarray:
 
 def kc_to_si(kc: ArrayLike, n: ArrayLike, units: str) -> np.ndarray:
     """kc in the system's unit to [kN/m^(n+1)]; lb/in^(n+1) for ``"us"``."""
-    if check_system(units) == "si":
+    if units == "si" or check_system(units) == "si":
         return np.asarray(kc, dtype=float)
     return np.asarray(kc, dtype=float) * _k_factor(n, 1)
 

@@ -146,6 +146,10 @@ def solve_exact(
     ratio = kc_over_kphi
     z = np.asarray(z, float)
     y = np.asarray(y, float)
+    if Kc is None and not fit_Kc:
+        return _solve_mobilised(z, y, cone, law, bounds, n_grid, noise_floor, profiles, ratio)
+    z = np.asarray(z, float)
+    y = np.asarray(y, float)
     nfev = 0
     ns = _grid(*bounds.n, n_grid)
     phis = _grid(*bounds.phic, phic_grid)
@@ -243,6 +247,42 @@ def solve_exact(
     )
     if profiles:
         _identify(sol, z, y, ns, sse_grid.min(axis=(1, 2)), bounds, cone, law, noise_floor, ratio)
+    return sol
+
+
+def _solve_mobilised(
+    z, y, cone, law, bounds, n_grid, noise_floor, profiles, ratio
+) -> ExactSolution:
+    """Fully mobilised shear: the vectorised solver of :mod:`many` on one profile."""
+    from .many import solve_exact_many
+
+    ms = solve_exact_many(
+        [z],
+        [y],
+        cone=cone,
+        law=law,
+        bounds=bounds,
+        n_grid=n_grid,
+        noise_floor=noise_floor,
+        kc_over_kphi=ratio,
+    )
+    x = np.array([ms.kc[0], ms.kphi[0], ms.cc[0]])
+    X = design(z, np.array(ms.n[0]), np.array(ms.phic_deg[0]), cone=cone, law=law, Kc=None)
+    resid = X @ x - y
+    sol = ExactSolution(
+        kc=float(x[0]),
+        kphi=float(x[1]),
+        n=float(ms.n[0]),
+        cc=float(x[2]),
+        phic_deg=float(ms.phic_deg[0]),
+        Kc=None,
+        sse=float(resid @ resid),
+        nfev=int(ms.nfev),
+        nit=1,
+        phic_range=(float(ms.phic_lo[0]), float(ms.phic_hi[0])),
+    )
+    if profiles:
+        _identify(sol, z, y, ms.n_grid, ms.sse_n[0], bounds, cone, law, noise_floor, ratio)
     return sol
 
 

@@ -57,6 +57,8 @@ class ManySolution:
     n_lo: np.ndarray
     n_hi: np.ndarray
     nfev: int
+    n_grid: np.ndarray | None = None
+    sse_n: np.ndarray | None = None
 
 
 def _pad(depths: list[np.ndarray], cis: list[np.ndarray]):
@@ -82,8 +84,9 @@ def solve_exact_many(
     law: PressureLaw,
     bounds: Bounds,
     n_grid: int = 41,
-    refine_iter: int = 28,
+    refine_iter: int = 40,
     noise_floor: float = 0.01,
+    kc_over_kphi: float | None = None,
 ) -> ManySolution:
     """Fit the improved model (fully mobilised shear) to many profiles.
 
@@ -99,7 +102,11 @@ def solve_exact_many(
         Golden-section iterations of the refinement of n.
     noise_floor : float
         Relative noise floor for the n interval (see :mod:`exact`).
+    kc_over_kphi : float, optional
+        Hold kc/kphi [m] fixed (a calibration): the kc column folds into
+        the kphi column and kc = ratio * kphi.
     """
+    ratio = kc_over_kphi
     zz, yy, w = _pad(depths, cis)
     P = zz.shape[0]
     t = math.tan(cone.half_angle)
@@ -114,9 +121,21 @@ def solve_exact_many(
     yty = np.einsum("pz,pz->p", w * yy, yy)
     nfev = 0
 
-    def cells(n: np.ndarray):
-        """SSE and x for n of shape (P, K) and every phi: returns (P, K, F) arrays."""
+    def _kbounds(n):
+        kc_lo, kc_hi = bounds.kc_si(n)
+        kp_lo, kp_hi = bounds.kphi_si(n)
+        if ratio is not None:
+            if ratio > 0:
+                kp_lo = np.maximum(kp_lo, kc_lo / ratio)
+                kp_hi = np.maximum(np.minimum(kp_hi, kc_hi / ratio), kp_lo)
+            kc_lo = kc_hi = np.zeros(np.shape(n))
+        return kc_lo, kc_hi, kp_lo, kp_hi
+
+    def cells(n: np.ndarray, sv: np.ndarray | None = None):
+        """Primed x and SSE for n of shape (P, K) and each s of ``sv`` ((P, F) or the grid)."""
         A, B, C = cone_index_basis(zz[:, None, :], n=n[..., None], phic=0.0, law=law, cone=cone)
+        if ratio is not None:
+            A, B = np.zeros_like(A), ratio * A + B
         Aw, Bw = A * w[:, None, :], B * w[:, None, :]
         Cw = np.broadcast_to(C * w[:, None, :], Aw.shape)
         ab = (Aw * B).sum(-1)
@@ -133,17 +152,28 @@ def solve_exact_many(
         yk = yy[:, None, :]
         g = np.stack([(Aw * yk).sum(-1), (Bw * yk).sum(-1), (Cw * yk).sum(-1)], -1)
         # phic scales the kc and kphi columns by s
-        D = np.ones((svals.size, 3))
-        D[:, 0] = svals
-        D[:, 1] = svals
-        Gs = G[:, :, None] * D[None, None, :, :, None] * D[None, None, :, None, :]
-        gs = g[:, :, None] * D[None, None]
-        kc_lo, kc_hi = bounds.kc_si(n)
-        kp_lo, kp_hi = bounds.kphi_si(n)
-        lo = np.stack(np.broadcast_arrays(kc_lo, kp_lo, bounds.cc[0]), axis=-1)[:, :, None] + 0 * D
-        hi = np.stack(np.broadcast_arrays(kc_hi, kp_hi, bounds.cc[1]), axis=-1)[:, :, None] + 0 * D
-        x, sse = box_lsq3(Gs, gs, yty[:, None, None], lo, hi)
-        return x * D, sse  # x in (kc', kphi', cc) -> multiply by s to get primed values
+        sv = svals[None, :] if sv is None else sv
+        D = np.ones(sv.shape + (3,))
+        D[..., 0] = sv
+        D[..., 1] = sv
+        Dk = D[:, None]  # (P or 1, 1, F, 3)
+        Gs = G[:, :, None] * Dk[..., :, None] * Dk[..., None, :]
+        gs = g[:, :, None] * Dk
+        kc_lo, kc_hi, kp_lo, kp_hi = _kbounds(n)
+        lo = np.stack(np.broadcast_arrays(kc_lo, kp_lo, bounds.cc[0]), axis=-1)[:, :, None] + 0 * Dk
+        hi = np.stack(np.broadcast_arrays(kc_hi, kp_hi, bounds.cc[1]), axis=-1)[:, :, None] + 0 * Dk
+        x, _ = box_lsq3(Gs, gs, yty[:, None, None], lo, hi)
+        xp = x * Dk  # (kc', kphi', cc): primed values, CI = kc' A + kphi' B + cc C
+        # the SSE from the residuals: the normal-equation form cancels near a perfect fit,
+        # which would blind the refinement of n on clean data
+        r = (
+            A[:, :, None, :] * xp[..., 0:1]
+            + B[:, :, None, :] * xp[..., 1:2]
+            + C[:, :, None, :] * xp[..., 2:3]
+            - yy[:, None, None, :]
+        )
+        sse = np.einsum("pkfz,pz->pkf", r * r, w)
+        return xp, sse
 
     ns = np.linspace(*bounds.n, n_grid) if bounds.n[0] != bounds.n[1] else np.array([bounds.n[0]])
     N = np.broadcast_to(ns, (P, ns.size))
@@ -162,8 +192,8 @@ def solve_exact_many(
         phi_idx = i_f
 
         def f(nv):
-            _, s = cells(nv[:, None])
-            return s[np.arange(P), 0, phi_idx]
+            _, sse_ = cells(nv[:, None], svals[phi_idx][:, None])
+            return sse_[:, 0, 0]
 
         c = b - _GOLD * (b - a)
         d = a + _GOLD * (b - a)
@@ -188,32 +218,63 @@ def solve_exact_many(
         grid_best = flat[np.arange(P), k]
         n_best = np.where(f_ref <= grid_best, n_ref, n_best)
 
-    x, sse = cells(n_best[:, None])
-    x = x[np.arange(P), 0, i_f]  # primed values (kc', kphi', cc)
-    sse = sse[np.arange(P), 0, i_f]
+    s_best = svals[i_f]
+    if phis.size > 1:
+        # golden-section refinement of phic between its grid neighbours (bounds bind)
+        j = i_f
+        a = phis[np.maximum(j - 1, 0)]
+        b = phis[np.minimum(j + 1, phis.size - 1)]
+
+        def fphi(pv):
+            return cells(n_best[:, None], s_of(pv)[:, None])[1][:, 0, 0]
+
+        c = b - _GOLD * (b - a)
+        d = a + _GOLD * (b - a)
+        fc, fd = fphi(c), fphi(d)
+        for _ in range(refine_iter):
+            left = fc < fd
+            b = np.where(left, d, b)
+            a = np.where(left, a, c)
+            d_new = np.where(left, c, a + _GOLD * (b - a))
+            c_new = np.where(left, b - _GOLD * (b - a), d)
+            new_pt = np.where(left, c_new, d_new)
+            fnew = fphi(new_pt)
+            fc, fd = np.where(left, fnew, fd), np.where(left, fc, fnew)
+            c, d = c_new, d_new
+            nfev += P
+        p_ref = np.where(fc < fd, c, d)
+        f_ref = np.minimum(fc, fd)
+        f_grid = cells(n_best[:, None], s_best[:, None])[1][:, 0, 0]
+        s_best = np.where(f_ref < f_grid, s_of(p_ref), s_best)
+    x, sse = cells(n_best[:, None], s_best[:, None])
+    x = x[:, 0, 0]  # primed values (kc', kphi', cc)
+    sse = sse[:, 0, 0]
     nfev += P
 
-    # phic ridge: the interval of phic whose box still holds (kc', kphi')
+    # phic ridge: every s whose box still holds the optimal primed (kc', kphi'),
+    # lo <= x'/s <= hi, fits equally well (eq. (2-6) fully mobilised)
     if phi_lo == phi_hi:
         ph_lo = ph_hi = ph = np.full(P, phi_lo)
-    elif nested:
-        kc_hi = bounds.kc_si(n_best)[1]
-        kp_hi = bounds.kphi_si(n_best)[1]
+    else:
+        kc_lo, kc_hi, kp_lo, kp_hi = _kbounds(n_best)
         with np.errstate(divide="ignore", invalid="ignore"):
-            s_need = np.maximum(
+            need = np.maximum(
                 np.where(kc_hi > 0, x[:, 0] / kc_hi, 0.0), np.where(kp_hi > 0, x[:, 1] / kp_hi, 0.0)
             )
-        s_need = np.maximum(s_need, s_of(phi_lo))
-        ph_lo = np.degrees(np.arctan((s_need - 1.0) * t))
-        ph_lo = np.clip(ph_lo, phi_lo, phi_hi)
-        ph_hi = np.full(P, phi_hi)
+            room = np.minimum(
+                np.where(kc_lo > 0, x[:, 0] / kc_lo, np.inf),
+                np.where(kp_lo > 0, x[:, 1] / kp_lo, np.inf),
+            )
+        s_lo_r = np.clip(need, s_of(phi_lo), s_of(phi_hi))
+        s_hi_r = np.clip(room, s_of(phi_lo), s_of(phi_hi))
+        s_lo_r = np.minimum(s_lo_r, s_best)
+        s_hi_r = np.maximum(s_hi_r, s_best)
+        ph_lo = np.degrees(np.arctan((s_lo_r - 1.0) * t))
+        ph_hi = np.degrees(np.arctan((s_hi_r - 1.0) * t))
         ph = 0.5 * (ph_lo + ph_hi)
-    else:
-        ph = phis[i_f]
-        ph_lo = ph_hi = ph
     s = s_of(ph)
-    kc = x[:, 0] / s
     kphi = x[:, 1] / s
+    kc = ratio * kphi if ratio is not None else x[:, 0] / s
 
     # n interval from the grid profile (95% profile likelihood, noise floor)
     npts = w.sum(axis=1)
@@ -225,4 +286,6 @@ def solve_exact_many(
     small = np.where(ok, ns[None, :], np.inf).min(axis=1)
     n_lo = np.minimum(np.where(np.isfinite(small), small, n_best), n_best)
     n_hi = np.maximum(np.where(np.isfinite(big), big, n_best), n_best)
-    return ManySolution(kc, kphi, n_best, x[:, 2], ph, ph_lo, ph_hi, sse, n_lo, n_hi, nfev)
+    return ManySolution(
+        kc, kphi, n_best, x[:, 2], ph, ph_lo, ph_hi, sse, n_lo, n_hi, nfev, ns, sse_n
+    )
