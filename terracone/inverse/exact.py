@@ -26,7 +26,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import minimize_scalar
+from scipy.optimize import minimize
 
 from ..cone import Cone, cone_index_basis
 from ..plate import PressureLaw
@@ -173,56 +173,49 @@ def solve_exact(
     N, P, K = np.meshgrid(ns, phis, Kcs, indexing="ij")
     x_grid, sse_grid = cell_sse(N, P, K)
     nfev += sse_grid.size
-    i, j, k = np.unravel_index(np.argmin(sse_grid), sse_grid.shape)
-    best_phi = phis[j]
-    best_K = Kcs[k]
 
-    # refine n around the best grid point, phic and Kc held
-    n_best = ns[i]
-    nit = 1
-    if ns.size > 1:
-        a = ns[max(i - 1, 0)]
-        b = ns[min(i + 1, ns.size - 1)]
+    # joint refinement of (n, phic[, log Kc]) with Nelder-Mead from the best grid cells:
+    # with finite Kc phic is no longer a pure scale, and n and phic form a valley
+    lo_v = [bounds.n[0], bounds.phic[0]] + ([math.log(bounds.Kc[0])] if fit_Kc else [])
+    hi_v = [bounds.n[1], bounds.phic[1]] + ([math.log(bounds.Kc[1])] if fit_Kc else [])
+    lo_v, hi_v = np.array(lo_v), np.array(hi_v)
+    span = np.where(hi_v > lo_v, hi_v - lo_v, 1.0)
 
-        def f_n(nv):
-            _, s = cell_sse(np.array([nv]), np.array([best_phi]), np.array([best_K]))
-            return float(s[0])
+    def unpack(v):
+        w = np.clip(lo_v + v * span, lo_v, hi_v)
+        K = math.exp(w[2]) if fit_Kc else np.nan
+        return float(w[0]), float(w[1]), K
 
-        res = minimize_scalar(f_n, bounds=(a, b), method="bounded", options={"xatol": 1e-10})
-        nfev += int(res.nfev)
-        nit += int(res.nit)
-        if res.fun <= sse_grid[i, j, k]:
-            n_best = float(res.x)
+    def f_res(v):
+        nv, pv, Kv = unpack(v)
+        x_, _ = cell_sse(np.array([nv]), np.array([pv]), np.array([Kv]))
+        Xv = design(
+            z, np.array(nv), np.array(pv), cone=cone, law=law, Kc=Kv if fit_Kc else Kc, ratio=ratio
+        )
+        r = Xv @ x_[0] - y
+        return float(r @ r)
 
-    # phic: the interval that attains the optimum (exact ridge with fully mobilised shear)
-    phi_fine = _grid(*bounds.phic, 181)
-    _, sse_phi = cell_sse(
-        np.full(phi_fine.shape, n_best), phi_fine, np.full(phi_fine.shape, best_K)
-    )
-    nfev += sse_phi.size
-    smin = float(sse_phi.min())
-    flat = sse_phi <= smin * (1 + 1e-9) + 1e-12 * float(y @ y)
-    phic_range = (float(phi_fine[flat].min()), float(phi_fine[flat].max()))
-    mid = 0.5 * (phic_range[0] + phic_range[1])
-    cand = phi_fine[flat]
-    phi_best = float(cand[np.argmin(np.abs(cand - mid))])
-    if phic_range[0] == phic_range[1] and phi_fine.size > 1:
-        h = phi_fine[1] - phi_fine[0]
-
-        def f_phi(pv):
-            _, s = cell_sse(np.array([n_best]), np.array([pv]), np.array([best_K]))
-            return float(s[0])
-
-        res = minimize_scalar(
-            f_phi,
-            bounds=(max(bounds.phic[0], phi_best - h), min(bounds.phic[1], phi_best + h)),
-            method="bounded",
-            options={"xatol": 1e-9},
+    order = np.argsort(sse_grid, axis=None)[:3]
+    best_v, best_f = None, np.inf
+    nit = 0
+    for flat_i in order:
+        ii, jj, kk = np.unravel_index(flat_i, sse_grid.shape)
+        v0 = [ns[ii], phis[jj]] + ([math.log(Kcs[kk])] if fit_Kc else [])
+        v0 = (np.array(v0) - lo_v) / span
+        res = minimize(
+            f_res,
+            v0,
+            method="Nelder-Mead",
+            options={"xatol": 1e-9, "fatol": 1e-14 * float(y @ y), "maxiter": 2000},
         )
         nfev += int(res.nfev)
-        if res.fun <= smin:
-            phi_best = float(res.x)
-            phic_range = (phi_best, phi_best)
+        nit += int(res.nit)
+        f0 = f_res(v0)
+        v, fv = (res.x, res.fun) if res.fun <= f0 else (v0, f0)
+        if fv < best_f:
+            best_v, best_f = v, fv
+    n_best, phi_best, best_K = unpack(best_v)
+    phic_range = (phi_best, phi_best)
 
     x, sse = cell_sse(np.array([n_best]), np.array([phi_best]), np.array([best_K]))
     x = x[0].copy()
