@@ -145,7 +145,9 @@ class _Group(click.Group):
             raise
         except InputError as exc:
             raise click.ClickException(str(exc)) from None
-        except (ValueError, OSError, KeyError) as exc:
+        except KeyError as exc:
+            raise click.ClickException(str(exc.args[0]) if exc.args else repr(exc)) from None
+        except (ValueError, OSError) as exc:
             raise click.ClickException(str(exc)) from None
         except Exception as exc:  # pragma: no cover - a bug, but no traceback for users
             if os.environ.get("TERRACONE_DEBUG"):
@@ -291,11 +293,16 @@ def plate_cmd(kc, kphi, n, radius, width, model, r_min, plate_pair, units, sinka
 # ---------------------------------------------------------------------------
 
 
-def _read_profiles(path, cone, fmt, depth_ref, collect=True):
+def _read_profiles(path, cone, fmt, depth_ref, collect=True, units=None):
     from .io import read_ci_profiles
 
     return read_ci_profiles(
-        path, cone=cone, depth_ref=depth_ref, format=fmt, on_error="collect" if collect else "raise"
+        path,
+        cone=cone,
+        depth_ref=depth_ref,
+        format=fmt,
+        on_error="collect" if collect else "raise",
+        units=units,
     )
 
 
@@ -455,6 +462,12 @@ def _predict_table(results, units: str) -> str:
     help="Fit only LO:HI (base depths; e.g. 0.05:0.30, 5cm:30cm; bare numbers in --units).",
 )
 @click.option(
+    "--file-units",
+    type=_UNITS,
+    default=None,
+    help="Unit system of an input that does not state its units (an SC900 export without its unit line).",
+)
+@click.option(
     "--layers",
     type=click.IntRange(1, 4),
     default=1,
@@ -481,6 +494,7 @@ def predict_cmd(
     fmt,
     depth_ref,
     depth_range,
+    file_units,
     layers,
     out,
     as_json,
@@ -495,7 +509,9 @@ def predict_cmd(
     cal = _load_calibration(calibration, terrain, library)
     radii = _lengths_si(plates, units, "--plates")
     items = _windowed(
-        _read_profiles(ci_file, cone, fmt, depth_ref), _depth_range(depth_range, units), units
+        _read_profiles(ci_file, cone, fmt, depth_ref, units=file_units),
+        _depth_range(depth_range, units),
+        units,
     )
     results = predict_many(
         items, model=model, r_min=rm, calibration=cal, solver=solver, bounds=b, seed=seed

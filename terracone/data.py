@@ -23,6 +23,8 @@ class InputError(ValueError):
     """Bad input, located: file, profile (or test), row and column.
 
     ``row`` is the 1-based line number in the file (the header is line 1).
+    ``profile`` holds the id of the CI profile, or of the plate or shear
+    test (then ``item`` is ``"test"``).
     """
 
     def __init__(
@@ -33,8 +35,10 @@ class InputError(ValueError):
         profile: str | None = None,
         row: int | None = None,
         column: str | None = None,
+        item: str = "profile",
     ) -> None:
         self.reason = message
+        self.item = item
         self.file = file
         self.profile = profile
         self.row = row
@@ -46,7 +50,7 @@ class InputError(ValueError):
         if self.file is not None:
             where.append(f"file {self.file}")
         if self.profile is not None:
-            where.append(f"profile {self.profile}")
+            where.append(f"{self.item} {self.profile}")
         if self.row is not None:
             where.append(f"row {self.row}")
         if self.column is not None:

@@ -438,6 +438,7 @@ def _check_constant(
             f"here, {first} on line {int(table.lines[idx[0]])})",
             file=path,
             profile=gid,
+            item="test",
             row=int(table.lines[i]),
             column=col.name,
         )
@@ -741,7 +742,7 @@ def _read_sc900(
     if ci_unit is None:
         if units is None:
             raise InputError(
-                "no unit line (e.g. 'Soil Compation In KPa'); pass units='si' or 'us'",
+                "no unit line (e.g. 'Soil Compation In KPa'); state the unit system (units='si' or 'us' in Python, --file-units on the command line)",
                 file=path,
             )
         ci_unit = u.pressure_unit(units).lower()
@@ -873,6 +874,7 @@ def read_plate_tests(
                 "empty test id",
                 file=source,
                 profile=tid,
+                item="test",
                 row=int(table.lines[idx[0]]),
                 column=layout.id_col.name,
             )
@@ -880,7 +882,7 @@ def read_plate_tests(
         if bad is not None:
             i, col, why = bad
             raise InputError(
-                why, file=source, profile=tid, row=int(table.lines[i]), column=col.name
+                why, file=source, profile=tid, item="test", row=int(table.lines[i]), column=col.name
             )
         b = _check_constant(source, tid, table, idx, scol, size, "plate size") * scol.factor
         if halve:
@@ -890,6 +892,7 @@ def read_plate_tests(
                 "plate size must be > 0",
                 file=source,
                 profile=tid,
+                item="test",
                 row=int(table.lines[idx[0]]),
                 column=scol.name,
             )
@@ -947,6 +950,7 @@ def read_shear_tests(
                 "empty test id",
                 file=source,
                 profile=tid,
+                item="test",
                 row=int(table.lines[idx[0]]),
                 column=layout.id_col.name,
             )
@@ -954,7 +958,7 @@ def read_shear_tests(
         if bad is not None:
             i, col, why = bad
             raise InputError(
-                why, file=source, profile=tid, row=int(table.lines[i]), column=col.name
+                why, file=source, profile=tid, item="test", row=int(table.lines[i]), column=col.name
             )
         sigma = _check_constant(source, tid, table, idx, ncol, normal, "normal pressure")
         return ShearTest(

@@ -356,13 +356,14 @@ def fit_layered(
                 )
         best_v, best_f = None, np.inf
         for v0 in starts:
+            f0 = objective(v0)
+            # tolerance relative to the SSE: an absolute one never fires on large SSE values
             res = minimize(
                 objective,
                 v0,
                 method="Nelder-Mead",
-                options={"xatol": 1e-6, "fatol": 1e-9, "maxiter": 2000},
+                options={"xatol": 1e-6, "fatol": 1e-10 * max(f0, 1e-300), "maxiter": 2000},
             )
-            f0 = objective(v0)
             v, f = (res.x, res.fun) if res.fun <= f0 else (v0, f0)
             if f < best_f:
                 best_v, best_f = v, f

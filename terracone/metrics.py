@@ -125,7 +125,9 @@ def check_fit(
     r = m - y
     ss_tot = float(np.sum((y - y.mean()) ** 2))
     r2 = 1.0 - float(r @ r) / ss_tot if ss_tot > 0 else float("nan")
-    s = np.sign(r)
+    # residuals at rounding level carry no sign: an exact fit is not a lack of fit
+    tiny = 1e-9 * float(np.sqrt(np.mean(y * y))) if y.size else 0.0
+    s = np.where(np.abs(r) > tiny, np.sign(r), 0.0)
     s = s[s != 0]
     best = run = 0
     prev = 0.0

@@ -336,6 +336,7 @@ def learn(
         lo = np.stack([lo_kc, lo_kp, cc_lo], axis=-1)
         hi = np.stack([hi_kc, hi_kp, cc_hi], axis=-1)
         shp = (-1,) + (1,) * np.ndim(n)
+        J_floor = 1e-12 * float(np.sum(a_d * np.sqrt(np.max(yyd.reshape(len(a_d), -1), axis=1))))
         w = (a_d**2).reshape(shp) * np.ones(np.shape(n))
         x = None
         J = None
@@ -349,11 +350,13 @@ def learn(
                 - 2 * np.einsum("d...i,...i->d...", gd, x)
                 + yyd
             )
-            sse_d = np.maximum(sse_d, 1e-300)
+            # floor at rounding level of each data set: near a perfect fit the weights
+            # 1/sqrt(SSE) would otherwise chase noise
+            sse_d = np.maximum(sse_d, 1e-24 * yyd + 1e-300)
             J_new = np.einsum("d,d...->...", a_d, np.sqrt(sse_d))
             # majorise sqrt(SSE) by its tangent: weights a_d / (2 sqrt(SSE_d))
             w = a_d.reshape(shp) / (2.0 * np.sqrt(sse_d))
-            if J is not None and np.all(np.abs(J - J_new) <= 1e-10 * np.abs(J_new)):
+            if J is not None and np.all(np.abs(J - J_new) <= 1e-10 * np.abs(J_new) + J_floor):
                 J = J_new
                 break
             J = J_new
