@@ -676,6 +676,10 @@ def _learn_text(d: dict[str, Any], units: str) -> str:
     text += f"\n\nFit criterion CV <= {c['max_cv']:g}: {'satisfied' if c['satisfied'] else 'NOT satisfied'} (worst {c['worst_cv']:.3g})"
     if d["undetermined"]:
         text += f"\nLeft free by the data: {', '.join(d['undetermined'])}"
+    if c.get("at_bounds"):
+        text += (
+            f"\nOn a search bound (the bound, not the data, set it): {'; '.join(c['at_bounds'])}"
+        )
     if d.get("saved"):
         text += f"\nCalibration saved to {d['saved']}"
     if d.get("saved_as"):
@@ -1032,6 +1036,38 @@ def export_cmd(terrain, fmt, out, units, library):
             f"terracone: {terrain!r} lacks {', '.join(missing)}: left out of {out}", err=True
         )
     click.echo(f"wrote {out}")
+
+
+# ---------------------------------------------------------------------------
+# report and reproduce
+# ---------------------------------------------------------------------------
+
+
+@cli.command("report")
+@click.argument("results", type=click.Path(exists=True))
+@click.option(
+    "--out", required=True, type=click.Path(dir_okay=False), help="The HTML file to write."
+)
+def report_cmd(results, out):
+    """One self-contained HTML report of predict, learn, evaluate, batch or reproduce results."""
+    from .report import build_report
+
+    click.echo(f"wrote {build_report(results, out)}")
+
+
+@cli.command("reproduce")
+@click.option(
+    "--out", type=click.Path(file_okay=False), default="terracone-reproduce", show_default=True
+)
+@click.option("--quick", is_flag=True, help="Smaller grids and fewer draws (a smoke run).")
+@click.option("--workers", type=int, default=None, help="Processes (default 2).")
+def reproduce_cmd(out, quick, workers):
+    """Re-create the paper's LETE sand and KRC case studies (synthetic data), with figures, tables and a report."""
+    from .reproduce import reproduce
+
+    s = reproduce(out, quick=quick, workers=workers)
+    click.echo(f"report: {s.report}")
+    click.echo(f"figures and tables in {s.out_dir} ({s.seconds:.0f} s)")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -440,10 +440,31 @@ def learn(
     worst = max(ds["cv"] for ds in datasets)
     # the objective from the residuals themselves (the Gram form cancels near zero)
     best_J = float(sum(ds["rmsd"] / m for ds, m in zip(datasets, [float(np.mean(y)) for y in ys])))
+    # values that ended on a search bound: the bound, not the data, set them
+    at_bounds = []
+    kc_b, kp_b = bounds.kc_si(n), bounds.kphi_si(n)
+    checks = [
+        ("kc", params.kc, float(kc_b[0]), float(kc_b[1])),
+        ("kphi", params.kphi, float(kp_b[0]), float(kp_b[1])),
+        ("n", n, *bounds.n),
+        ("cc", params.cc, *bounds.cc),
+        ("phic_deg", phi, *bounds.phic),
+    ]
+    if rb:
+        checks.append(("r_min", rm, *rb))
+    for name, v, lo_b, hi_b in checks:
+        if lo_b == hi_b:
+            continue
+        tol = 1e-6 * (hi_b - lo_b)
+        if v <= lo_b + tol:
+            at_bounds.append(f"{name} at its lower bound")
+        elif v >= hi_b - tol:
+            at_bounds.append(f"{name} at its upper bound")
     criteria = {
         "max_cv": max_cv,
         "worst_cv": worst,
         "satisfied": bool(worst <= max_cv),
+        "at_bounds": at_bounds,
     }
 
     # Identifiability: approximate 95% profile intervals.  A change of SSE_d by

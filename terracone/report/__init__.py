@@ -1,0 +1,152 @@
+"""Reports: figures and tables of the paper's section 4, and one self-contained HTML file.
+
+:func:`build_report` turns any terracone result into a single HTML file:
+
+* the JSON of ``terracone predict --json`` (``"command": "predict"``),
+  ``terracone learn --json`` or ``terracone evaluate --json``;
+* the output directory of ``terracone batch`` (``part-*.parquet`` and
+  ``_summary.json``);
+* the output directory of :func:`terracone.reproduce.reproduce`
+  (``reproduce.json``);
+* a directory holding several of the JSON documents above (e.g. the output
+  of ``terracone demo --out``): one report with a part per document.
+
+The file embeds its figures as PNG data URIs and loads nothing from any host.
+Figures: :mod:`terracone.report.figures`; tables: :mod:`terracone.report.tables`.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from .html import (
+    batch_document,
+    evaluate_document,
+    learn_document,
+    predict_document,
+    render_document,
+)
+
+__all__ = ["build_report", "load_document", "result_kind"]
+
+
+def result_kind(doc: Any) -> str:
+    """Kind of a terracone JSON result: "predict", "learn", "evaluate" or "reproduce"."""
+    if not isinstance(doc, dict):
+        raise ValueError("not a terracone result: expected a JSON object")
+    cmd = doc.get("command")
+    if doc.get("kind") == "terracone-reproduce":
+        return "reproduce"
+    if cmd in ("predict", "learn", "evaluate"):
+        return str(cmd)
+    if "profiles" in doc:
+        return "predict"
+    if "datasets" in doc and "kc" in doc:
+        return "learn"
+    if isinstance(doc.get("plates"), list) and all(
+        isinstance(r, dict) and "prediction" in r and "test" in r for r in doc["plates"]
+    ):
+        return "evaluate"
+    raise ValueError(
+        "not a terracone result: expected the JSON of predict, learn or evaluate "
+        "(keys 'profiles', 'datasets' or 'plates')"
+    )
+
+
+def _read_json(path: Path) -> Any:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"file {path}: cannot read JSON ({exc})") from exc
+
+
+def load_document(results_path: str | Path) -> tuple[dict[str, Any], Path | None]:
+    """The report document for a results file or directory, and its base directory."""
+    p = Path(results_path)
+    if not p.exists():
+        raise ValueError(f"{p}: no such file or directory")
+    if p.is_dir():
+        if (p / "reproduce.json").exists():
+            doc = _read_json(p / "reproduce.json")
+            if result_kind(doc) != "reproduce":
+                raise ValueError(f"{p / 'reproduce.json'}: not written by terracone reproduce")
+            return doc["document"], p
+        if list(p.glob("part-*.parquet")):
+            return batch_document(p), p
+        docs = []
+        for f in sorted(p.glob("*.json")):
+            try:
+                d = _read_json(f)
+                kind = result_kind(d)
+            except ValueError:
+                continue
+            if kind != "reproduce":
+                docs.append((f, kind, d))
+        if not docs:
+            raise ValueError(
+                f"{p}: no terracone results found (expected reproduce.json, part-*.parquet "
+                "or JSON of predict, learn or evaluate)"
+            )
+        if len(docs) == 1:
+            f, kind, d = docs[0]
+            return _document(kind, d, str(f)), p
+        sections = []
+        for f, kind, d in docs:
+            sub = _document(kind, d, str(f))
+            for s in sub["sections"]:
+                sections.append(
+                    {**s, "id": f"{f.stem}-{s['id']}", "heading": f"{f.name}: {s['heading']}"}
+                )
+        return {
+            "title": "terracone report",
+            "subtitle": f"{len(docs)} results in {p}",
+            "meta": {"results": str(p)},
+            "sections": sections,
+        }, p
+    doc = _read_json(p)
+    kind = result_kind(doc)
+    if kind == "reproduce":
+        return doc["document"], p.parent
+    return _document(kind, doc, str(p)), p.parent
+
+
+def _document(kind: str, doc: dict[str, Any], source: str) -> dict[str, Any]:
+    if kind == "predict":
+        return predict_document(doc, source=source)
+    if kind == "learn":
+        return learn_document(doc, source=source)
+    if kind == "evaluate":
+        return evaluate_document(doc, source=source)
+    raise ValueError(f"unknown result kind {kind!r}")  # pragma: no cover
+
+
+def build_report(results_path: str | Path, out_html: str | Path) -> Path:
+    """Write one self-contained HTML report of a terracone result.
+
+    Parameters
+    ----------
+    results_path : str or Path
+        JSON of ``predict``, ``learn`` or ``evaluate``; or the output
+        directory of ``batch`` or of ``reproduce``; or a directory of such
+        JSON files.
+    out_html : str or Path
+        The HTML file to write (its folder is created).
+
+    Returns
+    -------
+    Path
+        ``out_html``.
+
+    Raises
+    ------
+    ValueError
+        When the results cannot be read or are not terracone results.
+    """
+    document, base = load_document(results_path)
+    text = render_document(document, base)
+    out = Path(out_html)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text, encoding="utf-8")
+    return out

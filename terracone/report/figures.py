@@ -1,0 +1,821 @@
+"""Figures of the paper's section 4, re-drawn from terracone results.
+
+Every function takes plain data in SI (m, kPa, kN/m^(n+1), kN/m^(n+2)) and
+returns a :class:`matplotlib.figure.Figure` drawn on the Agg canvas (no
+pyplot, no global backend state); :func:`save_figure` writes PNG and SVG and
+:func:`png_bytes` gives the PNG for embedding.  Axes carry units (cm and kPa,
+or in and psi with ``units="us"``), every figure has a legend, and series
+differ by line style and marker as well as by colour, so the figures read in
+black and white.
+
+=====================  ====================================================
+function               analogue in [1]_
+=====================  ====================================================
+:func:`fig_janosi`     Figure 2-1: measured CI against the Janosi eq. (2-1)
+:func:`fig_ci_fit`     Figure 4-1: measured and predicted CI-sinkage curves
+:func:`fig_plate_fit`  Figure 4-2 (a), (b): measured and predicted plate P-S
+:func:`fig_site`       Figures 4-3 to 4-10 (a) CI and (b) P-S of one site
+:func:`fig_ridge`      (not in the paper) the ridge of equally good fits
+=====================  ====================================================
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Section 4, Figures 2-1 and 4-1 to 4-10.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from .. import units as u
+from ..cone import cone_index, get_cone
+from ..inverse.bounds import Bounds
+from ..inverse.boxlsq import box_lsq3, gram
+from ..inverse.exact import CHI2_1_95, design
+from ..plate import pressure_law
+
+__all__ = [
+    "SYNTHETIC_NOTE",
+    "fig_janosi",
+    "fig_ci_fit",
+    "fig_plate_fit",
+    "fig_site",
+    "fig_ridge",
+    "fig_bars",
+    "fig_histograms",
+    "ridge_data",
+    "save_figure",
+    "png_bytes",
+    "svg_text",
+]
+
+#: Printed on every figure drawn from synthetic data.
+SYNTHETIC_NOTE = "SYNTHETIC DATA: generated from published parameters, not measurements"
+
+# Okabe-Ito colours (colour-blind safe) with a marker each; line styles tell
+# measured (dashed) from predicted (solid), as in the paper's figures.
+_COLOURS = [
+    "#0072B2",
+    "#D55E00",
+    "#009E73",
+    "#CC79A7",
+    "#E69F00",
+    "#56B4E9",
+    "#000000",
+    "#882255",
+    "#117733",
+    "#999933",
+    "#44AA99",
+    "#661100",
+]
+_MARKERS = ["o", "s", "^", "D", "v", "P", "X", "*", "h", "<", ">", "p"]
+_PLATE_STYLES = ["-", "--", "-.", ":"]
+
+
+def _style(i: int) -> tuple[str, str]:
+    return _COLOURS[i % len(_COLOURS)], _MARKERS[i % len(_MARKERS)]
+
+
+class _Disp:
+    """Display units: cm and kPa (si) or in and psi (us)."""
+
+    def __init__(self, units: str) -> None:
+        self.units = u.check_system(units)
+        if self.units == "us":
+            self.L, self.lf, self.P, self.pf = "in", 1.0 / u.INCH, "psi", 1.0 / u.PSI
+        else:
+            self.L, self.lf, self.P, self.pf = "cm", 100.0, "kPa", 1.0
+
+    def length(self, v: Any) -> np.ndarray:
+        return np.asarray(v, dtype=float) * self.lf
+
+    def pressure(self, v: Any) -> np.ndarray:
+        return np.asarray(v, dtype=float) * self.pf
+
+    def radius_label(self, r: float) -> str:
+        """Plate label: radius in cm (and in)."""
+        return f"r = {r * 100:.4g} cm ({r / u.INCH:.3g} in)"
+
+
+def _new(width: float = 7.2, height: float = 4.6, ncols: int = 1, nrows: int = 1):
+    fig = Figure(figsize=(width, height), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(nrows, ncols, squeeze=False)
+    for ax in axes.flat:
+        ax.grid(True, color="#d0d0d0", linewidth=0.6)
+        ax.set_axisbelow(True)
+    return fig, axes
+
+
+def _finish(fig: Figure, title: str | None, synthetic: bool) -> Figure:
+    if title:
+        fig.suptitle(("SYNTHETIC - " if synthetic else "") + title, fontsize=11)
+    if synthetic:
+        fig.text(
+            0.5,
+            0.0,
+            SYNTHETIC_NOTE,
+            ha="center",
+            va="bottom",
+            fontsize=8,
+            color="#7a4d00",
+            fontweight="bold",
+        )
+        fig.get_layout_engine().set(rect=(0, 0.035, 1, 0.965))
+    fig._terracone_synthetic = synthetic  # type: ignore[attr-defined]
+    return fig
+
+
+def _markevery(n: int) -> int:
+    return max(1, n // 10)
+
+
+# ---------------------------------------------------------------------------
+# Figure 2-1: the Janosi equation
+# ---------------------------------------------------------------------------
+
+
+def fig_janosi(
+    profiles: Sequence[Mapping[str, Any]],
+    janosi_params: Mapping[str, float],
+    *,
+    improved_params: Mapping[str, Any] | None = None,
+    units: str = "si",
+    title: str | None = "Measured CI and the Janosi equation (2-1)",
+    synthetic: bool = False,
+    params_label: str | None = None,
+) -> Figure:
+    """Figure 2-1 analogue: measured CI against CI from eq. (2-1).
+
+    Parameters
+    ----------
+    profiles : sequence of mappings
+        Each with ``id``, ``depth`` [m] (cone-base depth) and ``ci`` [kPa].
+    janosi_params : mapping
+        ``kc`` [kN/m^(n+1)], ``kphi`` [kN/m^(n+2)], ``n`` for the Janosi
+        equation (the standard 30 deg, 0.5 in^2 cone).
+    improved_params : mapping, optional
+        Also draw the improved model (eq. (2-7)) with these parameters
+        (``kc, kphi, n, cc, phic_deg`` and optional ``model``, ``r_min``).
+    units : {"si", "us"}
+    params_label : str, optional
+        How the parameters are described in the legend.
+    """
+    d = _Disp(units)
+    fig, axes = _new()
+    ax = axes[0, 0]
+    zmax = 0.0
+    for i, p in enumerate(profiles):
+        c, m = _style(i)
+        z = np.asarray(p["depth"], float)
+        zmax = max(zmax, float(np.max(z)) if z.size else 0.0)
+        ax.plot(
+            d.length(z),
+            d.pressure(p["ci"]),
+            linestyle="--",
+            marker=m,
+            markersize=4,
+            markevery=_markevery(z.size),
+            color=c,
+            linewidth=1.2,
+            label=f"{p['id']} measured",
+        )
+    zz = np.linspace(0.0, max(zmax, 0.05), 121)
+    k = janosi_params
+    ci_j = cone_index(zz, kc=k["kc"], kphi=k["kphi"], n=k["n"], model="janosi")
+    lab = params_label or (
+        f"kc={k['kc']:.4g} kN/m^(n+1), kphi={k['kphi']:.4g} kN/m^(n+2), n={k['n']:.3g}"
+    )
+    ax.plot(
+        d.length(zz),
+        d.pressure(ci_j),
+        color="black",
+        linewidth=2.4,
+        linestyle="-",
+        label=f"Janosi eq. (2-1): {lab}",
+    )
+    if improved_params is not None:
+        q = improved_params
+        ci_i = cone_index(
+            zz,
+            kc=q["kc"],
+            kphi=q["kphi"],
+            n=q["n"],
+            cc=q.get("cc", 0.0) or 0.0,
+            phic=q.get("phic_deg", 0.0) or 0.0,
+            model=q.get("model", "rm0") or "rm0",
+            r_min=q.get("r_min"),
+            plate_pair=q.get("plate_pair"),
+        )
+        ax.plot(
+            d.length(zz),
+            d.pressure(ci_i),
+            color="#555555",
+            linewidth=2.0,
+            linestyle=":",
+            label=q.get("label", "improved model eq. (2-7), same kc, kphi, n"),
+        )
+    ax.set_xlabel(f"cone-base depth z [{d.L}]")
+    ax.set_ylabel(f"cone index CI [{d.P}]")
+    ax.set_xlim(left=0)
+    ax.set_ylim(bottom=0)
+    ax.legend(fontsize=7.5, loc="upper left")
+    return _finish(fig, title, synthetic)
+
+
+# ---------------------------------------------------------------------------
+# Figure 4-1: CI fits
+# ---------------------------------------------------------------------------
+
+
+def _ci_axes(ax, profiles, d: _Disp, *, measured_label="measured", model_label="predicted"):
+    for i, p in enumerate(profiles):
+        c, m = _style(i)
+        z = d.length(p["depth"])
+        ax.plot(
+            z,
+            d.pressure(p["ci"]),
+            linestyle="--",
+            marker=m,
+            markersize=4,
+            markerfacecolor="white",
+            markevery=_markevery(z.size),
+            color=c,
+            linewidth=1.1,
+            label=f"{p['id']} {measured_label}",
+        )
+        if p.get("ci_model") is not None:
+            ax.plot(
+                z,
+                d.pressure(p["ci_model"]),
+                linestyle="-",
+                marker=m,
+                markersize=4,
+                markevery=(_markevery(z.size) // 2 or 1, _markevery(z.size)),
+                color=c,
+                linewidth=2.0,
+                label=f"{p['id']} {model_label}",
+            )
+    ax.set_xlabel(f"cone-base depth z [{d.L}]")
+    ax.set_ylabel(f"cone index CI [{d.P}]")
+    ax.set_ylim(bottom=0)
+
+
+def fig_ci_fit(
+    profiles: Sequence[Mapping[str, Any]],
+    *,
+    units: str = "si",
+    title: str | None = "Measured and predicted cone index-sinkage curves",
+    synthetic: bool = False,
+    measured_label: str = "measured",
+    model_label: str = "predicted",
+) -> Figure:
+    """Figure 4-1 analogue: measured (dashed) and predicted (solid) CI.
+
+    ``profiles``: mappings with ``id``, ``depth`` [m], ``ci`` [kPa] and
+    optionally ``ci_model`` [kPa].
+    """
+    d = _Disp(units)
+    fig, axes = _new()
+    _ci_axes(axes[0, 0], profiles, d, measured_label=measured_label, model_label=model_label)
+    axes[0, 0].legend(fontsize=7.5, ncol=2 if len(profiles) > 3 else 1, loc="upper left")
+    return _finish(fig, title, synthetic)
+
+
+# ---------------------------------------------------------------------------
+# Figures 4-2 and 4-3(b): plate pressure-sinkage
+# ---------------------------------------------------------------------------
+
+
+def _radius_key(r: float) -> float:
+    return round(float(r), 6)
+
+
+def _plate_axes(ax, d: _Disp, measured, predicted, bands, *, by_series: bool):
+    """Draw plate curves on one axis.
+
+    by_series: colour/marker per series id (one plate size per axis, as in
+    Figure 4-2); else per plate size (both sizes on one axis, Figure 4-3(b)).
+    """
+    ids: list[str] = []
+    for s in list(measured) + list(predicted):
+        if s["id"] not in ids:
+            ids.append(s["id"])
+    radii = sorted({_radius_key(s["radius"]) for s in list(measured) + list(predicted)})
+    for b in bands:
+        key = ids.index(b["id"]) if (by_series and b.get("id") in ids) else 0
+        if not by_series:
+            key = radii.index(_radius_key(b["radius"])) if _radius_key(b["radius"]) in radii else 0
+        c, _ = _style(key)
+        ax.fill_between(
+            d.length(b["sinkage"]),
+            d.pressure(b["lo"]),
+            d.pressure(b["hi"]),
+            color=c,
+            alpha=0.18,
+            hatch="///",
+            edgecolor=c,
+            linewidth=0.0,
+            label=b.get("label", f"{b.get('id', '')} band").strip(),
+        )
+    for s in measured:
+        i = ids.index(s["id"]) if by_series else radii.index(_radius_key(s["radius"]))
+        c, m = _style(i)
+        z = np.asarray(s["sinkage"], float)
+        lab = s["id"] if by_series else f"measured {d.radius_label(s['radius'])}"
+        ax.plot(
+            d.length(z),
+            d.pressure(s["pressure"]),
+            linestyle="--",
+            marker=m,
+            markersize=3.5,
+            markerfacecolor="white",
+            markevery=_markevery(z.size),
+            color=c,
+            linewidth=1.1,
+            label=s.get("label", lab + (" measured" if by_series else "")),
+        )
+    for s in predicted:
+        i = ids.index(s["id"]) if by_series else radii.index(_radius_key(s["radius"]))
+        c, m = _style(i)
+        z = np.asarray(s["sinkage"], float)
+        lab = s["id"] if by_series else f"predicted {d.radius_label(s['radius'])}"
+        ax.plot(
+            d.length(z),
+            d.pressure(s["pressure"]),
+            linestyle="-",
+            marker=m,
+            markersize=4,
+            markevery=(_markevery(z.size) // 2 or 1, _markevery(z.size)),
+            color=c,
+            linewidth=2.0,
+            label=s.get("label", lab + (" predicted" if by_series else "")),
+        )
+    ax.set_xlabel(f"sinkage z [{d.L}]")
+    ax.set_ylabel(f"plate pressure p [{d.P}]")
+    ax.set_xlim(left=0)
+    ax.set_ylim(bottom=0)
+
+
+def fig_plate_fit(
+    measured: Sequence[Mapping[str, Any]] = (),
+    predicted: Sequence[Mapping[str, Any]] = (),
+    bands: Sequence[Mapping[str, Any]] = (),
+    *,
+    units: str = "si",
+    title: str | None = "Measured and predicted plate pressure-sinkage curves",
+    synthetic: bool = False,
+    one_panel: bool = False,
+) -> Figure:
+    """Figure 4-2 analogue: one panel per plate size, measured dashed, predicted solid.
+
+    Parameters
+    ----------
+    measured, predicted : sequences of mappings
+        Each with ``id``, ``radius`` [m], ``sinkage`` [m], ``pressure`` [kPa]
+        (optional ``label``).
+    bands : sequence of mappings
+        Uncertainty bands ``radius``, ``sinkage``, ``lo``, ``hi`` (and
+        ``median``, ``id``, ``label``) as in ``plate_bands`` of
+        ``predict --uncertainty``; drawn as hatched areas.
+    one_panel : bool
+        All plate sizes on one axis, coloured by size (Figure 4-3(b)).
+    """
+    d = _Disp(units)
+    allc = list(measured) + list(predicted) + list(bands)
+    radii = sorted({_radius_key(s["radius"]) for s in allc})
+    if not radii:
+        raise ValueError("no plate curves to draw")
+    if one_panel:
+        fig, axes = _new()
+        _plate_axes(axes[0, 0], d, measured, predicted, bands, by_series=False)
+        axes[0, 0].legend(fontsize=7.5, loc="upper left")
+        return _finish(fig, title, synthetic)
+    fig, axes = _new(width=5.0 * len(radii) + 0.6, height=4.8, ncols=len(radii))
+    for j, r in enumerate(radii):
+        ax = axes[0, j]
+
+        def pick(seq, r=r):
+            return [s for s in seq if _radius_key(s["radius"]) == r]
+
+        _plate_axes(ax, d, pick(measured), pick(predicted), pick(bands), by_series=True)
+        ax.set_title(f"({chr(97 + j)}) plate {d.radius_label(r)}", fontsize=10)
+        nleg = len(pick(measured)) + len(pick(predicted)) + len(pick(bands))
+        ax.legend(fontsize=6.8, ncol=2 if nleg > 6 else 1, loc="upper left")
+    return _finish(fig, title, synthetic)
+
+
+def fig_site(
+    profile: Mapping[str, Any],
+    measured: Sequence[Mapping[str, Any]],
+    predicted: Sequence[Mapping[str, Any]],
+    bands: Sequence[Mapping[str, Any]] = (),
+    *,
+    units: str = "si",
+    title: str | None = None,
+    synthetic: bool = False,
+) -> Figure:
+    """Figures 4-3 to 4-10 analogue: (a) CI-sinkage, (b) P-S of both plates of one site."""
+    d = _Disp(units)
+    fig, axes = _new(width=10.4, height=4.6, ncols=2)
+    _ci_axes(axes[0, 0], [profile], d)
+    axes[0, 0].set_title(f"(a) CI-sinkage, {profile['id']}", fontsize=10)
+    axes[0, 0].legend(fontsize=7.5, loc="upper left")
+    _plate_axes(axes[0, 1], d, measured, predicted, bands, by_series=False)
+    axes[0, 1].set_title("(b) plate pressure-sinkage", fontsize=10)
+    axes[0, 1].legend(fontsize=7.5, loc="upper left")
+    return _finish(fig, title or f"{profile['id']}: measured and predicted", synthetic)
+
+
+# ---------------------------------------------------------------------------
+# The ridge of equally good fits (not in the paper)
+# ---------------------------------------------------------------------------
+
+
+def ridge_data(
+    depth: Any,
+    ci: Any,
+    *,
+    cone: str = "asabe-large",
+    model: str = "rm0",
+    r_min: float | None = None,
+    plate_pair: tuple[float, float] | None = None,
+    bounds: Bounds | None = None,
+    n_points: int = 79,
+    phic_points: int = 46,
+    scale_points: int = 81,
+    noise_floor: float = 0.01,
+    n_window: float = 0.45,
+) -> dict[str, Any]:
+    """RMSD of the best fit over a grid of (n, phic), and over (phic, scale).
+
+    For fixed n and phic the improved model is linear in (kc, kphi, cc)
+    (:func:`terracone.inverse.exact.design`), so the best RMSD at each grid
+    point is an exact bounded least-squares solve
+    (:func:`terracone.inverse.boxlsq.box_lsq3`), all points in one call.
+
+    Returns
+    -------
+    dict
+        ``n`` (Nn,), ``phic`` (Np,), ``rmsd`` (Nn, Np) [kPa] with kc, kphi and
+        cc re-fitted at each point; ``best`` (n, phic, kc, kphi, cc, rmsd);
+        ``scale`` (Ns,) and ``rmsd_scale`` (Ns, Np): RMSD when kc and kphi
+        are the best fit's times ``scale`` at the best n and cc;
+        ``threshold`` [kPa]: the RMSD below which a value lies inside the
+        approximate 95% profile interval (sum of squares within
+        3.84 sigma^2 of the optimum, sigma floored at ``noise_floor`` times
+        the mean CI, as :mod:`terracone.inverse.exact` does).
+
+    The n grid spans ``n_window`` either side of the best n of a coarse
+    pass (within the bounds), where the detail is.
+    """
+    z = np.asarray(depth, dtype=float)
+    y = np.asarray(ci, dtype=float)
+    cone_obj = get_cone(cone)
+    bounds = bounds or Bounds()
+    law = pressure_law(model, r_min=r_min, plate_pair=plate_pair)
+    phis = np.linspace(*bounds.phic, phic_points)
+    ns = _n_window(z, y, cone_obj, law, bounds, phis, n_points, n_window)
+    X = design(z, ns[:, None, None], phis[None, :, None], cone=cone_obj, law=law, Kc=None)
+    G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
+    lo, hi = _box(bounds, ns)
+    x, sse = box_lsq3(G, g, yy, lo[:, None, :], hi[:, None, :])
+    Z = y.size
+    rmsd = np.sqrt(sse / Z)
+    i, j = np.unravel_index(np.argmin(sse), sse.shape)
+    # where the optimum is flat in phic, report the middle of the flat part
+    smin = float(sse[i].min())
+    flat = np.flatnonzero(sse[i] <= smin * (1 + 1e-9) + 1e-12 * float(y @ y))
+    j = int(flat[len(flat) // 2])
+    kc, kphi, cc = (float(v) for v in x[i, j])
+    best = {
+        "n": float(ns[i]),
+        "phic": float(phis[j]),
+        "kc": kc,
+        "kphi": kphi,
+        "cc": cc,
+        "rmsd": float(rmsd[i, j]),
+    }
+    # (phic, scale) at the best n: kc, kphi = scale * best, cc held
+    scales = np.exp(np.linspace(math.log(0.4), math.log(2.5), scale_points))
+    Xn = design(z, np.array(ns[i]), phis[:, None], cone=cone_obj, law=law, Kc=None)  # (Np, Z, 3)
+    base = Xn[..., 0] * kc + Xn[..., 1] * kphi  # (Np, Z)
+    model_ci = scales[:, None, None] * base[None] + (Xn[..., 2] * cc)[None]
+    rmsd_scale = np.sqrt(np.mean((model_ci - y) ** 2, axis=-1))  # (Ns, Np)
+    dof = max(Z - 5, 1)
+    sigma2 = max(smin / dof, (noise_floor * float(np.mean(np.abs(y)))) ** 2)
+    threshold = math.sqrt((smin + CHI2_1_95 * sigma2) / Z)
+    return {
+        "n": ns,
+        "phic": phis,
+        "rmsd": rmsd,
+        "best": best,
+        "scale": scales,
+        "rmsd_scale": rmsd_scale,
+        "threshold": threshold,
+        "half_angle": cone_obj.half_angle,
+    }
+
+
+def _box(bounds: Bounds, ns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    kc_lo, kc_hi = bounds.kc_si(ns)
+    kp_lo, kp_hi = bounds.kphi_si(ns)
+    lo = np.stack([kc_lo, kp_lo, np.full(ns.shape, bounds.cc[0])], axis=-1)
+    hi = np.stack([kc_hi, kp_hi, np.full(ns.shape, bounds.cc[1])], axis=-1)
+    return lo, hi
+
+
+def _n_window(z, y, cone, law, bounds, phis, n_points, half) -> np.ndarray:
+    """n grid around the best n of a coarse pass at the middle phic."""
+    coarse = np.linspace(*bounds.n, 40)
+    X = design(z, coarse[:, None], np.array(phis[len(phis) // 2]), cone=cone, law=law, Kc=None)
+    G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
+    lo, hi = _box(bounds, coarse)
+    _, sse = box_lsq3(G, g, yy, lo, hi)
+    nb = float(coarse[int(np.argmin(sse))])
+    a, b = max(bounds.n[0], nb - half), min(bounds.n[1], nb + half)
+    return np.linspace(a, b, n_points)
+
+
+def fig_ridge(
+    depth: Any,
+    ci: Any,
+    *,
+    profile_id: str = "profile",
+    cone: str = "asabe-large",
+    model: str = "rm0",
+    r_min: float | None = None,
+    plate_pair: tuple[float, float] | None = None,
+    bounds: Bounds | None = None,
+    reference: Mapping[str, float] | None = None,
+    reference_label: str = "reference",
+    units: str = "si",
+    title: str | None = None,
+    synthetic: bool = False,
+) -> Figure:
+    """The ridge of equally good fits for one CI profile.
+
+    (a) RMSD of the best fit over (phic, n), kc, kphi and cc re-fitted at
+    every point: flat along phic (fully mobilised shear: phic trades
+    exactly against a common scale of kc and kphi).  (b) RMSD over (phic,
+    common scale of kc and kphi) at the best n: a curved valley along
+    scale * (1 + tan(phic)/tan(a)) = const.  (c) Profile of the RMSD over n
+    and (d) over phic, with the 95% threshold.
+
+    ``depth`` [m], ``ci`` [kPa]; ``reference``: a parameter set (``n``,
+    ``phic_deg``) to mark, e.g. the published one.
+    """
+    d = _Disp(units)
+    r = ridge_data(
+        depth, ci, cone=cone, model=model, r_min=r_min, plate_pair=plate_pair, bounds=bounds
+    )
+    fig, axes = _new(width=10.4, height=8.2, ncols=2, nrows=2)
+    best = r["best"]
+    rmin = best["rmsd"]
+    ratio = r["rmsd"] / rmin
+    levels = [1.01, 1.1, 1.5, 2.0, 3.0]
+    # (a) phic-n map
+    ax = axes[0, 0]
+    ax.contourf(
+        r["phic"],
+        r["n"],
+        np.minimum(ratio, 10.0),
+        levels=[1.0] + levels + [10.0],
+        cmap="Greys_r",
+        alpha=0.55,
+    )
+    cs = ax.contour(r["phic"], r["n"], ratio, levels=levels, colors="black", linewidths=0.8)
+    ax.clabel(cs, fmt=lambda v: f"x{v:g}", fontsize=7)
+    ax.plot(best["phic"], best["n"], "o", color="#D55E00", markersize=8, label="best fit (middle)")
+    if reference is not None:
+        ax.plot(
+            reference.get("phic_deg", np.nan),
+            reference.get("n", np.nan),
+            "*",
+            color="#0072B2",
+            markersize=12,
+            markeredgecolor="black",
+            label=reference_label,
+        )
+    ax.set_xlabel("cone-terrain friction angle phic [deg]")
+    ax.set_ylabel("exponent n [-]")
+    ax.set_title("(a) RMSD / min RMSD over (phic, n); kc, kphi, cc re-fitted", fontsize=9.5)
+    ax.legend(fontsize=7.5, loc="upper right")
+    # (b) phic-scale map
+    ax = axes[0, 1]
+    ratio_s = r["rmsd_scale"] / rmin
+    ax.contourf(
+        r["phic"],
+        r["scale"],
+        np.minimum(ratio_s, 10.0),
+        levels=[1.0] + levels + [10.0],
+        cmap="Greys_r",
+        alpha=0.55,
+    )
+    cs = ax.contour(r["phic"], r["scale"], ratio_s, levels=levels, colors="black", linewidths=0.8)
+    ax.clabel(cs, fmt=lambda v: f"x{v:g}", fontsize=7)
+    ta = math.tan(r["half_angle"])
+    ridge = (1 + math.tan(math.radians(best["phic"])) / ta) / (
+        1 + np.tan(np.radians(r["phic"])) / ta
+    )
+    ax.plot(
+        r["phic"],
+        ridge,
+        linestyle="--",
+        color="#D55E00",
+        linewidth=2,
+        label="scale (1 + tan phic / tan 15 deg) = const",
+    )
+    ax.set_yscale("log")
+    ax.set_ylim(r["scale"][0], r["scale"][-1])
+    ticks = [0.4, 0.5, 0.7, 1.0, 1.4, 2.0, 2.5]
+    ax.set_yticks(ticks, [f"{t:g}" for t in ticks])
+    ax.minorticks_off()
+    ax.set_xlabel("cone-terrain friction angle phic [deg]")
+    ax.set_ylabel("common scale of kc and kphi [-]")
+    ax.set_title(f"(b) RMSD / min over (phic, kc & kphi scale), n = {best['n']:.3g}", fontsize=9.5)
+    ax.legend(fontsize=7.5, loc="upper right")
+    # (c) profile over n
+    ax = axes[1, 0]
+    prof_n = r["rmsd"].min(axis=1)
+    ax.plot(r["n"], d.pressure(prof_n), "-o", color="#0072B2", markersize=3, label="best RMSD at n")
+    ax.axhline(
+        d.pressure(r["threshold"]),
+        color="black",
+        linestyle="--",
+        label="approx. 95% threshold",
+    )
+    inside = r["n"][prof_n <= r["threshold"]]
+    if inside.size:
+        ax.axvspan(
+            inside.min(), inside.max(), color="#009E73", alpha=0.2, hatch="\\\\", label="n inside"
+        )
+    top = float(np.quantile(prof_n, 0.6))
+    ax.set_ylim(0, max(top, 3 * r["threshold"]) * d.pf)
+    ax.set_xlabel("exponent n [-]")
+    ax.set_ylabel(f"RMSD of CI [{d.P}]")
+    ax.set_title("(c) profile over n (all else re-fitted)", fontsize=9.5)
+    ax.legend(fontsize=7.5)
+    # (d) profile over phic
+    ax = axes[1, 1]
+    prof_p = r["rmsd"].min(axis=0)
+    ax.plot(
+        r["phic"],
+        d.pressure(prof_p),
+        "-s",
+        color="#CC79A7",
+        markersize=3,
+        label="best RMSD at phic",
+    )
+    ax.axhline(
+        d.pressure(r["threshold"]), color="black", linestyle="--", label="approx. 95% threshold"
+    )
+    ax.set_ylim(0, max(float(prof_p.max()), 2 * r["threshold"]) * d.pf * 1.1)
+    ax.set_xlabel("cone-terrain friction angle phic [deg]")
+    ax.set_ylabel(f"RMSD of CI [{d.P}]")
+    flat = float(prof_p.max() - prof_p.min()) <= 0.01 * float(prof_p.min())
+    ax.set_title(
+        "(d) profile over phic" + (" (flat: CI alone leaves phic free)" if flat else ""),
+        fontsize=9.5,
+    )
+    ax.legend(fontsize=7.5)
+    return _finish(
+        fig,
+        title or f"{profile_id}: the ridge of equally good fits ({model.upper()})",
+        synthetic,
+    )
+
+
+# ---------------------------------------------------------------------------
+# summaries
+# ---------------------------------------------------------------------------
+
+
+def fig_bars(
+    labels: Sequence[str],
+    series: Mapping[str, Sequence[float]],
+    *,
+    ylabel: str,
+    title: str | None = None,
+    hline: float | None = None,
+    hline_label: str | None = None,
+    synthetic: bool = False,
+) -> Figure:
+    """Grouped bars (one group per label, one hatched bar per series)."""
+    fig, axes = _new(width=max(6.0, 0.45 * len(labels) * max(1, len(series)) + 2.5), height=4.4)
+    ax = axes[0, 0]
+    k = max(1, len(series))
+    w = 0.8 / k
+    x = np.arange(len(labels))
+    hatches = ["", "///", "...", "xx", "\\\\", "oo"]
+    for i, (name, vals) in enumerate(series.items()):
+        c, _ = _style(i)
+        ax.bar(
+            x + (i - (k - 1) / 2) * w,
+            np.asarray(vals, float),
+            width=w,
+            color=c,
+            edgecolor="black",
+            hatch=hatches[i % len(hatches)],
+            alpha=0.85,
+            label=name,
+        )
+    if hline is not None:
+        ax.axhline(hline, color="black", linestyle="--", label=hline_label)
+    ax.set_xticks(x, labels, rotation=45 if len(labels) > 6 else 0, ha="right", fontsize=8)
+    ax.set_ylabel(ylabel)
+    ax.legend(fontsize=8)
+    return _finish(fig, title, synthetic)
+
+
+def fig_histograms(
+    columns: Mapping[str, Sequence[float]],
+    *,
+    title: str | None = None,
+    synthetic: bool = False,
+) -> Figure:
+    """One histogram per named column (labels carry the units)."""
+    names = [k for k, v in columns.items() if len(v)]
+    if not names:
+        raise ValueError("nothing to draw")
+    ncols = min(3, len(names))
+    nrows = math.ceil(len(names) / ncols)
+    fig, axes = _new(width=3.6 * ncols + 0.4, height=3.0 * nrows + 0.5, ncols=ncols, nrows=nrows)
+    for k, ax in enumerate(axes.flat):
+        if k >= len(names):
+            ax.set_visible(False)
+            continue
+        v = np.asarray(columns[names[k]], float)
+        v = v[np.isfinite(v)]
+        c, _ = _style(k)
+        ax.hist(
+            v,
+            bins=min(30, max(5, int(math.sqrt(v.size)) + 1)),
+            color=c,
+            edgecolor="black",
+            hatch="//",
+            alpha=0.8,
+            label=f"{v.size} profiles",
+        )
+        ax.set_xlabel(names[k])
+        ax.set_ylabel("profiles")
+        ax.legend(fontsize=7.5)
+    return _finish(fig, title, synthetic)
+
+
+# ---------------------------------------------------------------------------
+# output
+# ---------------------------------------------------------------------------
+
+
+def png_bytes(fig: Figure) -> bytes:
+    """The figure as PNG bytes."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    return buf.getvalue()
+
+
+def svg_text(fig: Figure) -> str:
+    """The figure as SVG text."""
+    buf = io.StringIO()
+    fig.savefig(buf, format="svg")
+    return buf.getvalue()
+
+
+def save_figure(
+    fig: Figure,
+    directory: str | Path,
+    stem: str,
+    formats: Sequence[str] = ("png", "svg"),
+) -> dict[str, Path]:
+    """Write the figure as ``directory/stem.png`` and ``.svg``; return the paths.
+
+    The SVG of a synthetic figure carries the word SYNTHETIC in its
+    ``<title>`` too.
+    """
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    paths: dict[str, Path] = {}
+    meta_title = ("SYNTHETIC - " if getattr(fig, "_terracone_synthetic", False) else "") + stem
+    for fmt in formats:
+        p = out / f"{stem}.{fmt}"
+        if fmt == "png":
+            fig.savefig(p, format="png", dpi=110, metadata={"Title": meta_title})
+        elif fmt == "svg":
+            fig.savefig(p, format="svg", metadata={"Title": meta_title})
+        else:
+            raise ValueError(f"unknown figure format {fmt!r}")
+        paths[fmt] = p
+        # the layout is settled by the first draw: keep it for the other formats
+        fig.set_layout_engine("none")
+    return paths

@@ -1,0 +1,982 @@
+"""Self-contained HTML reports of terracone results.
+
+One file, no request to any other host: figures are PNG data URIs, the CSS
+and the small self-check script are inline, and a Content-Security-Policy
+meta tag forbids the browser to load anything else (``default-src 'none'``,
+images from ``data:`` only).  The layout is responsive: images never exceed
+the column, tables scroll sideways on narrow screens.
+
+A report is a *document*: a title, metadata and sections, each a list of
+parts (``text``, ``list``, ``kv``, ``figure``, ``table``, ``html``).  The
+renderers here turn the JSON documents of ``terracone predict``, ``learn``
+and ``evaluate``, and the output directory of ``terracone batch``, into such
+documents; :mod:`terracone.reproduce` stores its own in ``reproduce.json``.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+from collections.abc import Mapping, Sequence
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from .. import units as u
+from ..data import TerrainParameters
+from . import figures as F
+from .tables import (
+    Table,
+    flat_agreement_table,
+    fmt_value,
+    identifiability_table,
+    mark_bounds,
+    parameters_table,
+)
+
+__all__ = [
+    "render_document",
+    "predict_document",
+    "learn_document",
+    "evaluate_document",
+    "batch_document",
+    "figure_part",
+    "table_part",
+    "text_part",
+    "MAX_FIGURE_PROFILES",
+]
+
+#: At most this many profiles are drawn (in figures of 8); tables hold all.
+MAX_FIGURE_PROFILES = 24
+_PER_FIGURE = 8
+
+_CSP = (
+    "default-src 'none'; img-src data:; style-src 'unsafe-inline'; "
+    "script-src 'unsafe-inline'; base-uri 'none'; form-action 'none'"
+)
+
+_CSS = """
+:root { color-scheme: light; --ink: #1b1b1b; --muted: #555; --line: #c8c8c8; --accent: #0b5394; }
+* { box-sizing: border-box; }
+html { -webkit-text-size-adjust: 100%; text-size-adjust: 100%; }
+body { margin: 0; color: var(--ink); background: #fff; line-height: 1.5;
+  font: 16px/1.5 system-ui, -apple-system, "Segoe UI", Roboto, "Helvetica Neue", Arial, sans-serif; }
+header.top, main, footer { max-width: 84rem; margin: 0 auto; padding: 0 clamp(0.75rem, 3vw, 2rem); }
+header.top { padding-top: 1rem; border-bottom: 3px solid var(--accent); }
+h1 { font-size: clamp(1.35rem, 4vw, 2rem); margin: 0.2rem 0 0.4rem; line-height: 1.2; }
+h2 { font-size: clamp(1.15rem, 3vw, 1.5rem); margin-top: 2.2rem; border-bottom: 1px solid var(--line); }
+h3 { font-size: 1.1rem; margin-top: 1.6rem; }
+p, li { max-width: 52rem; overflow-wrap: anywhere; }
+.subtitle { color: var(--muted); margin: 0 0 0.8rem; }
+.banner { border: 2px solid #b58100; background: #fff4d6; padding: 0.6rem 0.9rem; margin: 1rem 0;
+  font-weight: 600; }
+.tag.synthetic { display: inline-block; margin: 0.2rem 0; padding: 0.05rem 0.45rem; font-size: 0.75rem;
+  font-weight: 700; letter-spacing: 0.04em; color: #5c3d00; background: #ffe7a6; border: 1px solid #b58100; }
+nav.toc { background: #f4f6f9; border: 1px solid var(--line); padding: 0.5rem 1rem; margin: 1rem 0; }
+nav.toc ol { margin: 0.3rem 0; padding-left: 1.3rem; }
+figure { margin: 1.2rem 0 1.8rem; max-width: 100%; }
+figure img { display: block; max-width: 100%; height: auto; border: 1px solid #e2e2e2; }
+figcaption { font-size: 0.92rem; color: #333; margin-top: 0.35rem; max-width: 52rem; }
+.table-block { margin: 1rem 0 1.6rem; }
+.table-wrap { overflow-x: auto; -webkit-overflow-scrolling: touch; max-width: 100%;
+  border: 1px solid var(--line); }
+table { border-collapse: collapse; font-size: 0.86rem; font-variant-numeric: tabular-nums;
+  min-width: 100%; }
+.table-title { font-weight: 600; margin: 0.3rem 0 0.35rem; max-width: 60rem; }
+td.t { text-align: left; }
+th, td { border: 1px solid var(--line); padding: 0.22rem 0.5rem; white-space: nowrap; text-align: right; }
+thead th { background: #e9eef5; text-align: center; }
+tbody th { text-align: left; font-weight: 600; background: #fafafa; }
+td.hl, th.hl { background: #ffe7a6; font-weight: 700; }
+tbody tr:nth-child(even) td { background: #fbfbfb; }
+ul.notes { font-size: 0.86rem; color: var(--muted); margin: 0.4rem 0 0; }
+dl.kv { display: grid; grid-template-columns: minmax(8rem, max-content) 1fr; gap: 0.15rem 1rem;
+  margin: 0.5rem 0 1rem; }
+dl.kv dt { font-weight: 600; }
+dl.kv dd { margin: 0; overflow-wrap: anywhere; font-family: ui-monospace, SFMono-Regular, Menlo, monospace;
+  font-size: 0.88rem; }
+code { font-family: ui-monospace, SFMono-Regular, Menlo, monospace; font-size: 0.9em; }
+footer { color: var(--muted); font-size: 0.85rem; border-top: 1px solid var(--line); margin-top: 2.5rem;
+  padding-top: 0.8rem; padding-bottom: 2rem; }
+@media (max-width: 640px) {
+  body { font-size: 15px; }
+  dl.kv { grid-template-columns: 1fr; }
+  dl.kv dd { margin-bottom: 0.4rem; }
+  table { font-size: 0.78rem; }
+  nav.toc { padding: 0.4rem 0.7rem; }
+}
+@media print { nav.toc { display: none; } .table-wrap { overflow: visible; } }
+"""
+
+# Runs after load: counts decoded images and errors into #tc-selfcheck, so a
+# headless browser (--dump-dom) or a reader can see that the file is whole.
+_HEAD_SCRIPT = """
+window.__tcErrors = [];
+window.addEventListener('error', function (e) {
+  window.__tcErrors.push(String(e.message || (e.target && e.target.tagName) || 'error'));
+}, true);
+document.addEventListener('securitypolicyviolation', function (e) {
+  window.__tcErrors.push('blocked by the content security policy: ' + e.blockedURI);
+});
+window.addEventListener('load', function () {
+  var imgs = document.images, ok = 0;
+  for (var i = 0; i < imgs.length; i++) {
+    if (imgs[i].complete && imgs[i].naturalWidth > 0) { ok++; }
+  }
+  var el = document.getElementById('tc-selfcheck');
+  if (!el) { return; }
+  el.setAttribute('data-images-ok', String(ok));
+  el.setAttribute('data-images-total', String(imgs.length));
+  el.setAttribute('data-errors', String(window.__tcErrors.length));
+  el.textContent = 'Browser self-check: ' + ok + ' of ' + imgs.length + ' figures decoded, ' +
+    window.__tcErrors.length + ' errors' +
+    (window.__tcErrors.length ? ' (' + window.__tcErrors.join('; ') + ')' : '') + '.';
+});
+"""
+
+
+# ---------------------------------------------------------------------------
+# parts
+# ---------------------------------------------------------------------------
+
+
+def text_part(text: str) -> dict[str, Any]:
+    return {"type": "text", "text": text}
+
+
+def list_part(items: Sequence[str]) -> dict[str, Any]:
+    return {"type": "list", "items": list(items)}
+
+
+def kv_part(pairs: Mapping[str, Any]) -> dict[str, Any]:
+    return {"type": "kv", "pairs": {str(k): v for k, v in pairs.items()}}
+
+
+def figure_part(fig: Any, caption: str, *, alt: str | None = None) -> dict[str, Any]:
+    """A figure part with its PNG in memory (``png_bytes``)."""
+    return {
+        "type": "figure",
+        "png_bytes": F.png_bytes(fig),
+        "caption": caption,
+        "alt": alt or caption.split(".")[0],
+    }
+
+
+def table_part(table: Table, *, max_rows: int | None = None) -> dict[str, Any]:
+    return {"type": "table", "table": table, "max_rows": max_rows}
+
+
+def _kv_value(v: Any) -> str:
+    if isinstance(v, float):
+        return fmt_value(v, 6)
+    if isinstance(v, dict | list):
+        return json.dumps(v, default=str)
+    return "-" if v is None else str(v)
+
+
+def _render_part(p: Mapping[str, Any], base: Path | None, counters: dict[str, int]) -> str:
+    e = html.escape
+    t = p["type"]
+    if t == "text":
+        return f"<p>{e(p['text'])}</p>"
+    if t == "list":
+        return "<ul>" + "".join(f"<li>{e(x)}</li>" for x in p["items"]) + "</ul>"
+    if t == "kv":
+        rows = "".join(f"<dt>{e(k)}</dt><dd>{e(_kv_value(v))}</dd>" for k, v in p["pairs"].items())
+        return f'<dl class="kv">{rows}</dl>'
+    if t == "html":
+        return str(p["html"])
+    if t == "figure":
+        data = p.get("png_bytes")
+        if data is None and p.get("png") and base is not None:
+            f = base / p["png"]
+            data = f.read_bytes() if f.exists() else None
+        counters["figure"] += 1
+        k = counters["figure"]
+        cap = f"Figure {k}. {p.get('caption', '')}"
+        if data is None:
+            return f'<p class="notes">{e(cap)} (figure file {e(str(p.get("png")))} missing)</p>'
+        b64 = base64.b64encode(data).decode("ascii")
+        alt = p.get("alt") or p.get("caption", "figure")
+        links = ""
+        if p.get("png") or p.get("svg"):
+            names = [x for x in (p.get("png"), p.get("svg")) if x]
+            links = " Files: " + ", ".join(f"<code>{e(x)}</code>" for x in names) + "."
+        return (
+            f'<figure id="fig-{k}"><img src="data:image/png;base64,{b64}" alt="{e(alt)}" '
+            f'loading="eager" decoding="sync"><figcaption>{e(cap)}{links}</figcaption></figure>'
+        )
+    if t == "table":
+        tab = p["table"]
+        if not isinstance(tab, Table):
+            tab = Table.from_dict(tab)
+        counters["table"] += 1
+        frag = tab.to_html(max_rows=p.get("max_rows"))
+        label = f"Table {counters['table']}. "
+        return frag.replace('<p class="table-title">', f'<p class="table-title">{e(label)}', 1)
+    raise ValueError(f"unknown report part {t!r}")
+
+
+def render_document(doc: Mapping[str, Any], base_dir: str | Path | None = None) -> str:
+    """HTML text of a report document.
+
+    ``doc``: ``title``, optional ``subtitle``, ``synthetic`` (bool: a banner
+    on top), ``meta`` (key-value pairs shown under the title) and
+    ``sections`` (each ``id``, ``heading``, ``parts``).  Figure parts carry
+    ``png_bytes`` or a ``png`` path relative to ``base_dir``.
+    """
+    e = html.escape
+    base = Path(base_dir) if base_dir is not None else None
+    counters = {"figure": 0, "table": 0}
+    title = str(doc.get("title", "terracone report"))
+    body: list[str] = []
+    body.append('<header class="top">')
+    body.append(f"<h1>{e(title)}</h1>")
+    if doc.get("subtitle"):
+        body.append(f'<p class="subtitle">{e(doc["subtitle"])}</p>')
+    body.append("</header><main>")
+    if doc.get("synthetic"):
+        body.append(
+            '<p class="banner">SYNTHETIC DATA. '
+            + e(
+                str(
+                    doc.get(
+                        "synthetic_text",
+                        "The data in this report were generated by terracone; they are not "
+                        "measurements.",
+                    )
+                )
+            )
+            + "</p>"
+        )
+    meta = dict(doc.get("meta", {}))
+    meta.setdefault("report written by", f"terracone {__version__}")
+    meta.setdefault("written", datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"))
+    body.append(_render_part(kv_part(meta), base, counters))
+    sections = list(doc.get("sections", []))
+    if len(sections) > 2:
+        body.append('<nav class="toc" aria-label="Contents"><strong>Contents</strong><ol>')
+        for s in sections:
+            body.append(f'<li><a href="#{e(s["id"])}">{e(s["heading"])}</a></li>')
+        body.append("</ol></nav>")
+    for s in sections:
+        body.append(f'<section id="{e(s["id"])}"><h2>{e(s["heading"])}</h2>')
+        for p in s.get("parts", []):
+            body.append(_render_part(p, base, counters))
+        body.append("</section>")
+    body.append("</main>")
+    body.append(
+        "<footer>"
+        f"<p>Generated by terracone {e(__version__)}: Bekker-Wong terrain parameters from cone "
+        "penetrometer data, after Huang, Wong, Preston-Thomas and Jayakumar, "
+        "&ldquo;Predicting terrain parameters for physics-based vehicle mobility models from "
+        "cone index data&rdquo;. This file is self-contained: it loads nothing from any "
+        "host.</p>"
+        '<p id="tc-selfcheck" data-images-ok="" data-images-total="" data-errors="">'
+        "Browser self-check: not run (scripts disabled).</p>"
+        "</footer>"
+    )
+    return (
+        "<!DOCTYPE html>\n"
+        '<html lang="en"><head><meta charset="utf-8">'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">'
+        f'<meta http-equiv="Content-Security-Policy" content="{_CSP}">'
+        f'<meta name="generator" content="terracone {e(__version__)}">'
+        f"<title>{e(title)}</title>"
+        f"<style>{_CSS}</style><script>{_HEAD_SCRIPT}</script></head>\n<body>\n"
+        + "\n".join(body)
+        + "\n</body></html>\n"
+    )
+
+
+# ---------------------------------------------------------------------------
+# helpers for the JSON documents of the CLI
+# ---------------------------------------------------------------------------
+
+
+def _units_of(doc: Mapping[str, Any], default: str = "si") -> str:
+    un = (doc.get("settings") or {}).get("units") or doc.get("units") or default
+    return un if un in ("si", "us") else default
+
+
+def _si_params(d: Mapping[str, Any], units: str) -> dict[str, Any] | None:
+    """SI parameters of a profile / learn dict (None when not fitted)."""
+    if d.get("n") is None:
+        return None
+    p = TerrainParameters.from_dict(d, units=d.get("units") or units)
+    return {
+        "id": d.get("id", d.get("terrain", "parameters")),
+        "kc": p.kc,
+        "kphi": p.kphi,
+        "n": p.n,
+        "cc": p.cc,
+        "phic_deg": p.phic_deg,
+        "model": p.model,
+        "r_min": p.r_min,
+    }
+
+
+def _synthetic(doc: Mapping[str, Any]) -> dict[str, Any]:
+    """Banner keys for results that say they come from synthetic data."""
+    if not doc.get("synthetic"):
+        return {}
+    out: dict[str, Any] = {"synthetic": True}
+    if doc.get("note"):
+        out["synthetic_text"] = str(doc["note"])
+    return out
+
+
+def _mark_settings_bounds(tab, rows, settings: Mapping[str, Any], units: str) -> None:
+    """Highlight parameters on the bounds recorded in the settings (defaults otherwise)."""
+    from ..inverse.bounds import Bounds
+
+    b = settings.get("bounds") or {}
+    d = Bounds()
+    cc = b.get("cc")
+    cc_si = tuple(float(v) for v in u.pressure_to_si(cc, units)) if cc else d.cc
+    phic = tuple(b.get("phic_deg") or b.get("phic") or d.phic)
+    n = tuple(b.get("n") or d.n)
+    if settings.get("calibration"):
+        cc_si, phic = None, None  # fixed by the calibration
+    mark_bounds(tab, rows, cc=cc_si, phic=phic, n=n)
+
+
+def _chunks(seq: Sequence[Any], k: int) -> list[Sequence[Any]]:
+    return [seq[i : i + k] for i in range(0, len(seq), k)]
+
+
+def _si_curve_profile(d: Mapping[str, Any], units: str) -> dict[str, Any] | None:
+    if not d.get("depth") or not d.get("ci"):
+        return None
+    un = d.get("units") or units
+    return {
+        "id": str(d.get("id")),
+        "depth": u.length_to_si(d["depth"], un),
+        "ci": u.pressure_to_si(d["ci"], un),
+        "ci_model": None if d.get("ci_model") is None else u.pressure_to_si(d["ci_model"], un),
+    }
+
+
+def _settings_pairs(settings: Mapping[str, Any]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in settings.items():
+        if isinstance(v, Mapping):
+            for k2, v2 in v.items():
+                out[f"{k}.{k2}"] = v2
+        else:
+            out[k] = v
+    return out
+
+
+def _profile_rows_si(profiles: Sequence[Mapping[str, Any]], units: str) -> list[dict[str, Any]]:
+    rows = []
+    for d in profiles:
+        un = d.get("units") or units
+        row: dict[str, Any] = {"id": d.get("id")}
+        p = _si_params(d, un) if d.get("status", "ok") == "ok" else None
+        if p:
+            row.update(p)
+        rm = d.get("rmsd")
+        row["rmsd"] = None if rm is None else float(u.pressure_to_si(rm, un))
+        row["r2_ci"] = d.get("r2_ci")
+        row["status"] = d.get("status", "ok")
+        rows.append(row)
+    return rows
+
+
+_FIT_EXTRA = (
+    ("RMSD of CI", "kPa", lambda r: r.get("rmsd")),
+    (
+        "RMSD of CI",
+        "psi",
+        lambda r: None if r.get("rmsd") is None else float(u.pressure_from_si(r["rmsd"], "us")),
+    ),
+    ("R2 of CI", "", lambda r: r.get("r2_ci")),
+    ("model", "", lambda r: r.get("model")),
+    (
+        "r_min",
+        "mm",
+        lambda r: None if r.get("r_min") is None else r["r_min"] * 1000.0,
+    ),
+)
+
+
+# ---------------------------------------------------------------------------
+# predict
+# ---------------------------------------------------------------------------
+
+
+def predict_document(doc: Mapping[str, Any], *, source: str | None = None) -> dict[str, Any]:
+    """Report document of a ``terracone predict --json`` result."""
+    units = _units_of(doc)
+    profiles = list(doc.get("profiles") or [])
+    ok = [p for p in profiles if p.get("status", "ok") == "ok"]
+    bad = [p for p in profiles if p.get("status", "ok") != "ok"]
+    settings = dict(doc.get("settings") or {})
+    calibrated = bool(settings.get("calibration"))
+    sections: list[dict[str, Any]] = []
+
+    inputs = {
+        "results file": source,
+        "CI input": doc.get("input"),
+        "profiles": len(profiles),
+        "fitted": len(ok),
+        "not fitted": len(bad),
+        "results written by": f"terracone {doc.get('terracone', '?')}",
+    }
+    parts: list[dict[str, Any]] = [kv_part(inputs)]
+    if bad:
+        parts.append(text_part("Profiles that could not be fitted:"))
+        parts.append(list_part([f"{p.get('id')}: {p.get('error')}" for p in bad]))
+    sections.append({"id": "inputs", "heading": "Inputs", "parts": parts})
+    sections.append(
+        {
+            "id": "settings",
+            "heading": "Settings",
+            "parts": [
+                kv_part(_settings_pairs(settings) or {"settings": "(none recorded)"}),
+                text_part(
+                    "Units of the results file: "
+                    + units
+                    + ". Tables below give SI and US customary columns; kc and kphi convert "
+                    "with n (their units carry n)."
+                ),
+            ],
+        }
+    )
+
+    rows = _profile_rows_si(profiles, units)
+    tab = parameters_table(
+        [r for r in rows if r.get("n") is not None],
+        key="parameters",
+        title="Predicted Bekker P-S and cone-terrain shear parameters (as Tables 4-1, 4-3)",
+        first="Profile",
+        extra=_FIT_EXTRA,
+        notes=[
+            "Prediction process (section 3.3.2): improved cone model, eqs. (2-2) to (2-7).",
+            "With fully mobilised shear phic trades exactly against a common scale of kc and "
+            "kphi; without a calibration the reported phic is the middle of the interval that "
+            "fits equally well (see the identifiability table and the ridge figure).",
+        ],
+    )
+    _mark_settings_bounds(tab, [r for r in rows if r.get("n") is not None], settings, units)
+    sections.append(
+        {"id": "parameters", "heading": "Parameters", "parts": [table_part(tab, max_rows=500)]}
+    )
+    fixed = ("phic", "cc") if calibrated else ()
+    ident = identifiability_table(
+        profiles,
+        key="identifiability",
+        title="What each CI profile determines",
+        fixed=fixed,
+        notes=[
+            '"undetermined": the approximate 95% profile interval covers half the search '
+            'range or more (from "undetermined"); "determined", "weakly determined", "set by '
+            'prior": from the posterior when predict ran with --uncertainty.',
+            "phic~scale(kc,kphi): phic and the common scale of kc and kphi trade exactly.",
+        ],
+    )
+    sections.append(
+        {
+            "id": "identifiability",
+            "heading": "Identifiability",
+            "parts": [table_part(ident, max_rows=500)],
+        }
+    )
+
+    figs: list[dict[str, Any]] = []
+    curves = [c for c in (_si_curve_profile(p, units) for p in ok) if c is not None]
+    shown = curves[:MAX_FIGURE_PROFILES]
+    for k, chunk in enumerate(_chunks(shown, _PER_FIGURE)):
+        fig = F.fig_ci_fit(
+            chunk,
+            title="Measured and predicted CI-sinkage curves"
+            + (f" ({k + 1})" if len(shown) > _PER_FIGURE else ""),
+        )
+        figs.append(
+            figure_part(
+                fig,
+                "Measured (dashed, open markers) and predicted (solid) cone index against "
+                "cone-base depth, as Figure 4-1 of the paper.",
+            )
+        )
+    if len(curves) > len(shown):
+        figs.append(
+            text_part(f"Figures show the first {len(shown)} of {len(curves)} fitted profiles.")
+        )
+    first = next((p for p in ok if _si_curve_profile(p, units) is not None), None)
+    if first is not None:
+        c = _si_curve_profile(first, units)
+        sp = _si_params(first, units)
+        zpos = c["depth"] >= 0
+        if sp and zpos.sum() >= 2:
+            cj = {
+                "id": c["id"],
+                "depth": c["depth"][zpos],
+                "ci": c["ci"][zpos],
+            }
+            fig = F.fig_janosi(
+                [cj],
+                sp,
+                improved_params={**sp, "label": "improved model eq. (2-7), predicted parameters"},
+                params_label="predicted kc, kphi, n",
+                title=f"{c['id']}: measured CI and the Janosi equation (2-1)",
+            )
+            figs.append(
+                figure_part(
+                    fig,
+                    f"As Figure 2-1 of the paper: measured CI of {c['id']} against the Janosi "
+                    "equation (2-1) evaluated with the kc, kphi and n predicted by the improved "
+                    "model. The gap is what the improved model adds: shear on the cone "
+                    "surface and kc over the local radius rather than the base diameter.",
+                )
+            )
+    plate_pred, plate_bands = [], []
+    for p in ok[:MAX_FIGURE_PROFILES]:
+        un = p.get("units") or units
+        for pl in p.get("plates") or []:
+            plate_pred.append(
+                {
+                    "id": str(p.get("id")),
+                    "radius": float(u.length_to_si(pl["radius"], un)),
+                    "sinkage": u.length_to_si(pl["sinkage"], un),
+                    "pressure": u.pressure_to_si(pl["pressure"], un),
+                }
+            )
+        for b in p.get("plate_bands") or []:
+            plate_bands.append(
+                {
+                    "id": str(p.get("id")),
+                    "label": f"{p.get('id')} band",
+                    "radius": float(u.length_to_si(b["radius"], un)),
+                    "sinkage": u.length_to_si(b["sinkage"], un),
+                    "lo": u.pressure_to_si(b["lo"], un),
+                    "hi": u.pressure_to_si(b["hi"], un),
+                    "median": None
+                    if b.get("median") is None
+                    else u.pressure_to_si(b["median"], un),
+                }
+            )
+    if plate_pred or plate_bands:
+        ids = list(dict.fromkeys(s["id"] for s in plate_pred + plate_bands))
+        for k, chunk in enumerate(_chunks(ids, _PER_FIGURE)):
+            sel = set(chunk)
+            fig = F.fig_plate_fit(
+                [],
+                [s for s in plate_pred if s["id"] in sel],
+                [b for b in plate_bands if b["id"] in sel],
+                title="Predicted plate pressure-sinkage curves"
+                + (f" ({k + 1})" if len(ids) > _PER_FIGURE else ""),
+            )
+            figs.append(
+                figure_part(
+                    fig,
+                    "Plate pressure-sinkage curves predicted from the parameters (Bekker "
+                    "equation, or RM1 below r_min), one panel per plate size, as Figures 4-2 "
+                    "and 4-3(b) of the paper"
+                    + (
+                        "; hatched: the posterior band of predict --uncertainty"
+                        if plate_bands
+                        else ""
+                    )
+                    + ". The results file holds no measured plate curves.",
+                )
+            )
+    else:
+        figs.append(
+            text_part(
+                "No plate curves in the results: run predict with --plates R1,R2 (and "
+                "--uncertainty for bands) to draw them."
+            )
+        )
+    if first is not None:
+        c = _si_curve_profile(first, units)
+        sp = _si_params(first, units) or {}
+        try:
+            fig = F.fig_ridge(
+                c["depth"],
+                c["ci"],
+                profile_id=c["id"],
+                cone=str(first.get("cone") or "asabe-large"),
+                model=sp.get("model") or "rm0",
+                r_min=sp.get("r_min"),
+                reference={"n": sp.get("n"), "phic_deg": sp.get("phic_deg")},
+                reference_label="reported",
+            )
+            figs.append(
+                figure_part(
+                    fig,
+                    f"The ridge of equally good fits for {c['id']} (not in the paper): with "
+                    "fully mobilised shear, phic and a common scale of kc and kphi trade "
+                    "exactly, so the CI alone fixes n but not phic. Contours give the RMSD as "
+                    "a multiple of its minimum; kc, kphi and cc are re-fitted exactly at each "
+                    "point (bounded least squares). Default search bounds.",
+                )
+            )
+        except (ValueError, FloatingPointError) as exc:  # pragma: no cover - defensive
+            figs.append(text_part(f"Ridge figure not drawn: {exc}"))
+    sections.append({"id": "figures", "heading": "Figures", "parts": figs})
+    return {
+        "title": "terracone report: prediction from cone index",
+        **_synthetic(doc),
+        "subtitle": f"{len(profiles)} CI profile(s) from {doc.get('input', '?')}",
+        "meta": {"results": source, "command": doc.get("command", "predict")},
+        "sections": sections,
+    }
+
+
+# ---------------------------------------------------------------------------
+# learn
+# ---------------------------------------------------------------------------
+
+
+def learn_document(doc: Mapping[str, Any], *, source: str | None = None) -> dict[str, Any]:
+    """Report document of a ``terracone learn --json`` result."""
+    units = _units_of(doc)
+    sp = _si_params(doc, units) or {}
+    sp["id"] = doc.get("terrain", "learned")
+    crit = doc.get("criteria") or {}
+    sections: list[dict[str, Any]] = []
+    sections.append(
+        {
+            "id": "inputs",
+            "heading": "Inputs and settings",
+            "parts": [
+                kv_part(
+                    {
+                        "results file": source,
+                        "terrain": doc.get("terrain"),
+                        "model": doc.get("model"),
+                        "units of the file": units,
+                        "plate pair": doc.get("plate_pair"),
+                        "calibration saved to": doc.get("saved"),
+                        "library name": doc.get("saved_as"),
+                        "results written by": f"terracone {doc.get('terracone', '?')}",
+                        "fit criterion": f"every CV <= {crit.get('max_cv')}: "
+                        + ("satisfied" if crit.get("satisfied") else "NOT satisfied")
+                        + f" (worst {fmt_value(crit.get('worst_cv'))})",
+                    }
+                )
+            ],
+        }
+    )
+    tab = parameters_table(
+        [sp],
+        key="learned",
+        title="Learned parameters (learning process, section 3.3.1)",
+        first="Terrain",
+        extra=(
+            ("model", "", lambda r: r.get("model")),
+            ("r_min", "mm", lambda r: None if r.get("r_min") is None else r["r_min"] * 1000),
+        ),
+    )
+    und = list(doc.get("undetermined") or [])
+    iv = doc.get("profile_intervals") or {}
+    ident_rows = []
+    for name in ("kc", "kphi", "n", "cc", "phic_deg", "r_min"):
+        status = "undetermined" if name in und else "determined"
+        rng = iv.get(name)
+        ident_rows.append([name, status, None if not rng else f"{rng[0]:.4g} to {rng[1]:.4g}"])
+    ident = Table(
+        "identifiability",
+        "What the learning data determine",
+        [("Parameter", ""), ("Status", ""), ("Approx. 95% interval (file units)", "")],
+        ident_rows,
+        notes=[
+            "undetermined: the profile interval covers half the search range or more. kc and "
+            "kphi are not profiled by learn; they follow n and the plates."
+        ],
+    )
+    ds = list(doc.get("datasets") or [])
+    ds_rows = []
+    for x in ds:
+        rm = x.get("rmsd")
+        rm_si = None if rm is None else float(u.pressure_to_si(rm, units))
+        b = x.get("b")
+        ds_rows.append(
+            [
+                x.get("id"),
+                x.get("kind"),
+                None if b is None else float(b) * 100,
+                rm_si,
+                None if rm_si is None else float(u.pressure_from_si(rm_si, "us")),
+                x.get("cv"),
+            ]
+        )
+    ds_tab = Table(
+        "datasets",
+        "Fit per data set",
+        [
+            ("Data set", ""),
+            ("Kind", ""),
+            ("Plate size b", "cm"),
+            ("RMSD", "kPa"),
+            ("RMSD", "psi"),
+            ("CV", ""),
+        ],
+        ds_rows,
+        notes=["CV = RMSD / mean measured value; the objective sums it over the data sets."],
+    )
+    parts = [table_part(tab), table_part(ident), table_part(ds_tab)]
+    if ds:
+        fig = F.fig_bars(
+            [str(x.get("id")) for x in ds],
+            {"CV of the fit": [float(x.get("cv") or 0.0) for x in ds]},
+            ylabel="CV = RMSD / mean [-]",
+            title="Fit of the learned parameters per data set",
+            hline=crit.get("max_cv"),
+            hline_label="fit criterion",
+        )
+        parts.append(
+            figure_part(fig, "CV of each CI profile and plate test at the learned parameters.")
+        )
+    if sp.get("n") is not None:
+        pair = doc.get("plate_pair")
+        radii = [float(v) for v in u.length_to_si(pair, units)] if pair else [0.0375, 0.05]
+        from ..inverse.evaluate import predicted_plate_pressure
+
+        params = TerrainParameters(
+            sp["kc"], sp["kphi"], sp["n"], sp["cc"], sp["phic_deg"], None, sp["model"], sp["r_min"]
+        )
+        s = np.linspace(0.0, 0.1, 41)
+        pred = [
+            {
+                "id": str(sp["id"]),
+                "radius": r,
+                "sinkage": s,
+                "pressure": predicted_plate_pressure(params, s, r, tuple(radii) if pair else None),
+            }
+            for r in radii
+        ]
+        fig = F.fig_plate_fit(
+            [], pred, one_panel=True, title="Plate P-S curves of the learned parameters"
+        )
+        parts.append(
+            figure_part(
+                fig,
+                "Plate pressure-sinkage curves of the learned parameters for the plate sizes of "
+                "the learning data (the learn JSON holds no measured curves).",
+            )
+        )
+    sections.append({"id": "results", "heading": "Results", "parts": parts})
+    return {
+        "title": "terracone report: learning from cone and plate tests",
+        **_synthetic(doc),
+        "subtitle": f"terrain {doc.get('terrain', '?')}",
+        "meta": {"results": source, "command": "learn"},
+        "sections": sections,
+    }
+
+
+# ---------------------------------------------------------------------------
+# evaluate
+# ---------------------------------------------------------------------------
+
+
+def evaluate_document(doc: Mapping[str, Any], *, source: str | None = None) -> dict[str, Any]:
+    """Report document of a ``terracone evaluate --json`` result."""
+    units = _units_of(doc)
+    rows = list(doc.get("plates") or [])
+    tab = flat_agreement_table(
+        rows,
+        key="agreement",
+        title="Predicted against measured plate P-S curves (as Tables 4-2, 4-4)",
+        units=units,
+        notes=["R: Pearson correlation; R2 = R^2; CV = RMSD / mean measured pressure."],
+    )
+    parts: list[dict[str, Any]] = [
+        kv_part(
+            {
+                "results file": source,
+                "comparisons": len(rows),
+                "predictions": len({r.get("prediction") for r in rows}),
+                "plate tests": len({r.get("test") for r in rows}),
+                "units of the file": units,
+            }
+        ),
+        table_part(tab, max_rows=500),
+    ]
+    if rows:
+        labels = [f"{r.get('prediction')} / {r.get('test')}" for r in rows[:40]]
+        fig = F.fig_bars(
+            labels,
+            {
+                "R2": [float(r.get("R2") or 0.0) for r in rows[:40]],
+                "CV": [float(r.get("CV") or 0.0) for r in rows[:40]],
+            },
+            ylabel="R2 and CV [-]",
+            title="Agreement of predicted and measured plate curves",
+        )
+        parts.append(
+            figure_part(
+                fig,
+                "R2 (higher is better) and CV (lower is better) of each prediction against each "
+                "plate test" + (" (first 40)" if len(rows) > 40 else "") + ".",
+            )
+        )
+    return {
+        "title": "terracone report: evaluation against plate tests",
+        **_synthetic(doc),
+        "meta": {"results": source, "command": "evaluate"},
+        "sections": [{"id": "agreement", "heading": "Agreement", "parts": parts}],
+    }
+
+
+# ---------------------------------------------------------------------------
+# batch
+# ---------------------------------------------------------------------------
+
+
+def batch_document(directory: str | Path) -> dict[str, Any]:
+    """Report document of a ``terracone batch`` output directory (Parquet parts)."""
+    import pandas as pd
+
+    d = Path(directory)
+    parts_files = sorted(d.glob("part-*.parquet"))
+    summary: dict[str, Any] = {}
+    if (d / "_summary.json").exists():
+        try:
+            summary = json.loads((d / "_summary.json").read_text())
+        except (OSError, json.JSONDecodeError):
+            summary = {}
+    frames = [pd.read_parquet(f) for f in parts_files]
+    df = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    units = _units_of(summary)
+    n_total = len(df)
+    status = df["status"] if "status" in df else pd.Series(["ok"] * n_total)
+    ok = df[status == "ok"] if n_total else df
+    sections: list[dict[str, Any]] = []
+    meta_pairs = {
+        "directory": str(d),
+        "part files": len(parts_files),
+        "profiles": n_total,
+        "fitted": int((status == "ok").sum()) if n_total else 0,
+        "not fitted": int((status != "ok").sum()) if n_total else 0,
+    }
+    parts = [kv_part(meta_pairs)]
+    if summary.get("problems"):
+        parts.append(text_part("Problems reported by the run:"))
+        parts.append(list_part([str(x) for x in summary["problems"]]))
+    if summary:
+        parts.append(text_part("From _summary.json:"))
+        parts.append(kv_part(_settings_pairs(summary)))
+    sections.append({"id": "inputs", "heading": "Inputs and settings", "parts": parts})
+
+    def col(name):
+        return ok[name].astype(float).to_numpy() if name in ok else np.array([])
+
+    rows = []
+    for _, r in df.iterrows():
+        row = {"id": r.get("profile", r.get("id"))}
+        if r.get("status", "ok") == "ok" and r.get("n") is not None and np.isfinite(r.get("n")):
+            p = _si_params(
+                {k: _nan_none(r.get(k)) for k in ("kc", "kphi", "n", "cc", "phic_deg")}
+                | {"units": units},
+                units,
+            )
+            if p:
+                row.update({k: p[k] for k in ("kc", "kphi", "n", "cc", "phic_deg")})
+        rm = _nan_none(r.get("rmsd"))
+        row["rmsd"] = None if rm is None else float(u.pressure_to_si(rm, units))
+        row["r2_ci"] = _nan_none(r.get("r2_ci"))
+        rows.append(row)
+    tab = parameters_table(
+        [x for x in rows if x.get("n") is not None],
+        key="parameters",
+        title="Predicted parameters per profile (as Tables 4-1, 4-3)",
+        first="Profile",
+        extra=_FIT_EXTRA[:3],
+    )
+    _mark_settings_bounds(
+        tab, [x for x in rows if x.get("n") is not None], summary.get("settings") or {}, units
+    )
+    tparts = [table_part(tab, max_rows=200)]
+    if n_total and "error" in df:
+        errs = df[status != "ok"]
+        if len(errs):
+            tparts.append(text_part("Profiles not fitted (first 50):"))
+            tparts.append(
+                list_part(
+                    [f"{r.get('profile')}: {r.get('error')}" for _, r in errs.head(50).iterrows()]
+                )
+            )
+    sections.append({"id": "parameters", "heading": "Parameters", "parts": tparts})
+    if n_total and "undetermined" in df:
+        ident_rows = []
+        for _, r in df.head(200).iterrows():
+            und = r.get("undetermined")
+            und = [x for x in str(und).split(";") if x] if isinstance(und, str) else []
+            lo, hi = _nan_none(r.get("phic_lo")), _nan_none(r.get("phic_hi"))
+            nlo, nhi = _nan_none(r.get("n_lo")), _nan_none(r.get("n_hi"))
+            ident_rows.append(
+                {
+                    "id": r.get("profile", r.get("id")),
+                    "status": r.get("status", "ok"),
+                    "undetermined": und,
+                    "phic_range_deg": None if lo is None or hi is None else [lo, hi],
+                    "intervals": {} if nlo is None or nhi is None else {"n": [nlo, nhi]},
+                }
+            )
+        fixed = ("phic", "cc") if (summary.get("settings") or {}).get("calibration") else ()
+        ident = identifiability_table(
+            ident_rows,
+            key="identifiability",
+            title="What each CI profile determines (first 200 profiles)",
+            fixed=fixed,
+            assessed=("n", "phic"),
+            notes=[
+                "From the batch output's undetermined, phic_lo/hi and n_lo/hi columns; the "
+                "batch profiles only n and phic."
+            ],
+        )
+        sections.append(
+            {"id": "identifiability", "heading": "Identifiability", "parts": [table_part(ident)]}
+        )
+    if len(ok):
+        cols = {
+            "n [-]": col("n"),
+            f"kc [{u.kc_unit(units)}]": col("kc"),
+            f"kphi [{u.kphi_unit(units)}]": col("kphi"),
+            "phic [deg]": col("phic_deg"),
+            f"RMSD of CI [{u.pressure_unit(units)}]": col("rmsd"),
+            "R2 of CI [-]": col("r2_ci"),
+        }
+        try:
+            fig = F.fig_histograms(cols, title="Distribution of the predicted parameters")
+            sections.append(
+                {
+                    "id": "figures",
+                    "heading": "Figures",
+                    "parts": [
+                        figure_part(
+                            fig,
+                            "Histograms over the fitted profiles of the batch. kc and kphi are "
+                            "in the units of the batch output; with phic left free by the CI "
+                            "they carry the phic-scale ridge.",
+                        )
+                    ],
+                }
+            )
+        except ValueError:
+            pass
+    return {
+        "title": "terracone report: batch prediction",
+        "subtitle": f"{n_total} profiles in {len(parts_files)} part file(s)",
+        "meta": {"results": str(d), "command": "batch"},
+        "sections": sections,
+    }
+
+
+def _nan_none(v: Any) -> Any:
+    if v is None:
+        return None
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) else None
