@@ -18,10 +18,13 @@ References
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
 __all__ = ["box_lsq3", "gram"]
+
+_SMALL = 64  # up to this many problems the 27 faces go to LAPACK in one stacked call
 
 # state per variable: 0 free, 1 at lower bound, 2 at upper bound
 _STATES = np.array(list(itertools.product((0, 1, 2), repeat=3)))  # (27, 3)
@@ -77,6 +80,8 @@ def box_lsq3(
     lo = np.broadcast_to(lo, shape + (3,))
     hi = np.broadcast_to(hi, shape + (3,))
     yy = np.broadcast_to(np.asarray(yy, dtype=float), shape)
+    if math.prod(shape) <= _SMALL:
+        return _box_lsq3_stacked(G, g, yy, lo, hi)
 
     # scale to unit diagonal for conditioning
     d = [np.sqrt(np.clip(G[..., i, i], 1e-300, None)) for i in range(3)]
@@ -166,3 +171,39 @@ def box_lsq3(
     )
     sse = best + yy
     return xs, np.maximum(sse, 0.0)
+
+
+def _box_lsq3_stacked(G, g, yy, lo, hi):
+    """:func:`box_lsq3` for a few problems: the 27 faces as one stacked LAPACK solve.
+
+    Fewer numpy calls than the elementwise Cramer path, so faster when the
+    leading dimensions are small (a single profile's refinement steps).
+    """
+    shape = yy.shape
+    d = np.sqrt(np.clip(np.einsum("...ii->...i", G), 1e-300, None))
+    Gs = G / (d[..., :, None] * d[..., None, :])
+    gs = g / d
+    los, his = lo * d, hi * d
+    S = _STATES.reshape((27,) + (1,) * len(shape) + (3,))
+    free = S == 0
+    fixed_val = np.where(S == 1, los, his)  # (27, ..., 3)
+    eye = np.eye(3)
+    # reduced normal equations: identity rows for variables held at a bound
+    A = np.where(free[..., :, None], Gs, eye) + (1e-13 * free)[..., :, None] * eye
+    b = np.where(free, gs, fixed_val)
+    try:
+        xs = np.linalg.solve(A, b[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        xs = np.einsum("...ij,...j->...i", np.linalg.pinv(A), b)
+    tol = 1e-9 * np.maximum(his - los, 1e-300) + 1e-12
+    feasible = np.all(~free | ((xs >= los - tol) & (xs <= his + tol)), axis=-1)
+    xs = np.clip(xs, los, his)
+    obj = np.einsum("...i,...ij,...j->...", xs, Gs, xs) - 2.0 * np.einsum("...i,...i->...", gs, xs)
+    obj = np.where(feasible, obj, np.inf)
+    k = np.argmin(obj, axis=0)
+    x = np.take_along_axis(xs, k[None, ..., None], axis=0)[0] / d
+    # variables held at a bound get the bound itself
+    state = _STATES[k]  # (..., 3)
+    x = np.clip(np.where(state == 1, lo, np.where(state == 2, hi, x)), lo, hi)
+    sse = np.take_along_axis(obj, k[None], axis=0)[0] + yy
+    return x, np.maximum(sse, 0.0)

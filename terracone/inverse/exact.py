@@ -26,7 +26,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import minimize
+from scipy.optimize import lsq_linear, minimize
 
 from ..cone import Cone, cone_index_basis
 from ..plate import PressureLaw
@@ -243,6 +243,34 @@ def solve_exact(
     return sol
 
 
+def _polish(
+    X: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray
+) -> np.ndarray:
+    """Re-solve the bounded linear least squares on the design matrix itself (BVLS).
+
+    The normal equations lose about cond(X) digits near a perfect fit; a
+    QR-based solve does not.  Kept only if it lowers the sum of squares.
+    """
+    free = hi > lo
+    if not free.any():
+        return x0
+    xf = np.where(free, 0.0, lo)
+    rhs = y - X @ xf
+    Xf = X[:, free]
+    scale = np.sqrt(np.sum(Xf * Xf, axis=0))
+    scale = np.where(scale > 0, scale, 1.0)
+    try:
+        res = lsq_linear(
+            Xf / scale, rhs, bounds=(lo[free] * scale, hi[free] * scale), method="bvls", tol=1e-15
+        )
+    except (ValueError, np.linalg.LinAlgError):
+        return x0
+    x = xf.copy()
+    x[free] = np.clip(res.x / scale, lo[free], hi[free])
+    r0, r1 = X @ x0 - y, X @ x - y
+    return x if r1 @ r1 < r0 @ r0 else x0
+
+
 def _solve_mobilised(
     z, y, cone, law, bounds, n_grid, noise_floor, profiles, ratio
 ) -> ExactSolution:
@@ -261,6 +289,17 @@ def _solve_mobilised(
     )
     x = np.array([ms.kc[0], ms.kphi[0], ms.cc[0]])
     X = design(z, np.array(ms.n[0]), np.array(ms.phic_deg[0]), cone=cone, law=law, Kc=None)
+    lo, hi = _bounds_arrays(bounds, np.array(ms.n[0]))
+    if ratio is not None:
+        # kc = ratio * kphi: one column, and both bounds on kphi
+        Xr = design(
+            z, np.array(ms.n[0]), np.array(ms.phic_deg[0]), cone=cone, law=law, Kc=None, ratio=ratio
+        )
+        lor, hir = _bounds_arrays(bounds, np.array(ms.n[0]), ratio)
+        xr = _polish(Xr, y, lor, hir, np.array([0.0, x[1], x[2]]))
+        x = np.array([ratio * xr[1], xr[1], xr[2]])
+    else:
+        x = _polish(X, y, lo, hi, x)
     resid = X @ x - y
     sol = ExactSolution(
         kc=float(x[0]),

@@ -471,11 +471,13 @@ def learn(
     # 3.84 sigma_d^2 moves RMSD_d/mean_d by about 1.92 CV_d / N_d, so J may rise by
     # dJ = sum_d 1.92 max(CV_d, noise_floor) / N_d before a value is rejected.
     dJ = float(sum(1.92 * max(ds["cv"], noise_floor) / y.size for ds, y in zip(datasets, ys)))
-    thr = best_J + dJ
+    # the grid profiles are compared with the grid's own best: a coarse grid sits above
+    # the refined optimum everywhere, and a flat direction must still show as flat
+    thr_grid = float(J_grid.min()) + dJ
     und: list[str] = []
     intervals: dict[str, tuple[float, float]] = {}
 
-    def grid_interval(name, values, prof, at, log=False):
+    def grid_interval(name, values, prof, at, log=False, thr=thr_grid):
         ok = prof <= thr
         if values.size < 2:
             return
@@ -493,18 +495,48 @@ def learn(
         if width >= 0.5 * span:
             und.append(name)
 
+    def refined_profile(axis: int, values: np.ndarray) -> np.ndarray:
+        """J minimised over the two other coordinates, for each grid value of one."""
+        out = np.empty(values.size)
+        for kk, val in enumerate(values):
+            sl = np.take(J_grid, kk, axis=axis)
+            a0, b0 = np.unravel_index(np.argmin(sl), sl.shape)
+            start = [n_grid, phi_grid, np.log(r_grid) if rb else np.zeros(1)]
+            full = [None, None, None]
+            others = [q for q in range(3) if q != axis]
+            full[others[0]] = start[others[0]][a0]
+            full[others[1]] = start[others[1]][b0]
+            fixed = math.log(val) if axis == 2 else val
+
+            def f2(w, fixed=fixed, full=full, others=others):
+                v = list(full)
+                v[axis] = fixed
+                v[others[0]], v[others[1]] = w
+                return obj(v)
+
+            w0 = [full[others[0]], full[others[1]]]
+            r = minimize(
+                f2,
+                w0,
+                method="Nelder-Mead",
+                options={"xatol": 1e-4, "fatol": 1e-6 * J0, "maxiter": 150},
+            )
+            out[kk] = min(r.fun, float(sl.min()))
+        return out
+
     r_profile: list[tuple[float, float]] = []
     grid_interval("n", n_grid, J_grid.min(axis=(1, 2)), n)
-    grid_interval("phic_deg", phi_grid, J_grid.min(axis=(0, 2)), phi)
+    if phi_grid.size > 1:
+        grid_interval("phic_deg", phi_grid, refined_profile(1, phi_grid), phi, thr=best_J + dJ)
     if rb:
-        Jr = J_grid.min(axis=(0, 1))
+        Jr = refined_profile(2, r_grid)
         r_profile = [(float(a), float(b)) for a, b in zip(r_grid, Jr)]
-        grid_interval("r_min", r_grid, Jr, rm, log=True)
+        grid_interval("r_min", r_grid, Jr, rm, log=True, thr=best_J + dJ)
     if bounds.cc[0] != bounds.cc[1]:
         cc_vals = np.linspace(bounds.cc[0], bounds.cc[1], 41)
         ones = np.ones_like(cc_vals)
         _, Jcc, _ = solve(n * ones, phi * ones, rm * ones, cc_pin=cc_vals)
-        grid_interval("cc", cc_vals, Jcc, float(x[2]))
+        grid_interval("cc", cc_vals, Jcc, float(x[2]), thr=best_J + dJ)
     return LearnResult(
         params=params,
         plate_pair=pair,

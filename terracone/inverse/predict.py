@@ -235,6 +235,8 @@ def predict(
         collinear), plates of two sizes do.  Only the exact solver uses it.
     """
     t0 = time.perf_counter()
+    if solver not in ("exact", "pso"):
+        raise ValueError(f"solver must be 'exact' or 'pso' (got {solver!r})")
     bounds = bounds or Bounds()
     try:
         profile.validate()

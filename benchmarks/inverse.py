@@ -1,0 +1,269 @@
+"""Benchmark of the prediction-process solvers on generated CI profiles.
+
+    python benchmarks/inverse.py [--quick] [--repeats R]
+
+Every method minimises the same objective, the RMSD [kPa] between the CI
+profile and the improved cone model (RM0, fully mobilised shear) over the
+same bounds (terracone's defaults: kc 0-1000 kN/m^(n+1), kphi 0-20000
+kN/m^(n+2), n 0.05-2, cc 0-100 kPa, phic 0-45 deg), as computed by
+``terracone.inverse.predict.rmsd_objective``:
+
+* ``exact``    terracone.inverse.predict(solver="exact") (grid over n, phic +
+               bounded linear least squares; time includes its
+               identifiability analysis, as a user would run it);
+* ``pso``      terracone.inverse.predict(solver="pso", seed=case seed);
+* ``pyswarms`` pyswarms.single.GlobalBestPSO, 64 particles, 300 iterations,
+               c1 = c2 = 1.49618, w = 0.7298, other settings pyswarms'
+               defaults, seeded with np.random.seed(case seed);
+* ``de``       scipy.optimize.differential_evolution with scipy's defaults
+               (best1bin, popsize 15, maxiter 1000, tol 0.01, polish=True),
+               seeded, vectorised over the population (updating="deferred").
+
+Profiles are generated with terracone.cone_index from the paper's Tables 4-1
+and 4-3 (LS_1, KRC_1, KRC_3 with kc = 0) and Wong's LETE sand values (kc =
+102, kphi = 5301, n = 0.79, with cc = 1.5 kPa, phic = 12 deg), at depths 0 to
+0.3 m every 1 cm or 2.5 cm, with multiplicative Gaussian noise of 0, 2 or 5 %.
+
+Times are wall-clock seconds per profile, the minimum over ``--repeats``
+runs (the machine may be shared).  "rel" is RMSD / (best RMSD of the four
+methods on that case) - 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import logging
+import math
+import os
+import statistics
+import sys
+import tempfile
+import time
+import warnings
+
+import numpy as np
+from scipy.optimize import differential_evolution
+
+from terracone import CIProfile, cone_index
+from terracone.inverse import Bounds, predict
+from terracone.inverse.exact import solve_exact
+from terracone.inverse.predict import rmsd_objective
+from terracone.plate import pressure_law
+
+# kc [kN/m^(n+1)], kphi [kN/m^(n+2)], n, cc [kPa], phic [deg]
+TERRAINS = {
+    "LS_1": (80.14, 4727.2, 0.74, 0.0, 12.5),  # Table 4-1
+    "KRC_1": (42.0, 885.18, 0.591, 1.0, 10.0),  # Table 4-3
+    "KRC_3": (0.0, 1948.9, 0.514, 0.0, 14.37),  # Table 4-3, kc = 0
+    "LETE": (102.0, 5301.0, 0.79, 1.5, 12.0),  # Wong (1981), cone shear chosen
+}
+NOISES = (0.0, 0.02, 0.05)
+SPACINGS = (0.01, 0.025)
+METHODS = ("exact", "pso", "pyswarms", "de")
+
+PYSWARMS_OPTIONS = {"c1": 1.49618, "c2": 1.49618, "w": 0.7298}
+
+
+def make_cases(quick: bool):
+    names = ("LS_1", "LETE") if quick else tuple(TERRAINS)
+    spacings = (0.01,) if quick else SPACINGS
+    cases = []
+    for i, name in enumerate(names):
+        for dz in spacings:
+            for noise in NOISES:
+                seed = 1000 * i + int(round(dz * 1000)) * 10 + int(round(noise * 100))
+                kc, kphi, n, cc, phic = TERRAINS[name]
+                z = np.round(np.arange(0.0, 0.3 + dz / 2, dz), 10)
+                ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=cc, phic=phic)
+                if noise:
+                    rng = np.random.default_rng(seed)
+                    ci = ci * (1.0 + noise * rng.standard_normal(ci.size))
+                label = f"{name} dz={dz * 100:g}cm noise={noise * 100:g}%"
+                cases.append((label, CIProfile(label, z, ci), seed))
+    return cases
+
+
+def timed(fn, repeats: int):
+    best = math.inf
+    out = None
+    for _ in range(repeats):
+        t = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t)
+    return out, best
+
+
+@contextlib.contextmanager
+def _in_tempdir():
+    """pyswarms' Reporter writes report.log into the working directory."""
+    old = os.getcwd()
+    with tempfile.TemporaryDirectory() as tmp:
+        os.chdir(tmp)
+        try:
+            yield
+        finally:
+            os.chdir(old)
+
+
+def run_pyswarms(f, lo, hi, seed):
+    # every pyswarms Reporter re-runs logging.config.dictConfig with a file
+    # handler on ./report.log and a console handler at INFO: keep both quiet
+    with _in_tempdir():
+        import pyswarms as ps
+
+        logging.disable(logging.INFO)
+        try:
+            np.random.seed(seed)
+            opt = ps.single.GlobalBestPSO(
+                n_particles=64, dimensions=lo.size, options=dict(PYSWARMS_OPTIONS), bounds=(lo, hi)
+            )
+            cost, pos = opt.optimize(f, iters=300, verbose=False)
+        finally:
+            logging.disable(logging.NOTSET)
+    return np.asarray(pos, float)
+
+
+def run_de(f, lo, hi, seed):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = differential_evolution(
+            lambda X: f(X.T),
+            list(zip(lo, hi)),
+            seed=seed,
+            polish=True,
+            vectorized=True,
+            updating="deferred",
+        )
+    return np.asarray(res.x, float)
+
+
+def params_vec(p) -> np.ndarray:
+    return np.array([p.kc, p.kphi, p.n, p.cc, p.phic_deg])
+
+
+def bench_case(prof: CIProfile, seed: int, repeats: int, bounds: Bounds):
+    law = pressure_law("rm0")
+    f = rmsd_objective(prof, law, bounds)
+    lo = np.array([bounds.kc[0], bounds.kphi[0], bounds.n[0], bounds.cc[0], bounds.phic[0]])
+    hi = np.array([bounds.kc[1], bounds.kphi[1], bounds.n[1], bounds.cc[1], bounds.phic[1]])
+    out = {}
+    r, t = timed(lambda: predict(prof, solver="exact", bounds=bounds), repeats)
+    out["exact"] = (t, params_vec(r.params))
+    r, t = timed(lambda: predict(prof, solver="pso", bounds=bounds, seed=seed), repeats)
+    out["pso"] = (t, params_vec(r.params))
+    x, t = timed(lambda: run_pyswarms(f, lo, hi, seed), repeats)
+    out["pyswarms"] = (t, x)
+    x, t = timed(lambda: run_de(f, lo, hi, seed), repeats)
+    out["de"] = (t, x)
+    # exact without its identifiability analysis (the fit alone), for reference
+    _, t_fit = timed(
+        lambda: solve_exact(
+            prof.depth, prof.ci, cone=prof.cone, law=law, bounds=bounds, profiles=False
+        ),
+        repeats,
+    )
+    rmsd = {m: float(f(x[None, :])[0]) for m, (_, x) in out.items()}
+    times = {m: t for m, (t, _) in out.items()}
+    return times, rmsd, t_fit
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="6 cases, 1 repeat")
+    ap.add_argument("--repeats", type=int, default=None, help="timing repeats (default 3, quick 1)")
+    args = ap.parse_args(argv)
+    repeats = args.repeats or (1 if args.quick else 3)
+    bounds = Bounds()
+    cases = make_cases(args.quick)
+
+    print(f"terracone inverse benchmark: {len(cases)} cases, timing = min of {repeats} run(s)")
+    print("objective: RMSD of CI [kPa], RM0, fully mobilised shear, default SI bounds")
+    print("de: scipy defaults (best1bin, popsize 15, maxiter 1000, tol 0.01), polish=True")
+    if hasattr(os, "getloadavg"):
+        print(f"load average at start: {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
+    print()
+    head = f"{'case':<30}" + "".join(
+        f"{m + ' t[ms]':>15}{'RMSD[kPa]':>13}{'rel':>10}" for m in METHODS
+    )
+    print(head)
+    print("-" * len(head))
+    rows = []
+    for label, prof, seed in cases:
+        times, rmsd, t_fit = bench_case(prof, seed, repeats, bounds)
+        best = min(rmsd.values())
+        rel = {m: (rmsd[m] / best - 1.0) if best > 0 else 0.0 for m in METHODS}
+        rows.append((label, times, rmsd, rel, t_fit, float(np.sqrt(np.mean(prof.ci**2)))))
+        line = f"{label:<30}" + "".join(
+            f"{times[m] * 1e3:15.1f}{rmsd[m]:13.6g}{rel[m]:10.2e}" for m in METHODS
+        )
+        print(line, flush=True)
+
+    print()
+    print("summary")
+    print(
+        f"{'method':<10}{'median t[ms]':>14}{'median rel':>12}{'max rel':>12}"
+        f"{'max RMSD/rms(CI) excess':>26}"
+    )
+    for m in METHODS:
+        ts = [r[1][m] for r in rows]
+        rels = [r[3][m] for r in rows]
+        excess = [(r[2][m] - min(r[2].values())) / r[5] for r in rows]
+        print(
+            f"{m:<10}{statistics.median(ts) * 1e3:14.1f}{statistics.median(rels):12.2e}"
+            f"{max(rels):12.2e}{max(excess):26.2e}"
+        )
+    ratios = [r[1]["pyswarms"] / r[1]["exact"] for r in rows]
+    t_fit = [r[4] for r in rows]
+    print(
+        f"exact fit alone (solve_exact, no identifiability): median "
+        f"{statistics.median(t_fit) * 1e3:.1f} ms"
+    )
+    print(
+        f"pyswarms_time / exact_time per profile: median {statistics.median(ratios):.2f}, "
+        f"min {min(ratios):.2f}, max {max(ratios):.2f}; ratio of medians "
+        f"{statistics.median([r[1]['pyswarms'] for r in rows]) / statistics.median([r[1]['exact'] for r in rows]):.2f}"
+    )
+
+    # targets
+    fast = statistics.median(ratios) >= 20.0
+    others = [m for m in METHODS if m != "exact"]
+    worse_cases = [
+        (r[0], m, r[2]["exact"], r[2][m], r[5])
+        for r in rows
+        for m in others
+        if r[2]["exact"] > r[2][m] * (1 + 1e-9)
+    ]
+    # the same with an absolute floor of 1e-9 * rms(CI) (the noise-free optimum is 0)
+    worse_floor = [w for w in worse_cases if w[2] > w[3] * (1 + 1e-9) + 1e-9 * w[4]]
+    pso_ok = [r[3]["pso"] <= 0.01 for r in rows]
+    noisy = [not r[0].endswith("noise=0%") for r in rows]
+    pso_ok_noisy = [ok for ok, nz in zip(pso_ok, noisy) if nz]
+    print()
+    print("targets")
+    print(
+        f"  exact >= 20x faster than pyswarms (median per-profile ratio "
+        f"{statistics.median(ratios):.2f}): {'MET' if fast else 'NOT MET'}"
+    )
+    print(
+        "  exact never worse RMSD than pso, pyswarms, de (1e-9 relative): "
+        f"{'MET' if not worse_cases else 'NOT MET'}"
+    )
+    for label, m, a, b, _ in worse_cases:
+        print(f"    {label}: exact {a:.9g} > {m} {b:.9g}")
+    print(
+        "  ... with an absolute floor of 1e-9 * rms(CI) added: "
+        f"{'MET' if not worse_floor else 'NOT MET'} ({len(worse_floor)} cases worse)"
+    )
+    print(
+        f"  pso within 1% of the best RMSD: {'MET' if all(pso_ok) else 'NOT MET'} "
+        f"({sum(pso_ok)}/{len(pso_ok)} cases; noisy cases {sum(pso_ok_noisy)}/{len(pso_ok_noisy)})"
+    )
+    for r, ok in zip(rows, pso_ok):
+        if not ok:
+            print(f"    {r[0]}: pso {r[2]['pso']:.6g} vs best {min(r[2].values()):.6g}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,380 @@
+"""terracone.uncertainty: posterior intervals, identifiability labels, plate bands.
+
+Profiles are generated with the improved model (eq. (2-7) of Huang et al.)
+from known parameters (Wong's LETE sand, kc = 102 kN/m^(n+1), kphi = 5301
+kN/m^(n+2), n = 0.79, with cc = 1 kPa and phic = 11 deg near Table 4-1) and
+multiplied by (1 + s e), e independent or AR(1) along depth.  The coverage
+test draws 56 such cases and requires the 90% intervals to contain the
+truth in at least 80% of them (benchmarks/coverage.py runs more).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from terracone import units as u
+from terracone.cone import improved
+from terracone.data import CIProfile
+from terracone.inverse import Bounds, predict
+from terracone.inverse.learn import Calibration
+from terracone.uncertainty import (
+    DETERMINED_BELOW,
+    LABELS,
+    PARAM_NAMES,
+    WEAKLY_BELOW,
+    CalibrationPrior,
+    ar1_noise,
+    estimate_correlation,
+    identifiability_label,
+    posterior,
+    posterior_for_result,
+)
+
+TRUTH = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.0, phic=11.0)
+DEPTH = np.round(np.arange(0.0, 0.3001, 0.01), 6)
+LETE = Calibration("LETE sand", "rm0", None, None, 11.0, 1.0, 102.0, 5301.0, 0.79)
+FAST = dict(draws=600, nwalkers=32, burn=200, thin=10)
+
+
+def profile(noise=0.03, rho=0.0, seed=1, truth=TRUTH, depth=DEPTH, pid="p"):
+    m = improved(depth, **truth)
+    rng = np.random.default_rng(seed)
+    e = ar1_noise(depth, rho, rng) if rho > 0 else rng.standard_normal(depth.size)
+    return CIProfile(pid, depth, m * (1.0 + noise * e))
+
+
+def plate_true(truth, radius=0.05, sinkage=0.025):
+    return (truth["kc"] / radius + truth["kphi"]) * sinkage ** truth["n"]
+
+
+@pytest.fixture(scope="module")
+def clean():
+    """Posterior of a 3%-noise LETE profile, uniform prior over the bounds."""
+    return posterior(profile(), seed=7, draws=1000)
+
+
+# ---------------------------------------------------------------------------
+# labels and intervals
+# ---------------------------------------------------------------------------
+
+
+def test_label_thresholds():
+    assert identifiability_label(0.0) == "determined"
+    assert identifiability_label(DETERMINED_BELOW - 1e-9) == "determined"
+    assert identifiability_label(DETERMINED_BELOW) == "weakly determined"
+    assert identifiability_label(WEAKLY_BELOW - 1e-9) == "weakly determined"
+    assert identifiability_label(WEAKLY_BELOW) == "set by prior"
+    assert identifiability_label(float("nan")) == "set by prior"
+
+
+def test_phic_set_by_prior_under_full_mobilisation(clean):
+    # phic trades exactly against the common scale of kc and kphi
+    assert clean.identifiability["phic_deg"] == "set by prior"
+    assert clean.width_ratio["phic_deg"] >= WEAKLY_BELOW
+    assert clean.diagnostics.coordinates == "scaled"
+
+
+def test_n_determined_on_clean_profile(clean):
+    assert clean.identifiability["n"] == "determined"
+    assert clean.width_ratio["n"] < 0.1
+    assert set(clean.identifiability.values()) <= set(LABELS)
+    assert set(clean.identifiability) == set(PARAM_NAMES)
+
+
+def test_intervals_contain_truth(clean):
+    for name, key in zip(PARAM_NAMES, ("kc", "kphi", "n", "cc", "phic")):
+        lo, hi = clean.intervals[name]
+        assert lo <= clean.medians[name] <= hi
+        if name == "cc":
+            # cc is set by the prior (uniform 0-100 kPa); the truth, 1 kPa, lies in the
+            # prior's bottom 5%, outside any equal-tailed 90% interval of a flat posterior
+            assert clean.identifiability["cc"] == "set by prior"
+            continue
+        assert lo <= TRUTH[key] <= hi, (name, lo, hi)
+    assert clean.samples.shape == (1000, 5)
+    assert clean.noise.sigma_estimated and clean.noise.rho_estimated
+    # sigma_rel close to the 3% used to generate the profile
+    assert 0.015 < clean.noise.sigma_rel < 0.05
+
+
+def test_calibration_prior_fixes_the_plate_pressure():
+    res = posterior(profile(), prior=LETE, seed=3, plates=(0.05,), **FAST)
+    band = res.plate_bands[0]
+    i = int(np.argmin(np.abs(band.sinkage - 0.025)))
+    assert band.lo[i] <= plate_true(TRUTH) <= band.hi[i]
+    # the calibration's ridge prior makes the band informative (the bounds prior does not)
+    wide = posterior(profile(), seed=3, plates=(0.05,), **FAST).plate_bands[0]
+    assert (band.hi[i] - band.lo[i]) < 0.5 * (wide.hi[i] - wide.lo[i])
+    assert res.prior == "calibration:LETE sand"
+    lo, hi = res.intervals["phic_deg"]
+    assert 11.0 - 6 < lo < 11.0 < hi < 11.0 + 6
+    assert res.identifiability["phic_deg"] == "set by prior"
+
+
+def test_calibration_prior_widths_are_settable():
+    tight = CalibrationPrior(LETE, phic_sd=0.5, ratio_log_sd=0.1, cc_sd=0.5)
+    res = posterior(profile(), prior=tight, seed=3, **FAST)
+    lo, hi = res.intervals["phic_deg"]
+    assert hi - lo < 2.5
+    with pytest.raises(ValueError):
+        CalibrationPrior(LETE, ratio_log_sd=0.0)
+
+
+# ---------------------------------------------------------------------------
+# determinism, bands, dict output
+# ---------------------------------------------------------------------------
+
+
+def test_seeded_determinism():
+    p = profile(seed=11)
+    a = posterior(p, seed=5, **FAST)
+    b = posterior(p, seed=5, **FAST)
+    c = posterior(p, seed=6, **FAST)
+    np.testing.assert_array_equal(a.samples, b.samples)
+    assert a.intervals == b.intervals
+    da, db = a.as_dict("us"), b.as_dict("us")
+    for d in (da, db):
+        d["posterior"]["sampler"].pop("time_s")
+        d["posterior"]["sampler"].pop("cpu_s")
+    assert da == db
+    assert not np.array_equal(a.samples, c.samples)
+
+
+def test_plate_bands_monotone_and_ordered(clean):
+    assert len(clean.plate_bands) == 2  # default 3.75 and 5 cm
+    for band in clean.plate_bands:
+        assert band.sinkage[0] == 0.0 and band.sinkage[-1] >= 0.05
+        assert np.all(np.diff(band.sinkage) > 0)
+        assert np.all(band.lo <= band.median + 1e-12)
+        assert np.all(band.median <= band.hi + 1e-12)
+        for arr in (band.lo, band.median, band.hi):
+            assert np.all(np.diff(arr) >= -1e-9)
+        assert band.median[-1] > 0
+
+
+def test_as_dict_keys_and_us_conversion(clean):
+    d = clean.as_dict("si")
+    assert set(d) >= {"intervals", "identifiability", "plate_bands", "medians", "posterior"}
+    assert set(d["intervals"]) == {"kc", "kphi", "n", "cc", "phic_deg"}
+    for v in d["intervals"].values():
+        assert isinstance(v, list) and len(v) == 2 and v[0] <= v[1]
+    pb = d["plate_bands"][0]
+    assert set(pb) == {"radius", "sinkage", "median", "lo", "hi"}
+    assert len(pb["sinkage"]) == len(pb["median"]) == len(pb["lo"]) == len(pb["hi"])
+    assert d["posterior"]["noise"]["model"] == "relative"
+    assert d["posterior"]["thresholds"] == {
+        "determined": DETERMINED_BELOW,
+        "weakly determined": WEAKLY_BELOW,
+    }
+
+    us = clean.as_dict("us")
+    # n and phic carry no unit
+    assert us["intervals"]["n"] == pytest.approx(d["intervals"]["n"])
+    assert us["intervals"]["phic_deg"] == pytest.approx(d["intervals"]["phic_deg"])
+    # cc: pressure
+    assert us["intervals"]["cc"][1] == pytest.approx(d["intervals"]["cc"][1] / u.PSI)
+    # kc and kphi: each sample converted with its own n, then the quantiles
+    s = clean.samples
+    kc_us = s[:, 0] / (u.LBF / 1000.0 / u.INCH ** (s[:, 2] + 1.0))
+    kphi_us = s[:, 1] / (u.LBF / 1000.0 / u.INCH ** (s[:, 2] + 2.0))
+    assert us["intervals"]["kc"] == pytest.approx(list(np.quantile(kc_us, [0.05, 0.95])))
+    assert us["intervals"]["kphi"] == pytest.approx(list(np.quantile(kphi_us, [0.05, 0.95])))
+    band = us["plate_bands"][1]
+    assert band["radius"] == pytest.approx(0.05 / u.INCH)
+    assert band["hi"][-1] == pytest.approx(clean.plate_bands[1].hi[-1] / u.PSI)
+    assert band["sinkage"][-1] == pytest.approx(0.10 / u.INCH)
+    import json
+
+    json.dumps(us)  # JSON-ready
+
+
+# ---------------------------------------------------------------------------
+# noise model
+# ---------------------------------------------------------------------------
+
+
+def test_ar1_noise_has_the_requested_correlation():
+    z = np.arange(0.0, 2.0, 0.01)
+    e = ar1_noise(z, 0.7, np.random.default_rng(0), size=400)
+    assert np.mean(e[:, 1:] * e[:, :-1]) == pytest.approx(0.7, abs=0.03)
+    assert np.var(e) == pytest.approx(1.0, abs=0.05)
+    # irregular spacing: correlation rho**(dz/dz0)
+    z2 = np.array([0.0, 0.01, 0.02, 0.04, 0.05, 0.06])
+    e2 = ar1_noise(z2, 0.7, np.random.default_rng(1), size=20000)
+    assert np.mean(e2[:, 3] * e2[:, 2]) == pytest.approx(0.49, abs=0.03)
+
+
+def test_correlation_estimate_recovers_rho():
+    rng = np.random.default_rng(42)
+    z = np.round(np.arange(0.0, 0.3001, 0.005), 6)
+    est_corr, est_ind = [], []
+    for _ in range(12):
+        for rho, out in ((0.7, est_corr), (0.0, est_ind)):
+            p = profile(noise=0.04, rho=rho, seed=int(rng.integers(1 << 30)), depth=z)
+            r = predict(p)
+            m0 = r.ci_model
+            w = np.sqrt(m0**2 + (0.05 * m0.max()) ** 2)
+            out.append(estimate_correlation((p.ci - m0) / w, z)[0])
+    assert np.mean(est_corr) == pytest.approx(0.7, abs=0.12)
+    assert np.mean(est_ind) < 0.2
+    # through posterior(): the rho it used
+    p = profile(noise=0.04, rho=0.7, seed=3, depth=z)
+    res = posterior(p, seed=1, **FAST)
+    assert 0.45 < res.noise.rho < 0.92
+    assert res.noise.correlation_length > 0.005
+
+
+def test_given_noise_and_correlation():
+    p = profile(seed=4)
+    sigma_true = 0.03 * float(np.sqrt(np.mean(improved(DEPTH, **TRUTH) ** 2)))
+    res = posterior(p, noise=sigma_true, correlation="none", seed=1, **FAST)
+    assert res.noise.sigma == sigma_true and not res.noise.sigma_estimated
+    assert res.noise.rho == 0.0 and not res.noise.rho_estimated
+    lo, hi = res.intervals["n"]
+    assert lo <= TRUTH["n"] <= hi
+    res2 = posterior(p, correlation=0.5, noise_model="absolute", seed=1, **FAST)
+    assert res2.noise.rho == 0.5 and res2.noise.kind == "absolute"
+    assert res2.noise.sigma_rel is None
+
+
+def test_sampled_correlation():
+    p = profile(noise=0.04, rho=0.7, seed=8)
+    res = posterior(p, correlation="sample", seed=2, **FAST)
+    assert res.noise.rho_sampled
+    lo, hi = res.noise.rho_interval
+    assert 0 <= lo < 0.7 < hi <= 0.95
+    assert "rho" in res.diagnostics.autocorr_time
+
+
+# ---------------------------------------------------------------------------
+# plumbing
+# ---------------------------------------------------------------------------
+
+
+def test_posterior_for_result_and_diagnostics():
+    p = profile(seed=9)
+    pred = predict(p)
+    res = posterior_for_result(p, pred, draws=600, seed=1, plates=(0.0254 * 2.5,))
+    assert res.best_fit == pred.params
+    assert res.plate_bands[0].radius == pytest.approx(0.0635)
+    d = res.diagnostics
+    assert d.draws == 600 and d.nwalkers == 64
+    assert 0.1 < d.acceptance < 0.7
+    assert d.autocorr_time is not None and d.effective_samples > 0
+    assert d.time_s > 0
+    # a calibration prior with a result fitted without it: re-fitted with the calibration
+    res_cal = posterior_for_result(p, pred, prior=LETE, draws=600, seed=1)
+    assert res_cal.prior == "calibration:LETE sand"
+    assert abs(res_cal.best_fit.phic_deg - 11.0) < 1e-9
+    bad = predict(CIProfile("bad", [0.0, 0.1], [1.0, 2.0]))
+    with pytest.raises(ValueError):
+        posterior_for_result(p, bad)
+
+
+def test_rm1_us_bounds_fixed_parameters_and_finite_Kc():
+    truth = dict(TRUTH)
+    m = improved(DEPTH, **truth, law=None)
+    p = CIProfile("p", DEPTH, m * (1 + 0.03 * np.random.default_rng(2).standard_normal(DEPTH.size)))
+    # US bounds: kc/kphi prior density depends on n
+    b = Bounds.parse("kc=0:100,kphi=0:200", "us")
+    res = posterior(p, bounds=b, seed=1, **FAST)
+    n = res.samples[:, 2]
+    assert np.all(res.samples[:, 0] <= u.kc_to_si(100.0, n, "us") * (1 + 1e-9))
+    # phic fixed: plain coordinates, phic reported as fixed ("set by prior", ratio 1)
+    res2 = posterior(p, bounds=Bounds().fixed(phic=11.0), seed=1, **FAST)
+    assert res2.diagnostics.coordinates == "plain"
+    assert np.all(res2.samples[:, 4] == 11.0)
+    assert res2.identifiability["phic_deg"] == "set by prior"
+    assert res2.intervals["kphi"][0] <= TRUTH["kphi"] <= res2.intervals["kphi"][1]
+    # RM1 pressure law
+    res3 = posterior(p, model="rm1", r_min=0.008, seed=1, **FAST)
+    assert res3.model == "rm1" and res3.r_min == 0.008
+    # finite Kc (shear part tabulated separately)
+    pk = CIProfile("k", DEPTH, improved(DEPTH, **truth, Kc=0.01) * (1 + 0.03 * np.sin(DEPTH * 50)))
+    res4 = posterior(pk, Kc=0.01, seed=1, start=predict(pk).params, **FAST)
+    assert res4.Kc == 0.01 and res4.diagnostics.coordinates == "plain"
+    assert np.isfinite(res4.samples).all()
+
+
+def test_bad_input():
+    p = profile()
+    with pytest.raises(ValueError):
+        posterior(p, prior="terrain:LETE")
+    with pytest.raises(ValueError):
+        posterior(p, correlation="maybe")
+    with pytest.raises(ValueError):
+        posterior(p, correlation=0.99)
+    with pytest.raises(ValueError):
+        posterior(p, noise=-1.0)
+    with pytest.raises(ValueError):
+        posterior(p, draws=2)
+    with pytest.raises(ValueError):
+        posterior(CIProfile("x", [0.0, 0.1], [1.0, 2.0]))
+
+
+# ---------------------------------------------------------------------------
+# calibration of the intervals
+# ---------------------------------------------------------------------------
+
+
+def _coverage_cases(n_cases: int, *, prior: str, correlated: bool, seed: int):
+    rng = np.random.default_rng(seed)
+    cal = CalibrationPrior(LETE)
+    hit_n = hit_p = 0
+    for i in range(n_cases):
+        if prior == "bounds":
+            t = dict(
+                kc=rng.uniform(60, 110),
+                kphi=rng.uniform(2500, 5500),
+                n=rng.uniform(0.5, 1.1),
+                cc=rng.uniform(0, 2),
+                phic=rng.uniform(8, 14),
+            )
+        else:  # truths drawn from the calibration prior
+            kphi = rng.uniform(2500, 6000)
+            q = math.exp(math.log(LETE.kc / LETE.kphi) + cal.ratio_log_sd * rng.standard_normal())
+            t = dict(
+                kc=q * kphi,
+                kphi=kphi,
+                n=rng.uniform(0.5, 1.1),
+                cc=abs(LETE.cc + cal.cc_width * rng.standard_normal()),
+                phic=float(np.clip(LETE.phic_deg + cal.phic_sd * rng.standard_normal(), 0, 45)),
+            )
+        rho = rng.uniform(0.6, 0.8) if correlated else 0.0
+        p = profile(
+            noise=rng.uniform(0.03, 0.05), rho=rho, seed=int(rng.integers(1 << 30)), truth=t
+        )
+        res = posterior(
+            p,
+            prior="bounds" if prior == "bounds" else cal,
+            seed=i,
+            plates=(0.05,),
+            plate_sinkages=(0.0, 0.025),
+            **FAST,
+        )
+        lo, hi = res.intervals["n"]
+        hit_n += lo <= t["n"] <= hi
+        b = res.plate_bands[0]
+        hit_p += b.lo[1] <= plate_true(t) <= b.hi[1]
+    return hit_n / n_cases, hit_p / n_cases
+
+
+def test_coverage_of_90_percent_intervals():
+    """56 generated profiles, half with AR(1) noise: the 90% intervals cover >= 80%.
+
+    Calibration prior (40 cases drawn from it): n and the pressure under a
+    5 cm plate at 2.5 cm sinkage.  Bounds prior (16 cases): n only, the
+    plate pressure being set by the prior there (phic trades against the
+    scale of kc and kphi).  benchmarks/coverage.py runs 400 cases.
+    """
+    n1, p1 = _coverage_cases(20, prior="calibration", correlated=False, seed=200)
+    n2, p2 = _coverage_cases(20, prior="calibration", correlated=True, seed=201)
+    n3, _ = _coverage_cases(8, prior="bounds", correlated=False, seed=100)
+    n4, _ = _coverage_cases(8, prior="bounds", correlated=True, seed=101)
+    cov_n = (20 * (n1 + n2) + 8 * (n3 + n4)) / 56
+    cov_p = (p1 + p2) / 2
+    assert cov_n >= 0.8, (n1, n2, n3, n4)
+    assert cov_p >= 0.8, (p1, p2)
