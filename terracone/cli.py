@@ -339,6 +339,51 @@ def _load_calibration(calibration: str | None, terrain: str | None, library: str
     return None
 
 
+def _posterior(profile, result, prior, draws, seed, radii, bounds, library, units, cal):
+    from .inverse.learn import Calibration
+    from .library import Library
+    from .uncertainty import posterior_for_result
+
+    if prior == "bounds":
+        pri = "bounds"
+    elif prior.startswith("terrain:"):
+        with Library(library) as lib:
+            pri = Calibration.from_library_record(lib.get(prior.split(":", 1)[1]))
+    else:
+        raise click.BadParameter(f"--prior: expected bounds or terrain:NAME, got {prior!r}")
+    s_max = 2 * u.INCH if units == "us" else 0.05
+    return posterior_for_result(
+        profile,
+        result,
+        prior=pri,
+        draws=draws,
+        seed=seed,
+        plates=radii or None,
+        plate_sinkages=np.linspace(0.0, s_max, 21),
+        bounds=bounds,
+        plate_pair=cal.plate_pair if cal else None,
+    )
+
+
+def _posterior_text(posts: dict, units: str) -> str:
+    lines = ["", "Posterior 90% intervals and identifiability (--uncertainty):"]
+    for pid, post in posts.items():
+        d = post.as_dict(units)
+        rows = []
+        for k, (lo, hi) in d["intervals"].items():
+            rows.append([k, lo, d["medians"].get(k), hi, d["identifiability"].get(k, "-")])
+        lines.append(f"{pid}:")
+        lines.append(_table(["parameter", "5%", "median", "95%", "identifiability"], rows))
+        for band in d.get("plate_bands", []):
+            i = len(band["sinkage"]) - 1
+            lines.append(
+                f"  plate r = {band['radius']:.4g} {u.length_unit(units)}: pressure at "
+                f"{band['sinkage'][i]:.3g} {u.length_unit(units)} sinkage {band['median'][i]:.4g} "
+                f"[{band['lo'][i]:.4g}, {band['hi'][i]:.4g}] {u.pressure_unit(units)} (90% band)"
+            )
+    return "\n".join(lines)
+
+
 def _layered_text(layered: dict, units: str) -> str:
     rows = []
     for pid, lr in layered.items():
@@ -468,6 +513,20 @@ def _predict_table(results, units: str) -> str:
     help="Unit system of an input that does not state its units (an SC900 export without its unit line).",
 )
 @click.option(
+    "--uncertainty",
+    is_flag=True,
+    help="Posterior 90% intervals, identifiability labels and plate bands (emcee).",
+)
+@click.option(
+    "--draws", type=int, default=2000, show_default=True, help="Posterior draws with --uncertainty."
+)
+@click.option(
+    "--prior",
+    default="bounds",
+    show_default=True,
+    help="Prior with --uncertainty: bounds (uniform) or terrain:NAME (a stored calibration).",
+)
+@click.option(
     "--layers",
     type=click.IntRange(1, 4),
     default=1,
@@ -495,6 +554,9 @@ def predict_cmd(
     depth_ref,
     depth_range,
     file_units,
+    uncertainty,
+    draws,
+    prior,
     layers,
     out,
     as_json,
@@ -537,10 +599,15 @@ def predict_cmd(
     }
     by_id = {it.id: it for it in items if not isinstance(it, InputError)}
     layered = {}
+    posts = {}
     for r in results:
         d = r.as_dict(units)
         if r.ok and radii:
             d["plates"] = _plate_curves(r.params, radii, units, cal.plate_pair if cal else None)
+        if r.ok and uncertainty:
+            post = _posterior(by_id[r.id], r, prior, draws, seed, radii, b, library, units, cal)
+            d.update(post.as_dict(units))
+            posts[r.id] = post
         if r.ok and layers > 1:
             from .layers import fit_layered
 
@@ -554,6 +621,8 @@ def predict_cmd(
         _emit_json(doc)
     else:
         click.echo(_predict_table(results, units))
+        if posts:
+            click.echo(_posterior_text(posts, units))
         if layered:
             click.echo(_layered_text(layered, units))
     if not any(r.ok for r in results):
