@@ -1108,6 +1108,121 @@ def export_cmd(terrain, fmt, out, units, library):
 
 
 # ---------------------------------------------------------------------------
+# batch
+# ---------------------------------------------------------------------------
+
+
+@cli.command("batch")
+@click.argument("input_path", metavar="INPUT", type=click.Path(exists=True))
+@click.option(
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Output directory (Parquet parts).",
+)
+@click.option(
+    "--workers", type=int, default=None, help="Local Dask worker processes (default: all cores)."
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    help="Address of a running dask.distributed scheduler, tcp://HOST:PORT.",
+)
+@click.option(
+    "--resume", is_flag=True, help="Finish an interrupted run without redoing finished chunks."
+)
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+@click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True)
+@click.option(
+    "--r-min", default=None, help="RM1 transition radius (e.g. 1cm; bare numbers in --units)."
+)
+@click.option("--terrain", default=None, help="Use a calibration stored in the terrain library.")
+@click.option(
+    "--calibration", type=click.Path(dir_okay=False), default=None, help="Calibration JSON."
+)
+@click.option("--library", default=None, help="Terrain library path.")
+@click.option("--bounds", default=None, help="kc=LO:HI,... in --units.")
+@click.option("--units", type=_UNITS, default="si", show_default=True)
+@click.option(
+    "--cone",
+    default="asabe-large",
+    show_default=True,
+    help="Cone of profiles without a cone column.",
+)
+@click.option("--chunk-size", type=int, default=2000, show_default=True, help="Profiles per task.")
+@click.option(
+    "--uncertainty",
+    is_flag=True,
+    help="Posterior 90% intervals and identifiability labels (about 1 s per profile).",
+)
+@click.option(
+    "--draws", type=int, default=1000, show_default=True, help="Posterior draws with --uncertainty."
+)
+@click.option(
+    "--prior",
+    type=click.Choice(["bounds", "calibration"]),
+    default="bounds",
+    show_default=True,
+    help="Prior with --uncertainty.",
+)
+def batch_cmd(
+    input_path,
+    out_dir,
+    workers,
+    scheduler,
+    resume,
+    quiet,
+    model,
+    r_min,
+    terrain,
+    calibration,
+    library,
+    bounds,
+    units,
+    cone,
+    chunk_size,
+    uncertainty,
+    draws,
+    prior,
+):
+    """Fit every profile of a CSV/Parquet file or directory on Dask; Parquet results per chunk."""
+    from .batch import run_batch
+    from .inverse import Bounds
+
+    cal = _load_calibration(calibration, terrain, library)
+    if prior == "calibration" and cal is None:
+        raise click.UsageError("--prior calibration needs --calibration or --terrain")
+    rm = _length_si(r_min, units, "--r-min") if r_min else None
+    s = run_batch(
+        input_path,
+        out_dir,
+        workers=workers,
+        scheduler=scheduler,
+        resume=resume,
+        quiet=quiet,
+        model=model,
+        r_min=rm,
+        calibration=cal,
+        bounds=Bounds.parse(bounds, units),
+        units=units,
+        cone=cone,
+        chunk_size=chunk_size,
+        uncertainty=uncertainty,
+        draws=draws,
+        prior=cal if prior == "calibration" else "bounds",
+    )
+    click.echo(
+        f"{s.profiles} profiles: {s.profiles_ok} fitted, {s.profiles_error} with errors "
+        f"({s.profiles_per_s:.0f} profiles/s, {s.wall_s:.1f} s); results in {s.out_dir}"
+    )
+    for p in s.problems:
+        click.echo(f"terracone: {p}", err=True)
+    if not s.success:
+        sys.exit(1)
+
+
+# ---------------------------------------------------------------------------
 # report and reproduce
 # ---------------------------------------------------------------------------
 

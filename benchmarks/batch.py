@@ -1,0 +1,266 @@
+"""Benchmark of ``terracone batch`` (terracone.batch.run_batch).
+
+Measures, on generated noise-free profiles (25-60 depths each, known truth,
+written as Parquet by streaming so that generation itself stays flat in
+memory):
+
+1. throughput end to end (cluster start, reading, fitting, writing, final
+   check) with 1 and 2 local workers, and how the time splits between
+   reading, fitting and writing;
+2. peak memory (max RSS) of the client process (which also hosts the
+   scheduler, as in ``run_batch``'s local mode) and of each worker, for
+   several input sizes, to show that memory does not grow with the number
+   of profiles.
+
+Every measured run is a fresh Python process.  Usage::
+
+    python benchmarks/batch.py                      # 20,000 profiles; memory at 1e4, 1e5
+    python benchmarks/batch.py --million            # also memory at 1e6 (minutes)
+    python benchmarks/batch.py --profiles 5000 --memory 10000   # quick
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+BATCH = 5000  # profiles generated per write
+
+
+def generate(path: Path, n_profiles: int, seed: int = 0) -> None:
+    """Write n_profiles noise-free CI profiles (25-60 depths) to a Parquet file, streaming."""
+    from terracone import cone_index
+
+    rng = np.random.default_rng(seed)
+    schema = pa.schema(
+        [
+            ("profile", pa.string()),
+            ("site", pa.string()),
+            ("lat", pa.float64()),
+            ("lon", pa.float64()),
+            ("depth_m", pa.float64()),
+            ("ci_kpa", pa.float64()),
+        ]
+    )
+    tmp = path.with_suffix(".tmp")
+    with pq.ParquetWriter(tmp, schema) as writer:
+        for start in range(0, n_profiles, BATCH):
+            B = min(BATCH, n_profiles - start)
+            nz = rng.integers(25, 61, B)
+            zmax = rng.uniform(0.3, 0.6, B)
+            Z = int(nz.max())
+            frac = np.arange(Z) / (nz[:, None] - 1)
+            depth = np.minimum(frac, 1.0) * zmax[:, None]  # (B, Z), padded rows repeat zmax
+            ci = cone_index(
+                depth,
+                kc=rng.uniform(0, 50, B)[:, None],
+                kphi=rng.uniform(200, 3000, B)[:, None],
+                n=rng.uniform(0.3, 1.3, B)[:, None],
+                cc=rng.uniform(0, 10, B)[:, None],
+                phic=rng.uniform(0, 30, B)[:, None],
+            )
+            keep = np.arange(Z)[None, :] < nz[:, None]
+            ids = np.array([f"p{start + i:08d}" for i in range(B)], dtype=object)
+            site = rng.choice(np.array(["north", "south", "east"], dtype=object), B)
+            table = pa.table(
+                {
+                    "profile": np.repeat(ids, nz),
+                    "site": np.repeat(site, nz),
+                    "lat": np.repeat(rng.uniform(40, 41, B), nz),
+                    "lon": np.repeat(rng.uniform(-80, -79, B), nz),
+                    "depth_m": depth[keep],
+                    "ci_kpa": ci[keep],
+                },
+                schema=schema,
+            )
+            writer.write_table(table, row_group_size=1 << 17)
+    os.replace(tmp, path)
+
+
+def child(args: argparse.Namespace) -> None:
+    """One measured run (in its own process); prints a JSON line."""
+    import logging
+
+    from terracone.batch import run_batch
+
+    t0 = time.perf_counter()
+    if args.mode == "local":
+        summary = run_batch(
+            args.input, args.out, workers=args.workers, chunk_size=args.chunk_size, quiet=True
+        )
+        workers_rss = None
+    else:  # memory: our own cluster, so that the workers can be asked for their peak RSS
+        import distributed
+
+        from terracone.batch import WORKER_MALLOC_ENV, _worker_environ
+
+        with _worker_environ(WORKER_MALLOC_ENV):  # the workers run_batch would start
+            cluster = distributed.LocalCluster(
+                n_workers=args.workers,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                silence_logs=logging.ERROR,
+            )
+        with distributed.Client(cluster) as client:
+            summary = run_batch(
+                args.input,
+                args.out,
+                scheduler=cluster.scheduler_address,
+                chunk_size=args.chunk_size,
+                quiet=True,
+            )
+            workers_rss = sorted(
+                v / 1024
+                for v in client.run(
+                    lambda: resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+                ).values()
+            )
+        cluster.close()
+    wall = time.perf_counter() - t0
+    ru = resource.getrusage(resource.RUSAGE_SELF)
+    print(
+        json.dumps(
+            {
+                "summary": summary.as_dict(),
+                "wall": wall,
+                "client_rss_mb": ru.ru_maxrss / 1024,
+                "client_cpu_s": ru.ru_utime + ru.ru_stime,
+                "workers_rss_mb": workers_rss,
+            }
+        )
+    )
+
+
+def run_child(mode: str, input: Path, out: Path, workers: int, chunk_size: int) -> dict:
+    cmd = [
+        sys.executable,
+        __file__,
+        "--child",
+        mode,
+        "--input",
+        str(input),
+        "--out",
+        str(out),
+        "--workers",
+        str(workers),
+        "--chunk-size",
+        str(chunk_size),
+    ]
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode:
+        raise RuntimeError(res.stderr[-3000:])
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--profiles", type=int, default=20000, help="profiles of the throughput runs")
+    ap.add_argument(
+        "--workers", default="1,2", help='worker counts of the throughput runs ("" to skip them)'
+    )
+    ap.add_argument("--chunk-size", type=int, default=2000)
+    ap.add_argument("--memory", default="10000,100000", help="input sizes of the memory runs")
+    ap.add_argument("--million", action="store_true", help="add a memory run at 1,000,000")
+    ap.add_argument("--dir", default=None, help="work directory (default: a temporary one)")
+    ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--input", default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--out", default=None, help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.child:
+        args.mode = args.child
+        args.workers = int(args.workers)
+        child(args)
+        return
+
+    import terracone
+
+    work = Path(args.dir or tempfile.mkdtemp(prefix="terracone-bench-"))
+    work.mkdir(parents=True, exist_ok=True)
+    print(
+        f"terracone {terracone.__version__}, Python {platform.python_version()}, "
+        f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}, chunk_size {args.chunk_size}"
+    )
+
+    def data(n: int) -> Path:
+        path = work / f"profiles-{n}.parquet"
+        if not path.exists():
+            t = time.perf_counter()
+            generate(path, n)
+            size = path.stat().st_size / 1e6
+            print(
+                f"generated {n:,} profiles -> {path.name} ({size:.1f} MB) in {time.perf_counter() - t:.1f} s"
+            )
+        return path
+
+    # 1. throughput
+    counts = [int(v) for v in args.workers.split(",") if v.strip()]
+    if counts:
+        print(f"\nThroughput, {args.profiles:,} profiles (Parquet), local cluster, end to end:")
+        print(
+            f"{'workers':>7} {'wall s':>7} {'prof/s':>7} {'start s':>7} {'scan s':>6} {'read s':>6} "
+            f"{'fit s':>6} {'fit cpu':>7} {'write s':>7} {'check s':>7} {'client cpu':>10} "
+            f"{'fit/cpu-s':>9} {'load':>5}"
+        )
+        src = data(args.profiles)
+        for w in counts:
+            out = work / f"out-tp-{w}-{time.time_ns()}"
+            r = run_child("local", src, out, w, args.chunk_size)
+            s = r["summary"]
+            assert s["profiles"] == args.profiles and s["success"], s["problems"]
+            per_cpu = args.profiles / s["fit_cpu_s"] if s["fit_cpu_s"] else float("nan")
+            print(
+                f"{w:>7} {s['wall_s']:>7.1f} {s['profiles_per_s']:>7.0f} {s['startup_s']:>7.1f} "
+                f"{s['scan_s']:>6.2f} {s['read_s']:>6.2f} {s['fit_s']:>6.1f} {s['fit_cpu_s']:>7.1f} "
+                f"{s['write_s']:>7.2f} {s['verify_s']:>7.2f} {r['client_cpu_s']:>10.1f} "
+                f"{per_cpu:>9.0f} {os.getloadavg()[0]:>5.1f}"
+            )
+        print(
+            "  wall s: whole run_batch call (prof/s = profiles / wall s); start s: local cluster start;\n"
+            "  scan s: first pass over the input; read s / write s: client time reading chunks /\n"
+            "  writing part files; fit s: worker time in the fit tasks (summed over chunks, wall);\n"
+            "  fit cpu: their CPU seconds; client cpu: CPU seconds of the client process (reading,\n"
+            "  writing, the in-process scheduler, start-up); fit/cpu-s: profiles fitted per CPU-second;\n"
+            "  load: 1-minute load average after the run (2 CPUs: > 2 means other work competed)"
+        )
+
+    # 2. memory
+    sizes = [int(v) for v in args.memory.split(",") if v]
+    if args.million:
+        sizes.append(1_000_000)
+    if sizes:
+        print("\nPeak memory (max RSS), 2 workers:")
+        print(
+            f"{'profiles':>10} {'wall s':>7} {'prof/s':>7} {'client MB':>9} {'workers MB':>14} "
+            f"{'client cpu':>10} {'fit cpu':>8} {'load':>5}"
+        )
+    for n in sizes:
+        src = data(n)
+        out = work / f"out-mem-{n}-{time.time_ns()}"
+        r = run_child("memory", src, out, 2, args.chunk_size)
+        s = r["summary"]
+        assert s["profiles"] == n and s["success"], s["problems"]
+        wr = ", ".join(f"{v:.0f}" for v in r["workers_rss_mb"])
+        print(
+            f"{n:>10,} {s['wall_s']:>7.1f} {s['profiles_per_s']:>7.0f} {r['client_rss_mb']:>9.0f} "
+            f"{wr:>14} {r['client_cpu_s']:>10.1f} {s['fit_cpu_s']:>8.1f} {os.getloadavg()[0]:>5.1f}"
+        )
+    print(f"\n(work directory: {work})")
+
+
+if __name__ == "__main__":
+    main()
