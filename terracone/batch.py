@@ -1225,6 +1225,8 @@ class _FitSettings:
     draws: int = 1000
     prior: Any = "bounds"  # "bounds" or a Calibration
     seed: int = 0
+    depth_ref: str = "base"  # "tip": file depths are tip depths, base = tip - H
+    depth_range: tuple[float | None, float | None] = (None, None)  # base-depth window [m]
 
 
 def _relocated(task: _Task, j: int, exc: InputError) -> tuple[str, int | None, str | None]:
@@ -1394,6 +1396,40 @@ def _posterior_columns(out, task, members, zs, ys, res, errs, fit: _FitSettings,
             out[f"ident_{p}"][j] = d["identifiability"].get(p)
 
 
+def _depth_options(task: _Task, fit: _FitSettings) -> tuple[_Task, list[int]]:
+    """Apply --depth-ref tip (base = tip - H) and --depth-range to a chunk's rows.
+
+    Returns the task with the kept rows and the profiles the window emptied
+    (those keep their rows here and are reported as errors afterwards).
+    """
+    lo, hi = fit.depth_range
+    if fit.depth_ref == "base" and lo is None and hi is None:
+        return task, []
+    counts = np.diff(task.offsets)
+    z = task.depth
+    if fit.depth_ref == "tip":
+        heights = np.array([c.height for c in task.cones])[task.cone_idx]
+        z = z - np.repeat(heights, counts)
+    keep = np.ones(z.size, dtype=bool)
+    if lo is not None:
+        keep &= z >= lo
+    if hi is not None:
+        keep &= z <= hi
+    prof_of_row = np.repeat(np.arange(counts.size), counts)
+    kept = np.bincount(prof_of_row[keep], minlength=counts.size)
+    emptied = [int(j) for j in np.flatnonzero(kept == 0)]
+    if emptied:  # keep an emptied profile's rows; it is failed after the fit
+        keep |= np.isin(prof_of_row, emptied)
+        kept = np.bincount(prof_of_row[keep], minlength=counts.size)
+    offsets = np.concatenate([[0], np.cumsum(kept)]).astype(np.int64)
+    return (
+        dataclasses.replace(
+            task, depth=z[keep], ci=task.ci[keep], lines=task.lines[keep], offsets=offsets
+        ),
+        emptied,
+    )
+
+
 def _fit_chunk(task: _Task, fit: _FitSettings) -> dict[str, Any]:
     """Validate and fit the profiles of a chunk (runs on a Dask worker).
 
@@ -1403,6 +1439,7 @@ def _fit_chunk(task: _Task, fit: _FitSettings) -> dict[str, Any]:
     """
     t0 = time.perf_counter()
     c0 = time.process_time()
+    task, emptied = _depth_options(task, fit)
     P = len(task.ids)
     out: dict[str, Any] = _empty_results(P)
     status = np.full(P, "ok", dtype=object)
@@ -1479,6 +1516,24 @@ def _fit_chunk(task: _Task, fit: _FitSettings) -> dict[str, Any]:
                     undetermined[j] = und[m]
             if fit.uncertainty:
                 _posterior_columns(out, task, members, zs, ys, res, errs, fit, int(ci_))
+    for j in emptied:
+        path = task.files[int(task.file_idx[j])][0]
+        lo, hi = fit.depth_range
+        fail(
+            int(j),
+            str(
+                InputError(
+                    f"no points in the depth window {lo}:{hi} m", file=path, profile=task.ids[j]
+                )
+            ),
+            None,
+            None,
+        )
+        for k in _FLOAT_RESULTS:
+            out[k][j] = np.nan
+        for k in _TEXT_RESULTS:
+            out[k][j] = None
+        undetermined[j] = None
     out.update(
         status=status,
         error=error,
@@ -1632,6 +1687,8 @@ def _settings(
     uncertainty: bool = False,
     draws: int = 1000,
     prior: Any = "bounds",
+    depth_ref: str = "base",
+    depth_range: tuple[float | None, float | None] = (None, None),
 ) -> tuple[dict[str, Any], _FitSettings]:
     plate_pair = None
     ratio = None
@@ -1658,6 +1715,8 @@ def _settings(
         uncertainty=uncertainty,
         draws=int(draws),
         prior=prior_cal if prior_cal is not None else "bounds",
+        depth_ref=depth_ref,
+        depth_range=tuple(depth_range),
     )
     settings = {
         "model": model,
@@ -1995,6 +2054,8 @@ def run_batch(
     uncertainty: bool = False,
     draws: int = 1000,
     prior: str | Calibration | None = "bounds",
+    depth_ref: str = "base",
+    depth_range: tuple[float | None, float | None] = (None, None),
 ) -> BatchSummary:
     """Fit every CI profile of a file or directory; write Parquet results.
 
@@ -2051,6 +2112,11 @@ def run_batch(
     prior : "bounds" or Calibration
         Prior of the posterior; with a ``calibration`` and any other value
         than "bounds", the calibration.
+    depth_ref : {"base", "tip"}
+        What the input's depths measure; with "tip", base depth = tip
+        depth - H of the profile's cone.
+    depth_range : (lo, hi)
+        Fit only base depths in [lo, hi] [m] (either may be None).
 
     Returns
     -------
@@ -2097,6 +2163,8 @@ def run_batch(
         uncertainty=uncertainty,
         draws=draws,
         prior=prior,
+        depth_ref=depth_ref,
+        depth_range=depth_range,
     )
     files = _input_files(input)
     fingerprint = _fingerprint(input, files)

@@ -1166,6 +1166,18 @@ def export_cmd(terrain, fmt, out, units, library):
     show_default=True,
     help="Prior with --uncertainty.",
 )
+@click.option(
+    "--depth-ref",
+    type=click.Choice(["base", "tip"]),
+    default="base",
+    show_default=True,
+    help="Whether input depths are those of the cone base or tip.",
+)
+@click.option(
+    "--depth-range",
+    default=None,
+    help="Fit only LO:HI of base depth (e.g. 5cm:40cm; bare numbers in --units).",
+)
 def batch_cmd(
     input_path,
     out_dir,
@@ -1185,6 +1197,8 @@ def batch_cmd(
     uncertainty,
     draws,
     prior,
+    depth_ref,
+    depth_range,
 ):
     """Fit every profile of a CSV/Parquet file or directory on Dask; Parquet results per chunk."""
     from .batch import run_batch
@@ -1211,6 +1225,8 @@ def batch_cmd(
         uncertainty=uncertainty,
         draws=draws,
         prior=cal if prior == "calibration" else "bounds",
+        depth_ref=depth_ref,
+        depth_range=_depth_range(depth_range, units),
     )
     click.echo(
         f"{s.profiles} profiles: {s.profiles_ok} fitted, {s.profiles_error} with errors "

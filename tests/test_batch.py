@@ -651,3 +651,36 @@ def test_uncertainty_columns_and_lack_of_fit(tmp_path):
     s = run_batch(tmp_path / "pan.csv", tmp_path / "pan", workers=1, quiet=True)
     row = read_out(tmp_path / "pan").iloc[0]
     assert row.status == "ok" and "CI falls with depth" in row.lack_of_fit
+
+
+def test_depth_reference_and_window(tmp_path):
+    """--depth-ref tip and --depth-range act in batch as in predict (known truth)."""
+    H = get_cone("asabe-large").height
+    z = np.linspace(0.0, 0.4, 41)
+    ci = cone_index(z, kc=30.0, kphi=3000.0, n=0.8, cc=1.0, phic=12.0)
+    loose = np.where(z < 0.1, 0.3 * ci, ci)  # a loose top above 10 cm
+    rows = [
+        pd.DataFrame({"profile": "tip", "depth_m": z + H, "ci_kpa": ci}),
+        pd.DataFrame({"profile": "loose", "depth_m": z + H, "ci_kpa": loose}),
+    ]
+    pd.concat(rows).to_csv(tmp_path / "in.csv", index=False)
+    run_batch(tmp_path / "in.csv", tmp_path / "tip", workers=1, quiet=True, depth_ref="tip")
+    run_batch(tmp_path / "in.csv", tmp_path / "base", workers=1, quiet=True)
+    run_batch(
+        tmp_path / "in.csv",
+        tmp_path / "win",
+        workers=1,
+        quiet=True,
+        depth_ref="tip",
+        depth_range=(0.1, 0.4),
+    )
+    tip, base, win = (read_out(tmp_path / d).set_index("profile") for d in ("tip", "base", "win"))
+    assert tip.loc["tip", "n"] == pytest.approx(0.8, abs=1e-4)
+    assert abs(base.loc["tip", "n"] - 0.8) > 0.05  # tip depths read as base depths: biased
+    assert not pd.isna(tip.loc["loose", "lack_of_fit"])  # the loose top cannot be followed
+    assert win.loc["loose", "n"] == pytest.approx(0.8, abs=1e-4)  # the window drops it
+    assert pd.isna(win.loc["loose", "lack_of_fit"])
+    run_batch(tmp_path / "in.csv", tmp_path / "none", workers=1, quiet=True, depth_range=(2.0, 3.0))
+    none = read_out(tmp_path / "none")
+    assert (none["status"] == "error").all()
+    assert none["error"].str.contains("no points in the depth window").all()
