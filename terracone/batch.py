@@ -130,6 +130,13 @@ OUTPUT_COLUMNS: tuple[tuple[str, pa.DataType], ...] = (
     ("lack_of_fit", pa.string()),
     *[(f"{p}_{q}", pa.float64()) for p in _UQ_PARAMS for q in ("q05", "q95")],
     *[(f"ident_{p}", pa.string()) for p in _UQ_PARAMS],
+    ("bic_single", pa.float64()),
+    ("bic_layered", pa.float64()),
+    ("preferred_layers", pa.float64()),
+    ("r2_layered", pa.float64()),
+    ("interfaces", pa.string()),
+    ("n_layers", pa.string()),
+    ("lack_of_fit_layered", pa.string()),
     ("n_points", pa.int64()),
     ("undetermined", pa.string()),
     ("model", pa.string()),
@@ -155,8 +162,18 @@ _FLOAT_RESULTS = (
     "r2_ci",
     "longest_run",
     *[f"{p}_{q}" for p in _UQ_PARAMS for q in ("q05", "q95")],
+    "bic_single",
+    "bic_layered",
+    "preferred_layers",
+    "r2_layered",
 )
-_TEXT_RESULTS = ("lack_of_fit", *[f"ident_{p}" for p in _UQ_PARAMS])
+_TEXT_RESULTS = (
+    "lack_of_fit",
+    *[f"ident_{p}" for p in _UQ_PARAMS],
+    "interfaces",
+    "n_layers",
+    "lack_of_fit_layered",
+)
 #: every per-profile result: the floats and the texts (None or text)
 _RESULT_KEYS = _FLOAT_RESULTS + _TEXT_RESULTS
 
@@ -1225,6 +1242,7 @@ class _FitSettings:
     draws: int = 1000
     prior: Any = "bounds"  # "bounds" or a Calibration
     seed: int = 0
+    layers: int = 1  # > 1: also fit a layered terrain per profile (terracone.layers)
     depth_ref: str = "base"  # "tip": file depths are tip depths, base = tip - H
     depth_range: tuple[float | None, float | None] = (None, None)  # base-depth window [m]
 
@@ -1351,6 +1369,36 @@ def _fit_group(
         r2, u2, e2 = _fit_group(zs[h:], ys[h:], cone, fit)
         return {k: np.concatenate([r1[k], r2[k]]) for k in r1}, u1 + u2, e1 + e2
     return res, _undetermined_many(res, fit), [None] * P
+
+
+def _layered_columns(out, task, members, zs, ys, errs, fit: _FitSettings, ci_: int) -> None:
+    """A layered fit per profile (terracone.layers): BIC against one layer, interfaces, n's."""
+    from .layers import fit_layered
+
+    cone = task.cones[ci_]
+    for m, j in enumerate(members):
+        if errs[m] is not None:
+            continue
+        prof = CIProfile(task.ids[j], zs[m], ys[m], cone=cone)
+        try:
+            lr = fit_layered(
+                prof, layers=fit.layers, model=fit.model, r_min=fit.r_min, bounds=fit.bounds
+            )
+        except Exception as exc:  # noqa: BLE001 - recorded per profile, the rest goes on
+            out["lack_of_fit_layered"][j] = f"layered fit failed: {exc}"
+            continue
+        if not lr.ok:
+            out["lack_of_fit_layered"][j] = f"layered fit not possible: {lr.error}"
+            continue
+        out["bic_single"][j] = lr.bic_single
+        out["bic_layered"][j] = lr.bic
+        out["preferred_layers"][j] = lr.preferred_layers
+        out["r2_layered"][j] = lr.r2_ci
+        out["interfaces"][j] = ",".join(
+            f"{float(u.length_from_si(d, fit.units)):.6g}" for d in lr.interfaces
+        )
+        out["n_layers"][j] = ",".join(f"{p.n:.6g}" for p in lr.layers)
+        out["lack_of_fit_layered"][j] = lr.lack_of_fit
 
 
 def _posterior_columns(out, task, members, zs, ys, res, errs, fit: _FitSettings, ci_: int) -> None:
@@ -1516,6 +1564,8 @@ def _fit_chunk(task: _Task, fit: _FitSettings) -> dict[str, Any]:
                     undetermined[j] = und[m]
             if fit.uncertainty:
                 _posterior_columns(out, task, members, zs, ys, res, errs, fit, int(ci_))
+            if fit.layers > 1:
+                _layered_columns(out, task, members, zs, ys, errs, fit, int(ci_))
     for j in emptied:
         path = task.files[int(task.file_idx[j])][0]
         lo, hi = fit.depth_range
@@ -1689,6 +1739,7 @@ def _settings(
     prior: Any = "bounds",
     depth_ref: str = "base",
     depth_range: tuple[float | None, float | None] = (None, None),
+    layers: int = 1,
 ) -> tuple[dict[str, Any], _FitSettings]:
     plate_pair = None
     ratio = None
@@ -1717,6 +1768,7 @@ def _settings(
         prior=prior_cal if prior_cal is not None else "bounds",
         depth_ref=depth_ref,
         depth_range=tuple(depth_range),
+        layers=int(layers),
     )
     settings = {
         "model": model,
@@ -2056,6 +2108,7 @@ def run_batch(
     prior: str | Calibration | None = "bounds",
     depth_ref: str = "base",
     depth_range: tuple[float | None, float | None] = (None, None),
+    layers: int = 1,
 ) -> BatchSummary:
     """Fit every CI profile of a file or directory; write Parquet results.
 
@@ -2117,6 +2170,12 @@ def run_batch(
         depth - H of the profile's cone.
     depth_range : (lo, hi)
         Fit only base depths in [lo, hi] [m] (either may be None).
+    layers : int
+        With 2 or more, also fit a layered terrain per profile
+        (:func:`terracone.layers.fit_layered`, a second or two each): columns
+        ``bic_single``, ``bic_layered``, ``preferred_layers``, ``r2_layered``,
+        ``interfaces`` (in the output length unit), ``n_layers``,
+        ``lack_of_fit_layered``.
 
     Returns
     -------
@@ -2165,6 +2224,7 @@ def run_batch(
         prior=prior,
         depth_ref=depth_ref,
         depth_range=depth_range,
+        layers=layers,
     )
     files = _input_files(input)
     fingerprint = _fingerprint(input, files)

@@ -1178,6 +1178,13 @@ def export_cmd(terrain, fmt, out, units, library):
     default=None,
     help="Fit only LO:HI of base depth (e.g. 5cm:40cm; bare numbers in --units).",
 )
+@click.option(
+    "--layers",
+    type=click.IntRange(1, 4),
+    default=1,
+    show_default=True,
+    help="Also fit this many layers per profile and compare by BIC (a second or two per profile).",
+)
 def batch_cmd(
     input_path,
     out_dir,
@@ -1199,6 +1206,7 @@ def batch_cmd(
     prior,
     depth_ref,
     depth_range,
+    layers,
 ):
     """Fit every profile of a CSV/Parquet file or directory on Dask; Parquet results per chunk."""
     from .batch import run_batch
@@ -1227,6 +1235,7 @@ def batch_cmd(
         prior=cal if prior == "calibration" else "bounds",
         depth_ref=depth_ref,
         depth_range=_depth_range(depth_range, units),
+        layers=layers,
     )
     click.echo(
         f"{s.profiles} profiles: {s.profiles_ok} fitted, {s.profiles_error} with errors "

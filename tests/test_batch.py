@@ -684,3 +684,25 @@ def test_depth_reference_and_window(tmp_path):
     none = read_out(tmp_path / "none")
     assert (none["status"] == "error").all()
     assert none["error"].str.contains("no points in the depth window").all()
+
+
+def test_layers_columns(tmp_path):
+    """--layers 2 in batch: a generated tillage-pan profile prefers two layers."""
+    from terracone.data import TerrainParameters
+    from terracone.layers import layered_cone_index
+
+    z = np.linspace(0.0, 0.45, 19)
+    top = TerrainParameters(50.0, 8000.0, 0.4, 5.0, 12.0)
+    below = TerrainParameters(20.0, 1500.0, 1.0, 0.0, 12.0)
+    ci = layered_cone_index(z, [top, below], [0.15], cone=get_cone("asabe-large"))
+    pd.DataFrame({"profile": "pan", "depth_m": z, "ci_kpa": ci}).to_csv(
+        tmp_path / "in.csv", index=False
+    )
+    s = run_batch(tmp_path / "in.csv", tmp_path / "out", workers=1, quiet=True, layers=2)
+    assert s.success
+    row = read_out(tmp_path / "out").iloc[0]
+    assert row.preferred_layers == 2 and row.bic_layered < row.bic_single
+    assert float(row.interfaces) == pytest.approx(0.15, abs=0.025)
+    n1, n2 = (float(v) for v in row.n_layers.split(","))
+    assert n1 == pytest.approx(0.4, abs=0.05) and n2 == pytest.approx(1.0, abs=0.05)
+    assert not pd.isna(row.lack_of_fit) and pd.isna(row.lack_of_fit_layered)
