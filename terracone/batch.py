@@ -73,7 +73,7 @@ from .data import CIProfile, InputError, TerrainParameters
 from .inverse.bounds import Bounds
 from .inverse.learn import Calibration
 from .inverse.many import solve_exact_many
-from .io import _CI_SCHEMA, _DECIMAL, _SPECIAL_FLOAT, _layout, _Table, _to_numbers
+from .io import _CI_SCHEMA, _DECIMAL, _SPECIAL_FLOAT, _layout, _sniff_format, _Table, _to_numbers
 from .metrics import check_fit
 from .plate import pressure_law
 
@@ -302,6 +302,55 @@ def _input_files(input: PathLike) -> list[tuple[Path, str]]:
     if p.is_file():
         return [(p.resolve(), _kind_of(p, strict=False) or "csv")]
     raise InputError("file or directory not found", file=str(p))
+
+
+def _sc900_to_parquet(path: Path, out: Path, cone: Cone) -> Path:
+    """An SC900 export as terracone Parquet in OUT_DIR/_input (kept for --resume)."""
+    from .io import read_ci_profiles
+
+    target = out / "_input" / (path.stem + ".parquet")
+    if target.exists():
+        return target
+    target.parent.mkdir(parents=True, exist_ok=True)
+    items = read_ci_profiles(path, format="sc900", on_error="collect", cone=cone)
+    rows: dict[str, list] = {
+        "profile": [],
+        "cone": [],
+        "reader_error": [],
+        "depth_m": [],
+        "ci_kpa": [],
+    }
+    meta_keys: list[str] = []
+    for it in items:
+        if isinstance(it, CIProfile):
+            for k in it.metadata:
+                if k not in meta_keys and k not in rows:
+                    meta_keys.append(k)
+    for k in meta_keys:
+        rows[k] = []
+    for it in items:
+        if isinstance(it, CIProfile):
+            k = len(it)
+            rows["profile"] += [it.id] * k
+            rows["cone"] += [it.cone.name] * k
+            rows["reader_error"] += [None] * k
+            rows["depth_m"] += list(it.depth)
+            rows["ci_kpa"] += list(it.ci)
+            for mk in meta_keys:
+                v = it.metadata.get(mk)
+                rows[mk] += [None if v is None else str(v)] * k
+        else:  # rejected by the reader: one row without a reading, the reason alongside
+            rows["profile"].append(str(it.profile))
+            rows["cone"].append(cone.name)
+            rows["reader_error"].append(str(it))
+            rows["depth_m"].append(float("nan"))
+            rows["ci_kpa"].append(float("nan"))
+            for mk in meta_keys:
+                rows[mk].append(None)
+    tmp = target.with_name("." + target.name + ".tmp")
+    pq.write_table(pa.table(rows), tmp)
+    os.replace(tmp, target)
+    return target
 
 
 def _fingerprint(input: PathLike, files: list[tuple[Path, str]]) -> dict[str, Any]:
@@ -2109,6 +2158,7 @@ def run_batch(
     depth_ref: str = "base",
     depth_range: tuple[float | None, float | None] = (None, None),
     layers: int = 1,
+    format: str | None = None,
 ) -> BatchSummary:
     """Fit every CI profile of a file or directory; write Parquet results.
 
@@ -2170,6 +2220,10 @@ def run_batch(
         depth - H of the profile's cone.
     depth_range : (lo, hi)
         Fit only base depths in [lo, hi] [m] (either may be None).
+    format : {"csv", "sc900"} or None
+        Input format of a single file; None detects a FieldScout SC900
+        export (converted once to ``OUT_DIR/_input/<stem>.parquet``, one
+        profile per push, pushes the reader rejects kept as error rows).
     layers : int
         With 2 or more, also fit a layered terrain per profile
         (:func:`terracone.layers.fit_layered`, a second or two each): columns
@@ -2228,6 +2282,7 @@ def run_batch(
     )
     files = _input_files(input)
     fingerprint = _fingerprint(input, files)
+    original_files = files
     run_key = hashlib.sha256(
         json.dumps({"settings": settings, "input": fingerprint}, sort_keys=True).encode()
     ).hexdigest()[:16]
@@ -2241,6 +2296,10 @@ def run_batch(
     out = Path(out_dir)
     in_dir = Path(input) if Path(input).is_dir() else None
     resuming = _prepare_out_dir(out, resume, run, in_dir)
+    if in_dir is None and (
+        format == "sc900" or (format is None and _sniff_format(str(files[0][0])) == "sc900")
+    ):
+        files = [(_sc900_to_parquet(files[0][0], out, default_cone), "parquet")]
     summary = BatchSummary(out_dir=str(out), scheduler=scheduler)
     with _lock(out):
         for e in out.iterdir():  # temporary files of an interrupted write
@@ -2280,7 +2339,7 @@ def run_batch(
         )
         t0 = time.perf_counter()
         _verify(out, plan, n_chunks, summary)
-        if _fingerprint(input, files) != fingerprint:
+        if _fingerprint(input, original_files) != fingerprint:
             summary.problems.append("the input files changed during the run")
         summary.verify_s = time.perf_counter() - t0
         summary.wall_s = time.perf_counter() - t_start

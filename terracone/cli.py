@@ -1185,6 +1185,13 @@ def export_cmd(terrain, fmt, out, units, library):
     show_default=True,
     help="Also fit this many layers per profile and compare by BIC (a second or two per profile).",
 )
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["csv", "sc900"]),
+    default=None,
+    help="Input format (detected by default).",
+)
 def batch_cmd(
     input_path,
     out_dir,
@@ -1207,6 +1214,7 @@ def batch_cmd(
     depth_ref,
     depth_range,
     layers,
+    fmt,
 ):
     """Fit every profile of a CSV/Parquet file or directory on Dask; Parquet results per chunk."""
     from .batch import run_batch
@@ -1236,6 +1244,7 @@ def batch_cmd(
         depth_ref=depth_ref,
         depth_range=_depth_range(depth_range, units),
         layers=layers,
+        format=fmt,
     )
     click.echo(
         f"{s.profiles} profiles: {s.profiles_ok} fitted, {s.profiles_error} with errors "

@@ -706,3 +706,18 @@ def test_layers_columns(tmp_path):
     n1, n2 = (float(v) for v in row.n_layers.split(","))
     assert n1 == pytest.approx(0.4, abs=0.05) and n2 == pytest.approx(1.0, abs=0.05)
     assert not pd.isna(row.lack_of_fit) and pd.isna(row.lack_of_fit_layered)
+
+
+def test_sc900_export_in_batch(tmp_path):
+    """An SC900 export is detected and every push is accounted for (83 pushes, by hand)."""
+    from conftest import require_shared
+
+    path = require_shared("data", "marsden-penetrometer", "sc900_export_2019-06-11.txt")
+    s = run_batch(path, tmp_path / "out", workers=1, quiet=True, depth_range=(0.15, 0.45))
+    out = read_out(tmp_path / "out")
+    assert len(out) == 83 and out["profile"].is_unique
+    # two pushes stopped (trailing zeros) too shallow to leave 3 readings from 15 cm down
+    bad = set(out.loc[out.status == "error", "profile"])
+    assert bad == {"sc900_export_2019-06-11/0001-N1", "sc900_export_2019-06-11/0009-N7"}
+    assert s.profiles_ok == 81 and (out["cone"] == "asabe-small").all()
+    assert (tmp_path / "out" / "_input" / "sc900_export_2019-06-11.parquet").exists()
