@@ -614,6 +614,12 @@ def predict_cmd(
             lr = fit_layered(by_id[r.id], layers=layers, model=model, r_min=rm, bounds=b)
             layered[r.id] = lr
             d["layered"] = lr.as_dict(units)
+            if uncertainty and lr.ok:
+                from .uncertainty import layered_posterior
+
+                d["layered"]["posterior"] = layered_posterior(
+                    by_id[r.id], lr, bounds=b, draws=draws, seed=seed
+                ).as_dict(units)
         doc["profiles"].append(d)
     if out:
         _emit_json(doc, out)

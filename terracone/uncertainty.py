@@ -1637,3 +1637,183 @@ def posterior_for_result(
         start=start,
         **kwargs,
     )
+
+
+# ---------------------------------------------------------------------------
+# layered terrain (terracone.layers)
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class LayeredPosterior:
+    """Posterior of a layered fit: per layer kc, kphi, n, cc, and the interfaces (SI).
+
+    Attributes
+    ----------
+    names : list of str
+        ``kc_1, kphi_1, n_1, cc_1, kc_2, ..., interface_1, ...``.
+    samples : ndarray
+        (draws, len(names)).
+    intervals, medians : dict
+        90% equal-tailed intervals and medians per name.
+    identifiability : dict
+        Label per name from the posterior/prior 90% width ratio.
+    phic_deg : float
+        The common phic held at the fit's value (it trades exactly with the
+        scale of each layer's kc and kphi; labelled "set by prior").
+    acceptance : float
+    """
+
+    names: list[str]
+    samples: np.ndarray = field(repr=False)
+    intervals: dict[str, tuple[float, float]]
+    medians: dict[str, float]
+    identifiability: dict[str, str]
+    phic_deg: float
+    acceptance: float
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        def conv(name: str, v: float, n: float) -> float:
+            if name.startswith("kc_"):
+                return float(u.kc_from_si(v, n, units))
+            if name.startswith("kphi_"):
+                return float(u.kphi_from_si(v, n, units))
+            if name.startswith("cc_"):
+                return float(u.pressure_from_si(v, units))
+            if name.startswith("interface_"):
+                return float(u.length_from_si(v, units))
+            return float(v)
+
+        iv, med = {}, {}
+        for k, name in enumerate(self.names):
+            if name.startswith(("kc_", "kphi_")):  # convert each draw with its own n
+                j = name.split("_")[1]
+                nn = self.samples[:, self.names.index(f"n_{j}")]
+                col = (u.kc_from_si if name.startswith("kc_") else u.kphi_from_si)(
+                    self.samples[:, k], nn, units
+                )
+                lo, mid, hi = np.quantile(col, [0.05, 0.5, 0.95])
+                iv[name], med[name] = [float(lo), float(hi)], float(mid)
+            else:
+                lo, hi = self.intervals[name]
+                iv[name] = [conv(name, lo, 1.0), conv(name, hi, 1.0)]
+                med[name] = conv(name, self.medians[name], 1.0)
+        labels = dict(self.identifiability)
+        labels["phic_deg"] = LABELS[2]
+        return {
+            "intervals": iv,
+            "medians": med,
+            "identifiability": labels,
+            "phic_deg": self.phic_deg,
+            "acceptance": self.acceptance,
+            "units": units,
+        }
+
+
+def layered_posterior(
+    profile: CIProfile,
+    fit: Any,
+    *,
+    bounds: Bounds | None = None,
+    draws: int = 2000,
+    seed: int | None = None,
+    law: Any = None,
+    nwalkers: int = 48,
+    burn: int = 400,
+) -> LayeredPosterior:
+    """Posterior of a layered fit (:func:`terracone.layers.fit_layered`) with emcee.
+
+    Priors uniform over the bounds of each layer's kc, kphi, n, cc and over
+    the interface depths (ordered, within the profile); the common phic is
+    held at the fit's value.  Residuals are independent Gaussian with an
+    unknown sigma integrated out (1/sigma prior), so the log-likelihood is
+    -N/2 log(SSE).  The forward model is :func:`terracone.layers.layered_basis`
+    evaluated for all walkers at once.
+    """
+    from .cone import _normal_integrals
+    from .plate import pressure_law as _pl
+
+    bounds = bounds or Bounds()
+    law = law or _pl(fit.layers[0].model or "rm0", r_min=fit.layers[0].r_min)
+    z, y = profile.depth, profile.ci
+    cone = profile.cone
+    L = len(fit.layers)
+    R, H = cone.radius, cone.height
+    t = R / H
+    phic = fit.layers[0].phic_deg
+    s = 1.0 + math.tan(math.radians(phic)) / t
+    u1 = z + H
+    Lemb = np.where(z >= 0.0, H, u1)
+    u1s = np.where(u1 > 0, u1, 1.0)
+    d_lo, d_hi = float(z[0]), float(z[-1])
+
+    names, lo, hi = [], [], []
+    for j in range(1, L + 1):
+        n_mid = fit.layers[j - 1].n
+        for nm, (a, b) in (
+            ("kc", tuple(float(v) for v in bounds.kc_si(n_mid))),
+            ("kphi", tuple(float(v) for v in bounds.kphi_si(n_mid))),
+            ("n", bounds.n),
+            ("cc", bounds.cc),
+        ):
+            names.append(f"{nm}_{j}")
+            lo.append(a)
+            hi.append(b)
+    for j in range(1, L):
+        names.append(f"interface_{j}")
+        lo.append(d_lo)
+        hi.append(d_hi)
+    lo, hi = np.array(lo), np.array(hi)
+    span = np.where(hi > lo, hi - lo, 1.0)
+
+    def model(theta: np.ndarray) -> np.ndarray:  # (W, D) -> (W, Z)
+        W = theta.shape[0]
+        D = np.concatenate(
+            [np.zeros((W, 1)), np.sort(theta[:, 4 * L :], axis=1), np.full((W, 1), np.inf)], axis=1
+        )
+        ci = np.zeros((W, z.size))
+        for j in range(L):
+            kc, kphi, n, cc = (theta[:, 4 * j + q][:, None] for q in range(4))
+            a = np.clip(u1[None, :] - D[:, j + 1][:, None], 0.0, Lemb[None, :])
+            b = np.clip(u1[None, :] - D[:, j][:, None], 0.0, Lemb[None, :])
+            Ic, Ip, Icc = _normal_integrals(u1s[None, :], a, b, n, law, t)
+            ci += 2.0 / (R * R) * (t * s * (kc * Ic + kphi * Ip) + cc * Icc)
+        return ci
+
+    def log_prob(theta: np.ndarray) -> np.ndarray:
+        theta = np.atleast_2d(theta)
+        ok = np.all((theta >= lo) & (theta <= hi), axis=1)
+        out = np.full(theta.shape[0], -np.inf)
+        if ok.any():
+            r = model(theta[ok]) - y[None, :]
+            sse = np.einsum("wz,wz->w", r, r)
+            out[ok] = -0.5 * y.size * np.log(np.maximum(sse, 1e-300))
+        return out
+
+    x0 = []
+    for p in fit.layers:
+        x0 += [p.kc, p.kphi, p.n, p.cc]
+    x0 += list(fit.interfaces)
+    x0 = np.clip(np.array(x0), lo, hi)
+    rng = np.random.default_rng(seed)
+    p0 = np.clip(x0 + 1e-3 * span * rng.standard_normal((nwalkers, x0.size)), lo, hi)
+    sampler = emcee.EnsembleSampler(
+        nwalkers,
+        x0.size,
+        log_prob,
+        vectorize=True,
+        moves=[(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)],
+    )
+    sampler.random_state = np.random.RandomState(rng.integers(2**31)).get_state()
+    steps = burn + int(math.ceil(draws / nwalkers)) * 5
+    sampler.run_mcmc(p0, steps, progress=False)
+    chain = sampler.get_chain(discard=burn, thin=5, flat=True)[-draws:]
+    intervals, medians, labels = {}, {}, {}
+    for k, name in enumerate(names):
+        q05, q50, q95 = np.quantile(chain[:, k], [0.05, 0.5, 0.95])
+        intervals[name] = (float(q05), float(q95))
+        medians[name] = float(q50)
+        labels[name] = identifiability_label((q95 - q05) / (0.9 * span[k]))
+    return LayeredPosterior(
+        names, chain, intervals, medians, labels, phic, float(np.mean(sampler.acceptance_fraction))
+    )
