@@ -73,7 +73,16 @@ from .data import CIProfile, InputError, TerrainParameters
 from .inverse.bounds import Bounds
 from .inverse.learn import Calibration
 from .inverse.many import solve_exact_many
-from .io import _CI_SCHEMA, _DECIMAL, _SPECIAL_FLOAT, _layout, _sniff_format, _Table, _to_numbers
+from .io import (
+    _CI_SCHEMA,
+    _DECIMAL,
+    _SPECIAL_FLOAT,
+    _layout,
+    _sniff_format,
+    _Table,
+    _to_numbers,
+    json_default,
+)
 from .metrics import check_fit
 from .plate import pressure_law
 
@@ -1741,18 +1750,8 @@ def _write_atomic(out_dir: Path, name: str, write: Callable[[Any], None]) -> Non
 
 
 def _write_json(out_dir: Path, name: str, obj: Any) -> None:
-    data = (json.dumps(obj, indent=2, default=_json_default) + "\n").encode()
+    data = (json.dumps(obj, indent=2, default=json_default) + "\n").encode()
     _write_atomic(out_dir, name, lambda f: f.write(data))
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.integer):
-        return int(o)
-    if isinstance(o, np.floating):
-        return float(o)
-    if isinstance(o, Path):
-        return str(o)
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
 def _part_meta(path: Path) -> dict[str, Any] | None:

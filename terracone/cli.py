@@ -23,6 +23,7 @@ from . import __version__
 from . import units as u
 from .cone import CONES, cone_index
 from .data import InputError, TerrainParameters
+from .io import json_default
 from .plate import plate_pressure
 
 _UNITS = click.Choice(["si", "us"])
@@ -118,21 +119,11 @@ def _table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
 
 
 def _emit_json(obj: Any, out: str | None = None) -> None:
-    text = json.dumps(obj, indent=2, default=_json_default)
+    text = json.dumps(obj, indent=2, default=json_default)
     if out:
         Path(out).write_text(text + "\n")
     else:
         click.echo(text)
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.floating | np.integer):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, tuple):
-        return list(o)
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
 class _Group(click.Group):
@@ -291,6 +282,77 @@ def plate_cmd(kc, kphi, n, radius, width, model, r_min, plate_pair, units, sinka
 # ---------------------------------------------------------------------------
 # prediction, learning, evaluation
 # ---------------------------------------------------------------------------
+
+
+def _shared(*decorators):
+    """Apply several click decorators as one (options common to predict and batch)."""
+
+    def apply(f):
+        for d in reversed(decorators):
+            f = d(f)
+        return f
+
+    return apply
+
+
+_fit_options = _shared(
+    click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True),
+    click.option(
+        "--r-min",
+        default=None,
+        help="RM1 transition radius (e.g. 0.01, 1cm, 0.4in; bare numbers in --units).",
+    ),
+    click.option(
+        "--calibration",
+        type=click.Path(dir_okay=False),
+        default=None,
+        help="Calibration JSON from `terracone learn --save`.",
+    ),
+    click.option(
+        "--terrain", default=None, help="Use a calibration stored in the terrain library."
+    ),
+    click.option(
+        "--library",
+        default=None,
+        help="Terrain library path (default: $TERRACONE_LIBRARY or the user data dir).",
+    ),
+    click.option(
+        "--bounds", default=None, help="kc=LO:HI,kphi=LO:HI,n=LO:HI,cc=LO:HI,phic=LO:HI in --units."
+    ),
+    click.option("--units", type=_UNITS, default="si", show_default=True),
+    click.option(
+        "--cone",
+        default="asabe-large",
+        show_default=True,
+        help="Cone when the input does not name one.",
+    ),
+    click.option(
+        "--format",
+        "fmt",
+        type=click.Choice(["csv", "sc900"]),
+        default=None,
+        help="Input format (detected by default).",
+    ),
+    click.option(
+        "--depth-ref",
+        type=click.Choice(["base", "tip"]),
+        default="base",
+        show_default=True,
+        help="Whether input depths are those of the cone base or tip.",
+    ),
+    click.option(
+        "--depth-range",
+        default=None,
+        help="Fit only LO:HI of base depth (e.g. 0.05:0.30, 5cm:30cm; bare numbers in --units).",
+    ),
+    click.option(
+        "--layers",
+        type=click.IntRange(1, 4),
+        default=1,
+        show_default=True,
+        help="Also fit a terrain of this many layers (interfaces fitted) and compare by BIC.",
+    ),
+)
 
 
 def _read_profiles(path, cone, fmt, depth_ref, collect=True, units=None):
@@ -457,54 +519,11 @@ def _predict_table(results, units: str) -> str:
 
 @cli.command("predict")
 @click.argument("ci_file", type=click.Path(dir_okay=False))
-@click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True)
-@click.option(
-    "--r-min",
-    default=None,
-    help="RM1 transition radius (e.g. 0.01, 1cm, 0.4in; bare numbers in --units).",
-)
-@click.option(
-    "--calibration",
-    type=click.Path(dir_okay=False),
-    default=None,
-    help="Calibration JSON from `terracone learn --save`.",
-)
-@click.option("--terrain", default=None, help="Use a calibration stored in the terrain library.")
-@click.option(
-    "--library",
-    default=None,
-    help="Terrain library path (default: $TERRACONE_LIBRARY or the user data dir).",
-)
+@_fit_options
 @click.option("--solver", type=click.Choice(["exact", "pso"]), default="exact", show_default=True)
 @click.option("--seed", type=int, default=None, help="Seed of the particle swarm.")
 @click.option(
-    "--bounds", default=None, help="kc=LO:HI,kphi=LO:HI,n=LO:HI,cc=LO:HI,phic=LO:HI in --units."
-)
-@click.option("--units", type=_UNITS, default="si", show_default=True)
-@click.option(
     "--plates", default=None, help="Plate radii for predicted P-S curves, e.g. 1.5in,2.5in."
-)
-@click.option(
-    "--cone", default="asabe-large", show_default=True, help="Cone when the file does not name one."
-)
-@click.option(
-    "--format",
-    "fmt",
-    type=click.Choice(["csv", "sc900"]),
-    default=None,
-    help="Input format (detected by default).",
-)
-@click.option(
-    "--depth-ref",
-    type=click.Choice(["base", "tip"]),
-    default="base",
-    show_default=True,
-    help="Whether file depths are those of the cone base or tip.",
-)
-@click.option(
-    "--depth-range",
-    default=None,
-    help="Fit only LO:HI (base depths; e.g. 0.05:0.30, 5cm:30cm; bare numbers in --units).",
 )
 @click.option(
     "--file-units",
@@ -525,13 +544,6 @@ def _predict_table(results, units: str) -> str:
     default="bounds",
     show_default=True,
     help="Prior with --uncertainty: bounds (uniform) or terrain:NAME (a stored calibration).",
-)
-@click.option(
-    "--layers",
-    type=click.IntRange(1, 4),
-    default=1,
-    show_default=True,
-    help="Also fit a terrain of this many layers (interfaces fitted) and compare by BIC.",
 )
 @click.option(
     "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
@@ -1120,6 +1132,7 @@ def export_cmd(terrain, fmt, out, units, library):
 
 @cli.command("batch")
 @click.argument("input_path", metavar="INPUT", type=click.Path(exists=True))
+@_fit_options
 @click.option(
     "--out",
     "out_dir",
@@ -1139,23 +1152,6 @@ def export_cmd(terrain, fmt, out, units, library):
     "--resume", is_flag=True, help="Finish an interrupted run without redoing finished chunks."
 )
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-@click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True)
-@click.option(
-    "--r-min", default=None, help="RM1 transition radius (e.g. 1cm; bare numbers in --units)."
-)
-@click.option("--terrain", default=None, help="Use a calibration stored in the terrain library.")
-@click.option(
-    "--calibration", type=click.Path(dir_okay=False), default=None, help="Calibration JSON."
-)
-@click.option("--library", default=None, help="Terrain library path.")
-@click.option("--bounds", default=None, help="kc=LO:HI,... in --units.")
-@click.option("--units", type=_UNITS, default="si", show_default=True)
-@click.option(
-    "--cone",
-    default="asabe-large",
-    show_default=True,
-    help="Cone of profiles without a cone column.",
-)
 @click.option("--chunk-size", type=int, default=2000, show_default=True, help="Profiles per task.")
 @click.option(
     "--uncertainty",
@@ -1171,32 +1167,6 @@ def export_cmd(terrain, fmt, out, units, library):
     default="bounds",
     show_default=True,
     help="Prior with --uncertainty.",
-)
-@click.option(
-    "--depth-ref",
-    type=click.Choice(["base", "tip"]),
-    default="base",
-    show_default=True,
-    help="Whether input depths are those of the cone base or tip.",
-)
-@click.option(
-    "--depth-range",
-    default=None,
-    help="Fit only LO:HI of base depth (e.g. 5cm:40cm; bare numbers in --units).",
-)
-@click.option(
-    "--layers",
-    type=click.IntRange(1, 4),
-    default=1,
-    show_default=True,
-    help="Also fit this many layers per profile and compare by BIC (a second or two per profile).",
-)
-@click.option(
-    "--format",
-    "fmt",
-    type=click.Choice(["csv", "sc900"]),
-    default=None,
-    help="Input format (detected by default).",
 )
 def batch_cmd(
     input_path,

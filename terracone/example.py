@@ -119,7 +119,7 @@ def run_demo(units: str = "si", out: str | None = None) -> str:
     from .inverse import predict_many
     from .inverse.evaluate import cross_table
     from .inverse.learn import learn
-    from .io import read_ci_profiles, read_plate_tests
+    from .io import json_default, read_ci_profiles, read_plate_tests
 
     d = example_dir()
     profiles = read_ci_profiles(d / CI_FILE)
@@ -155,14 +155,17 @@ def run_demo(units: str = "si", out: str | None = None) -> str:
     if out:
         o = Path(out)
         o.mkdir(parents=True, exist_ok=True)
-        (o / "learn.json").write_text(json.dumps(ld, indent=2, default=float) + "\n")
+        (o / "learn.json").write_text(json.dumps(ld, indent=2, default=json_default) + "\n")
         cal.save(o / "calibration.json")
         (o / "predict.json").write_text(
-            json.dumps({"profiles": [r.as_dict(units) for r in results]}, indent=2, default=float)
+            json.dumps(
+                {"profiles": [r.as_dict(units) for r in results]}, indent=2, default=json_default
+            )
             + "\n"
         )
         (o / "evaluate.json").write_text(
-            json.dumps({"plates": [r.as_dict(units) for r in rows]}, indent=2, default=float) + "\n"
+            json.dumps({"plates": [r.as_dict(units) for r in rows]}, indent=2, default=json_default)
+            + "\n"
         )
         parts.append(f"\nJSON written to {o}")
     return "\n".join(parts)

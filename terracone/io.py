@@ -1189,3 +1189,16 @@ def write_shear_tests(
                 yield [*fixed, j, s]
 
     _write_rows(path, header, rows(), comment)
+
+
+def json_default(o: Any) -> Any:
+    """``default=`` for :func:`json.dumps` of terracone results (numpy, tuples, paths)."""
+    if isinstance(o, np.floating | np.integer):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, tuple):
+        return list(o)
+    if isinstance(o, os.PathLike):
+        return os.fspath(o)
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")

@@ -72,7 +72,7 @@ from .inverse.bounds import Bounds
 from .inverse.evaluate import cross_table, predicted_plate_pressure
 from .inverse.learn import Calibration, LearnResult, learn
 from .inverse.predict import PredictionResult, predict
-from .io import write_ci_profiles, write_plate_tests
+from .io import json_default, write_ci_profiles, write_plate_tests
 from .plate import plate_pressure
 from .report import figures as F
 from .report.html import render_document
@@ -311,21 +311,9 @@ def _rows(evals, where, prediction: str | None = None) -> list[dict[str, Any]]:
     return out
 
 
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.floating | np.integer):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, tuple):
-        return list(o)
-    if isinstance(o, Path):
-        return str(o)
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
-
-
 def _write_json(path: Path, obj: Any) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(obj, indent=1, default=_json_default) + "\n")
+    path.write_text(json.dumps(obj, indent=1, default=json_default) + "\n")
     return path
 
 
