@@ -126,6 +126,17 @@ def _emit_json(obj: Any, out: str | None = None) -> None:
         click.echo(text)
 
 
+def _curve_out(xkey, x, ykey, y, units: str, as_json: bool) -> None:
+    """A length-pressure curve as JSON ``{x, y, "units"}`` or as a two-column table."""
+    if as_json:
+        _emit_json(
+            {xkey[0]: np.asarray(x).tolist(), ykey[0]: np.asarray(y).tolist(), "units": units}
+        )
+        return
+    heads = [f"{xkey[1]} [{u.length_unit(units)}]", f"{ykey[1]} [{u.pressure_unit(units)}]"]
+    click.echo(_table(heads, list(zip(x, y))))
+
+
 class _Group(click.Group):
     """Turns every error into one message and a non-zero exit."""
 
@@ -220,14 +231,7 @@ def ci_cmd(kc, kphi, n, cc, phic, Kc, model, r_min, cone, units, depths, as_json
         cone=cone,
         units=units,
     )
-    if as_json:
-        _emit_json({"depth": z.tolist(), "ci": np.asarray(ci).tolist(), "units": units})
-        return
-    click.echo(
-        _table(
-            [f"depth [{u.length_unit(units)}]", f"CI [{u.pressure_unit(units)}]"], list(zip(z, ci))
-        )
-    )
+    _curve_out(("depth", "depth"), z, ("ci", "CI"), ci, units, as_json)
 
 
 @cli.command("plate")
@@ -268,15 +272,7 @@ def plate_cmd(kc, kphi, n, radius, width, model, r_min, plate_pair, units, sinka
         units=units,
         plate_pair=pair,
     )
-    if as_json:
-        _emit_json({"sinkage": s.tolist(), "pressure": np.asarray(p).tolist(), "units": units})
-        return
-    click.echo(
-        _table(
-            [f"sinkage [{u.length_unit(units)}]", f"pressure [{u.pressure_unit(units)}]"],
-            list(zip(s, p)),
-        )
-    )
+    _curve_out(("sinkage", "sinkage"), s, ("pressure", "pressure"), p, units, as_json)
 
 
 # ---------------------------------------------------------------------------
