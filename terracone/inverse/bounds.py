@@ -121,10 +121,6 @@ class Bounds:
         """Copy with some of n, cc [kPa], phic [deg] pinned (LO = HI)."""
         return replace(self, **{k: (float(v), float(v)) for k, v in values.items()})
 
-    def is_fixed(self, name: str) -> bool:
-        lo, hi = getattr(self, name)
-        return lo == hi
-
     def as_dict(self, units: str = "si") -> dict[str, object]:
         """Bounds for reports: cc in ``units``, kc/kphi in the units they were given in."""
         return {
