@@ -78,9 +78,9 @@ from .io import (
     _DECIMAL,
     _SPECIAL_FLOAT,
     _layout,
-    _sniff_format,
     _Table,
     _to_numbers,
+    detect_format,
     json_default,
 )
 from .metrics import check_fit
@@ -313,15 +313,20 @@ def _input_files(input: PathLike) -> list[tuple[Path, str]]:
     raise InputError("file or directory not found", file=str(p))
 
 
-def _sc900_to_parquet(path: Path, out: Path, cone: Cone) -> Path:
-    """An SC900 export as terracone Parquet in OUT_DIR/_input (kept for --resume)."""
+def _sc900_to_parquet(path: Path, out: Path, cone: Cone, **reader: Any) -> Path:
+    """An SC900 export or wide table as terracone Parquet in OUT_DIR/_input (kept for --resume).
+
+    ``reader`` are keywords of :func:`terracone.io.read_ci_profiles` (format
+    "sc900" by default; "wide" with its depth_unit and ci_unit).
+    """
     from .io import read_ci_profiles
 
     target = out / "_input" / (path.stem + ".parquet")
     if target.exists():
         return target
-    target.parent.mkdir(parents=True, exist_ok=True)
-    items = read_ci_profiles(path, format="sc900", on_error="collect", cone=cone)
+    reader.setdefault("format", "sc900")
+    items = read_ci_profiles(path, on_error="collect", cone=cone, **reader)
+    target.parent.mkdir(parents=True, exist_ok=True)  # after the file-level checks
     rows: dict[str, list] = {
         "profile": [],
         "cone": [],
@@ -2158,6 +2163,8 @@ def run_batch(
     depth_range: tuple[float | None, float | None] = (None, None),
     layers: int = 1,
     format: str | None = None,
+    depth_unit: str | None = None,
+    ci_unit: str | None = None,
 ) -> BatchSummary:
     """Fit every CI profile of a file or directory; write Parquet results.
 
@@ -2219,10 +2226,14 @@ def run_batch(
         depth - H of the profile's cone.
     depth_range : (lo, hi)
         Fit only base depths in [lo, hi] [m] (either may be None).
-    format : {"csv", "sc900"} or None
+    format : {"csv", "sc900", "wide"} or None
         Input format of a single file; None detects a FieldScout SC900
-        export (converted once to ``OUT_DIR/_input/<stem>.parquet``, one
-        profile per push, pushes the reader rejects kept as error rows).
+        export or a wide table (:func:`terracone.io.detect_format`), each
+        converted once to ``OUT_DIR/_input/<stem>.parquet``, one profile per
+        push, pushes the reader rejects kept as error rows.
+    depth_unit, ci_unit : str, optional
+        Units of a wide table (:func:`terracone.io.read_wide_ci`); part of the
+        run's settings, so a resumed run must give the same.
     layers : int
         With 2 or more, also fit a layered terrain per profile
         (:func:`terracone.layers.fit_layered`, a second or two each): columns
@@ -2279,6 +2290,8 @@ def run_batch(
         depth_range=depth_range,
         layers=layers,
     )
+    if depth_unit is not None or ci_unit is not None:  # only then: older runs keep their key
+        settings["wide_units"] = {"depth_unit": depth_unit, "ci_unit": ci_unit}
     files = _input_files(input)
     fingerprint = _fingerprint(input, files)
     original_files = files
@@ -2295,10 +2308,14 @@ def run_batch(
     out = Path(out_dir)
     in_dir = Path(input) if Path(input).is_dir() else None
     resuming = _prepare_out_dir(out, resume, run, in_dir)
-    if in_dir is None and (
-        format == "sc900" or (format is None and _sniff_format(str(files[0][0])) == "sc900")
-    ):
-        files = [(_sc900_to_parquet(files[0][0], out, default_cone), "parquet")]
+    kind = format
+    if in_dir is None and format is None and files[0][1] == "csv":
+        kind = detect_format(files[0][0])
+    if in_dir is None and kind in ("sc900", "wide"):
+        reader = {"format": kind}
+        if kind == "wide":
+            reader.update(depth_unit=depth_unit, ci_unit=ci_unit, depth_ref="base")
+        files = [(_sc900_to_parquet(files[0][0], out, default_cone, **reader), "parquet")]
     summary = BatchSummary(out_dir=str(out), scheduler=scheduler)
     with _lock(out):
         for e in out.iterdir():  # temporary files of an interrupted write

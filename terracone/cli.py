@@ -291,6 +291,21 @@ def _shared(*decorators):
     return apply
 
 
+_wide_options = (
+    click.option(
+        "--depth-unit",
+        type=click.Choice(list(u.LENGTH_UNITS)),
+        default=None,
+        help="Wide tables: unit of depth headers written as bare numbers.",
+    ),
+    click.option(
+        "--ci-unit",
+        type=click.Choice(["kpa", "mpa", "psi"]),
+        default=None,
+        help="Wide tables: unit of the readings, unless the file states it.",
+    ),
+)
+
 _fit_options = _shared(
     click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True),
     click.option(
@@ -320,15 +335,17 @@ _fit_options = _shared(
         "--cone",
         default="asabe-large",
         show_default=True,
-        help="Cone when the input does not name one.",
+        help="Cone when the input does not name one: a name (asabe-large, asabe-small, "
+        "penetrologger-1cm2|2cm2|3.33cm2|5cm2), DIAMETER:ANGLE (20.27mm:30) or AREA:ANGLE (5cm2:60).",
     ),
     click.option(
         "--format",
         "fmt",
-        type=click.Choice(["csv", "sc900"]),
+        type=click.Choice(["csv", "sc900", "wide"]),
         default=None,
-        help="Input format (detected by default).",
+        help="Input format (detected by default); wide: one row per push, one column per depth.",
     ),
+    *_wide_options,
     click.option(
         "--depth-ref",
         type=click.Choice(["base", "tip"]),
@@ -351,7 +368,9 @@ _fit_options = _shared(
 )
 
 
-def _read_profiles(path, cone, fmt, depth_ref, collect=True, units=None):
+def _read_profiles(
+    path, cone, fmt, depth_ref, collect=True, units=None, depth_unit=None, ci_unit=None
+):
     from .io import read_ci_profiles
 
     return read_ci_profiles(
@@ -361,6 +380,8 @@ def _read_profiles(path, cone, fmt, depth_ref, collect=True, units=None):
         format=fmt,
         on_error="collect" if collect else "raise",
         units=units,
+        depth_unit=depth_unit,
+        ci_unit=ci_unit,
     )
 
 
@@ -568,6 +589,8 @@ def predict_cmd(
     layers,
     out,
     as_json,
+    depth_unit,
+    ci_unit,
 ):
     """Predict kc, kphi, n, cc, phic from CI profiles (section 3.3.2)."""
     from .inverse import Bounds, predict_many
@@ -579,7 +602,9 @@ def predict_cmd(
     cal = _load_calibration(calibration, terrain, library)
     radii = _lengths_si(plates, units, "--plates")
     items = _windowed(
-        _read_profiles(ci_file, cone, fmt, depth_ref, units=file_units),
+        _read_profiles(
+            ci_file, cone, fmt, depth_ref, units=file_units, depth_unit=depth_unit, ci_unit=ci_unit
+        ),
         _depth_range(depth_range, units),
         units,
     )
@@ -662,7 +687,8 @@ def predict_cmd(
 @click.option("--bounds", default=None, help="kc=LO:HI,... as for predict, in --units.")
 @click.option("--units", type=_UNITS, default="si", show_default=True)
 @click.option("--cone", default="asabe-large", show_default=True)
-@click.option("--format", "fmt", type=click.Choice(["csv", "sc900"]), default=None)
+@click.option("--format", "fmt", type=click.Choice(["csv", "sc900", "wide"]), default=None)
+@_shared(*_wide_options)
 @click.option("--depth-ref", type=click.Choice(["base", "tip"]), default="base", show_default=True)
 @click.option(
     "--depth-range", default=None, help="Fit only LO:HI of the CI profiles (as for predict)."
@@ -700,13 +726,17 @@ def learn_cmd(
     save_as,
     library,
     as_json,
+    depth_unit,
+    ci_unit,
 ):
     """Learn r_min, cc, phic and the P-S parameters from CI and plate tests (section 3.3.1)."""
     from .inverse import Bounds
     from .inverse.learn import learn
     from .io import read_plate_tests
 
-    profiles = _read_profiles(ci_file, cone, fmt, depth_ref, collect=False)
+    profiles = _read_profiles(
+        ci_file, cone, fmt, depth_ref, collect=False, depth_unit=depth_unit, ci_unit=ci_unit
+    )
     profiles = _windowed(profiles, _depth_range(depth_range, units), units)
     plates = read_plate_tests(plates_file)
     res = learn(profiles, plates, model=model, bounds=Bounds.parse(bounds, units))
@@ -1187,6 +1217,8 @@ def batch_cmd(
     depth_range,
     layers,
     fmt,
+    depth_unit,
+    ci_unit,
 ):
     """Fit every profile of a CSV/Parquet file or directory on Dask; Parquet results per chunk."""
     from .batch import run_batch
@@ -1217,6 +1249,8 @@ def batch_cmd(
         depth_range=_depth_range(depth_range, units),
         layers=layers,
         format=fmt,
+        depth_unit=depth_unit,
+        ci_unit=ci_unit,
     )
     click.echo(
         f"{s.profiles} profiles: {s.profiles_ok} fitted, {s.profiles_error} with errors "

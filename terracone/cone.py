@@ -19,6 +19,8 @@ References
    terrain parameters for physics-based vehicle mobility models from cone
    index data. Section 2 and section 3.2.
 .. [2] ASABE S313.3, Soil cone penetrometer.
+.. [3] Eijkelkamp Soil & Water, Penetrologger operating instructions: cones
+   of 1, 2, 3.33 and 5 cm^2 base area, 60 deg top angle.
 """
 
 from __future__ import annotations
@@ -93,31 +95,50 @@ class Cone:
         return self.radius / math.tan(self.half_angle)
 
 
-#: Named cones of ASABE S313 [2]_: 30 deg, 0.5 in^2 (large) and 0.2 in^2 (small).
+#: Named cones of ASABE S313 [2]_: 30 deg, 0.5 in^2 (large) and 0.2 in^2 (small),
+#: and the 60 deg cones of the Eijkelkamp Penetrologger [3]_: 1, 2, 3.33, 5 cm^2.
 CONES: dict[str, Cone] = {
     "asabe-large": Cone("asabe-large", 0.5 * u.INCH**2, 30.0),
     "asabe-small": Cone("asabe-small", 0.2 * u.INCH**2, 30.0),
+    **{
+        f"penetrologger-{a}cm2": Cone(f"penetrologger-{a}cm2", float(a) * 1e-4, 60.0)
+        for a in ("1", "2", "3.33", "5")
+    },
 }
 
 _CUSTOM = re.compile(r"^\s*([0-9.eE+-]+)\s*(m|cm|mm|in)\s*[:@]\s*([0-9.eE+-]+)\s*(deg)?\s*$")
+_CUSTOM_AREA = re.compile(
+    r"^\s*([0-9.eE+-]+)\s*(m|cm|mm|in)(?:2|\^2|²)\s*[:@]\s*([0-9.eE+-]+)\s*(deg)?\s*$"
+)
 
 
 def get_cone(cone: str | Cone) -> Cone:
-    """Return a :class:`Cone` from a name, ``"DIAMETER<unit>:ANGLE"`` or a Cone.
+    """Return a :class:`Cone` from a name, a custom spec or a Cone.
 
     ``"20.27mm:30"`` is a custom cone of 20.27 mm base diameter and 30 deg
-    included angle.
+    included angle; ``"5cm2:60"`` (also ``"5 cm^2:60"``, ``"0.5in2:30"``) one
+    of 5 cm^2 base area and 60 deg.  Names: :data:`CONES` (``asabe-large``,
+    ``asabe-small``, ``penetrologger-1cm2``, ``-2cm2``, ``-3.33cm2``,
+    ``-5cm2``).
     """
     if isinstance(cone, Cone):
         return cone
     if cone in CONES:
         return CONES[cone]
+    m = _CUSTOM_AREA.match(str(cone))
+    if m:
+        try:
+            area = float(m.group(1)) * u.LENGTH_UNITS[m.group(2)] ** 2
+            return Cone(str(cone).strip(), area, float(m.group(3)))
+        except ValueError as exc:
+            raise ValueError(f"cone {cone!r}: {exc}") from None
     m = _CUSTOM.match(str(cone))
     if m:
         d = float(m.group(1)) * u.LENGTH_UNITS[m.group(2)]
         return Cone.from_diameter(d, float(m.group(3)), name=str(cone).strip())
     raise ValueError(
-        f"cone must be one of {sorted(CONES)} or 'DIAMETER<m|cm|mm|in>:ANGLE' (got {cone!r})"
+        f"cone must be one of {sorted(CONES)}, 'DIAMETER<m|cm|mm|in>:ANGLE' (e.g. 20.27mm:30) "
+        f"or 'AREA<cm2|mm2|in2>:ANGLE' (e.g. 5cm2:60) (got {cone!r})"
     )
 
 
