@@ -640,6 +640,7 @@ def predict_cmd(
         if r.ok and uncertainty:
             post = _posterior(by_id[r.id], r, prior, draws, seed, radii, b, library, units, cal)
             d.update(post.as_dict(units))
+            d["samples"] = post.samples_dict(units)  # for export --samples
             posts[r.id] = post
         if r.ok and layers > 1:
             from .layers import fit_layered
@@ -1131,24 +1132,171 @@ def library_export(ctx, path, include_builtin):
 
 
 @cli.command("export")
-@click.option("--terrain", required=True, help="Name of a terrain in the library.")
-@click.option("--format", "fmt", type=click.Choice(["chrono-scm", "json", "csv"]), required=True)
-@click.option("--out", required=True, type=click.Path(dir_okay=False))
+@click.option("--terrain", default=None, help="Name of a terrain in the library.")
+@click.option(
+    "--results",
+    "results_path",
+    default=None,
+    type=click.Path(exists=True),
+    help="predict --json output (a file) or a batch output directory.",
+)
+@click.option("--profile", default=None, help="With --results: the profile to export.")
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["chrono-scm", "json", "csv", "geojson"]),
+    required=True,
+    help="geojson needs --results.",
+)
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(),
+    help="Output file (a directory with --samples).",
+)
 @click.option("--units", type=_UNITS, default="si", show_default=True, help="For json/csv.")
 @click.option("--library", default=None, help="Terrain library path.")
-def export_cmd(terrain, fmt, out, units, library):
-    """Write a stored terrain for a simulator (Chrono SCM JSON) or as plain B-W parameters."""
-    from .export import export_terrain
-    from .library import Library
+@click.option(
+    "--elastic-k",
+    type=float,
+    default=None,
+    help="chrono-scm: SCM elastic stiffness [Pa/m], above Bekker Kphi "
+    "(default 4e8, Chrono's scm_hard.json; not from data).",
+)
+@click.option(
+    "--damping",
+    type=float,
+    default=None,
+    help="chrono-scm: SCM damping R [Pa s/m] (default 3e4, Chrono's soil files; not from data).",
+)
+@click.option(
+    "--cohesion", type=float, default=None, help="chrono-scm: Mohr cohesion [kPa or psi]."
+)
+@click.option("--friction", type=float, default=None, help="chrono-scm: Mohr friction [deg].")
+@click.option(
+    "--janosi", default=None, help="chrono-scm: Janosi shear modulus K (e.g. 0.01, 1cm, 0.4in)."
+)
+@click.option(
+    "--samples",
+    type=click.IntRange(1),
+    default=None,
+    help="chrono-scm: N files from N posterior draws (predict --uncertainty --json).",
+)
+@click.option("--seed", type=int, default=None, help="Seed of the --samples draw.")
+def export_cmd(
+    terrain,
+    results_path,
+    profile,
+    fmt,
+    out,
+    units,
+    library,
+    elastic_k,
+    damping,
+    cohesion,
+    friction,
+    janosi,
+    samples,
+    seed,
+):
+    """Write a terrain or a result for a simulator (Chrono SCM JSON), as plain B-W
+    parameters, or results as GeoJSON points.
 
-    with Library(library) as lib:
-        rec = lib.get(terrain)
-    missing = export_terrain(rec, fmt, out, units=units)
-    if missing:
-        click.echo(
-            f"terracone: {terrain!r} lacks {', '.join(missing)}: left out of {out}", err=True
-        )
+    Chrono SCM files get all eight soil parameters: Elastic K and Dampening R
+    are documented defaults unless given (said on stderr); Mohr cohesion,
+    friction and Janosi shear come from the terrain (a cone prediction has
+    none: give --cohesion, --friction, --janosi).
+    """
+    if (terrain is None) == (results_path is None):
+        raise click.UsageError("give exactly one of --terrain and --results")
+    if fmt == "geojson":
+        return _export_geojson(results_path, out)
+    if samples is not None and (fmt != "chrono-scm" or results_path is None):
+        raise click.UsageError("--samples needs --results and --format chrono-scm")
+    shear = {
+        "cohesion_kpa": None if cohesion is None else float(u.pressure_to_si(cohesion, units)),
+        "friction_deg": friction,
+        "janosi_m": None if janosi is None else _length_si(janosi, units, "--janosi"),
+    }
+    if terrain is not None:
+        from .library import Library
+
+        with Library(library) as lib:
+            rec = lib.get(terrain)
+        name, params = terrain, rec
+    else:
+        from .export import load_results, pick_profile
+
+        res = pick_profile(load_results(results_path), profile, str(results_path))
+        name, params = res.id, res.params
+    if fmt != "chrono-scm":
+        from .export import export_terrain
+
+        missing = export_terrain(params, fmt, out, units=units, name=name)
+        if missing:
+            click.echo(
+                f"terracone: {name!r} lacks {', '.join(missing)}: left out of {out}", err=True
+            )
+        click.echo(f"wrote {out}")
+        return None
+    scm = {"elastic_k": elastic_k, "damping_r": damping, **shear}
+    if samples is not None:
+        return _export_samples(res, samples, seed, out, scm)
+    from .export import chrono_scm
+
+    doc = chrono_scm(params, name, **scm)
+    doc.write(out)
+    if doc.provenance_text():
+        click.echo(f"terracone: {out}: {doc.provenance_text()}", err=True)
     click.echo(f"wrote {out}")
+    return None
+
+
+def _export_geojson(results_path: str | None, out: str) -> None:
+    from .export import geojson, load_results
+
+    if results_path is None:
+        raise click.UsageError("--format geojson needs --results (predict JSON or batch directory)")
+    results = load_results(results_path)
+    doc, unlocated = geojson(results)
+    Path(out).write_text(json.dumps(doc, indent=1, default=json_default) + "\n")
+    n = len(doc["features"])
+    msg = f"terracone: {out}: {n} located profile{'s' if n != 1 else ''} of {len(results)}"
+    if unlocated:
+        shown = ", ".join(unlocated[:3]) + (", ..." if len(unlocated) > 3 else "")
+        msg += f"; {len(unlocated)} without coordinates (no lat/lon in their metadata: {shown})"
+    click.echo(msg, err=True)
+    click.echo(f"wrote {out}")
+
+
+def _export_samples(res, count: int, seed: int | None, out: str, scm: dict) -> None:
+    """N Chrono SCM files from N posterior draws of one profile, and an index CSV."""
+    import csv
+
+    from .export import chrono_scm, draw_samples
+
+    draws = draw_samples(res, count, seed)
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    safe = re.sub(r"[^A-Za-z0-9._-]+", "_", res.id).strip("_") or "profile"
+    rows = []
+    last = None
+    for k, row in enumerate(draws, 1):
+        params = dict(zip(("kc", "kphi", "n", "cc", "phic_deg"), (float(v) for v in row)))
+        try:
+            last = chrono_scm(params, f"{res.id} posterior draw {k}", **scm)
+        except ValueError as exc:
+            raise click.ClickException(f"draw {k}: {exc}") from None
+        name = f"{safe}-draw-{k:04d}.json"
+        last.write(folder / name)
+        rows.append([name, *params.values()])
+    with open(folder / "draws.csv", "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["file", "kc [kN/m^(n+1)]", "kphi [kN/m^(n+2)]", "n", "cc [kPa]", "phic_deg"])
+        w.writerows(rows)
+    if last is not None and last.provenance_text():
+        click.echo(f"terracone: {folder}: {last.provenance_text()}", err=True)
+    click.echo(f"wrote {count} Chrono SCM files and draws.csv to {folder}")
 
 
 # ---------------------------------------------------------------------------

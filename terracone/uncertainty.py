@@ -473,6 +473,20 @@ class PosteriorResult:
         }
         return d
 
+    def samples_dict(self, units: str = "si") -> dict[str, Any]:
+        """The posterior draws for JSON: ``{"names", "units", "values"}``.
+
+        ``values`` is a list of rows (kc, kphi, n, cc, phic_deg), each draw
+        converted with its own n; the key ``samples`` of ``predict
+        --uncertainty --json``, read back by :func:`terracone.export.load_results`.
+        """
+        units = u.check_system(units)
+        return {
+            "names": list(PARAM_NAMES),
+            "units": units,
+            "values": _convert_samples(self.samples, units).tolist(),
+        }
+
     def params_at(self, index: int) -> TerrainParameters:
         """One posterior draw as :class:`TerrainParameters`."""
         kc, kphi, n, cc, phic = (float(v) for v in self.samples[index])
