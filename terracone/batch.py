@@ -331,6 +331,8 @@ def _sc900_to_parquet(path: Path, out: Path, cone: Cone, **reader: Any) -> Path:
         "profile": [],
         "cone": [],
         "reader_error": [],
+        "reader_error_row": [],
+        "reader_error_column": [],
         "depth_m": [],
         "ci_kpa": [],
     }
@@ -348,6 +350,8 @@ def _sc900_to_parquet(path: Path, out: Path, cone: Cone, **reader: Any) -> Path:
             rows["profile"] += [it.id] * k
             rows["cone"] += [it.cone.name] * k
             rows["reader_error"] += [None] * k
+            rows["reader_error_row"] += [None] * k
+            rows["reader_error_column"] += [None] * k
             rows["depth_m"] += list(it.depth)
             rows["ci_kpa"] += list(it.ci)
             for mk in meta_keys:
@@ -357,6 +361,8 @@ def _sc900_to_parquet(path: Path, out: Path, cone: Cone, **reader: Any) -> Path:
             rows["profile"].append(str(it.profile))
             rows["cone"].append(cone.name)
             rows["reader_error"].append(str(it))
+            rows["reader_error_row"].append(it.row)
+            rows["reader_error_column"].append(it.column)
             rows["depth_m"].append(float("nan"))
             rows["ci_kpa"].append(float("nan"))
             for mk in meta_keys:
@@ -1103,6 +1109,34 @@ class _Piece:
     meta: dict[str, pa.Array]
 
 
+def _reader_errors(
+    rows: _Rows,
+    starts: np.ndarray,
+    error: np.ndarray,
+    error_row: np.ndarray,
+    error_column: np.ndarray,
+    flagged: np.ndarray,
+) -> None:
+    """Errors kept by :func:`_sc900_to_parquet` (with the file's row and column)."""
+
+    def cells(name: str) -> list[Any]:
+        col = rows.meta.get(name)
+        if col is None:
+            return [None] * int(starts.size)
+        vals = col[starts] if isinstance(col, np.ndarray) else col.take(pa.array(starts))
+        return list(vals) if isinstance(vals, np.ndarray) else vals.to_pylist()
+
+    for i, (why, row, column) in enumerate(
+        zip(cells("reader_error"), cells("reader_error_row"), cells("reader_error_column"))
+    ):
+        if why is None or (isinstance(why, str) and not why):
+            continue
+        error[i] = str(why)
+        error_row[i] = -1 if row in (None, "") else int(float(row))
+        error_column[i] = None if column in (None, "") else str(column)
+        flagged[i] = True
+
+
 def _piece(rows: _Rows, starts: np.ndarray, plan: _Plan, cones: _ConeCache) -> _Piece:
     """Per-profile view of complete profiles of one file; problems found while reading."""
     info = plan.files[rows.file]
@@ -1166,6 +1200,8 @@ def _piece(rows: _Rows, starts: np.ndarray, plan: _Plan, cones: _ConeCache) -> _
         error[i] = str(InputError(reason, **where))
         error_row[i] = int(row)
         error_column[i] = column
+    if "reader_error" in rows.meta:  # an instrument file's push rejected by its reader
+        _reader_errors(rows, starts, error, error_row, error_column, flagged)
     meta: dict[str, pa.Array] = {}
     for out, name, t in plan.meta:
         if name in rows.meta:

@@ -501,7 +501,8 @@ def detect_format(path: PathLike) -> Literal["csv", "sc900", "wide"]:
     """The format of a cone index file: ``"sc900"``, ``"wide"`` or ``"csv"``.
 
     An SC900 export is recognised by its first lines; a wide table when its
-    first line that is neither blank nor a comment has 3 or more depth headers
+    first line of 3 or more cells (after blank, comment and short preamble
+    lines of at most 2 cells) has 3 or more depth headers
     (:func:`wide_depth_header`) and no ``depth_<unit>`` or ``ci_<unit>``
     column; anything else is read as a long CSV file, whose reader reports
     what is wrong.
@@ -520,11 +521,13 @@ def detect_format(path: PathLike) -> Literal["csv", "sc900", "wide"]:
             continue
         delim = "\t" if "\t" in line else ";" if ";" in line else ","
         cells = [c.strip().lower() for c in next(csv.reader([raw], delimiter=delim))]
-        if any(_match_field(c, _CI_SCHEMA) for c in cells):
+        if any(_match_field(c, _CI_SCHEMA) and wide_depth_header(c) is None for c in cells):
             return "csv"
         if sum(wide_depth_header(c) is not None for c in cells) >= 3:
             return "wide"
-        return "csv"
+        if sum(bool(c) for c in cells) >= 3:  # a header that is not wide
+            return "csv"
+        # short preamble lines ("Unit: MPa", "Date;2019-06-11") may precede the header
     return "csv"
 
 
