@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 
+import numpy as np
 import pytest
 
 from terracone.data import TerrainParameters
@@ -155,3 +156,222 @@ def test_library_record_round_trip_to_chrono(tmp_path):
     assert doc["Name"] == "fit"
     assert doc["Soil Parameters"]["Bekker Kc"] == 5000.0
     assert missing == ["Mohr Cohesion", "Mohr Friction", "Elastic K", "Dampening R"]
+
+
+# ---------------------------------------------------------------------------
+# complete Chrono SCM files, export from results, GeoJSON
+# ---------------------------------------------------------------------------
+
+# A soil file in the format of Project Chrono's own SCM soil files
+# (projectchrono/chrono, data/vehicle/terrain/scm_soil_parameters/scm_hard.json,
+# scm_medium.json, scm_soft.json: these four top-level keys and these eight soil
+# keys, in this order, values in Pa, m, deg; SCMTerrain::SetSoilParameters takes
+# the same eight, "elastic stiffness K per unit area [Pa/m] (must be larger than
+# Kphi)").  Written here by hand with made-up values: only its layout is Chrono's.
+CHRONO_FORMAT = """{
+  "Name": "a soil in Chrono's own format",
+  "Type": "Terrain Properties",
+  "Template": "SCM Soil Parameters",
+  "Soil Parameters": {
+    "Bekker Kphi": 1.5e6,
+    "Bekker Kc": 2e4,
+    "Bekker n": 0.9,
+    "Mohr Cohesion": 500,
+    "Mohr Friction": 28,
+    "Janosi Shear": 0.02,
+    "Elastic K": 4e8,
+    "Dampening R": 3e4
+  }
+}"""
+
+
+def test_complete_chrono_file_matches_chronos_format(tmp_path, lete):
+    from terracone.export import DEFAULT_DAMPING_R, DEFAULT_ELASTIC_K, chrono_scm
+
+    ref = json.loads(CHRONO_FORMAT)
+    scm = chrono_scm(lete)
+    assert scm.complete and scm.missing == []
+    assert list(scm.doc) == list(ref)  # same top-level keys, same order
+    assert list(scm.doc["Soil Parameters"]) == list(ref["Soil Parameters"])
+    assert {k: scm.doc[k] for k in ("Type", "Template")} == {
+        k: ref[k] for k in ("Type", "Template")
+    }
+    soil = scm.doc["Soil Parameters"]
+    # the documented defaults (Chrono's scm_hard.json: 4e8 Pa/m, 3e4 Pa s/m), flagged
+    assert soil["Elastic K"] == DEFAULT_ELASTIC_K == 4e8
+    assert soil["Dampening R"] == DEFAULT_DAMPING_R == 3e4
+    assert scm.defaulted == ["Elastic K", "Dampening R"]
+    assert "not from data" in scm.provenance_text()
+    # units as Chrono's: the same plate pressure in Pa as terracone's in kPa * 1000
+    b, z = 0.1, 0.05
+    p_pa = (soil["Bekker Kc"] / b + soil["Bekker Kphi"]) * z ** soil["Bekker n"]
+    assert p_pa == pytest.approx(1000.0 * (102.0 / b + 5301.0) * z**0.79, rel=1e-12)
+    assert soil["Elastic K"] > soil["Bekker Kphi"]
+    scm.write(tmp_path / "s.json")
+    back = json.loads((tmp_path / "s.json").read_text())
+    assert back == scm.doc and all(isinstance(v, float) for v in back["Soil Parameters"].values())
+
+
+def test_chrono_options_and_elastic_k_check():
+    from terracone.export import chrono_scm
+
+    cone = {"kc": 20.0, "kphi": 900.0, "n": 0.8, "cc": 2.5, "phic_deg": 24.0}
+    scm = chrono_scm(cone, "cone", cohesion_kpa=1.5, friction_deg=30.0, janosi_m=0.01)
+    soil = scm.doc["Soil Parameters"]
+    assert scm.complete and soil["Mohr Cohesion"] == 1500.0 and soil["Mohr Friction"] == 30.0
+    assert scm.given == ["Mohr Cohesion", "Mohr Friction", "Janosi Shear"]
+    # without them: missing (never taken from the cone-metal cc, phic)
+    bare = chrono_scm(cone, "cone")
+    assert bare.missing == ["Mohr Cohesion", "Mohr Friction", "Janosi Shear"]
+    assert "give --cohesion, --friction, --janosi" in bare.provenance_text()
+    # Elastic K must exceed Kphi = 900 kN/m^(n+2) = 9e5 Pa/m^n
+    with pytest.raises(ValueError) as exc:
+        chrono_scm(cone, "cone", elastic_k=9e5)
+    assert str(exc.value) == (
+        "Elastic K must exceed Bekker Kphi: Elastic K = 900000 Pa/m, Bekker Kphi = 900000 "
+        "Pa/m^n; give a larger --elastic-k (elastic_k=)"
+    )
+    with pytest.raises(ValueError, match="the default Elastic K = 4e\\+08"):
+        chrono_scm({"kc": 0.0, "kphi": 5e5, "n": 1.0}, "very stiff")
+    with pytest.raises(ValueError, match="Dampening R must be >= 0"):
+        chrono_scm(cone, "cone", damping_r=-1.0)
+
+
+def _predict_doc(units: str = "si") -> dict:
+    """A hand-written predict --json document: 3 profiles, 2 located, 1 error."""
+
+    def prof(pid, lat, lon, kc, status="ok"):
+        meta = {} if lat is None else {"Latitude": lat, "LON": str(lon)}
+        d = {"id": pid, "status": status, "units": units, "metadata": meta, "error": None}
+        vals = dict(kc=kc, kphi=1000.0, n=1.0, cc=2.0, phic_deg=20.0, r2_ci=0.9, lack_of_fit=None)
+        if status != "ok":
+            vals = {k: None for k in vals}
+            d["error"] = "empty cell between readings"
+        d.update(vals)
+        return d
+
+    a = prof("a", -34.5, 19.25, 10.0)
+    a["intervals"] = {"kc": [5.0, 15.0]}
+    a["samples"] = {
+        "names": ["kc", "kphi", "n", "cc", "phic_deg"],
+        "units": units,
+        "values": [[float(k), 1000.0 + k, 1.0, 2.0, 20.0] for k in range(10)],
+    }
+    a["layered"] = {"interfaces": [0.1], "bic": 1.0, "depth": [1, 2], "ci": [3, 4]}
+    return {
+        "settings": {"units": units},
+        "profiles": [a, prof("b", None, None, 20.0), prof("c", 10.0, 20.0, None, "error")],
+    }
+
+
+def test_load_results_pick_and_draw(tmp_path):
+    from terracone.export import draw_samples, load_results, pick_profile
+    from terracone.units import INCH, LBF
+
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps(_predict_doc("us")))
+    res = load_results(path)
+    assert [r.id for r in res] == ["a", "b", "c"]
+    a = res[0]
+    # US to SI by hand with n = 1: kc [lb/in^2] -> kN/m^2, kphi [lb/in^3] -> kN/m^3, psi -> kPa
+    assert a.params["kc"] == pytest.approx(10.0 * LBF / 1000 / INCH**2, rel=1e-12)
+    assert a.params["kphi"] == pytest.approx(1000.0 * LBF / 1000 / INCH**3, rel=1e-12)
+    assert a.params["cc"] == pytest.approx(2.0 * LBF / 1000 / INCH**2, rel=1e-12)
+    assert (a.lat, a.lon) == (-34.5, 19.25)  # metadata keys in any case, numbers as text
+    assert "depth" not in a.layered and a.layered["interfaces"] == [0.1]
+    with pytest.raises(ValueError, match="2 fitted profiles; choose one with --profile ID"):
+        pick_profile(res, None, "p.json")
+    with pytest.raises(ValueError, match="profile 'c' was not fitted"):
+        pick_profile(res, "c", "p.json")
+    with pytest.raises(ValueError, match="no profile 'z'"):
+        pick_profile(res, "z", "p.json")
+    d = draw_samples(a, 6, seed=3)
+    kcs = d[:, 0] / (LBF / 1000 / INCH**2)  # back to the stored values 0..9
+    assert len(set(np.round(kcs, 9))) == 6 and set(np.round(kcs, 9)) <= set(range(10))
+    with pytest.raises(ValueError, match="between 1 and 10"):
+        draw_samples(a, 11)
+    with pytest.raises(ValueError, match="has no posterior draws: --samples needs"):
+        draw_samples(res[1], 1)
+    with pytest.raises(ValueError, match="not the JSON of terracone predict"):
+        (tmp_path / "x.json").write_text("[1]")
+        load_results(tmp_path / "x.json")
+
+
+def test_geojson_features(tmp_path):
+    from terracone.export import geojson, load_results
+
+    (tmp_path / "p.json").write_text(json.dumps(_predict_doc()))
+    doc, unlocated = geojson(load_results(tmp_path / "p.json"))
+    assert doc["type"] == "FeatureCollection" and unlocated == ["b"]
+    a, c = doc["features"]
+    assert a["geometry"] == {"type": "Point", "coordinates": [19.25, -34.5]}  # [lon, lat]
+    props = a["properties"]
+    for k in ("id", "status", "kc", "kphi", "n", "cc", "phic_deg", "r2_ci", "lack_of_fit"):
+        assert k in props
+    assert props["intervals"] == {"kc": [5.0, 15.0]} and props["layered"]["bic"] == 1.0
+    assert c["properties"]["status"] == "error" and c["properties"]["kc"] is None
+
+
+def _run(*args):
+    from click.testing import CliRunner
+
+    from terracone.cli import cli
+
+    return CliRunner().invoke(cli, list(args))
+
+
+def test_cli_export_from_results_end_to_end(tmp_path):
+    # a generated wide file with coordinates, predicted with --uncertainty
+    wide = tmp_path / "w.csv"
+    wide.write_text(
+        "# ci unit: kPa\nid,lat,lon,0cm,2cm,4cm,6cm,8cm\n"
+        "A,34°30.0S,19°15.0E,100,300,500,650,800\n"
+        "B,,,120,310,480,700,820\n"
+    )
+    pred = tmp_path / "pred.json"
+    r = _run(
+        "predict", str(wide), "--uncertainty", "--draws", "60", "--seed", "1", "--out", str(pred)
+    )
+    assert r.exit_code == 0, r.output
+    stored = json.loads(pred.read_text())["profiles"][0]["samples"]
+    assert stored["names"] == ["kc", "kphi", "n", "cc", "phic_deg"] and len(stored["values"]) == 60
+    gj = tmp_path / "g.geojson"
+    r = _run("export", "--results", str(pred), "--format", "geojson", "--out", str(gj))
+    assert r.exit_code == 0, r.output
+    assert "1 located profile of 2; 1 without coordinates" in r.stderr
+    (f,) = json.loads(gj.read_text())["features"]
+    assert f["geometry"]["coordinates"] == [pytest.approx(19.25), pytest.approx(-34.5)]
+    assert f["properties"]["id"] == "A" and "intervals" in f["properties"]
+    # one Chrono file of profile A, then 5 from posterior draws
+    out = tmp_path / "a.json"
+    args = ["export", "--results", str(pred), "--profile", "A", "--format", "chrono-scm"]
+    r = _run(*args, "--out", str(out), "--cohesion", "1", "--friction", "30", "--janosi", "1cm")
+    assert r.exit_code == 0, r.output
+    assert "Elastic K = 4e+08, Dampening R = 30000: documented defaults, not from data" in r.stderr
+    assert len(json.loads(out.read_text())["Soil Parameters"]) == 8
+    r = _run(*args, "--out", str(tmp_path / "draws"), "--samples", "5", "--seed", "2")
+    assert r.exit_code == 0, r.output
+    files = sorted((tmp_path / "draws").glob("A-draw-*.json"))
+    assert len(files) == 5
+    kphis = {json.loads(p.read_text())["Soil Parameters"]["Bekker Kphi"] for p in files}
+    stored_kphi = {1000.0 * row[1] for row in stored["values"]}  # SI kN -> Pa
+    assert len(kphis) == 5 and all(any(abs(k - s) < 1e-6 * s for s in stored_kphi) for k in kphis)
+    # errors: one message, non-zero exit
+    r = _run("export", "--format", "geojson", "--out", str(gj), "--terrain", "x")
+    assert r.exit_code != 0 and "needs --results" in r.output
+    r = _run("export", "--results", str(pred), "--format", "chrono-scm", "--out", str(out))
+    assert r.exit_code != 0 and "choose one with --profile" in r.output
+
+
+def test_marsden_geojson_counts_unlocated(tmp_path):
+    from conftest import require_shared
+
+    src = require_shared("data", "marsden-penetrometer", "sc900_export_2019-06-11.txt")
+    pred = tmp_path / "pred.json"
+    assert _run("predict", str(src), "--out", str(pred)).exit_code == 0
+    gj = tmp_path / "m.geojson"
+    r = _run("export", "--results", str(pred), "--format", "geojson", "--out", str(gj))
+    assert r.exit_code == 0, r.output
+    # the real export's Longitude/Latitude cells are empty: no feature, all counted
+    assert json.loads(gj.read_text()) == {"type": "FeatureCollection", "features": []}
+    assert "0 located profiles of 83; 83 without coordinates" in r.stderr

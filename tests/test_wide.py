@@ -220,6 +220,19 @@ def test_cli_predict_and_batch_on_a_wide_file(tmp_path: Path, semi: Path):
     assert set(rows) == {"P1", "P2", "P3", "P4"} and rows["P3"]["status"] == "error"
     assert "empty cell between readings" in rows["P3"]["error"]
     assert float(rows["P1"]["lat"]) == pytest.approx(-(34 + 22.92106 / 60), abs=1e-12)
+    # GeoJSON from the batch directory: P3 has no coordinates and is counted, not dropped
+    gj = tmp_path / "b.geojson"
+    r = CliRunner().invoke(
+        cli, ["export", "--results", str(out), "--format", "geojson", "--out", str(gj)]
+    )
+    assert r.exit_code == 0, r.output
+    assert "3 located profiles of 4; 1 without coordinates (no lat/lon in their metadata: P3)" in (
+        r.stderr
+    )
+    feats = {f["properties"]["id"]: f for f in json.loads(gj.read_text())["features"]}
+    assert set(feats) == {"P1", "P2", "P4"}
+    assert feats["P4"]["geometry"]["coordinates"] == [19.25, -34.5]
+    assert feats["P1"]["properties"]["status"] == "ok" and feats["P1"]["properties"]["kc"] >= 0
 
 
 # ---------------------------------------------------------------------------
