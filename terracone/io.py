@@ -1147,7 +1147,7 @@ def read_wide_ci(
     head = _wide_header(source, text, delimiter)
     depths, ci_u, depth_units = _wide_units(source, head, depth_unit, ci_unit)
     factor = u.PRESSURE_UNITS[ci_u]
-    comma = head.delimiter == ";"
+    comma = head.delimiter in (";", "\t")
     lower = [c.lower() for c in head.cells]
     depth_set = set(head.depth_cols)
 
