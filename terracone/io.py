@@ -36,6 +36,13 @@ with the logger name, serial number, datum and the pressure unit, a column
 line ``Longitude,Latitude,Number,0.0 cm,2.5 cm,...,Cone Size``, "Logger
 Started" lines and one ``N= k , ...`` line per push) is read by
 :func:`read_ci_profiles` too; see there.
+
+Wide tables
+-----------
+One row per push and one column per depth (Penetrologger exports opened in
+a spreadsheet, published tables): :func:`read_wide_ci`, or
+:func:`read_ci_profiles` with ``format="wide"`` (detected by
+:func:`detect_format`).  Depth and cone index units are never guessed.
 """
 
 from __future__ import annotations

@@ -277,3 +277,39 @@ def test_real_sc900_export_as_a_wide_table(tmp_path: Path, sep: str, comma: bool
             assert g.metadata["trailing_zeros_dropped"] == r.metadata["trailing_zeros_dropped"]
     dropped = sum(g.metadata["trailing_zeros_dropped"] for g in got if isinstance(g, CIProfile))
     assert dropped > 0  # the real export has pushes that stopped early
+
+
+def test_cli_learn_reads_a_wide_table(tmp_path: Path):
+    from terracone.cone import cone_index
+
+    z_cm = np.arange(0.0, 31.0, 2.5)
+    truth = dict(kc=100.0, kphi=5000.0, n=0.8, cc=2.0, phic=20.0)
+    ci = cone_index(z_cm / 100, cone=CONES["asabe-large"], **truth)
+    wide = _write(
+        tmp_path / "w.tsv",
+        "\t".join(["id", *(f"{z:g}" for z in z_cm)])
+        + "\n"
+        + "\t".join(["s1", *(repr(float(c)).replace(".", ",") for c in ci)])
+        + "\n",
+    )
+    sink = [5.0 * k for k in range(1, 11)]  # mm
+    rows = [
+        f"r{r:g},{r!r},{s!r},{(100 / (r / 100) + 5000) * (s / 1000) ** 0.8!r}\n"
+        for r in (3.75, 5.0)
+        for s in sink
+    ]
+    plates = _write(
+        tmp_path / "p.csv", "test,plate_radius_cm,sinkage_mm,pressure_kpa\n" + "".join(rows)
+    )
+    common = ["--plates", str(plates), "--model", "rm0", "--json"]
+    r = CliRunner().invoke(cli, ["learn", "--ci", str(wide), *common])
+    assert r.exit_code != 0 and "--depth-unit" in r.output and "--ci-unit" in r.output
+    args = ["learn", "--ci", str(wide), "--depth-unit", "cm", "--ci-unit", "kpa", *common]
+    r = CliRunner().invoke(cli, args)
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    # the P-S parameters of the (noise-free) plates, and a fit of the wide table's CI
+    assert d["kc"] == pytest.approx(100.0, rel=0.05)
+    assert d["kphi"] == pytest.approx(5000.0, rel=0.02)
+    assert d["n"] == pytest.approx(0.8, abs=0.01)
+    assert d["terrain"] == "w"
