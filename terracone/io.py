@@ -992,6 +992,9 @@ def _wide_header(path: str, text: list[str], delimiter: str | None) -> _WideHead
         found = [(j, wide_depth_header(c)) for j, c in enumerate(cells)]
         found = [(j, d) for j, d in found if d is not None]
         if not line.startswith("#") and len(found) >= 3:
+            while cells and not cells[-1]:  # trailing separators (spreadsheet exports)
+                cells.pop()
+            cells = [c or f"column{j + 1}" for j, c in enumerate(cells)]  # unnamed columns
             return _WideHeader(
                 delim,
                 lineno,
