@@ -14,12 +14,17 @@ Bekker n               -                n
 Mohr Cohesion          Pa               c_kpa [kPa] * 1000 (terrain internal c)
 Mohr Friction          deg              phi_deg (terrain internal phi)
 Janosi Shear           m                K_m (terrain shear deformation modulus)
-Elastic K              Pa/m             only if given (``elastic_k=``)
-Dampening R            Pa s/m           only if given (``damping_r=``)
+Elastic K              Pa/m             ``elastic_k=``; :func:`chrono_scm`: 4e8 default
+Dampening R            Pa s/m           ``damping_r=``; :func:`chrono_scm`: 3e4 default
 =====================  ===============  =========================================
 
 (kN/m^(n+2) times m^n is kN/m^2 = kPa; times 1000 gives Pa.)  Values the
-terrain lacks are left out of the file and returned in ``missing``.  The
+terrain lacks are left out of the file and returned in ``missing``.
+:func:`chrono_scm` writes all eight keys of Chrono's own soil files: the SCM
+Elastic K and Dampening R from documented defaults (flagged, not from data)
+unless given, and Mohr / Janosi values given explicitly for terrains that lack
+them.  :func:`load_results` reads ``predict --json`` files and batch
+directories, :func:`geojson` places their located profiles on a map.  The
 cone (metal)-terrain adhesion and friction cc, phic of [2]_ are *not* the
 terrain's internal cohesion and friction and are never written as Mohr
 parameters.
