@@ -41,6 +41,13 @@ calibration (Table 4-3/4-4 analogues) and without; evaluation against the
 site's plates (Table 4-4).  Posterior plate bands come from
 :func:`terracone.uncertainty.posterior` when that module is available.
 
+Layout: each case study is one spec (its data generator, file names, and
+per report section the tables and figures with their keys, titles, notes
+and captions); one builder per kind of table or figure reads it, so what
+LETE and KRC share is written once.  The learning runs, the predictions
+and the figures go through a ``pool`` with a ``map`` method (as in emcee):
+a process pool by default, the builtin ``map`` with ``workers=1``.
+
 References
 ----------
 .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
@@ -230,7 +237,7 @@ class _CaseSpec:
     quick_ids: tuple[str, ...]  # the profiles of a quick run
     plates: dict[str, float]  # plate label -> radius [m]
     per_site: bool  # learning, calibration files and evaluation rows per site
-    generate: Callable[[_CaseSpec, list[dict[str, Any]], bool], tuple]
+    generate: Callable[[_CaseSpec, list[dict[str, Any]], bool], _Case]  # the synthetic data
     files: tuple[str, str]  # data/ file names: CI profiles, plate tests
     comments: tuple[str, str]  # what each data file holds (its header)
     published_label: str
@@ -260,13 +267,13 @@ class _Case:
     rows_ctrl: list[dict[str, Any]] = field(default_factory=list)
     published: list[dict[str, Any]] = field(default_factory=list)
 
-    @classmethod
-    def generate(cls, spec: _CaseSpec, quick: bool) -> _Case:
+    @staticmethod
+    def generate(spec: _CaseSpec, quick: bool) -> _Case:
+        """The case study's synthetic data (results still empty)."""
         pub = published_parameters(spec.parameter_table)
         if quick:
             pub = [p for p in pub if p["id"] in spec.quick_ids]
-        profiles, plates, where, groups = spec.generate(spec, pub, quick)
-        return cls(spec, pub, profiles, plates, where, groups)
+        return spec.generate(spec, pub, quick)
 
     def group_of(self, profile_id: str) -> _Group:
         return next(g for g in self.groups if any(p.id == profile_id for p in g.profiles))
@@ -310,7 +317,7 @@ def _plate_test(pair: str, key: str, r: float, sinkage, pressure) -> PlateTest:
     )
 
 
-def _lete_data(spec: _CaseSpec, pub: list[dict[str, Any]], quick: bool):
+def _lete_data(spec: _CaseSpec, pub: list[dict[str, Any]], quick: bool) -> _Case:
     """CI from Table 4-1, plate pairs from Wong's values; one learning on everything."""
     rng = np.random.default_rng(spec.seed)
     profiles = [_ci_profile(p["id"], p, rng, spec.name) for p in pub]
@@ -323,10 +330,10 @@ def _lete_data(spec: _CaseSpec, pub: list[dict[str, Any]], quick: bool):
             p = p * f * (1.0 + PLATE_NOISE * rng.standard_normal(SINKAGES.size))
             plates.append(_plate_test(pair, key, r, SINKAGES, p))
             where[plates[-1].id] = (pair, key)
-    return profiles, plates, where, [_Group(spec.name, profiles, plates)]
+    return _Case(spec, pub, profiles, plates, where, [_Group(spec.name, profiles, plates)])
 
 
-def _krc_data(spec: _CaseSpec, pub: list[dict[str, Any]], quick: bool):
+def _krc_data(spec: _CaseSpec, pub: list[dict[str, Any]], quick: bool) -> _Case:
     """Per site, CI and a plate pair (ending at 1,500 lbf) from its Table 4-3 row."""
     rng = np.random.default_rng(spec.seed)
     profiles, plates, where, groups = [], [], {}, []
@@ -345,7 +352,7 @@ def _krc_data(spec: _CaseSpec, pub: list[dict[str, Any]], quick: bool):
         profiles.append(prof)
         plates += site_plates
         groups.append(_Group(p["id"], [prof], site_plates))
-    return profiles, plates, where, groups
+    return _Case(spec, pub, profiles, plates, where, groups)
 
 
 # ---------------------------------------------------------------------------
