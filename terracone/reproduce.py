@@ -220,7 +220,7 @@ class _Section(NamedTuple):
 
 @dataclass(frozen=True)
 class _CaseSpec:
-    """What differs between the two case studies, as data.
+    """What differs between the two case studies, as data (one column of ``_CASE_TABLE``).
 
     Every table and figure the two case studies share is built by one part
     builder (``_PARTS``) from these fields; ``tables[part]`` holds the
@@ -230,7 +230,6 @@ class _CaseSpec:
 
     slug: str  # file names and table keys: "lete", "krc"
     name: str  # "LETE sand", "KRC"
-    short: str  # row labels of the summary: "LETE", "KRC"
     seed: int
     parameter_table: str  # the paper's table of parameters: "4-1", "4-3"
     agreement_table: str  # the paper's table of agreement: "4-2", "4-4"
@@ -243,7 +242,12 @@ class _CaseSpec:
     published_label: str
     sections: tuple[_Section, ...]
     tables: dict[str, dict[str, Any]]
-    figures: dict[str, dict[str, Any]] = field(default_factory=dict)
+    figures: dict[str, dict[str, Any]]
+
+    @property
+    def short(self) -> str:
+        """Label of the summary rows: "LETE", "KRC"."""
+        return self.name.split()[0]
 
 
 @dataclass
@@ -1298,274 +1302,276 @@ _PARTS: dict[str, Callable[[_Out, _Case, str], list[dict[str, Any]]]] = {
 }
 
 
-_LETE = _CaseSpec(
-    slug="lete",
-    name="LETE sand",
-    short="LETE",
-    seed=SEED_LETE,
-    parameter_table="4-1",
-    agreement_table="4-2",
-    quick_ids=("LS_1", "LS_2"),
-    plates=LETE_PLATES,
-    per_site=False,
-    generate=_lete_data,
-    files=("lete_sand_synthetic_ci.csv", "lete_sand_synthetic_plates.csv"),
-    comments=(
-        "CI from Table 4-1 parameters, improved model RM0. " + NOISE_MODEL[0],
-        "Plates from Wong's LETE sand values. " + NOISE_MODEL[2],
+#: LETE sand: the report's sections, each a list of parts (keys of ``_PARTS``).
+_LETE_SECTIONS = (
+    _Section(
+        "lete-learning",
+        "LETE sand: learning and Figure 2-1",
+        ("learning", "learning_datasets", "fig_janosi"),
     ),
-    published_label="paper (Table 4-1; generated the CI)",
-    sections=(
-        _Section(
-            "lete-learning",
-            "LETE sand: learning and Figure 2-1",
-            ("learning", "learning_datasets", "fig_janosi"),
+    _Section(
+        "lete-prediction",
+        "LETE sand: prediction (Table 4-1, Figure 4-1)",
+        (
+            "parameters",
+            "parameters_vs_published",
+            "fig_ci",
+            "identifiability",
+            "identifiability_ci_only",
         ),
-        _Section(
-            "lete-prediction",
-            "LETE sand: prediction (Table 4-1, Figure 4-1)",
-            (
-                "parameters",
-                "parameters_vs_published",
-                "fig_ci",
-                "identifiability",
-                "identifiability_ci_only",
-            ),
-        ),
-        _Section(
-            "lete-plates",
-            "LETE sand: plates (Figure 4-2, Table 4-2)",
-            (
-                "fig_plates",
-                "agreement",
-                "agreement_vs_published",
-                "agreement_control",
-                "fig_plates_ci_only",
-                "agreement_ci_only",
-            ),
-        ),
-        _Section("lete-ridge", "LETE sand: the ridge of equally good fits", ("fig_ridge",)),
     ),
-    tables={
-        "learning": {
-            "key": "lete_learning",
-            "title": "LETE sand: learning process (section 3.3.1) on all CI profiles and plate "
-            "tests",
-            "first": "Parameters",
-            "notes": [
-                "The CI profiles were generated from the Table 4-1 parameters and the plates "
-                "from Wong's values: the learning fits both, as the paper's learning fitted "
-                "measured CI and plate curves of one terrain.",
-            ],
-        },
-        "learning_datasets": {
-            "key": "lete_learning_datasets",
-            "title": "LETE sand: fit of the learned parameters per data set",
-        },
-        "parameters": {
-            "key": "table_4_1_lete_parameters",
-            "title": "Table 4-1 analogue: parameters predicted from the LETE sand CI (with the "
-            "learned calibration)",
-            "notes": [
-                "Prediction process (section 3.3.2) with the LETE calibration: model RM1, "
-                "r_min, phic, cc and kc/kphi fixed by learning; n and the scale of kc, kphi "
-                "from each CI.",
-            ],
-        },
-        "parameters_vs_published": {
-            "key": "table_4_1_lete_vs_published",
-            "title": "LETE sand parameters: published (Table 4-1) beside ours",
-            "notes": [
-                "The published rows are the truth of the synthetic CI; 'CI alone' reports phic "
-                "at the middle of the interval that fits equally well.",
-                "Published US columns as recomputed by terracone.units from the SI values.",
-            ],
-        },
-        "identifiability": {
-            "key": "lete_identifiability",
-            "title": "LETE sand: what each CI profile determines (with the calibration)",
-            "notes": [
-                "From the posterior of terracone.uncertainty (90% width over prior width: "
-                "< 0.25 determined, < 0.75 weakly determined, else set by prior) where "
-                "computed; otherwise from the profile intervals of the exact solver.",
-            ],
-        },
-        "identifiability_ci_only": {
-            "key": "lete_identifiability_ci_only",
-            "title": "LETE sand: what each CI profile determines on its own (no calibration)",
-        },
-        "agreement": {
-            "key": "table_4_2_lete_agreement",
-            "title": "Table 4-2 analogue: R, R2, RMSD, CV between the LETE sand plate curves "
-            "and those predicted from the CI (with the calibration)",
-            "notes": ["r=3.75cm: plate radius 3.75 cm (1.5 in); r=5cm: radius 5 cm (1.97 in)."],
-        },
-        "agreement_vs_published": {
-            "key": "table_4_2_lete_vs_published",
-            "title": "Table 4-2: ours (with calibration) beside the paper",
-            "notes": [
-                "paper: Table 4-2 as published (package data terracone/data/paper/table_4_2.csv)."
-            ],
-        },
-        "agreement_control": {
-            "key": "table_4_2_lete_published_parameters",
-            "title": "Control: the published Table 4-1 parameters against our synthetic plate "
-            "tests",
-            "notes": [
-                "No inversion involved: the paper's own parameters evaluated against plates "
-                "generated from Wong's values. The nearest analogue of the paper's Table 4-2."
-            ],
-        },
-        "agreement_ci_only": {
-            "key": "table_4_2_lete_ci_only",
-            "title": "LETE sand, CI alone (no calibration): R, R2, RMSD, CV against the plate "
-            "tests",
-        },
-    },
-    figures={
-        "fig_janosi": {
-            "key": "fig_2_1_lete_janosi",
-            "title": "Figure 2-1 analogue: LETE sand CI and the Janosi equation",
-            "params_label": "Wong's kc 102, kphi 5301, n 0.79",
-            "improved_label": "improved model eq. (2-7), same kc, kphi, n; learned phic, cc, r_min",
-            "caption": "Figure 2-1 analogue. SYNTHETIC LETE sand CI profiles (dashed) against "
-            "the Janosi equation (2-1) with Wong's plate-derived kc, kphi, n (solid), and the "
-            "improved model with the same kc, kphi, n and the learned phic, cc, r_min "
-            "(dotted). As in the paper, the Janosi equation falls far below the measured CI.",
-        },
-        "fig_ci": {
-            "key": "fig_4_1_lete_ci",
-            "title": "Figure 4-1 analogue: LETE sand CI, measured and predicted",
-            "caption": "Figure 4-1 analogue. SYNTHETIC LETE sand CI-sinkage curves (dashed, "
-            "open markers) and those predicted with the learned calibration (solid).",
-        },
-        "fig_plates": {
-            "key": "fig_4_2_lete_plates",
-            "title": "Figure 4-2 analogue: LETE sand plates, measured and predicted",
-            "caption": "Figure 4-2 analogue. (a) 3.75 cm and (b) 5 cm radius plates: SYNTHETIC "
-            "measured curves {pairs} (dashed) and curves predicted from {profiles} with the "
-            "calibration (solid){bands}",
-            "band_note": "; hatched: 90% posterior band of LS_1 (terracone.uncertainty).",
-        },
-        "fig_plates_ci_only": {
-            "key": "fig_4_2_lete_plates_ci_only",
-            "title": "LETE sand plates predicted from the CI alone (no calibration)",
-            "caption": "The same plates against the curves predicted from each CI profile "
-            "alone: without the calibration the CI does not fix how the load splits between "
-            "kc and kphi, and the predicted plate pressure drifts.",
-        },
-        "fig_ridge": {
-            "key": "ridge_lete_{id}",
-            "caption": "Not in the paper. RMSD of the best fit to the SYNTHETIC {id} CI over "
-            "(phic, n) with kc, kphi, cc re-fitted at each point (a), over phic and a common "
-            "scale of kc and kphi (b), and its profiles over n (c) and phic (d). The CI fixes "
-            "n; it does not fix phic, which trades exactly against the scale of kc and kphi: "
-            "the published phic is one point of a flat valley.",
-        },
-    },
+    _Section(
+        "lete-plates",
+        "LETE sand: plates (Figure 4-2, Table 4-2)",
+        (
+            "fig_plates",
+            "agreement",
+            "agreement_vs_published",
+            "agreement_control",
+            "fig_plates_ci_only",
+            "agreement_ci_only",
+        ),
+    ),
+    _Section("lete-ridge", "LETE sand: the ridge of equally good fits", ("fig_ridge",)),
 )
 
-_KRC = _CaseSpec(
-    slug="krc",
-    name="KRC",
-    short="KRC",
-    seed=SEED_KRC,
-    parameter_table="4-3",
-    agreement_table="4-4",
-    quick_ids=("KRC_1", "KRC_3"),
-    plates=KRC_PLATES,
-    per_site=True,
-    generate=_krc_data,
-    files=("krc_synthetic_ci.csv", "krc_synthetic_plates.csv"),
-    comments=(
-        "CI from Table 4-3 parameters, improved model RM0. " + NOISE_MODEL[0],
-        "Plates from the same Table 4-3 parameters. " + NOISE_MODEL[3],
-    ),
-    published_label="paper (Table 4-3; generated CI and plates)",
-    sections=(
-        _Section(
-            "krc-prediction",
-            "KRC: learning and prediction (Table 4-3)",
-            (
-                "learning_per_site",
-                "parameters",
-                "parameters_vs_published",
-                "identifiability",
-                "identifiability_ci_only",
-            ),
-        ),
-        _Section("krc-figures", "KRC: Figures 4-3 to 4-10", ("fig_sites",)),
-        _Section(
-            "krc-agreement",
-            "KRC: Table 4-4",
-            ("agreement", "agreement_vs_published", "agreement_ci_only"),
-        ),
-        _Section(
-            "krc-ridge", "KRC: the ridge of equally good fits", ("fig_ridge",), full_only=True
-        ),
-    ),
-    tables={
-        "learning_per_site": {
-            "key": "krc_learning",
-            "title": "KRC: learning process per site (CI and the site's plate pair)",
-        },
-        "parameters": {
-            "key": "table_4_3_krc_parameters",
-            "title": "Table 4-3 analogue: parameters predicted from the KRC CI (with each "
-            "site's calibration)",
-        },
-        "parameters_vs_published": {
-            "key": "table_4_3_krc_vs_published",
-            "title": "KRC parameters: published (Table 4-3) beside ours",
-        },
-        "identifiability": {
-            "key": "krc_identifiability",
-            "title": "KRC: what each CI profile determines (with the site's calibration)",
-        },
-        "identifiability_ci_only": {
-            "key": "krc_identifiability_ci_only",
-            "title": "KRC: what each CI profile determines on its own",
-        },
-        "agreement": {
-            "key": "table_4_4_krc_agreement",
-            "title": "Table 4-4 analogue: R, R2, RMSD, CV between the KRC plate curves and "
-            "those predicted from the CI (with each site's calibration)",
-            "same_site": True,
-            "notes": ["D=10cm: the 4 in (10.16 cm) plate; D=15cm: the 6 in (15.24 cm) plate."],
-        },
-        "agreement_vs_published": {
-            "key": "table_4_4_krc_vs_published",
-            "title": "Table 4-4: ours (with calibration) beside the paper",
-            "notes": [
-                "paper: Table 4-4 as published (package data terracone/data/paper/table_4_4.csv)."
-            ],
-        },
-        "agreement_ci_only": {
-            "key": "table_4_4_krc_ci_only",
-            "title": "KRC, CI alone (no calibration): R, R2, RMSD, CV against the site's plates",
-            "same_site": True,
-        },
+#: LETE sand: keyword arguments of each table part (key, title, notes, ...).
+_LETE_TABLES: dict[str, dict[str, Any]] = {
+    "learning": {
+        "key": "lete_learning",
+        "title": "LETE sand: learning process (section 3.3.1) on all CI profiles and plate tests",
+        "first": "Parameters",
+        "notes": [
+            "The CI profiles were generated from the Table 4-1 parameters and the plates "
+            "from Wong's values: the learning fits both, as the paper's learning fitted "
+            "measured CI and plate curves of one terrain.",
+        ],
     },
-    figures={
-        "fig_sites": {
-            "numbers": KRC_FIGURE,
-            "key": "fig_{number}_{lower}",
-            "title": "Figure {number} analogue: {id} measured and predicted",
-            "caption": "Figure {number} analogue. {id}: (a) SYNTHETIC CI (dashed) and "
-            "predicted CI (solid); (b) SYNTHETIC plate curves of the 4 in and 6 in plates "
-            "(dashed, ending at 1,500 lbf) and those predicted with the site's calibration "
-            "(solid){bands}",
-            "band_note": "; hatched: 90% posterior band.",
-        },
-        "fig_ridge": {
-            "key": "ridge_krc_{lower}",
-            "caption": "As the LETE ridge figure, for the SYNTHETIC {id} CI profile.",
-        },
+    "learning_datasets": {
+        "key": "lete_learning_datasets",
+        "title": "LETE sand: fit of the learned parameters per data set",
     },
+    "parameters": {
+        "key": "table_4_1_lete_parameters",
+        "title": "Table 4-1 analogue: parameters predicted from the LETE sand CI (with the "
+        "learned calibration)",
+        "notes": [
+            "Prediction process (section 3.3.2) with the LETE calibration: model RM1, "
+            "r_min, phic, cc and kc/kphi fixed by learning; n and the scale of kc, kphi "
+            "from each CI.",
+        ],
+    },
+    "parameters_vs_published": {
+        "key": "table_4_1_lete_vs_published",
+        "title": "LETE sand parameters: published (Table 4-1) beside ours",
+        "notes": [
+            "The published rows are the truth of the synthetic CI; 'CI alone' reports phic "
+            "at the middle of the interval that fits equally well.",
+            "Published US columns as recomputed by terracone.units from the SI values.",
+        ],
+    },
+    "identifiability": {
+        "key": "lete_identifiability",
+        "title": "LETE sand: what each CI profile determines (with the calibration)",
+        "notes": [
+            "From the posterior of terracone.uncertainty (90% width over prior width: "
+            "< 0.25 determined, < 0.75 weakly determined, else set by prior) where "
+            "computed; otherwise from the profile intervals of the exact solver.",
+        ],
+    },
+    "identifiability_ci_only": {
+        "key": "lete_identifiability_ci_only",
+        "title": "LETE sand: what each CI profile determines on its own (no calibration)",
+    },
+    "agreement": {
+        "key": "table_4_2_lete_agreement",
+        "title": "Table 4-2 analogue: R, R2, RMSD, CV between the LETE sand plate curves "
+        "and those predicted from the CI (with the calibration)",
+        "notes": ["r=3.75cm: plate radius 3.75 cm (1.5 in); r=5cm: radius 5 cm (1.97 in)."],
+    },
+    "agreement_vs_published": {
+        "key": "table_4_2_lete_vs_published",
+        "title": "Table 4-2: ours (with calibration) beside the paper",
+        "notes": [
+            "paper: Table 4-2 as published (package data terracone/data/paper/table_4_2.csv)."
+        ],
+    },
+    "agreement_control": {
+        "key": "table_4_2_lete_published_parameters",
+        "title": "Control: the published Table 4-1 parameters against our synthetic plate tests",
+        "notes": [
+            "No inversion involved: the paper's own parameters evaluated against plates "
+            "generated from Wong's values. The nearest analogue of the paper's Table 4-2."
+        ],
+    },
+    "agreement_ci_only": {
+        "key": "table_4_2_lete_ci_only",
+        "title": "LETE sand, CI alone (no calibration): R, R2, RMSD, CV against the plate tests",
+    },
+}
+
+#: LETE sand: key, title and caption of each figure part.
+_LETE_FIGURES: dict[str, dict[str, Any]] = {
+    "fig_janosi": {
+        "key": "fig_2_1_lete_janosi",
+        "title": "Figure 2-1 analogue: LETE sand CI and the Janosi equation",
+        "params_label": "Wong's kc 102, kphi 5301, n 0.79",
+        "improved_label": "improved model eq. (2-7), same kc, kphi, n; learned phic, cc, r_min",
+        "caption": "Figure 2-1 analogue. SYNTHETIC LETE sand CI profiles (dashed) against "
+        "the Janosi equation (2-1) with Wong's plate-derived kc, kphi, n (solid), and the "
+        "improved model with the same kc, kphi, n and the learned phic, cc, r_min "
+        "(dotted). As in the paper, the Janosi equation falls far below the measured CI.",
+    },
+    "fig_ci": {
+        "key": "fig_4_1_lete_ci",
+        "title": "Figure 4-1 analogue: LETE sand CI, measured and predicted",
+        "caption": "Figure 4-1 analogue. SYNTHETIC LETE sand CI-sinkage curves (dashed, "
+        "open markers) and those predicted with the learned calibration (solid).",
+    },
+    "fig_plates": {
+        "key": "fig_4_2_lete_plates",
+        "title": "Figure 4-2 analogue: LETE sand plates, measured and predicted",
+        "caption": "Figure 4-2 analogue. (a) 3.75 cm and (b) 5 cm radius plates: SYNTHETIC "
+        "measured curves {pairs} (dashed) and curves predicted from {profiles} with the "
+        "calibration (solid){bands}",
+        "band_note": "; hatched: 90% posterior band of LS_1 (terracone.uncertainty).",
+    },
+    "fig_plates_ci_only": {
+        "key": "fig_4_2_lete_plates_ci_only",
+        "title": "LETE sand plates predicted from the CI alone (no calibration)",
+        "caption": "The same plates against the curves predicted from each CI profile "
+        "alone: without the calibration the CI does not fix how the load splits between "
+        "kc and kphi, and the predicted plate pressure drifts.",
+    },
+    "fig_ridge": {
+        "key": "ridge_lete_{id}",
+        "caption": "Not in the paper. RMSD of the best fit to the SYNTHETIC {id} CI over "
+        "(phic, n) with kc, kphi, cc re-fitted at each point (a), over phic and a common "
+        "scale of kc and kphi (b), and its profiles over n (c) and phic (d). The CI fixes "
+        "n; it does not fix phic, which trades exactly against the scale of kc and kphi: "
+        "the published phic is one point of a flat valley.",
+    },
+}
+
+#: KRC: the report's sections, each a list of parts (keys of ``_PARTS``).
+_KRC_SECTIONS = (
+    _Section(
+        "krc-prediction",
+        "KRC: learning and prediction (Table 4-3)",
+        (
+            "learning_per_site",
+            "parameters",
+            "parameters_vs_published",
+            "identifiability",
+            "identifiability_ci_only",
+        ),
+    ),
+    _Section("krc-figures", "KRC: Figures 4-3 to 4-10", ("fig_sites",)),
+    _Section(
+        "krc-agreement",
+        "KRC: Table 4-4",
+        ("agreement", "agreement_vs_published", "agreement_ci_only"),
+    ),
+    _Section("krc-ridge", "KRC: the ridge of equally good fits", ("fig_ridge",), full_only=True),
 )
 
-#: The paper's two case studies, in the order of the report.
-_CASES = (_LETE, _KRC)
+#: KRC: keyword arguments of each table part (key, title, notes, ...).
+_KRC_TABLES: dict[str, dict[str, Any]] = {
+    "learning_per_site": {
+        "key": "krc_learning",
+        "title": "KRC: learning process per site (CI and the site's plate pair)",
+    },
+    "parameters": {
+        "key": "table_4_3_krc_parameters",
+        "title": "Table 4-3 analogue: parameters predicted from the KRC CI (with each "
+        "site's calibration)",
+    },
+    "parameters_vs_published": {
+        "key": "table_4_3_krc_vs_published",
+        "title": "KRC parameters: published (Table 4-3) beside ours",
+    },
+    "identifiability": {
+        "key": "krc_identifiability",
+        "title": "KRC: what each CI profile determines (with the site's calibration)",
+    },
+    "identifiability_ci_only": {
+        "key": "krc_identifiability_ci_only",
+        "title": "KRC: what each CI profile determines on its own",
+    },
+    "agreement": {
+        "key": "table_4_4_krc_agreement",
+        "title": "Table 4-4 analogue: R, R2, RMSD, CV between the KRC plate curves and "
+        "those predicted from the CI (with each site's calibration)",
+        "same_site": True,
+        "notes": ["D=10cm: the 4 in (10.16 cm) plate; D=15cm: the 6 in (15.24 cm) plate."],
+    },
+    "agreement_vs_published": {
+        "key": "table_4_4_krc_vs_published",
+        "title": "Table 4-4: ours (with calibration) beside the paper",
+        "notes": [
+            "paper: Table 4-4 as published (package data terracone/data/paper/table_4_4.csv)."
+        ],
+    },
+    "agreement_ci_only": {
+        "key": "table_4_4_krc_ci_only",
+        "title": "KRC, CI alone (no calibration): R, R2, RMSD, CV against the site's plates",
+        "same_site": True,
+    },
+}
+
+#: KRC: key, title and caption of each figure part.
+_KRC_FIGURES: dict[str, dict[str, Any]] = {
+    "fig_sites": {
+        "numbers": KRC_FIGURE,
+        "key": "fig_{number}_{lower}",
+        "title": "Figure {number} analogue: {id} measured and predicted",
+        "caption": "Figure {number} analogue. {id}: (a) SYNTHETIC CI (dashed) and "
+        "predicted CI (solid); (b) SYNTHETIC plate curves of the 4 in and 6 in plates "
+        "(dashed, ending at 1,500 lbf) and those predicted with the site's calibration "
+        "(solid){bands}",
+        "band_note": "; hatched: 90% posterior band.",
+    },
+    "fig_ridge": {
+        "key": "ridge_krc_{lower}",
+        "caption": "As the LETE ridge figure, for the SYNTHETIC {id} CI profile.",
+    },
+}
+
+#: The two case studies side by side: one row per field of ``_CaseSpec``,
+#: one column per case study (LETE sand, KRC), in the order of the report.
+_CASE_TABLE: dict[str, tuple[Any, Any]] = {
+    "slug": ("lete", "krc"),
+    "name": ("LETE sand", "KRC"),
+    "seed": (SEED_LETE, SEED_KRC),
+    "parameter_table": ("4-1", "4-3"),
+    "agreement_table": ("4-2", "4-4"),
+    "quick_ids": (("LS_1", "LS_2"), ("KRC_1", "KRC_3")),
+    "plates": (LETE_PLATES, KRC_PLATES),
+    "per_site": (False, True),
+    "generate": (_lete_data, _krc_data),
+    "files": (
+        ("lete_sand_synthetic_ci.csv", "lete_sand_synthetic_plates.csv"),
+        ("krc_synthetic_ci.csv", "krc_synthetic_plates.csv"),
+    ),
+    "comments": (
+        (
+            "CI from Table 4-1 parameters, improved model RM0. " + NOISE_MODEL[0],
+            "Plates from Wong's LETE sand values. " + NOISE_MODEL[2],
+        ),
+        (
+            "CI from Table 4-3 parameters, improved model RM0. " + NOISE_MODEL[0],
+            "Plates from the same Table 4-3 parameters. " + NOISE_MODEL[3],
+        ),
+    ),
+    "published_label": (
+        "paper (Table 4-1; generated the CI)",
+        "paper (Table 4-3; generated CI and plates)",
+    ),
+    "sections": (_LETE_SECTIONS, _KRC_SECTIONS),
+    "tables": (_LETE_TABLES, _KRC_TABLES),
+    "figures": (_LETE_FIGURES, _KRC_FIGURES),
+}
+_CASES = tuple(_CaseSpec(**{name: row[i] for name, row in _CASE_TABLE.items()}) for i in range(2))
 
 
 # ---------------------------------------------------------------------------
