@@ -12,7 +12,6 @@ import json
 import os
 import re
 import sys
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +24,9 @@ from .cone import CONES, cone_index
 from .data import InputError, TerrainParameters
 from .io import json_default
 from .plate import plate_pressure
+from .text import evaluate_text, learn_text, predict_text
+from .text import format_value as _fmt
+from .text import table as _table
 
 _UNITS = click.Choice(["si", "us"])
 _LEN_RE = re.compile(r"^\s*([-+0-9.eE]+)\s*(m|cm|mm|in)?\s*$")
@@ -95,27 +97,6 @@ def _windowed(items, rng: tuple[float | None, float | None], units: str):
         w.notes = list(it.notes) + [f"depth window {a}:{b} {lu}: {len(w)} of {len(it)} points"]
         out.append(w)
     return out
-
-
-def _fmt(v: Any, digits: int = 4) -> str:
-    if v is None:
-        return "-"
-    if isinstance(v, float | np.floating):
-        if not np.isfinite(v):
-            return "-"
-        return f"{v:.{digits}g}"
-    return str(v)
-
-
-def _table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
-    cells = [[str(h) for h in headers]] + [[_fmt(c) for c in r] for r in rows]
-    widths = [max(len(r[i]) for r in cells) for i in range(len(headers))]
-    lines = [
-        "  ".join(c.rjust(w) if j else c.ljust(w) for j, (c, w) in enumerate(zip(r, widths)))
-        for r in cells
-    ]
-    lines.insert(1, "  ".join("-" * w for w in widths))
-    return "\n".join(lines)
 
 
 def _emit_json(obj: Any, out: str | None = None) -> None:
@@ -485,55 +466,6 @@ def _layered_text(layered: dict, units: str) -> str:
     return "\n\nLayered fits (element-wise integration; lower BIC wins):\n" + _table(heads, rows)
 
 
-def _predict_table(results, units: str) -> str:
-    rows = []
-    for r in results:
-        d = r.as_dict(units, curves=False)
-        rows.append(
-            [
-                d["id"],
-                d["status"],
-                d["kc"],
-                d["kphi"],
-                d["n"],
-                d["cc"],
-                d["phic_deg"],
-                d["rmsd"],
-                d["r2_ci"],
-                ",".join(d["undetermined"]) or "-",
-                ("LACK OF FIT" if d.get("lack_of_fit") else "ok") if d["status"] == "ok" else "-",
-            ]
-        )
-    heads = [
-        "profile",
-        "status",
-        f"kc [{u.kc_unit(units)}]",
-        f"kphi [{u.kphi_unit(units)}]",
-        "n",
-        f"cc [{u.pressure_unit(units)}]",
-        "phic [deg]",
-        f"RMSD [{u.pressure_unit(units)}]",
-        "R2 CI",
-        "undetermined",
-        "fit",
-    ]
-    text = _table(heads, rows)
-    lof = [r for r in results if r.ok and r.lack_of_fit]
-    if lof:
-        text += "\n\nLack of fit (these parameters are not the terrain's; try --depth-range or a layered model):"
-        text += "".join(f"\n  {r.id}: {r.lack_of_fit}" for r in lof)
-    errs = [r for r in results if not r.ok]
-    if errs:
-        text += "\n\nProfiles not fitted:\n" + "\n".join(f"  {r.id}: {r.error}" for r in errs)
-    if any("phic" in r.undetermined for r in results if r.ok):
-        text += (
-            "\n\nphic is undetermined: with fully mobilised shear it trades exactly against a common"
-            "\nscale of kc and kphi (shown at the middle of the phic interval that fits equally well)."
-            "\nUse --calibration or --terrain from a learning run to fix it."
-        )
-    return text
-
-
 @cli.command("predict")
 @click.argument("ci_file", type=click.Path(dir_okay=False))
 @_fit_options
@@ -660,7 +592,7 @@ def predict_cmd(
     if as_json:
         _emit_json(doc)
     else:
-        click.echo(_predict_table(results, units))
+        click.echo(predict_text(results, units))
         if posts:
             click.echo(_posterior_text(posts, units))
         if layered:
@@ -765,40 +697,7 @@ def learn_cmd(
     if as_json:
         _emit_json(d)
         return
-    click.echo(_learn_text(d, units))
-
-
-def _learn_text(d: dict[str, Any], units: str) -> str:
-    rows = [
-        ["kc", d["kc"], u.kc_unit(units)],
-        ["kphi", d["kphi"], u.kphi_unit(units)],
-        ["n", d["n"], "-"],
-        ["cc", d["cc"], u.pressure_unit(units)],
-        ["phic", d["phic_deg"], "deg"],
-        ["r_min", d["r_min"], u.length_unit(units)],
-        ["RMSD CI", d["rmsd_ci"], u.pressure_unit(units)],
-        ["RMSD plates", d["rmsd_plates"], u.pressure_unit(units)],
-    ]
-    text = f"Learned calibration for {d['terrain']!r} ({d['model']}):\n" + _table(
-        ["parameter", "value", "unit"], rows
-    )
-    ds = [[x["kind"], x["id"], x["rmsd"], x["cv"]] for x in d["datasets"]]
-    text += "\n\nPer data set:\n" + _table(
-        ["kind", "id", f"RMSD [{u.pressure_unit(units)}]", "CV"], ds
-    )
-    c = d["criteria"]
-    text += f"\n\nFit criterion CV <= {c['max_cv']:g}: {'satisfied' if c['satisfied'] else 'NOT satisfied'} (worst {c['worst_cv']:.3g})"
-    if d["undetermined"]:
-        text += f"\nLeft free by the data: {', '.join(d['undetermined'])}"
-    if c.get("at_bounds"):
-        text += (
-            f"\nOn a search bound (the bound, not the data, set it): {'; '.join(c['at_bounds'])}"
-        )
-    if d.get("saved"):
-        text += f"\nCalibration saved to {d['saved']}"
-    if d.get("saved_as"):
-        text += f"\nCalibration stored in the terrain library as {d['saved_as']!r}"
-    return text
+    click.echo(learn_text(d, units))
 
 
 def _params_from_json(path: str) -> list[tuple[str, TerrainParameters]]:
@@ -854,34 +753,7 @@ def evaluate_cmd(plates_file, kc, kphi, n, params_file, units, as_json):
     if as_json:
         _emit_json({"plates": [r.as_dict(units) for r in rows], "units": units})
         return
-    click.echo(_evaluate_text(rows, units))
-
-
-def _evaluate_text(rows, units: str) -> str:
-    tab = [
-        [
-            r.prediction,
-            r.test,
-            float(u.length_from_si(r.b, units)),
-            r.agreement.R,
-            r.agreement.R2,
-            float(u.pressure_from_si(r.agreement.RMSD, units)),
-            r.agreement.CV,
-        ]
-        for r in rows
-    ]
-    return _table(
-        [
-            "prediction",
-            "plate test",
-            f"b [{u.length_unit(units)}]",
-            "R",
-            "R2",
-            f"RMSD [{u.pressure_unit(units)}]",
-            "CV",
-        ],
-        tab,
-    )
+    click.echo(evaluate_text(rows, units))
 
 
 @cli.command("demo")

@@ -36,6 +36,7 @@ from . import units as u
 from .cone import cone_index
 from .data import CIProfile, PlateTest
 from .plate import plate_pressure
+from .text import evaluate_text, learn_text, predict_text
 
 __all__ = ["TRUTH", "example_dir", "make_example", "run_demo"]
 
@@ -115,7 +116,6 @@ def write_example(directory: str | Path) -> None:
 
 def run_demo(units: str = "si", out: str | None = None) -> str:
     """Learn on profile 1 and the plates, predict all profiles, evaluate; return the text."""
-    from .cli import _evaluate_text, _learn_text, _predict_table
     from .inverse import predict_many
     from .inverse.evaluate import cross_table
     from .inverse.learn import learn
@@ -134,7 +134,7 @@ def run_demo(units: str = "si", out: str | None = None) -> str:
     res = learn(profiles, plates, model="rm1")
     ld = res.as_dict(units)
     ld["terrain"] = "LETE sand (synthetic)"
-    parts.append(_learn_text(ld, units))
+    parts.append(learn_text(ld, units))
     truth = TRUTH
     parts.append(
         f"   (truth: kc {truth['kc']:g}, kphi {truth['kphi']:g}, n {truth['n']:g}, cc {truth['cc']:g} kPa, "
@@ -143,15 +143,15 @@ def run_demo(units: str = "si", out: str | None = None) -> str:
     cal = res.calibration("LETE sand (synthetic)")
     parts += ["", "2. Prediction process (section 3.3.2) with that calibration, all profiles"]
     results = predict_many(profiles, calibration=cal)
-    parts.append(_predict_table(results, units))
+    parts.append(predict_text(results, units))
     parts += ["", "3. Prediction without calibration (phic free): what the CI alone determines"]
     free = predict_many(profiles)
-    parts.append(_predict_table(free, units))
+    parts.append(predict_text(free, units))
     parts += ["", "4. Evaluation (Table 4-2 style): calibrated predictions against the plate tests"]
     rows = cross_table(
         [(r.id, r.params) for r in results if r.ok], plates, plate_pair=cal.plate_pair
     )
-    parts.append(_evaluate_text(rows, units))
+    parts.append(evaluate_text(rows, units))
     if out:
         o = Path(out)
         o.mkdir(parents=True, exist_ok=True)

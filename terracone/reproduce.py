@@ -41,6 +41,13 @@ calibration (Table 4-3/4-4 analogues) and without; evaluation against the
 site's plates (Table 4-4).  Posterior plate bands come from
 :func:`terracone.uncertainty.posterior` when that module is available.
 
+Layout: each case study is one spec (its data generator, file names, and
+per report section the tables and figures with their keys, titles, notes
+and captions); one builder per kind of table or figure reads it, so what
+LETE and KRC share is written once.  The learning runs, the predictions
+and the figures go through a ``pool`` with a ``map`` method (as in emcee):
+a process pool by default, the builtin ``map`` with ``workers=1``.
+
 References
 ----------
 .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
@@ -50,17 +57,17 @@ References
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 import os
 import shutil
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -69,7 +76,7 @@ from . import units as u
 from .cone import cone_index
 from .data import CIProfile, PlateTest, TerrainParameters
 from .inverse.bounds import Bounds
-from .inverse.evaluate import cross_table, predicted_plate_pressure
+from .inverse.evaluate import PlateEvaluation, cross_table, predicted_plate_pressure
 from .inverse.learn import Calibration, LearnResult, learn
 from .inverse.predict import PredictionResult, predict
 from .io import json_default, write_ci_profiles, write_plate_tests
@@ -190,6 +197,96 @@ class ReproduceSummary:
 
 
 # ---------------------------------------------------------------------------
+# the case studies as data
+# ---------------------------------------------------------------------------
+
+
+class _Group(NamedTuple):
+    """One learning run: LETE learns once on all its data, KRC once per site."""
+
+    id: str
+    profiles: list[CIProfile]
+    plates: list[PlateTest]
+
+
+class _Section(NamedTuple):
+    """One section of the report: anchor, heading and the parts drawn in it, in order."""
+
+    id: str
+    heading: str
+    parts: tuple[str, ...]
+    full_only: bool = False  # left out of a quick run
+
+
+@dataclass(frozen=True)
+class _CaseSpec:
+    """What differs between the two case studies, as data (one column of ``_CASE_TABLE``).
+
+    Every table and figure the two case studies share is built by one part
+    builder (``_PARTS``) from these fields; ``tables[part]`` holds the
+    keyword arguments of the report table (key, title, notes, ...),
+    ``figures[part]`` the figure's key, title and caption.
+    """
+
+    slug: str  # file names and table keys: "lete", "krc"
+    name: str  # "LETE sand", "KRC"
+    seed: int
+    parameter_table: str  # the paper's table of parameters: "4-1", "4-3"
+    agreement_table: str  # the paper's table of agreement: "4-2", "4-4"
+    quick_ids: tuple[str, ...]  # the profiles of a quick run
+    plates: dict[str, float]  # plate label -> radius [m]
+    per_site: bool  # learning, calibration files and evaluation rows per site
+    generate: Callable[[_CaseSpec, list[dict[str, Any]], bool], _Case]  # the synthetic data
+    files: tuple[str, str]  # data/ file names: CI profiles, plate tests
+    comments: tuple[str, str]  # what each data file holds (its header)
+    published_label: str
+    sections: tuple[_Section, ...]
+    tables: dict[str, dict[str, Any]]
+    figures: dict[str, dict[str, Any]]
+
+    @property
+    def short(self) -> str:
+        """Label of the summary rows: "LETE", "KRC"."""
+        return self.name.split()[0]
+
+
+@dataclass
+class _Case:
+    """One case study: its spec, synthetic data, and results as the run fills them in."""
+
+    spec: _CaseSpec
+    pub: list[dict[str, Any]]  # published parameters of the profiles (generated the CI)
+    profiles: list[CIProfile]
+    plates: list[PlateTest]
+    where: dict[str, tuple[str, str]]  # plate test id -> (pair or site, plate label)
+    groups: list[_Group]
+    learned: dict[str, LearnResult] = field(default_factory=dict)  # by group id
+    cals: dict[str, Calibration] = field(default_factory=dict)  # by group id
+    cal_res: list[PredictionResult] = field(default_factory=list)
+    free_res: list[PredictionResult] = field(default_factory=list)
+    posts: dict[str, dict[str, Any] | None] = field(default_factory=dict)
+    evals_cal: list[PlateEvaluation] = field(default_factory=list)
+    rows_cal: list[dict[str, Any]] = field(default_factory=list)
+    rows_free: list[dict[str, Any]] = field(default_factory=list)
+    rows_ctrl: list[dict[str, Any]] = field(default_factory=list)
+    published: list[dict[str, Any]] = field(default_factory=list)
+
+    @staticmethod
+    def generate(spec: _CaseSpec, quick: bool) -> _Case:
+        """The case study's synthetic data (results still empty)."""
+        pub = published_parameters(spec.parameter_table)
+        if quick:
+            pub = [p for p in pub if p["id"] in spec.quick_ids]
+        return spec.generate(spec, pub, quick)
+
+    def group_of(self, profile_id: str) -> _Group:
+        return next(g for g in self.groups if any(p.id == profile_id for p in g.profiles))
+
+    def cal_of(self, profile_id: str) -> Calibration:
+        return self.cals[self.group_of(profile_id).id]
+
+
+# ---------------------------------------------------------------------------
 # data
 # ---------------------------------------------------------------------------
 
@@ -213,64 +310,53 @@ def _ci_profile(site: str, p: dict[str, Any], rng: np.random.Generator, case: st
     )
 
 
-def _lete_data(quick: bool):
-    rng = np.random.default_rng(SEED_LETE)
-    pub = published_parameters("4-1")
-    if quick:
-        pub = pub[:2]
-    profiles = [_ci_profile(p["id"], p, rng, "LETE sand") for p in pub]
+def _plate_test(pair: str, key: str, r: float, sinkage, pressure) -> PlateTest:
+    return PlateTest(
+        f"{pair}_{key.replace('=', '')}",
+        r,
+        "circular",
+        sinkage.copy(),
+        np.round(pressure, 2),
+        metadata={"pair": pair, "plate": key, "data": LABEL},
+    )
+
+
+def _lete_data(spec: _CaseSpec, pub: list[dict[str, Any]], quick: bool) -> _Case:
+    """CI from Table 4-1, plate pairs from Wong's values; one learning on everything."""
+    rng = np.random.default_rng(spec.seed)
+    profiles = [_ci_profile(p["id"], p, rng, spec.name) for p in pub]
     pairs = ["LS_A", "LS_B", "LS_C", "LS_D", "LS_E"][: 3 if quick else 5]
     plates, where = [], {}
     for pair in pairs:
         f = math.exp(LETE_PAIR_SPREAD * rng.standard_normal())
-        for key, r in LETE_PLATES.items():
+        for key, r in spec.plates.items():
             p = plate_pressure(SINKAGES, radius=r, **WONG_LETE)
             p = p * f * (1.0 + PLATE_NOISE * rng.standard_normal(SINKAGES.size))
-            tid = f"{pair}_{key.replace('=', '')}"
-            plates.append(
-                PlateTest(
-                    tid,
-                    r,
-                    "circular",
-                    SINKAGES.copy(),
-                    np.round(p, 2),
-                    metadata={"pair": pair, "plate": key, "data": LABEL},
-                )
-            )
-            where[tid] = (pair, key)
-    return pub, profiles, plates, where
+            plates.append(_plate_test(pair, key, r, SINKAGES, p))
+            where[plates[-1].id] = (pair, key)
+    return _Case(spec, pub, profiles, plates, where, [_Group(spec.name, profiles, plates)])
 
 
-def _krc_data(quick: bool):
-    rng = np.random.default_rng(SEED_KRC)
-    pub = published_parameters("4-3")
-    if quick:
-        pub = [p for p in pub if p["id"] in ("KRC_1", "KRC_3")]
-    sites = []
+def _krc_data(spec: _CaseSpec, pub: list[dict[str, Any]], quick: bool) -> _Case:
+    """Per site, CI and a plate pair (ending at 1,500 lbf) from its Table 4-3 row."""
+    rng = np.random.default_rng(spec.seed)
+    profiles, plates, where, groups = [], [], {}, []
     for p in pub:
-        prof = _ci_profile(p["id"], p, rng, "KRC")
-        plates, where = [], {}
-        for key, r in KRC_PLATES.items():
+        prof = _ci_profile(p["id"], p, rng, spec.name)
+        site_plates = []
+        for key, r in spec.plates.items():
             clean = plate_pressure(SINKAGES, kc=p["kc"], kphi=p["kphi"], n=p["n"], radius=r)
             limit = KRC_FORCE_LIMIT / (math.pi * r * r) / 1000.0  # [kPa]
             noisy = clean * (1.0 + PLATE_NOISE * rng.standard_normal(SINKAGES.size))
             keep = clean <= limit
             if keep.sum() < 3:  # a very stiff site: keep the first points
                 keep[:3] = True
-            tid = f"{p['id']}_{key.replace('=', '')}"
-            plates.append(
-                PlateTest(
-                    tid,
-                    r,
-                    "circular",
-                    SINKAGES[keep].copy(),
-                    np.round(noisy[keep], 2),
-                    metadata={"pair": p["id"], "plate": key, "data": LABEL},
-                )
-            )
-            where[tid] = (p["id"], key)
-        sites.append((p, prof, plates, where))
-    return sites
+            site_plates.append(_plate_test(p["id"], key, r, SINKAGES[keep], noisy[keep]))
+            where[site_plates[-1].id] = (p["id"], key)
+        profiles.append(prof)
+        plates += site_plates
+        groups.append(_Group(p["id"], [prof], site_plates))
+    return _Case(spec, pub, profiles, plates, where, groups)
 
 
 # ---------------------------------------------------------------------------
@@ -348,25 +434,22 @@ def _predict_doc(
     results: Sequence[PredictionResult],
     *,
     input_file: str,
-    cal: Calibration | None,
     radii: Sequence[float],
-    posts: dict[str, dict[str, Any]] | None = None,
-    cals: dict[str, Calibration] | None = None,
+    cal_of: dict[str, Calibration] | None = None,
+    calibration: str | None = None,
+    model: str = "rm0",
+    posts: dict[str, dict[str, Any] | None] | None = None,
 ) -> dict[str, Any]:
+    """predict JSON of ``results``; ``cal_of``: profile id -> its calibration, if any."""
     profiles = []
     for r in results:
         d = r.as_dict("si")
-        c = (cals or {}).get(r.id, cal)
+        c = (cal_of or {}).get(r.id)
         if r.ok:
             d["plates"] = _plate_curves(r.params, radii, c.plate_pair if c else None)
-        if posts and r.id in posts and posts[r.id]:
+        if posts and posts.get(r.id):
             d.update(posts[r.id])
         profiles.append(d)
-    cal_name = None
-    if cals:
-        cal_name = "per site (learned on each site's CI and plates)"
-    elif cal is not None:
-        cal_name = cal.terrain
     return {
         "terracone": __version__,
         "command": "predict",
@@ -374,10 +457,10 @@ def _predict_doc(
         "synthetic": True,
         "note": SYNTHETIC_TEXT,
         "settings": {
-            "model": (cal.model if cal else "rm0") if not cals else "rm1",
+            "model": model,
             "solver": "exact",
             "bounds": Bounds().as_dict("si"),
-            "calibration": cal_name,
+            "calibration": calibration,
             "units": "si",
         },
         "profiles": profiles,
@@ -398,20 +481,59 @@ def _learn_doc(res: LearnResult, terrain: str) -> dict[str, Any]:
     return d
 
 
+def _evaluate_doc(case: _Case) -> dict[str, Any]:
+    """evaluate JSON: LETE as ``terracone evaluate`` writes it, KRC as rows per site."""
+    if case.spec.per_site:
+        plates = [{**r, "test": f"{r['pair']} {r['plate']}", "units": "si"} for r in case.rows_cal]
+    else:
+        plates = [e.as_dict("si") for e in case.evals_cal]
+    return {
+        "command": "evaluate",
+        "synthetic": True,
+        "note": SYNTHETIC_TEXT,
+        "units": "si",
+        "plates": plates,
+    }
+
+
+def _text(s: str) -> dict[str, Any]:
+    return {"type": "text", "text": s}
+
+
+def _list(items: Sequence[str]) -> dict[str, Any]:
+    return {"type": "list", "items": list(items)}
+
+
+def _kv(pairs: dict[str, Any]) -> dict[str, Any]:
+    return {"type": "kv", "pairs": pairs}
+
+
 # ---------------------------------------------------------------------------
-# the run
+# the pool: anything with a ``map`` (emcee's pattern)
 # ---------------------------------------------------------------------------
 
 
-def _submit(
-    ex: ProcessPoolExecutor | None, fn: Callable[..., Any], *args: Any, **kw: Any
-) -> Future:
-    """Run ``fn`` in the pool, or here and now when there is none."""
-    if ex is not None:
-        return ex.submit(fn, *args, **kw)
-    f: Future = Future()
-    f.set_result(fn(*args, **kw))
-    return f
+def _call(task: tuple[Callable[..., Any], tuple]) -> Any:
+    """Run one ``(function, args)`` task (in a worker of the pool, or here)."""
+    fn, args = task
+    return fn(*args)
+
+
+def _mapper(pool: Any) -> Callable[..., Any]:
+    """``pool.map``, or ``pool`` itself when it is a map function (builtin ``map``)."""
+    return pool.map if hasattr(pool, "map") else pool
+
+
+def _learn_task(profiles, plates, grid):
+    return learn(profiles, plates, model="rm1", grid=grid)
+
+
+def _predict_task(profile, cal, radii, seed, draws):
+    """Prediction with and without the calibration, and the posterior plate bands."""
+    rc = predict(profile, calibration=cal)
+    rf = predict(profile)
+    post, why = _posterior(profile, rc, cal, radii, seed, draws)
+    return rc, rf, post, why
 
 
 def _deferred(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> tuple:
@@ -427,15 +549,14 @@ def _render(spec: tuple, directory: Path, key: str) -> dict[str, Path]:
 
 
 class _Out:
-    """Collects the files, figures and tables of a run; figures render in the pool."""
+    """Collects the files, figures and tables of a run; figures render later, in the pool."""
 
-    def __init__(self, root: Path, ex: ProcessPoolExecutor | None = None) -> None:
+    def __init__(self, root: Path) -> None:
         self.root = root
-        self.ex = ex
         self.files: list[Path] = []
         self.tables: dict[str, Path] = {}
         self.figures: dict[str, dict[str, Path]] = {}
-        self.pending: list[Future] = []
+        self.pending: list[tuple] = []
 
     def rel(self, p: Path) -> str:
         return p.relative_to(self.root).as_posix()
@@ -456,7 +577,7 @@ class _Out:
 
     def figure(self, spec: tuple, key: str, caption: str) -> dict[str, Any]:
         """Queue figure ``spec`` (from :func:`_deferred`) as ``figures/key.png`` and ``.svg``."""
-        self.pending.append(_submit(self.ex, _render, spec, self.root / "figures", key))
+        self.pending.append((_render, (spec, self.root / "figures", key)))
         paths = {f: self.root / "figures" / f"{key}.{f}" for f in ("png", "svg")}
         for p in paths.values():
             self.file(p)
@@ -469,46 +590,23 @@ class _Out:
             "alt": caption.split(".")[0],
         }
 
-    def wait(self) -> None:
-        for f in self.pending:
-            f.result()
+    def render(self, mapper: Callable[..., Any]) -> None:
+        """Draw the queued figures with ``mapper`` (a pool's map)."""
+        list(mapper(_call, self.pending))
         self.pending = []
 
 
-def _text(s: str) -> dict[str, Any]:
-    return {"type": "text", "text": s}
-
-
-def _list(items: Sequence[str]) -> dict[str, Any]:
-    return {"type": "list", "items": list(items)}
-
-
-def _kv(pairs: dict[str, Any]) -> dict[str, Any]:
-    return {"type": "kv", "pairs": pairs}
-
-
-def _learn_task(profiles, plates, grid):
-    return learn(profiles, plates, model="rm1", grid=grid)
-
-
-def _lete_predict_task(i, profile, cal, radii, draws):
-    rc = predict(profile, calibration=cal)
-    rf = predict(profile)
-    post, why = _posterior(profile, rc, cal, radii, SEED_LETE + i, draws)
-    return rc, rf, post, why
-
-
-def _krc_site_task(i, site_id, profile, plates, grid, draws):
-    lr = learn([profile], plates, model="rm1", grid=grid)
-    cal = lr.calibration(f"{site_id} ({LABEL})", data=LABEL)
-    rc = predict(profile, calibration=cal)
-    rf = predict(profile)
-    post, why = _posterior(profile, rc, cal, list(KRC_PLATES.values()), SEED_KRC + i, draws)
-    return lr, cal, rc, rf, post, why
+# ---------------------------------------------------------------------------
+# the run
+# ---------------------------------------------------------------------------
 
 
 def reproduce(
-    out_dir: str | Path, *, quick: bool = False, workers: int | None = None
+    out_dir: str | Path,
+    *,
+    quick: bool = False,
+    workers: int | None = None,
+    pool: Any | None = None,
 ) -> ReproduceSummary:
     """Re-create the paper's LETE sand and KRC case studies on synthetic data.
 
@@ -528,17 +626,34 @@ def reproduce(
         LS_C, KRC sites KRC_1 and KRC_3, a coarser learning grid, fewer
         posterior draws.
     workers : int, optional
-        Worker processes for the learning runs and the figures (default:
-        2, or 1 on a one-core machine; 1 runs everything in this process).
-        The results do not depend on it.
+        Worker processes for the learning runs, the predictions and the
+        figures when no ``pool`` is given (default: 2, or 1 on a one-core
+        machine; 1 runs everything in this process with the builtin
+        ``map``).  The results do not depend on it.
+    pool : object with a ``map`` method, optional
+        Runs the learning runs, the predictions and the figures, as in
+        emcee: a ``concurrent.futures`` executor, a ``multiprocessing``
+        pool, or the builtin ``map`` itself.  ``pool.map(fn, tasks)`` must
+        return the results in order; the caller owns the pool (it is not
+        shut down here).  Overrides ``workers``.
 
     Returns
     -------
     ReproduceSummary
     """
     t0 = time.perf_counter()
+    root = _prepare_output(Path(out_dir))
+    if pool is not None:
+        return _run(root, quick=quick, mapper=_mapper(pool), t0=t0, workers="given pool")
     workers = workers if workers is not None else min(2, os.cpu_count() or 1)
-    root = Path(out_dir)
+    if workers <= 1:
+        return _run(root, quick=quick, mapper=map, t0=t0, workers=workers)
+    with ProcessPoolExecutor(max_workers=workers) as executor:
+        return _run(root, quick=quick, mapper=executor.map, t0=t0, workers=workers)
+
+
+def _prepare_output(root: Path) -> Path:
+    """Create ``root`` and empty sub-folders; refuse a folder an earlier run did not write."""
     root.mkdir(parents=True, exist_ok=True)
     subs = ("figures", "tables", "data", "results")
     ours = (root / "reproduce.json").exists()
@@ -553,211 +668,31 @@ def reproduce(
         if (root / sub).is_dir():
             shutil.rmtree(root / sub)  # an earlier run's output (reproduce.json is there)
         (root / sub).mkdir()
-    pool = ProcessPoolExecutor(max_workers=workers) if workers > 1 else None
-    with pool if pool is not None else contextlib.nullcontext():
-        return _run(root, quick=quick, ex=pool, t0=t0, workers=workers)
+    return root
 
 
-def _run(root: Path, *, quick: bool, ex, t0: float, workers: int) -> ReproduceSummary:
-    out = _Out(root, ex)
+def _run(
+    root: Path, *, quick: bool, mapper: Callable[..., Any], t0: float, workers: int | str
+) -> ReproduceSummary:
+    out = _Out(root)
     notes: list[str] = []
     grid = (13, 7, 6) if quick else (33, 16, 13)
     draws = 400 if quick else 1000
-    header = [
-        f"{LABEL} DATA generated by terracone.reproduce; not measurements.",
-        f"From the published parameters of {CITATION}.",
-    ]
+    cases = [_Case.generate(spec, quick) for spec in _CASES]
+    ci_files = [_write_inputs(out, case) for case in cases]
 
-    def note(why):
-        if why and why not in notes:
-            notes.append(why)
-
-    # ---------------- data ----------------
-    lete_pub, lete_profiles, lete_plates, lete_where = _lete_data(quick)
-    krc = _krc_data(quick)
-    ci_file = root / "data" / "lete_sand_synthetic_ci.csv"
-    write_ci_profiles(
-        ci_file,
-        lete_profiles,
-        comment=header + ["CI from Table 4-1 parameters, improved model RM0. " + NOISE_MODEL[0]],
-    )
-    pl_file = root / "data" / "lete_sand_synthetic_plates.csv"
-    write_plate_tests(
-        pl_file,
-        lete_plates,
-        comment=header + ["Plates from Wong's LETE sand values. " + NOISE_MODEL[2]],
-    )
-    krc_profiles = [s[1] for s in krc]
-    krc_plates = [pl for s in krc for pl in s[2]]
-    kci_file = root / "data" / "krc_synthetic_ci.csv"
-    write_ci_profiles(
-        kci_file,
-        krc_profiles,
-        comment=header + ["CI from Table 4-3 parameters, improved model RM0. " + NOISE_MODEL[0]],
-    )
-    kpl_file = root / "data" / "krc_synthetic_plates.csv"
-    write_plate_tests(
-        kpl_file,
-        krc_plates,
-        comment=header + ["Plates from the same Table 4-3 parameters. " + NOISE_MODEL[3]],
-    )
-    for f in (ci_file, pl_file, kci_file, kpl_file):
-        out.file(f)
-
-    # ---------------- learning, prediction (in the pool) ----------------
     t_comp = time.perf_counter()
-    f_lete = _submit(ex, _learn_task, lete_profiles, lete_plates, grid)
-    f_sites = [
-        _submit(ex, _krc_site_task, i, p["id"], prof, plates, grid, draws)
-        for i, (p, prof, plates, _w) in enumerate(krc)
-    ]
-    lres = f_lete.result()
-    cal = lres.calibration(f"LETE sand ({LABEL})", data=LABEL)
-    radii = list(LETE_PLATES.values())
-    f_pred = [
-        _submit(ex, _lete_predict_task, i, prof, cal, radii, draws)
-        for i, prof in enumerate(lete_profiles)
-    ]
-    lete_cal, lete_free, posts = [], [], {}
-    for prof, f in zip(lete_profiles, f_pred):
-        rc, rf, post, why = f.result()
-        lete_cal.append(rc)
-        lete_free.append(rf)
-        posts[prof.id] = post
-        note(why)
-    krc_cals: dict[str, Calibration] = {}
-    krc_learn: dict[str, LearnResult] = {}
-    krc_cal_res, krc_free_res = [], []
-    krc_posts: dict[str, Any] = {}
-    rows_kcal, rows_kfree, rows_kctrl = [], [], []
-    for (p, prof, plates, where), f in zip(krc, f_sites):
-        lr, c, rc, rf, post, why = f.result()
-        note(why)
-        krc_learn[p["id"]] = lr
-        krc_cals[p["id"]] = c
-        krc_cal_res.append(rc)
-        krc_free_res.append(rf)
-        krc_posts[prof.id] = post
-        if rc.ok:
-            rows_kcal += _rows(cross_table([(rc.id, rc.params)], plates, c.plate_pair), where)
-        if rf.ok:
-            rows_kfree += _rows(cross_table([(rf.id, rf.params)], plates), where)
-        rows_kctrl += _rows(
-            cross_table([(p["id"], TerrainParameters(p["kc"], p["kphi"], p["n"]))], plates), where
-        )
+    _learn_all(cases, mapper, grid)
+    _predict_all(cases, mapper, draws, notes)
+    for case in cases:
+        _evaluate(case)
     t_comp = time.perf_counter() - t_comp
+    for case, ci_file in zip(cases, ci_files):
+        _write_results(out, case, ci_file)
 
-    # ---------------- evaluation and results files ----------------
-    cal.save(out.file(root / "results" / "lete_calibration.json"))
-    _write_json(
-        out.file(root / "results" / "lete_learn.json"), _learn_doc(lres, f"LETE sand ({LABEL})")
-    )
-    _write_json(
-        out.file(root / "results" / "lete_predict.json"),
-        _predict_doc(lete_cal, input_file=out.rel(ci_file), cal=cal, radii=radii, posts=posts),
-    )
-    _write_json(
-        out.file(root / "results" / "lete_predict_ci_only.json"),
-        _predict_doc(lete_free, input_file=out.rel(ci_file), cal=None, radii=radii),
-    )
-    evals_cal = cross_table(
-        [(r.id, r.params) for r in lete_cal if r.ok], lete_plates, cal.plate_pair
-    )
-    rows_cal = _rows(evals_cal, lete_where)
-    rows_free = _rows(
-        cross_table([(r.id, r.params) for r in lete_free if r.ok], lete_plates), lete_where
-    )
-    rows_ctrl = _rows(
-        cross_table(
-            [(p["id"], TerrainParameters(p["kc"], p["kphi"], p["n"])) for p in lete_pub],
-            lete_plates,
-        ),
-        lete_where,
-    )
-    _write_json(
-        out.file(root / "results" / "lete_evaluate.json"),
-        {
-            "command": "evaluate",
-            "synthetic": True,
-            "note": SYNTHETIC_TEXT,
-            "units": "si",
-            "plates": [e.as_dict("si") for e in evals_cal],
-        },
-    )
-    _write_json(
-        out.file(root / "results" / "krc_learn.json"),
-        {
-            "synthetic": True,
-            "note": SYNTHETIC_TEXT,
-            "sites": {k: _learn_doc(v, f"{k} ({LABEL})") for k, v in krc_learn.items()},
-        },
-    )
-    for k, c in krc_cals.items():
-        c.save(out.file(root / "results" / f"krc_calibration_{k}.json"))
-    kradii = list(KRC_PLATES.values())
-    _write_json(
-        out.file(root / "results" / "krc_predict.json"),
-        _predict_doc(
-            krc_cal_res,
-            input_file=out.rel(kci_file),
-            cal=None,
-            radii=kradii,
-            posts=krc_posts,
-            cals=krc_cals,
-        ),
-    )
-    _write_json(
-        out.file(root / "results" / "krc_predict_ci_only.json"),
-        _predict_doc(krc_free_res, input_file=out.rel(kci_file), cal=None, radii=kradii),
-    )
-    _write_json(
-        out.file(root / "results" / "krc_evaluate.json"),
-        {
-            "command": "evaluate",
-            "synthetic": True,
-            "note": SYNTHETIC_TEXT,
-            "units": "si",
-            "plates": [
-                {**r, "test": f"{r['pair']} {r['plate']}", "units": "si"} for r in rows_kcal
-            ],
-        },
-    )
-
-    # ---------------- figures, tables, report ----------------
     t_fig = time.perf_counter()
-    sections = _document_sections(
-        out,
-        quick=quick,
-        lete=dict(
-            pub=lete_pub,
-            profiles=lete_profiles,
-            plates=lete_plates,
-            where=lete_where,
-            learn=lres,
-            cal=cal,
-            cal_res=lete_cal,
-            free_res=lete_free,
-            posts=posts,
-            rows_cal=rows_cal,
-            rows_free=rows_free,
-            rows_ctrl=rows_ctrl,
-            published=published_agreement("4-2"),
-        ),
-        krc=dict(
-            sites=krc,
-            learn=krc_learn,
-            cals=krc_cals,
-            cal_res=krc_cal_res,
-            free_res=krc_free_res,
-            posts=krc_posts,
-            rows_cal=rows_kcal,
-            rows_free=rows_kfree,
-            rows_ctrl=rows_kctrl,
-            published=published_agreement("4-4"),
-        ),
-        notes=notes,
-    )
-    out.wait()
+    sections = _document_sections(out, cases, quick=quick, notes=notes)
+    out.render(mapper)
     t_fig = time.perf_counter() - t_fig
     seconds = time.perf_counter() - t0
     run = {
@@ -770,8 +705,121 @@ def _run(root: Path, *, quick: bool, ex, t0: float, workers: int) -> ReproduceSu
         "posterior draws per profile": draws,
         "terracone": __version__,
     }
-    sections[1]["parts"].append(_text("Run:"))
-    sections[1]["parts"].append(_kv(run))
+    sections[1]["parts"] += [_text("Run:"), _kv(run)]
+    report = _write_report(out, sections, quick=quick, seconds=seconds)
+    lete, krc = cases
+    return ReproduceSummary(
+        out_dir=root,
+        report=report,
+        quick=quick,
+        seconds=time.perf_counter() - t0,
+        files=out.files,
+        lete_learned=_si(lete.learned[lete.spec.name].params, "LETE"),
+        krc_learned={k: _si(v.params, k) for k, v in krc.learned.items()},
+        tables=out.tables,
+        figures=out.figures,
+        notes=notes,
+    )
+
+
+def _write_inputs(out: _Out, case: _Case) -> Path:
+    """Write the case's synthetic CI profiles and plate tests; return the CI file."""
+    header = [
+        f"{LABEL} DATA generated by terracone.reproduce; not measurements.",
+        f"From the published parameters of {CITATION}.",
+    ]
+    ci_name, plates_name = case.spec.files
+    ci_comment, plates_comment = case.spec.comments
+    ci_file = out.file(out.root / "data" / ci_name)
+    write_ci_profiles(ci_file, case.profiles, comment=header + [ci_comment])
+    plates_file = out.file(out.root / "data" / plates_name)
+    write_plate_tests(plates_file, case.plates, comment=header + [plates_comment])
+    return ci_file
+
+
+def _learn_all(cases: Sequence[_Case], mapper: Callable[..., Any], grid: tuple) -> None:
+    """The learning process (section 3.3.1), one run per group of every case, in the pool."""
+    groups = [(case, g) for case in cases for g in case.groups]
+    tasks = [(_learn_task, (g.profiles, g.plates, grid)) for _, g in groups]
+    for (case, g), lr in zip(groups, mapper(_call, tasks)):
+        case.learned[g.id] = lr
+        case.cals[g.id] = lr.calibration(f"{g.id} ({LABEL})", data=LABEL)
+
+
+def _predict_all(
+    cases: Sequence[_Case], mapper: Callable[..., Any], draws: int, notes: list[str]
+) -> None:
+    """Every profile predicted with and without its calibration, with posterior, in the pool."""
+    jobs = [(case, i, p) for case in cases for i, p in enumerate(case.profiles)]
+    tasks = [
+        (
+            _predict_task,
+            (p, case.cal_of(p.id), list(case.spec.plates.values()), case.spec.seed + i, draws),
+        )
+        for case, i, p in jobs
+    ]
+    for (case, _, p), (rc, rf, post, why) in zip(jobs, mapper(_call, tasks)):
+        case.cal_res.append(rc)
+        case.free_res.append(rf)
+        case.posts[p.id] = post
+        if why and why not in notes:
+            notes.append(why)
+
+
+def _evaluate(case: _Case) -> None:
+    """Each group's predictions against its plates: calibrated, CI alone, published (control)."""
+    pub = {p["id"]: p for p in case.pub}
+    for g in case.groups:
+        ids = {p.id for p in g.profiles}
+        cal = [(r.id, r.params) for r in case.cal_res if r.id in ids and r.ok]
+        free = [(r.id, r.params) for r in case.free_res if r.id in ids and r.ok]
+        control = [
+            (p.id, TerrainParameters(pub[p.id]["kc"], pub[p.id]["kphi"], pub[p.id]["n"]))
+            for p in g.profiles
+        ]
+        evals = cross_table(cal, g.plates, case.cals[g.id].plate_pair)
+        case.evals_cal += evals
+        case.rows_cal += _rows(evals, case.where)
+        case.rows_free += _rows(cross_table(free, g.plates), case.where)
+        case.rows_ctrl += _rows(cross_table(control, g.plates), case.where)
+    case.published = published_agreement(case.spec.agreement_table)
+
+
+def _write_results(out: _Out, case: _Case, ci_file: Path) -> None:
+    """results/: calibrations, and the learn, predict and evaluate JSON of one case."""
+    spec, res = case.spec, out.root / "results"
+    for gid, cal in case.cals.items():
+        name = f"_{gid}" if spec.per_site else ""
+        cal.save(out.file(res / f"{spec.slug}_calibration{name}.json"))
+    docs = {gid: _learn_doc(lr, f"{gid} ({LABEL})") for gid, lr in case.learned.items()}
+    if spec.per_site:
+        learn_doc = {"synthetic": True, "note": SYNTHETIC_TEXT, "sites": docs}
+        calibration = "per site (learned on each site's CI and plates)"
+    else:
+        (learn_doc,) = docs.values()
+        (calibration,) = (c.terrain for c in case.cals.values())
+    _write_json(out.file(res / f"{spec.slug}_learn.json"), learn_doc)
+    common = {"input_file": out.rel(ci_file), "radii": list(spec.plates.values())}
+    _write_json(
+        out.file(res / f"{spec.slug}_predict.json"),
+        _predict_doc(
+            case.cal_res,
+            cal_of={p.id: case.cal_of(p.id) for p in case.profiles},
+            calibration=calibration,
+            model=next(iter(case.cals.values())).model,
+            posts=case.posts,
+            **common,
+        ),
+    )
+    _write_json(
+        out.file(res / f"{spec.slug}_predict_ci_only.json"),
+        _predict_doc(case.free_res, **common),
+    )
+    _write_json(out.file(res / f"{spec.slug}_evaluate.json"), _evaluate_doc(case))
+
+
+def _write_report(out: _Out, sections: list[dict[str, Any]], *, quick: bool, seconds: float):
+    """report.html and reproduce.json (the document ``terracone report`` rebuilds from)."""
     document = {
         "title": "terracone reproduce: the paper's case studies on synthetic data",
         "subtitle": (
@@ -780,11 +828,11 @@ def _run(root: Path, *, quick: bool, ex, t0: float, workers: int) -> ReproduceSu
         ),
         "synthetic": True,
         "synthetic_text": SYNTHETIC_TEXT,
-        "meta": {"output directory": str(root), "mode": "quick" if quick else "full"},
+        "meta": {"output directory": str(out.root), "mode": "quick" if quick else "full"},
         "sections": sections,
     }
-    report = root / "report.html"
-    report.write_text(render_document(document, root), encoding="utf-8")
+    report = out.root / "report.html"
+    report.write_text(render_document(document, out.root), encoding="utf-8")
     out.file(report)
     manifest = {
         "kind": "terracone-reproduce",
@@ -796,23 +844,151 @@ def _run(root: Path, *, quick: bool, ex, t0: float, workers: int) -> ReproduceSu
         "noise_model": NOISE_MODEL,
         "document": document,
     }
-    _write_json(out.file(root / "reproduce.json"), manifest)
-    return ReproduceSummary(
-        out_dir=root,
-        report=report,
-        quick=quick,
-        seconds=time.perf_counter() - t0,
-        files=out.files,
-        lete_learned=_si(lres.params, "LETE"),
-        krc_learned={k: _si(v.params, k) for k, v in krc_learn.items()},
-        tables=out.tables,
-        figures=out.figures,
-        notes=notes,
-    )
+    _write_json(out.file(out.root / "reproduce.json"), manifest)
+    return report
 
 
 # ---------------------------------------------------------------------------
-# the report's sections
+# the report: sections of the whole run
+# ---------------------------------------------------------------------------
+
+
+def _document_sections(
+    out: _Out, cases: Sequence[_Case], *, quick: bool, notes: list[str]
+) -> list[dict[str, Any]]:
+    """The report's sections: about, data, each case study's spec, then both side by side."""
+    sections = [_about_section(), _data_section(cases)]
+    for case in cases:
+        for sec in case.spec.sections:
+            if sec.full_only and quick:  # one ridge figure (LETE) is enough for a quick run
+                continue
+            parts = [p for name in sec.parts for p in _PARTS[name](out, case, name)]
+            sections.append({"id": sec.id, "heading": sec.heading, "parts": parts})
+    sections.append(_side_by_side_section(out, cases, quick))
+    sections.append(_published_section(out))
+    if notes:
+        sections.append({"id": "notes", "heading": "Notes from the run", "parts": [_list(notes)]})
+    return sections
+
+
+def _about_section() -> dict[str, Any]:
+    about = (
+        "The paper demonstrates its method on two sets of measurements, LETE sand "
+        "(1981) and KRC soils (2018). Only the parameters fitted to them (Tables "
+        "4-1 and 4-3) and the agreement statistics (Tables 4-2 and 4-4) were "
+        "published; the measured CI and plate curves were not. This report "
+        "re-creates both case studies on SYNTHETIC data generated from the "
+        "published parameters, runs them through terracone's learning, prediction "
+        "and evaluation processes, and sets the results beside the published "
+        "tables."
+    )
+    points = [
+        "LETE sand: 4 CI profiles (LS_1..LS_4) from Table 4-1; 5 plate pairs "
+        "(LS_A..LS_E, radii 3.75 and 5 cm) from Wong's LETE sand values "
+        "(kc 102 kN/m^(n+1), kphi 5301 kN/m^(n+2), n 0.79).",
+        "KRC: 8 sites, each a CI profile and a 4 in / 6 in plate pair, both "
+        "from the site's Table 4-3 parameters (the KRC plate measurements "
+        "were never published).",
+        "CI generated with the improved model RM0: the paper does not publish "
+        "r_min, and RM0 needs no invented value. Learning then searches RM1 "
+        "and its r_min, as in the paper.",
+        "Tables 4-1 to 4-4 analogues use the predictions made with the learned "
+        "calibration (the paper's learning-then-prediction process); the "
+        "predictions from the CI alone are shown beside them.",
+        "The paper's 10 cm and 15 cm KRC plates are 4 in and 6 in (10.16 and "
+        "15.24 cm): its recommendation G gives 1,500 lb as 119 and 53 psi, "
+        "which holds for 4 in and 6 in diameters.",
+    ]
+    return {"id": "about", "heading": "What this is", "parts": [_text(about), _list(points)]}
+
+
+def _data_section(cases: Sequence[_Case]) -> dict[str, Any]:
+    files = [f"data/{name}" for case in cases for name in case.spec.files]
+    inputs = (
+        "Input files (terracone CSV, with the SYNTHETIC label in their header): "
+        + ", ".join(files)
+        + ". Results as JSON in results/ (learn, predict, evaluate, calibrations); "
+        "any of them can be turned into its own report with terracone report."
+    )
+    return {
+        "id": "data",
+        "heading": "Synthetic data and noise model",
+        "parts": [_list(NOISE_MODEL), _text(inputs)],
+    }
+
+
+def _side_by_side_section(out: _Out, cases: Sequence[_Case], quick: bool) -> dict[str, Any]:
+    groups = []
+    for case in cases:
+        s = case.spec.short
+        groups += [
+            (f"{s} ours, with calibration", case.rows_cal),
+            (f"{s} ours, CI alone", case.rows_free),
+            (f"{s} control: published parameters vs our plates", case.rows_ctrl),
+            (f"{s} paper (Table {case.spec.agreement_table})", case.published),
+        ]
+    t_sum = summary_statistics(
+        groups,
+        key="summary_ours_vs_published",
+        title="Ours beside the published Tables 4-2 and 4-4: medians and ranges",
+        notes=[
+            "Quick run: a subset of rows (the paper's rows are all of them)."
+            if quick
+            else "All rows of each table."
+        ],
+    )
+    lete, krc = cases
+    return {
+        "id": "side-by-side",
+        "heading": "Ours beside the paper: where and why they differ",
+        "parts": [out.table(t_sum)] + [_text(x) for x in _reading(lete, krc, quick)],
+    }
+
+
+def _published_section(out: _Out) -> dict[str, Any]:
+    tables = []
+    for tab_id in ("4-1", "4-3"):
+        tables.append(
+            parameters_table(
+                published_parameters(tab_id),
+                key=f"published_table_{tab_id.replace('-', '_')}",
+                title=f"Published Table {tab_id} (package data)",
+                notes=[f"Source: {CITATION}, Table {tab_id}."],
+            )
+        )
+    for tab_id, same_site in (("4-2", False), ("4-4", True)):
+        rows = published_agreement(tab_id)
+        tables.append(
+            agreement_table(
+                rows,
+                plates=list(dict.fromkeys(r["plate"] for r in rows)),
+                key=f"published_table_{tab_id.replace('-', '_')}",
+                title=f"Published Table {tab_id} (package data)",
+                same_site=same_site,
+                notes=[f"Source: {CITATION}, Table {tab_id}. psi columns recomputed from kPa."],
+            )
+        )
+    bad = us_column_check()
+    check = (
+        "The printed US columns of Tables 4-1 and 4-3 agree with the SI columns converted by "
+        "terracone.units (kc and kphi with each row's n) to within 2%."
+        if not bad
+        else "Printed US values that do not follow from the SI ones: "
+        + "; ".join(
+            f"Table {b['table']} {b['id']} {b['param']}: printed {b['us_printed']}, computed "
+            f"{b['us_computed']:.4g}"
+            for b in bad
+        )
+    )
+    return {
+        "id": "published",
+        "heading": "The published tables",
+        "parts": [_text(check)] + [out.table(t) for t in tables],
+    }
+
+
+# ---------------------------------------------------------------------------
+# the report: parts of a case study (one builder per table or figure kind)
 # ---------------------------------------------------------------------------
 
 
@@ -842,29 +1018,6 @@ def _bands(post: dict[str, Any] | None, id_: str) -> list[dict[str, Any]]:
     ]
 
 
-def _median(rows, key, plate=None):
-    v = [r[key] for r in rows if (plate is None or r["plate"] == plate) and r[key] is not None]
-    return float(np.median(v)) if v else float("nan")
-
-
-def _corr(a, b):
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    if a.size < 3 or np.std(a) == 0 or np.std(b) == 0:
-        return float("nan")
-    return float(np.corrcoef(a, b)[0, 1])
-
-
-def _paired(ours, published, key):
-    pub = {(r["prediction"], r["pair"], r["plate"]): r[key] for r in published}
-    a, b = [], []
-    for r in ours:
-        k = (r["prediction"], r["pair"], r["plate"])
-        if k in pub:
-            a.append(r[key])
-            b.append(pub[k])
-    return a, b
-
-
 def _ident_profiles(results, posts):
     out = []
     for r in results:
@@ -876,76 +1029,86 @@ def _ident_profiles(results, posts):
     return out
 
 
-def _document_sections(out: _Out, *, quick, lete, krc, notes) -> list[dict[str, Any]]:
-    S: list[dict[str, Any]] = []
-    syn = True
-    L, K = lete, krc
+def _rmin_mm(r: dict[str, Any]) -> float | None:
+    return None if r.get("r_min") is None else r["r_min"] * 1000
 
-    # --- about
-    S.append(
-        {
-            "id": "about",
-            "heading": "What this is",
-            "parts": [
-                _text(
-                    "The paper demonstrates its method on two sets of measurements, LETE sand "
-                    "(1981) and KRC soils (2018). Only the parameters fitted to them (Tables "
-                    "4-1 and 4-3) and the agreement statistics (Tables 4-2 and 4-4) were "
-                    "published; the measured CI and plate curves were not. This report "
-                    "re-creates both case studies on SYNTHETIC data generated from the "
-                    "published parameters, runs them through terracone's learning, prediction "
-                    "and evaluation processes, and sets the results beside the published "
-                    "tables."
-                ),
-                _list(
-                    [
-                        "LETE sand: 4 CI profiles (LS_1..LS_4) from Table 4-1; 5 plate pairs "
-                        "(LS_A..LS_E, radii 3.75 and 5 cm) from Wong's LETE sand values "
-                        "(kc 102 kN/m^(n+1), kphi 5301 kN/m^(n+2), n 0.79).",
-                        "KRC: 8 sites, each a CI profile and a 4 in / 6 in plate pair, both "
-                        "from the site's Table 4-3 parameters (the KRC plate measurements "
-                        "were never published).",
-                        "CI generated with the improved model RM0: the paper does not publish "
-                        "r_min, and RM0 needs no invented value. Learning then searches RM1 "
-                        "and its r_min, as in the paper.",
-                        "Tables 4-1 to 4-4 analogues use the predictions made with the learned "
-                        "calibration (the paper's learning-then-prediction process); the "
-                        "predictions from the CI alone are shown beside them.",
-                        "The paper's 10 cm and 15 cm KRC plates are 4 in and 6 in (10.16 and "
-                        "15.24 cm): its recommendation G gives 1,500 lb as 119 and 53 psi, "
-                        "which holds for 4 in and 6 in diameters.",
-                    ]
-                ),
-            ],
-        }
+
+def _parameters_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
+    """Table 4-1/4-3 analogue: parameters predicted with the calibration."""
+    ok = [r for r in case.cal_res if r.ok]
+    t = parameters_table(
+        [{**_si(r.params, r.id), "rmsd": r.rmsd, "r2": r.r2_ci} for r in ok],
+        extra=(
+            ("RMSD of CI", "kPa", lambda r: r["rmsd"]),
+            ("R2 of CI", "", lambda r: r["r2"]),
+        ),
+        synthetic=True,
+        **case.spec.tables[name],
     )
-    # --- data
-    files = [
-        "data/lete_sand_synthetic_ci.csv",
-        "data/lete_sand_synthetic_plates.csv",
-        "data/krc_synthetic_ci.csv",
-        "data/krc_synthetic_plates.csv",
+    _mark_bounds(t, [_si(r.params, r.id) for r in ok])
+    return [out.table(t)]
+
+
+def _parameters_vs_published_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
+    """Published parameters beside ours, with the calibration and from the CI alone."""
+    sets = [
+        (case.spec.published_label, [dict(p) for p in case.pub]),
+        ("ours, with calibration", [_si(r.params, r.id) for r in case.cal_res if r.ok]),
+        ("ours, CI alone", [_si(r.params, r.id) for r in case.free_res if r.ok]),
     ]
-    S.append(
-        {
-            "id": "data",
-            "heading": "Synthetic data and noise model",
-            "parts": [
-                _list(NOISE_MODEL),
-                _text(
-                    "Input files (terracone CSV, with the SYNTHETIC label in their header): "
-                    + ", ".join(files)
-                    + ". Results as JSON in results/ (learn, predict, evaluate, calibrations); "
-                    "any of them can be turned into its own report with terracone report."
-                ),
-            ],
-        }
-    )
+    t = parameter_comparison_table(sets, synthetic=True, **case.spec.tables[name])
+    return [out.table(t)]
 
-    # --- LETE learning
-    lp = L["learn"].params
-    learned_rows = [
-        {**_si(lp, "learned (LETE, all data)")},
+
+def _identifiability_part(
+    out: _Out, case: _Case, name: str, *, calibrated: bool
+) -> list[dict[str, Any]]:
+    """What each CI profile determines, with the calibration (posterior) or alone."""
+    if calibrated:
+        profiles, fixed = _ident_profiles(case.cal_res, case.posts), {"fixed": ("phic", "cc")}
+    else:
+        profiles, fixed = _ident_profiles(case.free_res, None), {}
+    t = identifiability_table(profiles, synthetic=True, **fixed, **case.spec.tables[name])
+    return [out.table(t)]
+
+
+def _agreement_part(out: _Out, case: _Case, name: str, *, rows: str) -> list[dict[str, Any]]:
+    """Table 4-2/4-4 analogue of the rows ``rows_cal``, ``rows_free`` or ``rows_ctrl``."""
+    t = agreement_table(
+        getattr(case, rows), plates=list(case.spec.plates), synthetic=True, **case.spec.tables[name]
+    )
+    return [out.table(t)]
+
+
+def _agreement_vs_published_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
+    """Our agreement (with the calibration) beside the paper's, row by row."""
+    return [out.table(comparison_table(case.rows_cal, case.published, **case.spec.tables[name]))]
+
+
+def _ridge_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
+    """Not in the paper: the ridge of equally good fits of the first profile."""
+    f = case.spec.figures[name]
+    p0, pub0 = case.profiles[0], case.pub[0]
+    fig = _deferred(
+        F.fig_ridge,
+        p0.depth,
+        p0.ci,
+        profile_id=p0.id,
+        reference={"n": pub0["n"], "phic_deg": pub0["phic_deg"]},
+        reference_label=f"Table {case.spec.parameter_table} (generated the data)",
+        title=f"{p0.id}: the ridge of equally good fits (RM0, CI alone)",
+        synthetic=True,
+    )
+    key = f["key"].format(id=p0.id, lower=p0.id.lower())
+    return [out.figure(fig, key, f["caption"].format(id=p0.id))]
+
+
+def _lete_learning_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
+    """LETE: the one calibration learned on all data, beside Wong's values."""
+    (lr,) = case.learned.values()
+    spec = case.spec.tables[name]
+    rows = [
+        _si(lr.params, "learned (LETE, all data)"),
         {
             "id": "Wong's LETE sand values (plates' truth)",
             **WONG_LETE,
@@ -953,44 +1116,67 @@ def _document_sections(out: _Out, *, quick, lete, krc, notes) -> list[dict[str, 
             "phic_deg": None,
         },
     ]
-    t_learn = parameters_table(
-        learned_rows,
-        key="lete_learning",
-        title="LETE sand: learning process (section 3.3.1) on all CI profiles and plate tests",
-        first="Parameters",
-        extra=(
-            ("model", "", lambda r: r.get("model")),
-            ("r_min", "mm", lambda r: None if r.get("r_min") is None else r["r_min"] * 1000),
-        ),
-        notes=[
-            "Left free by the learning data: " + (", ".join(L["learn"].undetermined) or "none"),
-            "The CI profiles were generated from the Table 4-1 parameters and the plates from "
-            "Wong's values: the learning fits both, as the paper's learning fitted measured "
-            "CI and plate curves of one terrain.",
-        ],
-        synthetic=syn,
+    t = parameters_table(
+        rows,
+        key=spec["key"],
+        title=spec["title"],
+        first=spec["first"],
+        extra=(("model", "", lambda r: r.get("model")), ("r_min", "mm", _rmin_mm)),
+        notes=["Left free by the learning data: " + (", ".join(lr.undetermined) or "none")]
+        + spec["notes"],
+        synthetic=True,
     )
-    _mark_bounds(
-        t_learn, learned_rows, rmin_col=10, rmin_range=(5e-4, 3 * max(LETE_PLATES.values()))
-    )
-    ds_rows = [
+    _mark_bounds(t, rows, rmin_col=10, rmin_range=(5e-4, 3 * max(case.spec.plates.values())))
+    return [out.table(t)]
+
+
+def _learning_datasets_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
+    """LETE: the fit of the learned parameters to each CI profile and plate test."""
+    (lr,) = case.learned.values()
+    rows = [
         [d["id"], d["kind"], None if d.get("b") is None else d["b"] * 100, d["rmsd"], d["cv"]]
-        for d in L["learn"].datasets
+        for d in lr.datasets
     ]
-    t_ds = Table(
-        "lete_learning_datasets",
-        "LETE sand: fit of the learned parameters per data set",
+    c = lr.criteria
+    t = Table(
+        case.spec.tables[name]["key"],
+        case.spec.tables[name]["title"],
         [("Data set", ""), ("Kind", ""), ("Plate radius", "cm"), ("RMSD", "kPa"), ("CV", "")],
-        ds_rows,
+        rows,
         notes=[
-            f"Fit criterion CV <= {L['learn'].criteria['max_cv']:g}: "
-            + ("satisfied" if L["learn"].criteria["satisfied"] else "NOT satisfied")
+            f"Fit criterion CV <= {c['max_cv']:g}: "
+            + ("satisfied" if c["satisfied"] else "NOT satisfied")
         ],
-        synthetic=syn,
+        synthetic=True,
     )
-    fig_j = _deferred(
+    return [out.table(t)]
+
+
+def _site_learning_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
+    """KRC: the calibration learned on each site's CI and plate pair."""
+    rows = [_si(case.learned[p["id"]].params, p["id"]) for p in case.pub]
+    t = parameters_table(
+        rows,
+        extra=(
+            ("r_min", "mm", _rmin_mm),
+            ("left free", "", lambda r: ", ".join(case.learned[r["id"]].undetermined) or "-"),
+        ),
+        synthetic=True,
+        **case.spec.tables[name],
+    )
+    _mark_bounds(t, rows, rmin_col=9, rmin_range=(5e-4, 3 * max(case.spec.plates.values())))
+    return [out.table(t)]
+
+
+def _janosi_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
+    """Figure 2-1 analogue: the CI against the Janosi equation with Wong's values."""
+    f = case.spec.figures[name]
+    (lr,) = case.learned.values()
+    (cal,) = case.cals.values()
+    lp = lr.params
+    fig = _deferred(
         F.fig_janosi,
-        _measured_ci(L["profiles"]),
+        _measured_ci(case.profiles),
         WONG_LETE,
         improved_params={
             **WONG_LETE,
@@ -998,113 +1184,29 @@ def _document_sections(out: _Out, *, quick, lete, krc, notes) -> list[dict[str, 
             "phic_deg": lp.phic_deg,
             "model": lp.model,
             "r_min": lp.r_min,
-            "plate_pair": L["cal"].plate_pair,
-            "label": "improved model eq. (2-7), same kc, kphi, n; learned phic, cc, r_min",
+            "plate_pair": cal.plate_pair,
+            "label": f["improved_label"],
         },
-        params_label="Wong's kc 102, kphi 5301, n 0.79",
-        title="Figure 2-1 analogue: LETE sand CI and the Janosi equation",
-        synthetic=syn,
+        params_label=f["params_label"],
+        title=f["title"],
+        synthetic=True,
     )
-    S.append(
-        {
-            "id": "lete-learning",
-            "heading": "LETE sand: learning and Figure 2-1",
-            "parts": [
-                out.table(t_learn),
-                out.table(t_ds),
-                out.figure(
-                    fig_j,
-                    "fig_2_1_lete_janosi",
-                    "Figure 2-1 analogue. SYNTHETIC LETE sand CI profiles (dashed) against the "
-                    "Janosi equation (2-1) with Wong's plate-derived kc, kphi, n (solid), and "
-                    "the improved model with the same kc, kphi, n and the learned phic, cc, "
-                    "r_min (dotted). As in the paper, the Janosi equation falls far below the "
-                    "measured CI.",
-                ),
-            ],
-        }
-    )
+    return [out.figure(fig, f["key"], f["caption"])]
 
-    # --- LETE prediction
-    pub_rows = [{**p, "id": p["id"]} for p in L["pub"]]
-    cal_rows = [_si(r.params, r.id) for r in L["cal_res"] if r.ok]
-    free_rows = [_si(r.params, r.id) for r in L["free_res"] if r.ok]
-    t41 = parameters_table(
-        [{**_si(r.params, r.id), "rmsd": r.rmsd, "r2": r.r2_ci} for r in L["cal_res"] if r.ok],
-        key="table_4_1_lete_parameters",
-        title="Table 4-1 analogue: parameters predicted from the LETE sand CI (with the "
-        "learned calibration)",
-        extra=(
-            ("RMSD of CI", "kPa", lambda r: r["rmsd"]),
-            ("R2 of CI", "", lambda r: r["r2"]),
-        ),
-        notes=[
-            "Prediction process (section 3.3.2) with the LETE calibration: model RM1, r_min, "
-            "phic, cc and kc/kphi fixed by learning; n and the scale of kc, kphi from each CI.",
-        ],
-        synthetic=syn,
-    )
-    _mark_bounds(t41, [_si(r.params, r.id) for r in L["cal_res"] if r.ok])
-    t41c = parameter_comparison_table(
-        [
-            ("paper (Table 4-1; generated the CI)", pub_rows),
-            ("ours, with calibration", cal_rows),
-            ("ours, CI alone", free_rows),
-        ],
-        key="table_4_1_lete_vs_published",
-        title="LETE sand parameters: published (Table 4-1) beside ours",
-        notes=[
-            "The published rows are the truth of the synthetic CI; 'CI alone' reports phic "
-            "at the middle of the interval that fits equally well.",
-            "Published US columns as recomputed by terracone.units from the SI values.",
-        ],
-        synthetic=syn,
-    )
-    fig41 = _deferred(
-        F.fig_ci_fit,
-        _fitted_ci(L["cal_res"]),
-        title="Figure 4-1 analogue: LETE sand CI, measured and predicted",
-        synthetic=syn,
-    )
-    id_cal = identifiability_table(
-        _ident_profiles(L["cal_res"], L["posts"]),
-        key="lete_identifiability",
-        title="LETE sand: what each CI profile determines (with the calibration)",
-        fixed=("phic", "cc"),
-        notes=[
-            "From the posterior of terracone.uncertainty (90% width over prior width: < 0.25 "
-            "determined, < 0.75 weakly determined, else set by prior) where computed; "
-            "otherwise from the profile intervals of the exact solver.",
-        ],
-        synthetic=syn,
-    )
-    id_free = identifiability_table(
-        _ident_profiles(L["free_res"], None),
-        key="lete_identifiability_ci_only",
-        title="LETE sand: what each CI profile determines on its own (no calibration)",
-        synthetic=syn,
-    )
-    S.append(
-        {
-            "id": "lete-prediction",
-            "heading": "LETE sand: prediction (Table 4-1, Figure 4-1)",
-            "parts": [
-                out.table(t41),
-                out.table(t41c),
-                out.figure(
-                    fig41,
-                    "fig_4_1_lete_ci",
-                    "Figure 4-1 analogue. SYNTHETIC LETE sand CI-sinkage curves (dashed, open "
-                    "markers) and those predicted with the learned calibration (solid).",
-                ),
-                out.table(id_cal),
-                out.table(id_free),
-            ],
-        }
-    )
 
-    # --- LETE plates
-    meas = [
+def _ci_fit_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
+    """Figure 4-1 analogue: measured and predicted CI."""
+    f = case.spec.figures[name]
+    fig = _deferred(F.fig_ci_fit, _fitted_ci(case.cal_res), title=f["title"], synthetic=True)
+    return [out.figure(fig, f["key"], f["caption"])]
+
+
+def _plates_part(out: _Out, case: _Case, name: str, *, calibrated: bool) -> list[dict[str, Any]]:
+    """Figure 4-2 analogue: every plate test against every profile's prediction."""
+    f = case.spec.figures[name]
+    (cal,) = case.cals.values()
+    results, pair = (case.cal_res, cal.plate_pair) if calibrated else (case.free_res, None)
+    measured = [
         {
             "id": t.metadata["pair"],
             "radius": t.b,
@@ -1112,384 +1214,369 @@ def _document_sections(out: _Out, *, quick, lete, krc, notes) -> list[dict[str, 
             "pressure": t.pressure,
             "label": f"{t.metadata['pair']} measured",
         }
-        for t in L["plates"]
+        for t in case.plates
     ]
     s = np.linspace(0.0, 0.1, 41)
-
-    def pred_curves(results, pair):
-        return [
-            {
-                "id": r.id,
-                "radius": b,
-                "sinkage": s,
-                "pressure": predicted_plate_pressure(r.params, s, b, pair),
-                "label": f"{r.id} predicted",
-            }
-            for r in results
-            if r.ok
-            for b in LETE_PLATES.values()
-        ]
-
-    bands = [b for r in L["cal_res"][:1] for b in _bands(L["posts"].get(r.id), r.id)]
-    fig42 = _deferred(
-        F.fig_plate_fit,
-        meas,
-        pred_curves(L["cal_res"], L["cal"].plate_pair),
-        bands,
-        title="Figure 4-2 analogue: LETE sand plates, measured and predicted",
-        synthetic=syn,
-    )
-    fig42f = _deferred(
-        F.fig_plate_fit,
-        meas,
-        pred_curves(L["free_res"], None),
-        title="LETE sand plates predicted from the CI alone (no calibration)",
-        synthetic=syn,
-    )
-    plates_cols = list(LETE_PLATES)
-    t42 = agreement_table(
-        L["rows_cal"],
-        plates=plates_cols,
-        key="table_4_2_lete_agreement",
-        title="Table 4-2 analogue: R, R2, RMSD, CV between the LETE sand plate curves and "
-        "those predicted from the CI (with the calibration)",
-        notes=["r=3.75cm: plate radius 3.75 cm (1.5 in); r=5cm: radius 5 cm (1.97 in)."],
-        synthetic=syn,
-    )
-    t42c = comparison_table(
-        L["rows_cal"],
-        L["published"],
-        key="table_4_2_lete_vs_published",
-        title="Table 4-2: ours (with calibration) beside the paper",
-        notes=["paper: Table 4-2 as published (package data terracone/data/paper/table_4_2.csv)."],
-    )
-    t42f = agreement_table(
-        L["rows_free"],
-        plates=plates_cols,
-        key="table_4_2_lete_ci_only",
-        title="LETE sand, CI alone (no calibration): R, R2, RMSD, CV against the plate tests",
-        synthetic=syn,
-    )
-    t42k = agreement_table(
-        L["rows_ctrl"],
-        plates=plates_cols,
-        key="table_4_2_lete_published_parameters",
-        title="Control: the published Table 4-1 parameters against our synthetic plate tests",
-        notes=[
-            "No inversion involved: the paper's own parameters evaluated against plates "
-            "generated from Wong's values. The nearest analogue of the paper's Table 4-2."
-        ],
-        synthetic=syn,
-    )
-    S.append(
+    predicted = [
         {
-            "id": "lete-plates",
-            "heading": "LETE sand: plates (Figure 4-2, Table 4-2)",
-            "parts": [
-                out.figure(
-                    fig42,
-                    "fig_4_2_lete_plates",
-                    "Figure 4-2 analogue. (a) 3.75 cm and (b) 5 cm radius plates: SYNTHETIC "
-                    f"measured curves {_span(sorted({t.metadata['pair'] for t in L['plates']}))} "
-                    f"(dashed) and curves predicted from {_span([p.id for p in L['profiles']])} "
-                    "with the calibration (solid)"
-                    + (
-                        "; hatched: 90% posterior band of LS_1 (terracone.uncertainty)."
-                        if bands
-                        else "."
-                    ),
-                ),
-                out.table(t42),
-                out.table(t42c),
-                out.table(t42k),
-                out.figure(
-                    fig42f,
-                    "fig_4_2_lete_plates_ci_only",
-                    "The same plates against the curves predicted from each CI profile alone: "
-                    "without the calibration the CI does not fix how the load splits between "
-                    "kc and kphi, and the predicted plate pressure drifts.",
-                ),
-                out.table(t42f),
-            ],
+            "id": r.id,
+            "radius": b,
+            "sinkage": s,
+            "pressure": predicted_plate_pressure(r.params, s, b, pair),
+            "label": f"{r.id} predicted",
         }
+        for r in results
+        if r.ok
+        for b in case.spec.plates.values()
+    ]
+    args: tuple = (measured, predicted)
+    bands = []
+    if calibrated:  # the posterior band of the first profile
+        bands = [b for r in case.cal_res[:1] for b in _bands(case.posts.get(r.id), r.id)]
+        args += (bands,)
+    fig = _deferred(F.fig_plate_fit, *args, title=f["title"], synthetic=True)
+    caption = f["caption"].format(
+        pairs=_span(sorted({t.metadata["pair"] for t in case.plates})),
+        profiles=_span([p.id for p in case.profiles]),
+        bands=f["band_note"] if bands else ".",
     )
-    # --- LETE ridge
-    p0 = L["profiles"][0]
-    pub0 = L["pub"][0]
-    fig_r = _deferred(
-        F.fig_ridge,
-        p0.depth,
-        p0.ci,
-        profile_id=p0.id,
-        reference={"n": pub0["n"], "phic_deg": pub0["phic_deg"]},
-        reference_label="Table 4-1 (generated the data)",
-        title=f"{p0.id}: the ridge of equally good fits (RM0, CI alone)",
-        synthetic=syn,
-    )
-    S.append(
-        {
-            "id": "lete-ridge",
-            "heading": "LETE sand: the ridge of equally good fits",
-            "parts": [
-                out.figure(
-                    fig_r,
-                    f"ridge_lete_{p0.id}",
-                    f"Not in the paper. RMSD of the best fit to the SYNTHETIC {p0.id} CI over "
-                    "(phic, n) with kc, kphi, cc re-fitted at each point (a), over phic and a "
-                    "common scale of kc and kphi (b), and its profiles over n (c) and phic (d). "
-                    "The CI fixes n; it does not fix phic, which trades exactly against the "
-                    "scale of kc and kphi: the published phic is one point of a flat valley.",
-                ),
-            ],
-        }
-    )
+    return [out.figure(fig, f["key"], caption)]
 
-    # --- KRC
-    kp_pub = [s[0] for s in K["sites"]]
-    k_learn_rows = [_si(K["learn"][p["id"]].params, p["id"]) for p in kp_pub]
-    t_kl = parameters_table(
-        k_learn_rows,
-        key="krc_learning",
-        title="KRC: learning process per site (CI and the site's plate pair)",
-        extra=(
-            ("r_min", "mm", lambda r: None if r.get("r_min") is None else r["r_min"] * 1000),
-            (
-                "left free",
-                "",
-                lambda r: ", ".join(K["learn"][r["id"]].undetermined) or "-",
-            ),
-        ),
-        synthetic=syn,
-    )
-    _mark_bounds(t_kl, k_learn_rows, rmin_col=9, rmin_range=(5e-4, 3 * max(KRC_PLATES.values())))
-    t43 = parameters_table(
-        [{**_si(r.params, r.id), "rmsd": r.rmsd, "r2": r.r2_ci} for r in K["cal_res"] if r.ok],
-        key="table_4_3_krc_parameters",
-        title="Table 4-3 analogue: parameters predicted from the KRC CI (with each site's "
-        "calibration)",
-        extra=(
-            ("RMSD of CI", "kPa", lambda r: r["rmsd"]),
-            ("R2 of CI", "", lambda r: r["r2"]),
-        ),
-        synthetic=syn,
-    )
-    _mark_bounds(t43, [_si(r.params, r.id) for r in K["cal_res"] if r.ok])
-    t43c = parameter_comparison_table(
-        [
-            ("paper (Table 4-3; generated CI and plates)", kp_pub),
-            ("ours, with calibration", [_si(r.params, r.id) for r in K["cal_res"] if r.ok]),
-            ("ours, CI alone", [_si(r.params, r.id) for r in K["free_res"] if r.ok]),
-        ],
-        key="table_4_3_krc_vs_published",
-        title="KRC parameters: published (Table 4-3) beside ours",
-        synthetic=syn,
-    )
-    kid = identifiability_table(
-        _ident_profiles(K["cal_res"], K["posts"]),
-        key="krc_identifiability",
-        title="KRC: what each CI profile determines (with the site's calibration)",
-        fixed=("phic", "cc"),
-        synthetic=syn,
-    )
-    kid_free = identifiability_table(
-        _ident_profiles(K["free_res"], None),
-        key="krc_identifiability_ci_only",
-        title="KRC: what each CI profile determines on its own",
-        synthetic=syn,
-    )
-    S.append(
-        {
-            "id": "krc-prediction",
-            "heading": "KRC: learning and prediction (Table 4-3)",
-            "parts": [
-                out.table(t_kl),
-                out.table(t43),
-                out.table(t43c),
-                out.table(kid),
-                out.table(kid_free),
-            ],
-        }
-    )
-    site_parts = []
-    for (p, _prof, plates, _where), rc in zip(K["sites"], K["cal_res"]):
+
+def _site_figures_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
+    """Figures 4-3 to 4-10 analogues: each site's CI and plates, measured and predicted."""
+    f = case.spec.figures[name]
+    parts = []
+    for rc in case.cal_res:
         if not rc.ok:
-            site_parts.append(_text(f"{p['id']}: not fitted ({rc.error})"))
+            parts.append(_text(f"{rc.id}: not fitted ({rc.error})"))
             continue
-        c = K["cals"][p["id"]]
-        meas_k = [
+        plates, pair = case.group_of(rc.id).plates, case.cal_of(rc.id).plate_pair
+        measured = [
             {"id": t.id, "radius": t.b, "sinkage": t.sinkage, "pressure": t.pressure}
             for t in plates
         ]
-        pred_k = []
+        predicted = []
         for t in plates:
             sk = np.linspace(0.0, float(t.sinkage.max()), 41)
-            pred_k.append(
-                {
-                    "id": t.id,
-                    "radius": t.b,
-                    "sinkage": sk,
-                    "pressure": predicted_plate_pressure(rc.params, sk, t.b, c.plate_pair),
-                }
-            )
+            pressure = predicted_plate_pressure(rc.params, sk, t.b, pair)
+            predicted.append({"id": t.id, "radius": t.b, "sinkage": sk, "pressure": pressure})
+        number = f["numbers"][rc.id]
         fig = _deferred(
             F.fig_site,
             {"id": rc.id, "depth": rc.depth, "ci": rc.ci, "ci_model": rc.ci_model},
-            meas_k,
-            pred_k,
-            _bands(K["posts"].get(rc.id), rc.id),
-            title=f"Figure {KRC_FIGURE[p['id']]} analogue: {p['id']} measured and predicted",
-            synthetic=syn,
+            measured,
+            predicted,
+            _bands(case.posts.get(rc.id), rc.id),
+            title=f["title"].format(number=number, id=rc.id),
+            synthetic=True,
         )
-        site_parts.append(
-            out.figure(
-                fig,
-                f"fig_{KRC_FIGURE[p['id']].replace('-', '_')}_{p['id'].lower()}",
-                f"Figure {KRC_FIGURE[p['id']]} analogue. {p['id']}: (a) SYNTHETIC CI (dashed) "
-                "and predicted CI (solid); (b) SYNTHETIC plate curves of the 4 in and 6 in "
-                "plates (dashed, ending at 1,500 lbf) and those predicted with the site's "
-                "calibration (solid)"
-                + ("; hatched: 90% posterior band." if K["posts"].get(rc.id) else "."),
-            )
-        )
-    S.append({"id": "krc-figures", "heading": "KRC: Figures 4-3 to 4-10", "parts": site_parts})
-    kplates = list(KRC_PLATES)
-    t44 = agreement_table(
-        K["rows_cal"],
-        plates=kplates,
-        key="table_4_4_krc_agreement",
-        title="Table 4-4 analogue: R, R2, RMSD, CV between the KRC plate curves and those "
-        "predicted from the CI (with each site's calibration)",
-        same_site=True,
-        notes=["D=10cm: the 4 in (10.16 cm) plate; D=15cm: the 6 in (15.24 cm) plate."],
-        synthetic=syn,
-    )
-    t44c = comparison_table(
-        K["rows_cal"],
-        K["published"],
-        key="table_4_4_krc_vs_published",
-        title="Table 4-4: ours (with calibration) beside the paper",
-        notes=["paper: Table 4-4 as published (package data terracone/data/paper/table_4_4.csv)."],
-    )
-    t44f = agreement_table(
-        K["rows_free"],
-        plates=kplates,
-        key="table_4_4_krc_ci_only",
-        title="KRC, CI alone (no calibration): R, R2, RMSD, CV against the site's plates",
-        same_site=True,
-        synthetic=syn,
-    )
-    S.append(
-        {
-            "id": "krc-agreement",
-            "heading": "KRC: Table 4-4",
-            "parts": [out.table(t44), out.table(t44c), out.table(t44f)],
-        }
-    )
-    if not quick:  # one ridge figure (LETE) is enough for a quick run
-        kp0 = K["sites"][0][1]
-        kpub0 = K["sites"][0][0]
-        fig_kr = _deferred(
-            F.fig_ridge,
-            kp0.depth,
-            kp0.ci,
-            profile_id=kp0.id,
-            reference={"n": kpub0["n"], "phic_deg": kpub0["phic_deg"]},
-            reference_label="Table 4-3 (generated the data)",
-            title=f"{kp0.id}: the ridge of equally good fits (RM0, CI alone)",
-            synthetic=syn,
-        )
-        S.append(
-            {
-                "id": "krc-ridge",
-                "heading": "KRC: the ridge of equally good fits",
-                "parts": [
-                    out.figure(
-                        fig_kr,
-                        f"ridge_krc_{kp0.id.lower()}",
-                        f"As the LETE ridge figure, for the SYNTHETIC {kp0.id} CI profile.",
-                    )
-                ],
-            }
-        )
+        key = f["key"].format(number=number.replace("-", "_"), lower=rc.id.lower())
+        bands = f["band_note"] if case.posts.get(rc.id) else "."
+        caption = f["caption"].format(number=number, id=rc.id, bands=bands)
+        parts.append(out.figure(fig, key, caption))
+    return parts
 
-    # --- side by side
-    groups = [
-        ("LETE ours, with calibration", L["rows_cal"]),
-        ("LETE ours, CI alone", L["rows_free"]),
-        ("LETE control: published parameters vs our plates", L["rows_ctrl"]),
-        ("LETE paper (Table 4-2)", L["published"]),
-        ("KRC ours, with calibration", K["rows_cal"]),
-        ("KRC ours, CI alone", K["rows_free"]),
-        ("KRC control: published parameters vs our plates", K["rows_ctrl"]),
-        ("KRC paper (Table 4-4)", K["published"]),
-    ]
-    t_sum = summary_statistics(
-        groups,
-        key="summary_ours_vs_published",
-        title="Ours beside the published Tables 4-2 and 4-4: medians and ranges",
-        notes=[
-            "Quick run: a subset of rows (the paper's rows are all of them)."
-            if quick
-            else "All rows of each table."
+
+#: Part name -> builder(out, case, name) -> report parts.  A case study's
+#: spec lists part names per section; the builder takes its text from
+#: ``spec.tables[name]`` or ``spec.figures[name]``.
+_PARTS: dict[str, Callable[[_Out, _Case, str], list[dict[str, Any]]]] = {
+    "learning": _lete_learning_part,
+    "learning_datasets": _learning_datasets_part,
+    "learning_per_site": _site_learning_part,
+    "parameters": _parameters_part,
+    "parameters_vs_published": _parameters_vs_published_part,
+    "identifiability": partial(_identifiability_part, calibrated=True),
+    "identifiability_ci_only": partial(_identifiability_part, calibrated=False),
+    "agreement": partial(_agreement_part, rows="rows_cal"),
+    "agreement_ci_only": partial(_agreement_part, rows="rows_free"),
+    "agreement_control": partial(_agreement_part, rows="rows_ctrl"),
+    "agreement_vs_published": _agreement_vs_published_part,
+    "fig_janosi": _janosi_part,
+    "fig_ci": _ci_fit_part,
+    "fig_plates": partial(_plates_part, calibrated=True),
+    "fig_plates_ci_only": partial(_plates_part, calibrated=False),
+    "fig_sites": _site_figures_part,
+    "fig_ridge": _ridge_part,
+}
+
+
+#: LETE sand: the report's sections, each a list of parts (keys of ``_PARTS``).
+_LETE_SECTIONS = (
+    _Section(
+        "lete-learning",
+        "LETE sand: learning and Figure 2-1",
+        ("learning", "learning_datasets", "fig_janosi"),
+    ),
+    _Section(
+        "lete-prediction",
+        "LETE sand: prediction (Table 4-1, Figure 4-1)",
+        (
+            "parameters",
+            "parameters_vs_published",
+            "fig_ci",
+            "identifiability",
+            "identifiability_ci_only",
+        ),
+    ),
+    _Section(
+        "lete-plates",
+        "LETE sand: plates (Figure 4-2, Table 4-2)",
+        (
+            "fig_plates",
+            "agreement",
+            "agreement_vs_published",
+            "agreement_control",
+            "fig_plates_ci_only",
+            "agreement_ci_only",
+        ),
+    ),
+    _Section("lete-ridge", "LETE sand: the ridge of equally good fits", ("fig_ridge",)),
+)
+
+#: LETE sand: keyword arguments of each table part (key, title, notes, ...).
+_LETE_TABLES: dict[str, dict[str, Any]] = {
+    "learning": {
+        "key": "lete_learning",
+        "title": "LETE sand: learning process (section 3.3.1) on all CI profiles and plate tests",
+        "first": "Parameters",
+        "notes": [
+            "The CI profiles were generated from the Table 4-1 parameters and the plates "
+            "from Wong's values: the learning fits both, as the paper's learning fitted "
+            "measured CI and plate curves of one terrain.",
         ],
-    )
-    reading = _reading(L, K, quick)
-    S.append(
-        {
-            "id": "side-by-side",
-            "heading": "Ours beside the paper: where and why they differ",
-            "parts": [out.table(t_sum)] + [_text(x) for x in reading],
-        }
-    )
-    # --- published tables
-    pub_tabs = []
-    for tab_id, rows in (
-        ("4-1", published_parameters("4-1")),
-        ("4-3", published_parameters("4-3")),
-    ):
-        pub_tabs.append(
-            parameters_table(
-                rows,
-                key=f"published_table_{tab_id.replace('-', '_')}",
-                title=f"Published Table {tab_id} (package data)",
-                notes=[f"Source: {CITATION}, Table {tab_id}."],
-            )
-        )
-    for tab_id, layout in (("4-2", False), ("4-4", True)):
-        rows = published_agreement(tab_id)
-        plates = list(dict.fromkeys(r["plate"] for r in rows))
-        pub_tabs.append(
-            agreement_table(
-                rows,
-                plates=plates,
-                key=f"published_table_{tab_id.replace('-', '_')}",
-                title=f"Published Table {tab_id} (package data)",
-                same_site=layout,
-                notes=[f"Source: {CITATION}, Table {tab_id}. psi columns recomputed from kPa."],
-            )
-        )
-    bad = us_column_check()
-    check = (
-        "The printed US columns of Tables 4-1 and 4-3 agree with the SI columns converted by "
-        "terracone.units (kc and kphi with each row's n) to within 2%."
-        if not bad
-        else "Printed US values that do not follow from the SI ones: "
-        + "; ".join(
-            f"Table {b['table']} {b['id']} {b['param']}: printed {b['us_printed']}, computed "
-            f"{b['us_computed']:.4g}"
-            for b in bad
-        )
-    )
-    S.append(
-        {
-            "id": "published",
-            "heading": "The published tables",
-            "parts": [_text(check)] + [out.table(t) for t in pub_tabs],
-        }
-    )
-    if notes:
-        S.append({"id": "notes", "heading": "Notes from the run", "parts": [_list(notes)]})
-    return S
+    },
+    "learning_datasets": {
+        "key": "lete_learning_datasets",
+        "title": "LETE sand: fit of the learned parameters per data set",
+    },
+    "parameters": {
+        "key": "table_4_1_lete_parameters",
+        "title": "Table 4-1 analogue: parameters predicted from the LETE sand CI (with the "
+        "learned calibration)",
+        "notes": [
+            "Prediction process (section 3.3.2) with the LETE calibration: model RM1, "
+            "r_min, phic, cc and kc/kphi fixed by learning; n and the scale of kc, kphi "
+            "from each CI.",
+        ],
+    },
+    "parameters_vs_published": {
+        "key": "table_4_1_lete_vs_published",
+        "title": "LETE sand parameters: published (Table 4-1) beside ours",
+        "notes": [
+            "The published rows are the truth of the synthetic CI; 'CI alone' reports phic "
+            "at the middle of the interval that fits equally well.",
+            "Published US columns as recomputed by terracone.units from the SI values.",
+        ],
+    },
+    "identifiability": {
+        "key": "lete_identifiability",
+        "title": "LETE sand: what each CI profile determines (with the calibration)",
+        "notes": [
+            "From the posterior of terracone.uncertainty (90% width over prior width: "
+            "< 0.25 determined, < 0.75 weakly determined, else set by prior) where "
+            "computed; otherwise from the profile intervals of the exact solver.",
+        ],
+    },
+    "identifiability_ci_only": {
+        "key": "lete_identifiability_ci_only",
+        "title": "LETE sand: what each CI profile determines on its own (no calibration)",
+    },
+    "agreement": {
+        "key": "table_4_2_lete_agreement",
+        "title": "Table 4-2 analogue: R, R2, RMSD, CV between the LETE sand plate curves "
+        "and those predicted from the CI (with the calibration)",
+        "notes": ["r=3.75cm: plate radius 3.75 cm (1.5 in); r=5cm: radius 5 cm (1.97 in)."],
+    },
+    "agreement_vs_published": {
+        "key": "table_4_2_lete_vs_published",
+        "title": "Table 4-2: ours (with calibration) beside the paper",
+        "notes": [
+            "paper: Table 4-2 as published (package data terracone/data/paper/table_4_2.csv)."
+        ],
+    },
+    "agreement_control": {
+        "key": "table_4_2_lete_published_parameters",
+        "title": "Control: the published Table 4-1 parameters against our synthetic plate tests",
+        "notes": [
+            "No inversion involved: the paper's own parameters evaluated against plates "
+            "generated from Wong's values. The nearest analogue of the paper's Table 4-2."
+        ],
+    },
+    "agreement_ci_only": {
+        "key": "table_4_2_lete_ci_only",
+        "title": "LETE sand, CI alone (no calibration): R, R2, RMSD, CV against the plate tests",
+    },
+}
+
+#: LETE sand: key, title and caption of each figure part.
+_LETE_FIGURES: dict[str, dict[str, Any]] = {
+    "fig_janosi": {
+        "key": "fig_2_1_lete_janosi",
+        "title": "Figure 2-1 analogue: LETE sand CI and the Janosi equation",
+        "params_label": "Wong's kc 102, kphi 5301, n 0.79",
+        "improved_label": "improved model eq. (2-7), same kc, kphi, n; learned phic, cc, r_min",
+        "caption": "Figure 2-1 analogue. SYNTHETIC LETE sand CI profiles (dashed) against "
+        "the Janosi equation (2-1) with Wong's plate-derived kc, kphi, n (solid), and the "
+        "improved model with the same kc, kphi, n and the learned phic, cc, r_min "
+        "(dotted). As in the paper, the Janosi equation falls far below the measured CI.",
+    },
+    "fig_ci": {
+        "key": "fig_4_1_lete_ci",
+        "title": "Figure 4-1 analogue: LETE sand CI, measured and predicted",
+        "caption": "Figure 4-1 analogue. SYNTHETIC LETE sand CI-sinkage curves (dashed, "
+        "open markers) and those predicted with the learned calibration (solid).",
+    },
+    "fig_plates": {
+        "key": "fig_4_2_lete_plates",
+        "title": "Figure 4-2 analogue: LETE sand plates, measured and predicted",
+        "caption": "Figure 4-2 analogue. (a) 3.75 cm and (b) 5 cm radius plates: SYNTHETIC "
+        "measured curves {pairs} (dashed) and curves predicted from {profiles} with the "
+        "calibration (solid){bands}",
+        "band_note": "; hatched: 90% posterior band of LS_1 (terracone.uncertainty).",
+    },
+    "fig_plates_ci_only": {
+        "key": "fig_4_2_lete_plates_ci_only",
+        "title": "LETE sand plates predicted from the CI alone (no calibration)",
+        "caption": "The same plates against the curves predicted from each CI profile "
+        "alone: without the calibration the CI does not fix how the load splits between "
+        "kc and kphi, and the predicted plate pressure drifts.",
+    },
+    "fig_ridge": {
+        "key": "ridge_lete_{id}",
+        "caption": "Not in the paper. RMSD of the best fit to the SYNTHETIC {id} CI over "
+        "(phic, n) with kc, kphi, cc re-fitted at each point (a), over phic and a common "
+        "scale of kc and kphi (b), and its profiles over n (c) and phic (d). The CI fixes "
+        "n; it does not fix phic, which trades exactly against the scale of kc and kphi: "
+        "the published phic is one point of a flat valley.",
+    },
+}
+
+#: KRC: the report's sections, each a list of parts (keys of ``_PARTS``).
+_KRC_SECTIONS = (
+    _Section(
+        "krc-prediction",
+        "KRC: learning and prediction (Table 4-3)",
+        (
+            "learning_per_site",
+            "parameters",
+            "parameters_vs_published",
+            "identifiability",
+            "identifiability_ci_only",
+        ),
+    ),
+    _Section("krc-figures", "KRC: Figures 4-3 to 4-10", ("fig_sites",)),
+    _Section(
+        "krc-agreement",
+        "KRC: Table 4-4",
+        ("agreement", "agreement_vs_published", "agreement_ci_only"),
+    ),
+    _Section("krc-ridge", "KRC: the ridge of equally good fits", ("fig_ridge",), full_only=True),
+)
+
+#: KRC: keyword arguments of each table part (key, title, notes, ...).
+_KRC_TABLES: dict[str, dict[str, Any]] = {
+    "learning_per_site": {
+        "key": "krc_learning",
+        "title": "KRC: learning process per site (CI and the site's plate pair)",
+    },
+    "parameters": {
+        "key": "table_4_3_krc_parameters",
+        "title": "Table 4-3 analogue: parameters predicted from the KRC CI (with each "
+        "site's calibration)",
+    },
+    "parameters_vs_published": {
+        "key": "table_4_3_krc_vs_published",
+        "title": "KRC parameters: published (Table 4-3) beside ours",
+    },
+    "identifiability": {
+        "key": "krc_identifiability",
+        "title": "KRC: what each CI profile determines (with the site's calibration)",
+    },
+    "identifiability_ci_only": {
+        "key": "krc_identifiability_ci_only",
+        "title": "KRC: what each CI profile determines on its own",
+    },
+    "agreement": {
+        "key": "table_4_4_krc_agreement",
+        "title": "Table 4-4 analogue: R, R2, RMSD, CV between the KRC plate curves and "
+        "those predicted from the CI (with each site's calibration)",
+        "same_site": True,
+        "notes": ["D=10cm: the 4 in (10.16 cm) plate; D=15cm: the 6 in (15.24 cm) plate."],
+    },
+    "agreement_vs_published": {
+        "key": "table_4_4_krc_vs_published",
+        "title": "Table 4-4: ours (with calibration) beside the paper",
+        "notes": [
+            "paper: Table 4-4 as published (package data terracone/data/paper/table_4_4.csv)."
+        ],
+    },
+    "agreement_ci_only": {
+        "key": "table_4_4_krc_ci_only",
+        "title": "KRC, CI alone (no calibration): R, R2, RMSD, CV against the site's plates",
+        "same_site": True,
+    },
+}
+
+#: KRC: key, title and caption of each figure part.
+_KRC_FIGURES: dict[str, dict[str, Any]] = {
+    "fig_sites": {
+        "numbers": KRC_FIGURE,
+        "key": "fig_{number}_{lower}",
+        "title": "Figure {number} analogue: {id} measured and predicted",
+        "caption": "Figure {number} analogue. {id}: (a) SYNTHETIC CI (dashed) and "
+        "predicted CI (solid); (b) SYNTHETIC plate curves of the 4 in and 6 in plates "
+        "(dashed, ending at 1,500 lbf) and those predicted with the site's calibration "
+        "(solid){bands}",
+        "band_note": "; hatched: 90% posterior band.",
+    },
+    "fig_ridge": {
+        "key": "ridge_krc_{lower}",
+        "caption": "As the LETE ridge figure, for the SYNTHETIC {id} CI profile.",
+    },
+}
+
+#: The two case studies side by side: one row per field of ``_CaseSpec``,
+#: one column per case study (LETE sand, KRC), in the order of the report.
+_CASE_TABLE: dict[str, tuple[Any, Any]] = {
+    "slug": ("lete", "krc"),
+    "name": ("LETE sand", "KRC"),
+    "seed": (SEED_LETE, SEED_KRC),
+    "parameter_table": ("4-1", "4-3"),
+    "agreement_table": ("4-2", "4-4"),
+    "quick_ids": (("LS_1", "LS_2"), ("KRC_1", "KRC_3")),
+    "plates": (LETE_PLATES, KRC_PLATES),
+    "per_site": (False, True),
+    "generate": (_lete_data, _krc_data),
+    "files": (
+        ("lete_sand_synthetic_ci.csv", "lete_sand_synthetic_plates.csv"),
+        ("krc_synthetic_ci.csv", "krc_synthetic_plates.csv"),
+    ),
+    "comments": (
+        (
+            "CI from Table 4-1 parameters, improved model RM0. " + NOISE_MODEL[0],
+            "Plates from Wong's LETE sand values. " + NOISE_MODEL[2],
+        ),
+        (
+            "CI from Table 4-3 parameters, improved model RM0. " + NOISE_MODEL[0],
+            "Plates from the same Table 4-3 parameters. " + NOISE_MODEL[3],
+        ),
+    ),
+    "published_label": (
+        "paper (Table 4-1; generated the CI)",
+        "paper (Table 4-3; generated CI and plates)",
+    ),
+    "sections": (_LETE_SECTIONS, _KRC_SECTIONS),
+    "tables": (_LETE_TABLES, _KRC_TABLES),
+    "figures": (_LETE_FIGURES, _KRC_FIGURES),
+}
+_CASES = tuple(_CaseSpec(**{name: row[i] for name, row in _CASE_TABLE.items()}) for i in range(2))
+
+
+# ---------------------------------------------------------------------------
+# small helpers of the report
+# ---------------------------------------------------------------------------
 
 
 def _span(ids: Sequence[str]) -> str:
@@ -1515,11 +1602,34 @@ def _fmt(v: float, d: int = 3) -> str:
     return "-" if not math.isfinite(v) else f"{v:.{d}g}"
 
 
-def _reading(L, K, quick) -> list[str]:
+def _median(rows, key, plate=None):
+    v = [r[key] for r in rows if (plate is None or r["plate"] == plate) and r[key] is not None]
+    return float(np.median(v)) if v else float("nan")
+
+
+def _corr(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.size < 3 or np.std(a) == 0 or np.std(b) == 0:
+        return float("nan")
+    return float(np.corrcoef(a, b)[0, 1])
+
+
+def _paired(ours, published, key):
+    pub = {(r["prediction"], r["pair"], r["plate"]): r[key] for r in published}
+    a, b = [], []
+    for r in ours:
+        k = (r["prediction"], r["pair"], r["plate"])
+        if k in pub:
+            a.append(r[key])
+            b.append(pub[k])
+    return a, b
+
+
+def _reading(lete: _Case, krc: _Case, quick: bool) -> list[str]:
     """Plain-language reading of ours against the paper, with the numbers of this run."""
     out = []
-    lc, lf, lk, lp = L["rows_cal"], L["rows_free"], L["rows_ctrl"], L["published"]
-    kc_, kf, kk, kpub = K["rows_cal"], K["rows_free"], K["rows_ctrl"], K["published"]
+    lc, lf, lk, lp = lete.rows_cal, lete.rows_free, lete.rows_ctrl, lete.published
+    kc_, kf, kk, kpub = krc.rows_cal, krc.rows_free, krc.rows_ctrl, krc.published
     a, b = _paired(lk, lp, "CV")
     out.append(
         f"LETE sand, R and R2. Ours (with calibration) have median R2 {_fmt(_median(lc, 'R2'))}, "

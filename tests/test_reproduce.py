@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import pandas as pd
@@ -18,10 +19,29 @@ from terracone.report.paper import published_agreement, published_parameters
 from terracone.reproduce import KRC_FORCE_LIMIT, WONG_LETE, reproduce
 
 
+class RecordingPool:
+    """A pool with ``map`` (emcee's pattern) that records how many tasks each call got."""
+
+    def __init__(self, inner):
+        self.inner = inner
+        self.calls: list[int] = []
+
+    def map(self, fn, tasks):
+        tasks = list(tasks)
+        self.calls.append(len(tasks))
+        return self.inner.map(fn, tasks)
+
+
 @pytest.fixture(scope="module")
-def run(tmp_path_factory):
+def pool():
+    with ProcessPoolExecutor(max_workers=2) as ex:
+        yield RecordingPool(ex)
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory, pool):
     out = tmp_path_factory.mktemp("reproduce")
-    return reproduce(out, quick=True)
+    return reproduce(out, quick=True, pool=pool)
 
 
 EXPECTED_FIGURES = [
@@ -131,6 +151,13 @@ def test_reproduce_report_renders_in_chromium(run):
     assert chk.images_total == len(EXPECTED_FIGURES), chk.page_error_text
     assert chk.images_ok == chk.images_total
     assert chk.page_errors == 0 and chk.console == [], (chk.page_error_text, chk.console)
+
+
+def test_the_given_pool_runs_learning_prediction_and_figures(run, pool):
+    # quick run: learning on LETE (one run) and on KRC_1, KRC_3 (one per site); then
+    # LS_1, LS_2, KRC_1, KRC_3 predicted; then every figure drawn
+    assert pool.calls == [1 + 2, 2 + 2, len(EXPECTED_FIGURES)]
+    assert run.figures.keys() == set(EXPECTED_FIGURES)
 
 
 def test_refuses_a_folder_it_did_not_write(tmp_path):
