@@ -53,6 +53,8 @@ __all__ = [
     "fig_ridge",
     "fig_bars",
     "fig_histograms",
+    "fig_ci_multiples",
+    "fig_map",
     "ridge_data",
     "save_figure",
     "png_bytes",
@@ -770,6 +772,140 @@ def fig_histograms(
         ax.set_xlabel(names[k])
         ax.set_ylabel("profiles")
         ax.legend(fontsize=7.5)
+    return _finish(fig, title, synthetic)
+
+
+# ---------------------------------------------------------------------------
+# fields of many profiles: small multiples and a map
+# ---------------------------------------------------------------------------
+
+
+def _multiple_panel(ax, p: Mapping[str, Any], d: _Disp) -> None:
+    z = d.length(p["depth"])
+    ax.plot(d.pressure(p["ci"]), z, "o", ms=2.6, mfc="white", mec="#333333", mew=0.7)
+    if p.get("ci_model") is not None:
+        ax.plot(d.pressure(p["ci_model"]), z, "-", color=_COLOURS[0], lw=1.3)
+    if p.get("ci_layered") is not None:
+        zl = d.length(p.get("depth_layered", p["depth"]))
+        ax.plot(d.pressure(p["ci_layered"]), zl, "--", color=_COLOURS[1], lw=1.4)
+        for zi in p.get("interfaces") or ():
+            ax.axhline(float(d.length(zi)), color=_COLOURS[1], lw=0.7, ls=":")
+    flag = "!" if p.get("flagged") else ""
+    ax.set_title(
+        f"{p.get('label', p['id'])}{' ' + flag if flag else ''}",
+        fontsize=6.5,
+        pad=1.5,
+        color="#a00000" if flag else "black",
+    )
+    ax.tick_params(labelsize=5.5, length=2, pad=1)
+
+
+def fig_ci_multiples(
+    profiles: Sequence[Mapping[str, Any]],
+    *,
+    ncols: int = 6,
+    units: str = "si",
+    title: str | None = None,
+    synthetic: bool = False,
+) -> Figure:
+    """Small multiples: one compact panel per CI profile, depth downwards.
+
+    ``profiles``: mappings with ``id`` (or a shorter ``label``), ``depth``
+    [m], ``ci`` [kPa] (drawn as open circles), optionally ``ci_model``
+    [kPa] (the one-layer fit, solid), ``ci_layered`` [kPa] with
+    ``depth_layered`` [m] and ``interfaces`` [m] (the layered fit, dashed,
+    and its interfaces, dotted) and ``flagged`` (lack of fit: a "!" and a red
+    title).  All panels of a figure share their axes, so profiles compare at
+    a glance.
+    """
+    if not profiles:
+        raise ValueError("nothing to draw")
+    d = _Disp(units)
+    ncols = max(1, min(ncols, len(profiles)))
+    nrows = math.ceil(len(profiles) / ncols)
+    fig = Figure(figsize=(1.55 * ncols + 0.5, 1.45 * nrows + 0.7), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(nrows, ncols, squeeze=False, sharex=True, sharey=True)
+    for k, ax in enumerate(axes.flat):
+        ax.grid(True, color="#e0e0e0", linewidth=0.5)
+        ax.set_axisbelow(True)
+        if k >= len(profiles):
+            ax.set_visible(False)
+            continue
+        _multiple_panel(ax, profiles[k], d)
+    ax0 = axes[0, 0]
+    ax0.invert_yaxis()
+    ax0.set_xlim(left=0)
+    fig.supxlabel(f"cone index CI [{d.P}]", fontsize=8)
+    fig.supylabel(f"cone-base depth z [{d.L}]", fontsize=8)
+    handles = [
+        ax0.plot([], [], "o", ms=3, mfc="white", mec="#333333", label="measured")[0],
+        ax0.plot([], [], "-", color=_COLOURS[0], label="one-layer fit")[0],
+    ]
+    if any(p.get("ci_layered") is not None for p in profiles):
+        handles.append(
+            ax0.plot([], [], "--", color=_COLOURS[1], label="layered fit (wins by BIC)")[0]
+        )
+    if any(p.get("flagged") for p in profiles):
+        handles.append(ax0.plot([], [], " ", label="! lack of fit flagged")[0])
+    fig.legend(handles=handles, loc="outside lower center", ncol=len(handles), fontsize=7)
+    return _finish(fig, title, synthetic)
+
+
+def fig_map(
+    lon: Sequence[float],
+    lat: Sequence[float],
+    values: Sequence[float],
+    *,
+    label: str,
+    layered: Sequence[bool] | None = None,
+    flagged: Sequence[bool] | None = None,
+    names: Sequence[str] | None = None,
+    title: str | None = None,
+    synthetic: bool = False,
+) -> Figure:
+    """Profiles at their longitude and latitude, coloured by a parameter.
+
+    Plain axes in decimal degrees (no tiles, no network), with the aspect
+    set so that a metre east is as long as a metre north at the mean
+    latitude.  Squares: two layers win; circles: one layer; a red ring:
+    lack of fit flagged; grey crosses: no value (not fitted).
+    """
+    x, y = np.asarray(lon, float), np.asarray(lat, float)
+    v = np.asarray(values, float)
+    if x.size == 0:
+        raise ValueError("nothing to draw")
+    two = np.zeros(x.size, bool) if layered is None else np.asarray(layered, bool)
+    bad = np.zeros(x.size, bool) if flagged is None else np.asarray(flagged, bool)
+    fig, axes = _new(width=7.6, height=6.0)
+    ax = axes[0, 0]
+    ok = np.isfinite(v)
+    vmin, vmax = (float(v[ok].min()), float(v[ok].max())) if ok.any() else (0.0, 1.0)
+    sc = None
+    for mask, marker, name in ((~two, "o", "one layer"), (two, "s", "two layers win")):
+        m = mask & ok
+        if m.any():
+            sc = ax.scatter(
+                x[m], y[m], c=v[m], cmap="viridis", vmin=vmin, vmax=vmax, marker=marker, s=46,
+                edgecolors="black", linewidths=0.5, label=name, zorder=3,
+            )  # fmt: skip
+    if (bad & ok).any():
+        ax.scatter(
+            x[bad & ok], y[bad & ok], s=120, facecolors="none", edgecolors="#c00000",
+            linewidths=1.2, label="lack of fit flagged", zorder=2,
+        )  # fmt: skip
+    if (~ok).any():
+        ax.scatter(x[~ok], y[~ok], marker="x", color="#777777", s=30, label="not fitted")
+    if sc is not None:
+        fig.colorbar(sc, ax=ax, label=label, shrink=0.85)
+    if names is not None and x.size <= 60:
+        for xi, yi, nm in zip(x, y, names, strict=False):
+            ax.annotate(str(nm), (xi, yi), xytext=(3, 3), textcoords="offset points", fontsize=6)
+    ax.set_aspect(1.0 / max(0.05, math.cos(math.radians(float(np.mean(y))))))
+    ax.ticklabel_format(useOffset=False, style="plain")
+    ax.set_xlabel("longitude [deg]")
+    ax.set_ylabel("latitude [deg]")
+    ax.legend(fontsize=7, loc="best")
     return _finish(fig, title, synthetic)
 
 
