@@ -52,6 +52,7 @@ __all__ = [
     "reasons_html",
     "profiles_section",
     "field_sections",
+    "MAP_BY",
 ]
 
 #: At most this many profiles are drawn as small multiples (tables hold all).
@@ -609,10 +610,29 @@ def profiles_section(recs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     return {"id": "profiles", "heading": "Every profile: table", "parts": parts}
 
 
-def field_sections(recs: Sequence[Mapping[str, Any]], *, units: str = "si") -> list[dict]:
-    """Summary, map (when located), table and small multiples of a field, in that order."""
+#: ``--map-by`` choices and the record key each colours the map by.
+MAP_BY = {
+    "n": "n",
+    "kc": "kc",
+    "kphi": "kphi",
+    "cc": "cc",
+    "phic": "phic_deg",
+    "rmsd": "rmsd",
+    "r2": "r2_ci",
+}
+
+
+def field_sections(
+    recs: Sequence[Mapping[str, Any]], *, units: str = "si", map_by: str = "n"
+) -> list[dict]:
+    """Summary, map (when located), table and small multiples of a field, in that order.
+
+    ``map_by``: the parameter that colours the map, a key of :data:`MAP_BY`.
+    """
+    if map_by not in MAP_BY:
+        raise ValueError(f"map_by must be one of {', '.join(MAP_BY)}, not {map_by!r}")
     out = [summary_section(recs)]
-    m = map_section(recs)
+    m = map_section(recs, colour_by=MAP_BY[map_by])
     if m is not None:
         out.append(m)
     out.append(profiles_section(recs))

@@ -52,7 +52,8 @@ __all__ = [
     "MAX_FIGURE_PROFILES",
 ]
 
-#: At most this many profiles are drawn (in figures of 8); tables hold all.
+#: At most this many profiles get predicted plate curves (in figures of 8); every profile
+#: gets a small-multiples panel (:mod:`terracone.report.fields`) and a table row.
 MAX_FIGURE_PROFILES = 24
 _PER_FIGURE = 8
 
@@ -498,8 +499,14 @@ _FIT_EXTRA = (
 # ---------------------------------------------------------------------------
 
 
-def predict_document(doc: Mapping[str, Any], *, source: str | None = None) -> dict[str, Any]:
-    """Report document of a ``terracone predict --json`` result."""
+def predict_document(
+    doc: Mapping[str, Any], *, source: str | None = None, map_by: str = "n"
+) -> dict[str, Any]:
+    """Report document of a ``terracone predict --json`` result.
+
+    ``map_by``: the parameter that colours the map of located profiles
+    (:data:`terracone.report.fields.MAP_BY`).
+    """
     units = _units_of(doc)
     profiles = list(doc.get("profiles") or [])
     ok = [p for p in profiles if p.get("status", "ok") == "ok"]
@@ -507,7 +514,7 @@ def predict_document(doc: Mapping[str, Any], *, source: str | None = None) -> di
     settings = dict(doc.get("settings") or {})
     calibrated = bool(settings.get("calibration"))
     sections: list[dict[str, Any]] = FL.field_sections(
-        FL.records_from_predict(profiles, units), units=units
+        FL.records_from_predict(profiles, units), units=units, map_by=map_by
     )
 
     inputs = {
@@ -920,7 +927,7 @@ def evaluate_document(doc: Mapping[str, Any], *, source: str | None = None) -> d
 # ---------------------------------------------------------------------------
 
 
-def batch_document(directory: str | Path) -> dict[str, Any]:
+def batch_document(directory: str | Path, *, map_by: str = "n") -> dict[str, Any]:
     """Report document of a ``terracone batch`` output directory (Parquet parts)."""
     import pandas as pd
 
@@ -937,9 +944,10 @@ def batch_document(directory: str | Path) -> dict[str, Any]:
     units = _units_of(summary)
     n_total = len(df)
     status = df["status"] if "status" in df else pd.Series(["ok"] * n_total)
-    ok = df[status == "ok"] if n_total else df
     sections: list[dict[str, Any]] = (
-        FL.field_sections(FL.records_from_batch(df, summary), units=units) if n_total else []
+        FL.field_sections(FL.records_from_batch(df, summary), units=units, map_by=map_by)
+        if n_total
+        else []
     )
     meta_pairs = {
         "directory": str(d),
@@ -956,9 +964,6 @@ def batch_document(directory: str | Path) -> dict[str, Any]:
         parts.append(text_part("From _summary.json:"))
         parts.append(kv_part(_settings_pairs(summary)))
     sections.append({"id": "inputs", "heading": "Inputs and settings", "parts": parts})
-
-    def col(name):
-        return ok[name].astype(float).to_numpy() if name in ok else np.array([])
 
     rows = []
     for _, r in df.iterrows():
@@ -1027,33 +1032,6 @@ def batch_document(directory: str | Path) -> dict[str, Any]:
         sections.append(
             {"id": "identifiability", "heading": "Identifiability", "parts": [table_part(ident)]}
         )
-    if len(ok):
-        cols = {
-            "n [-]": col("n"),
-            f"kc [{u.kc_unit(units)}]": col("kc"),
-            f"kphi [{u.kphi_unit(units)}]": col("kphi"),
-            "phic [deg]": col("phic_deg"),
-            f"RMSD of CI [{u.pressure_unit(units)}]": col("rmsd"),
-            "R2 of CI [-]": col("r2_ci"),
-        }
-        try:
-            fig = F.fig_histograms(cols, title="Distribution of the predicted parameters")
-            sections.append(
-                {
-                    "id": "figures",
-                    "heading": "Figures",
-                    "parts": [
-                        figure_part(
-                            fig,
-                            "Histograms over the fitted profiles of the batch. kc and kphi are "
-                            "in the units of the batch output; with phic left free by the CI "
-                            "they carry the phic-scale ridge.",
-                        )
-                    ],
-                }
-            )
-        except ValueError:
-            pass
     return {
         "title": "terracone report: batch prediction",
         "subtitle": f"{n_total} profiles in {len(parts_files)} part file(s)",
