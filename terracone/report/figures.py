@@ -852,6 +852,23 @@ def fig_ci_multiples(
     return _finish(fig, title, synthetic)
 
 
+def _scale_bar(ax, x: np.ndarray, y: np.ndarray, coslat: float) -> None:
+    """A bar of a round number of metres in the lower right corner (spherical earth)."""
+    m_per_deg = 111_320.0 * coslat  # metres per degree of longitude at the mean latitude
+    span_m = max(float(np.ptp(x)) * m_per_deg, float(np.ptp(y)) * 111_320.0, 1.0)
+    raw = span_m / 5.0
+    mag = 10 ** math.floor(math.log10(raw))
+    length = next(k * mag for k in (5, 2, 1) if k * mag <= raw) if raw >= 1 else 1.0
+    dx = length / m_per_deg
+    pad_x = 0.05 * max(float(np.ptp(x)), dx)
+    pad_y = 0.05 * max(float(np.ptp(y)), dx * coslat)
+    x1, y0 = float(x.max()) + pad_x, float(y.min()) - pad_y
+    ax.plot([x1 - dx, x1], [y0, y0], color="black", lw=2.5, solid_capstyle="butt")
+    label = f"{length / 1000:g} km" if length >= 1000 else f"{length:g} m"
+    ax.annotate(label, (x1 - dx / 2, y0), xytext=(0, 4), textcoords="offset points",
+                ha="center", fontsize=7)  # fmt: skip
+
+
 def fig_map(
     lon: Sequence[float],
     lat: Sequence[float],
@@ -901,8 +918,14 @@ def fig_map(
     if names is not None and x.size <= 60:
         for xi, yi, nm in zip(x, y, names, strict=False):
             ax.annotate(str(nm), (xi, yi), xytext=(3, 3), textcoords="offset points", fontsize=6)
-    ax.set_aspect(1.0 / max(0.05, math.cos(math.radians(float(np.mean(y))))))
+    coslat = max(0.05, math.cos(math.radians(float(np.mean(y)))))
+    ax.set_aspect(1.0 / coslat)
     ax.ticklabel_format(useOffset=False, style="plain")
+    from matplotlib.ticker import MaxNLocator
+
+    ax.xaxis.set_major_locator(MaxNLocator(4))
+    ax.tick_params(axis="x", labelrotation=25)
+    _scale_bar(ax, x, y, coslat)
     ax.set_xlabel("longitude [deg]")
     ax.set_ylabel("latitude [deg]")
     ax.legend(fontsize=7, loc="best")
