@@ -788,8 +788,8 @@ def _multiple_panel(ax, p: Mapping[str, Any], d: _Disp) -> None:
     if p.get("ci_layered") is not None:
         zl = d.length(p.get("depth_layered", p["depth"]))
         ax.plot(d.pressure(p["ci_layered"]), zl, "--", color=_COLOURS[1], lw=1.4)
-        for zi in p.get("interfaces") or ():
-            ax.axhline(float(d.length(zi)), color=_COLOURS[1], lw=0.7, ls=":")
+    for zi in p.get("interfaces") or ():
+        ax.axhline(float(d.length(zi)), color=_COLOURS[1], lw=0.8, ls=":")
     flag = "!" if p.get("flagged") else ""
     ax.set_title(
         f"{p.get('label', p['id'])}{' ' + flag if flag else ''}",
@@ -813,8 +813,8 @@ def fig_ci_multiples(
     ``profiles``: mappings with ``id`` (or a shorter ``label``), ``depth``
     [m], ``ci`` [kPa] (drawn as open circles), optionally ``ci_model``
     [kPa] (the one-layer fit, solid), ``ci_layered`` [kPa] with
-    ``depth_layered`` [m] and ``interfaces`` [m] (the layered fit, dashed,
-    and its interfaces, dotted) and ``flagged`` (lack of fit: a "!" and a red
+    ``depth_layered`` [m] (the layered fit, dashed), ``interfaces`` [m]
+    (its interfaces, dotted) and ``flagged`` (lack of fit: a "!" and a red
     title).  All panels of a figure share their axes, so profiles compare at
     a glance.
     """
@@ -845,6 +845,10 @@ def fig_ci_multiples(
     if any(p.get("ci_layered") is not None for p in profiles):
         handles.append(
             ax0.plot([], [], "--", color=_COLOURS[1], label="layered fit (wins by BIC)")[0]
+        )
+    if any(p.get("interfaces") for p in profiles):
+        handles.append(
+            ax0.plot([], [], ":", color=_COLOURS[1], label="interface (layered fit wins)")[0]
         )
     if any(p.get("flagged") for p in profiles):
         handles.append(ax0.plot([], [], " ", label="! lack of fit flagged")[0])
