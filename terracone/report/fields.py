@@ -50,6 +50,7 @@ __all__ = [
     "multiples_section",
     "profiles_table",
     "reasons_html",
+    "panel_of",
     "profiles_section",
     "field_sections",
     "MAP_BY",
@@ -450,7 +451,8 @@ def map_section(recs: Sequence[Mapping[str, Any]], *, colour_by: str = "n") -> d
 # ---------------------------------------------------------------------------
 
 
-def _panel(r: Mapping[str, Any]) -> dict[str, Any]:
+def panel_of(r: Mapping[str, Any]) -> dict[str, Any]:
+    """The small-multiples panel of a field record (layered curve only where it wins)."""
     p = {
         "id": r["id"],
         "label": r["label"],
@@ -489,7 +491,7 @@ def multiples_section(recs: Sequence[Mapping[str, Any]], *, units: str = "si") -
         chunk = shown[k * PANELS_PER_FIGURE : (k + 1) * PANELS_PER_FIGURE]
         first, last = chunk[0]["label"], chunk[-1]["label"]
         fig = F.fig_ci_multiples(
-            [_panel(r) for r in chunk],
+            [panel_of(r) for r in chunk],
             ncols=_NCOLS,
             units=units,
             title=f"CI profiles {k * PANELS_PER_FIGURE + 1} to "

@@ -760,9 +760,16 @@ def fig_histograms(
         v = np.asarray(columns[names[k]], float)
         v = v[np.isfinite(v)]
         c, _ = _style(k)
+        bins: Any = min(30, max(5, int(math.sqrt(v.size)) + 1))
+        rng = None
+        if v.size and np.ptp(v) <= 1e-9 * max(1.0, float(np.abs(v).max())):
+            # (nearly) one value: one bar around it, not bins narrower than rounding
+            w = max(0.05 * abs(float(v.mean())), 1e-6)
+            bins, rng = 1, (float(v.mean()) - w, float(v.mean()) + w)
         ax.hist(
             v,
-            bins=min(30, max(5, int(math.sqrt(v.size)) + 1)),
+            bins=bins,
+            range=rng,
             color=c,
             edgecolor="black",
             hatch="//",
@@ -838,20 +845,22 @@ def fig_ci_multiples(
     ax0.set_xlim(left=0)
     fig.supxlabel(f"cone index CI [{d.P}]", fontsize=8)
     fig.supylabel(f"cone-base depth z [{d.L}]", fontsize=8)
+    from matplotlib.lines import Line2D  # legend keys, not drawn in any panel
+
     handles = [
-        ax0.plot([], [], "o", ms=3, mfc="white", mec="#333333", label="measured")[0],
-        ax0.plot([], [], "-", color=_COLOURS[0], label="one-layer fit")[0],
+        Line2D([], [], ls="", marker="o", ms=3, mfc="white", mec="#333333", label="measured"),
+        Line2D([], [], ls="-", color=_COLOURS[0], label="one-layer fit"),
     ]
     if any(p.get("ci_layered") is not None for p in profiles):
         handles.append(
-            ax0.plot([], [], "--", color=_COLOURS[1], label="layered fit (wins by BIC)")[0]
+            Line2D([], [], ls="--", color=_COLOURS[1], label="layered fit (wins by BIC)")
         )
     if any(p.get("interfaces") for p in profiles):
         handles.append(
-            ax0.plot([], [], ":", color=_COLOURS[1], label="interface (layered fit wins)")[0]
+            Line2D([], [], ls=":", color=_COLOURS[1], label="interface (layered fit wins)")
         )
     if any(p.get("flagged") for p in profiles):
-        handles.append(ax0.plot([], [], " ", label="! lack of fit flagged")[0])
+        handles.append(Line2D([], [], ls="", label="! lack of fit flagged"))
     fig.legend(handles=handles, loc="outside lower center", ncol=len(handles), fontsize=7)
     return _finish(fig, title, synthetic)
 
