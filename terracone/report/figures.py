@@ -830,21 +830,37 @@ def fig_ci_multiples(
     d = _Disp(units)
     ncols = max(1, min(ncols, len(profiles)))
     nrows = math.ceil(len(profiles) / ncols)
-    fig = Figure(figsize=(1.55 * ncols + 0.5, 1.45 * nrows + 0.7), dpi=110, layout="constrained")
+    # a fixed layout in inches: constrained layout costs twice the time with 30 panels
+    W = 1.55 * ncols + 0.6
+    n_keys = 2 + sum(
+        any(p.get(k) is not None and p.get(k) is not False for p in profiles)
+        for k in ("ci_layered", "interfaces", "flagged")
+    )
+    key_cols = max(1, min(n_keys, int(W // 2.1)))
+    key_h = 0.2 * math.ceil(n_keys / key_cols)  # legend height [in]
+    head = (0.38 if title else 0.04) + key_h + 0.12
+    H = 1.45 * nrows + 0.5 + head
+    fig = Figure(figsize=(W, H), dpi=110)
     FigureCanvasAgg(fig)
     axes = fig.subplots(nrows, ncols, squeeze=False, sharex=True, sharey=True)
+    top = 1.0 - head / H
+    fig.subplots_adjust(
+        left=0.55 / W, right=1 - 0.12 / W, bottom=0.5 / H, top=top, wspace=0.22, hspace=0.36
+    )
     for k, ax in enumerate(axes.flat):
         ax.grid(True, color="#e0e0e0", linewidth=0.5)
         ax.set_axisbelow(True)
         if k >= len(profiles):
             ax.set_visible(False)
+            if k >= ncols:  # the panel above ends its column: give it the CI labels
+                axes.flat[k - ncols].xaxis.set_tick_params(labelbottom=True)
             continue
         _multiple_panel(ax, profiles[k], d)
     ax0 = axes[0, 0]
     ax0.invert_yaxis()
     ax0.set_xlim(left=0)
-    fig.supxlabel(f"cone index CI [{d.P}]", fontsize=8)
-    fig.supylabel(f"cone-base depth z [{d.L}]", fontsize=8)
+    fig.supxlabel(f"cone index CI [{d.P}]", fontsize=8, y=0.08 / H, va="bottom")
+    fig.supylabel(f"cone-base depth z [{d.L}]", fontsize=8, x=0.06 / W, ha="left")
     from matplotlib.lines import Line2D  # legend keys, not drawn in any panel
 
     handles = [
@@ -855,14 +871,26 @@ def fig_ci_multiples(
         handles.append(
             Line2D([], [], ls="--", color=_COLOURS[1], label="layered fit (wins by BIC)")
         )
-    if any(p.get("interfaces") for p in profiles):
+    if any(p.get("interfaces") is not None for p in profiles):
         handles.append(
             Line2D([], [], ls=":", color=_COLOURS[1], label="interface (layered fit wins)")
         )
     if any(p.get("flagged") for p in profiles):
         handles.append(Line2D([], [], ls="", label="! lack of fit flagged"))
-    fig.legend(handles=handles, loc="outside lower center", ncol=len(handles), fontsize=7)
-    return _finish(fig, title, synthetic)
+    fig.legend(
+        handles=handles,
+        loc="upper center",
+        bbox_to_anchor=(0.5, 1.0 - (0.38 if title else 0.04) / H),
+        ncol=key_cols,
+        fontsize=7,
+        frameon=False,
+    )
+    if title:
+        fig.suptitle(("SYNTHETIC - " if synthetic else "") + title, fontsize=11, y=1 - 0.06 / H)
+    if synthetic:
+        fig.text(0.99, 0.01, SYNTHETIC_NOTE, ha="right", va="bottom", fontsize=7, color="#7a4d00")
+    fig._terracone_synthetic = synthetic  # type: ignore[attr-defined]
+    return fig
 
 
 def _scale_bar(ax, x: np.ndarray, y: np.ndarray, coslat: float) -> None:
