@@ -91,6 +91,10 @@ class BrowserCheck:
         Console messages Chromium logged (any level).
     returncode : int
     stderr : str
+    page_width, view_width : int or None
+        Width of the page's content and of the window [CSS px], as the
+        self-check saw them: ``page_width > view_width`` means the page
+        scrolls sideways.
     """
 
     images_ok: int | None
@@ -100,6 +104,8 @@ class BrowserCheck:
     console: list[str] = field(default_factory=list)
     returncode: int = 0
     stderr: str = ""
+    page_width: int | None = None
+    view_width: int | None = None
 
     @property
     def ok(self) -> bool:
@@ -152,7 +158,7 @@ def _run(args: list[str], timeout: float) -> subprocess.CompletedProcess:
         )
 
 
-def browser_check(path: str | Path, *, timeout: float = 120.0) -> BrowserCheck:
+def browser_check(path: str | Path, *, timeout: float = 120.0, width: int = 1280) -> BrowserCheck:
     """Load ``path`` in headless Chromium and report what it rendered.
 
     Uses ``--dump-dom`` (the DOM after the load event, with a virtual time
@@ -165,7 +171,7 @@ def browser_check(path: str | Path, *, timeout: float = 120.0) -> BrowserCheck:
             "--enable-logging=stderr",
             "--v=0",
             "--virtual-time-budget=10000",
-            "--window-size=1280,2000",
+            f"--window-size={width},2000",
             "--dump-dom",
             url,
         ],
@@ -187,6 +193,8 @@ def browser_check(path: str | Path, *, timeout: float = 120.0) -> BrowserCheck:
         console=console,
         returncode=res.returncode,
         stderr=res.stderr,
+        page_width=_int(a.get("data-page-width")),
+        view_width=_int(a.get("data-view-width")),
     )
 
 
