@@ -389,6 +389,13 @@ def summary_section(recs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
                 "below lists the reason for each flagged profile."
             )
         )
+    if not located:
+        parts.append(
+            text_part(
+                "No map: none of the profiles carries coordinates (lat/lon or "
+                "latitude/longitude in its metadata)."
+            )
+        )
     parts.append(table_part(_distribution_table(ok), sortable=False))
     if len(ok) >= 3:
         cols = {
