@@ -533,3 +533,23 @@ def test_repr_html_of_learn_layered_batch_and_parameters():
     bs = BatchSummary(out_dir="/x", profiles=83, profiles_ok=80, profiles_error=3)
     rows = _cells(bs._repr_html_())[1]
     assert rows["profiles"] == ["83"] and rows["not fitted"] == ["3"]
+
+
+def test_cli_report_map_by_and_errors(located_json, tmp_path):
+    out = tmp_path / "by_phic.html"
+    res = CliRunner().invoke(
+        cli, ["report", str(located_json[0]), "--out", str(out), "--map-by", "phic"]
+    )
+    assert res.exit_code == 0, res.output
+    assert "coloured by phic [deg]" in _section_text(out.read_text(), "map")
+    res = CliRunner().invoke(
+        cli, ["report", str(located_json[0]), "--out", str(out), "--map-by", "x"]
+    )
+    assert res.exit_code == 2 and "'x' is not one of" in res.output
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"hello": 1}')
+    res = CliRunner().invoke(cli, ["report", str(bad), "--out", str(out)])
+    assert res.exit_code != 0 and f"file {bad}: not a terracone result" in res.output
+    assert "Traceback" not in res.output
+    with pytest.raises(ValueError, match="map_by must be one of n, kc, kphi"):
+        FL.field_sections([], map_by="sand")

@@ -111,7 +111,10 @@ def load_document(
             "sections": sections,
         }, p
     doc = _read_json(p)
-    kind = result_kind(doc)
+    try:
+        kind = result_kind(doc)
+    except ValueError as exc:
+        raise ValueError(f"file {p}: {exc}") from exc
     if kind == "reproduce":
         return doc["document"], p.parent
     return _document(kind, doc, str(p), map_by), p.parent

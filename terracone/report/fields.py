@@ -41,6 +41,7 @@ from .tables import Table, fmt_value
 
 __all__ = [
     "MAX_MULTIPLES",
+    "MAX_TABLE_ROWS",
     "PANELS_PER_FIGURE",
     "coordinates",
     "records_from_predict",
@@ -58,6 +59,8 @@ __all__ = [
 
 #: At most this many profiles are drawn as small multiples (tables hold all).
 MAX_MULTIPLES = 1200
+#: At most this many rows in the sortable table (the results file holds all).
+MAX_TABLE_ROWS = 5000
 #: Panels per small-multiples PNG (6 columns of 5 rows).
 PANELS_PER_FIGURE = 30
 _NCOLS = 6
@@ -612,7 +615,9 @@ def profiles_section(recs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """Section ``profiles``: the sortable table of every profile, and the reasons."""
     from .html import table_part
 
-    parts: list[dict[str, Any]] = [table_part(profiles_table(recs), sortable=True, tall=True)]
+    parts: list[dict[str, Any]] = [
+        table_part(profiles_table(recs), sortable=True, tall=True, max_rows=MAX_TABLE_ROWS)
+    ]
     reasons = reasons_html(recs)
     if reasons:
         parts.append({"type": "html", "html": reasons})

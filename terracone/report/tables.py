@@ -223,7 +223,8 @@ class Table:
         notes = list(self.notes)
         if max_rows is not None and len(self.rows) > max_rows:
             notes.append(
-                f"Showing the first {max_rows} of {len(self.rows)} rows; the CSV has them all."
+                f"Showing the first {max_rows} of {len(self.rows)} rows; the results file "
+                "has them all."
             )
         if notes:
             out.append('<ul class="notes">' + "".join(f"<li>{e(n)}</li>" for n in notes) + "</ul>")
