@@ -114,6 +114,8 @@ th button.sort:focus-visible { outline: 2px solid var(--accent); outline-offset:
 .table-wrap:focus-visible { outline: 2px solid var(--accent); }
 .table-wrap.tall { max-height: 70vh; overflow: auto; }
 .table-wrap.tall thead th { position: sticky; top: 0; z-index: 1; }
+.table-wrap.tall tbody th { position: sticky; left: 0; z-index: 1; }
+.table-wrap.tall thead th:first-child { left: 0; z-index: 2; }
 .fig-scroll { overflow-x: auto; max-width: 100%; -webkit-overflow-scrolling: touch; }
 details.reasons { font-size: 0.88rem; margin: 0.4rem 0 1.2rem; max-width: 60rem; }
 details.reasons summary { cursor: pointer; font-weight: 600; }
