@@ -553,3 +553,47 @@ def test_cli_report_map_by_and_errors(located_json, tmp_path):
     assert "Traceback" not in res.output
     with pytest.raises(ValueError, match="map_by must be one of n, kc, kphi"):
         FL.field_sections([], map_by="sand")
+
+
+def test_batch_records_read_layers_and_units():
+    import pandas as pd
+
+    df = pd.DataFrame(
+        {
+            "profile": ["f/1", "f/2", "f/3"],
+            "status": ["ok", "ok", "error"],
+            "error": [None, None, "depth is not strictly increasing"],
+            "kc": [2.0, 3.0, np.nan],  # lb/in^(n+1)
+            "kphi": [10.0, 12.0, np.nan],
+            "n": [0.8, 1.0, np.nan],
+            "cc": [1.0, 0.0, np.nan],  # psi
+            "phic_deg": [10.0, 20.0, np.nan],
+            "rmsd": [5.0, 6.0, np.nan],  # psi
+            "lack_of_fit": [None, "R2 of the CI fit is 0.5 (below 0.8)", None],
+            "preferred_layers": [2.0, 1.0, np.nan],
+            "interfaces": ["4,10", "3", None],  # in
+            "lat": [41.5, np.nan, 41.6],
+            "lon": [-93.1, np.nan, -93.2],
+        }
+    )
+    recs = FL.records_from_batch(df, {"units": "us"})
+    assert [r["label"] for r in recs] == ["1", "2", "3"]
+    np.testing.assert_allclose(recs[0]["interfaces"], [4 * INCH, 10 * INCH])
+    assert recs[0]["layers_preferred"] == 2 and recs[1]["layers_preferred"] == 1
+    assert FL.panel_of({**recs[0], "depth": [0.1], "ci": [1.0]})["interfaces"] == pytest.approx(
+        [4 * INCH, 10 * INCH]
+    )
+    assert "interfaces" not in FL.panel_of({**recs[1], "depth": [0.1], "ci": [1.0]})
+    # US to SI by hand: kc [lb/in^(n+1)] -> [kN/m^(n+1)], psi -> kPa
+    assert recs[0]["kc"] == pytest.approx(2.0 * LBF_KN / INCH ** (0.8 + 1), rel=1e-9)
+    assert recs[0]["kphi"] == pytest.approx(10.0 * LBF_KN / INCH ** (0.8 + 2), rel=1e-9)
+    assert recs[0]["cc"] == pytest.approx(PSI_KPA, rel=1e-9)
+    assert recs[1]["rmsd"] == pytest.approx(6.0 * PSI_KPA, rel=1e-9)
+    assert [r["flagged"] for r in recs] == [False, True, False]
+    assert (recs[0]["lon"], recs[0]["lat"]) == (-93.1, 41.5) and recs[1]["lon"] is None
+    assert recs[2]["status"] == "error" and recs[2].get("n") is None
+    sec = FL.summary_section(recs)
+    pairs = sec["parts"][0]["pairs"]
+    assert pairs["two or more layers win (BIC)"] == "1 of 2 (50%)"
+    assert pairs["flagged for lack of fit"] == "1 of 2 (50%)"
+    assert pairs["located (lon/lat)"] == "2 of 3 (67%)"
