@@ -266,6 +266,12 @@ class BatchSummary:
         """True when the run has no run-level problem (error profiles are normal)."""
         return not self.problems
 
+    def _repr_html_(self) -> str:
+        """A table of the run's counts, for Jupyter."""
+        from .report.notebook import batch_html
+
+        return batch_html(self)
+
     def as_dict(self) -> dict[str, Any]:
         d = dataclasses.asdict(self)
         d["success"] = self.success

@@ -1292,11 +1292,22 @@ def batch_cmd(
 @click.option(
     "--out", required=True, type=click.Path(dir_okay=False), help="The HTML file to write."
 )
-def report_cmd(results, out):
-    """One self-contained HTML report of predict, learn, evaluate, batch or reproduce results."""
+@click.option(
+    "--map-by",
+    type=click.Choice(["n", "kc", "kphi", "cc", "phic", "rmsd", "r2"]),
+    default="n",
+    show_default=True,
+    help="Parameter that colours the map of located profiles (lon/lat in their metadata).",
+)
+def report_cmd(results, out, map_by):
+    """One self-contained HTML report of predict, learn, evaluate, batch or reproduce results.
+
+    Many profiles (predict JSON, a batch directory) get a summary of the field first, a map when
+    they carry coordinates, a sortable table and a panel per profile.
+    """
     from .report import build_report
 
-    click.echo(f"wrote {build_report(results, out)}")
+    click.echo(f"wrote {build_report(results, out, map_by=map_by)}")
 
 
 @cli.command("reproduce")

@@ -250,6 +250,12 @@ class TerrainParameters:
     model: str = "rm0"
     r_min: float | None = None
 
+    def _repr_html_(self) -> str:
+        """A table with SI and US columns, for Jupyter."""
+        from .report.notebook import parameters_html
+
+        return parameters_html(self)
+
     def as_dict(self, units: str = "si") -> dict[str, Any]:
         """Parameters in a unit system, with the JSON keys of the CLI."""
         units = u.check_system(units)

@@ -176,6 +176,12 @@ class LayeredResult:
     def ok(self) -> bool:
         return self.status == "ok"
 
+    def _repr_html_(self) -> str:
+        """A table of the layers (SI) and the BIC comparison, for Jupyter."""
+        from .report.notebook import layered_html
+
+        return layered_html(self)
+
     def as_dict(self, units: str = "si", *, curves: bool = True) -> dict[str, Any]:
         units = u.check_system(units)
         d: dict[str, Any] = {"id": self.id, "status": self.status, "error": self.error}

@@ -8,7 +8,15 @@
 """
 
 from .bounds import Bounds
-from .predict import PredictionResult, predict, predict_many
+from .predict import PredictionResult, PredictionResults, predict, predict_many
 from .pso import PSOResult, pso
 
-__all__ = ["Bounds", "PSOResult", "PredictionResult", "predict", "predict_many", "pso"]
+__all__ = [
+    "Bounds",
+    "PSOResult",
+    "PredictionResult",
+    "PredictionResults",
+    "predict",
+    "predict_many",
+    "pso",
+]

@@ -174,6 +174,12 @@ class LearnResult:
     r_min_profile: list[tuple[float, float]] = field(default_factory=list)
     intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
 
+    def _repr_html_(self) -> str:
+        """A table of the learned parameters (SI and US) and the fit, for Jupyter."""
+        from ..report.notebook import learn_html
+
+        return learn_html(self)
+
     def calibration(
         self, terrain: str, cone: str = "asabe-large", **provenance: Any
     ) -> Calibration:

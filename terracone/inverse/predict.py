@@ -36,7 +36,7 @@ from .bounds import Bounds
 from .exact import solve_exact
 from .pso import pso
 
-__all__ = ["PredictionResult", "predict", "predict_many", "rmsd_objective"]
+__all__ = ["PredictionResult", "PredictionResults", "predict", "predict_many", "rmsd_objective"]
 
 
 @dataclass
@@ -105,6 +105,12 @@ class PredictionResult:
     @property
     def ok(self) -> bool:
         return self.status == "ok"
+
+    def _repr_html_(self) -> str:
+        """A table of the parameters (SI and US) and the fit, for Jupyter."""
+        from ..report.notebook import prediction_html
+
+        return prediction_html(self)
 
     def as_dict(self, units: str = "si", *, curves: bool = True) -> dict[str, Any]:
         """JSON-ready dict in a unit system (the ``predict --json`` contract)."""
@@ -367,9 +373,21 @@ def _error(profile: CIProfile, reason: str) -> PredictionResult:
     )
 
 
-def predict_many(items: Iterable[CIProfile | InputError], **kwargs: Any) -> list[PredictionResult]:
-    """:func:`predict` for each item; reader errors become error results."""
-    out = []
+class PredictionResults(list):
+    """A list of :class:`PredictionResult` that shows as one table in Jupyter."""
+
+    def _repr_html_(self) -> str:
+        from ..report.notebook import predictions_html
+
+        return predictions_html(self)
+
+
+def predict_many(items: Iterable[CIProfile | InputError], **kwargs: Any) -> PredictionResults:
+    """:func:`predict` for each item; reader errors become error results.
+
+    Returns a :class:`PredictionResults` (a list) in the order of the items.
+    """
+    out = PredictionResults()
     for it in items:
         if isinstance(it, InputError):
             out.append(

@@ -62,8 +62,13 @@ def _read_json(path: Path) -> Any:
         raise ValueError(f"file {path}: cannot read JSON ({exc})") from exc
 
 
-def load_document(results_path: str | Path) -> tuple[dict[str, Any], Path | None]:
-    """The report document for a results file or directory, and its base directory."""
+def load_document(
+    results_path: str | Path, *, map_by: str = "n"
+) -> tuple[dict[str, Any], Path | None]:
+    """The report document for a results file or directory, and its base directory.
+
+    ``map_by``: the parameter that colours the map of located profiles.
+    """
     p = Path(results_path)
     if not p.exists():
         raise ValueError(f"{p}: no such file or directory")
@@ -74,7 +79,7 @@ def load_document(results_path: str | Path) -> tuple[dict[str, Any], Path | None
                 raise ValueError(f"{p / 'reproduce.json'}: not written by terracone reproduce")
             return doc["document"], p
         if list(p.glob("part-*.parquet")):
-            return batch_document(p), p
+            return batch_document(p, map_by=map_by), p
         docs = []
         for f in sorted(p.glob("*.json")):
             try:
@@ -91,10 +96,10 @@ def load_document(results_path: str | Path) -> tuple[dict[str, Any], Path | None
             )
         if len(docs) == 1:
             f, kind, d = docs[0]
-            return _document(kind, d, str(f)), p
+            return _document(kind, d, str(f), map_by), p
         sections = []
         for f, kind, d in docs:
-            sub = _document(kind, d, str(f))
+            sub = _document(kind, d, str(f), map_by)
             for s in sub["sections"]:
                 sections.append(
                     {**s, "id": f"{f.stem}-{s['id']}", "heading": f"{f.name}: {s['heading']}"}
@@ -106,15 +111,18 @@ def load_document(results_path: str | Path) -> tuple[dict[str, Any], Path | None
             "sections": sections,
         }, p
     doc = _read_json(p)
-    kind = result_kind(doc)
+    try:
+        kind = result_kind(doc)
+    except ValueError as exc:
+        raise ValueError(f"file {p}: {exc}") from exc
     if kind == "reproduce":
         return doc["document"], p.parent
-    return _document(kind, doc, str(p)), p.parent
+    return _document(kind, doc, str(p), map_by), p.parent
 
 
-def _document(kind: str, doc: dict[str, Any], source: str) -> dict[str, Any]:
+def _document(kind: str, doc: dict[str, Any], source: str, map_by: str = "n") -> dict[str, Any]:
     if kind == "predict":
-        return predict_document(doc, source=source)
+        return predict_document(doc, source=source, map_by=map_by)
     if kind == "learn":
         return learn_document(doc, source=source)
     if kind == "evaluate":
@@ -122,7 +130,7 @@ def _document(kind: str, doc: dict[str, Any], source: str) -> dict[str, Any]:
     raise ValueError(f"unknown result kind {kind!r}")  # pragma: no cover
 
 
-def build_report(results_path: str | Path, out_html: str | Path) -> Path:
+def build_report(results_path: str | Path, out_html: str | Path, *, map_by: str = "n") -> Path:
     """Write one self-contained HTML report of a terracone result.
 
     Parameters
@@ -133,6 +141,9 @@ def build_report(results_path: str | Path, out_html: str | Path) -> Path:
         JSON files.
     out_html : str or Path
         The HTML file to write (its folder is created).
+    map_by : {"n", "kc", "kphi", "cc", "phic", "rmsd", "r2"}
+        The parameter that colours the map of located profiles (section
+        ``map``, drawn when profiles carry lon/lat).
 
     Returns
     -------
@@ -144,7 +155,7 @@ def build_report(results_path: str | Path, out_html: str | Path) -> Path:
     ValueError
         When the results cannot be read or are not terracone results.
     """
-    document, base = load_document(results_path)
+    document, base = load_document(results_path, map_by=map_by)
     text = render_document(document, base)
     out = Path(out_html)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -9,21 +9,39 @@ window size.  Chromium runs with background networking, component updates,
 sync and QUIC off and a fresh profile, so it makes no request of its own; the
 report's Content-Security-Policy keeps the page from making any.
 
+:class:`BrowserSession` drives the same Chromium over the DevTools protocol
+on a pipe (``--remote-debugging-pipe``: no port, nothing listens): open a
+page at a window width, evaluate JavaScript, click at a point or on an
+element with real mouse events, take a screenshot, and read every console
+message and uncaught exception.
+
 Needs Debian's ``chromium`` package (``/usr/bin/chromium``).
 """
 
 from __future__ import annotations
 
+import base64
+import json
 import os
 import re
+import select
 import shutil
 import subprocess
 import tempfile
+import time
 from dataclasses import dataclass, field
 from html.parser import HTMLParser
 from pathlib import Path
+from typing import Any
 
-__all__ = ["BrowserCheck", "find_chromium", "browser_check", "screenshot", "CHROMIUM_FLAGS"]
+__all__ = [
+    "BrowserCheck",
+    "BrowserSession",
+    "find_chromium",
+    "browser_check",
+    "screenshot",
+    "CHROMIUM_FLAGS",
+]
 
 #: Flags for a quiet, offline, throw-away headless Chromium.
 CHROMIUM_FLAGS = [
@@ -73,6 +91,10 @@ class BrowserCheck:
         Console messages Chromium logged (any level).
     returncode : int
     stderr : str
+    page_width, view_width : int or None
+        Width of the page's content and of the window [CSS px], as the
+        self-check saw them: ``page_width > view_width`` means the page
+        scrolls sideways.
     """
 
     images_ok: int | None
@@ -82,6 +104,8 @@ class BrowserCheck:
     console: list[str] = field(default_factory=list)
     returncode: int = 0
     stderr: str = ""
+    page_width: int | None = None
+    view_width: int | None = None
 
     @property
     def ok(self) -> bool:
@@ -134,7 +158,7 @@ def _run(args: list[str], timeout: float) -> subprocess.CompletedProcess:
         )
 
 
-def browser_check(path: str | Path, *, timeout: float = 120.0) -> BrowserCheck:
+def browser_check(path: str | Path, *, timeout: float = 120.0, width: int = 1280) -> BrowserCheck:
     """Load ``path`` in headless Chromium and report what it rendered.
 
     Uses ``--dump-dom`` (the DOM after the load event, with a virtual time
@@ -147,7 +171,7 @@ def browser_check(path: str | Path, *, timeout: float = 120.0) -> BrowserCheck:
             "--enable-logging=stderr",
             "--v=0",
             "--virtual-time-budget=10000",
-            "--window-size=1280,2000",
+            f"--window-size={width},2000",
             "--dump-dom",
             url,
         ],
@@ -169,6 +193,8 @@ def browser_check(path: str | Path, *, timeout: float = 120.0) -> BrowserCheck:
         console=console,
         returncode=res.returncode,
         stderr=res.stderr,
+        page_width=_int(a.get("data-page-width")),
+        view_width=_int(a.get("data-view-width")),
     )
 
 
@@ -190,3 +216,223 @@ def screenshot(
     if res.returncode != 0 or not out.exists():
         raise RuntimeError(f"chromium screenshot failed ({res.returncode}): {res.stderr[-2000:]}")
     return out
+
+
+class BrowserSession:
+    """Headless Chromium driven over the DevTools protocol on a pipe.
+
+    Parameters
+    ----------
+    width, height : int
+        Window (viewport) size [CSS px].
+    timeout : float
+        Seconds to wait for any one reply of the browser [s].
+
+    Examples
+    --------
+    >>> with BrowserSession(width=390, height=800) as b:  # doctest: +SKIP
+    ...     b.open("report.html")
+    ...     b.evaluate("document.documentElement.scrollWidth")
+    ...     b.click_selector("#tbl-profiles th[data-col='2'] button")
+    ...     b.screenshot("phone.png")
+
+    ``console`` holds every console message (``"level: text"``), uncaught
+    exception and browser log entry seen since the session began.
+    """
+
+    def __init__(self, *, width: int = 1280, height: int = 900, timeout: float = 60.0) -> None:
+        exe = find_chromium()
+        if exe is None:
+            raise FileNotFoundError("Chromium not found (install Debian's chromium package)")
+        self.timeout = float(timeout)
+        self.console: list[str] = []
+        self._events: list[dict[str, Any]] = []
+        self._buf = b""
+        self._id = 0
+        self._profile = tempfile.TemporaryDirectory(prefix="terracone-chromium-")
+        to_chrome_r, self._to_chrome = os.pipe()
+        self._from_chrome, from_chrome_w = os.pipe()
+
+        def _fds() -> None:  # in the child: fd 3 reads commands, fd 4 writes replies
+            os.dup2(to_chrome_r, 3)
+            os.dup2(from_chrome_w, 4)
+
+        self._proc = subprocess.Popen(
+            [
+                exe,
+                *CHROMIUM_FLAGS,
+                "--remote-debugging-pipe",
+                f"--user-data-dir={self._profile.name}",
+                f"--window-size={width},{height}",
+                "about:blank",
+            ],
+            pass_fds=(3, 4),
+            preexec_fn=_fds,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        os.close(to_chrome_r)
+        os.close(from_chrome_w)
+        try:
+            target = self.call("Target.createTarget", {"url": "about:blank"})["targetId"]
+            self._session = self.call(
+                "Target.attachToTarget", {"targetId": target, "flatten": True}
+            )["sessionId"]
+            for domain in ("Page", "Runtime", "Log"):
+                self.call(f"{domain}.enable", session=True)
+            self.set_viewport(width, height)
+        except Exception:
+            self.close()
+            raise
+
+    # -- protocol ------------------------------------------------------------
+
+    def _send(self, method: str, params: dict[str, Any] | None, session: bool) -> int:
+        self._id += 1
+        msg: dict[str, Any] = {"id": self._id, "method": method, "params": params or {}}
+        if session:
+            msg["sessionId"] = self._session
+        os.write(self._to_chrome, json.dumps(msg).encode() + b"\0")
+        return self._id
+
+    def _next(self, deadline: float) -> dict[str, Any]:
+        while b"\0" not in self._buf:
+            left = deadline - time.monotonic()
+            ready, _, _ = select.select([self._from_chrome], [], [], max(0.0, left))
+            if not ready:
+                raise TimeoutError(f"Chromium did not answer within {self.timeout:g} s")
+            chunk = os.read(self._from_chrome, 1 << 20)
+            if not chunk:
+                raise RuntimeError("Chromium closed the DevTools pipe")
+            self._buf += chunk
+        raw, self._buf = self._buf.split(b"\0", 1)
+        msg = json.loads(raw)
+        if "method" in msg:
+            self._note(msg)
+        return msg
+
+    def _note(self, ev: dict[str, Any]) -> None:
+        m, p = ev["method"], ev.get("params", {})
+        if m == "Runtime.consoleAPICalled":
+            text = " ".join(
+                str(a.get("value", a.get("description", ""))) for a in p.get("args", [])
+            )
+            self.console.append(f"{p.get('type')}: {text}")
+        elif m == "Runtime.exceptionThrown":
+            d = p.get("exceptionDetails", {})
+            self.console.append(
+                f"exception: {d.get('exception', {}).get('description') or d.get('text')}"
+            )
+        elif m == "Log.entryAdded":
+            e = p.get("entry", {})
+            self.console.append(f"{e.get('level')}: {e.get('text')}")
+        self._events.append(ev)
+
+    def call(self, method: str, params: dict[str, Any] | None = None, *, session: bool = False):
+        """Send one DevTools command and return its result (``session``: to the page)."""
+        i = self._send(method, params, session)
+        deadline = time.monotonic() + self.timeout
+        while True:
+            msg = self._next(deadline)
+            if msg.get("id") == i:
+                if "error" in msg:
+                    raise RuntimeError(f"{method}: {msg['error'].get('message')}")
+                return msg.get("result", {})
+
+    def _wait_event(self, method: str) -> dict[str, Any]:
+        deadline = time.monotonic() + self.timeout
+        while True:
+            for k, ev in enumerate(self._events):
+                if ev["method"] == method:
+                    del self._events[: k + 1]
+                    return ev
+            self._events.clear()
+            self._next(deadline)
+
+    # -- page ----------------------------------------------------------------
+
+    def set_viewport(self, width: int, height: int) -> None:
+        """Viewport of ``width`` x ``height`` CSS px (mobile layout below 640 px)."""
+        self.call(
+            "Emulation.setDeviceMetricsOverride",
+            {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": width < 640},
+            session=True,
+        )
+
+    def open(self, path_or_url: str | Path) -> None:
+        """Load a file (or URL) and wait for its load event."""
+        s = str(path_or_url)
+        url = s if re.match(r"^[a-z]+:", s) else Path(s).resolve().as_uri()
+        self._events.clear()
+        res = self.call("Page.navigate", {"url": url}, session=True)
+        if res.get("errorText"):
+            raise RuntimeError(f"cannot open {url}: {res['errorText']}")
+        self._wait_event("Page.loadEventFired")
+
+    def evaluate(self, expression: str) -> Any:
+        """Value of a JavaScript expression in the page (JSON-serialisable)."""
+        res = self.call(
+            "Runtime.evaluate",
+            {"expression": expression, "returnByValue": True, "awaitPromise": True},
+            session=True,
+        )
+        if "exceptionDetails" in res:
+            d = res["exceptionDetails"]
+            raise RuntimeError(f"JavaScript error: {d.get('exception', {}).get('description')}")
+        return res.get("result", {}).get("value")
+
+    def click(self, x: float, y: float) -> None:
+        """A left mouse click at viewport point (x, y) [CSS px]."""
+        for kind in ("mouseMoved", "mousePressed", "mouseReleased"):
+            self.call(
+                "Input.dispatchMouseEvent",
+                {"type": kind, "x": x, "y": y, "button": "left", "clickCount": 1},
+                session=True,
+            )
+
+    def click_selector(self, selector: str) -> None:
+        """Scroll the first element matching ``selector`` into view and click its centre."""
+        box = self.evaluate(
+            "(function(){var el=document.querySelector(" + json.dumps(selector) + ");"
+            "if(!el){return null;} el.scrollIntoView({block:'center',inline:'center'});"
+            "var r=el.getBoundingClientRect(); return [r.left+r.width/2, r.top+r.height/2];})()"
+        )
+        if box is None:
+            raise ValueError(f"no element matches {selector!r}")
+        self.click(float(box[0]), float(box[1]))
+
+    def screenshot(self, out_png: str | Path, *, full_page: bool = False) -> Path:
+        """PNG of the viewport (or of the whole page) [file path]."""
+        params: dict[str, Any] = {"format": "png"}
+        if full_page:
+            params["captureBeyondViewport"] = True
+        data = self.call("Page.captureScreenshot", params, session=True)["data"]
+        out = Path(out_png)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_bytes(base64.b64decode(data))
+        return out
+
+    def close(self) -> None:
+        """End the browser and remove its throw-away profile."""
+        try:
+            if self._proc.poll() is None:
+                try:
+                    self._send("Browser.close", None, False)
+                    self._proc.wait(timeout=10)
+                except (OSError, subprocess.TimeoutExpired):
+                    self._proc.kill()
+                    self._proc.wait(timeout=10)
+        finally:
+            for fd in (self._to_chrome, self._from_chrome):
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
+            self._profile.cleanup()
+
+    def __enter__(self) -> BrowserSession:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

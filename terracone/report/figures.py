@@ -53,6 +53,8 @@ __all__ = [
     "fig_ridge",
     "fig_bars",
     "fig_histograms",
+    "fig_ci_multiples",
+    "fig_map",
     "ridge_data",
     "save_figure",
     "png_bytes",
@@ -758,9 +760,16 @@ def fig_histograms(
         v = np.asarray(columns[names[k]], float)
         v = v[np.isfinite(v)]
         c, _ = _style(k)
+        bins: Any = min(30, max(5, int(math.sqrt(v.size)) + 1))
+        rng = None
+        if v.size and np.ptp(v) <= 1e-9 * max(1.0, float(np.abs(v).max())):
+            # (nearly) one value: one bar around it, not bins narrower than rounding
+            w = max(0.05 * abs(float(v.mean())), 1e-6)
+            bins, rng = 1, (float(v.mean()) - w, float(v.mean()) + w)
         ax.hist(
             v,
-            bins=min(30, max(5, int(math.sqrt(v.size)) + 1)),
+            bins=bins,
+            range=rng,
             color=c,
             edgecolor="black",
             hatch="//",
@@ -770,6 +779,197 @@ def fig_histograms(
         ax.set_xlabel(names[k])
         ax.set_ylabel("profiles")
         ax.legend(fontsize=7.5)
+    return _finish(fig, title, synthetic)
+
+
+# ---------------------------------------------------------------------------
+# fields of many profiles: small multiples and a map
+# ---------------------------------------------------------------------------
+
+
+def _multiple_panel(ax, p: Mapping[str, Any], d: _Disp) -> None:
+    z = d.length(p["depth"])
+    ax.plot(d.pressure(p["ci"]), z, "o", ms=2.6, mfc="white", mec="#333333", mew=0.7)
+    if p.get("ci_model") is not None:
+        ax.plot(d.pressure(p["ci_model"]), z, "-", color=_COLOURS[0], lw=1.3)
+    if p.get("ci_layered") is not None:
+        zl = d.length(p.get("depth_layered", p["depth"]))
+        ax.plot(d.pressure(p["ci_layered"]), zl, "--", color=_COLOURS[1], lw=1.4)
+    for zi in p.get("interfaces") or ():
+        ax.axhline(float(d.length(zi)), color=_COLOURS[1], lw=0.8, ls=":")
+    flag = "!" if p.get("flagged") else ""
+    ax.set_title(
+        f"{p.get('label', p['id'])}{' ' + flag if flag else ''}",
+        fontsize=6.5,
+        pad=1.5,
+        color="#a00000" if flag else "black",
+    )
+    ax.tick_params(labelsize=5.5, length=2, pad=1)
+
+
+def fig_ci_multiples(
+    profiles: Sequence[Mapping[str, Any]],
+    *,
+    ncols: int = 6,
+    units: str = "si",
+    title: str | None = None,
+    synthetic: bool = False,
+) -> Figure:
+    """Small multiples: one compact panel per CI profile, depth downwards.
+
+    ``profiles``: mappings with ``id`` (or a shorter ``label``), ``depth``
+    [m], ``ci`` [kPa] (drawn as open circles), optionally ``ci_model``
+    [kPa] (the one-layer fit, solid), ``ci_layered`` [kPa] with
+    ``depth_layered`` [m] (the layered fit, dashed), ``interfaces`` [m]
+    (its interfaces, dotted) and ``flagged`` (lack of fit: a "!" and a red
+    title).  All panels of a figure share their axes, so profiles compare at
+    a glance.
+    """
+    if not profiles:
+        raise ValueError("nothing to draw")
+    d = _Disp(units)
+    ncols = max(1, min(ncols, len(profiles)))
+    nrows = math.ceil(len(profiles) / ncols)
+    # a fixed layout in inches: constrained layout costs twice the time with 30 panels
+    W = 1.55 * ncols + 0.6
+    n_keys = 2 + sum(
+        any(p.get(k) is not None and p.get(k) is not False for p in profiles)
+        for k in ("ci_layered", "interfaces", "flagged")
+    )
+    key_cols = max(1, min(n_keys, int(W // 2.1)))
+    key_h = 0.2 * math.ceil(n_keys / key_cols)  # legend height [in]
+    head = (0.38 if title else 0.04) + key_h + 0.12
+    H = 1.45 * nrows + 0.5 + head
+    fig = Figure(figsize=(W, H), dpi=110)
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(nrows, ncols, squeeze=False, sharex=True, sharey=True)
+    top = 1.0 - head / H
+    fig.subplots_adjust(
+        left=0.55 / W, right=1 - 0.12 / W, bottom=0.5 / H, top=top, wspace=0.22, hspace=0.36
+    )
+    for k, ax in enumerate(axes.flat):
+        ax.grid(True, color="#e0e0e0", linewidth=0.5)
+        ax.set_axisbelow(True)
+        if k >= len(profiles):
+            ax.set_visible(False)
+            if k >= ncols:  # the panel above ends its column: give it the CI labels
+                axes.flat[k - ncols].xaxis.set_tick_params(labelbottom=True)
+            continue
+        _multiple_panel(ax, profiles[k], d)
+    ax0 = axes[0, 0]
+    ax0.invert_yaxis()
+    ax0.set_xlim(left=0)
+    fig.supxlabel(f"cone index CI [{d.P}]", fontsize=8, y=0.08 / H, va="bottom")
+    fig.supylabel(f"cone-base depth z [{d.L}]", fontsize=8, x=0.06 / W, ha="left")
+    from matplotlib.lines import Line2D  # legend keys, not drawn in any panel
+
+    handles = [
+        Line2D([], [], ls="", marker="o", ms=3, mfc="white", mec="#333333", label="measured"),
+        Line2D([], [], ls="-", color=_COLOURS[0], label="one-layer fit"),
+    ]
+    if any(p.get("ci_layered") is not None for p in profiles):
+        handles.append(
+            Line2D([], [], ls="--", color=_COLOURS[1], label="layered fit (wins by BIC)")
+        )
+    if any(p.get("interfaces") is not None for p in profiles):
+        handles.append(
+            Line2D([], [], ls=":", color=_COLOURS[1], label="interface (layered fit wins)")
+        )
+    if any(p.get("flagged") for p in profiles):
+        handles.append(Line2D([], [], ls="", label="! lack of fit flagged"))
+    fig.legend(
+        handles=handles,
+        loc="upper center",
+        bbox_to_anchor=(0.5, 1.0 - (0.38 if title else 0.04) / H),
+        ncol=key_cols,
+        fontsize=7,
+        frameon=False,
+    )
+    if title:
+        fig.suptitle(("SYNTHETIC - " if synthetic else "") + title, fontsize=11, y=1 - 0.06 / H)
+    if synthetic:
+        fig.text(0.99, 0.01, SYNTHETIC_NOTE, ha="right", va="bottom", fontsize=7, color="#7a4d00")
+    fig._terracone_synthetic = synthetic  # type: ignore[attr-defined]
+    return fig
+
+
+def _scale_bar(ax, x: np.ndarray, y: np.ndarray, coslat: float) -> None:
+    """A bar of a round number of metres in the lower right corner (spherical earth)."""
+    m_per_deg = 111_320.0 * coslat  # metres per degree of longitude at the mean latitude
+    span_m = max(float(np.ptp(x)) * m_per_deg, float(np.ptp(y)) * 111_320.0, 1.0)
+    raw = span_m / 5.0
+    mag = 10 ** math.floor(math.log10(raw))
+    length = next(k * mag for k in (5, 2, 1) if k * mag <= raw) if raw >= 1 else 1.0
+    dx = length / m_per_deg
+    pad_x = 0.05 * max(float(np.ptp(x)), dx)
+    pad_y = 0.05 * max(float(np.ptp(y)), dx * coslat)
+    x1, y0 = float(x.max()) + pad_x, float(y.min()) - pad_y
+    ax.plot([x1 - dx, x1], [y0, y0], color="black", lw=2.5, solid_capstyle="butt")
+    label = f"{length / 1000:g} km" if length >= 1000 else f"{length:g} m"
+    ax.annotate(label, (x1 - dx / 2, y0), xytext=(0, 4), textcoords="offset points",
+                ha="center", fontsize=7)  # fmt: skip
+
+
+def fig_map(
+    lon: Sequence[float],
+    lat: Sequence[float],
+    values: Sequence[float],
+    *,
+    label: str,
+    layered: Sequence[bool] | None = None,
+    flagged: Sequence[bool] | None = None,
+    names: Sequence[str] | None = None,
+    title: str | None = None,
+    synthetic: bool = False,
+) -> Figure:
+    """Profiles at their longitude and latitude, coloured by a parameter.
+
+    Plain axes in decimal degrees (no tiles, no network), with the aspect
+    set so that a metre east is as long as a metre north at the mean
+    latitude.  Squares: two layers win; circles: one layer; a red ring:
+    lack of fit flagged; grey crosses: no value (not fitted).
+    """
+    x, y = np.asarray(lon, float), np.asarray(lat, float)
+    v = np.asarray(values, float)
+    if x.size == 0:
+        raise ValueError("nothing to draw")
+    two = np.zeros(x.size, bool) if layered is None else np.asarray(layered, bool)
+    bad = np.zeros(x.size, bool) if flagged is None else np.asarray(flagged, bool)
+    fig, axes = _new(width=7.6, height=6.0)
+    ax = axes[0, 0]
+    ok = np.isfinite(v)
+    vmin, vmax = (float(v[ok].min()), float(v[ok].max())) if ok.any() else (0.0, 1.0)
+    sc = None
+    for mask, marker, name in ((~two, "o", "one layer"), (two, "s", "two layers win")):
+        m = mask & ok
+        if m.any():
+            sc = ax.scatter(
+                x[m], y[m], c=v[m], cmap="viridis", vmin=vmin, vmax=vmax, marker=marker, s=46,
+                edgecolors="black", linewidths=0.5, label=name, zorder=3,
+            )  # fmt: skip
+    if (bad & ok).any():
+        ax.scatter(
+            x[bad & ok], y[bad & ok], s=120, facecolors="none", edgecolors="#c00000",
+            linewidths=1.2, label="lack of fit flagged", zorder=2,
+        )  # fmt: skip
+    if (~ok).any():
+        ax.scatter(x[~ok], y[~ok], marker="x", color="#777777", s=30, label="not fitted")
+    if sc is not None:
+        fig.colorbar(sc, ax=ax, label=label, shrink=0.85)
+    if names is not None and x.size <= 60:
+        for xi, yi, nm in zip(x, y, names, strict=False):
+            ax.annotate(str(nm), (xi, yi), xytext=(3, 3), textcoords="offset points", fontsize=6)
+    coslat = max(0.05, math.cos(math.radians(float(np.mean(y)))))
+    ax.set_aspect(1.0 / coslat)
+    ax.ticklabel_format(useOffset=False, style="plain")
+    from matplotlib.ticker import MaxNLocator
+
+    ax.xaxis.set_major_locator(MaxNLocator(4))
+    ax.tick_params(axis="x", labelrotation=25)
+    _scale_bar(ax, x, y, coslat)
+    ax.set_xlabel("longitude [deg]")
+    ax.set_ylabel("latitude [deg]")
+    ax.legend(fontsize=7, loc="best")
     return _finish(fig, title, synthetic)
 
 

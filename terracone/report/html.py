@@ -29,6 +29,7 @@ import numpy as np
 from .. import __version__
 from .. import units as u
 from ..data import TerrainParameters
+from . import fields as FL
 from . import figures as F
 from .tables import (
     Table,
@@ -51,7 +52,8 @@ __all__ = [
     "MAX_FIGURE_PROFILES",
 ]
 
-#: At most this many profiles are drawn (in figures of 8); tables hold all.
+#: At most this many profiles get predicted plate curves (in figures of 8); every profile
+#: gets a small-multiples panel (:mod:`terracone.report.fields`) and a table row.
 MAX_FIGURE_PROFILES = 24
 _PER_FIGURE = 8
 
@@ -103,12 +105,28 @@ dl.kv dd { margin: 0; overflow-wrap: anywhere; font-family: ui-monospace, SFMono
 code { font-family: ui-monospace, SFMono-Regular, Menlo, monospace; font-size: 0.9em; }
 footer { color: var(--muted); font-size: 0.85rem; border-top: 1px solid var(--line); margin-top: 2.5rem;
   padding-top: 0.8rem; padding-bottom: 2rem; }
+th button.sort { font: inherit; font-weight: 600; color: inherit; background: none; border: 0;
+  padding: 0; margin: 0; cursor: pointer; white-space: nowrap; text-align: inherit; }
+th button.sort::after { content: " \\2195"; color: #8a8a8a; font-weight: 400; }
+th[aria-sort="ascending"] button.sort::after { content: " \\25B2"; color: var(--accent); }
+th[aria-sort="descending"] button.sort::after { content: " \\25BC"; color: var(--accent); }
+th button.sort:focus-visible { outline: 2px solid var(--accent); outline-offset: 1px; }
+.table-wrap:focus-visible { outline: 2px solid var(--accent); }
+.table-wrap.tall { max-height: 70vh; overflow: auto; }
+.table-wrap.tall thead th { position: sticky; top: 0; z-index: 1; }
+.table-wrap.tall tbody th { position: sticky; left: 0; z-index: 1; }
+.table-wrap.tall thead th:first-child { left: 0; z-index: 2; }
+.fig-scroll { overflow-x: auto; max-width: 100%; -webkit-overflow-scrolling: touch; }
+details.reasons { font-size: 0.88rem; margin: 0.4rem 0 1.2rem; max-width: 60rem; }
+details.reasons summary { cursor: pointer; font-weight: 600; }
+details.reasons li { overflow-wrap: anywhere; }
 @media (max-width: 640px) {
   body { font-size: 15px; }
   dl.kv { grid-template-columns: 1fr; }
   dl.kv dd { margin-bottom: 0.4rem; }
   table { font-size: 0.78rem; }
   nav.toc { padding: 0.4rem 0.7rem; }
+  figure.wide img { max-width: none; width: 720px; }
 }
 @media print { nav.toc { display: none; } .table-wrap { overflow: visible; } }
 """
@@ -123,6 +141,37 @@ window.addEventListener('error', function (e) {
 document.addEventListener('securitypolicyviolation', function (e) {
   window.__tcErrors.push('blocked by the content security policy: ' + e.blockedURI);
 });
+// Sortable tables: a click on a column heading's button sorts the body rows
+// by that column (numbers as numbers, empty cells last); a second click
+// reverses the order.
+function tcSortKey(row, col) {
+  var c = row.cells[col], v = c ? c.getAttribute('data-v') : null;
+  if (v === null && c) { v = c.textContent; }
+  if (v === null || v === '' || v === '-') { return {k: 2, v: 0}; }
+  var x = Number(v);
+  return isFinite(x) ? {k: 0, v: x} : {k: 1, v: String(v)};
+}
+function tcSort(th) {
+  var table = th.closest('table'), col = Number(th.getAttribute('data-col'));
+  var dir = th.getAttribute('aria-sort') === 'ascending' ? 'descending' : 'ascending';
+  var heads = table.querySelectorAll('th[aria-sort]');
+  for (var i = 0; i < heads.length; i++) { heads[i].removeAttribute('aria-sort'); }
+  th.setAttribute('aria-sort', dir);
+  var body = table.tBodies[0], rows = Array.prototype.slice.call(body.rows);
+  var keyed = rows.map(function (r, i) { return {r: r, i: i, s: tcSortKey(r, col)}; });
+  var sign = dir === 'ascending' ? 1 : -1;
+  keyed.sort(function (a, b) {
+    if (a.s.k !== b.s.k) { return a.s.k - b.s.k; }
+    if (a.s.k === 2) { return a.i - b.i; }
+    var d = a.s.k === 0 ? a.s.v - b.s.v : a.s.v.localeCompare(b.s.v, undefined, {numeric: true});
+    return d === 0 ? a.i - b.i : sign * d;
+  });
+  for (var j = 0; j < keyed.length; j++) { body.appendChild(keyed[j].r); }
+}
+document.addEventListener('click', function (e) {
+  var b = e.target && e.target.closest ? e.target.closest('table.sortable th[data-col] button') : null;
+  if (b) { tcSort(b.closest('th')); }
+});
 window.addEventListener('load', function () {
   var imgs = document.images, ok = 0;
   for (var i = 0; i < imgs.length; i++) {
@@ -133,6 +182,8 @@ window.addEventListener('load', function () {
   el.setAttribute('data-images-ok', String(ok));
   el.setAttribute('data-images-total', String(imgs.length));
   el.setAttribute('data-errors', String(window.__tcErrors.length));
+  el.setAttribute('data-page-width', String(document.documentElement.scrollWidth));
+  el.setAttribute('data-view-width', String(document.documentElement.clientWidth));
   el.textContent = 'Browser self-check: ' + ok + ' of ' + imgs.length + ' figures decoded, ' +
     window.__tcErrors.length + ' errors' +
     (window.__tcErrors.length ? ' (' + window.__tcErrors.join('; ') + ')' : '') + '.';
@@ -157,18 +208,45 @@ def kv_part(pairs: Mapping[str, Any]) -> dict[str, Any]:
     return {"type": "kv", "pairs": {str(k): v for k, v in pairs.items()}}
 
 
-def figure_part(fig: Any, caption: str, *, alt: str | None = None) -> dict[str, Any]:
-    """A figure part with its PNG in memory (``png_bytes``)."""
+def figure_part(
+    fig: Any, caption: str, *, alt: str | None = None, wide: bool = False
+) -> dict[str, Any]:
+    """A figure part with its PNG in memory (``png_bytes``).
+
+    ``wide``: on narrow screens (below 640 px) the image keeps 720 px and
+    scrolls sideways inside its own box instead of shrinking (small
+    multiples stay legible on a phone; the page itself never scrolls
+    sideways).
+    """
     return {
         "type": "figure",
         "png_bytes": F.png_bytes(fig),
         "caption": caption,
         "alt": alt or caption.split(".")[0],
+        "wide": wide,
     }
 
 
-def table_part(table: Table, *, max_rows: int | None = None) -> dict[str, Any]:
-    return {"type": "table", "table": table, "max_rows": max_rows}
+def table_part(
+    table: Table,
+    *,
+    max_rows: int | None = None,
+    sortable: bool | None = None,
+    tall: bool = False,
+) -> dict[str, Any]:
+    """A table part.
+
+    ``sortable``: column headings sort the rows (None: when it has 3 rows or
+    more); ``tall``: the table scrolls inside a box of at most 70% of the
+    window height, with its heading row kept in view.
+    """
+    return {
+        "type": "table",
+        "table": table,
+        "max_rows": max_rows,
+        "sortable": sortable,
+        "tall": tall,
+    }
 
 
 def _kv_value(v: Any) -> str:
@@ -207,16 +285,28 @@ def _render_part(p: Mapping[str, Any], base: Path | None, counters: dict[str, in
         if p.get("png") or p.get("svg"):
             names = [x for x in (p.get("png"), p.get("svg")) if x]
             links = " Files: " + ", ".join(f"<code>{e(x)}</code>" for x in names) + "."
-        return (
-            f'<figure id="fig-{k}"><img src="data:image/png;base64,{b64}" alt="{e(alt)}" '
-            f'loading="eager" decoding="sync"><figcaption>{e(cap)}{links}</figcaption></figure>'
+        img = (
+            f'<img src="data:image/png;base64,{b64}" alt="{e(alt)}" loading="eager" '
+            'decoding="sync">'
         )
+        if p.get("wide"):
+            return (
+                f'<figure id="fig-{k}" class="wide"><div class="fig-scroll" tabindex="0">{img}'
+                f"</div><figcaption>{e(cap)}{links}</figcaption></figure>"
+            )
+        return f'<figure id="fig-{k}">{img}<figcaption>{e(cap)}{links}</figcaption></figure>'
+
     if t == "table":
         tab = p["table"]
         if not isinstance(tab, Table):
             tab = Table.from_dict(tab)
         counters["table"] += 1
-        frag = tab.to_html(max_rows=p.get("max_rows"))
+        sortable = p.get("sortable")
+        if sortable is None:
+            sortable = len(tab.rows) >= 3
+        frag = tab.to_html(max_rows=p.get("max_rows"), sortable=bool(sortable))
+        if p.get("tall"):
+            frag = frag.replace('class="table-wrap"', 'class="table-wrap tall"', 1)
         label = f"Table {counters['table']}. "
         return frag.replace('<p class="table-title">', f'<p class="table-title">{e(label)}', 1)
     raise ValueError(f"unknown report part {t!r}")
@@ -411,15 +501,23 @@ _FIT_EXTRA = (
 # ---------------------------------------------------------------------------
 
 
-def predict_document(doc: Mapping[str, Any], *, source: str | None = None) -> dict[str, Any]:
-    """Report document of a ``terracone predict --json`` result."""
+def predict_document(
+    doc: Mapping[str, Any], *, source: str | None = None, map_by: str = "n"
+) -> dict[str, Any]:
+    """Report document of a ``terracone predict --json`` result.
+
+    ``map_by``: the parameter that colours the map of located profiles
+    (:data:`terracone.report.fields.MAP_BY`).
+    """
     units = _units_of(doc)
     profiles = list(doc.get("profiles") or [])
     ok = [p for p in profiles if p.get("status", "ok") == "ok"]
     bad = [p for p in profiles if p.get("status", "ok") != "ok"]
     settings = dict(doc.get("settings") or {})
     calibrated = bool(settings.get("calibration"))
-    sections: list[dict[str, Any]] = []
+    sections: list[dict[str, Any]] = FL.field_sections(
+        FL.records_from_predict(profiles, units), units=units, map_by=map_by
+    )
 
     inputs = {
         "results file": source,
@@ -491,13 +589,8 @@ def predict_document(doc: Mapping[str, Any], *, source: str | None = None) -> di
 
     figs: list[dict[str, Any]] = []
     curves = [c for c in (_si_curve_profile(p, units) for p in ok) if c is not None]
-    shown = curves[:MAX_FIGURE_PROFILES]
-    for k, chunk in enumerate(_chunks(shown, _PER_FIGURE)):
-        fig = F.fig_ci_fit(
-            chunk,
-            title="Measured and predicted CI-sinkage curves"
-            + (f" ({k + 1})" if len(shown) > _PER_FIGURE else ""),
-        )
+    if 0 < len(curves) <= _PER_FIGURE:
+        fig = F.fig_ci_fit(curves, title="Measured and predicted CI-sinkage curves")
         figs.append(
             figure_part(
                 fig,
@@ -505,9 +598,13 @@ def predict_document(doc: Mapping[str, Any], *, source: str | None = None) -> di
                 "cone-base depth, as Figure 4-1 of the paper.",
             )
         )
-    if len(curves) > len(shown):
+    elif curves:
         figs.append(
-            text_part(f"Figures show the first {len(shown)} of {len(curves)} fitted profiles.")
+            text_part(
+                f"The {len(curves)} fitted profiles are drawn one to a panel under 'Every "
+                "profile' (one overlay of Figure 4-1 is drawn for at most "
+                f"{_PER_FIGURE} profiles)."
+            )
         )
     first = next((p for p in ok if _si_curve_profile(p, units) is not None), None)
     if first is not None:
@@ -832,7 +929,7 @@ def evaluate_document(doc: Mapping[str, Any], *, source: str | None = None) -> d
 # ---------------------------------------------------------------------------
 
 
-def batch_document(directory: str | Path) -> dict[str, Any]:
+def batch_document(directory: str | Path, *, map_by: str = "n") -> dict[str, Any]:
     """Report document of a ``terracone batch`` output directory (Parquet parts)."""
     import pandas as pd
 
@@ -849,8 +946,11 @@ def batch_document(directory: str | Path) -> dict[str, Any]:
     units = _units_of(summary)
     n_total = len(df)
     status = df["status"] if "status" in df else pd.Series(["ok"] * n_total)
-    ok = df[status == "ok"] if n_total else df
-    sections: list[dict[str, Any]] = []
+    sections: list[dict[str, Any]] = (
+        FL.field_sections(FL.records_from_batch(df, summary), units=units, map_by=map_by)
+        if n_total
+        else []
+    )
     meta_pairs = {
         "directory": str(d),
         "part files": len(parts_files),
@@ -866,9 +966,6 @@ def batch_document(directory: str | Path) -> dict[str, Any]:
         parts.append(text_part("From _summary.json:"))
         parts.append(kv_part(_settings_pairs(summary)))
     sections.append({"id": "inputs", "heading": "Inputs and settings", "parts": parts})
-
-    def col(name):
-        return ok[name].astype(float).to_numpy() if name in ok else np.array([])
 
     rows = []
     for _, r in df.iterrows():
@@ -937,33 +1034,6 @@ def batch_document(directory: str | Path) -> dict[str, Any]:
         sections.append(
             {"id": "identifiability", "heading": "Identifiability", "parts": [table_part(ident)]}
         )
-    if len(ok):
-        cols = {
-            "n [-]": col("n"),
-            f"kc [{u.kc_unit(units)}]": col("kc"),
-            f"kphi [{u.kphi_unit(units)}]": col("kphi"),
-            "phic [deg]": col("phic_deg"),
-            f"RMSD of CI [{u.pressure_unit(units)}]": col("rmsd"),
-            "R2 of CI [-]": col("r2_ci"),
-        }
-        try:
-            fig = F.fig_histograms(cols, title="Distribution of the predicted parameters")
-            sections.append(
-                {
-                    "id": "figures",
-                    "heading": "Figures",
-                    "parts": [
-                        figure_part(
-                            fig,
-                            "Histograms over the fitted profiles of the batch. kc and kphi are "
-                            "in the units of the batch output; with phic left free by the CI "
-                            "they carry the phic-scale ridge.",
-                        )
-                    ],
-                }
-            )
-        except ValueError:
-            pass
     return {
         "title": "terracone report: batch prediction",
         "subtitle": f"{n_total} profiles in {len(parts_files)} part file(s)",

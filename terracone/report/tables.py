@@ -149,15 +149,36 @@ class Table:
             Path(path).write_text(text)
         return text
 
-    def to_html(self, *, caption: bool = True, max_rows: int | None = None) -> str:
-        """HTML fragment: a horizontally scrollable table with a caption and notes."""
+    def to_html(
+        self, *, caption: bool = True, max_rows: int | None = None, sortable: bool = False
+    ) -> str:
+        """HTML fragment: a horizontally scrollable table with a caption and notes.
+
+        With ``sortable``, every column heading of the lowest heading row is a
+        button (``th[data-col=j] button``) that the report's inline script
+        uses to sort the rows by that column, and every cell carries its raw
+        value in ``data-v`` so numbers sort as numbers.
+        """
         e = html.escape
         out = [f'<div class="table-block" id="tbl-{e(self.key)}">']
         if self.synthetic:
             out.append('<p class="tag synthetic">SYNTHETIC</p>')
         if caption:
             out.append(f'<p class="table-title">{e(self.display_title)}</p>')
-        out.append(f'<div class="table-wrap"><table aria-label="{e(self.display_title)}">')
+        cls = ' class="sortable"' if sortable else ""
+        out.append(
+            f'<div class="table-wrap" tabindex="0"><table{cls} '
+            f'aria-label="{e(self.display_title)}">'
+        )
+
+        def head(text: str, j: int, extra: str = "") -> str:
+            if not sortable:
+                return f'<th{extra} scope="col">{e(text)}</th>'
+            return (
+                f'<th{extra} scope="col" data-col="{j}">'
+                f'<button type="button" class="sort">{e(text)}</button></th>'
+            )
+
         groups = [g for g, _ in self.columns]
         has_sub = any(s for _, s in self.columns)
         out.append("<thead>")
@@ -167,7 +188,7 @@ class Table:
             while i < len(self.columns):
                 g, s = self.columns[i]
                 if not s:
-                    out.append(f'<th rowspan="2" scope="col">{e(g)}</th>')
+                    out.append(head(g, i, ' rowspan="2"'))
                     i += 1
                     continue
                 j = i
@@ -176,12 +197,12 @@ class Table:
                 out.append(f'<th colspan="{j - i}" scope="colgroup">{e(g)}</th>')
                 i = j
             out.append("</tr><tr>")
-            for _g, s in self.columns:
+            for j, (_g, s) in enumerate(self.columns):
                 if s:
-                    out.append(f'<th scope="col">{e(s)}</th>')
+                    out.append(head(s, j))
             out.append("</tr>")
         else:
-            out.append("<tr>" + "".join(f'<th scope="col">{e(g)}</th>' for g in groups) + "</tr>")
+            out.append("<tr>" + "".join(head(g, j) for j, g in enumerate(groups)) + "</tr>")
         out.append("</thead><tbody>")
         rows = self.rows if max_rows is None else self.rows[:max_rows]
         hl = set(self.highlight)
@@ -194,13 +215,16 @@ class Table:
                 cls = f' class="{" ".join(classes)}"' if classes else ""
                 tag = "th" if j == 0 else "td"
                 scope = ' scope="row"' if j == 0 else ""
+                if sortable:
+                    scope += f' data-v="{e(_sort_value(v))}"'
                 cells.append(f"<{tag}{scope}{cls}>{e(fmt_value(v))}</{tag}>")
             out.append("<tr>" + "".join(cells) + "</tr>")
         out.append("</tbody></table></div>")
         notes = list(self.notes)
         if max_rows is not None and len(self.rows) > max_rows:
             notes.append(
-                f"Showing the first {max_rows} of {len(self.rows)} rows; the CSV has them all."
+                f"Showing the first {max_rows} of {len(self.rows)} rows; the results file "
+                "has them all."
             )
         if notes:
             out.append('<ul class="notes">' + "".join(f"<li>{e(n)}</li>" for n in notes) + "</ul>")
@@ -229,6 +253,15 @@ class Table:
             synthetic=bool(d.get("synthetic", False)),
             highlight=[(int(a), int(b)) for a, b in d.get("highlight", [])],
         )
+
+
+def _sort_value(v: Any) -> str:
+    """Raw value for sorting: full-precision numbers, text as is, "" for none."""
+    if v is None or isinstance(v, bool):
+        return "" if v is None else str(int(v))
+    if isinstance(v, int | float):
+        return repr(float(v)) if math.isfinite(float(v)) else ""
+    return str(v)
 
 
 def _json_safe(v: Any) -> Any:
