@@ -1240,7 +1240,10 @@ def batch_cmd(
     )
     for p in s.problems:
         click.echo(f"terracone: {p}", err=True)
-    if not s.success:
+    if s.profiles and not s.profiles_ok:
+        # as predict: error profiles are normal, but a run that fitted none is a failure
+        click.echo("terracone: no profile could be fitted (see the error column)", err=True)
+    if not s.success or (s.profiles and not s.profiles_ok):
         sys.exit(1)
 
 

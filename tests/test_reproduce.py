@@ -1,16 +1,20 @@
-"""reproduce(quick=True): the paper's case studies on synthetic data, end to end."""
+"""`terracone reproduce --quick`: the paper's case studies on synthetic data, end to end."""
 
 from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
+from types import SimpleNamespace
 
 import pandas as pd
 import pytest
+from click.testing import CliRunner
 from PIL import Image
 
 from terracone import units as u
+from terracone.cli import cli
 from terracone.io import read_ci_profiles, read_plate_tests
 from terracone.report import build_report
 from terracone.report.browser import browser_check, find_chromium
@@ -20,8 +24,25 @@ from terracone.reproduce import KRC_FORCE_LIMIT, WONG_LETE, reproduce
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("reproduce")
-    return reproduce(out, quick=True)
+    """`terracone reproduce --quick --out DIR`, through the command line, and what it wrote."""
+    out = tmp_path_factory.mktemp("reproduce") / "run"
+    r = CliRunner().invoke(cli, ["reproduce", "--quick", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    lines = r.output.splitlines()
+    assert lines[0] == f"report: {out / 'report.html'}"
+    assert re.fullmatch(rf"figures and tables in {re.escape(str(out))} \(\d+ s\)", lines[1])
+    assert len(lines) == 2, r.output
+    results = out / "results"
+    return SimpleNamespace(
+        out_dir=out,
+        report=out / "report.html",
+        manifest=json.loads((out / "reproduce.json").read_text()),
+        lete_learned=json.loads((results / "lete_calibration.json").read_text()),
+        krc_learned={
+            p.stem.removeprefix("krc_calibration_"): json.loads(p.read_text())
+            for p in sorted(results.glob("krc_calibration_*.json"))
+        },
+    )
 
 
 EXPECTED_FIGURES = [
@@ -73,7 +94,9 @@ def test_writes_figures_tables_report_all_labelled_synthetic(run):
         assert d.get("synthetic") is True or "SYNTHETIC" in json.dumps(d), f
     html = run.report.read_text()
     assert "SYNTHETIC DATA" in html
-    assert all(p.exists() for p in run.files)
+    assert run.manifest["kind"] == "terracone-reproduce"
+    assert run.manifest["quick"] is True and run.manifest["synthetic"] is True
+    assert sorted(run.krc_learned) == ["KRC_1", "KRC_3"]  # quick: two KRC sites
 
 
 def test_lete_learning_recovers_n(run):
@@ -126,7 +149,7 @@ def test_report_rebuilds_from_the_output_directory(run, tmp_path):
 
 def test_reproduce_report_renders_in_chromium(run):
     if find_chromium() is None:
-        pytest.skip("headless Chromium not installed (tests/test_report.py installs it as root)")
+        pytest.skip("headless Chromium not found: install Debian's chromium package (.ci/run does)")
     chk = browser_check(Path(run.report))
     assert chk.images_total == len(EXPECTED_FIGURES), chk.page_error_text
     assert chk.images_ok == chk.images_total
