@@ -593,7 +593,61 @@ def test_fit_plates_save_as_then_export(tmp_path: Path, monkeypatch):
 # ---------------------------------------------------------------------------
 
 
-def test_demo():
-    r = run("demo")
+def test_demo_recovers_the_example_truth(tmp_path: Path):
+    """The README's main job, against the tolerances docs/learn.md states for it."""
+    from terracone.example import TRUTH as T
+
+    out = tmp_path / "demo"
+    r = run("demo", "--out", str(out))
     assert r.exit_code == 0, r.output
-    assert "SYNTHETIC" in r.output
+    assert r.output.startswith("terracone demo: SYNTHETIC")
+    assert r.output.rstrip().endswith(f"JSON written to {out}")
+    learned = json.loads((out / "learn.json").read_text())
+    cal = json.loads((out / "calibration.json").read_text())
+    profiles = json.loads((out / "predict.json").read_text())["profiles"]
+    plates = json.loads((out / "evaluate.json").read_text())["plates"]
+    # the learned calibration: kc and kphi within 10%, n within 0.03
+    assert learned["units"] == "si" and learned["model"] == T["model"]
+    assert learned["kc"] == pytest.approx(T["kc"], rel=0.10)
+    assert learned["kphi"] == pytest.approx(T["kphi"], rel=0.10)
+    assert learned["n"] == pytest.approx(T["n"], abs=0.03)
+    for k in ("kc", "kphi", "n", "cc", "phic_deg", "r_min"):
+        assert cal[k] == pytest.approx(learned[k], rel=1e-12, abs=1e-15), k
+    # each calibrated prediction: kc and kphi within 15%, n within 0.05
+    assert [p["id"] for p in profiles] == ["LS_syn_1", "LS_syn_2", "LS_syn_3"]
+    for p in profiles:
+        assert p["status"] == "ok" and p["units"] == "si"
+        assert p["kc"] == pytest.approx(T["kc"], rel=0.15), p["id"]
+        assert p["kphi"] == pytest.approx(T["kphi"], rel=0.15), p["id"]
+        assert p["n"] == pytest.approx(T["n"], abs=0.05), p["id"]
+        assert p["phic_deg"] == pytest.approx(cal["phic_deg"], abs=1e-9)  # fixed by the calibration
+    # the predicted plate curves against both plates: R2 >= 0.99, CV <= 0.06
+    assert len(plates) == 3 * 2
+    assert {(x["prediction"], x["test"]) for x in plates} == {
+        (p, t)
+        for p in ("LS_syn_1", "LS_syn_2", "LS_syn_3")
+        for t in ("LS_syn_A_r3.75cm", "LS_syn_A_r5cm")
+    }
+    for x in plates:
+        assert x["R2"] >= 0.99 and x["CV"] <= 0.06, x
+    # the same learned parameters through `terracone evaluate`, and a report of every part
+    from terracone.example import PLATES_FILE, example_dir
+
+    ev = ok_json(
+        "evaluate",
+        "--plates",
+        str(example_dir() / PLATES_FILE),
+        "--params",
+        str(out / "learn.json"),
+        "--json",
+    )
+    assert [x["test"] for x in ev["plates"]] == ["LS_syn_A_r3.75cm", "LS_syn_A_r5cm"]
+    assert all(x["R2"] >= 0.99 and x["CV"] <= 0.06 for x in ev["plates"])
+    html = tmp_path / "demo.html"
+    r = run("report", str(out), "--out", str(html))
+    assert r.exit_code == 0 and r.output.strip() == f"wrote {html}"
+    text = html.read_text()
+    # one part per JSON file of the folder
+    for part in ("evaluate.json: Agreement", "learn.json: Results", "predict.json: Parameters"):
+        assert f">{part}</h2>" in text, part
+    assert "http://" not in text and "https://" not in text
