@@ -167,7 +167,7 @@ def test_plate_json_against_bekker_by_hand():
     assert d["units"] == "us"
     assert d["pressure"] == pytest.approx([(2 / 4 + 3) * 1.0, (2 / 4 + 3) * 2.0], rel=1e-12)
     r = run("plate", "--kc", "1", "--kphi", "1", "--n", "1", "--sinkages", "0.01")
-    assert r.exit_code != 0 and "exactly one of --radius and --width" in r.output
+    assert error_line(r, code=2) == "give exactly one of --radius and --width"
 
 
 # ---------------------------------------------------------------------------
