@@ -323,9 +323,11 @@ def _branch(test: PlateTest) -> tuple[np.ndarray, np.ndarray]:
     if z.size < 2 or np.ptp(z) <= 0:
         raise InputError(
             f"{z.size} usable loading-branch point(s) with distinct sinkage > 0 and "
-            "pressure > 0; at least 2 are needed",
+            f"pressure > 0; at least 2 are needed{test.lines_note()}",
             file=test.source,
             profile=test.id,
+            item="test",
+            row=test.first_row(),
         )
     return z, p
 

@@ -705,13 +705,23 @@ def _params_from_json(path: str) -> list[tuple[str, TerrainParameters]]:
         doc = json.loads(Path(path).read_text())
     except (OSError, json.JSONDecodeError) as exc:
         raise ValueError(f"file {path}: cannot read JSON ({exc})") from exc
+
+    def params(d: dict, where: str) -> TerrainParameters:
+        try:
+            return TerrainParameters.from_dict(d)
+        except KeyError as exc:
+            raise ValueError(f"file {path}, {where}: missing key {exc.args[0]!r}") from None
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"file {path}, {where}: {exc}") from None
+
     out = []
     if isinstance(doc, dict) and "profiles" in doc:
         for p in doc["profiles"]:
             if p.get("status") == "ok":
-                out.append((str(p["id"]), TerrainParameters.from_dict(p)))
+                out.append((str(p["id"]), params(p, f"profile {p['id']}")))
     elif isinstance(doc, dict) and "kc" in doc:
-        out.append((str(doc.get("terrain", Path(path).stem)), TerrainParameters.from_dict(doc)))
+        name = str(doc.get("terrain", Path(path).stem))
+        out.append((name, params(doc, f"terrain {name}")))
     if not out:
         raise ValueError(
             f"file {path}: no fitted parameters found (expected predict or learn JSON)"
@@ -947,7 +957,13 @@ def library_add(ctx, name, kind, params, from_json, source, replace):
 
     p: dict[str, Any] = {}
     if from_json:
-        p.update(json.loads(Path(from_json).read_text()))
+        try:
+            doc = json.loads(Path(from_json).read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ValueError(f"file {from_json}: cannot read JSON ({exc})") from None
+        if not isinstance(doc, dict):
+            raise ValueError(f"file {from_json}: expected a JSON object of parameters")
+        p.update(doc)
     for kv in params:
         if "=" not in kv:
             raise click.BadParameter(f"--param: expected KEY=VALUE, got {kv!r}")
@@ -1278,7 +1294,10 @@ def batch_cmd(
     )
     for p in s.problems:
         click.echo(f"terracone: {p}", err=True)
-    if not s.success:
+    if s.profiles and not s.profiles_ok:
+        # as predict: error profiles are normal, but a run that fitted none is a failure
+        click.echo("terracone: no profile could be fitted (see the error column)", err=True)
+    if not s.success or (s.profiles and not s.profiles_ok):
         sys.exit(1)
 
 

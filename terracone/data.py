@@ -140,8 +140,24 @@ class CIProfile:
         return replace(self, depth=self.depth[keep], ci=self.ci[keep], rows=rows)
 
 
+class _FileRows:
+    """Where a test came from in its file (``rows``: 1-based file line numbers)."""
+
+    rows: np.ndarray | None
+
+    def first_row(self) -> int | None:
+        """File line of the test's first point, or None when not read from a file."""
+        return None if self.rows is None or len(self.rows) == 0 else int(self.rows[0])
+
+    def lines_note(self) -> str:
+        """' (the test is on lines A-B)' for error messages, or ''."""
+        if self.rows is None or len(self.rows) == 0:
+            return ""
+        return f" (the test is on lines {int(self.rows[0])}-{int(self.rows[-1])})"
+
+
 @dataclass
-class PlateTest:
+class PlateTest(_FileRows):
     """One plate pressure-sinkage test (loading branch and all).
 
     Attributes
@@ -191,7 +207,7 @@ class PlateTest:
 
 
 @dataclass
-class ShearTest:
+class ShearTest(_FileRows):
     """One shear stress-displacement test at a normal pressure.
 
     Attributes

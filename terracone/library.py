@@ -650,7 +650,10 @@ class Library:
         to the stored one of that name, are skipped; another record of a taken
         name raises ValueError (nothing is imported) unless ``replace=True``.
         """
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        try:
+            data = json.loads(Path(path).read_text(encoding="utf-8"))
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{path}: cannot read JSON ({exc})") from None
         if isinstance(data, Mapping):
             data = [data]
         if not isinstance(data, list):

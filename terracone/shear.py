@@ -202,9 +202,11 @@ def _points(test: ShearTest, peak_tolerance: float, j_max: float | None):
     if j.size < 3 or np.ptp(j) <= 0 or tau.max() <= 0:
         raise InputError(
             f"{j.size} usable point(s) with j >= 0 up to the peak stress; at least 3 with "
-            "distinct displacements and a positive peak are needed",
+            f"distinct displacements and a positive peak are needed{test.lines_note()}",
             file=test.source,
             profile=test.id,
+            item="test",
+            row=test.first_row(),
         )
     return j, tau
 

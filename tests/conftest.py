@@ -3,13 +3,24 @@
 ``../shared`` (the project's shared folder beside the repository, with the
 paper and the reference tables) is optional: tests that need it skip with a
 stated reason when it is absent.
+
+hypothesis runs with a fixed profile, ``terracone``: derandomised (the same
+examples on every run and machine, so a failure reproduces) and without an
+example database (tests write nothing outside their tmp folders).  Set
+``HYPOTHESIS_PROFILE=random`` to explore with fresh random examples instead.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
+
+settings.register_profile("terracone", derandomize=True, database=None, print_blob=True)
+settings.register_profile("random", derandomize=False, database=None, print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "terracone"))
 
 
 def shared_dir() -> Path:

@@ -18,6 +18,7 @@ import textwrap
 import time
 from pathlib import Path
 
+import distributed  # a required dependency: a broken install fails here
 import numpy as np
 import pandas as pd
 import pyarrow as pa
@@ -30,8 +31,6 @@ from terracone.batch import OUTPUT_COLUMNS, _CsvLines, _fit_chunk, _FitSettings,
 from terracone.data import CIProfile
 from terracone.inverse.bounds import Bounds
 from terracone.io import write_ci_profiles
-
-distributed = pytest.importorskip("distributed")
 
 H = get_cone("asabe-large").height
 #: Columns that legitimately differ between two runs of the same input.

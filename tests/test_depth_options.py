@@ -224,11 +224,18 @@ def test_depth_range_through_the_cli(tmp_path: Path):
     )
 
 
-@pytest.mark.parametrize("bad", ["40cm:10cm", "10cm", "ten:20"])
-def test_bad_depth_range_is_one_message(tmp_path: Path, bad):
+@pytest.mark.parametrize(
+    "bad, why",
+    [
+        ("40cm:10cm", "LO must be below HI, got '40cm:10cm'"),
+        ("10cm", "expected LO:HI, got '10cm'"),
+        ("ten:20", "expected a length such as 0.05, 5cm or 2in, got 'ten'"),
+    ],
+)
+def test_bad_depth_range_is_one_message(tmp_path: Path, bad, why):
     path = tmp_path / "p.csv"
     _write_csv(path, Z_CM, CLEAN)
     r = CliRunner().invoke(cli, ["predict", str(path), "--depth-range", bad])
-    assert r.exit_code != 0
-    assert "--depth-range" in r.output
-    assert "Traceback" not in r.output
+    assert r.exit_code == 2, r.output  # a usage error
+    errors = [ln for ln in r.output.splitlines() if ln.startswith("Error: ")]
+    assert errors == [f"Error: Invalid value: --depth-range: {why}"], r.output

@@ -79,24 +79,57 @@ def test_reference_values_visible_and_exact(lib):
     assert lib.get("Sandy loam (Michigan) 23%").params["kphi"] == 808.96
 
 
+def _table_rows(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(line for line in fh if not line.startswith("#")))
+
+
+def _shared_rows(path: Path) -> list[dict[str, str]]:
+    """The shared table, whose "Snow (U.S., Harrison)" row is not quoted: any
+    extra fields belong to the first column (the terrain's name)."""
+    lines = [ln for ln in path.read_text().splitlines() if ln and not ln.startswith("#")]
+    header = lines[0].split(",")
+    out = []
+    for ln in lines[1:]:
+        f = ln.split(",")
+        extra = len(f) - len(header)
+        f = [",".join(f[: extra + 1])] + f[extra + 1 :]
+        out.append(dict(zip(header, f)))
+    return out
+
+
 def test_reference_csv_matches_shared(lib):
     shared = Path(__file__).resolve().parents[1].parent / "shared" / "reference"
     src = shared / "wong_terrain_values.csv"
     text = REFERENCE_CSV.read_text()
     assert REFERENCE_CITATION in text
     refs = reference_records()
-    with open(REFERENCE_CSV, newline="") as fh:
-        rows = list(csv.DictReader(line for line in fh if not line.startswith("#")))
+    rows = _table_rows(REFERENCE_CSV)
     assert len(rows) == len(refs) == 21
     if not src.exists():
         pytest.skip(f"shared reference table not found at {src}")
-    # same header comments and the same values as the shared table
+    # same header comments, the same columns, and row by row the same values
     shared_lines = src.read_text().splitlines()
     ours = text.splitlines()
     for line in shared_lines:
         if line.startswith("#"):
             assert line in ours
-    assert sum(not line.startswith("#") for line in shared_lines) == len(rows) + 1
+    theirs = _shared_rows(src)
+    assert list(theirs[0]) == list(rows[0])
+    assert len(theirs) == len(rows)
+    for mine, ref in zip(rows, theirs):
+        assert mine["terrain"] == ref["terrain"]
+        for col in ref:
+            if col == "terrain":
+                continue
+            if ref[col].strip() == "":
+                assert mine[col].strip() == "", (ref["terrain"], col)
+            else:
+                assert float(mine[col]) == float(ref[col]), (ref["terrain"], col)
+    # and the library's records carry those values (SI, as tabulated)
+    by_value = {(r.params["kc"], r.params["kphi"], r.params["n"]) for r in refs}
+    for ref in theirs:
+        assert (float(ref["kc_si"]), float(ref["kphi_si"]), float(ref["n"])) in by_value
 
 
 def test_add_get_list_remove(lib):

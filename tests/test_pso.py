@@ -140,17 +140,21 @@ def test_fixed_dimension_stays_fixed():
     assert res.fun == pytest.approx(0.75**2, rel=1e-7)
 
 
-def _check_stopping_rule(res: PSOResult, tol: float, window: int) -> None:
+def _check_stopping_rule(res: PSOResult, tol: float, window: int) -> int:
     """Re-derive the rule from the history: stop at the first iteration k >= window
-    with history[k - window] - history[k] <= tol * |history[k - window]|."""
+    with history[k - window] - history[k] <= tol * |history[k - window]|.
+    Returns the number of iterations checked for not stopping early."""
     h = res.history
+    checked = 0
     for k in range(window, res.nit):
         old = h[k - window]
         assert old - h[k] > tol * max(abs(old), 1e-300), f"should have stopped at {k}"
+        checked += 1
     if res.converged:
         old = h[res.nit - window]
         assert res.nit >= window
         assert old - h[res.nit] <= tol * max(abs(old), 1e-300)
+    return checked
 
 
 def test_stopping_rule_on_a_flat_function():
@@ -173,14 +177,32 @@ def test_stopping_rule_matches_history(window, tol):
     _check_stopping_rule(res, tol, window)
 
 
+def improving_by_construction():
+    """An objective whose value is 1/(call number) for every particle: the best
+    value improves at every iteration, whatever the swarm does."""
+    calls = []
+
+    def f(x):
+        calls.append(1)
+        return np.full(x.shape[0], 1.0 / len(calls))
+
+    return f
+
+
 def test_max_iter_reached_is_not_converged():
-    # the sphere keeps improving geometrically; tol=0 can never fire while it improves
-    res = pso(sphere(C4), LO4, HI4, seed=0, tol=0.0, max_iter=25)
+    # with tol=0 the rule can never fire on a strictly improving history, so the
+    # swarm runs to max_iter, and every window from 5 to 24 is checked
+    res = pso(improving_by_construction(), LO4, HI4, seed=0, tol=0.0, window=5, max_iter=25)
     assert not res.converged
     assert res.nit == 25
     assert res.history.size == 26
+    np.testing.assert_array_equal(res.history, 1.0 / np.arange(1, 27))
     assert "maximum number of iterations" in res.message
-    _check_stopping_rule(res, 0.0, 30)
+    assert _check_stopping_rule(res, 0.0, 5) == 20
+    # a tolerance above its relative gain over a window (1 - 1/6) stops at the window
+    res = pso(improving_by_construction(), LO4, HI4, seed=0, tol=0.9, window=5, max_iter=25)
+    assert res.converged and res.nit == 5
+    assert _check_stopping_rule(res, 0.9, 5) == 0
 
 
 def test_init_positions_seed_the_swarm():

@@ -1,9 +1,8 @@
 """Reports: figures, tables, the self-contained HTML file, and a real browser.
 
-The browser tests use headless Chromium from Debian's ``chromium`` package.
-When it is missing, the fixture tries ``apt-get install -y chromium`` (as
-root, with a timeout; set TERRACONE_NO_BROWSER_INSTALL=1 to forbid it) and
-otherwise skips with the reason.  Screenshots are written to the test's tmp
+The browser tests use headless Chromium from Debian's ``chromium`` package
+(``.ci/run`` installs it).  Tests change nothing on the system: without a
+browser they skip with the reason.  Screenshots are written to the test's tmp
 folder, or to $TERRACONE_SCREENSHOTS when set (to look at them).
 """
 
@@ -13,8 +12,6 @@ import base64
 import json
 import os
 import re
-import shutil
-import subprocess
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -381,42 +378,15 @@ def test_published_tables_are_consistent():
 # ---------------------------------------------------------------------------
 
 
-def _try_install_chromium() -> str:
-    if os.environ.get("TERRACONE_NO_BROWSER_INSTALL"):
-        return "TERRACONE_NO_BROWSER_INSTALL is set"
-    if not hasattr(os, "geteuid") or os.geteuid() != 0:
-        return "not root: cannot apt-get install chromium"
-    if shutil.which("apt-get") is None:
-        return "no apt-get on this machine"
-    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    try:
-        upd = subprocess.run(
-            ["apt-get", "update", "-q"], capture_output=True, text=True, timeout=300, env=env
-        )
-        if upd.returncode != 0:
-            return f"apt-get update failed: {upd.stderr.strip()[-300:]}"
-        res = subprocess.run(
-            ["apt-get", "install", "-y", "-q", "chromium"],
-            capture_output=True,
-            text=True,
-            timeout=900,
-            env=env,
-        )
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        return f"apt-get install chromium did not finish: {exc}"
-    if res.returncode != 0:
-        return f"apt-get install chromium failed: {res.stderr.strip()[-300:]}"
-    return ""
-
-
 @pytest.fixture(scope="session")
 def chromium() -> str:
     exe = find_chromium()
     if exe is None:
-        why = _try_install_chromium()
-        exe = find_chromium()
-        if exe is None:
-            pytest.skip(f"headless Chromium not available ({why or 'not found after install'})")
+        pytest.skip(
+            "headless Chromium not found ($TERRACONE_CHROMIUM, /usr/bin/chromium, or chromium "
+            "or chromium-browser on PATH); "
+            "install Debian's chromium package, as .ci/run does"
+        )
     return exe
 
 

@@ -350,8 +350,17 @@ def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> No
     if ns.size > 1 and (n_hi - n_lo) >= 0.5 * (bounds.n[1] - bounds.n[0]):
         und.append("n")
 
-    # kc, kphi, cc: pin one on a grid, re-fit the others (and n on a coarse grid near the optimum)
-    n_loc = np.unique(np.clip(sol.n + np.linspace(-0.1, 0.1, 9), *bounds.n))
+    # kc, kphi, cc: pin one on a grid, re-fit the others and n.  A fit at an n outside
+    # n's own profile interval cannot come within the threshold, so n is searched
+    # inside that interval (finely), and near the optimum
+    n_loc = np.unique(
+        np.concatenate(
+            [
+                np.linspace(n_lo, n_hi, 17),
+                np.clip(sol.n + np.linspace(-0.1, 0.1, 9), n_lo, n_hi),
+            ]
+        )
+    )
     X = design(
         z, n_loc[:, None], np.array(sol.phic_deg), cone=cone, law=law, Kc=sol.Kc, ratio=ratio
     )  # (Nn, Z, 3)
