@@ -426,7 +426,9 @@ def push_log_pressure(
     A, B = plate_basis(sinkage[None, :], n=n, b=radius, law=fits.law)
     p = th[:, 0:1] * A + th[:, 1:2] * B  # eq. (2-2) with primed kc, kphi
     with np.errstate(divide="ignore", invalid="ignore"):
-        g = np.stack([A / p, B / p, np.zeros_like(p), np.broadcast_to(np.log(sinkage), p.shape)], -1)
+        g = np.stack(
+            [A / p, B / p, np.zeros_like(p), np.broadcast_to(np.log(sinkage), p.shape)], -1
+        )
         v = np.einsum("pki,pij,pkj->pk", g, cov, g)
         return np.log(p), v
 
