@@ -271,7 +271,7 @@ def _settings(model: str, r_min: float | None, calibration: Any, bounds: Bounds 
     return law, bounds, ratio, model, r_min
 
 
-def _push_covariance(p: CIProfile, theta, law, bounds: Bounds, ratio, kc, kphi, phic):
+def _push_covariance(p: CIProfile, theta, law, bounds: Bounds, ratio, kc, kphi, rho=None):
     """Sandwich covariance of (kc', kphi', cc, n), the model CI and noise figures of one push."""
     z, y = p.depth, p.ci
     kcp, kpp, cc, n = theta
@@ -303,7 +303,8 @@ def _push_covariance(p: CIProfile, theta, law, bounds: Bounds, ratio, kc, kphi, 
     e = (y - m) / w
     N, k = J.shape
     sigma2 = float(e @ e) / max(N - k, 1)
-    rho = estimate_correlation(e, z, design=J / w[:, None])[0] if k else 0.0
+    if rho is None:
+        rho = estimate_correlation(e, z, design=J / w[:, None])[0] if k else 0.0
     dz0 = float(np.median(np.diff(z))) if N > 1 else 1.0
     R = rho ** (np.abs(z[:, None] - z[None, :]) / dz0) if rho > 0 else np.eye(N)
     S = sigma2 * w[:, None] * R * w[None, :]
@@ -387,9 +388,7 @@ def fit_pushes(
         for j, i in enumerate(idx):
             p = profiles[i]
             theta = np.array([sol.kc[j] * s[j], sol.kphi[j] * s[j], sol.cc[j], sol.n[j]])
-            cov, m, rho, sig = _push_covariance(
-                p, theta, law, b, ratio, sol.kc[j], sol.kphi[j], sol.phic_deg[j]
-            )
+            cov, m, rho, sig = _push_covariance(p, theta, law, b, ratio, sol.kc[j], sol.kphi[j])
             chk = check_fit(p.depth, p.ci, m)
             out.ok[i] = True
             out.params[i] = TerrainParameters(
@@ -791,10 +790,20 @@ def fit_sites(
     if np.any(sinkage <= 0):
         raise ValueError("site sinkages must be > 0")
     fits = fit_pushes(profiles, model=model, r_min=r_min, calibration=calibration, bounds=bounds)
-    _, b, _, model, _ = _settings(model, r_min, calibration, bounds)
+    law, b, ratio, model, _ = _settings(model, r_min, calibration, bounds)
     out = []
     for name, members in grouping.sites.items():
         idx = [i for i in members if fits.ok[i]]
+        if len(idx) > 1:
+            # one noise correlation per site: the median of its pushes' AR(1) estimates
+            # (one 10-20 point profile estimates rho poorly and, clipped at 0, with a bias up)
+            rho = float(np.median(fits.rho[idx]))
+            for i in idx:
+                prm = fits.params[i]
+                fits.cov[i] = _push_covariance(
+                    profiles[i], fits.theta[i], law, b, ratio, prm.kc, prm.kphi, rho
+                )[0]
+                fits.rho[i] = rho
         failed = [(fits.ids[i], str(fits.error[i])) for i in members if not fits.ok[i]]
         tan_a = math.tan(profiles[members[0]].cone.half_angle)
         out.append(
