@@ -210,7 +210,7 @@ def _prior_precision(theta, free, bounds: Bounds, cal: CalibrationPrior | None) 
         bounds.cc[1] - bounds.cc[0],
         bounds.phic[1] - bounds.phic[0],
     ]
-    P = np.diag([12.0 / max(float(r), 1e-300) ** 2 for r in rng])  # variance of a uniform
+    P = np.diag([12.0 / max(float(r), 1e-9) ** 2 for r in rng])  # variance of a uniform
     if cal is not None:
         c = cal.calibration
         P[3, 3] = 1.0 / max(cal.cc_width, 1e-6) ** 2
