@@ -153,7 +153,7 @@ def random_effects(
             if not grow.any():
                 break
             hi = np.where(grow, 10.0 * hi, hi)
-        for _ in range(80):
+        for _ in range(64):
             mid = 0.5 * (lo + hi)
             above = q_of(mid)[0] > target
             lo = np.where(above, mid, lo)

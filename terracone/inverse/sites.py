@@ -634,31 +634,51 @@ def _combine(re, log_s: np.ndarray, log: bool, level: float = 0.9):
     return med, lo, hi
 
 
-def _site_params(fits: PushFits, idx: list[int], log_s, phic_q, level: float):
+def _site_estimates(fits: PushFits, idx: list[int], radii, sinkage):
+    """Per-push estimates (Q, J) and variances of one site: kc, kphi, n, cc, then log p'."""
     th = fits.theta[idx]
     cov = fits.cov[idx]
-    params, intervals, between = {}, {}, {}
-    for j, name in ((0, "kc"), (1, "kphi")):
+    ys, vs, logs = [], [], []
+    for j in range(4):
         y, v = th[:, j], cov[:, j, j]
-        use_log = bool(np.all(y > 0))
+        use_log = j < 2 and bool(np.all(y > 0))
         if use_log:
             y, v = np.log(y), v / (th[:, j] ** 2)
-        re = random_effects(y, v, level=level)
-        med, lo, hi = _combine(re, log_s, use_log, level)
+        ys.append(y)
+        vs.append(v)
+        logs.append(use_log)
+    for r in radii:
+        y, v = push_log_pressure(fits, idx, r, sinkage)
+        ys += list(y.T)
+        vs += list(v.T)
+    return np.array(ys), np.array(vs), logs
+
+
+def _slice(re, i: int):
+    """The random-effects results of problem i (first axis)."""
+    return type(re)(**{k: getattr(re, k)[i] for k in re.__dataclass_fields__})
+
+
+def _site_params(re, logs, log_s, phic_q, level: float):
+    params, intervals, between = {}, {}, {}
+    for j, name in ((0, "kc"), (1, "kphi")):
+        med, lo, hi = _combine(_slice(re, slice(j, j + 1)), log_s, logs[j], level)
         params[name], intervals[name] = float(med[0]), (float(lo[0]), float(hi[0]))
-        if use_log:
-            between[f"{name}_cv"] = float(np.sqrt(np.expm1(re.tau2)))
+        if logs[j]:
+            between[f"{name}_cv"] = float(np.sqrt(np.expm1(re.tau2[j])))
     for j, name in ((3, "n"), (2, "cc")):
-        re = random_effects(th[:, j], cov[:, j, j], level=level)
-        params[name] = float(re.mu)
-        intervals[name] = (float(re.lo), float(re.hi))
-        between[f"{name}_sd"] = float(np.sqrt(re.tau2))
+        params[name] = float(re.mu[j])
+        intervals[name] = (float(re.lo[j]), float(re.hi[j]))
+        between[f"{name}_sd"] = float(np.sqrt(re.tau2[j]))
     params["phic_deg"] = phic_q[1]
     intervals["phic_deg"] = (phic_q[0], phic_q[2])
     return params, intervals, between
 
 
-def _pool_site(name, idx, failed, fits, bounds, tan_a, radii, sinkage, target_cv, level, model):
+def _pool_site(
+    name, idx, failed, fits, bounds, tan_a, radii, sinkage, target_cv, level, model, pooled
+):
+    """SiteResult of one site from its pooled estimates ``pooled = (RandomEffects, logs)``."""
     notes: list[str] = []
     if not idx:
         return SiteResult(
@@ -673,13 +693,15 @@ def _pool_site(name, idx, failed, fits, bounds, tan_a, radii, sinkage, target_cv
             f"phic not fixed: site scale on the phic ridge {phic_q[0]:.3g}-{phic_q[2]:.3g} deg "
             "(90%); give a calibration to fix it"
         )
-    params, intervals, between = _site_params(fits, idx, log_s, phic_q, level)
+    re, logs = pooled
+    params, intervals, between = _site_params(re, logs, log_s, phic_q, level)
     plates = []
     mid = sinkage.size // 2
-    for r in radii:
-        y, v = push_log_pressure(fits, idx, r, sinkage)
-        re = random_effects(y.T, v.T, level=level)  # one problem per sinkage
-        med, lo, hi = _combine(re, log_s, True, level)
+    K = sinkage.size
+    for ir, r in enumerate(radii):
+        rs = _slice(re, slice(4 + ir * K, 4 + (ir + 1) * K))  # one problem per sinkage
+        med, lo, hi = _combine(rs, log_s, True, level)
+        re_r = rs
         plates.append(
             SitePlate(
                 r,
@@ -687,11 +709,11 @@ def _pool_site(name, idx, failed, fits, bounds, tan_a, radii, sinkage, target_cv
                 med,
                 lo,
                 hi,
-                np.sqrt(np.expm1(re.tau2)),
-                np.sqrt(np.expm1(re.tau2_lo)),
-                np.sqrt(np.expm1(re.tau2_hi)),
-                np.sqrt(np.expm1(re.sample_var)),
-                np.sqrt(np.expm1(re.mean_v)),
+                np.sqrt(np.expm1(re_r.tau2)),
+                np.sqrt(np.expm1(re_r.tau2_lo)),
+                np.sqrt(np.expm1(re_r.tau2_hi)),
+                np.sqrt(np.expm1(re_r.sample_var)),
+                np.sqrt(np.expm1(re_r.mean_v)),
             )
         )
     needed = needed_hi = None
@@ -791,8 +813,8 @@ def fit_sites(
         raise ValueError("site sinkages must be > 0")
     fits = fit_pushes(profiles, model=model, r_min=r_min, calibration=calibration, bounds=bounds)
     law, b, ratio, model, _ = _settings(model, r_min, calibration, bounds)
-    out = []
-    for name, members in grouping.sites.items():
+    members_ok = []
+    for members in grouping.sites.values():
         idx = [i for i in members if fits.ok[i]]
         if len(idx) > 1:
             # one noise correlation per site: the median of its pushes' AR(1) estimates
@@ -804,11 +826,29 @@ def fit_sites(
                     profiles[i], fits.theta[i], law, b, ratio, prm.kc, prm.kphi, rho
                 )[0]
                 fits.rho[i] = rho
+        members_ok.append(idx)
+    # all sites at once: (site, quantity, push) padded, one vectorised random-effects call
+    est = [_site_estimates(fits, idx, list(plates), sinkage) if idx else None for idx in members_ok]
+    Q = 4 + len(plates) * sinkage.size
+    J = max([len(i) for i in members_ok] + [1])
+    Y = np.zeros((len(est), Q, J))
+    V = np.ones((len(est), Q, J))
+    M = np.zeros((len(est), Q, J), bool)
+    for k, e in enumerate(est):
+        if e is not None:
+            n_k = e[0].shape[1]
+            Y[k, :, :n_k], V[k, :, :n_k], M[k, :, :n_k] = e[0], e[1], True
+    re_all = random_effects(Y, V, M, level=level)
+    out = []
+    for k, (name, members) in enumerate(grouping.sites.items()):
+        idx = members_ok[k]
         failed = [(fits.ids[i], str(fits.error[i])) for i in members if not fits.ok[i]]
         tan_a = math.tan(profiles[members[0]].cone.half_angle)
+        pooled = (_slice(re_all, k), est[k][2] if est[k] is not None else None)
         out.append(
             _pool_site(
-                name, idx, failed, fits, b, tan_a, list(plates), sinkage, target_cv, level, model
+                name, idx, failed, fits, b, tan_a, list(plates), sinkage, target_cv, level, model,
+                pooled,
             )
-        )
+        )  # fmt: skip
     return out
