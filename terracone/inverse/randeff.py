@@ -17,11 +17,14 @@ Estimators (vectorised over any number of independent problems):
   ``sum_j w_j (y_j - mu_w)^2 = k - 1`` with ``w_j = 1 / (v_j + tau^2)``,
   truncated at 0 (recommended for few studies by [2]_);
 * ``mu``: the weighted mean with those weights;
-* its standard error: the Hartung-Knapp-Sidik-Jonkman form [3]_, scaled by
-  ``max(1, q)`` (the "modified" HKSJ, never narrower than the fixed-weight
-  standard error), with a Student t quantile on k - 1 degrees of freedom.
-  With 3-8 pushes the normal quantile with the plain standard error
-  undercovers; this one holds its stated rate (tests/test_sites.py);
+* its standard error: the Hartung-Knapp-Sidik-Jonkman form [3]_,
+  ``se^2 = q / sum_j w_j`` with ``q = sum_j w_j (y_j - mu)^2 / (k - 1)``,
+  with a Student t quantile on k - 1 degrees of freedom.  The factor ``q``
+  rescales the weights' variance by the observed spread, so the interval
+  stays calibrated when the linearised ``v_j`` are somewhat off (the
+  "modified" form ``max(1, q)`` over-covered, 92-97%, on generated sites;
+  the plain form covers 85-95%, tests/test_sites.py).  With 3-8 pushes
+  the normal quantile with the fixed-weight standard error undercovers;
 * an interval of ``tau^2``: the Q-profile method [4]_, so that a
   between-push variance the estimation noise cannot resolve shows as a
   wide interval rather than as a confident zero.
@@ -64,7 +67,7 @@ class RandomEffects:
     tau2_lo, tau2_hi : ndarray
         Its Q-profile interval at ``level`` [4]_.
     se : ndarray
-        Standard error of ``mu`` (modified HKSJ).
+        Standard error of ``mu`` (HKSJ).
     df : ndarray
         Degrees of freedom of the t quantile (k - 1; 0 when k < 2).
     lo, hi : ndarray
@@ -168,7 +171,7 @@ def random_effects(
     q, mu, sw = q_of(tau2)
     df = np.maximum(k - 1, 0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        hk = np.where(k > 1, np.maximum(q / np.maximum(k - 1, 1), 1.0), 1.0)
+        hk = np.where(k > 1, q / np.maximum(k - 1, 1), 1.0)
         se = np.sqrt(hk / sw)
         tq = np.where(
             k > 1, stats.t.ppf(0.5 + level / 2, np.maximum(df, 1)), stats.norm.ppf(0.5 + level / 2)

@@ -93,6 +93,7 @@ __all__ = [
     "group_profiles",
     "push_log_pressure",
     "pushes_needed",
+    "site_correlation",
 ]
 
 #: Additive floor of the relative CI noise weights, as a fraction of the largest model CI.
@@ -239,6 +240,9 @@ class PushFits:
         Fit RMSD [kPa], R^2 of CI, AR(1) coefficient and RMS relative noise.
     lack_of_fit : list of str or None
     law : PressureLaw
+    residuals : list of (ndarray, ndarray, ndarray) or None
+        Per push: weighted residuals, depths, Jacobian of the free
+        parameters and noise weights (for :func:`site_correlation`).
     """
 
     ids: list[str]
@@ -256,6 +260,9 @@ class PushFits:
     sigma_rel: np.ndarray
     lack_of_fit: list[str | None]
     law: PressureLaw
+    residuals: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None] = field(
+        default_factory=list
+    )
 
 
 def _settings(model: str, r_min: float | None, calibration: Any, bounds: Bounds | None):
@@ -316,7 +323,7 @@ def _push_covariance(p: CIProfile, theta, law, bounds: Bounds, ratio, kc, kphi, 
         cf = (Gi @ Js.T @ S @ Js @ Gi) / np.outer(sc, sc)
         cov = T @ cf @ T.T
     sig_rel = math.sqrt(sigma2) * float(np.sqrt(np.mean(w * w)) / max(np.mean(np.abs(m)), 1e-300))
-    return cov, m, rho, sig_rel
+    return cov, m, rho, sig_rel, (e, z, J, w)
 
 
 def fit_pushes(
@@ -360,6 +367,7 @@ def fit_pushes(
         sigma_rel=nan.copy(),
         lack_of_fit=[None] * P,
         law=law,
+        residuals=[None] * P,
     )
     by_cone: dict[str, list[int]] = {}
     for i, p in enumerate(profiles):
@@ -388,7 +396,10 @@ def fit_pushes(
         for j, i in enumerate(idx):
             p = profiles[i]
             theta = np.array([sol.kc[j] * s[j], sol.kphi[j] * s[j], sol.cc[j], sol.n[j]])
-            cov, m, rho, sig = _push_covariance(p, theta, law, b, ratio, sol.kc[j], sol.kphi[j])
+            cov, m, rho, sig, parts = _push_covariance(
+                p, theta, law, b, ratio, sol.kc[j], sol.kphi[j]
+            )
+            out.residuals[i] = parts
             chk = check_fit(p.depth, p.ci, m)
             out.ok[i] = True
             out.params[i] = TerrainParameters(
@@ -763,6 +774,60 @@ def _pool_site(
     )
 
 
+def site_correlation(
+    parts: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
+) -> float:
+    """AR(1) coefficient of the CI error pooled over the pushes of a site.
+
+    One 10-20 point profile estimates the correlation poorly, and clipping
+    each estimate at 0 biases it up.  Pooled: the lag-1 autocorrelation
+    ``r1 = sum_j e_j' D e_j / sum_j e_j' e_j`` of all pushes' weighted
+    residuals is matched to its expectation
+    ``sum_j tr(D M_j S_j(rho) M_j') / sum_j tr(M_j S_j(rho) M_j')``, clipped to
+    [0, 0.95].  ``S_j`` is the AR(1) correlation at push j's depths, ``D``
+    the lag-1 neighbour matrix and ``M_j = C W^-1 (I - J J^+) W`` maps white
+    noise to the centred weighted residuals of the *unweighted* least
+    squares the solver solves (``J`` its Jacobian, ``W`` the noise weights,
+    ``C`` the centring); the correction of
+    :func:`terracone.uncertainty.estimate_correlation` applied to the
+    pooled statistic and to that estimator.
+
+    Parameters
+    ----------
+    parts : sequence of (e, z, J, w)
+        Weighted residuals [-], depths [m], Jacobian of the free parameters
+        and noise weights [-] per push.
+    """
+    grid = np.linspace(0.0, 0.95, 96)
+    num = den = 0.0
+    f_num = np.zeros(grid.size)
+    f_den = np.zeros(grid.size)
+    for e, z, J, w in parts:
+        N = e.size
+        if N < 4:
+            continue
+        e = e - e.mean()
+        num += float(e[1:] @ e[:-1])
+        den += float(e @ e)
+        # e = C W^-1 (I - J J^+) W u with u white: the solver is unweighted least squares
+        H = J @ np.linalg.pinv(J, rcond=1e-10) if J.size else np.zeros((N, N))
+        M = (np.eye(N) - 1.0 / N) @ ((np.eye(N) - H) * (w[None, :] / w[:, None]))
+        lag = np.abs(z[:, None] - z[None, :]) / float(np.median(np.diff(z)))
+        S = grid[:, None, None] ** lag[None] + (grid[:, None, None] == 0) * np.eye(N)
+        MSM = M[None] @ S @ M.T[None]
+        f_num += np.trace(MSM, offset=1, axis1=1, axis2=2)
+        f_den += np.trace(MSM, axis1=1, axis2=2)
+    if den <= 0:
+        return 0.0
+    r1 = num / den
+    f = np.maximum.accumulate(f_num / f_den)
+    if r1 <= f[0]:
+        return 0.0
+    if r1 >= f[-1]:
+        return float(grid[-1])
+    return float(np.interp(r1, f, grid))
+
+
 def pushes_needed(between_cv: float, target_cv: float) -> int | None:
     """Pushes for the site-mean CV to reach the target: ceil((cv / target)^2), at least 1."""
     if not math.isfinite(between_cv):
@@ -817,9 +882,8 @@ def fit_sites(
     for members in grouping.sites.values():
         idx = [i for i in members if fits.ok[i]]
         if len(idx) > 1:
-            # one noise correlation per site: the median of its pushes' AR(1) estimates
-            # (one 10-20 point profile estimates rho poorly and, clipped at 0, with a bias up)
-            rho = float(np.median(fits.rho[idx]))
+            # one noise correlation per site, from all its pushes' residuals
+            rho = site_correlation([fits.residuals[i] for i in idx])
             for i in idx:
                 prm = fits.params[i]
                 fits.cov[i] = _push_covariance(
