@@ -1316,7 +1316,12 @@ def _sites_table(sites: list[dict[str, Any]], units: str) -> str:
 @cli.command("sites")
 @click.argument("ci_file", type=click.Path(dir_okay=False))
 @_fit_options
-@click.option("--by", "by", default=None, help="Metadata column naming each profile's site.")
+@click.option(
+    "--by",
+    "by",
+    default=None,
+    help="Metadata column(s) naming each profile's site, e.g. plot or plot,date.",
+)
 @click.option(
     "--radius",
     default=None,

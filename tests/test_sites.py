@@ -157,6 +157,11 @@ def test_group_by_column_and_missing_value_recorded():
     g = group_profiles(ps, by="plot")
     assert g.sites == {"x": [0, 2], "y": [1]}
     assert g.unassigned == [("d", "no value in metadata column 'plot'")]
+    ps[2].metadata["date"] = 2.0
+    ps[0].metadata["date"] = 1.0
+    g = group_profiles(ps[:3], by="plot,date")
+    assert g.sites == {"x/1": [0], "x/2": [2]}
+    assert g.unassigned == [("b", "no value in metadata column 'date'")]
 
 
 def test_group_by_radius():

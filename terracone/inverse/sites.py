@@ -152,8 +152,8 @@ def group_profiles(
     ----------
     profiles : sequence of CIProfile
     by : str, optional
-        Metadata column (case-insensitive); profiles sharing its value form
-        a site.
+        Metadata column (case-insensitive), or several separated by commas
+        (``plot,date``); profiles sharing its value(s) form a site.
     radius : float, optional
         Site radius [m]: profiles carrying ``latitude``/``longitude`` (or
         ``lat``/``lon``) [deg] are clustered by complete linkage so that no
@@ -171,16 +171,20 @@ def group_profiles(
         raise ValueError("give a metadata column (--by) or a radius (--radius) to group sites")
     if radius is not None and not (radius > 0 and math.isfinite(radius)):
         raise ValueError(f"radius must be > 0 (got {radius})")
+    cols = [c.strip() for c in (by or "").split(",") if c.strip()]
+    if by is not None and not cols:
+        raise ValueError(f"no metadata column in {by!r}")
     groups: dict[str, list[int]] = {}
     unassigned: list[tuple[str, str]] = []
     for i, p in enumerate(profiles):
         key = "all"
         if by is not None:
-            v = _meta(p, [by])
-            if v is None:
-                unassigned.append((p.id, f"no value in metadata column {by!r}"))
+            vals = [_meta(p, [c]) for c in cols]
+            missing = [c for c, v in zip(cols, vals) if v is None]
+            if missing:
+                unassigned.append((p.id, f"no value in metadata column {missing[0]!r}"))
                 continue
-            key = _label(v)
+            key = "/".join(_label(v) for v in vals)
         groups.setdefault(key, []).append(i)
     if radius is None:
         return Grouping(groups, unassigned)
