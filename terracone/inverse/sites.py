@@ -244,6 +244,8 @@ class PushFits:
         Fit RMSD [kPa], R^2 of CI, AR(1) coefficient and RMS relative noise.
     lack_of_fit : list of str or None
     law : PressureLaw
+    ci_mean, npts : ndarray
+        Mean CI [kPa] and number of readings of each push.
     residuals : list of (ndarray, ndarray, ndarray) or None
         Per push: weighted residuals, depths, Jacobian of the free
         parameters and noise weights (for :func:`site_correlation`).
@@ -264,6 +266,8 @@ class PushFits:
     sigma_rel: np.ndarray
     lack_of_fit: list[str | None]
     law: PressureLaw
+    ci_mean: np.ndarray | None = None
+    npts: np.ndarray | None = None
     residuals: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None] = field(
         default_factory=list
     )
@@ -371,6 +375,8 @@ def fit_pushes(
         sigma_rel=nan.copy(),
         lack_of_fit=[None] * P,
         law=law,
+        ci_mean=nan.copy(),
+        npts=np.zeros(P, int),
         residuals=[None] * P,
     )
     by_cone: dict[str, list[int]] = {}
@@ -404,6 +410,7 @@ def fit_pushes(
                 p, theta, law, b, ratio, sol.kc[j], sol.kphi[j]
             )
             out.residuals[i] = parts
+            out.ci_mean[i], out.npts[i] = float(np.mean(p.ci)), p.ci.size
             chk = check_fit(p.depth, p.ci, m)
             out.ok[i] = True
             out.params[i] = TerrainParameters(
@@ -521,7 +528,9 @@ class SiteResult:
     intervals : dict
         90% intervals of the site parameters.
     between : dict
-        Push-to-push CV of kc' and kphi' (when positive), SD of n and cc.
+        Push-to-push CV of kc' and kphi' (when positive), SD of n and cc,
+        and ``ci_cv``: the push-to-push CV of the pushes' mean CI (the
+        measurement itself, no model), for comparison with the plate CV.
     plate_pressure : list of SitePlate
     profiles_needed : int or None
         ``ceil((between_cv / target_cv)^2)`` at the middle sinkage, >= 1.
@@ -650,7 +659,7 @@ def _combine(re, log_s: np.ndarray, log: bool, level: float = 0.9):
 
 
 def _site_estimates(fits: PushFits, idx: list[int], radii, sinkage):
-    """Per-push estimates (Q, J) and variances of one site: kc, kphi, n, cc, then log p'."""
+    """Per-push estimates (Q, J) and variances of one site: kc, kphi, n, cc, log CI, log p'."""
     th = fits.theta[idx]
     cov = fits.cov[idx]
     ys, vs, logs = [], [], []
@@ -662,6 +671,13 @@ def _site_estimates(fits: PushFits, idx: list[int], radii, sinkage):
         ys.append(y)
         vs.append(v)
         logs.append(use_log)
+    # the measurement itself: log of the push's mean CI; its noise from the fit residuals
+    # (lack of fit included), AR(1)-inflated
+    rho = np.clip(fits.rho[idx], 0.0, 0.95)
+    cm = fits.ci_mean[idx]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ys.append(np.log(cm))
+        vs.append((fits.rmsd[idx] / cm) ** 2 / fits.npts[idx] * (1 + rho) / (1 - rho))
     for r in radii:
         y, v = push_log_pressure(fits, idx, r, sinkage)
         ys += list(y.T)
@@ -685,6 +701,7 @@ def _site_params(re, logs, log_s, phic_q, level: float):
         params[name] = float(re.mu[j])
         intervals[name] = (float(re.lo[j]), float(re.hi[j]))
         between[f"{name}_sd"] = float(np.sqrt(re.tau2[j]))
+    between["ci_cv"] = float(np.sqrt(np.expm1(re.tau2[4])))
     params["phic_deg"] = phic_q[1]
     intervals["phic_deg"] = (phic_q[0], phic_q[2])
     return params, intervals, between
@@ -714,7 +731,7 @@ def _pool_site(
     mid = sinkage.size // 2
     K = sinkage.size
     for ir, r in enumerate(radii):
-        rs = _slice(re, slice(4 + ir * K, 4 + (ir + 1) * K))  # one problem per sinkage
+        rs = _slice(re, slice(5 + ir * K, 5 + (ir + 1) * K))  # one problem per sinkage
         med, lo, hi = _combine(rs, log_s, True, level)
         re_r = rs
         plates.append(
@@ -732,6 +749,14 @@ def _pool_site(
             )
         )
     needed = needed_hi = None
+    cv_mid = plates[0].between_cv[mid] if plates else float("nan")
+    if np.isfinite(cv_mid) and cv_mid > 2 * between["ci_cv"] + 0.1:
+        notes.append(
+            f"the plate-pressure CV ({cv_mid:.2g}) is well above the push-to-push CV of the CI "
+            f"itself ({between['ci_cv']:.2g}): the pushes' fits, not only the soil, differ "
+            "(parameters the CI does not fix, or lack of fit); profiles_needed is then not a "
+            "sampling target"
+        )
     if plates and np.isfinite(plates[0].between_cv[mid]):
         needed = pushes_needed(plates[0].between_cv[mid], target_cv)
         needed_hi = pushes_needed(plates[0].between_cv_hi[mid], target_cv)
@@ -897,7 +922,7 @@ def fit_sites(
         members_ok.append(idx)
     # all sites at once: (site, quantity, push) padded, one vectorised random-effects call
     est = [_site_estimates(fits, idx, list(plates), sinkage) if idx else None for idx in members_ok]
-    Q = 4 + len(plates) * sinkage.size
+    Q = 5 + len(plates) * sinkage.size
     J = max([len(i) for i in members_ok] + [1])
     Y = np.zeros((len(est), Q, J))
     V = np.ones((len(est), Q, J))
