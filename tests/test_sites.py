@@ -222,3 +222,34 @@ def test_cli_sites_marsden_by_plot():
     assert sum(1 for s in sites if s["lack_of_fit"]) >= 8
     r = CliRunner().invoke(cli, ["sites", str(MARSDEN), "--by", "plot", "--cone", "asabe-small"])
     assert r.exit_code == 0 and "between CV" in r.output and "LACK OF FIT" in r.output
+
+
+def test_cli_sites_table_json_and_report(tmp_path):
+    # two sites of three generated pushes each, in a CSV with a site column
+    rng = np.random.default_rng(5)
+    z = np.arange(0.0, 0.451, 0.025)
+    lines = ["profile,site,depth_m,ci_kpa"]
+    for site, kphi in (("A", 800.0), ("B", 2000.0)):
+        for j in range(3):
+            ci = cone_index(
+                z, kc=kphi / 30, kphi=kphi * rng.lognormal(0, 0.2), n=0.9, cc=5, phic=11
+            )
+            ci *= 1 + 0.05 * rng.standard_normal(z.size)
+            lines += [f"{site}{j},{site},{d:.3f},{c:.2f}" for d, c in zip(z, ci)]
+    f = tmp_path / "ci.csv"
+    f.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "sites.json"
+    r = CliRunner().invoke(
+        cli, ["sites", str(f), "--by", "site", "--plates", "5cm", "--json", "--out", str(out)]
+    )
+    assert r.exit_code == 0, r.output
+    doc = json.loads(out.read_text())
+    assert [s["site"] for s in doc["sites"]] == ["A", "B"]
+    assert doc["sites"][0]["profiles"] == ["A0", "A1", "A2"] and doc["sites"][0]["n_profiles"] == 3
+    r = CliRunner().invoke(cli, ["sites", str(f), "--by", "site", "--units", "us"])
+    assert r.exit_code == 0 and "p [psi]" in r.output and "between CV" in r.output
+    html = tmp_path / "r.html"
+    r = CliRunner().invoke(cli, ["report", str(out), "--out", str(html)])
+    assert r.exit_code == 0, r.output
+    text = html.read_text()
+    assert "site statistics" in text and "between-push CV" in text and "data:image/png" in text
