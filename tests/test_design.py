@@ -120,3 +120,31 @@ def test_cli_design_ci_only_profile_ranks_plate_above_ci(tmp_path):
     assert r.exit_code == 0 and "expected 90% width" in r.output
     r = CliRunner().invoke(cli, ["design", str(f), "--plates", "5cm", "--candidates", "cpt"])
     assert r.exit_code != 0 and "expected plate:RADIUS" in r.output
+
+
+def test_cli_design_with_calibration(tmp_path):
+    from terracone.inverse.learn import Calibration
+
+    cal = Calibration("sand", "rm0", None, None, 11.0, 5.0, 50.0, 1500.0, 0.9)
+    cf = tmp_path / "cal.json"
+    cal.save(cf)
+    rng = np.random.default_rng(2)
+    ci = cone_index(Z, kc=50.0, kphi=1500.0, n=0.9, cc=5.0, phic=11.0)
+    ci *= 1 + 0.05 * rng.standard_normal(Z.size)
+    f = tmp_path / "ci.csv"
+    f.write_text("depth_m,ci_kpa\n" + "".join(f"{z:.4f},{c:.3f}\n" for z, c in zip(Z, ci)))
+    r = CliRunner().invoke(
+        cli, ["design", str(f), "--plates", "5cm", "--calibration", str(cf), "--json"]
+    )
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)["designs"][0]
+    assert d["prior"] == "calibration:sand"
+    widths = {c["test"]: c["width_ratio"] for c in d["candidates"]}
+    # with the scale fixed by the calibration the CI already does much: a second push helps
+    # (its information doubles, so the width falls by at most 1/sqrt(2)), and never harms
+    assert 1 / np.sqrt(2) - 0.01 <= widths["ci"] <= 1.0
+    assert widths["shear"] == pytest.approx(1.0)
+    r = CliRunner().invoke(
+        cli, ["design", str(f), "--plates", "5cm", "--calibration", str(cf), "--prior", "terrain:x"]
+    )
+    assert r.exit_code != 0 and "give the calibration once" in r.output
