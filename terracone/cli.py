@@ -1340,6 +1340,14 @@ def _sites_table(sites: list[dict[str, Any]], units: str) -> str:
     help="Target CV of the site-mean plate pressure for profiles_needed.",
 )
 @click.option(
+    "--bootstrap",
+    type=click.IntRange(0, 1000),
+    default=None,
+    help="Bootstrap replicates of each push's estimation noise (0: linearised; "
+    "default 40 without a calibration, 0 with one).",
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the bootstrap.")
+@click.option(
     "--file-units",
     type=_UNITS,
     default=None,
@@ -1367,6 +1375,8 @@ def sites_cmd(
     radius,
     plates,
     target_cv,
+    bootstrap,
+    seed,
     file_units,
     out,
     as_json,
@@ -1413,6 +1423,8 @@ def sites_cmd(
         plates=radii,
         sinkage=default_sinkages(units),
         target_cv=target_cv,
+        bootstrap=bootstrap,
+        seed=seed,
     )
     doc = {
         "terracone": __version__,
@@ -1426,6 +1438,8 @@ def sites_cmd(
             "bounds": b.as_dict(units),
             "depth_range": depth_range,
             "target_cv": target_cv,
+            "bootstrap": bootstrap if bootstrap is not None else (0 if cal else 40),
+            "seed": seed,
             "units": units,
         },
         "sites": [r.as_dict(units) for r in results],

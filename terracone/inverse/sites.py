@@ -29,7 +29,12 @@ Model
    the weighted residuals.  A lack of fit (layered soil) shows as large,
    correlated residuals and so as a large estimation variance: the misfit is
    carried into the site intervals, not hidden.  Parameters at a bound are
-   held there.
+   held there.  Without a calibration that fails: the CI leaves kc, kphi and
+   cc nearly collinear, most pushes sit at a bound (kc = 0 or cc = 0) and
+   the linearised variance is far too small.  So by default, without a
+   calibration, the estimation variances come from a parametric bootstrap
+   instead (:func:`bootstrap_pushes`, 40 replicates of each push's fitted
+   CI plus simulated noise of its own model, refitted by the same solver).
 3. The per-push estimates of ``log p'`` (plate pressure with the primed
    values, eq. (2-2), at each sinkage and plate), ``log kc'``,
    ``log kphi'``, n and cc are pooled by the random-effects model of
@@ -91,6 +96,7 @@ __all__ = [
     "fit_pushes",
     "fit_sites",
     "group_profiles",
+    "bootstrap_pushes",
     "push_log_pressure",
     "pushes_needed",
     "site_correlation",
@@ -433,6 +439,59 @@ def fit_pushes(
     return out
 
 
+def bootstrap_pushes(
+    profiles: Sequence[CIProfile],
+    fits: PushFits,
+    idx: Sequence[int],
+    *,
+    replicates: int = 40,
+    seed: int = 0,
+    model: str = "rm0",
+    r_min: float | None = None,
+    calibration: Any = None,
+    bounds: Bounds | None = None,
+) -> np.ndarray:
+    """Parametric bootstrap of the pushes' estimates: replicates (len(idx), B, 4) of theta.
+
+    Each replicate is the push's fitted CI plus simulated noise with the
+    push's own noise model (relative weights, sigma from the residuals, the
+    AR(1) coefficient in ``fits.rho``), refitted by the same exact solver
+    (vectorised over all replicates).  Unlike the linearised covariance, the
+    spread keeps what bounds and the near-collinear kc, kphi, cc columns do to
+    the estimates (without a calibration, most pushes sit at kc = 0 or cc = 0).
+    """
+    law, b, ratio, _, _ = _settings(model, r_min, calibration, bounds)
+    rng = np.random.default_rng(seed)
+    B = int(replicates)
+    out = np.full((len(idx), B, 4), np.nan)
+    by_cone: dict[str, list[int]] = {}
+    for k, i in enumerate(idx):
+        by_cone.setdefault(profiles[i].cone.name, []).append(k)
+    for ks in by_cone.values():
+        cone = profiles[idx[ks[0]]].cone
+        zs, ys = [], []
+        for k in ks:
+            i = idx[k]
+            e, z, J, w = fits.residuals[i]
+            N = z.size
+            m = profiles[i].ci - e * w  # the fitted CI
+            sigma = math.sqrt(float(e @ e) / max(N - J.shape[1], 1))
+            phi = float(np.clip(fits.rho[i], 0.0, 0.95)) ** (
+                np.diff(z) / float(np.median(np.diff(z)))
+            )
+            u = rng.standard_normal((B, N))
+            for t in range(1, N):  # AR(1) along depth (exact for irregular spacing)
+                u[:, t] = phi[t - 1] * u[:, t - 1] + np.sqrt(1 - phi[t - 1] ** 2) * u[:, t]
+            sim = np.maximum(m[None, :] + sigma * w[None, :] * u, 0.0)
+            zs += [z] * B
+            ys += list(sim)
+        sol = solve_exact_many(zs, ys, cone=cone, law=law, bounds=b, kc_over_kphi=ratio)
+        s = 1.0 + np.tan(np.radians(sol.phic_deg)) / math.tan(cone.half_angle)  # eq. (2-6)
+        th = np.stack([sol.kc * s, sol.kphi * s, sol.cc, sol.n], -1).reshape(len(ks), B, 4)
+        out[ks] = th
+    return out
+
+
 def push_log_pressure(
     fits: PushFits, idx: Sequence[int], radius: float, sinkage: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -658,10 +717,19 @@ def _combine(re, log_s: np.ndarray, log: bool, level: float = 0.9):
     return med, lo, hi
 
 
-def _site_estimates(fits: PushFits, idx: list[int], radii, sinkage):
-    """Per-push estimates (Q, J) and variances of one site: kc, kphi, n, cc, log CI, log p'."""
+def _site_estimates(fits: PushFits, idx: list[int], radii, sinkage, reps=None):
+    """Per-push estimates (Q, J) and variances of one site: kc, kphi, n, cc, log CI, log p'.
+
+    With bootstrap replicates ``reps`` (len(idx), B, 4) the variances are
+    their spread; otherwise the linearised ones.
+    """
     th = fits.theta[idx]
     cov = fits.cov[idx]
+    if reps is not None:
+        cov = np.einsum(
+            "pbi,pbj->pij", reps - reps.mean(1, keepdims=True), reps - reps.mean(1, keepdims=True)
+        )
+        cov = cov / max(reps.shape[1] - 1, 1)
     ys, vs, logs = [], [], []
     for j in range(4):
         y, v = th[:, j], cov[:, j, j]
@@ -680,6 +748,11 @@ def _site_estimates(fits: PushFits, idx: list[int], radii, sinkage):
         vs.append((fits.rmsd[idx] / cm) ** 2 / fits.npts[idx] * (1 + rho) / (1 - rho))
     for r in radii:
         y, v = push_log_pressure(fits, idx, r, sinkage)
+        if reps is not None:
+            A, Bp = plate_basis(sinkage[None, None, :], n=reps[..., 3:4], b=r, law=fits.law)
+            p = reps[..., 0:1] * A + reps[..., 1:2] * Bp  # eq. (2-2), primed
+            floor = 1e-3 * np.exp(y)[:, None, :]
+            v = np.var(np.log(np.maximum(p, floor)), axis=1, ddof=1)
         ys += list(y.T)
         vs += list(v.T)
     return np.array(ys), np.array(vs), logs
@@ -876,6 +949,8 @@ def fit_sites(
     sinkage: np.ndarray | None = None,
     target_cv: float = 0.1,
     level: float = 0.9,
+    bootstrap: int | None = None,
+    seed: int = 0,
 ) -> list[SiteResult]:
     """Pooled hierarchical fit of every site (see the module docstring).
 
@@ -894,6 +969,14 @@ def fit_sites(
         Target CV of the site-mean plate pressure for ``profiles_needed`` [-].
     level : float
         Level of the site intervals (0.9).
+    bootstrap : int, optional
+        Replicates of the parametric bootstrap of each push's estimation
+        noise (:func:`bootstrap_pushes`); 0: the linearised covariance.
+        Default: 40 without a calibration (the CI alone leaves kc, kphi, cc
+        nearly collinear and at bounds, where the linearisation fails), 0
+        with one.
+    seed : int
+        Seed of the bootstrap.
 
     Returns
     -------
@@ -920,8 +1003,24 @@ def fit_sites(
                 )[0]
                 fits.rho[i] = rho
         members_ok.append(idx)
+    if bootstrap is None:
+        bootstrap = 0 if calibration is not None else 40
+    reps: list[np.ndarray | None] = [None] * len(members_ok)
+    if bootstrap:
+        flat = [i for idx in members_ok for i in idx]
+        allr = bootstrap_pushes(
+            profiles, fits, flat, replicates=bootstrap, seed=seed, model=model, r_min=r_min,
+            calibration=calibration, bounds=bounds,
+        )  # fmt: skip
+        start = 0
+        for k, idx in enumerate(members_ok):
+            reps[k] = allr[start : start + len(idx)]
+            start += len(idx)
     # all sites at once: (site, quantity, push) padded, one vectorised random-effects call
-    est = [_site_estimates(fits, idx, list(plates), sinkage) if idx else None for idx in members_ok]
+    est = [
+        _site_estimates(fits, idx, list(plates), sinkage, reps[k]) if idx else None
+        for k, idx in enumerate(members_ok)
+    ]
     Q = 5 + len(plates) * sinkage.size
     J = max([len(i) for i in members_ok] + [1])
     Y = np.zeros((len(est), Q, J))
