@@ -252,6 +252,43 @@ def _ci_precision(profile: CIProfile, model_ci, J, ci_noise: float | None) -> np
     return J.T @ np.linalg.solve(S, J)
 
 
+def _plate(t: np.ndarray, law, r: float, s) -> np.ndarray:
+    """Plate pressure [kPa] of theta = (kc, kphi, n, cc, phic) at sinkages s [m] (eq. (2-2))."""
+    t = np.maximum(t, [0, 0, 1e-3, 0, 0])
+    return (t[0] * law.kc_factor(r) + t[1]) * np.asarray(s, float) ** t[2]
+
+
+def _candidate(cand, widths, I0, I_ci, current, theta, free, law, plate_noise, s_test):
+    """Expected widths after one candidate test (Fisher information added to I0)."""
+    label, kind, r = cand
+    if kind == "plate":
+        H = _jacobian(lambda t: _plate(t, law, r, s_test), theta, free)
+        sd = plate_noise * np.maximum(_plate(theta, law, r, s_test), 1e-6)
+        w = widths(I0 + H.T @ (H / sd[:, None] ** 2))
+        note = (
+            f"{s_test.size} readings to {s_test.max() * 100:.3g} cm, {plate_noise:.0%} error each"
+        )
+    elif kind == "ci":
+        w = widths(I0 + I_ci)
+        note = "another push of the same terrain, same noise"
+    else:
+        w = current.copy()
+        note = "internal shear (c, phi, K) enters neither eq. (2-2) nor eq. (2-7): no information"
+    ratio = float(np.mean(w / np.maximum(current, 1e-300)))
+    return CandidateResult(label, kind, r, w, ratio, note=note)
+
+
+def _as_prior(prior: Any) -> CalibrationPrior | None:
+    """None for the bounds prior, else a CalibrationPrior."""
+    from .learn import Calibration
+
+    cal = CalibrationPrior(prior) if isinstance(prior, Calibration) else prior
+    cal = None if isinstance(cal, str) and cal == "bounds" else cal
+    if cal is not None and not isinstance(cal, CalibrationPrior):
+        raise ValueError(f"prior must be 'bounds' or a calibration (got {prior!r})")
+    return cal
+
+
 def plan_test(
     profile: CIProfile,
     *,
@@ -301,17 +338,12 @@ def plan_test(
     ----------
     Raiffa and Schlaifer (1961); eqs. (2-2), (2-7) of Huang et al.
     """
-    from .learn import Calibration
-
     if isinstance(candidates, str):
         candidates = parse_candidates(candidates)
     if not plates:
         raise ValueError("give at least one target plate radius")
     bounds = bounds or Bounds()
-    cal = CalibrationPrior(prior) if isinstance(prior, Calibration) else prior
-    cal = None if isinstance(cal, str) and cal == "bounds" else cal
-    if cal is not None and not isinstance(cal, CalibrationPrior):
-        raise ValueError(f"prior must be 'bounds' or a calibration (got {prior!r})")
+    cal = _as_prior(prior)
     c = cal.calibration if cal is not None else None
     res = predict(profile, model=model, r_min=r_min, bounds=bounds, calibration=c)
     label = "bounds" if c is None else f"calibration:{c.terrain}"
@@ -327,26 +359,13 @@ def plan_test(
     s_mid = default_sinkages()[12] if sinkage is None else float(sinkage)
 
     def ci_of(t):  # eq. (2-7)
-        return improved(
-            profile.depth,
-            kc=t[0],
-            kphi=t[1],
-            n=t[2],
-            cc=t[3],
-            phic=t[4],
-            Kc=None,
-            law=law,
-            cone=profile.cone,
-        )
-
-    def plate_of(t, r, s):  # eq. (2-2)
-        t = np.maximum(t, [0, 0, 1e-3, 0, 0])
-        return (t[0] * law.kc_factor(r) + t[1]) * np.asarray(s, float) ** t[2]
+        c = dict(kc=t[0], kphi=t[1], n=t[2], cc=t[3], phic=t[4])
+        return improved(profile.depth, **c, Kc=None, law=law, cone=profile.cone)
 
     J = _jacobian(ci_of, theta, free)
     I_ci = _ci_precision(profile, res.ci_model, J, ci_noise)
     I0 = _prior_precision(theta, free, bounds, cal) + I_ci
-    G = np.stack([_jacobian(lambda t, r=r: np.atleast_1d(plate_of(t, r, s_mid)), theta, free)[0]
+    G = np.stack([_jacobian(lambda t, r=r: np.atleast_1d(_plate(t, law, r, s_mid)), theta, free)[0]
                   for r in plates])  # fmt: skip
     zq = stats.norm.ppf(0.5 + level / 2)
 
@@ -359,24 +378,10 @@ def plan_test(
         [float(predicted_plate_pressure(prm, s_mid, r, law.plate_pair)) for r in plates]
     )
     s_test = np.linspace(0.005, 0.05, 10) if plate_sinkages is None else np.asarray(plate_sinkages)
-    out = []
-    for lab, kind, r in candidates:
-        note = ""
-        if kind == "plate":
-            H = _jacobian(lambda t, r=r: plate_of(t, r, s_test), theta, free)
-            sd = plate_noise * np.maximum(plate_of(theta, r, s_test), 1e-6)
-            w = widths(I0 + H.T @ (H / sd[:, None] ** 2))
-            note = f"{s_test.size} readings to {s_test.max() * 100:.3g} cm, {plate_noise:.0%} error each"
-        elif kind == "ci":
-            w = widths(I0 + I_ci)
-            note = "another push of the same terrain, same noise"
-        else:
-            w = current.copy()
-            note = (
-                "internal shear (c, phi, K) enters neither eq. (2-2) nor eq. (2-7): no information"
-            )
-        ratio = float(np.mean(w / np.maximum(current, 1e-300)))
-        out.append(CandidateResult(lab, kind, r, w, ratio, note=note))
+    out = [
+        _candidate(c, widths, I0, I_ci, current, theta, free, law, plate_noise, s_test)
+        for c in candidates
+    ]
     out.sort(key=lambda cnd: cnd.width_ratio)
     for i, cnd in enumerate(out):
         cnd.rank = i + 1

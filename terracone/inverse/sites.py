@@ -937,6 +937,24 @@ def pushes_needed(between_cv: float, target_cv: float) -> int | None:
     return max(1, math.ceil((between_cv / target_cv) ** 2 - 1e-9))
 
 
+def _pool_all(fits: PushFits, members_ok, reps, plates, sinkage, level):
+    """Per-site estimates and one random-effects call over (site, quantity, push), padded."""
+    est = [
+        _site_estimates(fits, idx, plates, sinkage, reps[k]) if idx else None
+        for k, idx in enumerate(members_ok)
+    ]
+    Q = 5 + len(plates) * sinkage.size
+    J = max([len(i) for i in members_ok] + [1])
+    Y = np.zeros((len(est), Q, J))
+    V = np.ones((len(est), Q, J))
+    M = np.zeros((len(est), Q, J), bool)
+    for k, e in enumerate(est):
+        if e is not None:
+            n_k = e[0].shape[1]
+            Y[k, :, :n_k], V[k, :, :n_k], M[k, :, :n_k] = e[0], e[1], True
+    return est, random_effects(Y, V, M, level=level)
+
+
 def fit_sites(
     profiles: Sequence[CIProfile],
     grouping: Grouping,
@@ -1016,21 +1034,7 @@ def fit_sites(
         for k, idx in enumerate(members_ok):
             reps[k] = allr[start : start + len(idx)]
             start += len(idx)
-    # all sites at once: (site, quantity, push) padded, one vectorised random-effects call
-    est = [
-        _site_estimates(fits, idx, list(plates), sinkage, reps[k]) if idx else None
-        for k, idx in enumerate(members_ok)
-    ]
-    Q = 5 + len(plates) * sinkage.size
-    J = max([len(i) for i in members_ok] + [1])
-    Y = np.zeros((len(est), Q, J))
-    V = np.ones((len(est), Q, J))
-    M = np.zeros((len(est), Q, J), bool)
-    for k, e in enumerate(est):
-        if e is not None:
-            n_k = e[0].shape[1]
-            Y[k, :, :n_k], V[k, :, :n_k], M[k, :, :n_k] = e[0], e[1], True
-    re_all = random_effects(Y, V, M, level=level)
+    est, re_all = _pool_all(fits, members_ok, reps, list(plates), sinkage, level)
     out = []
     for k, (name, members) in enumerate(grouping.sites.items()):
         idx = members_ok[k]
