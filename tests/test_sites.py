@@ -277,3 +277,22 @@ def test_without_calibration_bootstrap_removes_most_of_the_estimation_noise():
     assert between < 0.5 * naive
     assert 0.12 <= np.median([r.between["ci_cv"] for r in res]) <= 0.3
     assert all("phic not fixed" in " ".join(r.notes) for r in res)
+
+
+def test_cli_sites_by_radius(tmp_path):
+    rng = np.random.default_rng(8)
+    z = np.arange(0.0, 0.451, 0.025)
+    lines = ["profile,latitude,longitude,depth_m,ci_kpa"]
+    d = 1.0 / 111195.0  # about 1 m of latitude [deg]
+    for site, lat0 in (("A", 42.0), ("B", 42.0 + 500 * d)):
+        for j in range(3):
+            ci = cone_index(z, kc=30.0, kphi=1200.0 * rng.lognormal(0, 0.2), n=0.9, cc=5, phic=11)
+            lat = lat0 + 2 * j * d
+            lines += [f"{site}{j},{lat:.8f},-93.0,{a:.3f},{c:.2f}" for a, c in zip(z, ci)]
+    f = tmp_path / "ci.csv"
+    f.write_text("\n".join(lines) + "\n")
+    r = CliRunner().invoke(cli, ["sites", str(f), "--radius", "10m", "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.output)
+    assert [s["profiles"] for s in doc["sites"]] == [["A0", "A1", "A2"], ["B0", "B1", "B2"]]
+    assert doc["settings"]["radius"] == 10.0
