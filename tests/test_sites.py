@@ -256,7 +256,8 @@ def test_cli_sites_table_json_and_report(tmp_path):
 def test_without_calibration_bootstrap_removes_most_of_the_estimation_noise():
     # no calibration: the CI alone leaves kc, kphi, cc nearly collinear, so single-push plate
     # predictions scatter far more than the soil (CV 0.2 here); the bootstrap of each push's
-    # estimation noise removes most, not all, of that scatter, and the CI's own CV is right
+    # estimation noise (around the site terrain) removes most, not all, of that scatter, and
+    # the CI's own CV is right
     rng = np.random.default_rng(11)
     z = np.arange(0.0, 0.451, 0.025)
     tau = math.sqrt(TAU2)
@@ -274,7 +275,8 @@ def test_without_calibration_bootstrap_removes_most_of_the_estimation_noise():
     between = np.median([r.plate_pressure[0].between_cv[mid] for r in res])
     naive = np.median([r.plate_pressure[0].naive_cv[mid] for r in res])
     assert naive > 1.0  # single-push predictions scatter far beyond the soil's 0.2
-    assert between < 0.5 * naive
+    assert between < 0.25 * naive
+    assert 0.1 <= between <= 0.45  # measured 0.23 here for a true 0.2: still somewhat inflated
     assert 0.12 <= np.median([r.between["ci_cv"] for r in res]) <= 0.3
     assert all("phic not fixed" in " ".join(r.notes) for r in res)
 

@@ -33,8 +33,9 @@ Model
    cc nearly collinear, most pushes sit at a bound (kc = 0 or cc = 0) and
    the linearised variance is far too small.  So by default, without a
    calibration, the estimation variances come from a parametric bootstrap
-   instead (:func:`bootstrap_pushes`, 40 replicates of each push's fitted
-   CI plus simulated noise of its own model, refitted by the same solver).
+   instead (:func:`bootstrap_pushes`, 40 replicates of the site terrain's CI
+   scaled to each push, :func:`site_centers`, plus simulated noise of the
+   push's own model, refitted by the same solver).
 3. The per-push estimates of ``log p'`` (plate pressure with the primed
    values, eq. (2-2), at each sinkage and plate), ``log kc'``,
    ``log kphi'``, n and cc are pooled by the random-effects model of
@@ -99,6 +100,7 @@ __all__ = [
     "bootstrap_pushes",
     "push_log_pressure",
     "pushes_needed",
+    "site_centers",
     "site_correlation",
 ]
 
@@ -446,6 +448,7 @@ def bootstrap_pushes(
     *,
     replicates: int = 40,
     seed: int = 0,
+    centers: Sequence[np.ndarray] | None = None,
     model: str = "rm0",
     r_min: float | None = None,
     calibration: Any = None,
@@ -459,6 +462,10 @@ def bootstrap_pushes(
     (vectorised over all replicates).  Unlike the linearised covariance, the
     spread keeps what bounds and the near-collinear kc, kphi, cc columns do to
     the estimates (without a calibration, most pushes sit at kc = 0 or cc = 0).
+    ``centers`` (one CI array per push, [kPa]) replaces the fitted CI as the
+    noise-free replicate: :func:`fit_sites` uses the site terrain scaled to
+    each push (:func:`site_centers`), so that the replicates also jump between
+    the corners of the box that different pushes of one terrain land in.
     """
     law, b, ratio, _, _ = _settings(model, r_min, calibration, bounds)
     rng = np.random.default_rng(seed)
@@ -474,7 +481,7 @@ def bootstrap_pushes(
             i = idx[k]
             e, z, J, w = fits.residuals[i]
             N = z.size
-            m = profiles[i].ci - e * w  # the fitted CI
+            m = profiles[i].ci - e * w if centers is None else centers[k]  # the fitted CI
             sigma = math.sqrt(float(e @ e) / max(N - J.shape[1], 1))
             phi = float(np.clip(fits.rho[i], 0.0, 0.95)) ** (
                 np.diff(z) / float(np.median(np.diff(z)))
@@ -937,6 +944,31 @@ def pushes_needed(between_cv: float, target_cv: float) -> int | None:
     return max(1, math.ceil((between_cv / target_cv) ** 2 - 1e-9))
 
 
+def site_centers(
+    profiles: Sequence[CIProfile], fits: PushFits, idx: Sequence[int], law, bounds, ratio
+) -> list[np.ndarray]:
+    """Each push's CI as the site terrain predicts it, scaled to the push's mean CI.
+
+    The site terrain is one fit of all the site's pushes together (each
+    divided by its mean CI over the site's), eq. (2-7); a push's centre is
+    that terrain's CI at the push's depths times the push's strength factor.
+    """
+    cm = fits.ci_mean[list(idx)]
+    g = cm / np.exp(np.mean(np.log(cm)))
+    z = np.concatenate([profiles[i].depth for i in idx])
+    y = np.concatenate([profiles[i].ci / gk for i, gk in zip(idx, g)])
+    o = np.argsort(z, kind="stable")
+    cone = profiles[idx[0]].cone
+    sol = solve_exact_many([z[o]], [y[o]], cone=cone, law=law, bounds=bounds, kc_over_kphi=ratio)
+    out = []
+    for i, gk in zip(idx, g):
+        A, B, C = cone_index_basis(
+            profiles[i].depth, n=sol.n[0], phic=sol.phic_deg[0], law=law, cone=cone
+        )
+        out.append(gk * (sol.kc[0] * A + sol.kphi[0] * B + sol.cc[0] * C))  # eq. (2-7)
+    return out
+
+
 def _pool_all(fits: PushFits, members_ok, reps, plates, sinkage, level):
     """Per-site estimates and one random-effects call over (site, quantity, push), padded."""
     est = [
@@ -1026,9 +1058,16 @@ def fit_sites(
     reps: list[np.ndarray | None] = [None] * len(members_ok)
     if bootstrap:
         flat = [i for idx in members_ok for i in idx]
+        centers = []
+        for idx in members_ok:
+            if len(idx) > 1:
+                centers += site_centers(profiles, fits, idx, law, b, ratio)
+            elif idx:  # one push: its own fitted CI
+                e, _, _, w = fits.residuals[idx[0]]
+                centers.append(profiles[idx[0]].ci - e * w)
         allr = bootstrap_pushes(
-            profiles, fits, flat, replicates=bootstrap, seed=seed, model=model, r_min=r_min,
-            calibration=calibration, bounds=bounds,
+            profiles, fits, flat, replicates=bootstrap, seed=seed, centers=centers, model=model,
+            r_min=r_min, calibration=calibration, bounds=bounds,
         )  # fmt: skip
         start = 0
         for k, idx in enumerate(members_ok):
