@@ -1344,5 +1344,339 @@ def reproduce_cmd(out, quick, workers):
     click.echo(f"figures and tables in {s.out_dir} ({s.seconds:.0f} s)")
 
 
+# ---------------------------------------------------------------------------
+# sites and test planning
+# ---------------------------------------------------------------------------
+
+
+def _sites_table(sites: list[dict[str, Any]], units: str) -> str:
+    pu = u.pressure_unit(units)
+    rows = []
+    for d in sites:
+        pl = d["plate_pressure"][0] if d["plate_pressure"] else None
+        i = len(pl["sinkage"]) // 2 if pl else 0
+        rows.append(
+            [
+                d["site"],
+                d["n_profiles"],
+                d["params"].get("n"),
+                pl["median"][i] if pl else None,
+                f"{_fmt(pl['lo'][i])}-{_fmt(pl['hi'][i])}" if pl else "-",
+                pl["between_cv"][i] if pl else None,
+                f"{_fmt(pl['between_cv_lo'][i])}-{_fmt(pl['between_cv_hi'][i])}" if pl else "-",
+                pl["naive_cv"][i] if pl else None,
+                d["profiles_needed"],
+                d["profiles_needed_hi"],
+                "LACK OF FIT" if d["lack_of_fit"] else "ok",
+            ]
+        )
+    pl0 = next((d["plate_pressure"][0] for d in sites if d["plate_pressure"]), None)
+    at = ""
+    if pl0:
+        k = len(pl0["sinkage"]) // 2
+        at = f" at r = {pl0['radius']:.3g} {u.length_unit(units)}, z = {pl0['sinkage'][k]:.3g}"
+    heads = [
+        "site",
+        "pushes",
+        "n",
+        f"p [{pu}]",
+        "p 90%",
+        "between CV",
+        "CV 90%",
+        "naive CV",
+        "needed",
+        "needed (CV hi)",
+        "fit",
+    ]
+    text = f"Site plate pressure{at} {u.length_unit(units)}:\n" + _table(heads, rows)
+    for d in sites:
+        extra = [d["lack_of_fit"]] if d["lack_of_fit"] else []
+        extra += d["notes"] + [f"{f['id']}: {f['error']}" for f in d["failed"]]
+        if extra:
+            text += f"\n  {d['site']}: " + f"\n  {d['site']}: ".join(extra)
+    return text
+
+
+@cli.command("sites")
+@click.argument("ci_file", type=click.Path(dir_okay=False))
+@_fit_options
+@click.option(
+    "--by",
+    "by",
+    default=None,
+    help="Metadata column(s) naming each profile's site, e.g. plot or plot,date.",
+)
+@click.option(
+    "--radius",
+    default=None,
+    help="Group by distance: profiles with latitude/longitude within this radius (e.g. 10m).",
+)
+@click.option(
+    "--plates",
+    default=None,
+    help="Plate radii of the site P-S curves, e.g. 1.5in,2in (default 3.75cm,5cm).",
+)
+@click.option(
+    "--target-cv",
+    type=float,
+    default=0.1,
+    show_default=True,
+    help="Target CV of the site-mean plate pressure for profiles_needed.",
+)
+@click.option(
+    "--bootstrap",
+    type=click.IntRange(0, 1000),
+    default=None,
+    help="Bootstrap replicates of each push's estimation noise (0: linearised; "
+    "default 40 without a calibration, 0 with one).",
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the bootstrap.")
+@click.option(
+    "--file-units",
+    type=_UNITS,
+    default=None,
+    help="Unit system of an input that does not state its units.",
+)
+@click.option(
+    "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
+)
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def sites_cmd(
+    ci_file,
+    model,
+    r_min,
+    calibration,
+    terrain,
+    library,
+    bounds,
+    units,
+    cone,
+    fmt,
+    depth_ref,
+    depth_range,
+    layers,
+    by,
+    radius,
+    plates,
+    target_cv,
+    bootstrap,
+    seed,
+    file_units,
+    out,
+    as_json,
+):
+    """Site statistics: pushes pooled per site (median terrain, push-to-push CV, pushes needed)."""
+    from .inverse import Bounds
+    from .inverse.sites import fit_sites, group_profiles
+
+    if by is None and radius is None:
+        raise click.UsageError("give --by COLUMN or --radius L to group the profiles into sites")
+    if layers > 1:
+        raise click.UsageError("sites pools one-layer fits; --layers is not supported here")
+    if not target_cv > 0:
+        raise click.BadParameter(f"--target-cv: must be > 0, got {target_cv}")
+    b = Bounds.parse(bounds, units)
+    rm = _length_si(r_min, units, "--r-min") if r_min else None
+    if model == "rm1" and rm is None and not (calibration or terrain):
+        raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
+    cal = _load_calibration(calibration, terrain, library)
+    radii = _lengths_si(plates, units, "--plates") or [0.0375, 0.05]
+    items = _windowed(
+        _read_profiles(ci_file, cone, fmt, depth_ref, units=file_units),
+        _depth_range(depth_range, units),
+        units,
+    )
+    profiles = [it for it in items if not isinstance(it, InputError)]
+    bad = [it for it in items if isinstance(it, InputError)]
+    L = _length_si(radius, units, "--radius") if radius else None
+    grouping = group_profiles(profiles, by=by, radius=L)
+    if not grouping.sites:
+        raise click.ClickException(
+            f"{ci_file}: no profile could be put in a site"
+            + (f" ({grouping.unassigned[0][1]})" if grouping.unassigned else "")
+        )
+    from .inverse.sites import default_sinkages
+
+    results = fit_sites(
+        profiles,
+        grouping,
+        model=model,
+        r_min=rm,
+        calibration=cal,
+        bounds=b,
+        plates=radii,
+        sinkage=default_sinkages(units),
+        target_cv=target_cv,
+        bootstrap=bootstrap,
+        seed=seed,
+    )
+    doc = {
+        "terracone": __version__,
+        "command": "sites",
+        "input": str(ci_file),
+        "settings": {
+            "by": by,
+            "radius": None if L is None else float(u.length_from_si(L, units)),
+            "model": cal.model if cal else model,
+            "calibration": cal.terrain if cal else None,
+            "bounds": b.as_dict(units),
+            "depth_range": depth_range,
+            "target_cv": target_cv,
+            "bootstrap": bootstrap if bootstrap is not None else (0 if cal else 40),
+            "seed": seed,
+            "units": units,
+        },
+        "sites": [r.as_dict(units) for r in results],
+        "unassigned": [{"id": i, "reason": why} for i, why in grouping.unassigned],
+        "errors": [str(e) for e in bad],
+    }
+    if out:
+        _emit_json(doc, out)
+    if as_json:
+        _emit_json(doc)
+    else:
+        click.echo(_sites_table(doc["sites"], units))
+        for d in doc["unassigned"]:
+            click.echo(f"not in a site: {d['id']}: {d['reason']}")
+        for e in doc["errors"]:
+            click.echo(f"not read: {e}")
+    if not any(r.profiles for r in results):
+        sys.exit(1)
+
+
+def _design_table(designs: list[dict[str, Any]], units: str) -> str:
+    pu = u.pressure_unit(units)
+    parts = []
+    for d in designs:
+        if d["status"] != "ok":
+            parts.append(f"{d['id']}: not fitted: {d['error']}")
+            continue
+        head = (
+            f"{d['id']} (prior {d['prior']}): plate pressure at z = {d['sinkage']:.3g} "
+            f"{u.length_unit(units)}: "
+            + ", ".join(
+                f"r = {r:.3g}: {m:.4g} {pu}, 90% width {w:.3g}"
+                for r, m, w in zip(d["plates"], d["median"], d["current_width"])
+            )
+        )
+        rows = [
+            [c["rank"], c["test"], ", ".join(f"{w:.3g}" for w in c["expected_width"]),
+             c["width_ratio"], c["note"]]
+            for c in d["candidates"]
+        ]  # fmt: skip
+        tab = _table(["rank", "test", f"expected 90% width [{pu}]", "ratio", "note"], rows)
+        if d["lack_of_fit"]:
+            tab += f"\n  lack of fit: {d['lack_of_fit']}"
+        parts.append(head + "\n" + tab)
+    return "\n\n".join(parts)
+
+
+@cli.command("design")
+@click.argument("ci_file", type=click.Path(dir_okay=False))
+@_fit_options
+@click.option(
+    "--prior",
+    default="bounds",
+    show_default=True,
+    help="bounds (uniform) or terrain:NAME (a stored calibration); --calibration also sets it.",
+)
+@click.option("--plates", required=True, help="Plate radii of the prediction, e.g. 5cm or 2in.")
+@click.option(
+    "--candidates",
+    default="plate:5cm,plate:10cm,ci,shear",
+    show_default=True,
+    help="Candidate extra tests: plate:RADIUS, ci, shear.",
+)
+@click.option(
+    "--plate-noise",
+    type=float,
+    default=0.05,
+    show_default=True,
+    help="Relative error of one plate reading.",
+)
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def design_cmd(
+    ci_file,
+    model,
+    r_min,
+    calibration,
+    terrain,
+    library,
+    bounds,
+    units,
+    cone,
+    fmt,
+    depth_ref,
+    depth_range,
+    layers,
+    prior,
+    plates,
+    candidates,
+    plate_noise,
+    as_json,
+):
+    """Value of information: which one extra test narrows the predicted plate pressure most."""
+    from .inverse import Bounds
+    from .inverse.design import parse_candidates, plan_test
+    from .inverse.learn import Calibration
+    from .library import Library
+
+    if layers > 1:
+        raise click.UsageError("design works on one-layer fits; --layers is not supported here")
+    if not plate_noise > 0:
+        raise click.BadParameter(f"--plate-noise: must be > 0, got {plate_noise}")
+    b = Bounds.parse(bounds, units)
+    rm = _length_si(r_min, units, "--r-min") if r_min else None
+    cal = _load_calibration(calibration, terrain, library)
+    if prior.startswith("terrain:"):
+        if cal is not None:
+            raise click.UsageError(
+                "give the calibration once: --prior terrain:NAME or --calibration"
+            )
+        with Library(library) as lib:
+            cal = Calibration.from_library_record(lib.get(prior.split(":", 1)[1]))
+    elif prior != "bounds":
+        raise click.BadParameter(f"--prior: expected bounds or terrain:NAME, got {prior!r}")
+    if model == "rm1" and rm is None and cal is None:
+        raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
+    radii = _lengths_si(plates, units, "--plates")
+    try:
+        cands = parse_candidates(candidates, units)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
+    items = _windowed(
+        _read_profiles(ci_file, cone, fmt, depth_ref), _depth_range(depth_range, units), units
+    )
+    designs = []
+    for it in items:
+        if isinstance(it, InputError):
+            designs.append({"id": str(it.profile), "status": "error", "error": str(it)})
+            continue
+        r = plan_test(
+            it,
+            candidates=cands,
+            plates=radii,
+            prior=cal if cal is not None else "bounds",
+            bounds=b,
+            model=model,
+            r_min=rm,
+            plate_noise=plate_noise,
+        )
+        designs.append(r.as_dict(units))
+    doc = {
+        "terracone": __version__,
+        "command": "design",
+        "input": str(ci_file),
+        "settings": {"candidates": candidates, "plate_noise": plate_noise, "units": units},
+        "designs": designs,
+    }
+    if as_json:
+        _emit_json(doc)
+    else:
+        click.echo(_design_table(designs, units))
+    if not any(d["status"] == "ok" for d in designs):
+        sys.exit(1)
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

@@ -39,7 +39,7 @@ def result_kind(doc: Any) -> str:
     cmd = doc.get("command")
     if doc.get("kind") == "terracone-reproduce":
         return "reproduce"
-    if cmd in ("predict", "learn", "evaluate"):
+    if cmd in ("predict", "learn", "evaluate", "sites"):
         return str(cmd)
     if "profiles" in doc:
         return "predict"
@@ -127,6 +127,10 @@ def _document(kind: str, doc: dict[str, Any], source: str, map_by: str = "n") ->
         return learn_document(doc, source=source)
     if kind == "evaluate":
         return evaluate_document(doc, source=source)
+    if kind == "sites":
+        from .sites import sites_document
+
+        return sites_document(doc, source=source)
     raise ValueError(f"unknown result kind {kind!r}")  # pragma: no cover
 
 
