@@ -1455,6 +1455,8 @@ def sites_cmd(
     depth_ref,
     depth_range,
     layers,
+    depth_unit,
+    ci_unit,
     by,
     radius,
     plates,
@@ -1482,7 +1484,15 @@ def sites_cmd(
     cal = _load_calibration(calibration, terrain, library)
     radii = _lengths_si(plates, units, "--plates") or [0.0375, 0.05]
     items = _windowed(
-        _read_profiles(ci_file, cone, fmt, depth_ref, units=file_units),
+        _read_profiles(
+            ci_file,
+            cone,
+            fmt,
+            depth_ref,
+            units=file_units,
+            depth_unit=depth_unit,
+            ci_unit=ci_unit,
+        ),
         _depth_range(depth_range, units),
         units,
     )
@@ -1609,6 +1619,8 @@ def design_cmd(
     depth_ref,
     depth_range,
     layers,
+    depth_unit,
+    ci_unit,
     prior,
     plates,
     candidates,
@@ -1645,7 +1657,9 @@ def design_cmd(
     except ValueError as exc:
         raise click.BadParameter(str(exc)) from None
     items = _windowed(
-        _read_profiles(ci_file, cone, fmt, depth_ref), _depth_range(depth_range, units), units
+        _read_profiles(ci_file, cone, fmt, depth_ref, depth_unit=depth_unit, ci_unit=ci_unit),
+        _depth_range(depth_range, units),
+        units,
     )
     designs = []
     for it in items:

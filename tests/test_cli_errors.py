@@ -446,7 +446,7 @@ def test_report_of_something_else(tmp_path, good):
     other = tmp_path / "other.json"
     other.write_text('{"hello": 1}')
     assert error_line(run("report", other, "--out", tmp_path / "r.html")) == (
-        "not a terracone result: expected the JSON of predict, learn or evaluate "
+        f"file {other}: not a terracone result: expected the JSON of predict, learn or evaluate "
         "(keys 'profiles', 'datasets' or 'plates')"
     )
     assert error_line(run("report", good["ci"], "--out", tmp_path / "r.html")) == (
