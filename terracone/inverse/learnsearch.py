@@ -1,0 +1,282 @@
+"""Global search of the learning objective (section 3.3.1 of [1]_).
+
+J(kc, kphi, n, cc, phic, r_min) = sum_d RMSD_d / mean_d over data sets d
+(each CI profile and each plate test).  For fixed theta = (n, phic, r_min)
+J is convex in x = (kc, kphi, cc) and is minimised with a certificate by
+:func:`terracone.inverse.sumnorm.sum_norm_box`.  theta is searched on a
+vectorised grid (n, phic, log r_min); the best grid points that are local
+minima start a joint Gauss-Newton refinement of all six parameters
+(reweighted least squares, so that it minimises J itself and reaches J = 0
+on noise-free data), and the grid gives a bound on how far the answer can
+be from the global minimum.
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Eqs. (2-2) to (2-7), sections 3.2 and 3.3.1.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import minimum_filter
+from scipy.optimize import least_squares
+
+from ..data import CIProfile, PlateTest
+from ..plate import plate_basis, pressure_law
+from .bounds import Bounds
+from .boxlsq import gram
+from .exact import design
+from .sumnorm import SumNormResult, sum_norm_box
+
+__all__ = [
+    "LearnProblem",
+    "GridStage",
+    "Refined",
+    "grid_stage",
+    "grid_starts",
+    "refine",
+    "grid_gap",
+]
+
+
+@dataclass
+class LearnProblem:
+    """The data and search space of one learning run (SI).
+
+    theta = (n, phic [deg], log r_min [log m]); for RM0 r_min is absent and
+    the third coordinate is ignored.
+    """
+
+    profiles: list[CIProfile]
+    plates: list[PlateTest]
+    model: str
+    bounds: Bounds
+    r_min_bounds: tuple[float, float] | None
+    Kc: float | None
+    pair: tuple[float, float] | None
+
+    def __post_init__(self) -> None:
+        self.ys = [p.ci for p in self.profiles] + [b.pressure for b in self.plates]
+        self.means = np.array([float(np.mean(y)) for y in self.ys])
+        # J = sum_d a_d ||r_d||, a_d = 1 / (mean_d sqrt(N_d))
+        self.a = np.array([1.0 / (m * math.sqrt(y.size)) for m, y in zip(self.means, self.ys)])
+        lo = [self.bounds.n[0], self.bounds.phic[0]]
+        hi = [self.bounds.n[1], self.bounds.phic[1]]
+        rb = self.r_min_bounds or (1.0, 1.0)
+        self.theta_lo = np.array(lo + [math.log(rb[0])])
+        self.theta_hi = np.array(hi + [math.log(rb[1])])
+
+    def law(self, log_rm):
+        if self.model == "rm0":
+            return pressure_law("rm0")
+        return pressure_law("rm1", r_min=np.exp(log_rm), plate_pair=self.pair)
+
+    def designs(self, n, phi, log_rm) -> list[np.ndarray]:
+        """Design matrices X_d (S..., N_d, 3) with model_d = X_d @ (kc, kphi, cc)."""
+        n, phi, log_rm = np.broadcast_arrays(*(np.asarray(v, float) for v in (n, phi, log_rm)))
+        law = self.law(log_rm[..., None])
+        out = []
+        for p in self.profiles:
+            X = design(p.depth, n[..., None], phi[..., None], cone=p.cone, law=law, Kc=self.Kc)
+            out.append(np.broadcast_to(X, n.shape + X.shape[-2:]))
+        for b in self.plates:
+            A, B = plate_basis(b.sinkage, n=n[..., None], b=b.b, law=law)
+            A, B = np.broadcast_arrays(A, B)
+            out.append(np.stack([A, B, np.zeros_like(A)], axis=-1))
+        return out
+
+    def grams(self, n, phi, log_rm):
+        Gs, gs, yys = [], [], []
+        for X, y in zip(self.designs(n, phi, log_rm), self.ys):
+            G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
+            Gs.append(G)
+            gs.append(g)
+            yys.append(yy)
+        return np.stack(Gs), np.stack(gs), np.stack(yys)
+
+    def box(self, n, cc_pin=None):
+        """Bounds (lo, hi) of x = (kc, kphi, cc) at exponent n, shape (S..., 3)."""
+        n = np.asarray(n, float)
+        kl, kh = self.bounds.kc_si(n)
+        pl, ph = self.bounds.kphi_si(n)
+        cl = np.full(n.shape, self.bounds.cc[0]) if cc_pin is None else cc_pin + 0 * n
+        ch = np.full(n.shape, self.bounds.cc[1]) if cc_pin is None else cc_pin + 0 * n
+        return np.stack([kl, pl, cl], axis=-1), np.stack([kh, ph, ch], axis=-1)
+
+    def solve_cells(self, n, phi, log_rm, cc_pin=None, rtol=1e-7) -> SumNormResult:
+        """Certified inner minimum over x for each theta (arrays of one shape)."""
+        G, g, yy = self.grams(n, phi, log_rm)
+        lo, hi = self.box(np.broadcast_to(n, yy.shape[1:]), cc_pin)
+        return sum_norm_box(G, g, yy, self.a, lo, hi, rtol=rtol)
+
+    def residuals(self, x, theta) -> list[np.ndarray]:
+        Xs = self.designs(theta[0], theta[1], theta[2])
+        return [X @ x - y for X, y in zip(Xs, self.ys)]
+
+    def objective(self, x, theta) -> float:
+        """J from the residuals themselves (not the Gram form)."""
+        return float(sum(a * np.linalg.norm(r) for a, r in zip(self.a, self.residuals(x, theta))))
+
+
+@dataclass
+class GridStage:
+    """The vectorised grid over theta and its certified inner solutions."""
+
+    axes: list[np.ndarray]  # n, phic, log r_min values
+    cells: SumNormResult
+
+
+def _axis(lo: float, hi: float, k: int) -> np.ndarray:
+    return np.array([lo]) if lo == hi or k <= 1 else np.linspace(lo, hi, k)
+
+
+def grid_stage(prob: LearnProblem, grid: tuple[int, int, int]) -> GridStage:
+    """Certified inner minima on the (n, phic, log r_min) grid."""
+    axes = [
+        _axis(prob.theta_lo[k], prob.theta_hi[k], grid[k] if (k < 2 or prob.model == "rm1") else 1)
+        for k in range(3)
+    ]
+    N, P, R = np.meshgrid(*axes, indexing="ij")
+    return GridStage(axes, prob.solve_cells(N, P, R))
+
+
+def grid_gap(stage: GridStage, J_best: float) -> tuple[float, int]:
+    """Lower bound of J over the whole search box, and how many cells may hold a lower J.
+
+    Each grid cell's minimum is bounded below by its vertices' certified
+    inner lower bounds minus, along each axis, the largest change of J
+    between vertices adjacent along that axis: J is assumed to vary inside
+    a cell by at most twice its largest change between neighbouring grid
+    points (a Lipschitz estimate with safety factor 2).
+    """
+    U, L = stage.cells.J, stage.cells.lower
+    lb = L.copy()
+    drop = np.zeros_like(U)
+    for k in range(3):
+        if U.shape[k] < 2:
+            continue
+        d = np.abs(np.diff(U, axis=k))
+        pad = [(0, 0)] * 3
+        pad[k] = (1, 1)
+        dp = np.pad(d, pad)  # each vertex: the larger of its two edges along k
+        drop = drop + np.maximum(
+            np.take(dp, range(U.shape[k]), axis=k), np.take(dp, range(1, U.shape[k] + 1), axis=k)
+        )
+    lb = L - drop
+    lower = max(float(lb.min()), 0.0)
+    return lower, int(np.sum(lb < J_best))
+
+
+def grid_starts(stage: GridStage, count: int) -> list[tuple[int, ...]]:
+    """Grid points that are local minima of J, best first, ties by position."""
+    U = stage.cells.J
+    loc = U <= minimum_filter(U, size=3, mode="nearest")
+    idx = np.flatnonzero(loc)
+    order = np.lexsort((idx, U.reshape(-1)[idx]))  # by J, then by index: deterministic
+    return [np.unravel_index(i, U.shape) for i in idx[order][:count]]
+
+
+@dataclass
+class Refined:
+    """A locally refined point: x = (kc, kphi, cc), theta, J and Jacobian data."""
+
+    x: np.ndarray
+    theta: np.ndarray
+    J: float
+    nfev: int
+
+
+def _pack(prob, x, theta, free_x, free_t):
+    return np.concatenate([x[free_x], theta[free_t]])
+
+
+def refine(prob: LearnProblem, x0: np.ndarray, theta0: np.ndarray, *, rounds: int = 12) -> Refined:
+    """Minimise J jointly over (kc, kphi, cc, n, phic, log r_min) from a start.
+
+    Reweighted Gauss-Newton (trust-region reflective, bounded): each round
+    minimises sum_d w_d ||r_d||^2 with w_d = a_d / ||r_d|| at the current
+    point (a majoriser of J), the first round with w_d = a_d^2 so that
+    zero-residual data are reached quadratically.  Stops when J no longer
+    falls by 1e-12 relative.
+    """
+    lo_x, hi_x = prob.box(np.asarray(theta0[0]))
+    free_x = hi_x > lo_x
+    free_t = prob.theta_hi > prob.theta_lo
+    if prob.model == "rm0":
+        free_t[2] = False
+    lo = np.concatenate([lo_x[free_x], prob.theta_lo[free_t]])
+    hi = np.concatenate([hi_x[free_x], prob.theta_hi[free_t]])
+    nx = int(free_x.sum())
+
+    def unpack(p):
+        x = lo_x.copy()
+        x[free_x] = p[:nx]
+        th = np.asarray(theta0, float).copy()
+        th[free_t] = p[nx:]
+        return x, th
+
+    nfev = 0
+
+    def fun(p, sw):
+        nonlocal nfev
+        nfev += 1
+        x, th = unpack(p)
+        return np.concatenate([s * r for s, r in zip(sw, prob.residuals(x, th))])
+
+    def jac(p, sw):
+        x, th = unpack(p)
+        ks = np.flatnonzero(free_t)
+        T = np.repeat(th[None, :], 1 + 2 * ks.size, axis=0)
+        for j, k in enumerate(ks):  # central differences, all points in one vectorised call
+            h = 1e-6 * max(1.0, abs(th[k]))
+            T[1 + 2 * j, k] = min(th[k] + h, prob.theta_hi[k])
+            T[2 + 2 * j, k] = max(th[k] - h, prob.theta_lo[k])
+        Xs = prob.designs(T[:, 0], T[:, 1], T[:, 2])  # (T, N_d, 3) each
+        cols = [np.concatenate([s * X[0][:, free_x] for s, X in zip(sw, Xs)])]
+        for j, k in enumerate(ks):
+            dt = T[1 + 2 * j, k] - T[2 + 2 * j, k]
+            cols.append(
+                np.concatenate(
+                    [s * ((X[1 + 2 * j] - X[2 + 2 * j]) @ x) / dt for s, X in zip(sw, Xs)]
+                )[:, None]
+            )
+        return np.hstack(cols)
+
+    p = np.clip(_pack(prob, x0, np.asarray(theta0, float), free_x, free_t), lo, hi)
+    J = prob.objective(*unpack(p))
+    sw = np.sqrt(prob.a**2)
+    zero = 1e-13 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
+    for _ in range(rounds):
+        if J <= zero:  # zero residual: nothing left to gain
+            break
+        res = least_squares(
+            fun,
+            p,
+            jac=jac,
+            bounds=(lo, hi),
+            args=(sw,),
+            method="trf",
+            x_scale="jac",
+            xtol=1e-12,
+            ftol=1e-12,
+            gtol=1e-12,
+            max_nfev=40,
+        )
+        J_new = prob.objective(*unpack(res.x))
+        if J_new < J:
+            improved = J - J_new > 1e-12 * J
+            p, J = res.x, J_new
+            if not improved:
+                break
+        else:
+            break
+        norms = np.array([np.linalg.norm(r) for r in prob.residuals(*unpack(p))])
+        floor = 1e-14 * np.array([np.linalg.norm(y) for y in prob.ys])
+        sw = np.sqrt(prob.a / np.maximum(norms, floor))
+    x, th = unpack(p)
+    return Refined(x, th, J, nfev)
