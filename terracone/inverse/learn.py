@@ -456,9 +456,17 @@ def sandwich_cov(prob: LearnProblem, x, theta, noise_floor: float) -> np.ndarray
     The minimiser of J is, at its optimum, a weighted least-squares fit with
     weights w_d = a_d / ||r_d|| (the fixed point of reweighting), so its
     covariance is H^+ B H^+ with H = sum_d w_d D_d'D_d and
-    B = sum_d w_d^2 sigma_d^2 D_d'D_d, sigma_d the data set's residual
-    standard deviation (at least ``noise_floor`` times its mean).  Parameters
-    fixed by their bounds get zero variance.
+    B = sum_d w_d^2 D_d' diag(r_d^2) D_d (heteroscedasticity-consistent,
+    HC3: each squared residual divided by (1 - leverage)^2 and at least
+    (``noise_floor`` mean_d)^2); H is the Hessian of J (Gauss-Newton part).  Parameters fixed by their bounds get zero
+    variance.
+
+    References
+    ----------
+    .. [1] White, H. (1980). A heteroskedasticity-consistent covariance matrix
+       estimator and a direct test for heteroskedasticity. Econometrica 48(4).
+    .. [2] Long, J.S., Ervin, L.H. (2000). Using heteroscedasticity consistent
+       standard errors in the linear regression model. Am. Stat. 54(3).
     """
     Ds = jacobians(prob, x, theta)
     rs = prob.residuals(x, theta)
@@ -466,22 +474,25 @@ def sandwich_cov(prob: LearnProblem, x, theta, noise_floor: float) -> np.ndarray
     free = np.concatenate([hi > lo, prob.theta_hi > prob.theta_lo])
     if prob.model == "rm0":
         free[5] = False
-    P = int(free.sum())
-    N = sum(r.size for r in rs)
     H = np.zeros((6, 6))
+    parts = []
+    for D, r, a in zip(Ds, rs, prob.a):
+        nr = max(float(np.linalg.norm(r)), 1e-300)
+        w = a / nr
+        g = D.T @ (r / nr)  # Hessian of a_d ||r_d||: w (D'D - g g')
+        H += w * (D.T @ D - np.outer(g, g))
+        parts.append((w, D - np.outer(r / nr, g)))  # (I - u u') D, u = r / ||r||
+    f = np.ix_(free, free)
+    sc = np.sqrt(np.maximum(np.diag(H[f]), 1e-300))
+    Hi = np.linalg.pinv(H[f] / np.outer(sc, sc), rcond=1e-12) / np.outer(sc, sc)
     B = np.zeros((6, 6))
-    for D, r, a, m in zip(Ds, rs, prob.a, prob.means):
-        Nd = r.size
-        s2 = max(float(r @ r) / max(Nd - P * Nd / N, 1.0), (noise_floor * m) ** 2)
-        w = a / max(float(np.linalg.norm(r)), math.sqrt(s2 * Nd))
-        DD = D.T @ D
-        H += w * DD
-        B += w * w * s2 * DD
-    Hf = H[np.ix_(free, free)]
-    sc = np.sqrt(np.maximum(np.diag(Hf), 1e-300))
-    Hi = np.linalg.pinv(Hf / np.outer(sc, sc), rcond=1e-12) / np.outer(sc, sc)
+    for (w, Dp), D, r, m in zip(parts, Ds, rs, prob.means):
+        # HC3: squared residuals inflated by their leverage (deep CI points weigh most)
+        h = np.clip(w * np.einsum("ij,jk,ik->i", D[:, free], Hi, D[:, free]), 0.0, 0.9)
+        r2 = np.maximum(r * r / (1.0 - h) ** 2, (noise_floor * m) ** 2)
+        B += w * w * (Dp.T * r2) @ Dp
     V = np.zeros((6, 6))
-    V[np.ix_(free, free)] = Hi @ B[np.ix_(free, free)] @ Hi
+    V[f] = Hi @ B[f] @ Hi
     return V
 
 
@@ -490,8 +501,9 @@ def _intervals(prob: LearnProblem, stage: GridStage, x, theta, datasets, noise_f
 
     Wald intervals from :func:`sandwich_cov`, clipped to the bounds.  For
     phic and r_min (and cc when its interval is wide) they are widened to
-    every grid value whose best J is within dJ of the grid's best: values
-    that fit as well as the optimum within the noise are equally good.
+    every profiled value whose best J (the other coordinates near the
+    optimum) is within dJ of the optimum: values that fit as well as the
+    optimum within the noise are equally good.
     dJ = 1.92 max_d sigma_d / (mean_d N_d) is the rise of J that a 95%
     likelihood-ratio step (3.84 sigma_d^2 in SSE_d) causes in the data set
     that tolerates the least.
@@ -508,24 +520,27 @@ def _intervals(prob: LearnProblem, stage: GridStage, x, theta, datasets, noise_f
     thr = float(sum(a_ * np.linalg.norm(r) for a_, r in zip(prob.a, prob.residuals(x, theta))))
     thr += dJ
     steps = np.array([(ax[1] - ax[0]) if ax.size > 1 else 0.0 for ax in stage.axes])
-    r_profile: list[tuple[float, float]] = []
-    for k in (1, 2):
-        if stage.axes[k].size < 2:
-            continue
-        vals = np.concatenate([stage.axes[k], [theta[k]]])
-        if k == 2:  # where the RM1 law changes branch (section 3.2): cone radii and plates
-            br = [p.cone.radius for p in prob.profiles] + list(prob.pair or ())
-            br = np.log(np.outer(br, [1 - 1e-9, 1 + 1e-9]).reshape(-1))
-            vals = np.concatenate([vals, br[(br > vals.min()) & (br < vals.max())]])
-        vals = np.unique(vals)
-        prof = _local_profile(prob, theta, k, vals, steps)
-        ok = vals[prof <= thr]
-        if ok.size:
-            iv[3 + k] = (min(iv[3 + k, 0], ok.min()), max(iv[3 + k, 1], ok.max()))
-        if k == 2:
-            r_profile = [(float(np.exp(a_)), float(b_)) for a_, b_ in zip(vals, prof)]
+    # one vectorised certified solve for all profiles: phic, log r_min, and cc if wide
+    groups = [(k, _profile_values(prob, stage, theta, k)) for k in (1, 2)]
+    groups = [(k, v) for k, v in groups if v.size > 1]
     if hi[2] > lo[2] and iv[2, 1] - iv[2, 0] >= 0.25 * (hi[2] - lo[2]):
-        iv[2] = _cc_scan(prob, theta, steps, thr, iv[2])
+        groups.append(("cc", np.linspace(*prob.bounds.cc, 11)))
+    blocks = [_profile_block(prob, theta, steps, k, v) for k, v in groups]
+    r_profile: list[tuple[float, float]] = []
+    if blocks:
+        T = np.concatenate([b[0] for b in blocks])
+        pin = np.concatenate([b[1] for b in blocks])
+        J = prob.solve_cells(T[:, 0], T[:, 1], T[:, 2], cc_pin=pin, rtol=1e-5, max_iter=40).J
+        start = 0
+        for (k, vals), (Tb, _) in zip(groups, blocks):
+            prof = J[start : start + Tb.shape[0]].reshape(vals.size, -1).min(axis=1)
+            start += Tb.shape[0]
+            ok = vals[prof <= thr]
+            row = 2 if k == "cc" else 3 + k
+            if ok.size:
+                iv[row] = (min(iv[row, 0], ok.min()), max(iv[row, 1], ok.max()))
+            if k == 2:
+                r_profile = [(float(np.exp(a_)), float(b_)) for a_, b_ in zip(vals, prof)]
     names = ["kc", "kphi", "cc", "n", "phic_deg", "r_min"]
     intervals: dict[str, tuple[float, float]] = {}
     und: list[str] = []
@@ -545,40 +560,36 @@ def _neighbourhood(theta, steps, axes_free, offsets):
     return np.stack([g.reshape(-1) for g in np.meshgrid(*grids, indexing="ij")], axis=-1)
 
 
-def _local_profile(prob: LearnProblem, theta, axis: int, values, steps) -> np.ndarray:
-    """Best J for each value of one outer coordinate, the others near the optimum.
+def _profile_values(prob: LearnProblem, stage: GridStage, theta, k: int) -> np.ndarray:
+    """Values of outer coordinate k to profile: its grid, the optimum, RM1 branch points."""
+    if stage.axes[k].size < 2:
+        return stage.axes[k]
+    vals = np.concatenate([stage.axes[k], [theta[k]]])
+    if k == 2:  # where the RM1 law changes branch (section 3.2): cone radii and plates
+        br = [p.cone.radius for p in prob.profiles] + list(prob.pair or ())
+        br = np.log(np.outer(br, [1 - 1e-9, 1 + 1e-9]).reshape(-1))
+        vals = np.concatenate([vals, br[(br > vals.min()) & (br < vals.max())]])
+    return np.unique(vals)
 
-    The other two coordinates range over the optimum plus offsets of up to
-    one grid step, so that a valley between them is followed; the inner
-    minimum over (kc, kphi, cc) is certified at every point.
+
+def _profile_block(prob: LearnProblem, theta, steps, k, values):
+    """Cells (V*K, 3) and cc pins (NaN: free) of one profile.
+
+    For an outer coordinate k the two others range over the optimum plus
+    offsets of up to one grid step, so that a valley between them is
+    followed; for cc (k == "cc") all three range over a quarter step.  The
+    inner minimum over the free linear parameters is certified at each cell.
     """
-    offsets = np.array([-1.0, -0.5, -0.25, -0.1, 0.0, 0.1, 0.25, 0.5, 1.0])
-    others = [k for k in range(3) if k != axis and steps[k] > 0]
-    nb = _neighbourhood(np.asarray(theta, float), steps, others, offsets)  # (K, 3)
-    T = np.repeat(nb[None], values.size, axis=0)  # (V, K, 3)
-    T[..., axis] = values[:, None]
+    theta = np.asarray(theta, float)
+    if k == "cc":
+        nb = _neighbourhood(theta, steps, [0, 1, 2], np.array([-0.25, 0.0, 0.25]))
+        T = np.repeat(nb[None], values.size, axis=0)
+        pin = np.repeat(values[:, None], nb.shape[0], axis=1)
+    else:
+        others = [j for j in range(3) if j != k and steps[j] > 0]
+        nb = _neighbourhood(theta, steps, others, np.array([-1.0, -0.25, 0.0, 0.25, 1.0]))
+        T = np.repeat(nb[None], values.size, axis=0)
+        T[..., k] = values[:, None]
+        pin = np.full(T.shape[:2], np.nan)
     T = np.clip(T, prob.theta_lo, prob.theta_hi)
-    sol = prob.solve_cells(T[..., 0], T[..., 1], T[..., 2], rtol=1e-7)
-    return sol.J.min(axis=1)
-
-
-def _cc_scan(prob: LearnProblem, theta, steps, thr: float, iv) -> tuple[float, float]:
-    """cc values whose best J (cc pinned, theta near the optimum) is below thr."""
-    offsets = np.array([-0.5, -0.1, 0.0, 0.1, 0.5])
-    nb = np.clip(
-        _neighbourhood(np.asarray(theta, float), steps, [0, 1, 2], offsets),
-        prob.theta_lo,
-        prob.theta_hi,
-    )
-    ccs = np.linspace(*prob.bounds.cc, 21)
-    sol = prob.solve_cells(
-        nb[:, 0, None] + 0 * ccs,
-        nb[:, 1, None] + 0 * ccs,
-        nb[:, 2, None] + 0 * ccs,
-        cc_pin=ccs + 0 * nb[:, :1],
-        rtol=1e-6,
-    )
-    ok = ccs[sol.J.min(axis=0) <= thr]
-    if ok.size == 0:
-        return float(iv[0]), float(iv[1])
-    return min(float(iv[0]), float(ok.min())), max(float(iv[1]), float(ok.max()))
+    return T.reshape(-1, 3), pin.reshape(-1)

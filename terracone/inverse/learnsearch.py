@@ -104,15 +104,16 @@ class LearnProblem:
         n = np.asarray(n, float)
         kl, kh = self.bounds.kc_si(n)
         pl, ph = self.bounds.kphi_si(n)
-        cl = np.full(n.shape, self.bounds.cc[0]) if cc_pin is None else cc_pin + 0 * n
-        ch = np.full(n.shape, self.bounds.cc[1]) if cc_pin is None else cc_pin + 0 * n
+        pin = np.full(n.shape, np.nan) if cc_pin is None else cc_pin + 0 * n  # NaN: free
+        cl = np.where(np.isnan(pin), self.bounds.cc[0], pin)
+        ch = np.where(np.isnan(pin), self.bounds.cc[1], pin)
         return np.stack([kl, pl, cl], axis=-1), np.stack([kh, ph, ch], axis=-1)
 
-    def solve_cells(self, n, phi, log_rm, cc_pin=None, rtol=1e-7) -> SumNormResult:
+    def solve_cells(self, n, phi, log_rm, cc_pin=None, rtol=1e-7, max_iter=200) -> SumNormResult:
         """Certified inner minimum over x for each theta (arrays of one shape)."""
         G, g, yy = self.grams(n, phi, log_rm)
         lo, hi = self.box(np.broadcast_to(n, yy.shape[1:]), cc_pin)
-        return sum_norm_box(G, g, yy, self.a, lo, hi, rtol=rtol)
+        return sum_norm_box(G, g, yy, self.a, lo, hi, rtol=rtol, max_iter=max_iter)
 
     def residuals(self, x, theta) -> list[np.ndarray]:
         Xs = self.designs(theta[0], theta[1], theta[2])
@@ -278,5 +279,13 @@ def refine(prob: LearnProblem, x0: np.ndarray, theta0: np.ndarray, *, rounds: in
         norms = np.array([np.linalg.norm(r) for r in prob.residuals(*unpack(p))])
         floor = 1e-14 * np.array([np.linalg.norm(y) for y in prob.ys])
         sw = np.sqrt(prob.a / np.maximum(norms, floor))
+    # values within 1e-9 of their range from a bound go onto it when J does not rise:
+    # the trust region stays strictly inside, the answer should not depend on how far
+    q = p.copy()
+    near_lo, near_hi = q - lo <= 1e-9 * (hi - lo), hi - q <= 1e-9 * (hi - lo)
+    q[near_lo], q[near_hi] = lo[near_lo], hi[near_hi]
+    Jq = prob.objective(*unpack(q))
+    if Jq <= J * (1 + 1e-12) + zero * 1e-3:
+        p, J = q, Jq
     x, th = unpack(p)
     return Refined(x, th, J, nfev)
