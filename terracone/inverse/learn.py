@@ -318,16 +318,21 @@ def learn(
     stage = grid_stage(prob, grid)
     nfev = int(stage.cells.J.size)
     zero = 1e-12 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
+    # every start gets two rounds; only the best is refined to convergence
     best = None
     for idx in grid_starts(stage, starts):
         theta = np.array([stage.axes[k][idx[k]] for k in range(3)])
-        r = refine(prob, stage.cells.x[idx], theta)
+        r = refine(prob, stage.cells.x[idx], theta, rounds=2)
         nfev += r.nfev
         # ties (equal J to 1e-12 relative) keep the earlier, better-ranked grid start
         if best is None or r.J < best.J * (1 - 1e-12) - 1e-300:
             best = r
         if best.J <= zero:  # J >= 0: a zero-residual fit is the global minimum
             break
+    if best.J > zero:
+        r = refine(prob, best.x, best.theta, rounds=12, reweight_first=True)
+        nfev += r.nfev
+        best = r if r.J < best.J else best
     lower, n_cells = grid_gap(stage, best.J)
     if best.J <= zero:
         lower = 0.0

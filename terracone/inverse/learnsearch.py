@@ -196,12 +196,27 @@ def _pack(prob, x, theta, free_x, free_t):
     return np.concatenate([x[free_x], theta[free_t]])
 
 
-def refine(prob: LearnProblem, x0: np.ndarray, theta0: np.ndarray, *, rounds: int = 12) -> Refined:
+def _irls_weights(prob: LearnProblem, x, theta) -> np.ndarray:
+    """sqrt(a_d / ||r_d||): sum_d w_d ||r_d||^2 majorises J at (x, theta)."""
+    norms = np.array([np.linalg.norm(r) for r in prob.residuals(x, theta)])
+    floor = 1e-14 * np.array([np.linalg.norm(y) for y in prob.ys])
+    return np.sqrt(prob.a / np.maximum(norms, floor))
+
+
+def refine(
+    prob: LearnProblem,
+    x0: np.ndarray,
+    theta0: np.ndarray,
+    *,
+    rounds: int = 12,
+    reweight_first: bool = False,
+) -> Refined:
     """Minimise J jointly over (kc, kphi, cc, n, phic, log r_min) from a start.
 
     Reweighted Gauss-Newton (trust-region reflective, bounded): each round
     minimises sum_d w_d ||r_d||^2 with w_d = a_d / ||r_d|| at the current
-    point (a majoriser of J), the first round with w_d = a_d^2 so that
+    point (a majoriser of J), the first round with w_d = a_d^2 (unless
+    ``reweight_first``, to continue an earlier refinement) so that
     zero-residual data are reached quadratically.  Stops when J no longer
     falls by 1e-12 relative.
     """
@@ -250,7 +265,9 @@ def refine(prob: LearnProblem, x0: np.ndarray, theta0: np.ndarray, *, rounds: in
 
     p = np.clip(_pack(prob, x0, np.asarray(theta0, float), free_x, free_t), lo, hi)
     J = prob.objective(*unpack(p))
-    sw = np.sqrt(prob.a**2)
+    sw = prob.a.copy()
+    if reweight_first:
+        sw = _irls_weights(prob, *unpack(p))
     zero = 1e-13 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
     for _ in range(rounds):
         if J <= zero:  # zero residual: nothing left to gain
@@ -276,9 +293,7 @@ def refine(prob: LearnProblem, x0: np.ndarray, theta0: np.ndarray, *, rounds: in
                 break
         else:
             break
-        norms = np.array([np.linalg.norm(r) for r in prob.residuals(*unpack(p))])
-        floor = 1e-14 * np.array([np.linalg.norm(y) for y in prob.ys])
-        sw = np.sqrt(prob.a / np.maximum(norms, floor))
+        sw = _irls_weights(prob, *unpack(p))
     # values within 1e-9 of their range from a bound go onto it when J does not rise:
     # the trust region stays strictly inside, the answer should not depend on how far
     q = p.copy()
