@@ -419,3 +419,49 @@ def test_intervals_cover_the_truth_at_their_stated_rate():
     rate = hits / total
     assert total == 400
     assert 0.88 <= rate <= 0.99, rate
+
+
+def test_same_parameters_without_avx_and_on_a_nehalem_blas():
+    """learn in a fresh process on baseline SIMD (no AVX2/FMA3/AVX-512) and a Nehalem
+    OpenBLAS kernel gives the parameters of this process to 1e-6 relative."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    profiles, plates = noisy_site("rm1", 0.02, 11)
+    res = learn(profiles, plates, model="rm1")
+    code = (
+        "import json, sys\n"
+        "sys.path.insert(0, 'tests')\n"
+        "from test_learn import noisy_site\n"
+        "from terracone.inverse.learn import learn\n"
+        "pr, pl = noisy_site('rm1', 0.02, 11)\n"
+        "p = learn(pr, pl, model='rm1').params\n"
+        "print(json.dumps([p.kc, p.kphi, p.n, p.cc, p.phic_deg, p.r_min]))\n"
+    )
+    probe = (
+        "import numpy as np; d = (getattr(np, '_core', None) or np.core)"
+        "._multiarray_umath.__cpu_dispatch__; w = {'AVX2', 'FMA3', 'AVX512F', 'AVX512CD', "
+        "'AVX512_SKX', 'AVX512_CLX', 'AVX512_CNL', 'AVX512_ICL', 'AVX512_SPR', 'X86_V3', "
+        "'X86_V4'}; print(' '.join(f for f in d if f in w))"
+    )
+    feats = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, check=True
+    ).stdout.strip()
+    env = dict(os.environ, OPENBLAS_CORETYPE="Nehalem", NPY_DISABLE_CPU_FEATURES=feats)
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=root
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    other = json.loads(out.stdout.strip().splitlines()[-1])
+    p = res.params
+    mine = [p.kc, p.kphi, p.n, p.cc, p.phic_deg, p.r_min]
+    names = ["kc", "kphi", "n", "cc", "phic_deg", "r_min"]
+    for name, a, b in zip(names, mine, other):
+        if name in res.undetermined:  # equally good values: only J must agree
+            continue
+        assert b == pytest.approx(a, rel=1e-6, abs=1e-9), name
+    J_other = forward_J(profiles, plates, "rm1", *other)
+    assert J_other == pytest.approx(res.objective, rel=1e-9)

@@ -41,7 +41,16 @@ import numpy as np
 from .. import units as u
 from ..data import CIProfile, PlateTest, TerrainParameters
 from .bounds import Bounds
-from .learnsearch import GridStage, LearnProblem, grid_gap, grid_stage, grid_starts, refine
+from .learnsearch import (
+    GridStage,
+    LearnProblem,
+    grid_gap,
+    grid_stage,
+    grid_starts,
+    jacobians,
+    polish,
+    refine,
+)
 
 __all__ = ["Calibration", "LearnResult", "learn", "jacobians", "sandwich_cov"]
 
@@ -333,6 +342,7 @@ def learn(
         r = refine(prob, best.x, best.theta, rounds=12, reweight_first=True)
         nfev += r.nfev
         best = r if r.J < best.J else best
+        best = polish(prob, best.x, best.theta)
     lower, n_cells = grid_gap(stage, best.J)
     if best.J <= zero:
         lower = 0.0
@@ -434,27 +444,6 @@ def _at_bounds(prob: LearnProblem, p: TerrainParameters) -> list[str]:
 Z95 = 1.959963984540054  # two-sided 95% quantile of the standard normal
 
 
-def jacobians(prob: LearnProblem, x, theta) -> list[np.ndarray]:
-    """Per data set d/dp of the residuals, p = (kc, kphi, cc, n, phic, log r_min).
-
-    The first three columns are the design matrix itself (exactly linear);
-    the last three are central differences of X(theta) @ x.
-    """
-    T = np.repeat(np.asarray(theta, float)[None, :], 7, axis=0)
-    hs = [1e-6 * max(1.0, abs(float(t))) for t in theta]
-    for k in range(3):
-        T[1 + 2 * k, k] += hs[k]
-        T[2 + 2 * k, k] -= hs[k]
-    Xs = prob.designs(T[:, 0], T[:, 1], T[:, 2])
-    out = []
-    for X in Xs:
-        cols = [X[0]] + [
-            ((X[1 + 2 * k] - X[2 + 2 * k]) @ x / (2 * hs[k]))[:, None] for k in range(3)
-        ]
-        out.append(np.hstack(cols))
-    return out
-
-
 def sandwich_cov(prob: LearnProblem, x, theta, noise_floor: float) -> np.ndarray:
     """Covariance (6, 6) of p = (kc, kphi, cc, n, phic, log r_min), sandwich form.
 
@@ -464,7 +453,8 @@ def sandwich_cov(prob: LearnProblem, x, theta, noise_floor: float) -> np.ndarray
     B = sum_d w_d^2 D_d' diag(r_d^2) D_d (heteroscedasticity-consistent,
     HC3: each squared residual divided by (1 - leverage)^2 and at least
     (``noise_floor`` mean_d)^2); H is the Hessian of J (Gauss-Newton part).  Parameters fixed by their bounds get zero
-    variance.
+    variance; parameters that move along a direction in which J is flat (a
+    ridge of equally good values) get infinite variance.
 
     References
     ----------
@@ -498,6 +488,13 @@ def sandwich_cov(prob: LearnProblem, x, theta, noise_floor: float) -> np.ndarray
         B += w * w * (Dp.T * r2) @ Dp
     V = np.zeros((6, 6))
     V[f] = Hi @ B[f] @ Hi
+    # directions along which J is flat (a ridge of equally good values): infinite variance
+    Hn = H[f] / np.outer(sc, sc)
+    ev, vec = np.linalg.eigh(0.5 * (Hn + Hn.T))
+    null = ev <= 1e-10 * max(float(ev.max()), 1e-300)
+    if null.any():
+        ridge = np.flatnonzero(free)[np.any(np.abs(vec[:, null]) > 1e-3, axis=1)]
+        V[ridge, ridge] = np.inf
     return V
 
 
@@ -520,6 +517,7 @@ def _intervals(prob: LearnProblem, stage: GridStage, x, theta, datasets, noise_f
     lo = np.concatenate([lo_x, prob.theta_lo])
     hi = np.concatenate([hi_x, prob.theta_hi])
     iv = np.stack([np.clip(p - half, lo, hi), np.clip(p + half, lo, hi)], axis=1)
+    ridge = ~np.isfinite(half)  # J flat along them: the whole range unless profiled below
     sig = [max(d["rmsd"], noise_floor * m) for d, m in zip(datasets, prob.means)]
     dJ = 1.92 * max(s / (m * y.size) for s, m, y in zip(sig, prob.means, prob.ys))
     thr = float(sum(a_ * np.linalg.norm(r) for a_, r in zip(prob.a, prob.residuals(x, theta))))
@@ -531,6 +529,10 @@ def _intervals(prob: LearnProblem, stage: GridStage, x, theta, datasets, noise_f
     if hi[2] > lo[2] and iv[2, 1] - iv[2, 0] >= 0.25 * (hi[2] - lo[2]):
         groups.append(("cc", np.linspace(*prob.bounds.cc, 11)))
     blocks = [_profile_block(prob, theta, steps, k, v) for k, v in groups]
+    for k, _ in groups:  # a profiled ridge parameter: its profile says how far
+        row = 2 if k == "cc" else 3 + k
+        if ridge[row]:
+            iv[row] = (p[row], p[row])
     r_profile: list[tuple[float, float]] = []
     if blocks:
         T = np.concatenate([b[0] for b in blocks])
@@ -553,7 +555,7 @@ def _intervals(prob: LearnProblem, stage: GridStage, x, theta, datasets, noise_f
         if hi[k] == lo[k] or (name == "r_min" and prob.model == "rm0"):
             continue
         a, b = float(iv[k, 0]), float(iv[k, 1])
-        if name in ("n", "phic_deg", "r_min", "cc") and b - a >= 0.5 * (hi[k] - lo[k]):
+        if b - a >= 0.5 * (hi[k] - lo[k]):
             und.append(name)
         intervals[name] = (math.exp(a), math.exp(b)) if name == "r_min" else (a, b)
     return intervals, und, r_profile

@@ -34,6 +34,8 @@ from .exact import design
 from .sumnorm import SumNormResult, sum_norm_box
 
 __all__ = [
+    "jacobians",
+    "polish",
     "LearnProblem",
     "GridStage",
     "Refined",
@@ -304,3 +306,102 @@ def refine(
         p, J = q, Jq
     x, th = unpack(p)
     return Refined(x, th, J, nfev)
+
+
+def jacobians(prob: LearnProblem, x, theta) -> list[np.ndarray]:
+    """Per data set d/dp of the residuals, p = (kc, kphi, cc, n, phic, log r_min).
+
+    The first three columns are the design matrix itself (exactly linear);
+    the last three are central differences of X(theta) @ x.
+    """
+    T = np.repeat(np.asarray(theta, float)[None, :], 7, axis=0)
+    hs = [1e-6 * max(1.0, abs(float(t))) for t in theta]
+    up = [hs[0], hs[1], hs[2]]
+    if prob.model == "rm1" and any(abs(theta[2] - k) <= 1e-9 for k in _kinks(prob)):
+        up[2] = 0.0  # on a branch point: the tangent side (r_min <= r) is the continuous one
+    for k in range(3):
+        T[1 + 2 * k, k] += up[k]
+        T[2 + 2 * k, k] -= hs[k]
+    Xs = prob.designs(T[:, 0], T[:, 1], T[:, 2])
+    out = []
+    for X in Xs:
+        cols = [X[0]] + [
+            ((X[1 + 2 * k] - X[2 + 2 * k]) @ x / (up[k] + hs[k]))[:, None] for k in range(3)
+        ]
+        out.append(np.hstack(cols))
+    return out
+
+
+def polish(prob: LearnProblem, x: np.ndarray, theta: np.ndarray, *, steps: int = 12) -> Refined:
+    """Newton steps on J itself from a refined point, to pin the minimiser down.
+
+    Reweighting converges linearly, so a tolerance on J leaves the
+    parameters known to only about the square root of it.  Here the
+    gradient sum_d a_d D_d' r_d / ||r_d|| is driven to zero with the
+    Gauss-Newton Hessian of J (sum_d w_d (D_d'D_d - g_d g_d')), over the
+    parameters not held at a bound, with step halving so that J never rises.
+
+    RM1 changes branch where r_min equals a plate or cone radius (section
+    3.2); J jumps there (r_min = r2 is still the tangent, above it the
+    secant), so an optimum may sit on the branch point itself.  When r_min
+    is within 1e-5 (relative) of one, the point with r_min exactly on it is
+    polished too and kept unless J is lower elsewhere by more than 1e-12
+    relative.
+    """
+    p = np.concatenate([x, theta])
+    best = _newton(prob, p, steps, fix_rm=False)
+    if prob.model == "rm1":
+        for k in _kinks(prob):
+            if abs(theta[2] - k) <= 1e-5 and prob.theta_lo[2] <= k <= prob.theta_hi[2]:
+                q = p.copy()
+                q[5] = k
+                cand = _newton(prob, q, steps, fix_rm=True)
+                if cand.J <= best.J * (1 + 1e-12):
+                    best = cand
+    return best
+
+
+def _kinks(prob: LearnProblem) -> list[float]:
+    """log radii where the RM1 law changes branch: cone radii and the plate pair."""
+    radii = {p.cone.radius for p in prob.profiles} | set(prob.pair or ())
+    return [math.log(r) for r in sorted(radii)]
+
+
+def _newton(prob: LearnProblem, p: np.ndarray, steps: int, fix_rm: bool) -> Refined:
+    lo_x, hi_x = prob.box(np.asarray(p[3]))
+    lo = np.concatenate([lo_x, prob.theta_lo])
+    hi = np.concatenate([hi_x, prob.theta_hi])
+    fixed = hi <= lo
+    fixed[5] |= prob.model == "rm0" or fix_rm
+    J = prob.objective(p[:3], p[3:])
+    scale = np.maximum(np.abs(p), np.where(hi > lo, hi - lo, 1.0) * 1e-3)
+    for _ in range(steps):
+        rs = prob.residuals(p[:3], p[3:])
+        norms = np.array([np.linalg.norm(r) for r in rs])
+        if np.any(norms <= 1e-12 * np.array([np.linalg.norm(y) for y in prob.ys])):
+            break  # a data set fitted exactly: J is not smooth there
+        Ds = jacobians(prob, p[:3], p[3:])
+        grad = np.zeros(6)
+        H = np.zeros((6, 6))
+        for D, r, a, nr in zip(Ds, rs, prob.a, norms):
+            gd = D.T @ (r / nr)
+            grad += a * gd
+            H += (a / nr) * (D.T @ D - np.outer(gd, gd))
+        # parameters on a bound whose gradient pushes them outward stay there
+        f = ~(fixed | ((p <= lo) & (grad > 0)) | ((p >= hi) & (grad < 0)))
+        if not f.any():
+            break
+        Hs = H[np.ix_(f, f)] * np.outer(scale[f], scale[f])
+        step = np.zeros(6)
+        step[f] = -scale[f] * (np.linalg.pinv(Hs, rcond=1e-13) @ (grad[f] * scale[f]))
+        moved = False
+        for t in (1.0, 0.5, 0.25, 0.125):
+            q = np.clip(p + t * step, lo, hi)
+            Jq = prob.objective(q[:3], q[3:])
+            if Jq <= J:
+                moved = bool(np.any(np.abs(q - p) > 1e-12 * scale))
+                p, J = q, Jq
+                break
+        if not moved:
+            break
+    return Refined(p[:3].copy(), p[3:].copy(), J, 0)
