@@ -8,7 +8,9 @@ same objective, J = sum over data sets of RMSD / mean, over the same bounds of
 models (cone_index, plate_pressure), independently of learn's own code.
 
 Run:  .venv/bin/python benchmarks/learn.py [--de-maxiter K] [--seed S]
-Prints one line per site and the median time ratio.  Timings on a shared
+Prints one line per site: learn's time, DE's time (plain, as scipy runs it by
+default, and vectorised: all of a generation's points in one numpy call), the
+ratios, J of each, and learn's certificate gap; then the median ratios.  Timings on a shared
 machine are noisy; the ratio is measured in one process, site by site.
 """
 
@@ -55,12 +57,15 @@ def site(rng, model: str, r_min: float | None, noisy: bool):
 
 
 def objective(profiles, plates, model: str):
-    """J(kc, kphi, n, cc, phic, log r_min) from the forward models."""
+    """J(v), v = (kc, kphi, n, cc, phic, log r_min), from the forward models.
+
+    v may be (6,) or (6, S) (scipy's ``vectorized=True``): J for S points at once.
+    """
     pair = PAIR if model == "rm1" else None
 
     def J(v):
-        kc, kphi, n, cc, phic, lr = v
-        rm = math.exp(lr) if model == "rm1" else None
+        kc, kphi, n, cc, phic, lr = (np.asarray(a, float)[..., None] for a in v)
+        rm = np.exp(lr) if model == "rm1" else None
         tot = 0.0
         for p in profiles:
             m = cone_index(
@@ -74,7 +79,7 @@ def objective(profiles, plates, model: str):
                 r_min=rm,
                 plate_pair=pair,
             )
-            tot += math.sqrt(np.mean((m - p.ci) ** 2)) / np.mean(p.ci)
+            tot = tot + np.sqrt(np.mean((m - p.ci) ** 2, axis=-1)) / np.mean(p.ci)
         for b in plates:
             m = plate_pressure(
                 b.sinkage,
@@ -86,7 +91,7 @@ def objective(profiles, plates, model: str):
                 r_min=rm,
                 plate_pair=pair,
             )
-            tot += math.sqrt(np.mean((m - b.pressure) ** 2)) / np.mean(b.pressure)
+            tot = tot + np.sqrt(np.mean((m - b.pressure) ** 2, axis=-1)) / np.mean(b.pressure)
         return tot
 
     return J
@@ -110,8 +115,11 @@ def main() -> None:
         ("rm1", 0.08),
     ]
     b = Bounds()
-    print(f"{'site':<22}{'learn s':>9}{'DE s':>9}{'ratio':>8}{'J learn':>13}{'J DE':>13}")
-    ratios = []
+    print(
+        f"{'site':<22}{'learn s':>9}{'DE s':>8}{'ratio':>7}{'DEvec s':>9}{'ratio':>7}"
+        f"{'J learn':>12}{'J DE':>12}{'J DEvec':>12}{'gap':>10}"
+    )
+    ratios, ratios_v = [], []
     for noisy in (False, True):
         for model, rm in cases:
             profiles, plates = site(rng, model, rm, noisy)
@@ -121,15 +129,32 @@ def main() -> None:
             t_l = time.perf_counter() - t0
             p = res.params
             v = [p.kc, p.kphi, p.n, p.cc, p.phic_deg, math.log(p.r_min) if p.r_min else 0.0]
-            t0 = time.perf_counter()
-            de = differential_evolution(
-                J, de_bounds(model, b), seed=args.seed, maxiter=args.de_maxiter, tol=1e-10
-            )
-            t_de = time.perf_counter() - t0
+            runs = []
+            for vec in (False, True):
+                t0 = time.perf_counter()
+                de = differential_evolution(
+                    J,
+                    de_bounds(model, b),
+                    seed=args.seed,
+                    maxiter=args.de_maxiter,
+                    tol=1e-10,
+                    vectorized=vec,
+                    updating="deferred" if vec else "immediate",
+                )
+                runs.append((time.perf_counter() - t0, float(de.fun)))
+            (t_de, J_de), (t_dv, J_dv) = runs
             ratios.append(t_de / t_l)
+            ratios_v.append(t_dv / t_l)
             name = f"{model} r_min={rm} {'noisy' if noisy else 'exact'}"
-            print(f"{name:<22}{t_l:9.3f}{t_de:9.2f}{t_de / t_l:8.1f}{J(v):13.4e}{de.fun:13.4e}")
-    print(f"median ratio DE/learn: {np.median(ratios):.1f}  (min {min(ratios):.1f})")
+            print(
+                f"{name:<22}{t_l:9.3f}{t_de:8.2f}{t_de / t_l:7.1f}{t_dv:9.2f}{t_dv / t_l:7.1f}"
+                f"{float(J(v)):12.4e}{J_de:12.4e}{J_dv:12.4e}{res.certificate['gap']:10.2e}",
+                flush=True,
+            )
+    print(
+        f"median time ratio: DE/learn {np.median(ratios):.1f} (min {min(ratios):.1f}), "
+        f"vectorised DE/learn {np.median(ratios_v):.1f} (min {min(ratios_v):.1f})"
+    )
 
 
 if __name__ == "__main__":

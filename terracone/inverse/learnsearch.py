@@ -34,6 +34,7 @@ from .exact import design
 from .sumnorm import SumNormResult, sum_norm_box
 
 __all__ = [
+    "certify",
     "jacobians",
     "polish",
     "LearnProblem",
@@ -42,7 +43,6 @@ __all__ = [
     "grid_stage",
     "grid_starts",
     "refine",
-    "grid_gap",
 ]
 
 
@@ -146,33 +146,6 @@ def grid_stage(prob: LearnProblem, grid: tuple[int, int, int]) -> GridStage:
     ]
     N, P, R = np.meshgrid(*axes, indexing="ij")
     return GridStage(axes, prob.solve_cells(N, P, R))
-
-
-def grid_gap(stage: GridStage, J_best: float) -> tuple[float, int]:
-    """Lower bound of J over the whole search box, and how many cells may hold a lower J.
-
-    Each grid cell's minimum is bounded below by its vertices' certified
-    inner lower bounds minus, along each axis, the largest change of J
-    between vertices adjacent along that axis: J is assumed to vary inside
-    a cell by at most twice its largest change between neighbouring grid
-    points (a Lipschitz estimate with safety factor 2).
-    """
-    U, L = stage.cells.J, stage.cells.lower
-    lb = L.copy()
-    drop = np.zeros_like(U)
-    for k in range(3):
-        if U.shape[k] < 2:
-            continue
-        d = np.abs(np.diff(U, axis=k))
-        pad = [(0, 0)] * 3
-        pad[k] = (1, 1)
-        dp = np.pad(d, pad)  # each vertex: the larger of its two edges along k
-        drop = drop + np.maximum(
-            np.take(dp, range(U.shape[k]), axis=k), np.take(dp, range(1, U.shape[k] + 1), axis=k)
-        )
-    lb = L - drop
-    lower = max(float(lb.min()), 0.0)
-    return lower, int(np.sum(lb < J_best))
 
 
 def grid_starts(stage: GridStage, count: int) -> list[tuple[int, ...]]:
@@ -405,3 +378,85 @@ def _newton(prob: LearnProblem, p: np.ndarray, steps: int, fix_rm: bool) -> Refi
         if not moved:
             break
     return Refined(p[:3].copy(), p[3:].copy(), J, 0)
+
+
+def _block_bound(U: np.ndarray, L: np.ndarray) -> np.ndarray:
+    """Lower bound of J over cells from their corner blocks (K, a, b, c).
+
+    The smallest certified inner bound at a corner, less along each axis
+    the largest change of J between corners adjacent along it (J assumed to
+    vary inside a cell by at most twice that: a Lipschitz estimate).
+    """
+    drop = np.zeros(U.shape[0])
+    for ax in (1, 2, 3):
+        if U.shape[ax] > 1:
+            drop += np.abs(np.diff(U, axis=ax)).reshape(U.shape[0], -1).max(axis=1)
+    return L.reshape(L.shape[0], -1).min(axis=1) - drop
+
+
+def certify(
+    prob: LearnProblem, stage: GridStage, J_best: float, *, levels: int = 3, cap: int = 48
+) -> tuple[float, int, int]:
+    """Branch and bound on the grid's cells: a lower bound of J over the search box.
+
+    Cells whose bound (:func:`_block_bound`) is below J_best are halved along
+    every searched axis and their corners solved with certificates, for
+    ``levels`` rounds, at most ``cap`` cells (lowest bound first) per round;
+    cells not refined keep their bound.  Returns (lower bound, cells still
+    open, points solved).
+    """
+    ax = stage.axes
+    free = [k for k in range(3) if ax[k].size > 1]
+    U, L = stage.cells.J, stage.cells.lower
+    # base cells: lower corners and 2-point blocks along the searched axes
+    ranges = [np.arange(ax[k].size - 1) if k in free else np.zeros(1, int) for k in range(3)]
+    base = np.stack([g.reshape(-1) for g in np.meshgrid(*ranges, indexing="ij")], axis=-1)
+    off = [np.arange(2) if k in free else np.zeros(1, int) for k in range(3)]
+    idx = tuple(
+        base[:, k][:, None, None, None] + off[k].reshape([-1 if j == k else 1 for j in range(3)])
+        for k in range(3)
+    )
+    Ub, Lb = U[idx], L[idx]
+    lb = _block_bound(Ub, Lb)
+    corner = np.stack([ax[k][base[:, k]] for k in range(3)], axis=-1)
+    size = np.array([(ax[k][1] - ax[k][0]) if k in free else 0.0 for k in range(3)])
+    tol = 1e-6 * max(J_best, 1e-300)
+    parked: list[float] = []
+    evals = 0
+    for _ in range(levels):
+        open_ = np.flatnonzero(lb < J_best - tol)
+        if open_.size == 0:
+            lb, corner = lb[:0], corner[:0]
+            break
+        order = open_[np.lexsort((open_, lb[open_]))]
+        if order.size > cap:
+            parked.append(float(lb[order[cap:]].min()))
+            order = order[:cap]
+        c = corner[order]
+        fr = [np.linspace(0, 1, 3) if k in free else np.zeros(1) for k in range(3)]
+        G = [
+            c[:, k][:, None, None, None]
+            + size[k] * fr[k].reshape([-1 if j == k else 1 for j in range(3)])
+            for k in range(3)
+        ]
+        G = np.broadcast_arrays(*G)
+        sol = prob.solve_cells(G[0], G[1], G[2], rtol=1e-7)
+        evals += sol.J.size
+        subs_U, subs_L, subs_c = [], [], []
+        halves = [(0, 1) if k in free else (0,) for k in range(3)]
+        for a in halves[0]:
+            for b in halves[1]:
+                for e in halves[2]:
+                    sl = (slice(None),) + tuple(
+                        slice(h, h + 2) if k in free else slice(0, 1)
+                        for k, h in enumerate((a, b, e))
+                    )
+                    subs_U.append(sol.J[sl])
+                    subs_L.append(sol.lower[sl])
+                    subs_c.append(c + 0.5 * size * np.array([a, b, e]))
+        size = 0.5 * size
+        Ub, Lb = np.concatenate(subs_U), np.concatenate(subs_L)
+        lb, corner = _block_bound(Ub, Lb), np.concatenate(subs_c)
+    remaining = int(np.sum(lb < J_best - tol))
+    lower = min([J_best, float(lb.min()) if lb.size else J_best] + parked)
+    return max(lower, 0.0), remaining + (1 if parked else 0), evals
