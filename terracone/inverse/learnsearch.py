@@ -153,7 +153,10 @@ def grid_starts(stage: GridStage, count: int) -> list[tuple[int, ...]]:
     U = stage.cells.J
     loc = U <= minimum_filter(U, size=3, mode="nearest")
     idx = np.flatnonzero(loc)
-    order = np.lexsort((idx, U.reshape(-1)[idx]))  # by J, then by index: deterministic
+    # by J quantised to 1e-9 of the scale (last-bit differences between machines do not
+    # reorder), then by position
+    q = np.floor(U.reshape(-1)[idx] / (1e-9 * max(float(U.max()), 1e-300)))
+    order = np.lexsort((idx, q))
     return [np.unravel_index(i, U.shape) for i in idx[order][:count]]
 
 
