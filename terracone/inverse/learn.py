@@ -329,30 +329,7 @@ def learn(
     """
     t0 = time.perf_counter()
     prob = _problem(profiles, plates, model, bounds or Bounds(), r_min_bounds, Kc)
-    stage = grid_stage(prob, grid)
-    nfev = int(stage.cells.J.size)
-    zero = 1e-12 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
-    # every start gets two rounds; only the best is refined to convergence
-    best = None
-    for idx in grid_starts(stage, starts):
-        theta = np.array([stage.axes[k][idx[k]] for k in range(3)])
-        r = refine(prob, stage.cells.x[idx], theta, rounds=2)
-        nfev += r.nfev
-        # ties (equal J to 1e-12 relative) keep the earlier, better-ranked grid start
-        if best is None or r.J < best.J * (1 - 1e-12) - 1e-300:
-            best = r
-        if best.J <= zero:  # J >= 0: a zero-residual fit is the global minimum
-            break
-    if best.J > zero:
-        r = refine(prob, best.x, best.theta, rounds=12, reweight_first=True)
-        nfev += r.nfev
-        best = r if r.J < best.J else best
-        best = polish(prob, best.x, best.theta)
-    if best.J <= zero:  # J >= 0 certifies an exact fit
-        lower, n_cells, n_cert = 0.0, 0, 0
-    else:
-        lower, n_cells, n_cert = certify(prob, stage, best.J, levels=certify_levels)
-    nfev += n_cert
+    stage, best, nfev, lower, n_cells = _search(prob, grid, starts, certify_levels)
     x, theta = best.x, best.theta
     rm = float(np.exp(theta[2])) if model == "rm1" else None
     params = TerrainParameters(
@@ -400,6 +377,35 @@ def learn(
         intervals=intervals,
         certificate=certificate,
     )
+
+
+def _search(prob: LearnProblem, grid, starts: int, certify_levels: int):
+    """Grid, refinement of its best local minima, and the global-minimum bound."""
+    stage = grid_stage(prob, grid)
+    nfev = int(stage.cells.J.size)
+    zero = 1e-12 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
+    # every start gets two rounds; only the best is refined to convergence
+    best = None
+    for idx in grid_starts(stage, starts):
+        theta = np.array([stage.axes[k][idx[k]] for k in range(3)])
+        r = refine(prob, stage.cells.x[idx], theta, rounds=2)
+        nfev += r.nfev
+        # ties (equal J to 1e-12 relative) keep the earlier, better-ranked grid start
+        if best is None or r.J < best.J * (1 - 1e-12) - 1e-300:
+            best = r
+        if best.J <= zero:  # J >= 0: a zero-residual fit is the global minimum
+            break
+    if best.J > zero:
+        r = refine(prob, best.x, best.theta, rounds=12, reweight_first=True)
+        nfev += r.nfev
+        best = r if r.J < best.J else best
+        best = polish(prob, best.x, best.theta)
+    if best.J <= zero:  # J >= 0 certifies an exact fit
+        lower, n_cells, n_cert = 0.0, 0, 0
+    else:
+        lower, n_cells, n_cert = certify(prob, stage, best.J, levels=certify_levels)
+    nfev += n_cert
+    return stage, best, nfev, lower, n_cells
 
 
 def _split_residuals(prob: LearnProblem, x, theta) -> tuple[list, list]:
