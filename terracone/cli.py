@@ -80,6 +80,22 @@ def _depth_range(text: str | None, units: str) -> tuple[float | None, float | No
     return lo, hi
 
 
+def _r_min_range(text: str | None, units: str) -> tuple[float, float] | None:
+    """'LO:HI' of r_min (numbers with a unit suffix or in --units) -> m."""
+    if not text:
+        return None
+    if ":" not in text:
+        raise click.BadParameter(f"--r-min-range: expected LO:HI, got {text!r}")
+    lo_s, hi_s = text.split(":", 1)
+    if not lo_s.strip() or not hi_s.strip():
+        raise click.BadParameter(f"--r-min-range: give both LO and HI, got {text!r}")
+    lo = _length_si(lo_s, units, "--r-min-range")
+    hi = _length_si(hi_s, units, "--r-min-range")
+    if not (0 < lo <= hi):
+        raise click.BadParameter(f"--r-min-range: need 0 < LO <= HI, got {text!r}")
+    return lo, hi
+
+
 def _windowed(items, rng: tuple[float | None, float | None], units: str):
     """Restrict profiles to a depth window, with a note; reader errors pass through."""
     lo, hi = rng
@@ -627,6 +643,12 @@ def predict_cmd(
     "--depth-range", default=None, help="Fit only LO:HI of the CI profiles (as for predict)."
 )
 @click.option(
+    "--r-min-range",
+    default=None,
+    help="Search range LO:HI of the RM1 transition radius r_min, in --units or with a unit "
+    "suffix (default: 0.5 mm to 3 times the larger plate).",
+)
+@click.option(
     "--terrain-name", default=None, help="Label of the calibration (default: the CI file's stem)."
 )
 @click.option(
@@ -654,6 +676,7 @@ def learn_cmd(
     fmt,
     depth_ref,
     depth_range,
+    r_min_range,
     terrain_name,
     save,
     save_as,
@@ -672,7 +695,10 @@ def learn_cmd(
     )
     profiles = _windowed(profiles, _depth_range(depth_range, units), units)
     plates = read_plate_tests(plates_file)
-    res = learn(profiles, plates, model=model, bounds=Bounds.parse(bounds, units))
+    rb = _r_min_range(r_min_range, units)
+    if rb is not None and model != "rm1":
+        raise click.BadParameter("--r-min-range: only with --model rm1")
+    res = learn(profiles, plates, model=model, bounds=Bounds.parse(bounds, units), r_min_bounds=rb)
     label = save_as or terrain_name or Path(ci_file).stem
     cal = res.calibration(
         label, cone=profiles[0].cone.name, ci_file=str(ci_file), plates_file=str(plates_file)

@@ -147,6 +147,12 @@ def learn_text(d: Mapping[str, Any], units: str) -> str:
     )
     c = d["criteria"]
     text += f"\n\nFit criterion CV <= {c['max_cv']:g}: {'satisfied' if c['satisfied'] else 'NOT satisfied'} (worst {c['worst_cv']:.3g})"
+    cert = d.get("certificate") or {}
+    if cert:
+        text += (
+            f"\nObjective J = {d['objective']:.6g}; global-minimum bound {cert['lower_bound']:.6g} "
+            f"(gap {cert['gap']:.3g}; inner gap {cert['inner_gap']:.2g})"
+        )
     if d["undetermined"]:
         text += f"\nLeft free by the data: {', '.join(d['undetermined'])}"
     if c.get("at_bounds"):

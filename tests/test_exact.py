@@ -356,16 +356,6 @@ def test_fit_Kc_reaches_the_truth():
     assert abs(res.params.n - n) < 1e-4
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "fit_Kc is not global in every case: LS_1 terrain (kc=80.14, kphi=4727.2, "
-        "n=0.74) with cc=1 kPa, phic=12.5 deg, Kc=5 mm, z=0:0.01:0.3 m, noise-free, "
-        "bounds n=0.5:1 (others default): Kc=1.32 mm, n=0.7446, phic=3.15 deg, "
-        "cc=59.6 kPa, RMSD 8.7e-5 of rms(CI) while the truth gives 0 (the same "
-        "terrain with z=0:0.025:0.3 m is solved)"
-    ),
-)
 def test_fit_Kc_reaches_the_truth_dense_profile():
     kc, kphi, n, _, phic = TABLE_TYPED["LS_1"]
     z = depths(0.01)

@@ -26,7 +26,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import lsq_linear, minimize
+from scipy.ndimage import minimum_filter
+from scipy.optimize import least_squares, lsq_linear
 
 from ..cone import Cone, cone_index_basis
 from ..plate import PressureLaw
@@ -174,8 +175,9 @@ def solve_exact(
     x_grid, sse_grid = cell_sse(N, P, K)
     nfev += sse_grid.size
 
-    # joint refinement of (n, phic[, log Kc]) with Nelder-Mead from the best grid cells:
-    # with finite Kc phic is no longer a pure scale, and n and phic form a valley
+    # joint refinement of all parameters (Gauss-Newton, bounded) from the grid's best
+    # local minima: with finite Kc phic is no longer a pure scale, and n, phic and Kc
+    # form curved valleys that a simplex search can stop in
     lo_v = [bounds.n[0], bounds.phic[0]] + ([math.log(bounds.Kc[0])] if fit_Kc else [])
     hi_v = [bounds.n[1], bounds.phic[1]] + ([math.log(bounds.Kc[1])] if fit_Kc else [])
     lo_v, hi_v = np.array(lo_v), np.array(hi_v)
@@ -186,34 +188,40 @@ def solve_exact(
         K = math.exp(w[2]) if fit_Kc else np.nan
         return float(w[0]), float(w[1]), K
 
-    def f_res(v):
+    def resid_v(v):
         nv, pv, Kv = unpack(v)
         x_, _ = cell_sse(np.array([nv]), np.array([pv]), np.array([Kv]))
         Xv = design(
             z, np.array(nv), np.array(pv), cone=cone, law=law, Kc=Kv if fit_Kc else Kc, ratio=ratio
         )
-        r = Xv @ x_[0] - y
+        return Xv @ x_[0] - y
+
+    def f_res(v):
+        r = resid_v(v)
         return float(r @ r)
 
-    order = np.argsort(sse_grid, axis=None)[:3]
+    # starts: the grid's local minima and the best cell of every Kc slice (a valley
+    # between phic and Kc need not show as a local minimum on a coarse Kc grid)
+    local = sse_grid <= minimum_filter(sse_grid, size=3, mode="nearest")
+    for kk in range(sse_grid.shape[2]):
+        sl = sse_grid[..., kk]
+        local[np.unravel_index(np.argmin(sl), sl.shape) + (kk,)] = True
+    idx = np.flatnonzero(local)
+    order = idx[np.lexsort((idx, sse_grid.reshape(-1)[idx]))][:10]  # by SSE, ties by position
     best_v, best_f = None, np.inf
     nit = 0
+    zero = 1e-24 * float(y @ y)
     for flat_i in order:
         ii, jj, kk = np.unravel_index(flat_i, sse_grid.shape)
         v0 = [ns[ii], phis[jj]] + ([math.log(Kcs[kk])] if fit_Kc else [])
         v0 = (np.array(v0) - lo_v) / span
-        res = minimize(
-            f_res,
-            v0,
-            method="Nelder-Mead",
-            options={"xatol": 1e-9, "fatol": 1e-14 * float(y @ y), "maxiter": 2000},
-        )
-        nfev += int(res.nfev)
-        nit += int(res.nit)
-        f0 = f_res(v0)
-        v, fv = (res.x, res.fun) if res.fun <= f0 else (v0, f0)
-        if fv < best_f:
+        v, fv, ne = _joint_refine(v0, resid_v, f_res)
+        nfev += ne
+        nit += 1
+        if fv < best_f * (1 - 1e-12):
             best_v, best_f = v, fv
+        if best_f <= zero:  # an exact fit: the global minimum
+            break
     n_best, phi_best, best_K = unpack(best_v)
     phic_range = (phi_best, phi_best)
 
@@ -222,6 +230,9 @@ def solve_exact(
     Kc_out = float(best_K) if fit_Kc else Kc
     # report the SSE from the residuals themselves
     X = design(z, np.array(n_best), np.array(phi_best), cone=cone, law=law, Kc=Kc_out, ratio=ratio)
+    # the normal equations lose digits near an exact fit: re-solve on X itself
+    lo_b, hi_b = (a[0] for a in _bounds_arrays(bounds, np.array([n_best]), ratio))
+    x = _polish(X, y, lo_b, hi_b, x)
     resid = X @ x - y
     if ratio is not None:
         x[0] = ratio * x[1]
@@ -241,6 +252,29 @@ def solve_exact(
     if profiles:
         _identify(sol, z, y, ns, sse_grid.min(axis=(1, 2)), bounds, cone, law, noise_floor, ratio)
     return sol
+
+
+def _joint_refine(v0, resid_v, f_res):
+    """Bounded Gauss-Newton on the scaled (n, phic[, log Kc]), variable projection.
+
+    The residual at each outer point has the linear parameters (kc, kphi,
+    cc) solved exactly within their bounds, so the long valley where phic
+    trades against the scale of kc and kphi is not walked.  Returns the
+    scaled outer point, its SSE and the function evaluations.
+    """
+    res = least_squares(
+        resid_v,
+        v0,
+        bounds=(np.zeros(v0.size), np.ones(v0.size)),
+        method="trf",
+        diff_step=1e-7,
+        xtol=1e-14,
+        ftol=1e-14,
+        gtol=1e-14,
+        max_nfev=200,
+    )
+    f0, f1 = f_res(v0), f_res(res.x)
+    return (res.x, f1, int(res.nfev)) if f1 <= f0 else (v0, f0, int(res.nfev))
 
 
 def _polish(

@@ -37,17 +37,22 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize
 
 from .. import units as u
-from ..cone import improved
 from ..data import CIProfile, PlateTest, TerrainParameters
-from ..plate import plate_basis, pressure_law
 from .bounds import Bounds
-from .boxlsq import box_lsq3, gram
-from .exact import design
+from .learnsearch import (
+    GridStage,
+    LearnProblem,
+    certify,
+    grid_stage,
+    grid_starts,
+    jacobians,
+    polish,
+    refine,
+)
 
-__all__ = ["Calibration", "LearnResult", "learn"]
+__all__ = ["Calibration", "LearnResult", "learn", "jacobians", "sandwich_cov"]
 
 
 @dataclass
@@ -173,6 +178,7 @@ class LearnResult:
     time_s: float
     r_min_profile: list[tuple[float, float]] = field(default_factory=list)
     intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
+    certificate: dict[str, Any] = field(default_factory=dict)
 
     def _repr_html_(self) -> str:
         """A table of the learned parameters (SI and US) and the fit, for Jupyter."""
@@ -223,18 +229,11 @@ class LearnResult:
                 ],
                 "undetermined": self.undetermined,
                 "profile_intervals": {
-                    k: [
-                        float(v)
-                        for v in (
-                            u.length_from_si(iv, units)
-                            if k == "r_min"
-                            else u.pressure_from_si(iv, units)
-                            if k == "cc"
-                            else iv
-                        )
-                    ]
+                    k: [float(v) for v in _interval_in(k, iv, self.params.n, units)]
                     for k, iv in self.intervals.items()
                 },
+                "interval_level": 0.95,
+                "certificate": self.certificate,
                 "criteria": self.criteria,
                 "diagnostics": {"nfev": self.nfev, "time_s": self.time_s},
             }
@@ -242,9 +241,40 @@ class LearnResult:
         return d
 
 
+def _interval_in(name: str, iv, n: float, units: str):
+    if name == "r_min":
+        return u.length_from_si(iv, units)
+    if name == "cc":
+        return u.pressure_from_si(iv, units)
+    if name == "kc":
+        return u.kc_from_si(np.asarray(iv), n, units)
+    if name == "kphi":
+        return u.kphi_from_si(np.asarray(iv), n, units)
+    return iv
+
+
 def _plate_pair(plates: list[PlateTest]) -> tuple[float, float] | None:
     sizes = sorted({round(p.b, 12) for p in plates})
     return (sizes[0], sizes[-1]) if len(sizes) >= 2 else None
+
+
+def _problem(profiles, plates, model, bounds, r_min_bounds, Kc) -> LearnProblem:
+    if model not in ("rm0", "rm1"):
+        raise ValueError(f"model must be 'rm0' or 'rm1' (got {model!r})")
+    if not profiles:
+        raise ValueError("learning needs at least one CI profile")
+    for p in profiles:
+        p.validate()
+    branches = [p.loading_branch() for p in plates]
+    branches = [b for b in branches if b.sinkage.size >= 3]
+    if not branches:
+        raise ValueError("learning needs at least one plate test with 3 or more loading points")
+    rb = None
+    if model == "rm1":
+        rb = r_min_bounds or (5e-4, 3.0 * max(b.b for b in branches))
+        if not (0 < rb[0] <= rb[1] and math.isfinite(rb[1])):
+            raise ValueError(f"r_min range: need 0 < LO <= HI (got {rb[0]}:{rb[1]})")
+    return LearnProblem(profiles, branches, model, bounds, rb, Kc, _plate_pair(branches))
 
 
 def learn(
@@ -255,11 +285,19 @@ def learn(
     bounds: Bounds | None = None,
     r_min_bounds: tuple[float, float] | None = None,
     Kc: float | None = None,
-    grid: tuple[int, int, int] = (33, 16, 13),
+    grid: tuple[int, int, int] = (17, 10, 12),
     max_cv: float = 0.25,
     noise_floor: float = 0.01,
+    starts: int = 3,
+    certify_levels: int = 0,
 ) -> LearnResult:
     """Fit kc, kphi, n, cc, phic (and r_min for RM1) to CI and plate data.
+
+    Minimises J = sum_d RMSD_d / mean_d over the data sets d (each CI
+    profile and each plate test's loading branch) within the bounds: a
+    certified inner solve in (kc, kphi, cc) on a grid of (n, phic,
+    log r_min), then a joint refinement of all parameters from the best
+    grid points that are local minima (see :mod:`.learnsearch`).
 
     Parameters
     ----------
@@ -278,277 +316,64 @@ def learn(
         Fit criterion: every data set's CV = RMSD/mean must be below this.
     noise_floor : float
         Smallest relative noise assumed when judging what the data leave free.
+    starts : int
+        Most grid local minima refined.
+    certify_levels : int
+        Rounds of branch and bound on the grid cells for the lower bound of
+        the global minimum (0: the grid alone; each round halves up to 48
+        cells below J and costs about 19 certified inner solves per cell).
+
+    Returns
+    -------
+    LearnResult
+        With ``certificate`` (J, a lower bound of the global minimum and
+        their gap) and 95% ``intervals``.
+
+    References
+    ----------
+    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Section 3.3.1.
     """
     t0 = time.perf_counter()
-    bounds = bounds or Bounds()
-    if not profiles:
-        raise ValueError("learning needs at least one CI profile")
-    for p in profiles:
-        p.validate()
-    branches = [p.loading_branch() for p in plates]
-    branches = [b for b in branches if b.sinkage.size >= 3]
-    if not branches:
-        raise ValueError("learning needs at least one plate test with 3 or more loading points")
-    pair = _plate_pair(branches)
-    if model == "rm1":
-        big = max(b.b for b in branches)
-        rb = r_min_bounds or (5e-4, 3.0 * big)
-        r_grid = np.exp(np.linspace(math.log(rb[0]), math.log(rb[1]), grid[2]))
-    else:
-        rb = None
-        r_grid = np.array([np.nan])
-    n_grid = (
-        np.linspace(*bounds.n, grid[0]) if bounds.n[0] != bounds.n[1] else np.array([bounds.n[0]])
-    )
-    phi_grid = (
-        np.linspace(*bounds.phic, grid[1])
-        if bounds.phic[0] != bounds.phic[1]
-        else np.array([bounds.phic[0]])
-    )
-
-    ys = [p.ci for p in profiles] + [b.pressure for b in branches]
-    a_d = np.array([1.0 / (np.mean(y) * math.sqrt(y.size)) for y in ys])  # J = sum a_d sqrt(SSE_d)
-
-    def grams(n, phi, rm):
-        """Per-data-set Gram terms for arrays n, phi, rm of one shape S -> (D, S, ...)."""
-        law = (
-            pressure_law(model, r_min=rm[..., None], plate_pair=pair)
-            if model == "rm1"
-            else pressure_law("rm0")
-        )
-        Gs, gs, yys = [], [], []
-        for p in profiles:
-            X = design(p.depth, n[..., None], phi[..., None], cone=p.cone, law=law, Kc=Kc)
-            G, g, yy = gram(X, np.broadcast_to(p.ci, X.shape[:-1]))
-            Gs.append(G)
-            gs.append(g)
-            yys.append(yy)
-        for b in branches:
-            A, B = plate_basis(b.sinkage, n=n[..., None], b=b.b, law=law)
-            A, B = np.broadcast_arrays(A, B)
-            X = np.stack([A, B, np.zeros_like(A)], axis=-1)
-            G, g, yy = gram(X, np.broadcast_to(b.pressure, X.shape[:-1]))
-            Gs.append(np.broadcast_to(G, np.shape(n) + (3, 3)))
-            gs.append(np.broadcast_to(g, np.shape(n) + (3,)))
-            yys.append(np.broadcast_to(yy, np.shape(n)))
-        return np.stack(Gs), np.stack(gs), np.stack(yys)
-
-    def solve(n, phi, rm, iters=25, cc_pin=None):
-        Gd, gd, yyd = grams(n, phi, rm)
-        lo_kc, hi_kc = bounds.kc_si(n)
-        lo_kp, hi_kp = bounds.kphi_si(n)
-        cc_lo = np.full(np.shape(n), bounds.cc[0]) if cc_pin is None else cc_pin
-        cc_hi = np.full(np.shape(n), bounds.cc[1]) if cc_pin is None else cc_pin
-        lo = np.stack([lo_kc, lo_kp, cc_lo], axis=-1)
-        hi = np.stack([hi_kc, hi_kp, cc_hi], axis=-1)
-        shp = (-1,) + (1,) * np.ndim(n)
-        J_floor = 1e-12 * float(np.sum(a_d * np.sqrt(np.max(yyd.reshape(len(a_d), -1), axis=1))))
-        w = (a_d**2).reshape(shp) * np.ones(np.shape(n))
-        x = None
-        J = None
-        for _ in range(iters):
-            G = np.einsum("d...,d...ij->...ij", w, Gd)
-            g = np.einsum("d...,d...i->...i", w, gd)
-            yy = np.einsum("d...,d...->...", w, yyd)
-            x, _ = box_lsq3(G, g, yy, lo, hi)
-            sse_d = (
-                np.einsum("...i,d...ij,...j->d...", x, Gd, x)
-                - 2 * np.einsum("d...i,...i->d...", gd, x)
-                + yyd
-            )
-            # floor at rounding level of each data set: near a perfect fit the weights
-            # 1/sqrt(SSE) would otherwise chase noise
-            sse_d = np.maximum(sse_d, 1e-24 * yyd + 1e-300)
-            J_new = np.einsum("d,d...->...", a_d, np.sqrt(sse_d))
-            # majorise sqrt(SSE) by its tangent: weights a_d / (2 sqrt(SSE_d))
-            w = a_d.reshape(shp) / (2.0 * np.sqrt(sse_d))
-            if J is not None and np.all(np.abs(J - J_new) <= 1e-10 * np.abs(J_new) + J_floor):
-                J = J_new
-                break
-            J = J_new
-        return x, J, sse_d
-
-    N, P, Rm = np.meshgrid(n_grid, phi_grid, r_grid, indexing="ij")
-    x_grid, J_grid, _ = solve(N, P, Rm)
-    nfev = J_grid.size
-    i, j, k = np.unravel_index(np.argmin(J_grid), J_grid.shape)
-
-    # local refinement in (n, phic, log r_min)
-    def pack(v):
-        n = float(np.clip(v[0], *bounds.n))
-        phi = float(np.clip(v[1], *bounds.phic))
-        rm = float(np.exp(np.clip(v[2], math.log(rb[0]), math.log(rb[1])))) if rb else np.nan
-        return n, phi, rm
-
-    def obj(v):
-        n, phi, rm = pack(v)
-        _, J, _ = solve(np.array([n]), np.array([phi]), np.array([rm]))
-        return float(J[0])
-
-    v0 = [n_grid[i], phi_grid[j], math.log(r_grid[k]) if rb else 0.0]
-    best_v, best_J = v0, float(J_grid[i, j, k])
-    J0 = best_J
-    # Nelder-Mead restarted from its own answer until it stops improving: the
-    # valley between r_min, phic and cc is long and narrow
-    for _ in range(4):
-        res = minimize(
-            obj,
-            best_v,
-            method="Nelder-Mead",
-            options={"xatol": 1e-6, "fatol": 1e-9 * J0, "maxiter": 500, "adaptive": True},
-        )
-        nfev += int(res.nfev)
-        if res.fun < best_J * (1 - 1e-6) and res.fun > 1e-9 * J0:
-            best_v, best_J = list(res.x), float(res.fun)
-        else:
-            if res.fun < best_J:
-                best_v, best_J = list(res.x), float(res.fun)
-            break
-    n, phi, rm = pack(best_v)
-    x, J, sse_d = solve(np.array([n]), np.array([phi]), np.array([rm]))
-    x = x[0]
+    prob = _problem(profiles, plates, model, bounds or Bounds(), r_min_bounds, Kc)
+    stage, best, nfev, lower, n_cells = _search(prob, grid, starts, certify_levels)
+    x, theta = best.x, best.theta
+    rm = float(np.exp(theta[2])) if model == "rm1" else None
     params = TerrainParameters(
-        float(x[0]), float(x[1]), n, float(x[2]), phi, Kc, model, None if model == "rm0" else rm
+        float(x[0]), float(x[1]), float(theta[0]), float(x[2]), float(theta[1]), Kc, model, rm
     )
-
-    # data-set diagnostics, from residuals
-    law = (
-        pressure_law(model, r_min=params.r_min, plate_pair=pair)
-        if model == "rm1"
-        else pressure_law("rm0")
+    final = prob.solve_cells(
+        np.array([theta[0]]), np.array([theta[1]]), np.array([theta[2]]), rtol=1e-9
     )
-    datasets = []
-    ci_res, pl_res = [], []
-    for p in profiles:
-        m = improved(
-            p.depth, kc=x[0], kphi=x[1], n=n, cc=x[2], phic=phi, Kc=Kc, law=law, cone=p.cone
-        )
-        r = m - p.ci
-        ci_res.append(r)
-        rms = float(np.sqrt(np.mean(r * r)))
-        datasets.append({"kind": "ci", "id": p.id, "rmsd": rms, "cv": rms / float(np.mean(p.ci))})
-    for b in branches:
-        A, B = plate_basis(b.sinkage, n=n, b=b.b, law=law)
-        r = x[0] * A + x[1] * B - b.pressure
-        pl_res.append(r)
-        rms = float(np.sqrt(np.mean(r * r)))
-        datasets.append(
-            {
-                "kind": "plate",
-                "id": b.id,
-                "b": b.b,
-                "rmsd": rms,
-                "cv": rms / float(np.mean(b.pressure)),
-            }
-        )
-    ci_all = np.concatenate(ci_res)
-    pl_all = np.concatenate(pl_res)
+    datasets, J_res = _datasets(prob, x, theta)
+    certificate = {
+        "objective": J_res,
+        "lower_bound": min(lower, J_res),
+        "gap": max(J_res - lower, 0.0),
+        "inner_gap": float(final.gap[0]),
+        "cells_not_excluded": n_cells,
+        "grid": [int(a.size) for a in stage.axes],
+        "method": (
+            "inner (kc, kphi, cc): convex, solved with a duality-gap certificate; outer "
+            "(n, phic, log r_min): grid cells bounded with a Lipschitz estimate (J varies inside "
+            "a cell by at most twice its largest change between neighbouring corners), cells "
+            "below J halved by branch and bound; J >= 0 certifies a zero-residual fit"
+        ),
+    }
     worst = max(ds["cv"] for ds in datasets)
-    # the objective from the residuals themselves (the Gram form cancels near zero)
-    best_J = float(sum(ds["rmsd"] / m for ds, m in zip(datasets, [float(np.mean(y)) for y in ys])))
-    # values that ended on a search bound: the bound, not the data, set them
-    at_bounds = []
-    kc_b, kp_b = bounds.kc_si(n), bounds.kphi_si(n)
-    checks = [
-        ("kc", params.kc, float(kc_b[0]), float(kc_b[1])),
-        ("kphi", params.kphi, float(kp_b[0]), float(kp_b[1])),
-        ("n", n, *bounds.n),
-        ("cc", params.cc, *bounds.cc),
-        ("phic_deg", phi, *bounds.phic),
-    ]
-    if rb:
-        checks.append(("r_min", rm, *rb))
-    for name, v, lo_b, hi_b in checks:
-        if lo_b == hi_b:
-            continue
-        tol = 1e-6 * (hi_b - lo_b)
-        if v <= lo_b + tol:
-            at_bounds.append(f"{name} at its lower bound")
-        elif v >= hi_b - tol:
-            at_bounds.append(f"{name} at its upper bound")
     criteria = {
         "max_cv": max_cv,
         "worst_cv": worst,
         "satisfied": bool(worst <= max_cv),
-        "at_bounds": at_bounds,
+        "at_bounds": _at_bounds(prob, params),
     }
-
-    # Identifiability: approximate 95% profile intervals.  A change of SSE_d by
-    # 3.84 sigma_d^2 moves RMSD_d/mean_d by about 1.92 CV_d / N_d, so J may rise by
-    # dJ = sum_d 1.92 max(CV_d, noise_floor) / N_d before a value is rejected.
-    dJ = float(sum(1.92 * max(ds["cv"], noise_floor) / y.size for ds, y in zip(datasets, ys)))
-    # the grid profiles are compared with the grid's own best: a coarse grid sits above
-    # the refined optimum everywhere, and a flat direction must still show as flat
-    thr_grid = float(J_grid.min()) + dJ
-    und: list[str] = []
-    intervals: dict[str, tuple[float, float]] = {}
-
-    def grid_interval(name, values, prof, at, log=False, thr=thr_grid):
-        ok = prof <= thr
-        if values.size < 2:
-            return
-        if ok.any():
-            lo_v, hi_v = float(values[ok].min()), float(values[ok].max())
-        else:
-            lo_v = hi_v = at
-        intervals[name] = (min(lo_v, at), max(hi_v, at))
-        span = (np.log(values[-1]) - np.log(values[0])) if log else (values[-1] - values[0])
-        width = (
-            (np.log(intervals[name][1]) - np.log(intervals[name][0]))
-            if log
-            else (intervals[name][1] - intervals[name][0])
-        )
-        if width >= 0.5 * span:
-            und.append(name)
-
-    def refined_profile(axis: int, values: np.ndarray) -> np.ndarray:
-        """J minimised over the two other coordinates, for each grid value of one."""
-        out = np.empty(values.size)
-        for kk, val in enumerate(values):
-            sl = np.take(J_grid, kk, axis=axis)
-            a0, b0 = np.unravel_index(np.argmin(sl), sl.shape)
-            start = [n_grid, phi_grid, np.log(r_grid) if rb else np.zeros(1)]
-            full = [None, None, None]
-            others = [q for q in range(3) if q != axis]
-            full[others[0]] = start[others[0]][a0]
-            full[others[1]] = start[others[1]][b0]
-            fixed = math.log(val) if axis == 2 else val
-
-            def f2(w, fixed=fixed, full=full, others=others):
-                v = list(full)
-                v[axis] = fixed
-                v[others[0]], v[others[1]] = w
-                return obj(v)
-
-            w0 = [full[others[0]], full[others[1]]]
-            r = minimize(
-                f2,
-                w0,
-                method="Nelder-Mead",
-                options={"xatol": 1e-4, "fatol": 1e-6 * J0, "maxiter": 150},
-            )
-            out[kk] = min(r.fun, float(sl.min()))
-        return out
-
-    r_profile: list[tuple[float, float]] = []
-    grid_interval("n", n_grid, J_grid.min(axis=(1, 2)), n)
-    if phi_grid.size > 1:
-        grid_interval("phic_deg", phi_grid, refined_profile(1, phi_grid), phi, thr=best_J + dJ)
-    if rb:
-        Jr = refined_profile(2, r_grid)
-        r_profile = [(float(a), float(b)) for a, b in zip(r_grid, Jr)]
-        grid_interval("r_min", r_grid, Jr, rm, log=True, thr=best_J + dJ)
-    if bounds.cc[0] != bounds.cc[1]:
-        cc_vals = np.linspace(bounds.cc[0], bounds.cc[1], 41)
-        ones = np.ones_like(cc_vals)
-        _, Jcc, _ = solve(n * ones, phi * ones, rm * ones, cc_pin=cc_vals)
-        grid_interval("cc", cc_vals, Jcc, float(x[2]), thr=best_J + dJ)
+    intervals, und, r_profile = _intervals(prob, stage, x, theta, datasets, noise_floor)
+    res = [np.concatenate(r) for r in _split_residuals(prob, x, theta)]
     return LearnResult(
         params=params,
-        plate_pair=pair,
-        objective=best_J,
-        rmsd_ci=float(np.sqrt(np.mean(ci_all**2))),
-        rmsd_plates=float(np.sqrt(np.mean(pl_all**2))),
+        plate_pair=prob.pair,
+        objective=J_res,
+        rmsd_ci=float(np.sqrt(np.mean(res[0] ** 2))),
+        rmsd_plates=float(np.sqrt(np.mean(res[1] ** 2))),
         datasets=datasets,
         undetermined=und,
         criteria=criteria,
@@ -556,4 +381,241 @@ def learn(
         time_s=time.perf_counter() - t0,
         r_min_profile=r_profile,
         intervals=intervals,
+        certificate=certificate,
     )
+
+
+def _search(prob: LearnProblem, grid, starts: int, certify_levels: int):
+    """Grid, refinement of its best local minima, and the global-minimum bound."""
+    stage = grid_stage(prob, grid)
+    nfev = int(stage.cells.J.size)
+    zero = 1e-12 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
+    # every start gets two rounds; only the best is refined to convergence
+    best = None
+    for idx in grid_starts(stage, starts):
+        theta = np.array([stage.axes[k][idx[k]] for k in range(3)])
+        r = refine(prob, stage.cells.x[idx], theta, rounds=2)
+        nfev += r.nfev
+        # ties (equal J to 1e-12 relative) keep the earlier, better-ranked grid start
+        if best is None or r.J < best.J * (1 - 1e-12) - 1e-300:
+            best = r
+        if best.J <= zero:  # J >= 0: a zero-residual fit is the global minimum
+            break
+    if best.J > zero:
+        r = refine(prob, best.x, best.theta, rounds=12, reweight_first=True)
+        nfev += r.nfev
+        best = r if r.J < best.J else best
+        best = polish(prob, best.x, best.theta)
+    if best.J <= zero:  # J >= 0 certifies an exact fit
+        lower, n_cells, n_cert = 0.0, 0, 0
+    else:
+        lower, n_cells, n_cert = certify(prob, stage, best.J, levels=certify_levels)
+    nfev += n_cert
+    return stage, best, nfev, lower, n_cells
+
+
+def _split_residuals(prob: LearnProblem, x, theta) -> tuple[list, list]:
+    r = prob.residuals(x, theta)
+    k = len(prob.profiles)
+    return r[:k], r[k:]
+
+
+def _datasets(prob: LearnProblem, x, theta) -> tuple[list[dict[str, Any]], float]:
+    """Per data set RMSD and CV, from the residuals; and J re-derived from them."""
+    out = []
+    items = [("ci", p.id, None) for p in prob.profiles] + [
+        ("plate", b.id, b.b) for b in prob.plates
+    ]
+    for (kind, did, b), r, m in zip(items, prob.residuals(x, theta), prob.means):
+        rms = float(np.sqrt(np.mean(r * r)))
+        d = {"kind": kind, "id": did, "rmsd": rms, "cv": rms / float(m)}
+        if b is not None:
+            d = {"kind": kind, "id": did, "b": b, "rmsd": rms, "cv": rms / float(m)}
+        out.append(d)
+    return out, float(sum(d["cv"] for d in out))
+
+
+def _at_bounds(prob: LearnProblem, p: TerrainParameters) -> list[str]:
+    """Values that ended on a search bound: the bound, not the data, set them."""
+    b = prob.bounds
+    kc_b, kp_b = b.kc_si(p.n), b.kphi_si(p.n)
+    checks = [
+        ("kc", p.kc, float(kc_b[0]), float(kc_b[1])),
+        ("kphi", p.kphi, float(kp_b[0]), float(kp_b[1])),
+        ("n", p.n, *b.n),
+        ("cc", p.cc, *b.cc),
+        ("phic_deg", p.phic_deg, *b.phic),
+    ]
+    if prob.r_min_bounds:
+        checks.append(("r_min", p.r_min, *prob.r_min_bounds))
+    out = []
+    for name, v, lo_b, hi_b in checks:
+        if lo_b == hi_b:
+            continue
+        tol = 1e-6 * (hi_b - lo_b)
+        if v <= lo_b + tol:
+            out.append(f"{name} at its lower bound")
+        elif v >= hi_b - tol:
+            out.append(f"{name} at its upper bound")
+    return out
+
+
+Z95 = 1.959963984540054  # two-sided 95% quantile of the standard normal
+
+
+def sandwich_cov(prob: LearnProblem, x, theta, noise_floor: float) -> np.ndarray:
+    """Covariance (6, 6) of p = (kc, kphi, cc, n, phic, log r_min), sandwich form.
+
+    The minimiser of J is, at its optimum, a weighted least-squares fit with
+    weights w_d = a_d / ||r_d|| (the fixed point of reweighting), so its
+    covariance is H^+ B H^+ with H = sum_d w_d D_d'D_d and
+    B = sum_d w_d^2 D_d' diag(r_d^2) D_d (heteroscedasticity-consistent,
+    HC3: each squared residual divided by (1 - leverage)^2 and at least
+    (``noise_floor`` mean_d)^2); H is the Hessian of J (Gauss-Newton part).  Parameters fixed by their bounds get zero
+    variance; parameters that move along a direction in which J is flat (a
+    ridge of equally good values) get infinite variance.
+
+    References
+    ----------
+    .. [1] White, H. (1980). A heteroskedasticity-consistent covariance matrix
+       estimator and a direct test for heteroskedasticity. Econometrica 48(4).
+    .. [2] Long, J.S., Ervin, L.H. (2000). Using heteroscedasticity consistent
+       standard errors in the linear regression model. Am. Stat. 54(3).
+    """
+    Ds = jacobians(prob, x, theta)
+    rs = prob.residuals(x, theta)
+    lo, hi = prob.box(np.asarray(theta[0]))
+    free = np.concatenate([hi > lo, prob.theta_hi > prob.theta_lo])
+    if prob.model == "rm0":
+        free[5] = False
+    H = np.zeros((6, 6))
+    parts = []
+    for D, r, a in zip(Ds, rs, prob.a):
+        nr = max(float(np.linalg.norm(r)), 1e-300)
+        w = a / nr
+        g = D.T @ (r / nr)  # Hessian of a_d ||r_d||: w (D'D - g g')
+        H += w * (D.T @ D - np.outer(g, g))
+        parts.append((w, D - np.outer(r / nr, g)))  # (I - u u') D, u = r / ||r||
+    f = np.ix_(free, free)
+    sc = np.sqrt(np.maximum(np.diag(H[f]), 1e-300))
+    Hi = np.linalg.pinv(H[f] / np.outer(sc, sc), rcond=1e-12) / np.outer(sc, sc)
+    B = np.zeros((6, 6))
+    for (w, Dp), D, r, m in zip(parts, Ds, rs, prob.means):
+        # HC3: squared residuals inflated by their leverage (deep CI points weigh most)
+        h = np.clip(w * np.einsum("ij,jk,ik->i", D[:, free], Hi, D[:, free]), 0.0, 0.9)
+        r2 = np.maximum(r * r / (1.0 - h) ** 2, (noise_floor * m) ** 2)
+        B += w * w * (Dp.T * r2) @ Dp
+    V = np.zeros((6, 6))
+    V[f] = Hi @ B[f] @ Hi
+    # directions along which J is flat (a ridge of equally good values): infinite variance
+    Hn = H[f] / np.outer(sc, sc)
+    ev, vec = np.linalg.eigh(0.5 * (Hn + Hn.T))
+    null = ev <= 1e-10 * max(float(ev.max()), 1e-300)
+    if null.any():
+        ridge = np.flatnonzero(free)[np.any(np.abs(vec[:, null]) > 1e-3, axis=1)]
+        V[ridge, ridge] = np.inf
+    return V
+
+
+def _intervals(prob: LearnProblem, stage: GridStage, x, theta, datasets, noise_floor):
+    """95% intervals of all parameters, the undetermined list and the r_min profile.
+
+    Wald intervals from :func:`sandwich_cov`, clipped to the bounds.  For
+    phic and r_min (and cc when its interval is wide) they are widened to
+    every profiled value whose best J (the other coordinates near the
+    optimum) is within dJ of the optimum: values that fit as well as the
+    optimum within the noise are equally good.
+    dJ = 1.92 max_d sigma_d / (mean_d N_d) is the rise of J that a 95%
+    likelihood-ratio step (3.84 sigma_d^2 in SSE_d) causes in the data set
+    that tolerates the least.
+    """
+    V = sandwich_cov(prob, x, theta, noise_floor)
+    p = np.concatenate([x, theta])
+    half = Z95 * np.sqrt(np.maximum(np.diag(V), 0.0))
+    lo_x, hi_x = prob.box(np.asarray(theta[0]))
+    lo = np.concatenate([lo_x, prob.theta_lo])
+    hi = np.concatenate([hi_x, prob.theta_hi])
+    iv = np.stack([np.clip(p - half, lo, hi), np.clip(p + half, lo, hi)], axis=1)
+    ridge = ~np.isfinite(half)  # J flat along them: the whole range unless profiled below
+    sig = [max(d["rmsd"], noise_floor * m) for d, m in zip(datasets, prob.means)]
+    dJ = 1.92 * max(s / (m * y.size) for s, m, y in zip(sig, prob.means, prob.ys))
+    thr = float(sum(a_ * np.linalg.norm(r) for a_, r in zip(prob.a, prob.residuals(x, theta))))
+    thr += dJ
+    steps = np.array([(ax[1] - ax[0]) if ax.size > 1 else 0.0 for ax in stage.axes])
+    # one vectorised certified solve for all profiles: phic, log r_min, and cc if wide
+    groups = [(k, _profile_values(prob, stage, theta, k)) for k in (1, 2)]
+    groups = [(k, v) for k, v in groups if v.size > 1]
+    if hi[2] > lo[2] and iv[2, 1] - iv[2, 0] >= 0.25 * (hi[2] - lo[2]):
+        groups.append(("cc", np.linspace(*prob.bounds.cc, 11)))
+    blocks = [_profile_block(prob, theta, steps, k, v) for k, v in groups]
+    for k, _ in groups:  # a profiled ridge parameter: its profile says how far
+        row = 2 if k == "cc" else 3 + k
+        if ridge[row]:
+            iv[row] = (p[row], p[row])
+    r_profile: list[tuple[float, float]] = []
+    if blocks:
+        T = np.concatenate([b[0] for b in blocks])
+        pin = np.concatenate([b[1] for b in blocks])
+        J = prob.solve_cells(T[:, 0], T[:, 1], T[:, 2], cc_pin=pin, rtol=1e-5, max_iter=40).J
+        start = 0
+        for (k, vals), (Tb, _) in zip(groups, blocks):
+            prof = J[start : start + Tb.shape[0]].reshape(vals.size, -1).min(axis=1)
+            start += Tb.shape[0]
+            ok = vals[prof <= thr]
+            row = 2 if k == "cc" else 3 + k
+            if ok.size:
+                iv[row] = (min(iv[row, 0], ok.min()), max(iv[row, 1], ok.max()))
+            if k == 2:
+                r_profile = [(float(np.exp(a_)), float(b_)) for a_, b_ in zip(vals, prof)]
+    names = ["kc", "kphi", "cc", "n", "phic_deg", "r_min"]
+    intervals: dict[str, tuple[float, float]] = {}
+    und: list[str] = []
+    for k, name in enumerate(names):
+        if hi[k] == lo[k] or (name == "r_min" and prob.model == "rm0"):
+            continue
+        a, b = float(iv[k, 0]), float(iv[k, 1])
+        if b - a >= 0.5 * (hi[k] - lo[k]):
+            und.append(name)
+        intervals[name] = (math.exp(a), math.exp(b)) if name == "r_min" else (a, b)
+    return intervals, und, r_profile
+
+
+def _neighbourhood(theta, steps, axes_free, offsets):
+    """theta plus offsets (fractions of a grid step) along the given axes: (K, 3)."""
+    grids = [theta[k] + (offsets * steps[k] if k in axes_free else np.zeros(1)) for k in range(3)]
+    return np.stack([g.reshape(-1) for g in np.meshgrid(*grids, indexing="ij")], axis=-1)
+
+
+def _profile_values(prob: LearnProblem, stage: GridStage, theta, k: int) -> np.ndarray:
+    """Values of outer coordinate k to profile: its grid, the optimum, RM1 branch points."""
+    if stage.axes[k].size < 2:
+        return stage.axes[k]
+    vals = np.concatenate([stage.axes[k], [theta[k]]])
+    if k == 2:  # where the RM1 law changes branch (section 3.2): cone radii and plates
+        br = [p.cone.radius for p in prob.profiles] + list(prob.pair or ())
+        br = np.log(np.outer(br, [1 - 1e-9, 1 + 1e-9]).reshape(-1))
+        vals = np.concatenate([vals, br[(br > vals.min()) & (br < vals.max())]])
+    return np.unique(vals)
+
+
+def _profile_block(prob: LearnProblem, theta, steps, k, values):
+    """Cells (V*K, 3) and cc pins (NaN: free) of one profile.
+
+    For an outer coordinate k the two others range over the optimum plus
+    offsets of up to one grid step, so that a valley between them is
+    followed; for cc (k == "cc") all three range over a quarter step.  The
+    inner minimum over the free linear parameters is certified at each cell.
+    """
+    theta = np.asarray(theta, float)
+    if k == "cc":
+        nb = _neighbourhood(theta, steps, [0, 1, 2], np.array([-0.25, 0.0, 0.25]))
+        T = np.repeat(nb[None], values.size, axis=0)
+        pin = np.repeat(values[:, None], nb.shape[0], axis=1)
+    else:
+        others = [j for j in range(3) if j != k and steps[j] > 0]
+        nb = _neighbourhood(theta, steps, others, np.array([-1.0, -0.25, 0.0, 0.25, 1.0]))
+        T = np.repeat(nb[None], values.size, axis=0)
+        T[..., k] = values[:, None]
+        pin = np.full(T.shape[:2], np.nan)
+    T = np.clip(T, prob.theta_lo, prob.theta_hi)
+    return T.reshape(-1, 3), pin.reshape(-1)
