@@ -113,9 +113,9 @@ def run_pyswarms(profile: CIProfile, bounds: Bounds, seed: int) -> np.ndarray:
     return np.asarray(pos, float)
 
 
-def timed(fn):
+def timed(fn, *args, **kwargs):
     t = time.perf_counter()
-    out = fn()
+    out = fn(*args, **kwargs)
     return out, time.perf_counter() - t
 
 
@@ -155,13 +155,14 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for i, prof in enumerate(profiles):
         prior = LETE if i % 4 >= 2 else "bounds"
-        _, t_pso = timed(lambda: run_pyswarms(prof, bounds, i))
-        fit, t_fit = timed(lambda: predict(prof, calibration=None if prior == "bounds" else LETE))
+        _, t_pso = timed(run_pyswarms, prof, bounds, i)
+        cal = None if prior == "bounds" else LETE
+        fit, t_fit = timed(predict, prof, calibration=cal)
         kw = dict(prior=prior, draws=args.draws, seed=i)
-        _, t_post = timed(lambda: unc.posterior_for_result(prof, fit, **kw))
+        _, t_post = timed(unc.posterior_for_result, prof, fit, **kw)
         unc.JIT_ENABLED, jit = False, unc.JIT_ENABLED
         try:
-            _, t_before = timed(lambda: unc.posterior_for_result(prof, fit, **kw, **BEFORE))
+            _, t_before = timed(unc.posterior_for_result, prof, fit, **kw, **BEFORE)
         finally:
             unc.JIT_ENABLED = jit
         rows.append((t_pso, t_post, t_fit + t_post, t_before))

@@ -261,7 +261,7 @@ def test_posterior_for_result_and_diagnostics():
     assert res.best_fit == pred.params
     assert res.plate_bands[0].radius == pytest.approx(0.0635)
     d = res.diagnostics
-    assert d.draws == 600 and d.nwalkers == 64
+    assert d.draws == 600 and d.nwalkers == 128
     assert 0.1 < d.acceptance < 0.7
     assert d.autocorr_time is not None and d.effective_samples > 0
     assert d.time_s > 0
