@@ -143,6 +143,7 @@ __all__ = [
     "identifiability_label",
     "plate_bands",
     "integrated_time",
+    "Likelihood",
     "spline_sse",
     "spline_sse_compiled",
 ]
@@ -975,7 +976,7 @@ def spline_sse_compiled(coef, n0, h, wy, params, t, rho, dzr):  # pragma: no cov
     return out
 
 
-class _Likelihood:
+class Likelihood:
     """Whitened residuals of arrays of parameter sets against one profile.
 
     CI = kc (A_p + tan(phic) A_s) + kphi (B_p + tan(phic) B_s) + cc C, eq.
@@ -983,6 +984,38 @@ class _Likelihood:
     columns are whitened (divided by w, AR(1)) and tabulated over n.  With
     fully mobilised shear A_s = A_p / tan(half angle) (likewise B), so three
     columns are kept and CI = s (kc A_p + kphi B_p) + cc C.
+
+    Parameters
+    ----------
+    z, y : ndarray
+        Depths [m] and measured CI [kPa].
+    cone : Cone
+    law : PressureLaw
+    Kc : float or None
+        Cone-terrain shear deformation parameter [m]; None: fully mobilised.
+    n_range : (float, float)
+        Range of n tabulated [-] (one value: n fixed).
+    weights : ndarray
+        Noise weights w_i, RMS 1 [-].
+    phi : ndarray or None
+        AR(1) lag-1 coefficients between neighbours (N - 1,); None when rho
+        is sampled (whitening per parameter row in :meth:`sse`).
+    spacing : float, optional
+        Reference spacing dz0 [m] of a sampled rho.
+
+    Attributes
+    ----------
+    coef : ndarray, shape (4, G, Z, K)
+        Spline coefficients of the whitened columns over n (for
+        :func:`spline_sse`); ``n0``, ``h`` its grid.
+    wy : ndarray
+        Whitened, weighted CI [kPa].
+
+    References
+    ----------
+    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P.
+       Predicting terrain parameters for physics-based vehicle mobility
+       models from cone index data. Eqs. (2-6), (2-7).
     """
 
     def __init__(
@@ -1333,7 +1366,7 @@ def posterior(
     ns = _noise_setup(profile, p0, law, Kc, bounds, cal, noise_model, noise_floor, correlation)
     notes = list(ns.notes)
     pri = _Prior(bounds, cal_prior)
-    lik = _Likelihood(
+    lik = Likelihood(
         profile.depth,
         profile.ci,
         cone=profile.cone,
