@@ -77,8 +77,8 @@ thinned by 6, so ``draws`` = 2000 takes 94 more steps (defaults).  emcee's
 own bookkeeping costs about half a millisecond per step whatever the number
 of walkers, so many walkers and few steps are cheaper than the reverse for
 the same number of effective samples; the integrated autocorrelation time
-is about 10-25 steps, so 2000 draws are worth roughly 500-1200 independent
-ones, and the interval ends move by about 1.5% of the interval's width
+is about 15-20 steps, so 2000 draws are worth roughly 600-800 independent
+ones, and the interval ends move by about 1% of the interval's width
 against a 20000-draw run.  Acceptance fraction and autocorrelation times
 are reported, not enforced.
 
