@@ -647,9 +647,12 @@ def test_uncertainty_columns_and_lack_of_fit(tmp_path):
             lo, hi = getattr(row, f"{p}_q05"), getattr(row, f"{p}_q95")
             assert np.isfinite(lo) and np.isfinite(hi) and lo <= hi
             assert getattr(row, f"ident_{p}") in labels
-        # phic trades exactly against the scale of kc and kphi: the data cannot set it
-        assert row.ident_phic_deg == "set by prior"
         assert np.isfinite(row.longest_run)
+    # phic trades exactly against the scale of kc and kphi: the data cannot set it.  Its
+    # posterior/prior width ratio is 0.86 in expectation (docs/uncertainty.md), near the 0.75
+    # threshold, and estimated from 1000 draws, so a few labels may read "weakly determined"
+    assert (out["ident_phic_deg"] == "set by prior").mean() >= 0.95
+    assert (out["ident_phic_deg"] != "determined").all()
     lo, hi = binom.ppf(0.005, N, 0.9) / N, binom.isf(0.005, N, 0.9) / N
     assert (lo, hi) == pytest.approx((0.82, 0.97))
     covered = ((out["n_q05"] <= out["true_n"]) & (out["true_n"] <= out["n_q95"])).mean()
