@@ -1405,6 +1405,7 @@ def posterior(
     radii = DEFAULT_PLATES if plate_pair is None else tuple(plate_pair)
     radii = radii if plates is None else tuple(plates)
     sink = np.asarray(DEFAULT_SINKAGES if plate_sinkages is None else plate_sinkages, float)
+    bands = plate_bands(samples, radii, sink, law=law, level=level)
     diag = SamplerDiagnostics(
         nwalkers=nwalkers,
         burn=burn,
@@ -1425,7 +1426,7 @@ def posterior(
         id=profile.id,
         samples=samples,
         **summary,
-        plate_bands=plate_bands(samples, radii, sink, law=law, level=level),
+        plate_bands=bands,
         noise=noise_out,
         diagnostics=diag,
         prior=pri.describe(),
