@@ -615,9 +615,18 @@ def test_parquet_types_and_nulls(cluster, tmp_path):
 
 
 def test_uncertainty_columns_and_lack_of_fit(tmp_path):
-    """--uncertainty adds 90% intervals and labels; every row says whether the model fits."""
+    """--uncertainty adds 90% intervals and labels; every row says whether the model fits.
+
+    Over 100 generated profiles (3% independent noise, uniform prior over
+    the bounds) n's 90% interval covers the truth at a rate inside the
+    central 99.8% window of Binomial(100, 0.9) / 100, [0.80, 0.98] (88 at this
+    seed): too narrow and too wide both fail.
+    """
+    from scipy.stats import binom
+
     rng = np.random.default_rng(8)
-    profiles = make_profiles(3, seed=8)
+    N = 100
+    profiles = make_profiles(N, seed=8)
     for p in profiles:  # 3% noise so the posterior has something to say
         p.ci = p.ci * (1.0 + 0.03 * rng.standard_normal(p.ci.size))
     to_frame(profiles).to_parquet(tmp_path / "in.parquet")
@@ -627,9 +636,9 @@ def test_uncertainty_columns_and_lack_of_fit(tmp_path):
         workers=1,
         quiet=True,
         uncertainty=True,
-        draws=300,
+        draws=1000,
     )
-    assert s.success and s.profiles_ok == 3
+    assert s.success and s.profiles_ok == N
     out = read_out(tmp_path / "out")
     labels = {"determined", "weakly determined", "set by prior"}
     for row in out.itertuples():
@@ -637,10 +646,16 @@ def test_uncertainty_columns_and_lack_of_fit(tmp_path):
             lo, hi = getattr(row, f"{p}_q05"), getattr(row, f"{p}_q95")
             assert np.isfinite(lo) and np.isfinite(hi) and lo <= hi
             assert getattr(row, f"ident_{p}") in labels
-        # phic trades exactly against the scale of kc and kphi: the data cannot set it
-        assert row.ident_phic_deg == "set by prior"
-        assert row.n_q05 - 0.15 <= row.true_n <= row.n_q95 + 0.15
         assert np.isfinite(row.longest_run)
+    # phic trades exactly against the scale of kc and kphi: the data cannot set it.  Its
+    # posterior/prior width ratio is 0.86 in expectation (docs/uncertainty.md), near the 0.75
+    # threshold, and estimated from 1000 draws, so a few labels may read "weakly determined"
+    assert (out["ident_phic_deg"] == "set by prior").mean() >= 0.95
+    assert (out["ident_phic_deg"] != "determined").all()
+    lo, hi = binom.ppf(0.001, N, 0.9) / N, binom.isf(0.001, N, 0.9) / N
+    assert (lo, hi) == pytest.approx((0.80, 0.98))
+    covered = ((out["n_q05"] <= out["true_n"]) & (out["true_n"] <= out["n_q95"])).mean()
+    assert lo <= covered <= hi, covered
     # a profile that rises then falls (a tillage pan) is flagged, with its reason
     z = np.linspace(0.0, 0.4, 21)
     ci = np.where(z < 0.15, 3000 * z / 0.15 + 100, 1200.0)

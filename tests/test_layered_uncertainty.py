@@ -28,13 +28,25 @@ def profile(seed: int) -> CIProfile:
 
 @pytest.mark.parametrize("seed", [1, 2])
 def test_truth_inside_the_intervals(seed):
+    """The generating layers lie inside the posterior's 99% intervals, with no padding.
+
+    One profile cannot check a 90% rate (it would fail one time in ten by
+    chance per parameter); the 99% equal-tailed interval of the draws, which
+    a calibrated posterior misses one time in a hundred, can.  The 90%
+    intervals must lie inside them and be narrow enough to call n and the
+    interface "determined".
+    """
     p = profile(seed)
     post = layered_posterior(p, fit_layered(p), draws=1500, seed=seed)
-    lo, hi = post.intervals["interface_1"]
-    assert lo <= 0.15 <= hi and hi - lo < 0.05
-    for name, truth in (("n_1", 0.4), ("n_2", 1.0)):
+    for name, truth in (("interface_1", 0.15), ("n_1", 0.4), ("n_2", 1.0)):
+        col = post.samples[:, post.names.index(name)]
+        lo99, hi99 = np.quantile(col, [0.005, 0.995])
         lo, hi = post.intervals[name]
-        assert lo - 0.02 <= truth <= hi + 0.02, (name, lo, hi)
+        assert lo99 <= lo < hi <= hi99
+        assert lo99 <= truth <= hi99, (name, lo99, hi99)
+    lo, hi = post.intervals["interface_1"]
+    assert hi - lo < 0.05
+    for name in ("n_1", "n_2", "interface_1"):
         assert post.identifiability[name] == "determined"
     assert set(post.identifiability.values()) <= set(LABELS)
     d = post.as_dict("us")

@@ -4,8 +4,10 @@ Profiles are generated with the improved model (eq. (2-7) of Huang et al.)
 from known parameters (Wong's LETE sand, kc = 102 kN/m^(n+1), kphi = 5301
 kN/m^(n+2), n = 0.79, with cc = 1 kPa and phic = 11 deg near Table 4-1) and
 multiplied by (1 + s e), e independent or AR(1) along depth.  The coverage
-test draws 56 such cases and requires the 90% intervals to contain the
-truth in at least 80% of them (benchmarks/coverage.py runs more).
+tests draw 200 such cases per noise kind (calibration prior) and 100 + 100
+(bounds prior, pooled) and require the rate at which the 90% intervals
+contain the truth to lie in the central 99.8% binomial window around 90%,
+from both sides (benchmarks/coverage.py runs more).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.stats import binom
 
 from terracone import units as u
 from terracone.cone import improved
@@ -26,11 +29,15 @@ from terracone.uncertainty import (
     PARAM_NAMES,
     WEAKLY_BELOW,
     CalibrationPrior,
+    ar1_coefficients,
     ar1_noise,
     estimate_correlation,
     identifiability_label,
+    integrated_time,
     posterior,
     posterior_for_result,
+    spline_sse,
+    spline_sse_compiled,
 )
 
 TRUTH = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.0, phic=11.0)
@@ -261,7 +268,7 @@ def test_posterior_for_result_and_diagnostics():
     assert res.best_fit == pred.params
     assert res.plate_bands[0].radius == pytest.approx(0.0635)
     d = res.diagnostics
-    assert d.draws == 600 and d.nwalkers == 64
+    assert d.draws == 600 and d.nwalkers == 128
     assert 0.1 < d.acceptance < 0.7
     assert d.autocorr_time is not None and d.effective_samples > 0
     assert d.time_s > 0
@@ -320,12 +327,40 @@ def test_bad_input():
 # ---------------------------------------------------------------------------
 
 
+#: Draws per posterior in the coverage tests (the CLI default is 2000; the
+#: intervals stay calibrated at 1000, see docs/uncertainty.md).
+COVERAGE_DRAWS = 1000
+
+
+def binomial_window(n: int, p: float = 0.9, level: float = 0.998) -> tuple[float, float]:
+    """Central ``level`` acceptance region of a coverage rate over n cases at true rate p.
+
+    99.8%: the chains, and so the hit counts, change with the CPU's rounding
+    (SIMD paths, BLAS), so the window must hold for a fresh binomial draw, not
+    only for the seeds run here.
+    """
+    a = (1.0 - level) / 2.0
+    return binom.ppf(a, n, p) / n, binom.isf(a, n, p) / n
+
+
+def _truth_calibration(rng, cal):
+    """A terrain drawn from the calibration prior (kphi and n from ranges)."""
+    kphi = rng.uniform(2500, 6000)
+    q = math.exp(math.log(LETE.kc / LETE.kphi) + cal.ratio_log_sd * rng.standard_normal())
+    cc = -1.0
+    while not 0 <= cc <= 100:  # the prior is truncated to the bounds
+        cc = LETE.cc + cal.cc_width * rng.standard_normal()
+    phic = float(np.clip(LETE.phic_deg + cal.phic_sd * rng.standard_normal(), 0, 45))
+    return dict(kc=q * kphi, kphi=kphi, n=rng.uniform(0.5, 1.1), cc=cc, phic=phic)
+
+
 def _coverage_cases(n_cases: int, *, prior: str, correlated: bool, seed: int):
+    """Hits of the 90% intervals of n and of the plate pressure (5 cm plate, 2.5 cm)."""
     rng = np.random.default_rng(seed)
     cal = CalibrationPrior(LETE)
     hit_n = hit_p = 0
     for i in range(n_cases):
-        if prior == "bounds":
+        if prior == "bounds":  # terrains around LETE sand / Table 4-1
             t = dict(
                 kc=rng.uniform(60, 110),
                 kphi=rng.uniform(2500, 5500),
@@ -334,15 +369,7 @@ def _coverage_cases(n_cases: int, *, prior: str, correlated: bool, seed: int):
                 phic=rng.uniform(8, 14),
             )
         else:  # truths drawn from the calibration prior
-            kphi = rng.uniform(2500, 6000)
-            q = math.exp(math.log(LETE.kc / LETE.kphi) + cal.ratio_log_sd * rng.standard_normal())
-            t = dict(
-                kc=q * kphi,
-                kphi=kphi,
-                n=rng.uniform(0.5, 1.1),
-                cc=abs(LETE.cc + cal.cc_width * rng.standard_normal()),
-                phic=float(np.clip(LETE.phic_deg + cal.phic_sd * rng.standard_normal(), 0, 45)),
-            )
+            t = _truth_calibration(rng, cal)
         rho = rng.uniform(0.6, 0.8) if correlated else 0.0
         p = profile(
             noise=rng.uniform(0.03, 0.05), rho=rho, seed=int(rng.integers(1 << 30)), truth=t
@@ -351,30 +378,120 @@ def _coverage_cases(n_cases: int, *, prior: str, correlated: bool, seed: int):
             p,
             prior="bounds" if prior == "bounds" else cal,
             seed=i,
+            draws=COVERAGE_DRAWS,
             plates=(0.05,),
             plate_sinkages=(0.0, 0.025),
-            **FAST,
         )
         lo, hi = res.intervals["n"]
         hit_n += lo <= t["n"] <= hi
         b = res.plate_bands[0]
         hit_p += b.lo[1] <= plate_true(t) <= b.hi[1]
-    return hit_n / n_cases, hit_p / n_cases
+    return hit_n, hit_p
 
 
-def test_coverage_of_90_percent_intervals():
-    """56 generated profiles, half with AR(1) noise: the 90% intervals cover >= 80%.
+@pytest.mark.parametrize("correlated", [False, True], ids=["independent", "ar1"])
+def test_coverage_with_a_calibration_prior(correlated):
+    """200 profiles per noise kind: n and plate pressure covered at 90%, from both sides.
 
-    Calibration prior (40 cases drawn from it): n and the pressure under a
-    5 cm plate at 2.5 cm sinkage.  Bounds prior (16 cases): n only, the
-    plate pressure being set by the prior there (phic trades against the
-    scale of kc and kphi).  benchmarks/coverage.py runs 400 cases.
+    Truths are drawn from the LETE calibration prior (what a calibrated
+    credible interval promises to cover), noise 3-5%, independent or AR(1)
+    with rho 0.6-0.8.  The window, the central 99.8% of Binomial(200, 0.9)
+    divided by 200, is [0.83, 0.96]: both too narrow and too wide intervals
+    fail.  (At these seeds: n 183 and 175, plate 183 and 183 of 200;
+    benchmarks/coverage.py runs 2000 draws and checks 85-95%.)
     """
-    n1, p1 = _coverage_cases(20, prior="calibration", correlated=False, seed=200)
-    n2, p2 = _coverage_cases(20, prior="calibration", correlated=True, seed=201)
-    n3, _ = _coverage_cases(8, prior="bounds", correlated=False, seed=100)
-    n4, _ = _coverage_cases(8, prior="bounds", correlated=True, seed=101)
-    cov_n = (20 * (n1 + n2) + 8 * (n3 + n4)) / 56
-    cov_p = (p1 + p2) / 2
-    assert cov_n >= 0.8, (n1, n2, n3, n4)
-    assert cov_p >= 0.8, (p1, p2)
+    N = 200
+    lo, hi = binomial_window(N)
+    assert (lo, hi) == pytest.approx((0.83, 0.96))
+    hit_n, hit_p = _coverage_cases(N, prior="calibration", correlated=correlated, seed=200)
+    assert lo <= hit_n / N <= hi, hit_n
+    assert lo <= hit_p / N <= hi, hit_p
+
+
+def test_coverage_of_n_with_the_bounds_prior():
+    """Uniform prior over the bounds: n covered at 90% over 100 + 100 profiles, both sides.
+
+    100 profiles with independent noise and 100 with AR(1) noise, pooled:
+    the rate lies in the central 99.8% of Binomial(200, 0.9) / 200, [0.83,
+    0.96] (at these seeds 95 and 91 of 100).  Per noise kind the rates sit
+    near the ends of 85-95% (94.5% and 86.5% over 200 profiles each in
+    docs/uncertainty.md), too close to test per kind without failing on
+    other CPUs one time in twelve.  The plate pressure is not checked here:
+    under the bounds prior it is set by the prior (the phic ridge), its band
+    spans about three times the pressure and covers LETE-like truths nearly
+    always.
+    """
+    N = 100
+    lo, hi = binomial_window(2 * N)
+    hits = [_coverage_cases(N, prior="bounds", correlated=c, seed=100)[0] for c in (False, True)]
+    assert lo <= sum(hits) / (2 * N) <= hi, hits
+
+
+# ---------------------------------------------------------------------------
+# the compiled log-likelihood and the autocorrelation time
+# ---------------------------------------------------------------------------
+
+
+def _likelihood(Kc, phi):
+    from terracone.plate import pressure_law
+    from terracone.uncertainty import Likelihood
+
+    z = DEPTH
+    y = improved(z, **TRUTH, Kc=Kc) * (1 + 0.03 * np.sin(40 * z))
+    w = np.sqrt(y * y + (0.05 * y.max()) ** 2)
+    w = w / np.sqrt(np.mean(w * w))
+    lik = Likelihood(
+        z,
+        y,
+        cone=CIProfile("x", z, y).cone,
+        law=pressure_law("rm0"),
+        Kc=Kc,
+        n_range=(0.05, 2.0),
+        weights=w,
+        phi=phi,
+    )
+    return lik, z, y, w
+
+
+@pytest.mark.parametrize("Kc", [None, 0.01])
+@pytest.mark.parametrize("sampled_rho", [False, True])
+def test_compiled_log_likelihood_equals_numpy_and_the_forward_model(Kc, sampled_rho):
+    """spline_sse_compiled == spline_sse to 1e-12; both == the direct model to 1e-6."""
+    rng = np.random.default_rng(3)
+    P = 40
+    params = np.column_stack(
+        [
+            rng.uniform(0, 300, P),
+            rng.uniform(0, 9000, P),
+            rng.uniform(0.05, 2.0, P),
+            rng.uniform(0, 20, P),
+            rng.uniform(0, 45, P),
+        ]
+    )
+    params[0, 2], params[1, 2] = 0.05, 2.0  # both ends of the n grid
+    rho = rng.uniform(0, 0.95, P) if sampled_rho else None
+    phi = None if sampled_rho else ar1_coefficients(DEPTH, 0.6)
+    lik, z, y, w = _likelihood(Kc, phi)
+    r = np.zeros(0) if rho is None else rho
+    args = (lik.coef, lik.n0, lik.h, lik.wy, params, lik.t, r, lik.dzr)
+    ref = spline_sse(*args)
+    np.testing.assert_allclose(spline_sse_compiled(*args), ref, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(lik.sse(params, rho=rho), ref, rtol=1e-12, atol=0)
+    # independent reference: the closed-form model, weighted and whitened by hand
+    for k in range(P):
+        kc, kphi, n, cc, phic = params[k]
+        e = (improved(z, kc=kc, kphi=kphi, n=n, cc=cc, phic=phic, Kc=Kc) - y) / w
+        ph = ar1_coefficients(z, rho[k]) if sampled_rho else phi
+        u = np.concatenate([e[:1], (e[1:] - ph * e[:-1]) / np.sqrt(1 - ph * ph)])
+        assert ref[k] == pytest.approx(u @ u, rel=1e-6)
+
+
+def test_integrated_time_matches_emcee():
+    import emcee
+
+    rng = np.random.default_rng(0)
+    for T in (5, 47, 64, 100):
+        x = 0.3 * rng.standard_normal((T, 16, 3)).cumsum(axis=0)
+        x += rng.standard_normal((T, 16, 3))
+        ref = emcee.autocorr.integrated_time(x, tol=0, quiet=True)
+        np.testing.assert_allclose(integrated_time(x), ref, rtol=1e-10)
