@@ -108,6 +108,31 @@ def _minimise_1d(f, a: np.ndarray, b: np.ndarray, iters: int):
     return x, np.minimum(fc, fd), (iters + 2) * P
 
 
+def _cells_kernel(law: PressureLaw, cone: Cone):
+    """The compiled cells kernel bound to a law and cone, or None (numpy path).
+
+    None when compilation is off (:func:`terracone.jit.enabled`) or the law's
+    coefficients are not scalars.
+    """
+    from ..jit import enabled
+
+    if not enabled():
+        return None
+    r_t, alpha, beta = (np.asarray(c, dtype=float) for c in law.coefficients())
+    if r_t.size != 1 or alpha.size != 1 or beta.size != 1:
+        return None
+    from .kernels import cells_kernel
+
+    H, R = cone.height, cone.radius
+    rm1 = not law.is_rm0
+    c = (float(r_t.item()), float(alpha.item()), float(beta.item()))
+
+    def run(zz, yy, w, n, sv, lo, hi, ratio):
+        return cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, *c)
+
+    return run
+
+
 def _pad(depths: list[np.ndarray], cis: list[np.ndarray]):
     P = len(depths)
     Z = max(d.size for d in depths)
@@ -178,8 +203,25 @@ def solve_exact_many(
             kc_lo = kc_hi = np.zeros(np.shape(n))
         return kc_lo, kc_hi, kp_lo, kp_hi
 
+    kern = _cells_kernel(law, cone)
+
     def cells(n: np.ndarray, sv: np.ndarray | None = None):
         """Primed x and SSE for n of shape (P, K) and each s of ``sv`` ((P, F) or the grid)."""
+        if kern is not None:
+            sv = svals[None, :] if sv is None else sv
+            kc_lo, kc_hi, kp_lo, kp_hi = _kbounds(n)
+            lo = np.stack(np.broadcast_arrays(kc_lo, kp_lo, bounds.cc[0]), axis=-1)
+            hi = np.stack(np.broadcast_arrays(kc_hi, kp_hi, bounds.cc[1]), axis=-1)
+            return kern(
+                zz,
+                yy,
+                w,
+                np.ascontiguousarray(n, float),
+                np.ascontiguousarray(sv, float),
+                lo,
+                hi,
+                math.nan if ratio is None else float(ratio),
+            )
         A, B, C = cone_index_basis(zz[:, None, :], n=n[..., None], phic=0.0, law=law, cone=cone)
         if ratio is not None:
             A, B = np.zeros_like(A), ratio * A + B

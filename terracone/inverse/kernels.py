@@ -1,0 +1,278 @@
+"""Compiled kernels of the exact solver (numba, see :mod:`terracone.jit`).
+
+Scalar ports of the numpy references, looped over cells so that one call
+does what the reference does in hundreds of numpy calls on tiny arrays:
+
+* :func:`tail_moments`, :func:`basis_point`: the closed-form cone integrals
+  and basis columns of :func:`terracone.cone.cone_index_basis` (fully
+  mobilised shear, phic = 0, RM0 or RM1), eqs. (2-2) to (2-7) of [1]_;
+* :func:`box_lsq3_one`, :func:`box_lsq3_flat`: the 27-face bounded least
+  squares of :func:`terracone.inverse.boxlsq.box_lsq3_reference`;
+* :func:`cells_kernel`: the (profile, n, phic-scale) cells of
+  :func:`terracone.inverse.many.solve_exact_many` (basis, normal equations,
+  box solve and the SSE from the residuals) in one pass.
+
+The numpy implementations stay the reference: ``tests/test_kernels.py``
+compares each kernel with its twin to 1e-12, and ``TERRACONE_NUMBA=0`` (or
+:func:`terracone.jit.disabled`) makes the solvers take the numpy paths.
+This module is imported only when a solver runs (it imports numba).
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Eqs. (2-2) to (2-7).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..jit import njit
+
+__all__ = ["tail_moments", "basis_point", "box_lsq3_one", "box_lsq3_flat", "cells_kernel"]
+
+SERIES_EPS = 0.01  # as terracone.cone: below this the binomial series is used
+SERIES_TERMS = 10
+
+
+@njit(error_model="numpy")
+def tail_moments(eps: float, n: float) -> tuple[float, float, float]:
+    """G_k(eps) = int_0^eps w^k (1-w)^n dw, k = 0, 1, 2 (one point; see terracone.cone)."""
+    if eps < SERIES_EPS:
+        # binomial series, terms for 1e-17 at this eps
+        terms = SERIES_TERMS
+        if eps > 0:
+            terms = min(SERIES_TERMS, max(2, int(math.ceil(-17.0 / math.log10(eps))) + 1))
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        cp = eps
+        for jj in range(terms):
+            s0 += cp / (jj + 1)
+            ce = cp * eps
+            s1 += ce / (jj + 2)
+            s2 += ce * eps / (jj + 3)
+            cp = ce * ((jj - n) / (jj + 1))
+        return s0, s1, s2
+    x = 1.0 - eps
+    e1 = math.expm1((n + 1.0) * math.log1p(-eps))  # x^(n+1) - 1
+    n1 = n + 1.0
+    n2 = n + 2.0
+    g0 = -e1 / n1
+    g1 = g0 - (eps - e1 * x) / n2
+    g2 = g1 - (eps - e1 * x) / n2 + (eps * (2.0 - eps) - e1 * x * x) / (n + 3.0)
+    return g0, g1, g2
+
+
+@njit(error_model="numpy")
+def basis_point(
+    z: float, n: float, H: float, R: float, rm1: bool, r_t: float, alpha: float, beta: float
+) -> tuple[float, float, float]:
+    """Columns A, B, C of eq. (2-7) at one depth, fully mobilised shear, phic = 0."""
+    t = R / H
+    u1 = z + H  # depth of the tip
+    if not u1 > 0.0:
+        return 0.0, 0.0, 0.0
+    L = H if z >= 0.0 else u1  # embedded length along the axis
+    p1 = math.exp((n + 1.0) * math.log(u1))  # u1^(n+1)
+    p2 = p1 * u1
+    eb = min(max(L / u1, 0.0), 1.0)
+    g0b, g1b, _ = tail_moments(eb, n)
+    I_phi = t * p2 * g1b  # eq. (2-5), per unit kphi
+    I_cc = 0.5 * t * L * L
+    if not rm1:
+        I_c = p1 * g0b  # eq. (2-2), per unit kc
+    else:
+        d_s = r_t / t  # RM1 of section 3.2: linear branch below r_t
+        if 0.0 < d_s:
+            es = min(max(min(L, d_s) / u1, 0.0), 1.0)
+            g0s, g1s, g2s = tail_moments(es, n)
+            I_c = p1 * (g0b - g0s) + alpha * t * p2 * g1s - beta * t * t * (p2 * u1) * g2s
+        else:
+            I_c = p1 * g0b
+    RR = R * R
+    return 2.0 * (t * I_c) / RR, 2.0 * (t * I_phi) / RR, 2.0 * I_cc / RR
+
+
+@njit(error_model="numpy")
+def box_lsq3_one(G, g, yy, lo, hi, x_out, ws) -> float:  # noqa: C901 (one face loop, as the reference)
+    """Minimise x'Gx - 2g'x + yy over lo <= x <= hi (3 variables); x into x_out, returns SSE.
+
+    ``ws`` is a (14, 3) float work array (no allocation per problem).
+    """
+    d, diag, b, L, U, tol = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5]
+    bx, bst, x, st, r, S = ws[6], ws[7], ws[8], ws[9], ws[10], ws[11:14]
+    for i in range(3):
+        d[i] = math.sqrt(max(G[i, i], 1e-300))
+    for i in range(3):
+        for j in range(3):
+            S[i, j] = G[i, j] / (d[i] * d[j])
+    for i in range(3):
+        diag[i] = S[i, i]
+        S[i, i] = S[i, i] + 1e-13  # tiny ridge in the solves, as the reference
+        b[i] = g[i] / d[i]
+        L[i] = lo[i] * d[i]
+        U[i] = hi[i] * d[i]
+        tol[i] = 1e-9 * max(U[i] - L[i], 1e-300) + 1e-12
+        bx[i] = 0.0
+        bst[i] = 0.0
+    best = np.inf
+    for face in range(27):  # itertools.product((0, 1, 2), repeat=3): 0 free, 1 lower, 2 upper
+        st[0] = face // 9
+        st[1] = (face // 3) % 3
+        st[2] = face % 3
+        nfree = 0
+        for i in range(3):
+            if st[i] == 1:
+                x[i] = L[i]
+            elif st[i] == 2:
+                x[i] = U[i]
+            else:
+                nfree += 1
+        for i in range(3):
+            if st[i] == 0:
+                ri = b[i]
+                for j in range(3):
+                    if st[j] != 0:
+                        ri = ri - S[i, j] * x[j]
+                r[i] = ri
+        if nfree == 1:
+            for i in range(3):
+                if st[i] == 0:
+                    x[i] = r[i] / S[i, i]
+        elif nfree == 2:
+            i = 0 if st[0] == 0 else 1
+            j = 2 if st[2] == 0 else 1
+            det = S[i, i] * S[j, j] - S[i, j] * S[j, i]
+            xi = (r[i] * S[j, j] - S[i, j] * r[j]) / det
+            xj = (S[i, i] * r[j] - S[j, i] * r[i]) / det
+            x[i] = xi
+            x[j] = xj
+        elif nfree == 3:
+            a00, a01, a02 = S[0, 0], S[0, 1], S[0, 2]
+            a10, a11, a12 = S[1, 0], S[1, 1], S[1, 2]
+            a20, a21, a22 = S[2, 0], S[2, 1], S[2, 2]
+            c00 = a11 * a22 - a12 * a21
+            c01 = a12 * a20 - a10 * a22
+            c02 = a10 * a21 - a11 * a20
+            det = a00 * c00 + a01 * c01 + a02 * c02
+            r0, r1, r2 = r[0], r[1], r[2]
+            x[0] = (r0 * c00 + r1 * (a02 * a21 - a01 * a22) + r2 * (a01 * a12 - a02 * a11)) / det
+            x[1] = (r0 * c01 + r1 * (a00 * a22 - a02 * a20) + r2 * (a02 * a10 - a00 * a12)) / det
+            x[2] = (r0 * c02 + r1 * (a01 * a20 - a00 * a21) + r2 * (a00 * a11 - a01 * a10)) / det
+        feas = True
+        for i in range(3):
+            if st[i] == 0:
+                if not ((x[i] >= L[i] - tol[i]) and (x[i] <= U[i] + tol[i])):
+                    feas = False
+                x[i] = min(max(x[i], L[i]), U[i])
+        obj = (
+            diag[0] * x[0] * x[0]
+            + diag[1] * x[1] * x[1]
+            + diag[2] * x[2] * x[2]
+            + 2.0 * (S[0, 1] * x[0] * x[1] + S[0, 2] * x[0] * x[2] + S[1, 2] * x[1] * x[2])
+            - 2.0 * (b[0] * x[0] + b[1] * x[1] + b[2] * x[2])
+        )
+        if feas and obj < best:
+            best = obj
+            for i in range(3):
+                bx[i] = x[i]
+                bst[i] = st[i]
+    for i in range(3):
+        if bst[i] == 1:
+            v = lo[i]
+        elif bst[i] == 2:
+            v = hi[i]
+        else:
+            v = bx[i] / d[i]
+        x_out[i] = min(max(v, lo[i]), hi[i])
+    return max(best + yy, 0.0)
+
+
+@njit(error_model="numpy")
+def box_lsq3_flat(G, g, yy, lo, hi):
+    """:func:`box_lsq3_one` over M problems: G (M, 3, 3), g, lo, hi (M, 3), yy (M,)."""
+    M = yy.shape[0]
+    x = np.empty((M, 3))
+    sse = np.empty(M)
+    ws = np.empty((14, 3))
+    for m in range(M):
+        sse[m] = box_lsq3_one(G[m], g[m], yy[m], lo[m], hi[m], x[m], ws)
+    return x, sse
+
+
+@njit(error_model="numpy")
+def cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, r_t, alpha, beta):
+    """Cells of :func:`terracone.inverse.many.solve_exact_many` (fully mobilised).
+
+    zz, yy, w : (P, Z) depths [m], CI [kPa], weights; n : (P, K);
+    sv : (1 or P, F) phic scales s = 1 + tan(phic)/tan(a); lo, hi : (P, K, 3)
+    bounds of (kc, kphi, cc); ratio : kc/kphi [m], or NaN for none.
+    Returns the primed solutions xp (P, K, F, 3) and the SSE (P, K, F)
+    from the residuals.
+    """
+    P, Z = zz.shape
+    K = n.shape[1]
+    F = sv.shape[1]
+    xp = np.empty((P, K, F, 3))
+    sse = np.empty((P, K, F))
+    A = np.empty(Z)
+    B = np.empty(Z)
+    C = np.empty(Z)
+    G = np.empty((3, 3))
+    Gs = np.empty((3, 3))
+    g = np.empty(3)
+    gs = np.empty(3)
+    D = np.empty(3)
+    x = np.empty(3)
+    ws = np.empty((14, 3))
+    use_ratio = not math.isnan(ratio)
+    for p in range(P):
+        yty = 0.0
+        for q in range(Z):
+            yty += w[p, q] * yy[p, q] * yy[p, q]
+        ps = p if sv.shape[0] > 1 else 0
+        for k in range(K):
+            for q in range(Z):
+                a, bb, c = basis_point(zz[p, q], n[p, k], H, R, rm1, r_t, alpha, beta)
+                if use_ratio:
+                    A[q], B[q] = 0.0, ratio * a + bb
+                else:
+                    A[q], B[q] = a, bb
+                C[q] = c
+            for i in range(3):
+                g[i] = 0.0
+                for j in range(3):
+                    G[i, j] = 0.0
+            for q in range(Z):
+                wq = w[p, q]
+                aw, bw, cw = A[q] * wq, B[q] * wq, C[q] * wq
+                G[0, 0] += aw * A[q]
+                G[0, 1] += aw * B[q]
+                G[0, 2] += aw * C[q]
+                G[1, 1] += bw * B[q]
+                G[1, 2] += bw * C[q]
+                G[2, 2] += cw * C[q]
+                g[0] += aw * yy[p, q]
+                g[1] += bw * yy[p, q]
+                g[2] += cw * yy[p, q]
+            G[1, 0], G[2, 0], G[2, 1] = G[0, 1], G[0, 2], G[1, 2]
+            for f in range(F):
+                s = sv[ps, f]
+                D[0], D[1], D[2] = s, s, 1.0  # phic scales the kc and kphi columns, eq. (2-6)
+                for i in range(3):
+                    gs[i] = g[i] * D[i]
+                    for j in range(3):
+                        Gs[i, j] = G[i, j] * D[i] * D[j]
+                box_lsq3_one(Gs, gs, yty, lo[p, k], hi[p, k], x, ws)
+                x0, x1, x2 = x[0] * s, x[1] * s, x[2]
+                acc = 0.0
+                for q in range(Z):
+                    rq = A[q] * x0 + B[q] * x1 + C[q] * x2 - yy[p, q]
+                    acc += rq * rq * w[p, q]
+                xp[p, k, f, 0], xp[p, k, f, 1], xp[p, k, f, 2] = x0, x1, x2
+                sse[p, k, f] = acc
+    return xp, sse
