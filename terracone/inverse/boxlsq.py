@@ -22,6 +22,8 @@ import math
 
 import numpy as np
 
+from ..jit import enabled
+
 __all__ = ["box_lsq3", "box_lsq3_reference", "gram"]
 
 _SMALL = 64  # up to this many problems the 27 faces go to LAPACK in one stacked call
@@ -70,8 +72,6 @@ def box_lsq3(
     sse : (...)
         The objective at x (the weighted sum of squared residuals).
     """
-    from ..jit import enabled
-
     if not enabled():
         return box_lsq3_reference(G, g, yy, lo, hi)
     from .kernels import box_lsq3_flat

@@ -29,6 +29,7 @@ import numpy as np
 from scipy.optimize import lsq_linear, minimize
 
 from ..cone import Cone, cone_index_basis
+from ..jit import enabled
 from ..plate import PressureLaw
 from .bounds import Bounds
 from .boxlsq import box_lsq3, gram
@@ -318,6 +319,23 @@ def _solve_mobilised(
     return sol
 
 
+def _pinned_scan(G, g, yy, lo, hi, idx: int, vals: np.ndarray) -> np.ndarray:
+    """SSE (Nn, V) of the box LSQ with variable idx pinned at lo + v (hi - lo), v in vals."""
+    if enabled():
+        from .kernels import pinned_scan
+
+        return pinned_scan(
+            np.ascontiguousarray(G), np.ascontiguousarray(g), float(yy[0]), lo, hi, idx, vals
+        )
+    lo_s, hi_s = lo[..., idx], hi[..., idx]
+    v = lo_s[:, None] + vals[None, :] * (hi_s - lo_s)[:, None]  # (Nn, V)
+    lo2 = np.repeat(lo[:, None, :], vals.size, axis=1).copy()
+    hi2 = np.repeat(hi[:, None, :], vals.size, axis=1).copy()
+    lo2[..., idx] = v
+    hi2[..., idx] = v
+    return box_lsq3(G[:, None], g[:, None], yy[:, None], lo2, hi2)[1]
+
+
 def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> None:
     """Approximate 95% profile-likelihood intervals and the undetermined list.
 
@@ -365,12 +383,7 @@ def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> No
         if np.all(lo_s == hi_s):
             continue
         vals = np.linspace(0.0, 1.0, 61)  # fractions of each n's range
-        v = lo_s[:, None] + vals[None, :] * (hi_s - lo_s)[:, None]  # (Nn, V)
-        lo2 = np.repeat(lo[:, None, :], vals.size, axis=1).copy()
-        hi2 = np.repeat(hi[:, None, :], vals.size, axis=1).copy()
-        lo2[..., idx] = v
-        hi2[..., idx] = v
-        _, sse_v = box_lsq3(G[:, None], g[:, None], yy[:, None], lo2, hi2)
+        sse_v = _pinned_scan(G, g, yy, lo, hi, idx, vals)  # (Nn, V)
         inside = sse_v <= thr  # (Nn, V)
         frac_ok = inside.any(axis=0)
         if frac_ok.any():

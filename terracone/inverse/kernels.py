@@ -124,6 +124,12 @@ def box_lsq3_one(G, g, yy, lo, hi, x_out, ws) -> float:  # noqa: C901 (one face 
         st[0] = face // 9
         st[1] = (face // 3) % 3
         st[2] = face % 3
+        skip = False
+        for i in range(3):  # a pinned variable (lo == hi): only its "lower" face
+            if L[i] == U[i] and st[i] != 1:
+                skip = True
+        if skip:
+            continue
         nfree = 0
         for i in range(3):
             if st[i] == 1:
@@ -276,3 +282,151 @@ def cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, r_t, alpha, beta):
                 xp[p, k, f, 0], xp[p, k, f, 1], xp[p, k, f, 2] = x0, x1, x2
                 sse[p, k, f] = acc
     return xp, sse
+
+
+@njit(error_model="numpy")
+def kbounds(n, bp, lo, hi) -> None:
+    """Box of (kc, kphi, cc) in SI at exponent n into lo, hi (3,).
+
+    bp = (kc_lo, kc_hi, kphi_lo, kphi_hi, cc_lo, cc_hi, kc_c, kc_base, kphi_c,
+    kphi_base, ratio): kc [SI] = kc * kc_c / kc_base^(n + 1), kphi likewise with
+    n + 2 (1, 1 for SI bounds); ratio kc/kphi [m] or NaN (as many.py's _kbounds).
+    """
+    fkc = bp[6] / bp[7] ** (n + 1.0)
+    fkp = bp[8] / bp[9] ** (n + 2.0)
+    kc_lo, kc_hi = bp[0] * fkc, bp[1] * fkc
+    kp_lo, kp_hi = bp[2] * fkp, bp[3] * fkp
+    ratio = bp[10]
+    if not math.isnan(ratio):
+        if ratio > 0:
+            kp_lo = max(kp_lo, kc_lo / ratio)
+            kp_hi = max(min(kp_hi, kc_hi / ratio), kp_lo)
+        kc_lo = 0.0
+        kc_hi = 0.0
+    lo[0], lo[1], lo[2] = kc_lo, kp_lo, bp[4]
+    hi[0], hi[1], hi[2] = kc_hi, kp_hi, bp[5]
+
+
+@njit(error_model="numpy")
+def cell_sse(z, y, w, n, s, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp) -> float:
+    """SSE (from the residuals) of one profile at one (n, s); primed solution into xp (3,).
+
+    A, B, C (Z,) and ws (20, 3) are work arrays.
+    """
+    Z = z.shape[0]
+    ratio = bp[10]
+    use_ratio = not math.isnan(ratio)
+    G = ws[14:17]
+    lo, hi, g = ws[17], ws[18], ws[19]
+    yty = 0.0
+    for q in range(Z):
+        a, bb, c = basis_point(z[q], n, H, R, rm1, r_t, alpha, beta)
+        if use_ratio:
+            A[q], B[q] = 0.0, ratio * a + bb
+        else:
+            A[q], B[q] = a, bb
+        C[q] = c
+        yty += w[q] * y[q] * y[q]
+    for i in range(3):
+        g[i] = 0.0
+        for j in range(3):
+            G[i, j] = 0.0
+    for q in range(Z):
+        aw, bw, cw = A[q] * w[q], B[q] * w[q], C[q] * w[q]
+        G[0, 0] += aw * A[q]
+        G[0, 1] += aw * B[q]
+        G[0, 2] += aw * C[q]
+        G[1, 1] += bw * B[q]
+        G[1, 2] += bw * C[q]
+        G[2, 2] += cw * C[q]
+        g[0] += aw * y[q]
+        g[1] += bw * y[q]
+        g[2] += cw * y[q]
+    # phic scales the kc and kphi columns by s (eq. (2-6) fully mobilised)
+    G[0, 0] = G[0, 0] * s * s
+    G[0, 1] = G[0, 1] * s * s
+    G[1, 1] = G[1, 1] * s * s
+    G[0, 2] = G[0, 2] * s
+    G[1, 2] = G[1, 2] * s
+    g[0] = g[0] * s
+    g[1] = g[1] * s
+    G[1, 0], G[2, 0], G[2, 1] = G[0, 1], G[0, 2], G[1, 2]
+    kbounds(n, bp, lo, hi)
+    box_lsq3_one(G, g, yty, lo, hi, xp, ws)
+    xp[0] *= s
+    xp[1] *= s
+    acc = 0.0
+    for q in range(Z):
+        rq = A[q] * xp[0] + B[q] * xp[1] + C[q] * xp[2] - y[q]
+        acc += rq * rq * w[q]
+    return acc
+
+
+@njit(error_model="numpy")
+def zoom_refine(zz, yy, w, a, b, s, bp, K, steps, H, R, rm1, r_t, alpha, beta):
+    """Zooming-grid minimisation of the SSE over n in [a_p, b_p] at scale s_p, per profile.
+
+    K points per step, at most ``steps`` steps, each zooming to +-1 grid step
+    around the best point so far (the small-P branch of many.py's
+    ``_minimise_1d``).  Returns (n, SSE, evaluations).
+    """
+    P, Z = zz.shape
+    bx = np.empty(P)
+    bf = np.empty(P)
+    A = np.empty(Z)
+    B = np.empty(Z)
+    C = np.empty(Z)
+    ws = np.empty((20, 3))
+    xp = np.empty(3)
+    used = 0
+    for p in range(P):
+        lo, hi = a[p], b[p]
+        best_x = 0.5 * (lo + hi)
+        best_f = np.inf
+        it = 0
+        while it < steps:
+            kbest = -1
+            fbest = np.inf
+            xbest = 0.0
+            for k in range(K):
+                nv = lo + (hi - lo) * (k / (K - 1.0))
+                fv = cell_sse(
+                    zz[p], yy[p], w[p], nv, s[p], bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp
+                )
+                if fv < fbest:
+                    fbest, kbest, xbest = fv, k, nv
+            it += 1
+            if kbest >= 0 and fbest < best_f:
+                best_f, best_x = fbest, xbest
+            h = (hi - lo) / (K - 1)
+            lo = max(lo, best_x - h)
+            hi = min(hi, best_x + h)
+            if hi - lo < 1e-10:
+                break
+        used = max(used, it)
+        bx[p], bf[p] = best_x, best_f
+    return bx, bf, used * K * P
+
+
+@njit(error_model="numpy")
+def pinned_scan(G, g, yy, lo, hi, idx, vals):
+    """SSE with variable ``idx`` pinned at lo + v (hi - lo) for each v of vals.
+
+    G (N, 3, 3), g (N, 3), yy scalar, lo, hi (N, 3); returns (N, V): the
+    profile scan of exact.py's identifiability analysis.
+    """
+    N = G.shape[0]
+    V = vals.shape[0]
+    out = np.empty((N, V))
+    ws = np.empty((14, 3))
+    lo2 = np.empty(3)
+    hi2 = np.empty(3)
+    x = np.empty(3)
+    for i in range(N):
+        for v in range(V):
+            for j in range(3):
+                lo2[j], hi2[j] = lo[i, j], hi[i, j]
+            pin = lo[i, idx] + vals[v] * (hi[i, idx] - lo[i, idx])
+            lo2[idx], hi2[idx] = pin, pin
+            out[i, v] = box_lsq3_one(G[i], g[i], yy, lo2, hi2, x, ws)
+    return out

@@ -33,11 +33,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..cone import Cone, cone_index_basis
+from ..jit import enabled
 from ..plate import PressureLaw
 from .bounds import Bounds
 from .boxlsq import box_lsq3
 
-__all__ = ["ManySolution", "solve_exact_many"]
+__all__ = ["ManySolution", "solve_exact_many", "bounds_params", "first_min"]
 
 _GOLD = (math.sqrt(5.0) - 1.0) / 2.0
 
@@ -108,29 +109,70 @@ def _minimise_1d(f, a: np.ndarray, b: np.ndarray, iters: int):
     return x, np.minimum(fc, fd), (iters + 2) * P
 
 
-def _cells_kernel(law: PressureLaw, cone: Cone):
+def _cells_kernel(law: PressureLaw, cone: Cone, bounds: Bounds):
     """The compiled cells kernel bound to a law and cone, or None (numpy path).
 
     None when compilation is off (:func:`terracone.jit.enabled`) or the law's
     coefficients are not scalars.
     """
-    from ..jit import enabled
-
     if not enabled():
         return None
     r_t, alpha, beta = (np.asarray(c, dtype=float) for c in law.coefficients())
     if r_t.size != 1 or alpha.size != 1 or beta.size != 1:
         return None
-    from .kernels import cells_kernel
+    from .kernels import cells_kernel, zoom_refine
 
     H, R = cone.height, cone.radius
     rm1 = not law.is_rm0
     c = (float(r_t.item()), float(alpha.item()), float(beta.item()))
 
-    def run(zz, yy, w, n, sv, lo, hi, ratio):
-        return cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, *c)
+    class Bound:
+        """The kernels with this law and cone filled in."""
 
-    return run
+        def __call__(self, zz, yy, w, n, sv, lo, hi, ratio):
+            return cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, *c)
+
+        def zoom(self, zz, yy, w, a, b, s, ratio):
+            bp = bounds_params(bounds, ratio)
+            return zoom_refine(zz, yy, w, a, b, s, bp, 17, 8, H, R, rm1, *c)
+
+    return Bound()
+
+
+def bounds_params(bounds: Bounds, ratio: float | None) -> np.ndarray:
+    """Bounds of (kc, kphi, cc) as the array ``bp`` of :func:`terracone.inverse.kernels.kbounds`."""
+    from .. import units as u
+
+    def conv(units: str, extra: float) -> tuple[float, float]:
+        if u.check_system(units) == "si":
+            return 1.0, 1.0
+        # kc [SI] = kc * c / INCH^(n + extra): c from n = -extra
+        f = u.kc_to_si if extra == 1.0 else u.kphi_to_si
+        return float(f(1.0, -extra, units)), float(u.INCH)
+
+    return np.array(
+        [
+            *bounds.kc,
+            *bounds.kphi,
+            *bounds.cc,
+            *conv(bounds.kc_units, 1.0),
+            *conv(bounds.kphi_units, 2.0),
+            math.nan if ratio is None else float(ratio),
+        ],
+        dtype=float,
+    )
+
+
+def first_min(v: np.ndarray, tol: np.ndarray | float) -> np.ndarray:
+    """Per row of v (P, M), the first index whose value is within tol (P,) of the row's minimum.
+
+    A deterministic argmin: values that differ only by rounding (compiled
+    and numpy kernels sum in different orders) count as ties, and ties go
+    to the first index.
+    """
+    m = np.nanmin(v, axis=1)
+    ok = v <= (m + np.asarray(tol, dtype=float))[:, None]
+    return np.argmax(ok, axis=1)
 
 
 def _pad(depths: list[np.ndarray], cis: list[np.ndarray]):
@@ -203,7 +245,7 @@ def solve_exact_many(
             kc_lo = kc_hi = np.zeros(np.shape(n))
         return kc_lo, kc_hi, kp_lo, kp_hi
 
-    kern = _cells_kernel(law, cone)
+    kern = _cells_kernel(law, cone, bounds)
 
     def cells(n: np.ndarray, sv: np.ndarray | None = None):
         """Primed x and SSE for n of shape (P, K) and each s of ``sv`` ((P, F) or the grid)."""
@@ -269,7 +311,7 @@ def solve_exact_many(
     xg, sseg = cells(N)  # (P, Nn, F)
     nfev += sseg.size
     flat = sseg.reshape(P, -1)
-    k = np.argmin(flat, axis=1)
+    k = first_min(flat, 1e-12 * yty)
     i_n, i_f = np.unravel_index(k, sseg.shape[1:])
     sse_n = sseg.min(axis=2)  # (P, Nn)
 
@@ -281,9 +323,11 @@ def solve_exact_many(
         def f(nv):  # nv (P, K) -> SSE (P, K)
             return cells(nv, svals[phi_idx][:, None])[1][:, :, 0]
 
-        n_ref, f_ref, used = _minimise_1d(
-            f, np.clip(n_best - step, *bounds.n), np.clip(n_best + step, *bounds.n), refine_iter
-        )
+        a_n, b_n = np.clip(n_best - step, *bounds.n), np.clip(n_best + step, *bounds.n)
+        if kern is not None and P < 32:  # the zooming grid of _minimise_1d, compiled
+            n_ref, f_ref, used = kern.zoom(zz, yy, w, a_n, b_n, svals[phi_idx], ratio)
+        else:
+            n_ref, f_ref, used = _minimise_1d(f, a_n, b_n, refine_iter)
         nfev += used
         grid_best = flat[np.arange(P), k]
         n_best = np.where(f_ref <= grid_best, n_ref, n_best)
