@@ -255,6 +255,10 @@ def _polish(
     free = hi > lo
     if not free.any():
         return x0
+    x = _polish_on_face(X, y, lo, hi, x0)
+    if x is not None:
+        r0, r1 = X @ x0 - y, X @ x - y
+        return x if r1 @ r1 < r0 @ r0 else x0
     xf = np.where(free, 0.0, lo)
     rhs = y - X @ xf
     Xf = X[:, free]
@@ -270,6 +274,37 @@ def _polish(
     x[free] = np.clip(res.x / scale, lo[free], hi[free])
     r0, r1 = X @ x0 - y, X @ x - y
     return x if r1 @ r1 < r0 @ r0 else x0
+
+
+def _polish_on_face(X, y, lo, hi, x0) -> np.ndarray | None:
+    """The least-squares solution on x0's face of the box (QR), if it is the box optimum.
+
+    The variables strictly inside their bounds at x0 are re-solved by
+    ``numpy.linalg.lstsq`` with the others held; the result is returned
+    when it stays inside the box and satisfies the optimality (KKT) signs
+    at the held bounds, else None (then BVLS decides).  One small QR
+    instead of scipy's BVLS, which gives the same optimum on that face.
+    """
+    act = (hi > lo) & (x0 > lo) & (x0 < hi)
+    x = x0.copy()
+    if act.any():
+        Xa = X[:, act]
+        scale = np.sqrt(np.sum(Xa * Xa, axis=0))
+        if not np.all(scale > 0):
+            return None
+        rhs = y - X[:, ~act] @ x0[~act]
+        sol = np.linalg.lstsq(Xa / scale, rhs, rcond=None)[0] / scale
+        if not (np.all(sol > lo[act]) and np.all(sol < hi[act])):
+            return None
+        x[act] = sol
+    r = X @ x - y
+    grad = X.T @ r  # half the gradient of the SSE
+    tol = 1e-8 * np.sqrt(np.sum(X * X, axis=0)) * math.sqrt(float(r @ r) + 1e-300)
+    held_lo = (hi > lo) & ~act & (x0 <= lo)
+    held_hi = (hi > lo) & ~act & (x0 >= hi)
+    if np.any(held_lo & (grad < -tol)) or np.any(held_hi & (grad > tol)):
+        return None
+    return x
 
 
 def _solve_mobilised(

@@ -32,15 +32,24 @@ import numpy as np
 
 from ..jit import njit
 
-__all__ = ["tail_moments", "basis_point", "box_lsq3_one", "box_lsq3_flat", "cells_kernel"]
+__all__ = [
+    "tail_moments",
+    "basis_point",
+    "box_lsq3_one",
+    "box_lsq3_flat",
+    "cells_kernel",
+    "zoom_refine",
+    "pinned_scan",
+    "kbounds",
+]
 
 SERIES_EPS = 0.01  # as terracone.cone: below this the binomial series is used
 SERIES_TERMS = 10
 
 
 @njit(error_model="numpy")
-def tail_moments(eps: float, n: float) -> tuple[float, float, float]:
-    """G_k(eps) = int_0^eps w^k (1-w)^n dw, k = 0, 1, 2 (one point; see terracone.cone)."""
+def tail_moments_log(eps: float, l1: float, n: float) -> tuple[float, float, float]:
+    """:func:`tail_moments` with l1 = log1p(-eps) given (it does not depend on n)."""
     if eps < SERIES_EPS:
         # binomial series, terms for 1e-17 at this eps
         terms = SERIES_TERMS
@@ -58,7 +67,7 @@ def tail_moments(eps: float, n: float) -> tuple[float, float, float]:
             cp = ce * ((jj - n) / (jj + 1))
         return s0, s1, s2
     x = 1.0 - eps
-    e1 = math.expm1((n + 1.0) * math.log1p(-eps))  # x^(n+1) - 1
+    e1 = math.expm1((n + 1.0) * l1)  # x^(n+1) - 1
     n1 = n + 1.0
     n2 = n + 2.0
     g0 = -e1 / n1
@@ -68,19 +77,43 @@ def tail_moments(eps: float, n: float) -> tuple[float, float, float]:
 
 
 @njit(error_model="numpy")
-def basis_point(
-    z: float, n: float, H: float, R: float, rm1: bool, r_t: float, alpha: float, beta: float
-) -> tuple[float, float, float]:
-    """Columns A, B, C of eq. (2-7) at one depth, fully mobilised shear, phic = 0."""
+def tail_moments(eps: float, n: float) -> tuple[float, float, float]:
+    """G_k(eps) = int_0^eps w^k (1-w)^n dw, k = 0, 1, 2 (one point; see terracone.cone).
+
+    Closed form with expm1/log1p, or the binomial series below eps = 0.01.
+    """
+    return tail_moments_log(eps, math.log1p(-eps), n)
+
+
+@njit(error_model="numpy")
+def depth_logs(z: float, H: float, R: float, r_t: float) -> tuple[float, float, float]:
+    """The n-free logarithms of :func:`basis_point_log` at one depth.
+
+    log(u1), log1p(-eps_b) and log1p(-eps_s) with u1 = z + H the tip depth,
+    eps_b = L/u1 (L the embedded length) and eps_s = min(L, r_t/t)/u1 (RM1).
+    """
+    u1 = z + H
+    if not u1 > 0.0:
+        return 0.0, 0.0, 0.0
+    t = R / H
+    L = H if z >= 0.0 else u1
+    eb = min(max(L / u1, 0.0), 1.0)
+    es = min(max(min(L, r_t / t) / u1, 0.0), 1.0)
+    return math.log(u1), math.log1p(-eb), math.log1p(-es)
+
+
+@njit(error_model="numpy")
+def basis_point_log(z, n, lu1, l1b, l1s, H, R, rm1, r_t, alpha, beta) -> tuple[float, float, float]:
+    """:func:`basis_point` with the logarithms of :func:`depth_logs` given."""
     t = R / H
     u1 = z + H  # depth of the tip
     if not u1 > 0.0:
         return 0.0, 0.0, 0.0
     L = H if z >= 0.0 else u1  # embedded length along the axis
-    p1 = math.exp((n + 1.0) * math.log(u1))  # u1^(n+1)
+    p1 = math.exp((n + 1.0) * lu1)  # u1^(n+1)
     p2 = p1 * u1
     eb = min(max(L / u1, 0.0), 1.0)
-    g0b, g1b, _ = tail_moments(eb, n)
+    g0b, g1b, _ = tail_moments_log(eb, l1b, n)
     I_phi = t * p2 * g1b  # eq. (2-5), per unit kphi
     I_cc = 0.5 * t * L * L
     if not rm1:
@@ -89,12 +122,32 @@ def basis_point(
         d_s = r_t / t  # RM1 of section 3.2: linear branch below r_t
         if 0.0 < d_s:
             es = min(max(min(L, d_s) / u1, 0.0), 1.0)
-            g0s, g1s, g2s = tail_moments(es, n)
+            g0s, g1s, g2s = tail_moments_log(es, l1s, n)
             I_c = p1 * (g0b - g0s) + alpha * t * p2 * g1s - beta * t * t * (p2 * u1) * g2s
         else:
             I_c = p1 * g0b
     RR = R * R
     return 2.0 * (t * I_c) / RR, 2.0 * (t * I_phi) / RR, 2.0 * I_cc / RR
+
+
+@njit(error_model="numpy")
+def basis_point(
+    z: float, n: float, H: float, R: float, rm1: bool, r_t: float, alpha: float, beta: float
+) -> tuple[float, float, float]:
+    """Columns A, B, C of eq. (2-7) at one depth, fully mobilised shear, phic = 0.
+
+    As :func:`terracone.cone.cone_index_basis` (RM0 or RM1, cone of height H
+    and base radius R [m]): CI = kc A + kphi B + cc C.
+    """
+    lu1, l1b, l1s = depth_logs(z, H, R, r_t)
+    return basis_point_log(z, n, lu1, l1b, l1s, H, R, rm1, r_t, alpha, beta)
+
+
+@njit(error_model="numpy")
+def profile_logs(z, H, R, r_t, out) -> None:
+    """:func:`depth_logs` of every depth of z (Z,) into out (3, Z)."""
+    for q in range(z.shape[0]):
+        out[0, q], out[1, q], out[2, q] = depth_logs(z[q], H, R, r_t)
 
 
 @njit(error_model="numpy")
@@ -236,14 +289,18 @@ def cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, r_t, alpha, beta):
     x = np.empty(3)
     ws = np.empty((14, 3))
     use_ratio = not math.isnan(ratio)
+    lg = np.empty((3, Z))
     for p in range(P):
+        profile_logs(zz[p], H, R, r_t, lg)
         yty = 0.0
         for q in range(Z):
             yty += w[p, q] * yy[p, q] * yy[p, q]
         ps = p if sv.shape[0] > 1 else 0
         for k in range(K):
             for q in range(Z):
-                a, bb, c = basis_point(zz[p, q], n[p, k], H, R, rm1, r_t, alpha, beta)
+                a, bb, c = basis_point_log(
+                    zz[p, q], n[p, k], lg[0, q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
+                )
                 if use_ratio:
                     A[q], B[q] = 0.0, ratio * a + bb
                 else:
@@ -308,10 +365,11 @@ def kbounds(n, bp, lo, hi) -> None:
 
 
 @njit(error_model="numpy")
-def cell_sse(z, y, w, n, s, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp) -> float:
+def cell_sse(z, y, w, lg, n, s, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp) -> float:
     """SSE (from the residuals) of one profile at one (n, s); primed solution into xp (3,).
 
-    A, B, C (Z,) and ws (20, 3) are work arrays.
+    lg (3, Z) holds :func:`profile_logs` of z; A, B, C (Z,) and ws (20, 3)
+    are work arrays.
     """
     Z = z.shape[0]
     ratio = bp[10]
@@ -320,7 +378,9 @@ def cell_sse(z, y, w, n, s, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp) ->
     lo, hi, g = ws[17], ws[18], ws[19]
     yty = 0.0
     for q in range(Z):
-        a, bb, c = basis_point(z[q], n, H, R, rm1, r_t, alpha, beta)
+        a, bb, c = basis_point_log(
+            z[q], n, lg[0, q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
+        )
         if use_ratio:
             A[q], B[q] = 0.0, ratio * a + bb
         else:
@@ -379,7 +439,9 @@ def zoom_refine(zz, yy, w, a, b, s, bp, K, steps, H, R, rm1, r_t, alpha, beta):
     ws = np.empty((20, 3))
     xp = np.empty(3)
     used = 0
+    lg = np.empty((3, Z))
     for p in range(P):
+        profile_logs(zz[p], H, R, r_t, lg)
         lo, hi = a[p], b[p]
         best_x = 0.5 * (lo + hi)
         best_f = np.inf
@@ -391,7 +453,24 @@ def zoom_refine(zz, yy, w, a, b, s, bp, K, steps, H, R, rm1, r_t, alpha, beta):
             for k in range(K):
                 nv = lo + (hi - lo) * (k / (K - 1.0))
                 fv = cell_sse(
-                    zz[p], yy[p], w[p], nv, s[p], bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp
+                    zz[p],
+                    yy[p],
+                    w[p],
+                    lg,
+                    nv,
+                    s[p],
+                    bp,
+                    H,
+                    R,
+                    rm1,
+                    r_t,
+                    alpha,
+                    beta,
+                    A,
+                    B,
+                    C,
+                    ws,
+                    xp,
                 )
                 if fv < fbest:
                     fbest, kbest, xbest = fv, k, nv
