@@ -38,9 +38,10 @@ __all__ = [
     "box_lsq3_one",
     "box_lsq3_flat",
     "cells_kernel",
+    "golden_refine",
     "zoom_refine",
-    "pinned_scan",
     "kbounds",
+    "identify_scan",
 ]
 
 SERIES_EPS = 0.01  # as terracone.cone: below this the binomial series is used
@@ -151,13 +152,19 @@ def profile_logs(z, H, R, r_t, out) -> None:
 
 
 @njit(error_model="numpy")
-def box_lsq3_one(G, g, yy, lo, hi, x_out, ws) -> float:  # noqa: C901 (one face loop, as the reference)
+def box_lsq3_one(G, g, yy, lo, hi, x_out, ws) -> float:
     """Minimise x'Gx - 2g'x + yy over lo <= x <= hi (3 variables); x into x_out, returns SSE.
 
-    ``ws`` is a (14, 3) float work array (no allocation per problem).
+    ``ws`` is an (18, 3) float work array (no allocation per problem).
     """
-    d, diag, b, L, U, tol = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5]
-    bx, bst, x, st, r, S = ws[6], ws[7], ws[8], ws[9], ws[10], ws[11:14]
+    box_scale(G, g, ws)
+    return box_faces(yy, lo, hi, x_out, ws)
+
+
+@njit(error_model="numpy")
+def box_scale(G, g, ws) -> None:
+    """Scale the normal equations to unit diagonal into ws (rows 0-2 and 11-13)."""
+    d, diag, b, S = ws[0], ws[1], ws[2], ws[11:14]
     for i in range(3):
         d[i] = math.sqrt(max(G[i, i], 1e-300))
     for i in range(3):
@@ -167,6 +174,62 @@ def box_lsq3_one(G, g, yy, lo, hi, x_out, ws) -> float:  # noqa: C901 (one face 
         diag[i] = S[i, i]
         S[i, i] = S[i, i] + 1e-13  # tiny ridge in the solves, as the reference
         b[i] = g[i] / d[i]
+
+
+@njit(error_model="numpy")
+def solve_free(S, r, st, x, Mt) -> None:
+    """Solve the rows and columns of S (3, 3) with st == 0 for x, right-hand side r.
+
+    Gaussian elimination with partial pivoting (as LAPACK's gesv that the
+    reference uses for few problems): accurate when kc and kphi are nearly
+    collinear, where Cramer's rule loses digits.  Mt (4, 3) is work space
+    holding the reduced system transposed (column 3 the right-hand side).
+    """
+    i0 = 0 if st[0] == 0 else (1 if st[1] == 0 else 2)
+    i2 = 2 if st[2] == 0 else (1 if st[1] == 0 else 0)
+    k = 0
+    for i in range(3):
+        if st[i] == 0:
+            k += 1
+    i1 = 1 if k == 3 else i2
+    # reduced system M[a, c] = Mt[c, a], rows a < k
+    for a, ia in enumerate((i0, i1, i2)):
+        if a >= k:
+            break
+        for c, ic in enumerate((i0, i1, i2)):
+            if c >= k:
+                break
+            Mt[c, a] = S[ia, ic]
+        Mt[3, a] = r[ia]
+    for col in range(k):
+        piv = col
+        for a in range(col + 1, k):
+            if abs(Mt[col, a]) > abs(Mt[col, piv]):
+                piv = a
+        if piv != col:
+            for c in range(4):
+                Mt[c, col], Mt[c, piv] = Mt[c, piv], Mt[c, col]
+        for a in range(col + 1, k):
+            f = Mt[col, a] / Mt[col, col]
+            for c in range(col, 4):
+                Mt[c, a] -= f * Mt[c, col]
+    for a in range(k - 1, -1, -1):
+        acc = Mt[3, a]
+        for c in range(a + 1, k):
+            acc -= Mt[c, a] * Mt[3, c]
+        Mt[3, a] = acc / Mt[a, a]
+    x[i0] = Mt[3, 0]
+    x[i2] = Mt[3, k - 1]
+    if k == 3:
+        x[1] = Mt[3, 1]
+
+
+@njit(error_model="numpy")
+def box_faces(yy, lo, hi, x_out, ws) -> float:  # noqa: C901 (one face loop, as the reference)
+    """The 27 faces of :func:`box_lsq3_one` on normal equations scaled by :func:`box_scale`."""
+    d, diag, b, L, U, tol = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5]
+    bx, bst, x, st, r, S = ws[6], ws[7], ws[8], ws[9], ws[10], ws[11:14]
+    for i in range(3):
         L[i] = lo[i] * d[i]
         U[i] = hi[i] * d[i]
         tol[i] = 1e-9 * max(U[i] - L[i], 1e-300) + 1e-12
@@ -202,26 +265,8 @@ def box_lsq3_one(G, g, yy, lo, hi, x_out, ws) -> float:  # noqa: C901 (one face 
             for i in range(3):
                 if st[i] == 0:
                     x[i] = r[i] / S[i, i]
-        elif nfree == 2:
-            i = 0 if st[0] == 0 else 1
-            j = 2 if st[2] == 0 else 1
-            det = S[i, i] * S[j, j] - S[i, j] * S[j, i]
-            xi = (r[i] * S[j, j] - S[i, j] * r[j]) / det
-            xj = (S[i, i] * r[j] - S[j, i] * r[i]) / det
-            x[i] = xi
-            x[j] = xj
-        elif nfree == 3:
-            a00, a01, a02 = S[0, 0], S[0, 1], S[0, 2]
-            a10, a11, a12 = S[1, 0], S[1, 1], S[1, 2]
-            a20, a21, a22 = S[2, 0], S[2, 1], S[2, 2]
-            c00 = a11 * a22 - a12 * a21
-            c01 = a12 * a20 - a10 * a22
-            c02 = a10 * a21 - a11 * a20
-            det = a00 * c00 + a01 * c01 + a02 * c02
-            r0, r1, r2 = r[0], r[1], r[2]
-            x[0] = (r0 * c00 + r1 * (a02 * a21 - a01 * a22) + r2 * (a01 * a12 - a02 * a11)) / det
-            x[1] = (r0 * c01 + r1 * (a00 * a22 - a02 * a20) + r2 * (a02 * a10 - a00 * a12)) / det
-            x[2] = (r0 * c02 + r1 * (a01 * a20 - a00 * a21) + r2 * (a00 * a11 - a01 * a10)) / det
+        elif nfree >= 2:
+            solve_free(S, r, st, x, ws[14:18])
         feas = True
         for i in range(3):
             if st[i] == 0:
@@ -257,7 +302,7 @@ def box_lsq3_flat(G, g, yy, lo, hi):
     M = yy.shape[0]
     x = np.empty((M, 3))
     sse = np.empty(M)
-    ws = np.empty((14, 3))
+    ws = np.empty((18, 3))
     for m in range(M):
         sse[m] = box_lsq3_one(G[m], g[m], yy[m], lo[m], hi[m], x[m], ws)
     return x, sse
@@ -287,7 +332,7 @@ def cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, r_t, alpha, beta):
     gs = np.empty(3)
     D = np.empty(3)
     x = np.empty(3)
-    ws = np.empty((14, 3))
+    ws = np.empty((18, 3))
     use_ratio = not math.isnan(ratio)
     lg = np.empty((3, Z))
     for p in range(P):
@@ -365,17 +410,15 @@ def kbounds(n, bp, lo, hi) -> None:
 
 
 @njit(error_model="numpy")
-def cell_sse(z, y, w, lg, n, s, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp) -> float:
-    """SSE (from the residuals) of one profile at one (n, s); primed solution into xp (3,).
+def normal_at(z, y, w, lg, n, s, ratio, H, R, rm1, r_t, alpha, beta, A, B, C, G, g) -> float:
+    """Columns A, B, C (Z,) at n and the normal equations G (3, 3), g (3,) at scale s.
 
-    lg (3, Z) holds :func:`profile_logs` of z; A, B, C (Z,) and ws (20, 3)
-    are work arrays.
+    The kc and kphi columns are multiplied by s = 1 + tan(phic)/tan(a)
+    (eq. (2-6) fully mobilised) in G and g, not in A, B; with ratio (not
+    NaN) the kc column folds into the kphi column.  Returns y'y (weighted).
     """
     Z = z.shape[0]
-    ratio = bp[10]
     use_ratio = not math.isnan(ratio)
-    G = ws[14:17]
-    lo, hi, g = ws[17], ws[18], ws[19]
     yty = 0.0
     for q in range(Z):
         a, bb, c = basis_point_log(
@@ -402,7 +445,6 @@ def cell_sse(z, y, w, lg, n, s, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp
         g[0] += aw * y[q]
         g[1] += bw * y[q]
         g[2] += cw * y[q]
-    # phic scales the kc and kphi columns by s (eq. (2-6) fully mobilised)
     G[0, 0] = G[0, 0] * s * s
     G[0, 1] = G[0, 1] * s * s
     G[1, 1] = G[1, 1] * s * s
@@ -411,6 +453,20 @@ def cell_sse(z, y, w, lg, n, s, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp
     g[0] = g[0] * s
     g[1] = g[1] * s
     G[1, 0], G[2, 0], G[2, 1] = G[0, 1], G[0, 2], G[1, 2]
+    return yty
+
+
+@njit(error_model="numpy")
+def cell_sse(z, y, w, lg, n, s, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp) -> float:
+    """SSE (from the residuals) of one profile at one (n, s); primed solution into xp (3,).
+
+    lg (3, Z) holds :func:`profile_logs` of z; A, B, C (Z,) and ws (24, 3)
+    are work arrays; bp as :func:`kbounds`.
+    """
+    Z = z.shape[0]
+    G = ws[18:21]
+    lo, hi, g = ws[21], ws[22], ws[23]
+    yty = normal_at(z, y, w, lg, n, s, bp[10], H, R, rm1, r_t, alpha, beta, A, B, C, G, g)
     kbounds(n, bp, lo, hi)
     box_lsq3_one(G, g, yty, lo, hi, xp, ws)
     xp[0] *= s
@@ -420,6 +476,57 @@ def cell_sse(z, y, w, lg, n, s, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp
         rq = A[q] * xp[0] + B[q] * xp[1] + C[q] * xp[2] - y[q]
         acc += rq * rq * w[q]
     return acc
+
+
+@njit(error_model="numpy")
+def identify_scan(z, y, n_loc, s, bp, vals, H, R, rm1, r_t, alpha, beta):
+    """Profile scans of exact.py's identifiability analysis, fully mobilised shear.
+
+    For each n of n_loc (N,) at scale s: the normal equations, the box of
+    :func:`kbounds`, and for each of kc, kphi, cc the SSE with that variable
+    pinned at lo + v (hi - lo), v in vals (V,), the others re-fitted.
+    Returns (sse (3, N, V), lo (N, 3), hi (N, 3)).
+    """
+    Z = z.shape[0]
+    N = n_loc.shape[0]
+    V = vals.shape[0]
+    w = np.ones(Z)
+    lg = np.empty((3, Z))
+    profile_logs(z, H, R, r_t, lg)
+    A = np.empty(Z)
+    B = np.empty(Z)
+    C = np.empty(Z)
+    G = np.empty((3, 3))
+    g = np.empty(3)
+    lo = np.empty((N, 3))
+    hi = np.empty((N, 3))
+    lo2 = np.empty(3)
+    hi2 = np.empty(3)
+    x = np.empty(3)
+    ws = np.empty((18, 3))
+    out = np.empty((3, N, V))
+    pinned = np.ones(3, dtype=np.bool_)  # variables fixed at every n: nothing to scan
+    for i in range(N):
+        kbounds(n_loc[i], bp, lo[i], hi[i])
+        for j in range(3):
+            if lo[i, j] != hi[i, j]:
+                pinned[j] = False
+    for i in range(N):
+        yty = normal_at(
+            z, y, w, lg, n_loc[i], s, bp[10], H, R, rm1, r_t, alpha, beta, A, B, C, G, g
+        )
+        box_scale(G, g, ws)
+        for idx in range(3):
+            if pinned[idx]:
+                out[idx, i, :] = np.nan
+                continue
+            for v in range(V):
+                for j in range(3):
+                    lo2[j], hi2[j] = lo[i, j], hi[i, j]
+                pin = lo[i, idx] + vals[v] * (hi[i, idx] - lo[i, idx])
+                lo2[idx], hi2[idx] = pin, pin
+                out[idx, i, v] = box_faces(yty, lo2, hi2, x, ws)
+    return out, lo, hi
 
 
 @njit(error_model="numpy")
@@ -436,7 +543,7 @@ def zoom_refine(zz, yy, w, a, b, s, bp, K, steps, H, R, rm1, r_t, alpha, beta):
     A = np.empty(Z)
     B = np.empty(Z)
     C = np.empty(Z)
-    ws = np.empty((20, 3))
+    ws = np.empty((24, 3))
     xp = np.empty(3)
     used = 0
     lg = np.empty((3, Z))
@@ -488,24 +595,45 @@ def zoom_refine(zz, yy, w, a, b, s, bp, K, steps, H, R, rm1, r_t, alpha, beta):
 
 
 @njit(error_model="numpy")
-def pinned_scan(G, g, yy, lo, hi, idx, vals):
-    """SSE with variable ``idx`` pinned at lo + v (hi - lo) for each v of vals.
+def golden_refine(zz, yy, w, a, b, s, bp, iters, H, R, rm1, r_t, alpha, beta):
+    """Golden-section minimisation of the SSE over n in [a_p, b_p] at scale s_p, per profile.
 
-    G (N, 3, 3), g (N, 3), yy scalar, lo, hi (N, 3); returns (N, V): the
-    profile scan of exact.py's identifiability analysis.
+    The compiled twin of the golden branch of many.py's ``_minimise_1d``
+    (the same points and comparisons).  Returns (n, SSE, evaluations).
     """
-    N = G.shape[0]
-    V = vals.shape[0]
-    out = np.empty((N, V))
-    ws = np.empty((14, 3))
-    lo2 = np.empty(3)
-    hi2 = np.empty(3)
-    x = np.empty(3)
-    for i in range(N):
-        for v in range(V):
-            for j in range(3):
-                lo2[j], hi2[j] = lo[i, j], hi[i, j]
-            pin = lo[i, idx] + vals[v] * (hi[i, idx] - lo[i, idx])
-            lo2[idx], hi2[idx] = pin, pin
-            out[i, v] = box_lsq3_one(G[i], g[i], yy, lo2, hi2, x, ws)
-    return out
+    P, Z = zz.shape
+    gr = (math.sqrt(5.0) - 1.0) / 2.0
+    bx = np.empty(P)
+    bf = np.empty(P)
+    A = np.empty(Z)
+    B = np.empty(Z)
+    C = np.empty(Z)
+    ws = np.empty((24, 3))
+    xp = np.empty(3)
+    lg = np.empty((3, Z))
+    for p in range(P):
+        z, y, wp, sp = zz[p], yy[p], w[p], s[p]
+        profile_logs(z, H, R, r_t, lg)
+        lo, hi = a[p], b[p]
+        c = hi - gr * (hi - lo)
+        d = lo + gr * (hi - lo)
+        fc = cell_sse(z, y, wp, lg, c, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
+        fd = cell_sse(z, y, wp, lg, d, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
+        for _ in range(iters):
+            if fc < fd:
+                hi = d
+                d = c
+                c = hi - gr * (hi - lo)
+                fd = fc
+                fc = cell_sse(z, y, wp, lg, c, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
+            else:
+                lo = c
+                c = d
+                d = lo + gr * (hi - lo)
+                fc = fd
+                fd = cell_sse(z, y, wp, lg, d, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
+        if fc < fd:
+            bx[p], bf[p] = c, fc
+        else:
+            bx[p], bf[p] = d, fd
+    return bx, bf, (iters + 2) * P

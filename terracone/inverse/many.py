@@ -109,34 +109,40 @@ def _minimise_1d(f, a: np.ndarray, b: np.ndarray, iters: int):
     return x, np.minimum(fc, fd), (iters + 2) * P
 
 
-def _cells_kernel(law: PressureLaw, cone: Cone, bounds: Bounds):
-    """The compiled cells kernel bound to a law and cone, or None (numpy path).
+class _Kernels:
+    """The compiled kernels of :mod:`terracone.inverse.kernels` with a law, cone and box filled in."""
+
+    def __init__(self, law: PressureLaw, cone: Cone, bounds: Bounds, ratio: float | None, coef):
+        from . import kernels
+
+        self.k = kernels
+        self.geom = (cone.height, cone.radius, not law.is_rm0, *coef)
+        self.bp = bounds_params(bounds, ratio)
+
+    def __call__(self, zz, yy, w, n, sv, lo, hi, ratio):
+        return self.k.cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, *self.geom)
+
+    def zoom(self, zz, yy, w, a, b, s):
+        return self.k.zoom_refine(zz, yy, w, a, b, s, self.bp, 17, 8, *self.geom)
+
+    def golden(self, zz, yy, w, a, b, s, iters):
+        return self.k.golden_refine(zz, yy, w, a, b, s, self.bp, iters, *self.geom)
+
+
+def _cells_kernel(
+    law: PressureLaw, cone: Cone, bounds: Bounds, ratio: float | None
+) -> _Kernels | None:
+    """The compiled kernels bound to a law and cone, or None (numpy path).
 
     None when compilation is off (:func:`terracone.jit.enabled`) or the law's
     coefficients are not scalars.
     """
     if not enabled():
         return None
-    r_t, alpha, beta = (np.asarray(c, dtype=float) for c in law.coefficients())
-    if r_t.size != 1 or alpha.size != 1 or beta.size != 1:
+    coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
+    if any(c.size != 1 for c in coef):
         return None
-    from .kernels import cells_kernel, zoom_refine
-
-    H, R = cone.height, cone.radius
-    rm1 = not law.is_rm0
-    c = (float(r_t.item()), float(alpha.item()), float(beta.item()))
-
-    class Bound:
-        """The kernels with this law and cone filled in."""
-
-        def __call__(self, zz, yy, w, n, sv, lo, hi, ratio):
-            return cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, *c)
-
-        def zoom(self, zz, yy, w, a, b, s, ratio):
-            bp = bounds_params(bounds, ratio)
-            return zoom_refine(zz, yy, w, a, b, s, bp, 17, 8, H, R, rm1, *c)
-
-    return Bound()
+    return _Kernels(law, cone, bounds, ratio, tuple(float(c.item()) for c in coef))
 
 
 def bounds_params(bounds: Bounds, ratio: float | None) -> np.ndarray:
@@ -245,7 +251,7 @@ def solve_exact_many(
             kc_lo = kc_hi = np.zeros(np.shape(n))
         return kc_lo, kc_hi, kp_lo, kp_hi
 
-    kern = _cells_kernel(law, cone, bounds)
+    kern = _cells_kernel(law, cone, bounds, ratio)
 
     def cells(n: np.ndarray, sv: np.ndarray | None = None):
         """Primed x and SSE for n of shape (P, K) and each s of ``sv`` ((P, F) or the grid)."""
@@ -324,8 +330,11 @@ def solve_exact_many(
             return cells(nv, svals[phi_idx][:, None])[1][:, :, 0]
 
         a_n, b_n = np.clip(n_best - step, *bounds.n), np.clip(n_best + step, *bounds.n)
-        if kern is not None and P < 32:  # the zooming grid of _minimise_1d, compiled
-            n_ref, f_ref, used = kern.zoom(zz, yy, w, a_n, b_n, svals[phi_idx], ratio)
+        if kern is not None:  # the two branches of _minimise_1d, compiled
+            if P < 32:
+                n_ref, f_ref, used = kern.zoom(zz, yy, w, a_n, b_n, svals[phi_idx])
+            else:
+                n_ref, f_ref, used = kern.golden(zz, yy, w, a_n, b_n, svals[phi_idx], refine_iter)
         else:
             n_ref, f_ref, used = _minimise_1d(f, a_n, b_n, refine_iter)
         nfev += used
