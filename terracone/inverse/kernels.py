@@ -83,7 +83,7 @@ def tail_moments(eps: float, n: float) -> tuple[float, float, float]:
 
     Closed form with expm1/log1p, or the binomial series below eps = 0.01.
     """
-    return tail_moments_log(eps, math.log1p(-eps), n)
+    return tail_moments_log(eps, math.log1p(-eps) if eps < 1.0 else -math.inf, n)
 
 
 @njit(error_model="numpy")
@@ -100,7 +100,10 @@ def depth_logs(z: float, H: float, R: float, r_t: float) -> tuple[float, float, 
     L = H if z >= 0.0 else u1
     eb = min(max(L / u1, 0.0), 1.0)
     es = min(max(min(L, r_t / t) / u1, 0.0), 1.0)
-    return math.log(u1), math.log1p(-eb), math.log1p(-es)
+    # eps = 1 (the tip still entering): log1p(-1) = -inf, which plain Python refuses
+    l1b = math.log1p(-eb) if eb < 1.0 else -math.inf
+    l1s = math.log1p(-es) if es < 1.0 else -math.inf
+    return math.log(u1), l1b, l1s
 
 
 @njit(error_model="numpy")
