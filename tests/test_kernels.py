@@ -260,9 +260,17 @@ def test_cache_in_user_dir_when_package_dir_is_read_only(tmp_path):
     assert second.stdout.split()[1:] == ["1", "0"]  # loaded from the cache, not compiled
 
 
-@pytest.mark.skipif(os.environ.get("TERRACONE_NUMBA") == "0", reason="kernels switched off")
 def test_explicit_cache_dir_is_kept(tmp_path):
-    p = run_py(KERNEL_RUN.format(pre=""), NUMBA_CACHE_DIR=str(tmp_path / "nc"))
+    """NUMBA_CACHE_DIR set by the user is left alone, even for a read-only package dir."""
+    p = run_py(
+        """
+        import os
+        os.access = lambda *a, **k: False
+        from terracone import jit
+        jit.enabled()
+        print(os.environ["NUMBA_CACHE_DIR"])
+        """,
+        NUMBA_CACHE_DIR=str(tmp_path / "nc"),
+    )
     assert p.returncode == 0, p.stderr
-    assert p.stdout.split()[0] == str(tmp_path / "nc")
-    assert any((tmp_path / "nc").rglob("*.nbi"))
+    assert p.stdout.split() == [str(tmp_path / "nc")]
