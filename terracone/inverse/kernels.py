@@ -42,6 +42,7 @@ __all__ = [
     "zoom_refine",
     "kbounds",
     "identify_scan",
+    "basis_columns",
 ]
 
 SERIES_EPS = 0.01  # as terracone.cone: below this the binomial series is used
@@ -640,3 +641,21 @@ def golden_refine(zz, yy, w, a, b, s, bp, iters, H, R, rm1, r_t, alpha, beta):
         else:
             bx[p], bf[p] = d, fd
     return bx, bf, (iters + 2) * P
+
+
+@njit(error_model="numpy")
+def basis_columns(z, n, H, R, rm1, r_t, alpha, beta):
+    """:func:`basis_point` over depths z (Z,) and exponents n (K,): A, B, C each (K, Z)."""
+    K = n.shape[0]
+    Z = z.shape[0]
+    A = np.empty((K, Z))
+    B = np.empty((K, Z))
+    C = np.empty((K, Z))
+    lg = np.empty((3, Z))
+    profile_logs(z, H, R, r_t, lg)
+    for k in range(K):
+        for q in range(Z):
+            A[k, q], B[k, q], C[k, q] = basis_point_log(
+                z[q], n[k], lg[0, q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
+            )
+    return A, B, C
