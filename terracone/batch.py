@@ -2048,6 +2048,29 @@ def _cpu_count() -> int:
         return os.cpu_count() or 1
 
 
+def warm_kernels() -> bool:
+    """Load the compiled kernels of the batch solver in this process (a Dask worker).
+
+    Fits two tiny generated profiles, once as a small and once as a large
+    group (the two refinements of :func:`~terracone.inverse.many.solve_exact_many`),
+    so that numba loads the kernels from its cache (or compiles them, once
+    per worker, when the cache is cold) before the first chunk.  Returns
+    whether compiled kernels are in use.
+    """
+    from .jit import enabled
+
+    if not enabled():
+        return False
+    from .cone import cone_index
+
+    z = np.linspace(0.0, 0.3, 7)
+    y = cone_index(z, kc=10.0, kphi=1000.0, n=0.8)
+    cone, law = get_cone("asabe-large"), pressure_law("rm0")
+    for P in (1, 32):
+        solve_exact_many([z] * P, [y] * P, cone=cone, law=law, bounds=Bounds())
+    return True
+
+
 def _worker_version() -> str:
     import terracone
 
@@ -2405,6 +2428,9 @@ def _process(
         with _dask_client(workers, scheduler) as client:
             from distributed import as_completed
 
+            # each worker loads (or, with a cold cache, compiles) the solver's kernels once,
+            # here, counted as start-up rather than in its first chunk
+            client.run(warm_kernels)
             summary.startup_s = time.perf_counter() - t0
             nthreads = sum(client.nthreads().values())
             summary.workers = nthreads

@@ -181,14 +181,17 @@ def box_scale(G, g, ws) -> None:
 
 
 @njit(error_model="numpy")
-def solve_free(S, r, st, x, Mt) -> None:
+def solve_free(S, r, st, x, Mt) -> float:
     """Solve the rows and columns of S (3, 3) with st == 0 for x, right-hand side r.
 
     Gaussian elimination with partial pivoting (as LAPACK's gesv that the
     reference uses for few problems): accurate when kc and kphi are nearly
     collinear, where Cramer's rule loses digits.  Mt (4, 3) is work space
     holding the reduced system transposed (column 3 the right-hand side).
+    Returns the smallest pivot magnitude (S has unit diagonal: a small pivot
+    means a nearly singular face).
     """
+    pmin = np.inf
     i0 = 0 if st[0] == 0 else (1 if st[1] == 0 else 2)
     i2 = 2 if st[2] == 0 else (1 if st[1] == 0 else 0)
     k = 0
@@ -213,6 +216,7 @@ def solve_free(S, r, st, x, Mt) -> None:
         if piv != col:
             for c in range(4):
                 Mt[c, col], Mt[c, piv] = Mt[c, piv], Mt[c, col]
+        pmin = min(pmin, abs(Mt[col, col]))
         for a in range(col + 1, k):
             f = Mt[col, a] / Mt[col, col]
             for c in range(col, 4):
@@ -226,6 +230,7 @@ def solve_free(S, r, st, x, Mt) -> None:
     x[i2] = Mt[3, k - 1]
     if k == 3:
         x[1] = Mt[3, 1]
+    return pmin
 
 
 @njit(error_model="numpy")
@@ -240,6 +245,7 @@ def box_faces(yy, lo, hi, x_out, ws) -> float:  # noqa: C901 (one face loop, as 
         bx[i] = 0.0
         bst[i] = 0.0
     best = np.inf
+    first = True
     for face in range(27):  # itertools.product((0, 1, 2), repeat=3): 0 free, 1 lower, 2 upper
         st[0] = face // 9
         st[1] = (face // 3) % 3
@@ -265,17 +271,22 @@ def box_faces(yy, lo, hi, x_out, ws) -> float:  # noqa: C901 (one face loop, as 
                     if st[j] != 0:
                         ri = ri - S[i, j] * x[j]
                 r[i] = ri
+        pmin = 1.0
         if nfree == 1:
             for i in range(3):
                 if st[i] == 0:
                     x[i] = r[i] / S[i, i]
         elif nfree >= 2:
-            solve_free(S, r, st, x, ws[14:18])
+            pmin = solve_free(S, r, st, x, ws[14:18])
         feas = True
+        inside = first and pmin > 1e-6
         for i in range(3):
             if st[i] == 0:
                 if not ((x[i] >= L[i] - tol[i]) and (x[i] <= U[i] + tol[i])):
                     feas = False
+                m = 1e-6 * (U[i] - L[i])
+                if not (L[i] + m < x[i] < U[i] - m):
+                    inside = False
                 x[i] = min(max(x[i], L[i]), U[i])
         obj = (
             diag[0] * x[0] * x[0]
@@ -289,6 +300,11 @@ def box_faces(yy, lo, hi, x_out, ws) -> float:  # noqa: C901 (one face loop, as 
             for i in range(3):
                 bx[i] = x[i]
                 bst[i] = st[i]
+        if inside:
+            # a well-conditioned face with every free variable clear of its bounds holds
+            # the unconstrained minimum, which no other face can beat but by rounding
+            break
+        first = False
     for i in range(3):
         if bst[i] == 1:
             v = lo[i]
