@@ -44,6 +44,7 @@ import csv
 import dataclasses
 import gzip
 import hashlib
+import inspect
 import json
 import logging
 import os
@@ -83,6 +84,7 @@ from .io import (
     _to_numbers,
     json_default,
 )
+from .jit import enabled
 from .metrics import check_fit
 from .plate import pressure_law
 
@@ -1368,13 +1370,7 @@ def _solve_many(
     else:
         n_lo = n_hi = sol.n
     # lack of fit, as predict reports it (terracone.metrics.check_fit)
-    runs = np.empty(P)
-    lof = np.full(P, None, dtype=object)
-    for i in range(P):
-        k = int(npts[i])
-        chk = check_fit(zz[i, :k], yy[i, :k], model[i, :k])
-        runs[i] = chk.longest_run
-        lof[i] = chk.lack_of_fit
+    runs, lof = check_fits(zz, yy, model, npts)
     full = _empty_results(P)  # every key, so that results of sub-groups concatenate
     full.update(
         {
@@ -1394,6 +1390,39 @@ def _solve_many(
         }
     )
     return full
+
+
+def check_fits(
+    zz: np.ndarray, yy: np.ndarray, model: np.ndarray, npts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`terracone.metrics.check_fit` of each padded profile: (longest run, lack of fit).
+
+    With compiled kernels the numbers come from
+    :func:`terracone.inverse.kernels.fit_stats` and check_fit itself runs
+    only for the profiles it might flag (it words the reason); otherwise
+    check_fit runs for every profile.
+    """
+    P = zz.shape[0]
+    runs = np.empty(P)
+    lof = np.full(P, None, dtype=object)
+    d = {k: v.default for k, v in inspect.signature(check_fit).parameters.items()}
+    limits = (d["min_r2"], d["max_runs_z"], d["max_drop"], d["min_cv"], d["monotone_model"])
+    stats = None
+    if enabled():
+        from .inverse.kernels import fit_stats
+
+        stats = fit_stats
+    for i in range(P):
+        k = int(npts[i])
+        if stats is not None:
+            _, best, _, flagged = stats(yy[i, :k], model[i, :k], *limits)
+            if not flagged:
+                runs[i] = best
+                continue
+        chk = check_fit(zz[i, :k], yy[i, :k], model[i, :k])
+        runs[i] = chk.longest_run
+        lof[i] = chk.lack_of_fit
+    return runs, lof
 
 
 def _undetermined_many(res: dict[str, np.ndarray], fit: _FitSettings) -> list[str]:
@@ -2068,6 +2097,7 @@ def warm_kernels() -> bool:
     cone, law = get_cone("asabe-large"), pressure_law("rm0")
     for P in (1, 32):
         solve_exact_many([z] * P, [y] * P, cone=cone, law=law, bounds=Bounds())
+    check_fits(z[None], y[None], y[None], np.array([z.size]))
     return True
 
 

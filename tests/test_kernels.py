@@ -274,3 +274,48 @@ def test_explicit_cache_dir_is_kept(tmp_path):
     )
     assert p.returncode == 0, p.stderr
     assert p.stdout.split() == [str(tmp_path / "nc")]
+
+
+def test_check_fits_equal_check_fit():
+    """batch's check_fits (compiled screen + check_fit for the flagged) gives check_fit's
+    longest run and lack-of-fit reason for every profile: clean, noisy, clustered residuals,
+    a low R2 and a layered (falling) profile."""
+    from terracone.batch import check_fits
+    from terracone.metrics import check_fit
+
+    rng = np.random.default_rng(11)
+    Z = 40
+    z = np.linspace(0.0, 0.4, Z)
+    ys, ms = [], []
+    for i in range(60):
+        m = 100.0 + 800.0 * z ** rng.uniform(0.5, 1.2)
+        kind = i % 5
+        if kind == 0:
+            y = m.copy()  # exact fit
+        elif kind == 1:
+            y = m * (1 + 0.03 * rng.standard_normal(Z))
+        elif kind == 2:
+            y = m + 20.0 * np.sin(6 * z / 0.4)  # residuals of one sign over long stretches
+        elif kind == 3:
+            y = m.mean() + 300.0 * rng.standard_normal(Z)  # R2 far below 0.8
+        else:
+            y = np.where(z > 0.2, 0.5 * m, m)  # CI falls with depth
+        ys.append(y)
+        ms.append(m)
+    npts = rng.integers(4, Z + 1, size=len(ys))
+    npts[:5] = Z
+    yy = np.zeros((len(ys), Z))
+    mm = np.zeros((len(ys), Z))
+    zz = np.broadcast_to(z, yy.shape).copy()
+    for i, (y, m) in enumerate(zip(ys, ms)):
+        yy[i, : npts[i]] = y[: npts[i]]
+        mm[i, : npts[i]] = m[: npts[i]]
+    runs, lof = check_fits(zz, yy, mm, npts)
+    flagged = 0
+    for i in range(len(ys)):
+        k = int(npts[i])
+        ref = check_fit(z[:k], yy[i, :k], mm[i, :k])
+        assert runs[i] == ref.longest_run
+        assert lof[i] == ref.lack_of_fit
+        flagged += ref.lack_of_fit is not None
+    assert 10 <= flagged <= 50  # the three reasons and clean fits are all exercised
