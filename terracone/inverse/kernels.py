@@ -199,6 +199,17 @@ def solve_free(S, r, st, x, Mt) -> float:
     for i in range(3):
         if st[i] == 0:
             k += 1
+    if k == 2:  # the same steps written out for two unknowns
+        a, b, ra = S[i0, i0], S[i0, i2], r[i0]
+        c, d, rc = S[i2, i0], S[i2, i2], r[i2]
+        if abs(c) > abs(a):
+            a, b, ra, c, d, rc = c, d, rc, a, b, ra
+        f = c / a
+        d = d - f * b
+        rc = rc - f * ra
+        x[i2] = rc / d
+        x[i0] = (ra - b * x[i2]) / a
+        return min(abs(a), abs(d))
     i1 = 1 if k == 3 else i2
     # reduced system M[a, c] = Mt[c, a], rows a < k
     for a, ia in enumerate((i0, i1, i2)):
