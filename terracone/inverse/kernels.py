@@ -160,10 +160,23 @@ def profile_logs(z, H, R, r_t, out) -> None:
 def box_lsq3_one(G, g, yy, lo, hi, x_out, ws) -> float:
     """Minimise x'Gx - 2g'x + yy over lo <= x <= hi (3 variables); x into x_out, returns SSE.
 
-    ``ws`` is an (18, 3) float work array (no allocation per problem).
+    ``ws`` is an (18, 3) float work array (no allocation per problem).  The
+    face chosen by the previous problem solved with the same ``ws`` (left in
+    ws[7]) is tried first: consecutive problems (neighbouring n or pinned
+    values) mostly share it, and it is accepted only on the optimality
+    conditions (:func:`box_faces_from`).
     """
     box_scale(G, g, ws)
-    return box_faces(yy, lo, hi, x_out, ws)
+    return box_faces_from(yy, lo, hi, x_out, ws, last_face(ws))
+
+
+@njit(error_model="numpy")
+def last_face(ws) -> int:
+    """The face left in ws[7] by the previous solve, or -1 when ws[7] holds no face."""
+    for i in range(3):
+        if not (ws[7, i] == 0.0 or ws[7, i] == 1.0 or ws[7, i] == 2.0):
+            return -1
+    return int(ws[7, 0]) * 9 + int(ws[7, 1]) * 3 + int(ws[7, 2])
 
 
 @njit(error_model="numpy")
@@ -246,8 +259,23 @@ def solve_free(S, r, st, x, Mt) -> float:
 
 
 @njit(error_model="numpy")
-def box_faces(yy, lo, hi, x_out, ws) -> float:  # noqa: C901 (one face loop, as the reference)
+def box_faces(yy, lo, hi, x_out, ws) -> float:
     """The 27 faces of :func:`box_lsq3_one` on normal equations scaled by :func:`box_scale`."""
+    return box_faces_from(yy, lo, hi, x_out, ws, -1)
+
+
+@njit(error_model="numpy")
+def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:  # noqa: C901 (one face loop)
+    """:func:`box_faces`, trying face ``hint`` (0-26, or -1) first.
+
+    The first face tried is accepted at once when it is well conditioned
+    (pivots above 1e-6 of the unit diagonal), its free variables lie clear
+    of their bounds and the gradient pushes every variable held at a bound
+    outwards (the optimality conditions of a convex quadratic over a box,
+    with a margin): no other face can then do better but by rounding.
+    Otherwise all faces are compared, as the reference does.  The face
+    chosen is left in ws[7] (the state of each variable).
+    """
     d, diag, b, L, U, tol = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5]
     bx, bst, x, st, r, S = ws[6], ws[7], ws[8], ws[9], ws[10], ws[11:14]
     for i in range(3):
@@ -258,7 +286,15 @@ def box_faces(yy, lo, hi, x_out, ws) -> float:  # noqa: C901 (one face loop, as 
         bst[i] = 0.0
     best = np.inf
     first = True
-    for face in range(27):  # itertools.product((0, 1, 2), repeat=3): 0 free, 1 lower, 2 upper
+    for kk in range(28):  # itertools.product((0, 1, 2), repeat=3): 0 free, 1 lower, 2 upper
+        if kk == 0:
+            if hint < 0:
+                continue
+            face = hint
+        else:
+            face = kk - 1
+            if face == hint:
+                continue
         st[0] = face // 9
         st[1] = (face // 3) % 3
         st[2] = face % 3
@@ -313,8 +349,21 @@ def box_faces(yy, lo, hi, x_out, ws) -> float:  # noqa: C901 (one face loop, as 
                 bx[i] = x[i]
                 bst[i] = st[i]
         if inside:
-            # a well-conditioned face with every free variable clear of its bounds holds
-            # the unconstrained minimum, which no other face can beat but by rounding
+            for i in range(3):  # the held variables: the gradient must point out of the box
+                if st[i] != 0 and L[i] != U[i]:
+                    gi = diag[i] * x[i] - b[i]
+                    size = abs(diag[i] * x[i]) + abs(b[i])
+                    for j in range(3):
+                        if j != i:
+                            gi += S[i, j] * x[j]
+                            size += abs(S[i, j] * x[j])
+                    if st[i] == 1 and not gi > 1e-9 * size:
+                        inside = False
+                    if st[i] == 2 and not gi < -1e-9 * size:
+                        inside = False
+        if inside:
+            # a well-conditioned face satisfying the optimality conditions with a margin
+            # holds the minimum over the box, which no other face can beat but by rounding
             break
         first = False
     for i in range(3):
@@ -552,12 +601,14 @@ def identify_scan(z, y, n_loc, s, bp, vals, H, R, rm1, r_t, alpha, beta):
             if pinned[idx]:
                 out[idx, i, :] = np.nan
                 continue
+            hint = -1  # neighbouring pinned values mostly share the optimal face
             for v in range(V):
                 for j in range(3):
                     lo2[j], hi2[j] = lo[i, j], hi[i, j]
                 pin = lo[i, idx] + vals[v] * (hi[i, idx] - lo[i, idx])
                 lo2[idx], hi2[idx] = pin, pin
-                out[idx, i, v] = box_faces(yty, lo2, hi2, x, ws)
+                out[idx, i, v] = box_faces_from(yty, lo2, hi2, x, ws, hint)
+                hint = last_face(ws)
     return out, lo, hi
 
 
