@@ -44,7 +44,6 @@ import csv
 import dataclasses
 import gzip
 import hashlib
-import inspect
 import json
 import logging
 import os
@@ -85,7 +84,7 @@ from .io import (
     json_default,
 )
 from .jit import enabled
-from .metrics import check_fit
+from .metrics import check_fit_fast
 from .plate import pressure_law
 
 __all__ = ["BatchSummary", "run_batch", "OUTPUT_COLUMNS"]
@@ -1397,29 +1396,15 @@ def check_fits(
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`terracone.metrics.check_fit` of each padded profile: (longest run, lack of fit).
 
-    With compiled kernels the numbers come from
-    :func:`terracone.inverse.kernels.fit_stats` and check_fit itself runs
-    only for the profiles it might flag (it words the reason); otherwise
-    check_fit runs for every profile.
+    Through :func:`terracone.metrics.check_fit_fast` (a compiled screen,
+    check_fit itself only for the profiles it may flag).
     """
     P = zz.shape[0]
     runs = np.empty(P)
     lof = np.full(P, None, dtype=object)
-    d = {k: v.default for k, v in inspect.signature(check_fit).parameters.items()}
-    limits = (d["min_r2"], d["max_runs_z"], d["max_drop"], d["min_cv"], d["monotone_model"])
-    stats = None
-    if enabled():
-        from .inverse.kernels import fit_stats
-
-        stats = fit_stats
     for i in range(P):
         k = int(npts[i])
-        if stats is not None:
-            _, best, _, flagged = stats(yy[i, :k], model[i, :k], *limits)
-            if not flagged:
-                runs[i] = best
-                continue
-        chk = check_fit(zz[i, :k], yy[i, :k], model[i, :k])
+        chk = check_fit_fast(zz[i, :k], yy[i, :k], model[i, :k])
         runs[i] = chk.longest_run
         lof[i] = chk.lack_of_fit
     return runs, lof
@@ -2086,7 +2071,6 @@ def warm_kernels() -> bool:
     per worker, when the cache is cold) before the first chunk.  Returns
     whether compiled kernels are in use.
     """
-    from .jit import enabled
 
     if not enabled():
         return False
