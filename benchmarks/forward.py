@@ -25,17 +25,25 @@ broken down line by line (by timing its steps on the same batch).
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import inspect
 import math
+import sys
 import time
 import warnings
+from pathlib import Path
 
-import numpy as np
-from scipy.integrate import IntegrationWarning, quad
+# run as a script, benchmarks/ heads sys.path and its coverage.py would shadow the
+# coverage package that numba imports (numba would then be silently off)
+_HERE = Path(__file__).resolve().parent
+sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != _HERE]
 
-import terracone
-from terracone.cone import cone_index_basis
-from terracone.plate import pressure_law
+import numpy as np  # noqa: E402
+from scipy.integrate import IntegrationWarning, quad  # noqa: E402
+
+import terracone  # noqa: E402
+from terracone.cone import cone_index_basis, get_cone  # noqa: E402
+from terracone.plate import pressure_law  # noqa: E402
 
 INCH = 0.0254
 AREA = 0.5 * INCH**2  # asabe-large, 0.5 in^2, 30 deg
@@ -283,9 +291,79 @@ def profile(params, r_min, depth, model: str = "rm0", top: int = 14):
         print(f"    {t * 1e6:7.1f} us  {name}:{lineno:<4d} {src[:70]}")
 
 
+def kernel_vs_numpy(params, r_min, depth) -> None:
+    """Basis columns of the compiled kernel against cone_index_basis (the numpy reference).
+
+    The exact solver evaluates the basis for one profile at one n at a time
+    (a few dozen depths), where numpy's per-call overhead dominates; both are
+    timed that way (one n per call, every n of the batch) and on the whole
+    batch at once.
+    """
+    from terracone import jit
+
+    if not jit.enabled():
+        print("\n[compiled basis kernel] numba is off (TERRACONE_NUMBA=0): skipped")
+        return
+    from terracone.inverse.kernels import basis_columns
+
+    ns = params["n"][:, 0].copy()
+    print("\n[compiled basis kernel vs numpy cone_index_basis, RM0 and RM1]")
+    for model in ("rm0", "rm1"):
+        _kernel_case(model, ns, depth, basis_columns)
+
+
+def _kernel_case(model, ns, depth, basis_columns) -> None:
+    cone = get_cone("asabe-large")
+    law = pressure_law(model, r_min=0.004 if model == "rm1" else None)
+    c = [float(np.asarray(v)) for v in law.coefficients()]
+    geo = (cone.height, cone.radius, model == "rm1", *c)
+    A, B, C = cone_index_basis(depth, n=ns[:, None], law=law, cone=cone)
+    Ak, Bk, Ck = basis_columns(depth, ns, *geo)
+    err = max(max_rel(Ak, A), max_rel(Bk, B), max_rel(Ck, C[0] if C.ndim > 1 else C))
+    t_np_all = best_of(lambda: cone_index_basis(depth, n=ns[:, None], law=law, cone=cone), 7, 10)
+    t_k_all = best_of(lambda: basis_columns(depth, ns, *geo), 7, 10)
+    one = np.empty(1)
+
+    def np_each():
+        for v in ns:
+            cone_index_basis(depth, n=v, law=law, cone=cone)
+
+    def k_each():
+        for v in ns:
+            one[0] = v
+            basis_columns(depth, one, *geo)
+
+    t_np_each = best_of(np_each, 5, 2)
+    t_k_each = best_of(k_each, 5, 2)
+    print(
+        f"  {model}: whole batch numpy {P * Z / t_np_all:12,.0f} /s, kernel "
+        f"{P * Z / t_k_all:12,.0f} /s, ratio {t_np_all / t_k_all:6.1f}; one n per call "
+        f"numpy {P * Z / t_np_each:12,.0f} /s, kernel {P * Z / t_k_each:12,.0f} /s, "
+        f"ratio {t_np_each / t_k_each:6.1f}; max rel difference {err:.1e}"
+    )
+
+
+def startup() -> None:
+    spec = importlib.util.spec_from_file_location("terracone_bench_startup", _HERE / "startup.py")
+    st = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(st)
+    print("\nstart-up (fresh processes; cold = empty numba cache, warm = cached kernels)")
+    st.report("terracone --help", st.cli_help())
+    st.report(
+        "terracone ci (a forward curve: no kernel, numba not imported)",
+        st.measure(
+            "import sys\nfrom click.testing import CliRunner\nfrom terracone.cli import cli",
+            "CliRunner().invoke(cli, ['ci', '--kc', '100', '--kphi', '5000', '--n', '0.8', "
+            "'--depths', '0,0.1,0.2'])\n"
+            "assert 'numba' not in sys.modules",
+        ),
+    )
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--profile", action="store_true", help="profile cone_index_basis")
+    ap.add_argument("--no-startup", action="store_true", help="skip the start-up measurements")
     args = ap.parse_args(argv)
 
     params, r_min, depth = make_batch()
@@ -314,6 +392,9 @@ def main(argv=None):
             print("  terracone is slower than the plain closed form; profile of cone_index_basis:")
         if r_plain < 1 or args.profile:
             profile(params, r_min, depth, model)
+    kernel_vs_numpy(params, r_min, depth)
+    if not args.no_startup:
+        startup()
     print("\nall targets met" if ok else "\nsome targets missed")
     return 0 if ok else 1
 

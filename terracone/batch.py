@@ -83,7 +83,8 @@ from .io import (
     detect_format,
     json_default,
 )
-from .metrics import check_fit
+from .jit import enabled
+from .metrics import check_fit_fast
 from .plate import pressure_law
 
 __all__ = ["BatchSummary", "run_batch", "OUTPUT_COLUMNS"]
@@ -1415,13 +1416,7 @@ def _solve_many(
     else:
         n_lo = n_hi = sol.n
     # lack of fit, as predict reports it (terracone.metrics.check_fit)
-    runs = np.empty(P)
-    lof = np.full(P, None, dtype=object)
-    for i in range(P):
-        k = int(npts[i])
-        chk = check_fit(zz[i, :k], yy[i, :k], model[i, :k])
-        runs[i] = chk.longest_run
-        lof[i] = chk.lack_of_fit
+    runs, lof = check_fits(zz, yy, model, npts)
     full = _empty_results(P)  # every key, so that results of sub-groups concatenate
     full.update(
         {
@@ -1441,6 +1436,25 @@ def _solve_many(
         }
     )
     return full
+
+
+def check_fits(
+    zz: np.ndarray, yy: np.ndarray, model: np.ndarray, npts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`terracone.metrics.check_fit` of each padded profile: (longest run, lack of fit).
+
+    Through :func:`terracone.metrics.check_fit_fast` (a compiled screen,
+    check_fit itself only for the profiles it may flag).
+    """
+    P = zz.shape[0]
+    runs = np.empty(P)
+    lof = np.full(P, None, dtype=object)
+    for i in range(P):
+        k = int(npts[i])
+        chk = check_fit_fast(zz[i, :k], yy[i, :k], model[i, :k])
+        runs[i] = chk.longest_run
+        lof[i] = chk.lack_of_fit
+    return runs, lof
 
 
 def _undetermined_many(res: dict[str, np.ndarray], fit: _FitSettings) -> list[str]:
@@ -2095,6 +2109,29 @@ def _cpu_count() -> int:
         return os.cpu_count() or 1
 
 
+def warm_kernels() -> bool:
+    """Load the compiled kernels of the batch solver in this process (a Dask worker).
+
+    Fits two tiny generated profiles, once as a small and once as a large
+    group (the two refinements of :func:`~terracone.inverse.many.solve_exact_many`),
+    so that numba loads the kernels from its cache (or compiles them, once
+    per worker, when the cache is cold) before the first chunk.  Returns
+    whether compiled kernels are in use.
+    """
+
+    if not enabled():
+        return False
+    from .cone import cone_index
+
+    z = np.linspace(0.0, 0.3, 7)
+    y = cone_index(z, kc=10.0, kphi=1000.0, n=0.8)
+    cone, law = get_cone("asabe-large"), pressure_law("rm0")
+    for P in (1, 32):
+        solve_exact_many([z] * P, [y] * P, cone=cone, law=law, bounds=Bounds())
+    check_fits(z[None], y[None], y[None], np.array([z.size]))
+    return True
+
+
 def _worker_version() -> str:
     import terracone
 
@@ -2464,6 +2501,9 @@ def _process(
         with _dask_client(workers, scheduler) as client:
             from distributed import as_completed
 
+            # each worker loads (or, with a cold cache, compiles) the solver's kernels once,
+            # here, counted as start-up rather than in its first chunk
+            client.run(warm_kernels)
             summary.startup_s = time.perf_counter() - t0
             nthreads = sum(client.nthreads().values())
             summary.workers = nthreads

@@ -169,3 +169,35 @@ def check_fit(
                 "model (assumption (a), section 2) cannot follow"
             )
     return FitCheck(r2, int(best), z_runs, "; ".join(reasons) if reasons else None)
+
+
+def check_fit_fast(depth: ArrayLike, measured: ArrayLike, model: ArrayLike) -> FitCheck:
+    """:func:`check_fit` with its default limits, the numbers from a compiled kernel.
+
+    :func:`terracone.inverse.kernels.fit_stats` computes R^2, the longest
+    run and the runs-test z; check_fit itself runs only when a reason may
+    apply (within 1e-9 of a limit), and then decides and words it.  Plain
+    check_fit when compiled kernels are off (:func:`terracone.jit.enabled`).
+    """
+    from .jit import enabled
+
+    if not enabled():
+        return check_fit(depth, measured, model)
+    from .inverse.kernels import fit_stats
+
+    y = np.ascontiguousarray(measured, dtype=float)
+    m = np.ascontiguousarray(model, dtype=float)
+    r2, best, z_runs, flagged = fit_stats(y, m, *_FIT_LIMITS)
+    if flagged:
+        return check_fit(depth, y, m)
+    return FitCheck(float(r2), int(best), float(z_runs), None)
+
+
+def _fit_limits() -> tuple:
+    import inspect
+
+    d = {k: v.default for k, v in inspect.signature(check_fit).parameters.items()}
+    return (d["min_r2"], d["max_runs_z"], d["max_drop"], d["min_cv"], d["monotone_model"])
+
+
+_FIT_LIMITS = _fit_limits()

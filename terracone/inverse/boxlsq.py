@@ -22,7 +22,9 @@ import math
 
 import numpy as np
 
-__all__ = ["box_lsq3", "gram"]
+from ..jit import enabled
+
+__all__ = ["box_lsq3", "box_lsq3_reference", "gram"]
 
 _SMALL = 64  # up to this many problems the 27 faces go to LAPACK in one stacked call
 
@@ -51,6 +53,49 @@ def box_lsq3(
     G: np.ndarray, g: np.ndarray, yy: np.ndarray, lo: np.ndarray, hi: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Global minimum of x'Gx - 2g'x + yy subject to lo <= x <= hi.
+
+    The compiled kernel (:func:`terracone.inverse.kernels.box_lsq3_flat`)
+    when numba is enabled (:func:`terracone.jit.enabled`), else the numpy
+    reference :func:`box_lsq3_reference`; same arguments and results (to
+    rounding).
+
+    Parameters
+    ----------
+    G : (..., 3, 3) symmetric positive semi-definite
+    g : (..., 3)
+    yy : (...)
+    lo, hi : (..., 3) with lo <= hi (lo == hi fixes a variable)
+
+    Returns
+    -------
+    x : (..., 3)
+    sse : (...)
+        The objective at x (the weighted sum of squared residuals).
+    """
+    if not enabled():
+        return box_lsq3_reference(G, g, yy, lo, hi)
+    from .kernels import box_lsq3_flat
+
+    G, g, lo, hi = (np.asarray(a, dtype=float) for a in (G, g, lo, hi))
+    yy = np.asarray(yy, dtype=float)
+    shape = np.broadcast_shapes(
+        G.shape[:-2], g.shape[:-1], lo.shape[:-1], hi.shape[:-1], np.shape(yy)
+    )
+    M = math.prod(shape)
+
+    def flat(a: np.ndarray, tail: tuple[int, ...]) -> np.ndarray:
+        return np.ascontiguousarray(np.broadcast_to(a, shape + tail)).reshape((M,) + tail)
+
+    x, sse = box_lsq3_flat(
+        flat(G, (3, 3)), flat(g, (3,)), flat(yy, ()), flat(lo, (3,)), flat(hi, (3,))
+    )
+    return x.reshape(shape + (3,)), sse.reshape(shape)
+
+
+def box_lsq3_reference(
+    G: np.ndarray, g: np.ndarray, yy: np.ndarray, lo: np.ndarray, hi: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Global minimum of x'Gx - 2g'x + yy subject to lo <= x <= hi (numpy reference).
 
     Parameters
     ----------

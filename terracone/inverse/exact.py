@@ -30,11 +30,12 @@ from scipy.ndimage import minimum_filter
 from scipy.optimize import least_squares, lsq_linear
 
 from ..cone import Cone, cone_index_basis
+from ..jit import enabled
 from ..plate import PressureLaw
 from .bounds import Bounds
 from .boxlsq import box_lsq3, gram
 
-__all__ = ["ExactSolution", "solve_exact", "design"]
+__all__ = ["ExactSolution", "solve_exact", "design", "identify_scans"]
 
 CHI2_1_95 = 3.841458820694124  # 95% quantile of chi-square with 1 dof
 
@@ -288,6 +289,10 @@ def _polish(
     free = hi > lo
     if not free.any():
         return x0
+    x = _polish_on_face(X, y, lo, hi, x0)
+    if x is not None:
+        r0, r1 = X @ x0 - y, X @ x - y
+        return x if r1 @ r1 < r0 @ r0 else x0
     xf = np.where(free, 0.0, lo)
     rhs = y - X @ xf
     Xf = X[:, free]
@@ -303,6 +308,37 @@ def _polish(
     x[free] = np.clip(res.x / scale, lo[free], hi[free])
     r0, r1 = X @ x0 - y, X @ x - y
     return x if r1 @ r1 < r0 @ r0 else x0
+
+
+def _polish_on_face(X, y, lo, hi, x0) -> np.ndarray | None:
+    """The least-squares solution on x0's face of the box (QR), if it is the box optimum.
+
+    The variables strictly inside their bounds at x0 are re-solved by
+    ``numpy.linalg.lstsq`` with the others held; the result is returned
+    when it stays inside the box and satisfies the optimality (KKT) signs
+    at the held bounds, else None (then BVLS decides).  One small QR
+    instead of scipy's BVLS, which gives the same optimum on that face.
+    """
+    act = (hi > lo) & (x0 > lo) & (x0 < hi)
+    x = x0.copy()
+    if act.any():
+        Xa = X[:, act]
+        scale = np.sqrt(np.sum(Xa * Xa, axis=0))
+        if not np.all(scale > 0):
+            return None
+        rhs = y - X[:, ~act] @ x0[~act]
+        sol = np.linalg.lstsq(Xa / scale, rhs, rcond=None)[0] / scale
+        if not (np.all(sol > lo[act]) and np.all(sol < hi[act])):
+            return None
+        x[act] = sol
+    r = X @ x - y
+    grad = X.T @ r  # half the gradient of the SSE
+    tol = 1e-8 * np.sqrt(np.sum(X * X, axis=0)) * math.sqrt(float(r @ r) + 1e-300)
+    held_lo = (hi > lo) & ~act & (x0 <= lo)
+    held_hi = (hi > lo) & ~act & (x0 >= hi)
+    if np.any(held_lo & (grad < -tol)) or np.any(held_hi & (grad > tol)):
+        return None
+    return x
 
 
 def _solve_mobilised(
@@ -352,6 +388,73 @@ def _solve_mobilised(
     return sol
 
 
+def _pinned_scan(G, g, yy, lo, hi, idx: int, vals: np.ndarray) -> np.ndarray:
+    """SSE (Nn, V) of the box LSQ with variable idx pinned at lo + v (hi - lo), v in vals."""
+    lo_s, hi_s = lo[..., idx], hi[..., idx]
+    v = lo_s[:, None] + vals[None, :] * (hi_s - lo_s)[:, None]  # (Nn, V)
+    lo2 = np.repeat(lo[:, None, :], vals.size, axis=1).copy()
+    hi2 = np.repeat(hi[:, None, :], vals.size, axis=1).copy()
+    lo2[..., idx] = v
+    hi2[..., idx] = v
+    return box_lsq3(G[:, None], g[:, None], yy[:, None], lo2, hi2)[1]
+
+
+def identify_scans(
+    z: np.ndarray,
+    y: np.ndarray,
+    n_loc: np.ndarray,
+    phic_deg: float,
+    Kc: float | None,
+    bounds: Bounds,
+    cone: Cone,
+    law: PressureLaw,
+    vals: np.ndarray,
+    ratio: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Profile scans of the identifiability analysis.
+
+    For each n of ``n_loc`` and each of kc, kphi, cc: the SSE [kPa^2] of the
+    best fit with that variable pinned at lo + v (hi - lo) for v in ``vals``
+    (fractions of its box at that n), the other two re-fitted in their box
+    (eq. (2-7) with phic and Kc held).  Compiled
+    (:func:`terracone.inverse.kernels.identify_scan`) for fully mobilised
+    shear when numba is enabled, else numpy.
+
+    Returns
+    -------
+    sse : (3, Nn, V) ndarray
+        NaN for a variable fixed at every n.
+    lo, hi : (Nn, 3) ndarray
+        The box of (kc, kphi, cc) [SI] at each n.
+    """
+    coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
+    if Kc is None and enabled() and all(c.size == 1 for c in coef):
+        from .kernels import identify_scan
+        from .many import bounds_params
+
+        s = 1.0 + math.tan(math.radians(phic_deg)) / math.tan(cone.half_angle)
+        return identify_scan(
+            np.ascontiguousarray(z, dtype=float),
+            np.ascontiguousarray(y, dtype=float),
+            np.ascontiguousarray(n_loc, dtype=float),
+            s,
+            bounds_params(bounds, ratio),
+            np.ascontiguousarray(vals, dtype=float),
+            cone.height,
+            cone.radius,
+            not law.is_rm0,
+            *(float(c.item()) for c in coef),
+        )
+    X = design(z, n_loc[:, None], np.array(phic_deg), cone=cone, law=law, Kc=Kc, ratio=ratio)
+    G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
+    lo, hi = _bounds_arrays(bounds, n_loc, ratio)
+    sse = np.full((3, n_loc.size, vals.size), np.nan)
+    for idx in range(3):
+        if not np.all(lo[:, idx] == hi[:, idx]):
+            sse[idx] = _pinned_scan(G, g, yy, lo, hi, idx, vals)
+    return sse, lo, hi
+
+
 def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> None:
     """Approximate 95% profile-likelihood intervals and the undetermined list.
 
@@ -395,11 +498,10 @@ def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> No
             ]
         )
     )
-    X = design(
-        z, n_loc[:, None], np.array(sol.phic_deg), cone=cone, law=law, Kc=sol.Kc, ratio=ratio
-    )  # (Nn, Z, 3)
-    G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
-    lo, hi = _bounds_arrays(bounds, n_loc, ratio)
+    vals = np.linspace(0.0, 1.0, 61)  # fractions of each n's range
+    sse_all, lo, hi = identify_scans(
+        z, y, n_loc, sol.phic_deg, sol.Kc, bounds, cone, law, vals, ratio
+    )
     lo_at, hi_at = _bounds_arrays(bounds, np.array(sol.n), ratio)
     names = ("kc", "kphi", "cc")
     at_sol = (sol.kc, sol.kphi, sol.cc)
@@ -407,13 +509,7 @@ def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> No
         lo_s, hi_s = lo[..., idx], hi[..., idx]
         if np.all(lo_s == hi_s):
             continue
-        vals = np.linspace(0.0, 1.0, 61)  # fractions of each n's range
-        v = lo_s[:, None] + vals[None, :] * (hi_s - lo_s)[:, None]  # (Nn, V)
-        lo2 = np.repeat(lo[:, None, :], vals.size, axis=1).copy()
-        hi2 = np.repeat(hi[:, None, :], vals.size, axis=1).copy()
-        lo2[..., idx] = v
-        hi2[..., idx] = v
-        _, sse_v = box_lsq3(G[:, None], g[:, None], yy[:, None], lo2, hi2)
+        sse_v = sse_all[idx]  # (Nn, V)
         inside = sse_v <= thr  # (Nn, V)
         frac_ok = inside.any(axis=0)
         if frac_ok.any():

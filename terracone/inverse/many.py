@@ -33,11 +33,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..cone import Cone, cone_index_basis
+from ..jit import enabled
 from ..plate import PressureLaw
 from .bounds import Bounds
 from .boxlsq import box_lsq3
 
-__all__ = ["ManySolution", "solve_exact_many"]
+__all__ = ["ManySolution", "solve_exact_many", "bounds_params", "first_min"]
 
 _GOLD = (math.sqrt(5.0) - 1.0) / 2.0
 
@@ -106,6 +107,78 @@ def _minimise_1d(f, a: np.ndarray, b: np.ndarray, iters: int):
         c, d = c_new, d_new
     x = np.where(fc < fd, c, d)
     return x, np.minimum(fc, fd), (iters + 2) * P
+
+
+class _Kernels:
+    """The compiled kernels of :mod:`terracone.inverse.kernels` with a law, cone and box filled in."""
+
+    def __init__(self, law: PressureLaw, cone: Cone, bounds: Bounds, ratio: float | None, coef):
+        from . import kernels
+
+        self.k = kernels
+        self.geom = (cone.height, cone.radius, not law.is_rm0, *coef)
+        self.bp = bounds_params(bounds, ratio)
+
+    def __call__(self, zz, yy, w, n, sv, lo, hi, ratio):
+        return self.k.cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, *self.geom)
+
+    def zoom(self, zz, yy, w, a, b, s):
+        return self.k.zoom_refine(zz, yy, w, a, b, s, self.bp, 17, 8, *self.geom)
+
+    def golden(self, zz, yy, w, a, b, s, iters):
+        return self.k.golden_refine(zz, yy, w, a, b, s, self.bp, iters, *self.geom)
+
+
+def _cells_kernel(
+    law: PressureLaw, cone: Cone, bounds: Bounds, ratio: float | None
+) -> _Kernels | None:
+    """The compiled kernels bound to a law and cone, or None (numpy path).
+
+    None when compilation is off (:func:`terracone.jit.enabled`) or the law's
+    coefficients are not scalars.
+    """
+    if not enabled():
+        return None
+    coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
+    if any(c.size != 1 for c in coef):
+        return None
+    return _Kernels(law, cone, bounds, ratio, tuple(float(c.item()) for c in coef))
+
+
+def bounds_params(bounds: Bounds, ratio: float | None) -> np.ndarray:
+    """Bounds of (kc, kphi, cc) as the array ``bp`` of :func:`terracone.inverse.kernels.kbounds`."""
+    from .. import units as u
+
+    def conv(units: str, extra: float) -> tuple[float, float]:
+        if u.check_system(units) == "si":
+            return 1.0, 1.0
+        # kc [SI] = kc * c / INCH^(n + extra): c from n = -extra
+        f = u.kc_to_si if extra == 1.0 else u.kphi_to_si
+        return float(f(1.0, -extra, units)), float(u.INCH)
+
+    return np.array(
+        [
+            *bounds.kc,
+            *bounds.kphi,
+            *bounds.cc,
+            *conv(bounds.kc_units, 1.0),
+            *conv(bounds.kphi_units, 2.0),
+            math.nan if ratio is None else float(ratio),
+        ],
+        dtype=float,
+    )
+
+
+def first_min(v: np.ndarray, tol: np.ndarray | float) -> np.ndarray:
+    """Per row of v (P, M), the first index whose value is within tol (P,) of the row's minimum.
+
+    A deterministic argmin: values that differ only by rounding (compiled
+    and numpy kernels sum in different orders) count as ties, and ties go
+    to the first index.
+    """
+    m = np.nanmin(v, axis=1)
+    ok = v <= (m + np.asarray(tol, dtype=float))[:, None]
+    return np.argmax(ok, axis=1)
 
 
 def _pad(depths: list[np.ndarray], cis: list[np.ndarray]):
@@ -178,8 +251,25 @@ def solve_exact_many(
             kc_lo = kc_hi = np.zeros(np.shape(n))
         return kc_lo, kc_hi, kp_lo, kp_hi
 
+    kern = _cells_kernel(law, cone, bounds, ratio)
+
     def cells(n: np.ndarray, sv: np.ndarray | None = None):
         """Primed x and SSE for n of shape (P, K) and each s of ``sv`` ((P, F) or the grid)."""
+        if kern is not None:
+            sv = svals[None, :] if sv is None else sv
+            kc_lo, kc_hi, kp_lo, kp_hi = _kbounds(n)
+            lo = np.stack(np.broadcast_arrays(kc_lo, kp_lo, bounds.cc[0]), axis=-1)
+            hi = np.stack(np.broadcast_arrays(kc_hi, kp_hi, bounds.cc[1]), axis=-1)
+            return kern(
+                zz,
+                yy,
+                w,
+                np.ascontiguousarray(n, float),
+                np.ascontiguousarray(sv, float),
+                lo,
+                hi,
+                math.nan if ratio is None else float(ratio),
+            )
         A, B, C = cone_index_basis(zz[:, None, :], n=n[..., None], phic=0.0, law=law, cone=cone)
         if ratio is not None:
             A, B = np.zeros_like(A), ratio * A + B
@@ -227,7 +317,7 @@ def solve_exact_many(
     xg, sseg = cells(N)  # (P, Nn, F)
     nfev += sseg.size
     flat = sseg.reshape(P, -1)
-    k = np.argmin(flat, axis=1)
+    k = first_min(flat, 1e-12 * yty)
     i_n, i_f = np.unravel_index(k, sseg.shape[1:])
     sse_n = sseg.min(axis=2)  # (P, Nn)
 
@@ -239,9 +329,14 @@ def solve_exact_many(
         def f(nv):  # nv (P, K) -> SSE (P, K)
             return cells(nv, svals[phi_idx][:, None])[1][:, :, 0]
 
-        n_ref, f_ref, used = _minimise_1d(
-            f, np.clip(n_best - step, *bounds.n), np.clip(n_best + step, *bounds.n), refine_iter
-        )
+        a_n, b_n = np.clip(n_best - step, *bounds.n), np.clip(n_best + step, *bounds.n)
+        if kern is not None:  # the two branches of _minimise_1d, compiled
+            if P < 32:
+                n_ref, f_ref, used = kern.zoom(zz, yy, w, a_n, b_n, svals[phi_idx])
+            else:
+                n_ref, f_ref, used = kern.golden(zz, yy, w, a_n, b_n, svals[phi_idx], refine_iter)
+        else:
+            n_ref, f_ref, used = _minimise_1d(f, a_n, b_n, refine_iter)
         nfev += used
         grid_best = flat[np.arange(P), k]
         n_best = np.where(f_ref <= grid_best, n_ref, n_best)

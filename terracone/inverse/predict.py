@@ -30,7 +30,7 @@ import numpy as np
 from .. import units as u
 from ..cone import improved
 from ..data import CIProfile, InputError, TerrainParameters
-from ..metrics import check_fit
+from ..metrics import check_fit_fast
 from ..plate import PressureLaw, pressure_law
 from .bounds import Bounds
 from .exact import solve_exact
@@ -333,7 +333,7 @@ def predict(
         return _error(profile, f"solver failed: {exc}")
     r = m - y
     rmsd = float(np.sqrt(np.mean(r * r)))
-    chk = check_fit(z, y, m)
+    chk = check_fit_fast(z, y, m)
     notes = list(profile.notes)
     if calibration is not None:
         fixed = "model, r_min, phic, cc" + (

@@ -1,0 +1,819 @@
+"""Compiled kernels of the exact solver (numba, see :mod:`terracone.jit`).
+
+Scalar ports of the numpy references, looped over cells so that one call
+does what the reference does in hundreds of numpy calls on tiny arrays:
+
+* :func:`tail_moments`, :func:`basis_point`: the closed-form cone integrals
+  and basis columns of :func:`terracone.cone.cone_index_basis` (fully
+  mobilised shear, phic = 0, RM0 or RM1), eqs. (2-2) to (2-7) of [1]_;
+* :func:`box_lsq3_one`, :func:`box_lsq3_flat`: the 27-face bounded least
+  squares of :func:`terracone.inverse.boxlsq.box_lsq3_reference`;
+* :func:`cells_kernel`: the (profile, n, phic-scale) cells of
+  :func:`terracone.inverse.many.solve_exact_many` (basis, normal equations,
+  box solve and the SSE from the residuals) in one pass.
+
+The numpy implementations stay the reference: ``tests/test_kernels.py``
+compares each kernel with its twin to 1e-12, and ``TERRACONE_NUMBA=0`` (or
+:func:`terracone.jit.disabled`) makes the solvers take the numpy paths.
+This module is imported only when a solver runs (it imports numba).
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Eqs. (2-2) to (2-7).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..jit import njit
+
+__all__ = [
+    "tail_moments",
+    "basis_point",
+    "box_lsq3_one",
+    "box_lsq3_flat",
+    "cells_kernel",
+    "golden_refine",
+    "zoom_refine",
+    "kbounds",
+    "identify_scan",
+    "basis_columns",
+    "fit_stats",
+]
+
+SERIES_EPS = 0.01  # as terracone.cone: below this the binomial series is used
+SERIES_TERMS = 10
+
+
+@njit(error_model="numpy")
+def tail_moments_log(eps: float, l1: float, n: float) -> tuple[float, float, float]:
+    """:func:`tail_moments` with l1 = log1p(-eps) given (it does not depend on n)."""
+    if eps < SERIES_EPS:
+        # binomial series, terms for 1e-17 at this eps
+        terms = SERIES_TERMS
+        if eps > 0:
+            terms = min(SERIES_TERMS, max(2, int(math.ceil(-17.0 / math.log10(eps))) + 1))
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        cp = eps
+        for jj in range(terms):
+            s0 += cp / (jj + 1)
+            ce = cp * eps
+            s1 += ce / (jj + 2)
+            s2 += ce * eps / (jj + 3)
+            cp = ce * ((jj - n) / (jj + 1))
+        return s0, s1, s2
+    x = 1.0 - eps
+    e1 = math.expm1((n + 1.0) * l1)  # x^(n+1) - 1
+    n1 = n + 1.0
+    n2 = n + 2.0
+    g0 = -e1 / n1
+    g1 = g0 - (eps - e1 * x) / n2
+    g2 = g1 - (eps - e1 * x) / n2 + (eps * (2.0 - eps) - e1 * x * x) / (n + 3.0)
+    return g0, g1, g2
+
+
+@njit(error_model="numpy")
+def tail_moments(eps: float, n: float) -> tuple[float, float, float]:
+    """G_k(eps) = int_0^eps w^k (1-w)^n dw, k = 0, 1, 2 (one point; see terracone.cone).
+
+    Closed form with expm1/log1p, or the binomial series below eps = 0.01.
+    """
+    return tail_moments_log(eps, math.log1p(-eps) if eps < 1.0 else -math.inf, n)
+
+
+@njit(error_model="numpy")
+def depth_logs(z: float, H: float, R: float, r_t: float) -> tuple[float, float, float]:
+    """The n-free logarithms of :func:`basis_point_log` at one depth.
+
+    log(u1), log1p(-eps_b) and log1p(-eps_s) with u1 = z + H the tip depth,
+    eps_b = L/u1 (L the embedded length) and eps_s = min(L, r_t/t)/u1 (RM1).
+    """
+    u1 = z + H
+    if not u1 > 0.0:
+        return 0.0, 0.0, 0.0
+    t = R / H
+    L = H if z >= 0.0 else u1
+    eb = min(max(L / u1, 0.0), 1.0)
+    es = min(max(min(L, r_t / t) / u1, 0.0), 1.0)
+    # eps = 1 (the tip still entering): log1p(-1) = -inf, which plain Python refuses
+    l1b = math.log1p(-eb) if eb < 1.0 else -math.inf
+    l1s = math.log1p(-es) if es < 1.0 else -math.inf
+    return math.log(u1), l1b, l1s
+
+
+@njit(error_model="numpy")
+def basis_point_log(z, n, lu1, l1b, l1s, H, R, rm1, r_t, alpha, beta) -> tuple[float, float, float]:
+    """:func:`basis_point` with the logarithms of :func:`depth_logs` given."""
+    t = R / H
+    u1 = z + H  # depth of the tip
+    if not u1 > 0.0:
+        return 0.0, 0.0, 0.0
+    L = H if z >= 0.0 else u1  # embedded length along the axis
+    p1 = math.exp((n + 1.0) * lu1)  # u1^(n+1)
+    p2 = p1 * u1
+    eb = min(max(L / u1, 0.0), 1.0)
+    g0b, g1b, _ = tail_moments_log(eb, l1b, n)
+    I_phi = t * p2 * g1b  # eq. (2-5), per unit kphi
+    I_cc = 0.5 * t * L * L
+    if not rm1:
+        I_c = p1 * g0b  # eq. (2-2), per unit kc
+    else:
+        d_s = r_t / t  # RM1 of section 3.2: linear branch below r_t
+        if 0.0 < d_s:
+            es = min(max(min(L, d_s) / u1, 0.0), 1.0)
+            g0s, g1s, g2s = tail_moments_log(es, l1s, n)
+            I_c = p1 * (g0b - g0s) + alpha * t * p2 * g1s - beta * t * t * (p2 * u1) * g2s
+        else:
+            I_c = p1 * g0b
+    RR = R * R
+    return 2.0 * (t * I_c) / RR, 2.0 * (t * I_phi) / RR, 2.0 * I_cc / RR
+
+
+@njit(error_model="numpy")
+def basis_point(
+    z: float, n: float, H: float, R: float, rm1: bool, r_t: float, alpha: float, beta: float
+) -> tuple[float, float, float]:
+    """Columns A, B, C of eq. (2-7) at one depth, fully mobilised shear, phic = 0.
+
+    As :func:`terracone.cone.cone_index_basis` (RM0 or RM1, cone of height H
+    and base radius R [m]): CI = kc A + kphi B + cc C.
+    """
+    lu1, l1b, l1s = depth_logs(z, H, R, r_t)
+    return basis_point_log(z, n, lu1, l1b, l1s, H, R, rm1, r_t, alpha, beta)
+
+
+@njit(error_model="numpy")
+def profile_logs(z, H, R, r_t, out) -> None:
+    """:func:`depth_logs` of every depth of z (Z,) into out (3, Z)."""
+    for q in range(z.shape[0]):
+        out[0, q], out[1, q], out[2, q] = depth_logs(z[q], H, R, r_t)
+
+
+@njit(error_model="numpy")
+def box_lsq3_one(G, g, yy, lo, hi, x_out, ws) -> float:
+    """Minimise x'Gx - 2g'x + yy over lo <= x <= hi (3 variables); x into x_out, returns SSE.
+
+    ``ws`` is an (18, 3) float work array (no allocation per problem).  The
+    face chosen by the previous problem solved with the same ``ws`` (left in
+    ws[7]) is tried first: consecutive problems (neighbouring n or pinned
+    values) mostly share it, and it is accepted only on the optimality
+    conditions (:func:`box_faces_from`).
+    """
+    box_scale(G, g, ws)
+    return box_faces_from(yy, lo, hi, x_out, ws, last_face(ws))
+
+
+@njit(error_model="numpy")
+def last_face(ws) -> int:
+    """The face left in ws[7] by the previous solve, or -1 when ws[7] holds no face."""
+    for i in range(3):
+        if not (ws[7, i] == 0.0 or ws[7, i] == 1.0 or ws[7, i] == 2.0):
+            return -1
+    return int(ws[7, 0]) * 9 + int(ws[7, 1]) * 3 + int(ws[7, 2])
+
+
+@njit(error_model="numpy")
+def box_scale(G, g, ws) -> None:
+    """Scale the normal equations to unit diagonal into ws (rows 0-2 and 11-13)."""
+    d, diag, b, S = ws[0], ws[1], ws[2], ws[11:14]
+    for i in range(3):
+        d[i] = math.sqrt(max(G[i, i], 1e-300))
+    for i in range(3):
+        for j in range(3):
+            S[i, j] = G[i, j] / (d[i] * d[j])
+    for i in range(3):
+        diag[i] = S[i, i]
+        S[i, i] = S[i, i] + 1e-13  # tiny ridge in the solves, as the reference
+        b[i] = g[i] / d[i]
+
+
+@njit(error_model="numpy")
+def solve_free(S, r, st, x, Mt) -> float:
+    """Solve the rows and columns of S (3, 3) with st == 0 for x, right-hand side r.
+
+    Gaussian elimination with partial pivoting (as LAPACK's gesv that the
+    reference uses for few problems): accurate when kc and kphi are nearly
+    collinear, where Cramer's rule loses digits.  Mt (4, 3) is work space
+    holding the reduced system transposed (column 3 the right-hand side).
+    Returns the smallest pivot magnitude (S has unit diagonal: a small pivot
+    means a nearly singular face).
+    """
+    pmin = np.inf
+    i0 = 0 if st[0] == 0 else (1 if st[1] == 0 else 2)
+    i2 = 2 if st[2] == 0 else (1 if st[1] == 0 else 0)
+    k = 0
+    for i in range(3):
+        if st[i] == 0:
+            k += 1
+    if k == 2:  # the same steps written out for two unknowns
+        a, b, ra = S[i0, i0], S[i0, i2], r[i0]
+        c, d, rc = S[i2, i0], S[i2, i2], r[i2]
+        if abs(c) > abs(a):
+            a, b, ra, c, d, rc = c, d, rc, a, b, ra
+        f = c / a
+        d = d - f * b
+        rc = rc - f * ra
+        x[i2] = rc / d
+        x[i0] = (ra - b * x[i2]) / a
+        return min(abs(a), abs(d))
+    i1 = 1 if k == 3 else i2
+    # reduced system M[a, c] = Mt[c, a], rows a < k
+    for a, ia in enumerate((i0, i1, i2)):
+        if a >= k:
+            break
+        for c, ic in enumerate((i0, i1, i2)):
+            if c >= k:
+                break
+            Mt[c, a] = S[ia, ic]
+        Mt[3, a] = r[ia]
+    for col in range(k):
+        piv = col
+        for a in range(col + 1, k):
+            if abs(Mt[col, a]) > abs(Mt[col, piv]):
+                piv = a
+        if piv != col:
+            for c in range(4):
+                Mt[c, col], Mt[c, piv] = Mt[c, piv], Mt[c, col]
+        pmin = min(pmin, abs(Mt[col, col]))
+        for a in range(col + 1, k):
+            f = Mt[col, a] / Mt[col, col]
+            for c in range(col, 4):
+                Mt[c, a] -= f * Mt[c, col]
+    for a in range(k - 1, -1, -1):
+        acc = Mt[3, a]
+        for c in range(a + 1, k):
+            acc -= Mt[c, a] * Mt[3, c]
+        Mt[3, a] = acc / Mt[a, a]
+    x[i0] = Mt[3, 0]
+    x[i2] = Mt[3, k - 1]
+    if k == 3:
+        x[1] = Mt[3, 1]
+    return pmin
+
+
+@njit(error_model="numpy")
+def box_faces(yy, lo, hi, x_out, ws) -> float:
+    """The 27 faces of :func:`box_lsq3_one` on normal equations scaled by :func:`box_scale`."""
+    return box_faces_from(yy, lo, hi, x_out, ws, -1)
+
+
+@njit(error_model="numpy")
+def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:  # noqa: C901 (one face loop)
+    """:func:`box_faces`, trying face ``hint`` (0-26, or -1) first.
+
+    The first face tried is accepted at once when it is well conditioned
+    (pivots above 1e-6 of the unit diagonal), its free variables lie clear
+    of their bounds and the gradient pushes every variable held at a bound
+    outwards (the optimality conditions of a convex quadratic over a box,
+    with a margin): no other face can then do better but by rounding.
+    Otherwise all faces are compared, as the reference does.  The face
+    chosen is left in ws[7] (the state of each variable).
+    """
+    d, diag, b, L, U, tol = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5]
+    bx, bst, x, st, r, S = ws[6], ws[7], ws[8], ws[9], ws[10], ws[11:14]
+    for i in range(3):
+        L[i] = lo[i] * d[i]
+        U[i] = hi[i] * d[i]
+        tol[i] = 1e-9 * max(U[i] - L[i], 1e-300) + 1e-12
+        bx[i] = 0.0
+        bst[i] = 0.0
+    best = np.inf
+    first = True
+    for kk in range(28):  # itertools.product((0, 1, 2), repeat=3): 0 free, 1 lower, 2 upper
+        if kk == 0:
+            if hint < 0:
+                continue
+            face = hint
+        else:
+            face = kk - 1
+            if face == hint:
+                continue
+        st[0] = face // 9
+        st[1] = (face // 3) % 3
+        st[2] = face % 3
+        skip = False
+        for i in range(3):  # a pinned variable (lo == hi): only its "lower" face
+            if L[i] == U[i] and st[i] != 1:
+                skip = True
+        if skip:
+            continue
+        nfree = 0
+        for i in range(3):
+            if st[i] == 1:
+                x[i] = L[i]
+            elif st[i] == 2:
+                x[i] = U[i]
+            else:
+                nfree += 1
+        for i in range(3):
+            if st[i] == 0:
+                ri = b[i]
+                for j in range(3):
+                    if st[j] != 0:
+                        ri = ri - S[i, j] * x[j]
+                r[i] = ri
+        pmin = 1.0
+        if nfree == 1:
+            for i in range(3):
+                if st[i] == 0:
+                    x[i] = r[i] / S[i, i]
+        elif nfree >= 2:
+            pmin = solve_free(S, r, st, x, ws[14:18])
+        feas = True
+        inside = first and pmin > 1e-6
+        for i in range(3):
+            if st[i] == 0:
+                if not ((x[i] >= L[i] - tol[i]) and (x[i] <= U[i] + tol[i])):
+                    feas = False
+                m = 1e-6 * (U[i] - L[i])
+                if not (L[i] + m < x[i] < U[i] - m):
+                    inside = False
+                x[i] = min(max(x[i], L[i]), U[i])
+        obj = (
+            diag[0] * x[0] * x[0]
+            + diag[1] * x[1] * x[1]
+            + diag[2] * x[2] * x[2]
+            + 2.0 * (S[0, 1] * x[0] * x[1] + S[0, 2] * x[0] * x[2] + S[1, 2] * x[1] * x[2])
+            - 2.0 * (b[0] * x[0] + b[1] * x[1] + b[2] * x[2])
+        )
+        if feas and obj < best:
+            best = obj
+            for i in range(3):
+                bx[i] = x[i]
+                bst[i] = st[i]
+        if inside:
+            for i in range(3):  # the held variables: the gradient must point out of the box
+                if st[i] != 0 and L[i] != U[i]:
+                    gi = diag[i] * x[i] - b[i]
+                    size = abs(diag[i] * x[i]) + abs(b[i])
+                    for j in range(3):
+                        if j != i:
+                            gi += S[i, j] * x[j]
+                            size += abs(S[i, j] * x[j])
+                    if st[i] == 1 and not gi > 1e-9 * size:
+                        inside = False
+                    if st[i] == 2 and not gi < -1e-9 * size:
+                        inside = False
+        if inside:
+            # a well-conditioned face satisfying the optimality conditions with a margin
+            # holds the minimum over the box, which no other face can beat but by rounding
+            break
+        first = False
+    for i in range(3):
+        if bst[i] == 1:
+            v = lo[i]
+        elif bst[i] == 2:
+            v = hi[i]
+        else:
+            v = bx[i] / d[i]
+        x_out[i] = min(max(v, lo[i]), hi[i])
+    return max(best + yy, 0.0)
+
+
+@njit(error_model="numpy")
+def box_lsq3_flat(G, g, yy, lo, hi):
+    """:func:`box_lsq3_one` over M problems: G (M, 3, 3), g, lo, hi (M, 3), yy (M,)."""
+    M = yy.shape[0]
+    x = np.empty((M, 3))
+    sse = np.empty(M)
+    ws = np.empty((18, 3))
+    for m in range(M):
+        sse[m] = box_lsq3_one(G[m], g[m], yy[m], lo[m], hi[m], x[m], ws)
+    return x, sse
+
+
+@njit(error_model="numpy")
+def cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, r_t, alpha, beta):
+    """Cells of :func:`terracone.inverse.many.solve_exact_many` (fully mobilised).
+
+    zz, yy, w : (P, Z) depths [m], CI [kPa], weights; n : (P, K);
+    sv : (1 or P, F) phic scales s = 1 + tan(phic)/tan(a); lo, hi : (P, K, 3)
+    bounds of (kc, kphi, cc); ratio : kc/kphi [m], or NaN for none.
+    Returns the primed solutions xp (P, K, F, 3) and the SSE (P, K, F)
+    from the residuals.
+    """
+    P, Z = zz.shape
+    K = n.shape[1]
+    F = sv.shape[1]
+    xp = np.empty((P, K, F, 3))
+    sse = np.empty((P, K, F))
+    A = np.empty(Z)
+    B = np.empty(Z)
+    C = np.empty(Z)
+    G = np.empty((3, 3))
+    Gs = np.empty((3, 3))
+    g = np.empty(3)
+    gs = np.empty(3)
+    D = np.empty(3)
+    x = np.empty(3)
+    ws = np.empty((18, 3))
+    use_ratio = not math.isnan(ratio)
+    lg = np.empty((3, Z))
+    for p in range(P):
+        profile_logs(zz[p], H, R, r_t, lg)
+        yty = 0.0
+        for q in range(Z):
+            yty += w[p, q] * yy[p, q] * yy[p, q]
+        ps = p if sv.shape[0] > 1 else 0
+        for k in range(K):
+            for q in range(Z):
+                a, bb, c = basis_point_log(
+                    zz[p, q], n[p, k], lg[0, q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
+                )
+                if use_ratio:
+                    A[q], B[q] = 0.0, ratio * a + bb
+                else:
+                    A[q], B[q] = a, bb
+                C[q] = c
+            for i in range(3):
+                g[i] = 0.0
+                for j in range(3):
+                    G[i, j] = 0.0
+            for q in range(Z):
+                wq = w[p, q]
+                aw, bw, cw = A[q] * wq, B[q] * wq, C[q] * wq
+                G[0, 0] += aw * A[q]
+                G[0, 1] += aw * B[q]
+                G[0, 2] += aw * C[q]
+                G[1, 1] += bw * B[q]
+                G[1, 2] += bw * C[q]
+                G[2, 2] += cw * C[q]
+                g[0] += aw * yy[p, q]
+                g[1] += bw * yy[p, q]
+                g[2] += cw * yy[p, q]
+            G[1, 0], G[2, 0], G[2, 1] = G[0, 1], G[0, 2], G[1, 2]
+            for f in range(F):
+                s = sv[ps, f]
+                D[0], D[1], D[2] = s, s, 1.0  # phic scales the kc and kphi columns, eq. (2-6)
+                for i in range(3):
+                    gs[i] = g[i] * D[i]
+                    for j in range(3):
+                        Gs[i, j] = G[i, j] * D[i] * D[j]
+                box_lsq3_one(Gs, gs, yty, lo[p, k], hi[p, k], x, ws)
+                x0, x1, x2 = x[0] * s, x[1] * s, x[2]
+                acc = 0.0
+                for q in range(Z):
+                    rq = A[q] * x0 + B[q] * x1 + C[q] * x2 - yy[p, q]
+                    acc += rq * rq * w[p, q]
+                xp[p, k, f, 0], xp[p, k, f, 1], xp[p, k, f, 2] = x0, x1, x2
+                sse[p, k, f] = acc
+    return xp, sse
+
+
+@njit(error_model="numpy")
+def kbounds(n, bp, lo, hi) -> None:
+    """Box of (kc, kphi, cc) in SI at exponent n into lo, hi (3,).
+
+    bp = (kc_lo, kc_hi, kphi_lo, kphi_hi, cc_lo, cc_hi, kc_c, kc_base, kphi_c,
+    kphi_base, ratio): kc [SI] = kc * kc_c / kc_base^(n + 1), kphi likewise with
+    n + 2 (1, 1 for SI bounds); ratio kc/kphi [m] or NaN (as many.py's _kbounds).
+    """
+    fkc = bp[6] / bp[7] ** (n + 1.0)
+    fkp = bp[8] / bp[9] ** (n + 2.0)
+    kc_lo, kc_hi = bp[0] * fkc, bp[1] * fkc
+    kp_lo, kp_hi = bp[2] * fkp, bp[3] * fkp
+    ratio = bp[10]
+    if not math.isnan(ratio):
+        if ratio > 0:
+            kp_lo = max(kp_lo, kc_lo / ratio)
+            kp_hi = max(min(kp_hi, kc_hi / ratio), kp_lo)
+        kc_lo = 0.0
+        kc_hi = 0.0
+    lo[0], lo[1], lo[2] = kc_lo, kp_lo, bp[4]
+    hi[0], hi[1], hi[2] = kc_hi, kp_hi, bp[5]
+
+
+@njit(error_model="numpy")
+def normal_at(z, y, w, lg, n, s, ratio, H, R, rm1, r_t, alpha, beta, A, B, C, G, g) -> float:
+    """Columns A, B, C (Z,) at n and the normal equations G (3, 3), g (3,) at scale s.
+
+    The kc and kphi columns are multiplied by s = 1 + tan(phic)/tan(a)
+    (eq. (2-6) fully mobilised) in G and g, not in A, B; with ratio (not
+    NaN) the kc column folds into the kphi column.  Returns y'y (weighted).
+    """
+    Z = z.shape[0]
+    use_ratio = not math.isnan(ratio)
+    yty = 0.0
+    for q in range(Z):
+        a, bb, c = basis_point_log(
+            z[q], n, lg[0, q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
+        )
+        if use_ratio:
+            A[q], B[q] = 0.0, ratio * a + bb
+        else:
+            A[q], B[q] = a, bb
+        C[q] = c
+        yty += w[q] * y[q] * y[q]
+    for i in range(3):
+        g[i] = 0.0
+        for j in range(3):
+            G[i, j] = 0.0
+    for q in range(Z):
+        aw, bw, cw = A[q] * w[q], B[q] * w[q], C[q] * w[q]
+        G[0, 0] += aw * A[q]
+        G[0, 1] += aw * B[q]
+        G[0, 2] += aw * C[q]
+        G[1, 1] += bw * B[q]
+        G[1, 2] += bw * C[q]
+        G[2, 2] += cw * C[q]
+        g[0] += aw * y[q]
+        g[1] += bw * y[q]
+        g[2] += cw * y[q]
+    G[0, 0] = G[0, 0] * s * s
+    G[0, 1] = G[0, 1] * s * s
+    G[1, 1] = G[1, 1] * s * s
+    G[0, 2] = G[0, 2] * s
+    G[1, 2] = G[1, 2] * s
+    g[0] = g[0] * s
+    g[1] = g[1] * s
+    G[1, 0], G[2, 0], G[2, 1] = G[0, 1], G[0, 2], G[1, 2]
+    return yty
+
+
+@njit(error_model="numpy")
+def cell_sse(z, y, w, lg, n, s, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp) -> float:
+    """SSE (from the residuals) of one profile at one (n, s); primed solution into xp (3,).
+
+    lg (3, Z) holds :func:`profile_logs` of z; A, B, C (Z,) and ws (24, 3)
+    are work arrays; bp as :func:`kbounds`.
+    """
+    Z = z.shape[0]
+    G = ws[18:21]
+    lo, hi, g = ws[21], ws[22], ws[23]
+    yty = normal_at(z, y, w, lg, n, s, bp[10], H, R, rm1, r_t, alpha, beta, A, B, C, G, g)
+    kbounds(n, bp, lo, hi)
+    box_lsq3_one(G, g, yty, lo, hi, xp, ws)
+    xp[0] *= s
+    xp[1] *= s
+    acc = 0.0
+    for q in range(Z):
+        rq = A[q] * xp[0] + B[q] * xp[1] + C[q] * xp[2] - y[q]
+        acc += rq * rq * w[q]
+    return acc
+
+
+@njit(error_model="numpy")
+def identify_scan(z, y, n_loc, s, bp, vals, H, R, rm1, r_t, alpha, beta):
+    """Profile scans of exact.py's identifiability analysis, fully mobilised shear.
+
+    For each n of n_loc (N,) at scale s: the normal equations, the box of
+    :func:`kbounds`, and for each of kc, kphi, cc the SSE with that variable
+    pinned at lo + v (hi - lo), v in vals (V,), the others re-fitted.
+    Returns (sse (3, N, V), lo (N, 3), hi (N, 3)).
+    """
+    Z = z.shape[0]
+    N = n_loc.shape[0]
+    V = vals.shape[0]
+    w = np.ones(Z)
+    lg = np.empty((3, Z))
+    profile_logs(z, H, R, r_t, lg)
+    A = np.empty(Z)
+    B = np.empty(Z)
+    C = np.empty(Z)
+    G = np.empty((3, 3))
+    g = np.empty(3)
+    lo = np.empty((N, 3))
+    hi = np.empty((N, 3))
+    lo2 = np.empty(3)
+    hi2 = np.empty(3)
+    x = np.empty(3)
+    ws = np.empty((18, 3))
+    out = np.empty((3, N, V))
+    pinned = np.ones(3, dtype=np.bool_)  # variables fixed at every n: nothing to scan
+    for i in range(N):
+        kbounds(n_loc[i], bp, lo[i], hi[i])
+        for j in range(3):
+            if lo[i, j] != hi[i, j]:
+                pinned[j] = False
+    for i in range(N):
+        yty = normal_at(
+            z, y, w, lg, n_loc[i], s, bp[10], H, R, rm1, r_t, alpha, beta, A, B, C, G, g
+        )
+        box_scale(G, g, ws)
+        for idx in range(3):
+            if pinned[idx]:
+                out[idx, i, :] = np.nan
+                continue
+            hint = -1  # neighbouring pinned values mostly share the optimal face
+            for v in range(V):
+                for j in range(3):
+                    lo2[j], hi2[j] = lo[i, j], hi[i, j]
+                pin = lo[i, idx] + vals[v] * (hi[i, idx] - lo[i, idx])
+                lo2[idx], hi2[idx] = pin, pin
+                out[idx, i, v] = box_faces_from(yty, lo2, hi2, x, ws, hint)
+                hint = last_face(ws)
+    return out, lo, hi
+
+
+@njit(error_model="numpy")
+def zoom_refine(zz, yy, w, a, b, s, bp, K, steps, H, R, rm1, r_t, alpha, beta):
+    """Zooming-grid minimisation of the SSE over n in [a_p, b_p] at scale s_p, per profile.
+
+    K points per step, at most ``steps`` steps, each zooming to +-1 grid step
+    around the best point so far (the small-P branch of many.py's
+    ``_minimise_1d``).  Returns (n, SSE, evaluations).
+    """
+    P, Z = zz.shape
+    bx = np.empty(P)
+    bf = np.empty(P)
+    A = np.empty(Z)
+    B = np.empty(Z)
+    C = np.empty(Z)
+    ws = np.empty((24, 3))
+    xp = np.empty(3)
+    used = 0
+    lg = np.empty((3, Z))
+    for p in range(P):
+        profile_logs(zz[p], H, R, r_t, lg)
+        lo, hi = a[p], b[p]
+        best_x = 0.5 * (lo + hi)
+        best_f = np.inf
+        it = 0
+        while it < steps:
+            kbest = -1
+            fbest = np.inf
+            xbest = 0.0
+            for k in range(K):
+                nv = lo + (hi - lo) * (k / (K - 1.0))
+                fv = cell_sse(
+                    zz[p],
+                    yy[p],
+                    w[p],
+                    lg,
+                    nv,
+                    s[p],
+                    bp,
+                    H,
+                    R,
+                    rm1,
+                    r_t,
+                    alpha,
+                    beta,
+                    A,
+                    B,
+                    C,
+                    ws,
+                    xp,
+                )
+                if fv < fbest:
+                    fbest, kbest, xbest = fv, k, nv
+            it += 1
+            if kbest >= 0 and fbest < best_f:
+                best_f, best_x = fbest, xbest
+            h = (hi - lo) / (K - 1)
+            lo = max(lo, best_x - h)
+            hi = min(hi, best_x + h)
+            if hi - lo < 1e-10:
+                break
+        used = max(used, it)
+        bx[p], bf[p] = best_x, best_f
+    return bx, bf, used * K * P
+
+
+@njit(error_model="numpy")
+def golden_refine(zz, yy, w, a, b, s, bp, iters, H, R, rm1, r_t, alpha, beta):
+    """Golden-section minimisation of the SSE over n in [a_p, b_p] at scale s_p, per profile.
+
+    The compiled twin of the golden branch of many.py's ``_minimise_1d``
+    (the same points and comparisons).  Returns (n, SSE, evaluations).
+    """
+    P, Z = zz.shape
+    gr = (math.sqrt(5.0) - 1.0) / 2.0
+    bx = np.empty(P)
+    bf = np.empty(P)
+    A = np.empty(Z)
+    B = np.empty(Z)
+    C = np.empty(Z)
+    ws = np.empty((24, 3))
+    xp = np.empty(3)
+    lg = np.empty((3, Z))
+    for p in range(P):
+        z, y, wp, sp = zz[p], yy[p], w[p], s[p]
+        profile_logs(z, H, R, r_t, lg)
+        lo, hi = a[p], b[p]
+        c = hi - gr * (hi - lo)
+        d = lo + gr * (hi - lo)
+        fc = cell_sse(z, y, wp, lg, c, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
+        fd = cell_sse(z, y, wp, lg, d, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
+        for _ in range(iters):
+            if fc < fd:
+                hi = d
+                d = c
+                c = hi - gr * (hi - lo)
+                fd = fc
+                fc = cell_sse(z, y, wp, lg, c, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
+            else:
+                lo = c
+                c = d
+                d = lo + gr * (hi - lo)
+                fc = fd
+                fd = cell_sse(z, y, wp, lg, d, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
+        if fc < fd:
+            bx[p], bf[p] = c, fc
+        else:
+            bx[p], bf[p] = d, fd
+    return bx, bf, (iters + 2) * P
+
+
+@njit(error_model="numpy")
+def basis_columns(z, n, H, R, rm1, r_t, alpha, beta):
+    """:func:`basis_point` over depths z (Z,) and exponents n (K,): A, B, C each (K, Z)."""
+    K = n.shape[0]
+    Z = z.shape[0]
+    A = np.empty((K, Z))
+    B = np.empty((K, Z))
+    C = np.empty((K, Z))
+    lg = np.empty((3, Z))
+    profile_logs(z, H, R, r_t, lg)
+    for k in range(K):
+        for q in range(Z):
+            A[k, q], B[k, q], C[k, q] = basis_point_log(
+                z[q], n[k], lg[0, q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
+            )
+    return A, B, C
+
+
+@njit(error_model="numpy")
+def fit_stats(y, m, min_r2, max_runs_z, max_drop, min_cv, monotone):
+    """The numbers behind :func:`terracone.metrics.check_fit` for one profile.
+
+    Returns (r2, longest_run, z_runs, flagged): flagged is True when any of
+    check_fit's three reasons applies or is within 1e-9 of its threshold
+    (then the caller asks check_fit, which decides and words the reason).  The same arithmetic as check_fit, with the 3-point running
+    median as the middle of three values.
+    """
+    N = y.shape[0]
+    mean = 0.0
+    for q in range(N):
+        mean += y[q]
+    mean /= N
+    ss_tot = 0.0
+    rr = 0.0
+    yy = 0.0
+    ay = 0.0
+    for q in range(N):
+        ss_tot += (y[q] - mean) ** 2
+        rq = m[q] - y[q]
+        rr += rq * rq
+        yy += y[q] * y[q]
+        ay += abs(y[q])
+    r2 = 1.0 - rr / ss_tot if ss_tot > 0 else np.nan
+    tiny = 1e-9 * math.sqrt(yy / N) if N else 0.0
+    best = 0
+    run = 0
+    prev = 0.0
+    n_pos = 0
+    n_neg = 0
+    runs = 0
+    for q in range(N):
+        rq = m[q] - y[q]
+        if abs(rq) > tiny:
+            v = 1.0 if rq > 0 else -1.0
+            if v == prev:
+                run += 1
+            else:
+                run = 1
+                runs += 1
+            prev = v
+            best = max(best, run)
+            if v > 0:
+                n_pos += 1
+            else:
+                n_neg += 1
+    M = n_pos + n_neg
+    z_runs = np.nan
+    if M >= 2 and n_pos > 0 and n_neg > 0:
+        mu = 2.0 * n_pos * n_neg / M + 1.0
+        var = (mu - 1.0) * (mu - 2.0) / (M - 1.0)
+        if var > 0:
+            z_runs = (runs - mu) / math.sqrt(var)
+    flagged = False
+    any_y = False
+    for q in range(N):
+        if y[q] != 0:
+            any_y = True
+    cv_fit = math.sqrt(rr / N) / (ay / N) if any_y else 0.0
+    if (not math.isnan(r2)) and r2 < min_r2 + 1e-9 and cv_fit > min_cv - 1e-9:
+        flagged = True
+    if M >= 10 and (not math.isnan(z_runs)) and z_runs < max_runs_z + 1e-9:
+        flagged = True
+    if monotone and N >= 4:
+        peak = -np.inf
+        for q in range(N):
+            if 0 < q < N - 1:
+                a, b, c = y[q - 1], y[q], y[q + 1]
+                sm = max(min(a, b), min(max(a, b), c))
+            else:
+                sm = y[q]
+            peak = max(peak, sm)
+            drop = (peak - sm) / peak if peak > 0 else 0.0
+            if drop > max_drop - 1e-9:
+                flagged = True
+    return r2, best, z_runs, flagged

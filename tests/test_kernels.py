@@ -1,0 +1,321 @@
+"""Compiled kernels (terracone.inverse.kernels) against their numpy references.
+
+Each kernel is compared with the numpy implementation it replaces, which
+stays the reference (itself tested against closed forms, quadrature and
+scipy elsewhere): to 1e-12 where the arithmetic is the same, and on the
+minimum (SSE) where the two solve the same small linear systems in a
+different order, so that the minimiser is only as sharp as its condition
+number allows.  The solvers are then run end to end with and without the
+compiled kernels (:func:`terracone.jit.disabled`).
+
+With ``TERRACONE_NUMBA=0`` (the second CI run) both sides are numpy and the
+comparisons hold trivially; the start-up and cache tests run in fresh
+subprocesses either way.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from terracone import cone_index, jit
+from terracone.cone import cone_index_basis, get_cone
+from terracone.data import CIProfile
+from terracone.inverse import Bounds, predict
+from terracone.inverse.boxlsq import box_lsq3, box_lsq3_reference, gram
+from terracone.inverse.exact import identify_scans
+from terracone.inverse.many import first_min, solve_exact_many
+from terracone.plate import pressure_law
+
+CONE = get_cone("asabe-large")
+LAWS = {"rm0": pressure_law("rm0"), "rm1": pressure_law("rm1", r_min=0.004)}
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def both_paths():
+    """(label, context) for the compiled path (when numba is on) and the numpy path."""
+    return [("compiled", contextlib.nullcontext()), ("numpy", jit.disabled())]
+
+
+@pytest.mark.parametrize("law", sorted(LAWS))
+def test_basis_point_equals_cone_index_basis(law):
+    """Kernel columns A, B, C equal the numpy closed forms to 1e-12 (tip entering, shallow,
+    deep below the surface where the binomial series takes over)."""
+    from terracone.inverse.kernels import basis_point
+
+    H = CONE.height
+    z = np.concatenate([[-H + 1e-6, -H / 2, 0.0, 1e-4], np.linspace(0.005, 0.6, 25), [3.0, 8.0]])
+    c = [float(np.asarray(v)) for v in LAWS[law].coefficients()]
+    for n in (0.05, 0.37, 0.8, 1.0, 1.9, 3.0):
+        A, B, C = cone_index_basis(z, n=n, law=LAWS[law], cone=CONE)
+        got = np.array([basis_point(float(zi), n, H, CONE.radius, law == "rm1", *c) for zi in z])
+        for k, ref in enumerate((A, B, C)):
+            np.testing.assert_allclose(got[:, k], ref, rtol=1e-12, atol=1e-300)
+
+
+def random_box_problems(rng, M):
+    X = rng.normal(size=(M, 12, 3)) * rng.uniform(0.1, 10.0, size=(M, 1, 3))
+    y = rng.normal(size=(M, 12)) * 5.0
+    G, g, yy = gram(X, y)
+    c = rng.normal(size=(M, 3))
+    half = rng.uniform(0.05, 2.0, size=(M, 3))
+    lo, hi = c - half, c + half
+    pin = rng.uniform(size=(M, 3)) < 0.15
+    lo = np.where(pin, c, lo)
+    hi = np.where(pin, c, hi)
+    return G, g, yy, lo, hi
+
+
+def test_box_lsq3_matches_the_numpy_reference():
+    """Well-conditioned random boxes (some variables pinned): SSE and x to 1e-12."""
+    rng = np.random.default_rng(20261123)
+    G, g, yy, lo, hi = random_box_problems(rng, 400)
+    x, sse = box_lsq3(G, g, yy, lo, hi)
+    x_ref, sse_ref = box_lsq3_reference(G, g, yy, lo, hi)
+    np.testing.assert_allclose(sse, sse_ref, rtol=1e-12, atol=1e-12 * yy.max())
+    scale = 1.0 + np.abs(x_ref)
+    assert np.all(np.abs(x - x_ref) <= 1e-12 * scale * 10), np.max(np.abs(x - x_ref) / scale)
+    assert np.all((x >= lo) & (x <= hi))
+    assert np.array_equal(x[lo == hi], lo[lo == hi])  # pinned values exactly
+
+
+def test_box_lsq3_broadcasts_like_the_reference():
+    rng = np.random.default_rng(3)
+    G, g, yy, lo, hi = random_box_problems(rng, 6)
+    x, sse = box_lsq3(G[:, None], g[:, None], yy[:, None], lo[None], hi[None])
+    assert x.shape == (6, 6, 3) and sse.shape == (6, 6)
+    x_ref, sse_ref = box_lsq3_reference(G[:, None], g[:, None], yy[:, None], lo[None], hi[None])
+    np.testing.assert_allclose(sse, sse_ref, rtol=1e-12, atol=1e-12 * yy.max())
+
+
+def noisy_profile(seed, terrain=(102.0, 5301.0, 0.79, 1.5, 12.0), noise=0.03, dz=0.01):
+    kc, kphi, n, cc, phic = terrain
+    z = np.round(np.arange(0.0, 0.3 + dz / 2, dz), 10)
+    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=cc, phic=phic)
+    rng = np.random.default_rng(seed)
+    return z, ci * (1.0 + noise * rng.standard_normal(z.size))
+
+
+@pytest.mark.parametrize("law", sorted(LAWS))
+def test_identify_scans_match(law):
+    """Profile scans of the identifiability analysis: the SSE of every pinned fit to 1e-12
+    (relative, or of y'y)."""
+    z, y = noisy_profile(1)
+    n_loc = np.linspace(0.7, 0.9, 9)
+    vals = np.linspace(0.0, 1.0, 61)
+    b = Bounds()
+    out = {}
+    for label, ctx in both_paths():
+        with ctx:
+            out[label] = identify_scans(z, y, n_loc, 14.0, None, b, CONE, LAWS[law], vals)
+    (s1, lo1, hi1), (s0, lo0, hi0) = out["compiled"], out["numpy"]
+    np.testing.assert_allclose(lo1, lo0, rtol=1e-12)
+    np.testing.assert_allclose(hi1, hi0, rtol=1e-12)
+    np.testing.assert_allclose(s1, s0, rtol=1e-12, atol=1e-12 * float(y @ y))
+
+
+def fit_many(zs, ys, **kw):
+    kw.setdefault("cone", CONE)
+    kw.setdefault("law", LAWS["rm0"])
+    kw.setdefault("bounds", Bounds())
+    out = {}
+    for label, ctx in both_paths():
+        with ctx:
+            out[label] = solve_exact_many(zs, ys, **kw)
+    return out["compiled"], out["numpy"]
+
+
+@pytest.mark.parametrize("P", [3, 40])  # the zooming grid (few profiles) and golden section
+def test_solve_exact_many_same_with_and_without_kernels(P):
+    """Same fits: the grid profile of SSE over n to 1e-12, the optimum's SSE to 1e-9 (the
+    refinement of n ends in rounding noise), n to 1e-6."""
+    rng = np.random.default_rng(P)
+    zs, ys = [], []
+    for i in range(P):
+        t = (rng.uniform(0, 60), rng.uniform(500, 6000), rng.uniform(0.4, 1.2), 2.0, 10.0)
+        z, y = noisy_profile(i, t, noise=0.02 * (i % 3), dz=(0.01, 0.02)[i % 2])
+        zs.append(z)
+        ys.append(y)
+    c, r = fit_many(zs, ys)
+    yy = np.array([float(y @ y) for y in ys])
+    np.testing.assert_allclose(c.sse_n, r.sse_n, rtol=1e-12, atol=1e-12 * yy.max())
+    np.testing.assert_allclose(c.sse, r.sse, rtol=1e-9, atol=1e-12 * yy.max())
+    np.testing.assert_allclose(c.n, r.n, atol=1e-6)
+    np.testing.assert_allclose(c.phic_deg, r.phic_deg, atol=1e-4)
+
+
+def test_first_min_breaks_near_ties_to_the_first_index():
+    v = np.array([[3.0, 1.0 + 1e-15, 1.0, 2.0], [5.0, 4.0, 4.0, 0.5]])
+    assert first_min(v, 1e-12).tolist() == [1, 3]
+    assert first_min(v, 0.0).tolist() == [2, 3]
+
+
+CASES = {
+    "noisy": dict(),
+    "noise-free": dict(noise=0.0),
+    "kc=0": dict(terrain=(0.0, 1948.9, 0.514, 0.0, 14.37)),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+@pytest.mark.parametrize("law", sorted(LAWS))
+def test_predict_same_with_and_without_kernels(case, law):
+    z, y = noisy_profile(7, **CASES[case])
+    prof = CIProfile("p", z, y)
+    kw = dict(model=law, r_min=0.004 if law == "rm1" else None)
+    out = {}
+    for label, ctx in both_paths():
+        with ctx:
+            out[label] = predict(prof, **kw)
+    c, r = out["compiled"], out["numpy"]
+    assert c.ok and r.ok
+    rms = float(np.sqrt(np.mean(y * y)))
+    assert abs(c.rmsd - r.rmsd) <= 1e-9 * r.rmsd + 1e-9 * rms
+    assert c.params.n == pytest.approx(r.params.n, abs=1e-6)
+    assert sorted(c.undetermined) == sorted(r.undetermined)
+    assert set(c.profile_intervals) == set(r.profile_intervals)
+
+
+def run_py(code: str, **env_extra: str) -> subprocess.CompletedProcess:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env.pop("TERRACONE_NUMBA", None)
+    env.update(env_extra)
+    return subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=ROOT,
+        timeout=600,
+    )
+
+
+def test_cli_start_up_imports_no_numba():
+    """`terracone --help` and a forward curve neither import numba nor compile."""
+    p = run_py(
+        """
+        import sys
+        from click.testing import CliRunner
+        from terracone.cli import cli as main
+        r = CliRunner().invoke(main, ["--help"])
+        assert r.exit_code == 0, r.output
+        r = CliRunner().invoke(main, ["ci", "--kc", "100", "--kphi", "5000", "--n", "0.8", "--depths", "0,0.1"])
+        assert r.exit_code == 0, r.output
+        print("numba" in sys.modules)
+        """
+    )
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.strip().splitlines()[-1] == "False"
+
+
+def test_switch_disables_the_kernels():
+    p = run_py("from terracone import jit; print(jit.enabled(), jit.ENABLED)", TERRACONE_NUMBA="0")
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split() == ["False", "False"]
+
+
+KERNEL_RUN = """
+    import os
+    {pre}
+    import numpy as np
+    from terracone import jit
+    from terracone.inverse.boxlsq import box_lsq3
+    if not jit.enabled():
+        print("disabled"); raise SystemExit(0)
+    G = np.eye(3)[None] * 2.0
+    box_lsq3(G, np.ones((1, 3)), np.ones(1), np.zeros((1, 3)), np.ones((1, 3)))
+    from terracone.inverse import kernels
+    d = kernels.box_lsq3_flat
+    print(os.environ.get("NUMBA_CACHE_DIR"), sum(d.stats.cache_hits.values()),
+          sum(d.stats.cache_misses.values()))
+"""
+
+
+@pytest.mark.skipif(os.environ.get("TERRACONE_NUMBA") == "0", reason="kernels switched off")
+def test_cache_in_user_dir_when_package_dir_is_read_only(tmp_path):
+    """A read-only package directory (simulated: os.access says so) sends the cache to
+    $XDG_CACHE_HOME/terracone/numba; the second process loads the kernel from it."""
+    pre = textwrap.dedent(
+        """
+        _real = os.access
+        os.access = lambda p, m, *a, **k: False if "terracone" in str(p) else _real(p, m, *a, **k)
+        """
+    ).replace("\n", "\n    ")
+    code = KERNEL_RUN.format(pre=pre)
+    first = run_py(code, XDG_CACHE_HOME=str(tmp_path))
+    assert first.returncode == 0, first.stderr
+    cache, hits, misses = first.stdout.split()
+    assert Path(cache) == tmp_path / "terracone" / "numba"
+    assert any(Path(cache).rglob("*.nbi")), "no index written to the user cache"
+    assert (int(hits), int(misses)) == (0, 1)
+    second = run_py(code, XDG_CACHE_HOME=str(tmp_path))
+    assert second.returncode == 0, second.stderr
+    assert second.stdout.split()[1:] == ["1", "0"]  # loaded from the cache, not compiled
+
+
+def test_explicit_cache_dir_is_kept(tmp_path):
+    """NUMBA_CACHE_DIR set by the user is left alone, even for a read-only package dir."""
+    p = run_py(
+        """
+        import os
+        os.access = lambda *a, **k: False
+        from terracone import jit
+        jit.enabled()
+        print(os.environ["NUMBA_CACHE_DIR"])
+        """,
+        NUMBA_CACHE_DIR=str(tmp_path / "nc"),
+    )
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split() == [str(tmp_path / "nc")]
+
+
+def test_check_fits_equal_check_fit():
+    """batch's check_fits (compiled screen + check_fit for the flagged) gives check_fit's
+    longest run and lack-of-fit reason for every profile: clean, noisy, clustered residuals,
+    a low R2 and a layered (falling) profile."""
+    from terracone.batch import check_fits
+    from terracone.metrics import check_fit
+
+    rng = np.random.default_rng(11)
+    Z = 40
+    z = np.linspace(0.0, 0.4, Z)
+    ys, ms = [], []
+    for i in range(60):
+        m = 100.0 + 800.0 * z ** rng.uniform(0.5, 1.2)
+        kind = i % 5
+        if kind == 0:
+            y = m.copy()  # exact fit
+        elif kind == 1:
+            y = m * (1 + 0.03 * rng.standard_normal(Z))
+        elif kind == 2:
+            y = m + 20.0 * np.sin(6 * z / 0.4)  # residuals of one sign over long stretches
+        elif kind == 3:
+            y = m.mean() + 300.0 * rng.standard_normal(Z)  # R2 far below 0.8
+        else:
+            y = np.where(z > 0.2, 0.5 * m, m)  # CI falls with depth
+        ys.append(y)
+        ms.append(m)
+    npts = rng.integers(4, Z + 1, size=len(ys))
+    npts[:5] = Z
+    yy = np.zeros((len(ys), Z))
+    mm = np.zeros((len(ys), Z))
+    zz = np.broadcast_to(z, yy.shape).copy()
+    for i, (y, m) in enumerate(zip(ys, ms)):
+        yy[i, : npts[i]] = y[: npts[i]]
+        mm[i, : npts[i]] = m[: npts[i]]
+    runs, lof = check_fits(zz, yy, mm, npts)
+    flagged = 0
+    for i in range(len(ys)):
+        k = int(npts[i])
+        ref = check_fit(z[:k], yy[i, :k], mm[i, :k])
+        assert runs[i] == ref.longest_run
+        assert lof[i] == ref.lack_of_fit
+        flagged += ref.lack_of_fit is not None
+    assert 10 <= flagged <= 50  # the three reasons and clean fits are all exercised
