@@ -583,7 +583,9 @@ def fig_ridge(
     )
     fig, axes = _new(width=10.4, height=8.2, ncols=2, nrows=2)
     best = r["best"]
-    rmin = best["rmsd"]
+    # an exact fit has RMSD 0: ratios are then taken to a floor of 1% of the mean CI,
+    # the noise floor that predict assumes when it judges what the data leave free
+    rmin = max(float(best["rmsd"]), 0.01 * float(np.mean(ci)))
     ratio = r["rmsd"] / rmin
     levels = [1.01, 1.1, 1.5, 2.0, 3.0]
     # (a) phic-n map
