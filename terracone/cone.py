@@ -251,7 +251,17 @@ def _check_Kc(Kc: ArrayLike | None) -> np.ndarray | None:
     return a
 
 
-def _check_depth(depth: ArrayLike, cone: Cone) -> np.ndarray:
+def check_depth(depth: ArrayLike, cone: Cone) -> np.ndarray:
+    """Cone-base depths [m] as a float array, checked: finite and not above -H.
+
+    The tip enters the surface at z = -H (Figure 2-2 of [1]_); a depth a rounding
+    step above -H is taken as -H.
+
+    Raises
+    ------
+    ValueError
+        A depth that is not finite or lies above -H (the cone then carries no load).
+    """
     z = np.asarray(depth, dtype=float)
     lo, hi = (z.min(), z.max()) if z.size else (0.0, 0.0)
     if not (np.isfinite(lo) and np.isfinite(hi)):
@@ -299,7 +309,7 @@ def cone_index_basis(
     """
     cone = get_cone(cone)
     law = law or pressure_law("rm0")
-    z = _check_depth(depth, cone)
+    z = check_depth(depth, cone)
     n = _check_n(n)
     phic = _check_phic(phic)
     return _basis(z, n, phic, Kc, law, cone)
@@ -313,9 +323,9 @@ def _integrals(z: np.ndarray, n: np.ndarray, law: PressureLaw, cone: Cone):
     L = np.where(z >= 0.0, H, u1)  # embedded length along the axis (rec. F of [1])
     live = u1 > 0.0
     if live.all():
-        return _normal_integrals(u1, None, L, n, law, t), u1, L
+        return normal_integrals(u1, None, L, n, law, t), u1, L
     u1s = np.where(live, u1, 1.0)
-    ints = _normal_integrals(u1s, None, L, n, law, t)
+    ints = normal_integrals(u1s, None, L, n, law, t)
     return tuple(np.where(live, v, 0.0) for v in ints), u1, L
 
 
@@ -370,14 +380,47 @@ def _improved(z, kc, kphi, n, cc, phic, Kc, law: PressureLaw, cone: Cone) -> np.
     return fac * (kc * I_c + kphi * I_phi) + ((2.0 / (R * R)) * cc) * I_cc
 
 
-def _normal_integrals(u1, a, b, n, law: PressureLaw, t: float):
+def normal_integrals(
+    u1: ArrayLike,
+    a: ArrayLike | None,
+    b: ArrayLike,
+    n: ArrayLike,
+    law: PressureLaw,
+    t: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Integrals of p*r over the part of the cone between distances a and b from the tip.
 
     With u the depth of a surface element, d = u1 - u its distance from the
-    tip and r = t d its radius (eq. (2-3)), returns per unit kc and kphi
-    int p r du (eqs. (2-2), (2-5); RM1 of section 3.2 below r_t) and
-    int r du, over a <= d <= b (a = None means 0).  u1 > 0 is the depth of
-    the tip [m].
+    tip and r = t d its radius (eq. (2-3) in [1]_), returns per unit kc and
+    kphi the integral of p r du (eqs. (2-2), (2-5); RM1 of section 3.2 below
+    r_t) and the integral of r du, over a <= d <= b.  These are the cone's
+    normal-load integrals from which the cone index of eqs. (2-5) to (2-7) is
+    assembled; they are exact (closed form in incomplete moments of d).
+
+    Parameters
+    ----------
+    u1 : array_like
+        Depth of the tip [m], > 0.
+    a, b : array_like
+        Distances from the tip bounding the part of the cone [m]; ``a=None``
+        means 0 (from the tip).
+    n : array_like
+        Pressure-sinkage exponent [-].
+    law : PressureLaw
+        RM0 or RM1 (section 3.2 of [1]_).
+    t : float
+        tan of the cone's half angle [-] (r = t d).
+
+    Returns
+    -------
+    i_kc, i_kphi, i_r : ndarray
+        The integral of p r du per unit kc (under Bekker's law p r = kc z^n +
+        kphi r z^n, so this is the integral of z^n du), per unit kphi (the
+        integral of r z^n du), and the integral of r du [m^2], which carries cc.
+
+    References
+    ----------
+    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eqs. (2-2) to (2-7).
     """
     r_t, alpha, beta = law.coefficients()
     rm1 = not law.is_rm0
@@ -503,7 +546,7 @@ def improved(
     kphi = _check_nonneg("kphi", kphi)
     cc = _check_nonneg("cc", cc)
     cone = get_cone(cone)
-    z = _check_depth(depth, cone)
+    z = check_depth(depth, cone)
     Kc = _check_Kc(Kc)
     return _improved(
         z, kc, kphi, _check_n(n), cc, _check_phic(phic), Kc, law or pressure_law("rm0"), cone
@@ -615,7 +658,7 @@ def cone_index(
     cone = get_cone(cone)
     # checked once here, then the unchecked SI core
     ci = _improved(
-        _check_depth(u.length_to_si(depth, units), cone),
+        check_depth(u.length_to_si(depth, units), cone),
         u.kc_to_si(_check_nonneg("kc", kc), n_arr, units),
         u.kphi_to_si(_check_nonneg("kphi", kphi), n_arr, units),
         n_arr,

@@ -40,7 +40,7 @@ import numpy as np
 from scipy.optimize import lsq_linear, minimize, nnls
 
 from . import units as u
-from .cone import Cone, _check_depth, _normal_integrals
+from .cone import Cone, check_depth, normal_integrals
 from .data import CIProfile, InputError, TerrainParameters
 from .inverse.bounds import Bounds
 from .metrics import check_fit
@@ -79,7 +79,7 @@ def layered_basis(
     (Z, 3L) ndarray
     """
     law = law or pressure_law("rm0")
-    z = _check_depth(depth, cone)
+    z = check_depth(depth, cone)
     n = np.atleast_1d(np.asarray(n, float))
     D = np.concatenate([[0.0], np.atleast_1d(np.asarray(interfaces, float)), [np.inf]])
     if n.size != D.size - 1:
@@ -96,7 +96,7 @@ def layered_basis(
         # layer j spans depths [D_j, D_(j+1)): distances from the tip [u1 - D_(j+1), u1 - D_j]
         a = np.clip(u1 - D[j + 1], 0.0, L)
         b = np.clip(u1 - D[j], 0.0, L)
-        Ic, Ip, Icc = _normal_integrals(u1s, a, b, n[j], law, t)
+        Ic, Ip, Icc = normal_integrals(u1s, a, b, n[j], law, t)
         # eq. (2-7) with eq. (2-6) fully mobilised: CI = [2 (t + tan phic) I + 2 cc I_cc] / R^2
         cols += [
             np.where(live, 2.0 * t * s * Ic / (R * R), 0.0),

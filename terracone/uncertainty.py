@@ -1992,7 +1992,7 @@ def layered_posterior(
     -N/2 log(SSE).  The forward model is :func:`terracone.layers.layered_basis`
     evaluated for all walkers at once.
     """
-    from .cone import _normal_integrals
+    from .cone import normal_integrals
     from .plate import pressure_law as _pl
 
     bounds = bounds or Bounds()
@@ -2038,7 +2038,7 @@ def layered_posterior(
             kc, kphi, n, cc = (theta[:, 4 * j + q][:, None] for q in range(4))
             a = np.clip(u1[None, :] - D[:, j + 1][:, None], 0.0, Lemb[None, :])
             b = np.clip(u1[None, :] - D[:, j][:, None], 0.0, Lemb[None, :])
-            Ic, Ip, Icc = _normal_integrals(u1s[None, :], a, b, n, law, t)
+            Ic, Ip, Icc = normal_integrals(u1s[None, :], a, b, n, law, t)
             ci += 2.0 / (R * R) * (t * s * (kc * Ic + kphi * Ip) + cc * Icc)
         return ci
 
