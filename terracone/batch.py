@@ -74,14 +74,14 @@ from .inverse.bounds import Bounds
 from .inverse.learn import Calibration
 from .inverse.many import solve_exact_many
 from .io import (
-    _CI_SCHEMA,
-    _DECIMAL,
-    _SPECIAL_FLOAT,
-    _layout,
-    _Table,
-    _to_numbers,
+    CI_SCHEMA,
+    DECIMAL,
+    SPECIAL_FLOAT,
+    Table,
+    column_layout,
     detect_format,
     json_default,
+    to_numbers,
 )
 from .jit import enabled
 from .metrics import check_fit_fast
@@ -638,12 +638,12 @@ class _Plan:
         return pa.schema(fields)
 
 
-def _fake_table(path: str, header: list[str], line: int | None) -> _Table:
-    return _Table(path, header, line, [], np.empty(0, dtype=int))  # type: ignore[arg-type]
+def _fake_table(path: str, header: list[str], line: int | None) -> Table:
+    return Table(path, header, line, [], np.empty(0, dtype=int))  # type: ignore[arg-type]
 
 
 def _layout_info(path: str, kind: str, header: list[str], line: int | None) -> _FileInfo:
-    layout = _layout(_fake_table(path, header, line), _CI_SCHEMA, None)
+    layout = column_layout(_fake_table(path, header, line), CI_SCHEMA, None)
     d, c = layout.groups["depth"], layout.groups["ci"]
     cone = layout.extra.get("cone")
     return _FileInfo(
@@ -691,7 +691,7 @@ def _strip(values: np.ndarray) -> np.ndarray:
 
 
 def _is_number_text(v: str) -> bool:
-    return not v.strip() or bool(_DECIMAL.match(v) or _SPECIAL_FLOAT.match(v))
+    return not v.strip() or bool(DECIMAL.match(v) or SPECIAL_FLOAT.match(v))
 
 
 def _scan_csv(path: str) -> tuple[_FileInfo, int, int, dict[str, bool]]:
@@ -922,7 +922,7 @@ class _Rows:
 
 
 def _text_numbers(cells: np.ndarray, factor: float) -> tuple[np.ndarray, np.ndarray | None]:
-    num = _to_numbers(cells)
+    num = to_numbers(cells)
     why = None
     if num.bad.any():
         why = np.full(len(cells), None, dtype=object)

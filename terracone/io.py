@@ -92,8 +92,8 @@ _UNIT_TABLES: dict[str, dict[str, float]] = {
 }
 
 # decimal numbers only: float() would also take "2018_13" (a plot id) as 201813
-_DECIMAL = re.compile(r"^\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*$")
-_SPECIAL_FLOAT = re.compile(r"^\s*[+-]?(?:nan|inf|infinity)\s*$", re.IGNORECASE)
+DECIMAL = re.compile(r"^\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*$")
+SPECIAL_FLOAT = re.compile(r"^\s*[+-]?(?:nan|inf|infinity)\s*$", re.IGNORECASE)
 
 
 # ---------------------------------------------------------------------------
@@ -108,7 +108,7 @@ def _check_on_error(on_error: str) -> None:
 
 def _metadata_value(cell: str) -> float | str:
     """A metadata cell: float when it reads as a number, else the stripped text."""
-    if _DECIMAL.match(cell) or _SPECIAL_FLOAT.match(cell):
+    if DECIMAL.match(cell) or SPECIAL_FLOAT.match(cell):
         return float(cell)
     return cell.strip()
 
@@ -126,14 +126,14 @@ def _cell_problem(cell: str) -> str | None:
     """Why a cell is not a finite number, or None if it is one."""
     if not cell.strip():
         return "empty cell"
-    if _DECIMAL.match(cell):
+    if DECIMAL.match(cell):
         return None
-    if _SPECIAL_FLOAT.match(cell):
+    if SPECIAL_FLOAT.match(cell):
         return f"not a finite number: {cell.strip()!r}"
     return f"not a number: {cell.strip()!r}"
 
 
-def _to_numbers(cells: Sequence[str]) -> _Numbers:
+def to_numbers(cells: Sequence[str]) -> _Numbers:
     """Convert cells to floats (vectorised when every cell is a plain number)."""
     n = len(cells)
     joined = "".join(cells)
@@ -185,7 +185,10 @@ def _read_lines(path: str) -> list[str]:
 
 
 @dataclass
-class _Table:
+class Table:
+    """A CSV table as read: header, its file line, columns of cells and the file line of
+    each data row (shared by the readers here and by batch's streaming reader)."""
+
     path: str
     header: list[str]
     header_line: int
@@ -197,7 +200,7 @@ class _Table:
         return int(self.lines.size)
 
 
-def _read_table(path: str) -> _Table:
+def _read_table(path: str) -> Table:
     """Read a CSV file: header, cells by column and the line of every record.
 
     A line is a comment (skipped) when it starts with ``#`` at the start of a
@@ -248,7 +251,7 @@ def _read_table(path: str) -> _Table:
                 )
             del rec[width:]
     columns = [list(col) for col in zip(*body)]
-    return _Table(path, header, starts[0], columns, np.asarray(starts[1:], dtype=int))
+    return Table(path, header, starts[0], columns, np.asarray(starts[1:], dtype=int))
 
 
 @dataclass(frozen=True)
@@ -268,7 +271,7 @@ class _Schema:
     extra: tuple[str, ...] = ()  # other reserved plain columns (e.g. "cone")
 
 
-_CI_SCHEMA = _Schema(
+CI_SCHEMA = _Schema(
     "profile",
     (_Field("depth", _LENGTH, "depth"), _Field("ci", _PRESSURE, "ci")),
     ("depth", "ci"),
@@ -328,7 +331,7 @@ def _unit_choices(kind: str) -> str:
     return "|".join(_UNIT_TABLES[kind])
 
 
-def _layout(table: _Table, schema: _Schema, units: str | None = None) -> _Layout:
+def column_layout(table: Table, schema: _Schema, units: str | None = None) -> _Layout:
     """Classify the header of a table; raise InputError for header problems."""
     path, row = table.path, table.header_line
     seen: dict[str, str] = {}
@@ -393,7 +396,7 @@ def _layout(table: _Table, schema: _Schema, units: str | None = None) -> _Layout
     return _Layout(groups, id_col, extra, metadata)
 
 
-def _groups(table: _Table, id_col: _Column | None) -> list[tuple[str, np.ndarray]]:
+def _groups(table: Table, id_col: _Column | None) -> list[tuple[str, np.ndarray]]:
     """(id, row indices) of each profile or test, in order of first appearance."""
     if id_col is None:
         return [(Path(table.path).stem, np.arange(table.n_rows))]
@@ -421,7 +424,7 @@ def _first_bad(
     return int(idx[k]), col, why
 
 
-def _metadata(table: _Table, layout: _Layout, i: int) -> dict[str, Any]:
+def _metadata(table: Table, layout: _Layout, i: int) -> dict[str, Any]:
     return {c.name: _metadata_value(table.columns[c.index][i]) for c in layout.metadata}
 
 
@@ -439,7 +442,7 @@ def _collect(items: Sequence[Any], build: Callable[[Any], Any], on_error: str) -
 
 
 def _check_constant(
-    path: str, gid: str, table: _Table, idx: np.ndarray, col: _Column, num: _Numbers, what: str
+    path: str, gid: str, table: Table, idx: np.ndarray, col: _Column, num: _Numbers, what: str
 ) -> float:
     """The value of a column that must not change within a test."""
     vals = num.values[idx]
@@ -528,7 +531,7 @@ def detect_format(path: PathLike) -> Literal["csv", "sc900", "wide"]:
             continue
         delim = "\t" if "\t" in line else ";" if ";" in line else ","
         cells = [c.strip().lower() for c in next(csv.reader([raw], delimiter=delim))]
-        if any(_match_field(c, _CI_SCHEMA) and wide_depth_header(c) is None for c in cells):
+        if any(_match_field(c, CI_SCHEMA) and wide_depth_header(c) is None for c in cells):
             return "csv"
         if sum(wide_depth_header(c) is not None for c in cells) >= 3:
             return "wide"
@@ -645,10 +648,10 @@ def _read_ci_csv(
     path: str, default_cone: Cone, depth_ref: str, units: str | None, on_error: str
 ) -> list[CIProfile | InputError]:
     table = _read_table(path)
-    layout = _layout(table, _CI_SCHEMA, units)
+    layout = column_layout(table, CI_SCHEMA, units)
     dcol, ccol = layout.groups["depth"], layout.groups["ci"]
-    depth = _to_numbers(table.columns[dcol.index])
-    ci = _to_numbers(table.columns[ccol.index])
+    depth = to_numbers(table.columns[dcol.index])
+    ci = to_numbers(table.columns[ccol.index])
     cone_col = layout.extra.get("cone")
     lines = table.lines
 
@@ -840,7 +843,7 @@ def _read_sc900(
                 if _cell_problem(f[k]) is not None:
                     raise fail(f"{key} {f[k]!r} is not a number", key.title())
                 metadata[key] = float(f[k])
-        readings = _to_numbers(f[3 : 3 + nd])
+        readings = to_numbers(f[3 : 3 + nd])
         if readings.bad.any():
             k = int(np.flatnonzero(readings.bad)[0])
             raise fail(readings.reasons[k], labels[k])
@@ -1206,7 +1209,7 @@ def read_wide_ci(
         for j in meta_cols:
             cell = cells[j]
             num = _wide_number(cell, comma)
-            metadata[head.cells[j]] = float(num) if _DECIMAL.match(num) else cell.strip()
+            metadata[head.cells[j]] = float(num) if DECIMAL.match(num) else cell.strip()
         for j, key in ((lat_j, "lat"), (lon_j, "lon")):
             if j is not None:
                 try:
@@ -1266,7 +1269,7 @@ def _wide_push(
                 f"{head.depth_labels[int(filled[filled > k][0])]!r} have readings)",
                 head.depth_cols[k],
             )
-    readings = _to_numbers(raw[a:b])
+    readings = to_numbers(raw[a:b])
     if readings.bad.any():
         k = int(np.flatnonzero(readings.bad)[0])
         raise fail(readings.reasons[k], head.depth_cols[a + k])
@@ -1347,9 +1350,9 @@ def read_plate_tests(
     _check_on_error(on_error)
     source = os.fspath(path)
     table = _read_table(source)
-    layout = _layout(table, _PLATE_SCHEMA)
+    layout = column_layout(table, _PLATE_SCHEMA)
     scol, zcol, pcol = (layout.groups[g] for g in ("size", "sinkage", "pressure"))
-    size, sink, pres = (_to_numbers(table.columns[c.index]) for c in (scol, zcol, pcol))
+    size, sink, pres = (to_numbers(table.columns[c.index]) for c in (scol, zcol, pcol))
     circular = scol.field is not None and scol.field.name != "plate_width"
     halve = scol.field is not None and scol.field.name == "plate_diameter"
 
@@ -1425,9 +1428,9 @@ def read_shear_tests(
     _check_on_error(on_error)
     source = os.fspath(path)
     table = _read_table(source)
-    layout = _layout(table, _SHEAR_SCHEMA)
+    layout = column_layout(table, _SHEAR_SCHEMA)
     ncol, jcol, tcol = (layout.groups[g] for g in ("normal_pressure", "displacement", "stress"))
-    normal, disp, stress = (_to_numbers(table.columns[c.index]) for c in (ncol, jcol, tcol))
+    normal, disp, stress = (to_numbers(table.columns[c.index]) for c in (ncol, jcol, tcol))
 
     def build(group: tuple[str, np.ndarray]) -> ShearTest:
         tid, idx = group
@@ -1577,7 +1580,7 @@ def write_ci_profiles(
     lu, lf = _unit(length_unit, _LENGTH)
     pu, pf = _unit(pressure_unit, _PRESSURE)
     _check_unique_ids(profiles, "profile")
-    meta = _metadata_columns(profiles, _CI_SCHEMA, ("profile", "cone"))
+    meta = _metadata_columns(profiles, CI_SCHEMA, ("profile", "cone"))
     header = ["profile", "cone", *meta, f"depth_{lu}", f"ci_{pu}"]
 
     def rows() -> Iterator[list[str]]:
