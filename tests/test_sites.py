@@ -279,7 +279,7 @@ def test_without_calibration_between_cv_recovered_and_intervals_flagged():
     # no calibration: the CI alone leaves kc', kphi', cc of a push nearly collinear, so the
     # pushes' own plate predictions scatter far more than the soil (CV 0.2 here) with a
     # heavy-tailed spread.  between_cv comes from what the CI fixes (each push's strength and n
-    # with the site's shape, shape_pushes): measured median 0.17 here (0.17-0.21 on other
+    # with the site's shape, shape_pushes): measured median 0.17 here (0.17-0.22 on other
     # seeds, 60 sites); the random-effects variance within 0.6-1.4 of the truth; the CI's own
     # CV is right.  The site plate interval is set by the prior (phic ridge) and is flagged
     # as not calibrated; it covered 0.73 here.
@@ -329,3 +329,20 @@ def test_cli_sites_by_radius(tmp_path):
     doc = json.loads(r.output)
     assert [s["profiles"] for s in doc["sites"]] == [["A0", "A1", "A2"], ["B0", "B1", "B2"]]
     assert doc["settings"]["radius"] == 10.0
+
+
+def test_shape_pushes_noise_free_strengths_give_their_own_cv():
+    # noise-free pushes of one terrain scaled as a whole (kc, kphi, cc) by known strength
+    # factors g: the CI fixes g
+    # exactly, so the push-to-push CV of the plate pressure is that of g by hand,
+    # sqrt(exp(var(log g, ddof=1)) - 1) (Paule-Mandel with no estimation noise)
+    z = np.arange(0.0, 0.451, 0.025)
+    g = np.array([0.8, 1.0, 1.2, 1.5])
+    gg = g[:, None]
+    ci = cone_index(z, kc=gg * 40.0, kphi=gg * 1200.0, n=0.9, cc=gg * 5.0, phic=11.0)
+    profiles = [CIProfile(f"p{j}", z, ci[j]) for j in range(g.size)]
+    (res,) = fit_sites(profiles, Grouping({"a": [0, 1, 2, 3]}), plates=[0.05])
+    want = math.sqrt(math.expm1(np.var(np.log(g), ddof=1)))
+    cv = res.plate_pressure[0].between_cv
+    assert cv == pytest.approx(np.full(cv.shape, want), rel=0.02)
+    assert not res.calibrated

@@ -56,7 +56,7 @@ Model
 5. Without a calibration the push-to-push variation of the plate pressure
    is not taken from the pushes' own plate predictions (the CI does not fix
    kc', kphi' and cc of one push apart, and its estimation spread is heavy
-   tailed, which inflated ``between_cv``: 0.23-0.37 for a true 0.2, 0.5 for
+   tailed, which inflated ``between_cv``: 0.23-0.58 for a true 0.2, 0.28 for
    a true 0) but from what the CI fixes (:func:`shape_pushes`): each push's
    strength ``g`` and n with the site terrain's shape, ``p'_j = g_j (kc'/b +
    kphi') z^(n_j)``, pooled the same way with bootstrap estimation
@@ -824,7 +824,7 @@ def _site_params(re, logs, log_s, phic_q, level: float):
 UNCALIBRATED_NOTE = (
     "no calibration: the plate-pressure interval is set largely by the prior (phic trades "
     "against the scale of kc and kphi, and the CI does not fix kc, kphi and cc apart), so it is "
-    "not a calibrated 90% interval (on generated sites it covered 73-88%); between_cv is the "
+    "not a calibrated 90% interval (on generated sites it covered 73-98%); between_cv is the "
     "push-to-push variation of the strength and n that the CI fixes, with the site's kc/kphi "
     "ratio and cc (a variation of those is not seen); give a calibration for calibrated figures"
 )
