@@ -333,9 +333,9 @@ def test_cli_sites_by_radius(tmp_path):
 
 def test_shape_pushes_noise_free_strengths_give_their_own_cv():
     # noise-free pushes of one terrain scaled as a whole (kc, kphi, cc) by known strength
-    # factors g: the CI fixes g
-    # exactly, so the push-to-push CV of the plate pressure is that of g by hand,
-    # sqrt(exp(var(log g, ddof=1)) - 1) (Paule-Mandel with no estimation noise)
+    # factors g, no calibration: the CI fixes g exactly, so the push-to-push CV of the plate
+    # pressure is that of g by hand, sqrt(exp(var(log g, ddof=1)) - 1) (Paule-Mandel with no
+    # estimation noise); the pushes' own collinear fits would not give it
     z = np.arange(0.0, 0.451, 0.025)
     g = np.array([0.8, 1.0, 1.2, 1.5])
     gg = g[:, None]
