@@ -3,7 +3,8 @@
 Usage::
 
     python benchmarks/coverage.py [--profiles 200] [--draws 2000] [--seed 2024]
-        [--correlation estimate|sample|none|RHO]
+        [--correlation estimate|sample|none|RHO] [--n-prior uniform|reference]
+        [--priors bounds,calibration]
 
 For each case a terrain with known parameters is drawn, a CI profile is
 generated with the improved model (eq. (2-7) of Huang et al., RM0, fully
@@ -119,7 +120,8 @@ def run(
     """Coverage of n and of the plate pressure over ``n_profiles`` cases."""
     rng = np.random.default_rng(seed)
     cal_prior = CalibrationPrior(LETE)
-    hits_n = hits_p = 0
+    hits_n = hits_p = below_n = above_n = 0
+    z_n = []
     widths_n, widths_p, rel_p, rhos, times = [], [], [], [], []
     for i in range(n_profiles):
         truth = truth_bounds(rng) if prior == "bounds" else truth_calibration(rng, cal_prior)
@@ -138,6 +140,9 @@ def run(
         times.append(time.perf_counter() - t0)
         lo, hi = res.intervals["n"]
         hits_n += lo <= truth.n <= hi
+        below_n += truth.n < lo
+        above_n += truth.n > hi
+        z_n.append((res.medians["n"] - truth.n) / (hi - lo))
         widths_n.append(hi - lo)
         band = res.plate_bands[0]
         plo, phi = float(band.lo[1]), float(band.hi[1])
@@ -154,6 +159,8 @@ def run(
         "coverage_n": hits_n / N,
         "coverage_plate": hits_p / N,
         "se": math.sqrt(0.09 / N),
+        "misses_n_below_above": (below_n, above_n),
+        "n_error_mean_sd": (float(np.mean(z_n)), float(np.std(z_n))),
         "median_width_n": float(np.median(widths_n)),
         "median_rel_width_plate": float(np.median(rel_p)),
         "median_rho": float(np.median(rhos)),
@@ -167,6 +174,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--draws", type=int, default=2000)
     ap.add_argument("--seed", type=int, default=2024)
     ap.add_argument("--correlation", default="estimate", help="estimate, sample, none or a number")
+    ap.add_argument("--n-prior", default="uniform", help="uniform or reference (bounds prior)")
+    ap.add_argument("--priors", default="bounds,calibration", help="rows to run")
     args = ap.parse_args(argv)
     corr: str | float = args.correlation
     if corr not in ("estimate", "sample", "none"):
@@ -175,6 +184,8 @@ def main(argv: list[str] | None = None) -> int:
     for k, (prior, correlated) in enumerate(
         [("bounds", False), ("bounds", True), ("calibration", False), ("calibration", True)]
     ):
+        if prior not in args.priors.split(","):
+            continue
         r = run(
             args.profiles,
             prior=prior,
@@ -182,6 +193,7 @@ def main(argv: list[str] | None = None) -> int:
             draws=args.draws,
             seed=args.seed + k,
             correlation=corr,
+            n_prior=args.n_prior,
         )
         rows.append(r)
         print(
@@ -189,7 +201,10 @@ def main(argv: list[str] | None = None) -> int:
             f"n: {100 * r['coverage_n']:5.1f}%  plate p(2.5 cm, r=5 cm): "
             f"{100 * r['coverage_plate']:5.1f}%  (+-{100 * r['se']:.1f}%)  "
             f"width n {r['median_width_n']:.3f}  rel. width p {r['median_rel_width_plate']:.2f}  "
-            f"rho {r['median_rho']:.2f}  {r['time_s']:.2f} s/profile",
+            f"rho {r['median_rho']:.2f}  {r['time_s']:.2f} s/profile  "
+            f"n misses below/above {r['misses_n_below_above']}, "
+            f"(median-truth)/width mean {r['n_error_mean_sd'][0]:+.3f} sd "
+            f"{r['n_error_mean_sd'][1]:.3f}",
             flush=True,
         )
         claimed = [("n", r["coverage_n"])]

@@ -427,6 +427,43 @@ def test_coverage_of_n_with_the_bounds_prior():
     assert lo <= sum(hits) / (2 * N) <= hi, hits
 
 
+def test_reference_weight_is_the_gram_determinant_of_the_forward_model():
+    """gram_half_logdet == 0.5 log det of the Gram matrix of directly whitened eq. (2-7) columns."""
+    from terracone.cone import cone_index_basis
+
+    phi = np.full(DEPTH.size - 1, 0.6)
+    lik, z, y, w = _likelihood(None, phi)
+    half = lik.gram_half_logdet([True, True, True])
+    for k in (0, 7, 40, lik.grid.size - 1):
+        n = float(lik.grid[k])
+        A, B, C = cone_index_basis(z, n=n, phic=0.0, law=lik.law, cone=lik.cone)
+        X = np.stack([A, B, C], 1) / w[:, None]
+        U = X.copy()  # whitening by hand: u_i = (x_i - phi x_(i-1)) / sqrt(1 - phi^2)
+        U[1:] = (X[1:] - 0.6 * X[:-1]) / math.sqrt(1 - 0.36)
+        assert half[k] == pytest.approx(0.5 * np.linalg.slogdet(U.T @ U)[1], rel=1e-9, abs=1e-9)
+    # only the free columns count: kc fixed leaves kphi and cc
+    half2 = lik.gram_half_logdet([False, True, True])
+    cols = lik.wcols[3][:, 1:]
+    assert half2[3] == pytest.approx(0.5 * np.linalg.slogdet(cols.T @ cols)[1], rel=1e-9)
+
+
+def test_reference_weight_only_under_the_bounds_prior():
+    """A calibration prior keeps n uniform: n_prior changes nothing there, bit for bit."""
+    p = profile()
+    cal = CalibrationPrior(LETE)
+    a = posterior(p, prior=cal, seed=3, n_prior="reference", **FAST)
+    b = posterior(p, prior=cal, seed=3, n_prior="uniform", **FAST)
+    assert np.array_equal(a.samples, b.samples)
+    c = posterior(p, seed=3, **FAST)  # the default: uniform
+    d = posterior(p, seed=3, n_prior="reference", **FAST)
+    assert not np.array_equal(c.samples, d.samples)
+    # the weight falls with n here (sqrt det G of the whitened columns), so the prior draws of
+    # n lie lower than the uniform box's
+    assert np.median(d.prior_samples[:, 2]) < np.median(c.prior_samples[:, 2])
+    with pytest.raises(ValueError, match="n_prior must be"):
+        posterior(p, n_prior="jeffreys")
+
+
 # ---------------------------------------------------------------------------
 # the compiled log-likelihood and the autocorrelation time
 # ---------------------------------------------------------------------------
