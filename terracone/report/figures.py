@@ -485,8 +485,27 @@ def fig_ridge(
     rmin = max(float(best["rmsd"]), 0.01 * float(np.mean(ci)))
     ratio = r["rmsd"] / rmin
     levels = [1.01, 1.1, 1.5, 2.0, 3.0]
+    _ridge_map_n(axes[0, 0], r, ratio, levels, reference, reference_label)
+    _ridge_map_scale(axes[0, 1], r, rmin, levels)
+    _ridge_profiles(axes, r, d)
+    return _finish(
+        fig,
+        title or f"{profile_id}: the ridge of equally good fits ({model.upper()})",
+        synthetic,
+    )
+
+
+def _ridge_map_n(
+    ax: Any,
+    r: dict[str, Any],
+    ratio: Any,
+    levels: list[float],
+    reference: Mapping[str, float] | None,
+    reference_label: str,
+) -> None:
+    """Panel (a) of :func:`fig_ridge`: RMSD ratio over (phic, n)."""
+    best = r["best"]
     # (a) phic-n map
-    ax = axes[0, 0]
     ax.contourf(
         r["phic"],
         r["n"],
@@ -512,8 +531,12 @@ def fig_ridge(
     ax.set_ylabel("exponent n [-]")
     ax.set_title("(a) RMSD / min RMSD over (phic, n); kc, kphi, cc re-fitted", fontsize=9.5)
     ax.legend(fontsize=7.5, loc="upper right")
+
+
+def _ridge_map_scale(ax: Any, r: dict[str, Any], rmin: float, levels: list[float]) -> None:
+    """Panel (b) of :func:`fig_ridge`: RMSD ratio over (phic, common scale of kc and kphi)."""
+    best = r["best"]
     # (b) phic-scale map
-    ax = axes[0, 1]
     ratio_s = r["rmsd_scale"] / rmin
     ax.contourf(
         r["phic"],
@@ -546,6 +569,10 @@ def fig_ridge(
     ax.set_ylabel("common scale of kc and kphi [-]")
     ax.set_title(f"(b) RMSD / min over (phic, kc & kphi scale), n = {best['n']:.3g}", fontsize=9.5)
     ax.legend(fontsize=7.5, loc="upper right")
+
+
+def _ridge_profiles(axes: Any, r: dict[str, Any], d: Any) -> None:
+    """Panels (c) and (d) of :func:`fig_ridge`: profiles of the RMSD over n and over phic."""
     # (c) profile over n
     ax = axes[1, 0]
     prof_n = r["rmsd"].min(axis=1)
@@ -590,11 +617,6 @@ def fig_ridge(
         fontsize=9.5,
     )
     ax.legend(fontsize=7.5)
-    return _finish(
-        fig,
-        title or f"{profile_id}: the ridge of equally good fits ({model.upper()})",
-        synthetic,
-    )
 
 
 # ---------------------------------------------------------------------------
