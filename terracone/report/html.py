@@ -519,6 +519,37 @@ def predict_document(
         FL.records_from_predict(profiles, units), units=units, map_by=map_by
     )
 
+    sections += _predict_input_sections(doc, profiles, ok, bad, settings, units, source)
+    sections += _predict_table_sections(profiles, settings, units, calibrated)
+    figs = _predict_ci_figures(ok, units)
+    figs += _predict_plate_figures(ok, units)
+    figs += _predict_ridge_figure(ok, units)
+    sections.append({"id": "figures", "heading": "Figures", "parts": figs})
+    return {
+        "title": "terracone report: prediction from cone index",
+        **_synthetic(doc),
+        "subtitle": f"{len(profiles)} CI profile(s) from {doc.get('input', '?')}",
+        "meta": {"results": source, "command": doc.get("command", "predict")},
+        "sections": sections,
+    }
+
+
+# ---------------------------------------------------------------------------
+# learn
+# ---------------------------------------------------------------------------
+
+
+def _predict_input_sections(
+    doc: Mapping[str, Any],
+    profiles: list[Any],
+    ok: list[Any],
+    bad: list[Any],
+    settings: dict[str, Any],
+    units: str,
+    source: str | None,
+) -> list[dict[str, Any]]:
+    """The Inputs and Settings sections of :func:`predict_document`."""
+    sections: list[dict[str, Any]] = []
     inputs = {
         "results file": source,
         "CI input": doc.get("input"),
@@ -548,6 +579,14 @@ def predict_document(
         }
     )
 
+    return sections
+
+
+def _predict_table_sections(
+    profiles: list[Any], settings: dict[str, Any], units: str, calibrated: bool
+) -> list[dict[str, Any]]:
+    """The Parameters and Identifiability sections of :func:`predict_document`."""
+    sections: list[dict[str, Any]] = []
     rows = _profile_rows_si(profiles, units)
     tab = parameters_table(
         [r for r in rows if r.get("n") is not None],
@@ -587,6 +626,11 @@ def predict_document(
         }
     )
 
+    return sections
+
+
+def _predict_ci_figures(ok: list[Any], units: str) -> list[dict[str, Any]]:
+    """CI fits (Figure 4-1) and the Janosi comparison (Figure 2-1) of the first profile."""
     figs: list[dict[str, Any]] = []
     curves = [c for c in (_si_curve_profile(p, units) for p in ok) if c is not None]
     if 0 < len(curves) <= _PER_FIGURE:
@@ -633,6 +677,12 @@ def predict_document(
                     "surface and kc over the local radius rather than the base diameter.",
                 )
             )
+    return figs
+
+
+def _predict_plate_figures(ok: list[Any], units: str) -> list[dict[str, Any]]:
+    """Predicted plate curves and posterior bands (Figures 4-2, 4-3(b))."""
+    figs: list[dict[str, Any]] = []
     plate_pred, plate_bands = [], []
     for p in ok[:MAX_FIGURE_PROFILES]:
         un = p.get("units") or units
@@ -691,6 +741,13 @@ def predict_document(
                 "--uncertainty for bands) to draw them."
             )
         )
+    return figs
+
+
+def _predict_ridge_figure(ok: list[Any], units: str) -> list[dict[str, Any]]:
+    """The ridge of equally good fits of the first drawable profile."""
+    figs: list[dict[str, Any]] = []
+    first = next((p for p in ok if _si_curve_profile(p, units) is not None), None)
     if first is not None:
         c = _si_curve_profile(first, units)
         sp = _si_params(first, units) or {}
@@ -717,19 +774,7 @@ def predict_document(
             )
         except (ValueError, FloatingPointError) as exc:  # pragma: no cover - defensive
             figs.append(text_part(f"Ridge figure not drawn: {exc}"))
-    sections.append({"id": "figures", "heading": "Figures", "parts": figs})
-    return {
-        "title": "terracone report: prediction from cone index",
-        **_synthetic(doc),
-        "subtitle": f"{len(profiles)} CI profile(s) from {doc.get('input', '?')}",
-        "meta": {"results": source, "command": doc.get("command", "predict")},
-        "sections": sections,
-    }
-
-
-# ---------------------------------------------------------------------------
-# learn
-# ---------------------------------------------------------------------------
+    return figs
 
 
 def learn_document(doc: Mapping[str, Any], *, source: str | None = None) -> dict[str, Any]:
