@@ -234,6 +234,128 @@ def _box_lsq(
     return x, float(r @ r)
 
 
+def _layer_box(bounds: Bounds, ns: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper bounds of (kc, kphi, cc) of every layer, in SI, for the n's ``ns``."""
+    lo, hi = [], []
+    for nj in ns:
+        klo, khi = bounds.kc_si(nj)
+        plo, phi_ = bounds.kphi_si(nj)
+        lo += [float(klo), float(plo), bounds.cc[0]]
+        hi += [float(khi), float(phi_), bounds.cc[1]]
+    return np.array(lo), np.array(hi)
+
+
+def _search_layers(
+    profile: CIProfile,
+    layers: int,
+    bounds: Bounds,
+    law: Any,
+    phi: float,
+    min_thick: float,
+    n_grid: int,
+    solve: Any,
+) -> tuple[np.ndarray, np.ndarray] | LayeredResult:
+    """Each layer's n and the interfaces of the best layered fit (two or more layers).
+
+    Two layers: a grid over (n_1, n_2) and the interface (midpoints between measured
+    depths), a bounded linear least squares per cell, then Nelder-Mead from the best
+    cell.  More layers: Nelder-Mead from six seeded random starts.  A profile too short
+    for the minimum thickness gives an error result.
+    """
+    z, y, cone = profile.depth, profile.ci, profile.cone
+    lo_d, hi_d = z[0] + min_thick, z[-1] - min_thick
+    cands = 0.5 * (z[1:] + z[:-1])
+    cands = cands[(cands >= lo_d) & (cands <= hi_d)]
+    if cands.size == 0:
+        return LayeredResult(
+            profile.id,
+            "error",
+            "profile too short for the minimum layer thickness",
+            metadata=dict(profile.metadata),
+        )
+    nlo, nhi = bounds.n
+    ng = np.linspace(nlo, nhi, n_grid)
+
+    def objective(v):
+        ns = np.clip(v[:layers], nlo, nhi)
+        D = np.sort(np.clip(v[layers:], lo_d, hi_d))
+        if np.any(np.diff(np.concatenate([[z[0]], D, [z[-1]]])) < min_thick * 0.5):
+            return np.inf
+        return solve(ns, D)[1]
+
+    starts = []
+    if layers == 2:
+        best = (np.inf, None)
+        # columns of the layer above and below each candidate interface, per n
+        cols = {
+            (i, k): layered_basis(z, n=[ni, ni], interfaces=[d], phic=phi, law=law, cone=cone)
+            for i, ni in enumerate(ng)
+            for k, d in enumerate(cands)
+        }
+        for k, d in enumerate(cands):
+            for i, n1 in enumerate(ng):
+                for j, n2 in enumerate(ng):
+                    X = np.concatenate([cols[i, k][:, :3], cols[j, k][:, 3:]], axis=1)
+                    lo, hi = _layer_box(bounds, [n1, n2])
+                    f = _box_lsq(X, y, lo, hi)[1]
+                    if f < best[0]:
+                        best = (f, np.array([n1, n2, d]))
+        starts.append(best[1])
+    else:
+        rng = np.random.default_rng(0)
+        for _ in range(6):
+            starts.append(
+                np.concatenate(
+                    [
+                        rng.uniform(0.3, 1.2, layers),
+                        np.sort(rng.uniform(lo_d, hi_d, layers - 1)),
+                    ]
+                )
+            )
+    best_v, best_f = None, np.inf
+    for v0 in starts:
+        f0 = objective(v0)
+        # tolerance relative to the SSE: an absolute one never fires on large SSE values
+        res = minimize(
+            objective,
+            v0,
+            method="Nelder-Mead",
+            options={"xatol": 1e-6, "fatol": 1e-10 * max(f0, 1e-300), "maxiter": 2000},
+        )
+        v, f = (res.x, res.fun) if res.fun <= f0 else (v0, f0)
+        if f < best_f:
+            best_v, best_f = v, f
+    return np.clip(best_v[:layers], nlo, nhi), np.sort(np.clip(best_v[layers:], lo_d, hi_d))
+
+
+def _phic_ridge_layers(
+    x: np.ndarray, ns_best: np.ndarray, bounds: Bounds, cone: Any
+) -> tuple[float, float, float, float]:
+    """The interval of phic that fits equally well over all layers, and its middle.
+
+    The fit is made at phic's upper bound; every layer's scaled kc and kphi must stay in
+    its box (the nested-box argument of :mod:`terracone.inverse.many`).  Returns
+    (phic_lo, phic_mid, s_hi, s_mid), s = 1 + tan(phic)/tan(alpha) (eqs. (2-6), (2-7)).
+    """
+    phi = bounds.phic[1]
+    # phic ridge over all layers: the scaled k's must fit every layer's box
+    tt = math.tan(cone.half_angle)
+    s_hi = 1.0 + math.tan(math.radians(phi)) / tt
+    need = 1.0 + math.tan(math.radians(bounds.phic[0])) / tt
+    for j, nj in enumerate(ns_best):
+        khi = float(bounds.kc_si(nj)[1])
+        phi_hi = float(bounds.kphi_si(nj)[1])
+        kc_p, kp_p = x[3 * j] * s_hi, x[3 * j + 1] * s_hi
+        if khi > 0:
+            need = max(need, kc_p / khi)
+        if phi_hi > 0:
+            need = max(need, kp_p / phi_hi)
+    ph_lo = float(np.clip(math.degrees(math.atan((need - 1.0) * tt)), bounds.phic[0], phi))
+    ph = 0.5 * (ph_lo + phi) if bounds.phic[0] != bounds.phic[1] else phi
+    s_mid = 1.0 + math.tan(math.radians(ph)) / tt
+    return ph_lo, ph, s_hi, s_mid
+
+
 def fit_layered(
     profile: CIProfile,
     *,
@@ -285,18 +407,9 @@ def fit_layered(
     step = float(np.median(np.diff(z)))
     min_thick = min_thickness if min_thickness is not None else 2 * step
 
-    def lin_bounds(ns):
-        lo, hi = [], []
-        for nj in ns:
-            klo, khi = bounds.kc_si(nj)
-            plo, phi_ = bounds.kphi_si(nj)
-            lo += [float(klo), float(plo), bounds.cc[0]]
-            hi += [float(khi), float(phi_), bounds.cc[1]]
-        return np.array(lo), np.array(hi)
-
     def solve(ns, D):
         X = layered_basis(z, n=ns, interfaces=D, phic=phi, law=law, cone=cone)
-        lo, hi = lin_bounds(ns)
+        lo, hi = _layer_box(bounds, ns)
         return _box_lsq(X, y, lo, hi)
 
     def single():
@@ -311,87 +424,13 @@ def fit_layered(
         ns_best, D_best = np.array([s1.n]), np.array([])
         x, sse = solve(ns_best, D_best)
     else:
-        lo_d, hi_d = z[0] + min_thick, z[-1] - min_thick
-        cands = 0.5 * (z[1:] + z[:-1])
-        cands = cands[(cands >= lo_d) & (cands <= hi_d)]
-        if cands.size == 0:
-            return LayeredResult(
-                profile.id,
-                "error",
-                "profile too short for the minimum layer thickness",
-                metadata=dict(profile.metadata),
-            )
-        nlo, nhi = bounds.n
-        ng = np.linspace(nlo, nhi, n_grid)
-
-        def objective(v):
-            ns = np.clip(v[:layers], nlo, nhi)
-            D = np.sort(np.clip(v[layers:], lo_d, hi_d))
-            if np.any(np.diff(np.concatenate([[z[0]], D, [z[-1]]])) < min_thick * 0.5):
-                return np.inf
-            return solve(ns, D)[1]
-
-        starts = []
-        if layers == 2:
-            best = (np.inf, None)
-            # columns of the layer above and below each candidate interface, per n
-            cols = {
-                (i, k): layered_basis(z, n=[ni, ni], interfaces=[d], phic=phi, law=law, cone=cone)
-                for i, ni in enumerate(ng)
-                for k, d in enumerate(cands)
-            }
-            for k, d in enumerate(cands):
-                for i, n1 in enumerate(ng):
-                    for j, n2 in enumerate(ng):
-                        X = np.concatenate([cols[i, k][:, :3], cols[j, k][:, 3:]], axis=1)
-                        lo, hi = lin_bounds([n1, n2])
-                        f = _box_lsq(X, y, lo, hi)[1]
-                        if f < best[0]:
-                            best = (f, np.array([n1, n2, d]))
-            starts.append(best[1])
-        else:
-            rng = np.random.default_rng(0)
-            for _ in range(6):
-                starts.append(
-                    np.concatenate(
-                        [
-                            rng.uniform(0.3, 1.2, layers),
-                            np.sort(rng.uniform(lo_d, hi_d, layers - 1)),
-                        ]
-                    )
-                )
-        best_v, best_f = None, np.inf
-        for v0 in starts:
-            f0 = objective(v0)
-            # tolerance relative to the SSE: an absolute one never fires on large SSE values
-            res = minimize(
-                objective,
-                v0,
-                method="Nelder-Mead",
-                options={"xatol": 1e-6, "fatol": 1e-10 * max(f0, 1e-300), "maxiter": 2000},
-            )
-            v, f = (res.x, res.fun) if res.fun <= f0 else (v0, f0)
-            if f < best_f:
-                best_v, best_f = v, f
-        ns_best = np.clip(best_v[:layers], nlo, nhi)
-        D_best = np.sort(np.clip(best_v[layers:], lo_d, hi_d))
+        found = _search_layers(profile, layers, bounds, law, phi, min_thick, n_grid, solve)
+        if isinstance(found, LayeredResult):
+            return found
+        ns_best, D_best = found
         x, sse = solve(ns_best, D_best)
 
-    # phic ridge over all layers: the scaled k's must fit every layer's box
-    tt = math.tan(cone.half_angle)
-    s_hi = 1.0 + math.tan(math.radians(phi)) / tt
-    need = 1.0 + math.tan(math.radians(bounds.phic[0])) / tt
-    for j, nj in enumerate(ns_best):
-        khi = float(bounds.kc_si(nj)[1])
-        phi_hi = float(bounds.kphi_si(nj)[1])
-        kc_p, kp_p = x[3 * j] * s_hi, x[3 * j + 1] * s_hi
-        if khi > 0:
-            need = max(need, kc_p / khi)
-        if phi_hi > 0:
-            need = max(need, kp_p / phi_hi)
-    ph_lo = float(np.clip(math.degrees(math.atan((need - 1.0) * tt)), bounds.phic[0], phi))
-    ph = 0.5 * (ph_lo + phi) if bounds.phic[0] != bounds.phic[1] else phi
-    s_mid = 1.0 + math.tan(math.radians(ph)) / tt
+    ph_lo, ph, s_hi, s_mid = _phic_ridge_layers(x, ns_best, bounds, cone)
     params = [
         TerrainParameters(
             kc=float(x[3 * j] * s_hi / s_mid),
