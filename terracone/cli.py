@@ -382,24 +382,6 @@ def _read_profiles(
     )
 
 
-def _plate_curves(params: TerrainParameters, radii: list[float], units: str, plate_pair=None):
-    from .inverse.evaluate import predicted_plate_pressure
-
-    s_max = 0.0508 if units == "us" else 0.05
-    s = np.linspace(0.0, s_max, 26)
-    out = []
-    for r in radii:
-        p = predicted_plate_pressure(params, s, r, plate_pair)
-        out.append(
-            {
-                "radius": float(u.length_from_si(r, units)),
-                "sinkage": [float(v) for v in u.length_from_si(s, units)],
-                "pressure": [float(v) for v in u.pressure_from_si(p, units)],
-            }
-        )
-    return out
-
-
 def _load_calibration(calibration: str | None, terrain: str | None, library: str | None):
     from .inverse.learn import Calibration
 
@@ -415,30 +397,17 @@ def _load_calibration(calibration: str | None, terrain: str | None, library: str
     return None
 
 
-def _posterior(profile, result, prior, draws, seed, radii, bounds, library, units, cal):
+def _prior(prior: str, library: str | None):
+    """--prior: "bounds", or the calibration stored in the library as terrain:NAME."""
     from .inverse.learn import Calibration
     from .library import Library
-    from .uncertainty import posterior_for_result
 
     if prior == "bounds":
-        pri = "bounds"
-    elif prior.startswith("terrain:"):
+        return "bounds"
+    if prior.startswith("terrain:"):
         with Library(library) as lib:
-            pri = Calibration.from_library_record(lib.get(prior.split(":", 1)[1]))
-    else:
-        raise click.BadParameter(f"--prior: expected bounds or terrain:NAME, got {prior!r}")
-    s_max = 2 * u.INCH if units == "us" else 0.05
-    return posterior_for_result(
-        profile,
-        result,
-        prior=pri,
-        draws=draws,
-        seed=seed,
-        plates=radii or None,
-        plate_sinkages=np.linspace(0.0, s_max, 21),
-        bounds=bounds,
-        plate_pair=cal.plate_pair if cal else None,
-    )
+            return Calibration.from_library_record(lib.get(prior.split(":", 1)[1]))
+    raise click.BadParameter(f"--prior: expected bounds or terrain:NAME, got {prior!r}")
 
 
 def _posterior_text(posts: dict, units: str) -> str:
@@ -541,7 +510,8 @@ def predict_cmd(
     ci_unit,
 ):
     """Predict kc, kphi, n, cc, phic from CI profiles (section 3.3.2)."""
-    from .inverse import Bounds, predict_many
+    from .inverse import Bounds
+    from .workflow import predict_profiles, sinkage_grid
 
     b = Bounds.parse(bounds, units)
     rm = _length_si(r_min, units, "--r-min") if r_min else None
@@ -556,63 +526,34 @@ def predict_cmd(
         _depth_range(depth_range, units),
         units,
     )
-    results = predict_many(
-        items, model=model, r_min=rm, calibration=cal, solver=solver, bounds=b, seed=seed
+    run = predict_profiles(
+        items,
+        model=model,
+        r_min=rm,
+        calibration=cal,
+        solver=solver,
+        bounds=b,
+        seed=seed,
+        plates=radii,
+        sinkage=sinkage_grid(units),
+        uncertainty=uncertainty,
+        prior=_prior(prior, library) if uncertainty else "bounds",
+        draws=draws,
+        band_sinkage=sinkage_grid(units, 21),
+        layers=layers,
     )
-    doc = {
-        "terracone": __version__,
-        "command": "predict",
-        "input": str(ci_file),
-        "settings": {
-            "model": cal.model if cal else model,
-            "r_min": None
-            if (cal.r_min if cal else rm) is None
-            else float(u.length_from_si(cal.r_min if cal else rm, units)),
-            "solver": solver,
-            "seed": seed,
-            "bounds": b.as_dict(units),
-            "calibration": (cal.terrain if cal else None),
-            "depth_ref": depth_ref,
-            "depth_range": depth_range,
-            "units": units,
-        },
-        "profiles": [],
-    }
-    by_id = {it.id: it for it in items if not isinstance(it, InputError)}
-    layered = {}
-    posts = {}
-    for r in results:
-        d = r.as_dict(units)
-        if r.ok and radii:
-            d["plates"] = _plate_curves(r.params, radii, units, cal.plate_pair if cal else None)
-        if r.ok and uncertainty:
-            post = _posterior(by_id[r.id], r, prior, draws, seed, radii, b, library, units, cal)
-            d.update(post.as_dict(units))
-            d["samples"] = post.samples_dict(units)  # for export --samples
-            posts[r.id] = post
-        if r.ok and layers > 1:
-            from .layers import fit_layered
-
-            lr = fit_layered(by_id[r.id], layers=layers, model=model, r_min=rm, bounds=b)
-            layered[r.id] = lr
-            d["layered"] = lr.as_dict(units)
-            if uncertainty and lr.ok:
-                from .uncertainty import layered_posterior
-
-                d["layered"]["posterior"] = layered_posterior(
-                    by_id[r.id], lr, bounds=b, draws=draws, seed=seed
-                ).as_dict(units)
-        doc["profiles"].append(d)
+    results = run.results
+    doc = run.as_dict(units, input=str(ci_file), depth_ref=depth_ref, depth_range=depth_range)
     if out:
         _emit_json(doc, out)
     if as_json:
         _emit_json(doc)
     else:
         click.echo(predict_text(results, units))
-        if posts:
-            click.echo(_posterior_text(posts, units))
-        if layered:
-            click.echo(_layered_text(layered, units))
+        if run.posteriors:
+            click.echo(_posterior_text(run.posteriors, units))
+        if run.layered:
+            click.echo(_layered_text(run.layered, units))
     if not any(r.ok for r in results):
         sys.exit(1)
 

@@ -1,0 +1,243 @@
+"""What ``terracone predict`` computes, as one library call.
+
+:func:`predict_profiles` chains the prediction process (section 3.3.2 of [1]_)
+over a set of CI profiles with what the command adds on request: predicted
+plate pressure-sinkage curves (eq. (2-2), RM1 of section 3.2), the posterior of
+each fit (:mod:`terracone.uncertainty`) and layered fits
+(:mod:`terracone.layers`).  The result, :class:`PredictRun`, writes the same
+JSON document as ``terracone predict --json`` (:meth:`PredictRun.as_dict`), so
+a Python user gets what the command prints without reaching into the CLI.
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from . import __version__
+from . import units as u
+from .data import CIProfile, InputError, TerrainParameters
+from .inverse.bounds import Bounds
+from .inverse.evaluate import predicted_plate_pressure
+from .inverse.learn import Calibration
+from .inverse.predict import PredictionResult, predict_many
+
+__all__ = ["PredictRun", "plate_curves", "predict_profiles", "sinkage_grid"]
+
+
+def sinkage_grid(units: str = "si", points: int = 26) -> np.ndarray:
+    """Sinkages [m] of predicted plate curves: 0 to 5 cm, or 0 to 2 in with ``units="us"``."""
+    s_max = 2 * u.INCH if units == "us" else 0.05
+    return np.linspace(0.0, s_max, points)
+
+
+def plate_curves(
+    params: TerrainParameters,
+    radii: Sequence[float],
+    sinkage: np.ndarray,
+    plate_pair: tuple[float, float] | None = None,
+) -> list[dict[str, Any]]:
+    """Predicted plate pressure [kPa] at ``sinkage`` [m] for each plate radius [m] (SI).
+
+    Bekker's equation (2-2), or RM1 below r_min (section 3.2 of [1]_), with the
+    secant through ``plate_pair`` when r_min is above the larger plate.
+    """
+    return [
+        {
+            "radius": float(r),
+            "sinkage": np.asarray(sinkage, dtype=float),
+            "pressure": predicted_plate_pressure(params, sinkage, r, plate_pair),
+        }
+        for r in radii
+    ]
+
+
+@dataclass
+class PredictRun:
+    """Result of :func:`predict_profiles` (SI inside).
+
+    Attributes
+    ----------
+    results : list of PredictionResult
+        One per input item, in input order (bad profiles carry their error).
+    plates : dict
+        Profile id to its predicted plate curves (:func:`plate_curves`).
+    posteriors : dict
+        Profile id to its :class:`terracone.uncertainty.PosteriorResult`.
+    layered : dict
+        Profile id to its :class:`terracone.layers.LayeredResult`.
+    layered_posteriors : dict
+        Profile id to the posterior of its layered fit.
+    settings : dict
+        What the run was asked (SI; converted by :meth:`as_dict`).
+    """
+
+    results: list[PredictionResult]
+    plates: dict[str, list[dict[str, Any]]] = field(default_factory=dict)
+    posteriors: dict[str, Any] = field(default_factory=dict)
+    layered: dict[str, Any] = field(default_factory=dict)
+    layered_posteriors: dict[str, Any] = field(default_factory=dict)
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    def profile_dict(self, r: PredictionResult, units: str = "si") -> dict[str, Any]:
+        """One profile of the ``terracone predict --json`` document."""
+        d = r.as_dict(units)
+        if r.id in self.plates:
+            d["plates"] = [
+                {
+                    "radius": float(u.length_from_si(c["radius"], units)),
+                    "sinkage": [float(v) for v in u.length_from_si(c["sinkage"], units)],
+                    "pressure": [float(v) for v in u.pressure_from_si(c["pressure"], units)],
+                }
+                for c in self.plates[r.id]
+            ]
+        if r.id in self.posteriors:
+            post = self.posteriors[r.id]
+            d.update(post.as_dict(units))
+            d["samples"] = post.samples_dict(units)  # for export --samples
+        if r.id in self.layered:
+            d["layered"] = self.layered[r.id].as_dict(units)
+            if r.id in self.layered_posteriors:
+                d["layered"]["posterior"] = self.layered_posteriors[r.id].as_dict(units)
+        return d
+
+    def as_dict(
+        self, units: str = "si", *, input: str | None = None, **settings: Any
+    ) -> dict[str, Any]:
+        """The ``terracone predict --json`` document; ``settings`` are recorded as given."""
+        s = self.settings
+        r_min = s.get("r_min")
+        return {
+            "terracone": __version__,
+            "command": "predict",
+            "input": input,
+            "settings": {
+                "model": s.get("model"),
+                "r_min": None if r_min is None else float(u.length_from_si(r_min, units)),
+                "solver": s.get("solver"),
+                "seed": s.get("seed"),
+                "bounds": s["bounds"].as_dict(units),
+                "calibration": s.get("calibration"),
+                **settings,
+                "units": units,
+            },
+            "profiles": [self.profile_dict(r, units) for r in self.results],
+        }
+
+
+def predict_profiles(
+    items: Sequence[CIProfile | InputError],
+    *,
+    model: str = "rm0",
+    r_min: float | None = None,
+    calibration: Calibration | None = None,
+    solver: str = "exact",
+    bounds: Bounds | None = None,
+    seed: int | None = None,
+    plates: Sequence[float] = (),
+    sinkage: np.ndarray | None = None,
+    uncertainty: bool = False,
+    prior: str | Calibration = "bounds",
+    draws: int = 2000,
+    band_sinkage: np.ndarray | None = None,
+    layers: int = 1,
+) -> PredictRun:
+    """Predict terrain parameters for a set of CI profiles, with what predict adds on request.
+
+    Parameters
+    ----------
+    items : sequence of CIProfile or InputError
+        As readers return them; an :class:`InputError` is reported as that
+        profile's error and the others are fitted.
+    model, r_min, calibration, solver, bounds, seed
+        As :func:`terracone.inverse.predict_many`.  r_min [m].
+    plates : sequence of float
+        Plate radii [m] of predicted plate curves (and posterior bands).
+    sinkage : ndarray, optional
+        Sinkages [m] of the plate curves (default :func:`sinkage_grid`).
+    uncertainty : bool
+        Sample each fit's posterior (:func:`terracone.uncertainty.posterior_for_result`).
+    prior : "bounds" or Calibration
+        Prior of the posterior.
+    draws : int
+        Posterior draws.
+    band_sinkage : ndarray, optional
+        Sinkages [m] of the posterior plate bands (default 21 points to 5 cm).
+    layers : int
+        Above 1: also a layered fit of each profile (and its posterior with
+        ``uncertainty``).
+    """
+    bounds = bounds or Bounds()
+    results = predict_many(
+        items,
+        model=model,
+        r_min=r_min,
+        calibration=calibration,
+        solver=solver,
+        bounds=bounds,
+        seed=seed,
+    )
+    pair = calibration.plate_pair if calibration else None
+    run = PredictRun(
+        results,
+        settings={
+            "model": calibration.model if calibration else model,
+            "r_min": calibration.r_min if calibration else r_min,
+            "solver": solver,
+            "seed": seed,
+            "bounds": bounds,
+            "calibration": calibration.terrain if calibration else None,
+        },
+    )
+    by_id = {it.id: it for it in items if not isinstance(it, InputError)}
+    s = sinkage_grid() if sinkage is None else sinkage
+    for r in results:
+        if not r.ok:
+            continue
+        if plates:
+            run.plates[r.id] = plate_curves(r.params, plates, s, pair)
+        if uncertainty:
+            run.posteriors[r.id] = _posterior(
+                by_id[r.id], r, prior, draws, seed, plates, band_sinkage, bounds, pair
+            )
+        if layers > 1:
+            _layered(run, by_id[r.id], layers, model, r_min, bounds, uncertainty, draws, seed)
+    return run
+
+
+def _posterior(profile, result, prior, draws, seed, plates, band_sinkage, bounds, pair):
+    from .uncertainty import posterior_for_result
+
+    return posterior_for_result(
+        profile,
+        result,
+        prior=prior,
+        draws=draws,
+        seed=seed,
+        plates=list(plates) or None,
+        plate_sinkages=np.linspace(0.0, 0.05, 21) if band_sinkage is None else band_sinkage,
+        bounds=bounds,
+        plate_pair=pair,
+    )
+
+
+def _layered(run, profile, layers, model, r_min, bounds, uncertainty, draws, seed) -> None:
+    from .layers import fit_layered
+
+    lr = fit_layered(profile, layers=layers, model=model, r_min=r_min, bounds=bounds)
+    run.layered[profile.id] = lr
+    if uncertainty and lr.ok:
+        from .uncertainty import layered_posterior
+
+        run.layered_posteriors[profile.id] = layered_posterior(
+            profile, lr, bounds=bounds, draws=draws, seed=seed
+        )
