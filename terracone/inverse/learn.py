@@ -11,10 +11,11 @@ each plate test) of the data set's RMSD divided by its mean measured value,
 
 For fixed (n, phic, r_min) every model value is linear in (kc, kphi, cc)
 (eqs. (2-5) to (2-7) for the cone, eq. (2-2) and section 3.2 for the
-plates), so J is convex in them; its global minimum over the bounds is found
-by iteratively reweighted bounded least squares (a majorise-minimise scheme
-that decreases J at every step).  (n, phic, r_min) are searched on a grid
-and refined with Nelder-Mead.
+plates), so J is convex in them; its minimum over the bounds is found with a
+duality-gap certificate (:mod:`.sumnorm`).  (n, phic, log r_min) are
+searched on a grid, the best local minima refined jointly with all
+parameters, and a branch and bound on the grid's cells bounds how far the
+answer can be from the global minimum (:mod:`.learnsearch`).
 
 The result can be saved as a :class:`Calibration`, the paper's "information
 library", and used by the prediction process.
@@ -297,7 +298,7 @@ def learn(
     max_cv: float = 0.25,
     noise_floor: float = 0.01,
     starts: int = 3,
-    certify_levels: int = 5,
+    certify_levels: int = 6,
     certify_target: float = 0.04,
 ) -> LearnResult:
     """Fit kc, kphi, n, cc, phic (and r_min for RM1) to CI and plate data.
