@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 from scipy.optimize import differential_evolution
@@ -28,6 +30,11 @@ from scipy.optimize import differential_evolution
 from terracone import CIProfile, PlateTest, cone_index, plate_pressure
 from terracone.inverse import Bounds
 from terracone.inverse.learn import learn
+
+# benchmarks/coverage.py (another benchmark) would shadow the coverage package that numba
+# probes when it is imported (lazily, on the first kernel call), which would disable the
+# compiled kernels: drop this folder from the path
+sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
 
 Z = np.round(np.arange(0.0, 0.3001, 0.01), 10)
 SINKAGE = np.linspace(0.005, 0.1, 20)
