@@ -11,10 +11,11 @@ each plate test) of the data set's RMSD divided by its mean measured value,
 
 For fixed (n, phic, r_min) every model value is linear in (kc, kphi, cc)
 (eqs. (2-5) to (2-7) for the cone, eq. (2-2) and section 3.2 for the
-plates), so J is convex in them; its global minimum over the bounds is found
-by iteratively reweighted bounded least squares (a majorise-minimise scheme
-that decreases J at every step).  (n, phic, r_min) are searched on a grid
-and refined with Nelder-Mead.
+plates), so J is convex in them; its minimum over the bounds is found with a
+duality-gap certificate (:mod:`.sumnorm`).  (n, phic, log r_min) are
+searched on a grid, the best local minima refined jointly with all
+parameters, and a branch and bound on the grid's cells bounds how far the
+answer can be from the global minimum (:mod:`.learnsearch`).
 
 The result can be saved as a :class:`Calibration`, the paper's "information
 library", and used by the prediction process.
@@ -52,7 +53,7 @@ from .learnsearch import (
     refine,
 )
 
-__all__ = ["Calibration", "LearnResult", "learn", "jacobians", "sandwich_cov"]
+__all__ = ["Calibration", "LearnResult", "learn", "learn_problem", "jacobians", "sandwich_cov"]
 
 
 @dataclass
@@ -258,7 +259,15 @@ def _plate_pair(plates: list[PlateTest]) -> tuple[float, float] | None:
     return (sizes[0], sizes[-1]) if len(sizes) >= 2 else None
 
 
-def _problem(profiles, plates, model, bounds, r_min_bounds, Kc) -> LearnProblem:
+def learn_problem(
+    profiles: list[CIProfile],
+    plates: list[PlateTest],
+    model: str,
+    bounds: Bounds,
+    r_min_bounds: tuple[float, float] | None,
+    Kc: float | None,
+) -> LearnProblem:
+    """The checked data and search space of :func:`learn` (plates' loading branches only)."""
     if model not in ("rm0", "rm1"):
         raise ValueError(f"model must be 'rm0' or 'rm1' (got {model!r})")
     if not profiles:
@@ -289,7 +298,8 @@ def learn(
     max_cv: float = 0.25,
     noise_floor: float = 0.01,
     starts: int = 3,
-    certify_levels: int = 0,
+    certify_levels: int = 6,
+    certify_target: float = 0.04,
 ) -> LearnResult:
     """Fit kc, kphi, n, cc, phic (and r_min for RM1) to CI and plate data.
 
@@ -320,8 +330,12 @@ def learn(
         Most grid local minima refined.
     certify_levels : int
         Rounds of branch and bound on the grid cells for the lower bound of
-        the global minimum (0: the grid alone; each round halves up to 48
-        cells below J and costs about 19 certified inner solves per cell).
+        the global minimum (0: the grid alone; each round halves, along one
+        axis, up to 200 cells whose bound is below J by more than
+        ``certify_target``, at 4 certified inner solves per cell).
+    certify_target : float
+        Relative gap the branch and bound aims at: cells whose bound is
+        within this fraction of J are not refined further.
 
     Returns
     -------
@@ -334,8 +348,8 @@ def learn(
     .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Section 3.3.1.
     """
     t0 = time.perf_counter()
-    prob = _problem(profiles, plates, model, bounds or Bounds(), r_min_bounds, Kc)
-    stage, best, nfev, lower, n_cells = _search(prob, grid, starts, certify_levels)
+    prob = learn_problem(profiles, plates, model, bounds or Bounds(), r_min_bounds, Kc)
+    stage, best, nfev, lower, n_cells = _search(prob, grid, starts, certify_levels, certify_target)
     x, theta = best.x, best.theta
     rm = float(np.exp(theta[2])) if model == "rm1" else None
     params = TerrainParameters(
@@ -353,11 +367,16 @@ def learn(
         "cells_not_excluded": n_cells,
         "grid": [int(a.size) for a in stage.axes],
         "method": (
-            "inner (kc, kphi, cc): convex, solved with a duality-gap certificate; outer "
-            "(n, phic, log r_min): grid cells bounded with a Lipschitz estimate (J varies inside "
-            "a cell by at most twice its largest change between neighbouring corners), cells "
-            "below J halved by branch and bound; J >= 0 certifies a zero-residual fit"
+            "inner (kc, kphi, cc): convex, solved with a duality-gap certificate (its dual value "
+            "is a proven lower bound at each grid point); outer (n, phic, log r_min): each cell's "
+            "bound is its smallest corner lower bound less the error of linear interpolation, "
+            "sum_k M_k h_k^2 / 8, with the curvature M_k taken as 2 times the largest second "
+            "divided difference of J on the cell's sample points (an estimate, not a proof: J "
+            "is assumed no more curved inside a cell than twice what its samples show); RM1 "
+            "branch points, where J jumps, are cell boundaries; cells below J by more than the "
+            "target are halved by branch and bound; J >= 0 certifies a zero-residual fit"
         ),
+        "assumption": "curvature of J inside a cell at most 2x its sampled second differences",
     }
     worst = max(ds["cv"] for ds in datasets)
     criteria = {
@@ -385,7 +404,7 @@ def learn(
     )
 
 
-def _search(prob: LearnProblem, grid, starts: int, certify_levels: int):
+def _search(prob: LearnProblem, grid, starts: int, certify_levels: int, target: float):
     """Grid, refinement of its best local minima, and the global-minimum bound."""
     stage = grid_stage(prob, grid)
     nfev = int(stage.cells.J.size)
@@ -409,7 +428,9 @@ def _search(prob: LearnProblem, grid, starts: int, certify_levels: int):
     if best.J <= zero:  # J >= 0 certifies an exact fit
         lower, n_cells, n_cert = 0.0, 0, 0
     else:
-        lower, n_cells, n_cert = certify(prob, stage, best.J, levels=certify_levels)
+        lower, n_cells, n_cert = certify(
+            prob, stage, best.J, levels=certify_levels, cap=200, target=target, rtol=1e-5
+        )
     nfev += n_cert
     return stage, best, nfev, lower, n_cells
 

@@ -34,7 +34,9 @@ from .exact import design
 from .sumnorm import SumNormResult, sum_norm_box
 
 __all__ = [
+    "branch_points",
     "certify",
+    "Cells",
     "jacobians",
     "polish",
     "LearnProblem",
@@ -293,7 +295,7 @@ def jacobians(prob: LearnProblem, x, theta) -> list[np.ndarray]:
     T = np.repeat(np.asarray(theta, float)[None, :], 7, axis=0)
     hs = [1e-6 * max(1.0, abs(float(t))) for t in theta]
     up = [hs[0], hs[1], hs[2]]
-    if prob.model == "rm1" and any(abs(theta[2] - k) <= 1e-9 for k in _kinks(prob)):
+    if prob.model == "rm1" and any(abs(theta[2] - k) <= 1e-9 for k in branch_points(prob)):
         up[2] = 0.0  # on a branch point: the tangent side (r_min <= r) is the continuous one
     for k in range(3):
         T[1 + 2 * k, k] += up[k]
@@ -327,7 +329,7 @@ def polish(prob: LearnProblem, x: np.ndarray, theta: np.ndarray, *, steps: int =
     p = np.concatenate([x, theta])
     best = _newton(prob, p, steps, fix_rm=False)
     if prob.model == "rm1":
-        for k in _kinks(prob):
+        for k in branch_points(prob):
             if abs(theta[2] - k) <= 1e-5 and prob.theta_lo[2] <= k <= prob.theta_hi[2]:
                 q = p.copy()
                 q[5] = k
@@ -337,7 +339,7 @@ def polish(prob: LearnProblem, x: np.ndarray, theta: np.ndarray, *, steps: int =
     return best
 
 
-def _kinks(prob: LearnProblem) -> list[float]:
+def branch_points(prob: LearnProblem) -> list[float]:
     """log radii where the RM1 law changes branch: cone radii and the plate pair."""
     radii = {p.cone.radius for p in prob.profiles} | set(prob.pair or ())
     return [math.log(r) for r in sorted(radii)]
@@ -383,35 +385,134 @@ def _newton(prob: LearnProblem, p: np.ndarray, steps: int, fix_rm: bool) -> Refi
     return Refined(p[:3].copy(), p[3:].copy(), J, 0)
 
 
-def _block_bound(U: np.ndarray, L: np.ndarray) -> np.ndarray:
-    """Lower bound of J over cells from their corner blocks (K, a, b, c).
+#: the curvature inside a cell is taken as at most this many times the largest
+#: second difference of J seen on the cell's own sample points (the bound's assumption)
+CURVATURE_SAFETY = 2.0
 
-    The smallest certified inner bound at a corner, less along each axis
-    the largest change of J between corners adjacent along it (J assumed to
-    vary inside a cell by at most twice that: a Lipschitz estimate).
+
+def _curvature(U: np.ndarray, t: np.ndarray, axis: int, cut: np.ndarray) -> np.ndarray:
+    """|d2J/dt2| estimated at every node along an axis (NaN where undefined).
+
+    The second divided difference over each node and its two neighbours
+    (spacing may vary); NaN at the ends and where either neighbouring
+    interval holds an RM1 branch point (``cut``, bool per interval).
     """
-    drop = np.zeros(U.shape[0])
-    for ax in (1, 2, 3):
-        if U.shape[ax] > 1:
-            drop += np.abs(np.diff(U, axis=ax)).reshape(U.shape[0], -1).max(axis=1)
-    return L.reshape(L.shape[0], -1).min(axis=1) - drop
+    out = np.full(U.shape, np.nan)
+    if U.shape[axis] < 3:
+        return out
+    Um = np.moveaxis(U, axis, 0)
+    h = np.diff(t)
+    d1 = np.diff(Um, axis=0) / h.reshape((-1,) + (1,) * (Um.ndim - 1))
+    hh = (h[:-1] + h[1:]).reshape((-1,) + (1,) * (Um.ndim - 1))
+    d2 = np.abs(2.0 * np.diff(d1, axis=0) / hh)
+    bad = (cut[:-1] | cut[1:]).reshape((-1,) + (1,) * (Um.ndim - 1))
+    om = np.moveaxis(out, axis, 0)
+    om[1:-1] = np.where(bad, np.nan, d2)
+    return out
 
 
-def certify(
-    prob: LearnProblem, stage: GridStage, J_best: float, *, levels: int = 3, cap: int = 48
-) -> tuple[float, int, int]:
-    """Branch and bound on the grid's cells: a lower bound of J over the search box.
+def _cell_bound(L: np.ndarray, M: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Lower bound of J per cell: smallest corner bound less the interpolation allowance.
 
-    Cells whose bound (:func:`_block_bound`) is below J_best are halved along
-    every searched axis and their corners solved with certificates, for
-    ``levels`` rounds, at most ``cap`` cells (lowest bound first) per round;
-    cells not refined keep their bound.  Returns (lower bound, cells still
-    open, points solved).
+    Tensor-product linear interpolation of f with |d2f/dt_k^2| <= M_k in a
+    cell of sides h_k misses f by at most sum_k M_k h_k^2 / 8, and its
+    minimum is at a corner.  L: corner bounds (K, ...); M, h: (K, 3), M_k
+    already multiplied by ``CURVATURE_SAFETY`` (inf: no estimate).
     """
-    ax = stage.axes
-    free = [k for k in range(3) if ax[k].size > 1]
+    with np.errstate(invalid="ignore"):
+        err = np.where(h > 0, M * h**2 / 8.0, 0.0).sum(axis=1)
+    return L.reshape(L.shape[0], int(np.prod(L.shape[1:]))).min(axis=1, initial=np.inf) - err
+
+
+def _block_max(m: np.ndarray) -> np.ndarray:
+    """Largest finite value per leading index of a block (K, ...), inf when none."""
+    m = np.where(np.isnan(m), -np.inf, m)
+    mk = np.max(m.reshape(m.shape[0], int(np.prod(m.shape[1:]))), axis=1, initial=-np.inf)
+    return np.where(np.isfinite(mk), mk, np.inf)
+
+
+def _kink_cut(prob: LearnProblem, ax: np.ndarray) -> np.ndarray:
+    """Per interval [a, b) of the log r_min axis: does it hold an RM1 branch point?
+
+    At a branch point the law is still the lower branch (tangent for the
+    plates), so a cell ending on one is continuous; one starting on it is not.
+    """
+    cut = np.zeros(max(ax.size - 1, 0), bool)
+    if prob.model != "rm1" or ax.size < 2:
+        return cut
+    ks = np.array(branch_points(prob))
+    return np.array([bool(np.any((ks >= a) & (ks < b))) for a, b in zip(ax[:-1], ax[1:])])
+
+
+def _augmented(prob: LearnProblem, stage: GridStage, rtol: float):
+    """The grid with log r_min nodes added a hair (1e-9) either side of each RM1
+    branch point inside the range, solved with certificates: (axes, J, lower, new solves).
+    """
+    ax = list(stage.axes)
     U, L = stage.cells.J, stage.cells.lower
-    # base cells: lower corners and 2-point blocks along the searched axes
+    if prob.model != "rm1" or ax[2].size < 2:
+        return ax, U, L, 0
+    ks = np.array(branch_points(prob))
+    extra = np.concatenate([ks - 1e-9, ks + 1e-9])
+    extra = extra[(extra > ax[2][0]) & (extra < ax[2][-1])]
+    extra = np.setdiff1d(extra, ax[2])
+    # a stretch between branch points with no node inside gets its midpoint (for a curvature)
+    r = np.union1d(ax[2], extra)
+    cut = _kink_cut(prob, r)
+    run = np.concatenate([[True], cut, [True]])
+    lone = np.flatnonzero(~cut & run[:-2] & run[2:])
+    extra = np.union1d(extra, 0.5 * (r[lone] + r[lone + 1]))
+    if extra.size == 0:
+        return ax, U, L, 0
+    N, P, R = np.meshgrid(ax[0], ax[1], extra, indexing="ij")
+    sol = prob.solve_cells(N, P, R, rtol=rtol)
+    r = np.concatenate([ax[2], extra])
+    order = np.argsort(r, kind="stable")
+    U = np.concatenate([U, sol.J], axis=2)[:, :, order]
+    L = np.concatenate([L, sol.lower], axis=2)[:, :, order]
+    ax[2] = r[order]
+    return ax, U, L, int(sol.J.size)
+
+
+@dataclass
+class Cells:
+    """Cells of the outer search box: corners, curvatures and corner values.
+
+    lo, hi : (C, 3) lower and upper corners in (n, phic, log r_min);
+    M : (C, 3) curvature allowance per axis (already times the safety factor);
+    U, L : (C, 2, 2, 2) J and its certified lower bound at the cell's corners.
+    """
+
+    lo: np.ndarray
+    hi: np.ndarray
+    M: np.ndarray
+    U: np.ndarray
+    L: np.ndarray
+
+    def bound(self) -> np.ndarray:
+        return _cell_bound(self.L, self.M, self.hi - self.lo)
+
+    def take(self, sel) -> Cells:
+        return Cells(self.lo[sel], self.hi[sel], self.M[sel], self.U[sel], self.L[sel])
+
+    @staticmethod
+    def join(parts: list[Cells]) -> Cells:
+        return Cells(
+            *(np.concatenate([getattr(c, f) for c in parts]) for f in ("lo", "hi", "M", "U", "L"))
+        )
+
+
+def _base_cells(prob: LearnProblem, stage: GridStage, rtol: float):
+    """The (augmented) grid's cells: corners (C, 3), curvatures (C, 3), bounds, cut flags, solves.
+
+    A cut cell holds an RM1 branch point and is 2e-9 wide in log r_min: J
+    there is within that of its corner values on either side, so its bound
+    is its smallest corner bound (no allowance) and it is never halved.
+    """
+    ax, U, L, n_new = _augmented(prob, stage, rtol)
+    free = [k for k in range(3) if ax[k].size > 1]
+    cuts = [np.zeros(max(a.size - 1, 0), bool) for a in ax[:2]] + [_kink_cut(prob, ax[2])]
+    M = [_curvature(U, ax[k], k, cuts[k]) for k in range(3)]
     ranges = [np.arange(ax[k].size - 1) if k in free else np.zeros(1, int) for k in range(3)]
     base = np.stack([g.reshape(-1) for g in np.meshgrid(*ranges, indexing="ij")], axis=-1)
     off = [np.arange(2) if k in free else np.zeros(1, int) for k in range(3)]
@@ -419,47 +520,109 @@ def certify(
         base[:, k][:, None, None, None] + off[k].reshape([-1 if j == k else 1 for j in range(3)])
         for k in range(3)
     )
-    Ub, Lb = U[idx], L[idx]
-    lb = _block_bound(Ub, Lb)
-    corner = np.stack([ax[k][base[:, k]] for k in range(3)], axis=-1)
-    size = np.array([(ax[k][1] - ax[k][0]) if k in free else 0.0 for k in range(3)])
-    tol = 1e-6 * max(J_best, 1e-300)
+    lo = np.stack([ax[k][base[:, k]] for k in range(3)], axis=-1)
+    hi = np.stack([ax[k][base[:, k] + (1 if k in free else 0)] for k in range(3)], axis=-1)
+    cut = cuts[2][base[:, 2]] if 2 in free else np.zeros(base.shape[0], bool)
+    Mc = np.zeros(lo.shape)
+    for k in free:
+        Mc[:, k] = CURVATURE_SAFETY * _block_max(M[k][idx])
+    Mc[cut] = 0.0
+    full = (base.shape[0], 2, 2, 2)
+    cells = Cells(
+        lo, hi, Mc, np.broadcast_to(U[idx], full).copy(), np.broadcast_to(L[idx], full).copy()
+    )
+    return cells, cut, n_new
+
+
+def certify(
+    prob: LearnProblem,
+    stage: GridStage,
+    J_best: float,
+    *,
+    levels: int = 3,
+    cap: int = 96,
+    target: float = 0.0,
+    rtol: float = 1e-7,
+) -> tuple[float, int, int]:
+    """Branch and bound on the grid's cells: a lower bound of J over the search box.
+
+    Each cell's bound is its smallest certified corner bound (the inner
+    problem's dual value) less an interpolation allowance
+    (:func:`_cell_bound`) from a curvature M_k per axis, taken as
+    ``CURVATURE_SAFETY`` times the largest second divided difference of J
+    on the cell's sample points.  Cells whose bound is below J_best are
+    halved, ``levels`` rounds of at most ``cap`` cells (lowest bound first),
+    along the axis with the largest allowance: the three points along it
+    (and the cell's corners across) are solved with certificates, the
+    children take the new curvature along it and their parent's across.
+    Cells not refined keep their bound; cells whose bound is within
+    ``target`` (relative) of J_best are not refined either (the bound then
+    aims at a gap of ``target`` J_best, not at excluding every cell).  The
+    inner solves stop at a duality gap of ``rtol`` times the data's scale
+    (their dual value is a valid bound at any rtol).  The RM1 branch points,
+    where J jumps, are never inside a cell (:func:`_base_cells`).  Assumption: J's
+    curvature inside a cell is at most ``CURVATURE_SAFETY`` times what the
+    cell's samples show.  Returns (lower bound, cells still open, points
+    solved).
+    """
+    free = [k for k in range(3) if stage.axes[k].size > 1]
+    cells, cut, evals = _base_cells(prob, stage, rtol)
+    tol = max(1e-6, target) * max(J_best, 1e-300)
     parked: list[float] = []
-    evals = 0
+    kept = cells.take(cut).bound()  # cut cells are never halved: their bound is final
+    cells = cells.take(~cut)
+    lb = cells.bound()
     for _ in range(levels):
         open_ = np.flatnonzero(lb < J_best - tol)
         if open_.size == 0:
-            lb, corner = lb[:0], corner[:0]
             break
         order = open_[np.lexsort((open_, lb[open_]))]
         if order.size > cap:
             parked.append(float(lb[order[cap:]].min()))
             order = order[:cap]
-        c = corner[order]
-        fr = [np.linspace(0, 1, 3) if k in free else np.zeros(1) for k in range(3)]
-        G = [
-            c[:, k][:, None, None, None]
-            + size[k] * fr[k].reshape([-1 if j == k else 1 for j in range(3)])
-            for k in range(3)
-        ]
-        G = np.broadcast_arrays(*G)
-        sol = prob.solve_cells(G[0], G[1], G[2], rtol=1e-7)
-        evals += sol.J.size
-        subs_U, subs_L, subs_c = [], [], []
-        halves = [(0, 1) if k in free else (0,) for k in range(3)]
-        for a in halves[0]:
-            for b in halves[1]:
-                for e in halves[2]:
-                    sl = (slice(None),) + tuple(
-                        slice(h, h + 2) if k in free else slice(0, 1)
-                        for k, h in enumerate((a, b, e))
-                    )
-                    subs_U.append(sol.J[sl])
-                    subs_L.append(sol.lower[sl])
-                    subs_c.append(c + 0.5 * size * np.array([a, b, e]))
-        size = 0.5 * size
-        Ub, Lb = np.concatenate(subs_U), np.concatenate(subs_L)
-        lb, corner = _block_bound(Ub, Lb), np.concatenate(subs_c)
-    remaining = int(np.sum(lb < J_best - tol))
+        done = np.ones(lb.size, bool)
+        done[order] = False
+        out = [cells.take(done)]
+        h = cells.hi - cells.lo
+        with np.errstate(invalid="ignore"):
+            share = np.where(h > 0, cells.M * h**2, -1.0)[order]
+        axis = np.argmax(np.where(np.isnan(share), np.inf, share), axis=1)  # ties: lowest axis
+        for k in free:
+            sel = order[axis == k]
+            if sel.size:
+                kids, n_solved = _halve(prob, cells.take(sel), k, rtol)
+                out.append(kids)
+                evals += n_solved
+        cells = Cells.join(out)
+        lb = cells.bound()
+    lb = np.concatenate([lb, kept])
+    remaining = int(np.sum(lb < J_best * (1 - 1e-6)))
     lower = min([J_best, float(lb.min()) if lb.size else J_best] + parked)
     return max(lower, 0.0), remaining + (1 if parked else 0), evals
+
+
+def _halve(prob: LearnProblem, c: Cells, k: int, rtol: float) -> tuple[Cells, int]:
+    """Halve cells along axis k: solve the 4 midpoints of the edges along k (the
+    corners are known), the new curvature along k from the 3 points of each edge."""
+    mid = 0.5 * (c.lo[:, k] + c.hi[:, k])
+    corner = [np.stack([c.lo[:, j], c.hi[:, j]], axis=-1) for j in range(3)]  # (K, 2)
+    corner[k] = np.stack([mid, mid], axis=-1)
+    G = np.broadcast_arrays(
+        *[corner[j].reshape([-1] + [2 if i == j else 1 for i in range(3)]) for j in range(3)]
+    )
+    sol = prob.solve_cells(G[0], G[1], G[2], rtol=rtol)
+    Um = np.take(sol.J, [0], axis=1 + k)  # the midpoints (equal along k)
+    Lm = np.take(sol.lower, [0], axis=1 + k)
+    half = 0.5 * (c.hi[:, k] - c.lo[:, k])
+    U0, U1 = np.take(c.U, [0], axis=1 + k), np.take(c.U, [1], axis=1 + k)
+    L0, L1 = np.take(c.L, [0], axis=1 + k), np.take(c.L, [1], axis=1 + k)
+    d2 = np.abs(U0 - 2.0 * Um + U1) / np.maximum(half, 1e-300).reshape(-1, 1, 1, 1) ** 2
+    M = c.M.copy()
+    M[:, k] = CURVATURE_SAFETY * _block_max(d2)
+    lo_mid, hi_mid = c.lo.copy(), c.hi.copy()
+    lo_mid[:, k], hi_mid[:, k] = mid, mid
+    first = Cells(c.lo, hi_mid, M, np.concatenate([U0, Um], 1 + k), np.concatenate([L0, Lm], 1 + k))
+    second = Cells(
+        lo_mid, c.hi, M, np.concatenate([Um, U1], 1 + k), np.concatenate([Lm, L1], 1 + k)
+    )
+    return Cells.join([first, second]), int(sol.J.size) // 2
