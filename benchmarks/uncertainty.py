@@ -9,7 +9,7 @@ the improved cone model, RM0, fully mobilised shear,
 ``terracone.inverse.predict.rmsd_objective``) and the same bounds
 (terracone's defaults).  pyswarms is a benchmark peer only.
 
-Profiles are generated as in benchmarks/coverage.py: a terrain around LETE
+Profiles are generated as in benchmarks/posterior_coverage.py: a terrain around LETE
 sand (kc 60-110 kN/m^(n+1), kphi 2500-5500 kN/m^(n+2), n 0.5-1.1, cc 0-2
 kPa, phic 8-14 deg), cone-base depths 0-30 cm every 1 cm, multiplicative
 noise of 3-5%, every other profile with AR(1) noise (rho 0.6-0.8).  Half

@@ -7,7 +7,7 @@ multiplied by (1 + s e), e independent or AR(1) along depth.  The coverage
 tests draw 200 such cases per noise kind (calibration prior) and 100 + 100
 (bounds prior, pooled) and require the rate at which the 90% intervals
 contain the truth to lie in the central 99.8% binomial window around 90%,
-from both sides (benchmarks/coverage.py runs more).
+from both sides (benchmarks/posterior_coverage.py runs more).
 """
 
 from __future__ import annotations
@@ -398,7 +398,7 @@ def test_coverage_with_a_calibration_prior(correlated):
     with rho 0.6-0.8.  The window, the central 99.8% of Binomial(200, 0.9)
     divided by 200, is [0.83, 0.96]: both too narrow and too wide intervals
     fail.  (At these seeds: n 183 and 175, plate 183 and 183 of 200;
-    benchmarks/coverage.py runs 2000 draws and checks 85-95%.)
+    benchmarks/posterior_coverage.py runs 2000 draws and checks 85-95%.)
     """
     N = 200
     lo, hi = binomial_window(N)

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/coverage.py [--profiles 200] [--draws 2000] [--seed 2024]
+    python benchmarks/posterior_coverage.py [--profiles 200] [--draws 2000] [--seed 2024]
         [--correlation estimate|sample|none|RHO] [--n-prior uniform|reference]
         [--priors bounds,calibration]
 
