@@ -39,9 +39,11 @@ __all__ = [
     "box_lsq3_flat",
     "cells_kernel",
     "golden_refine",
+    "parabola_vertex",
     "zoom_refine",
     "kbounds",
     "identify_scan",
+    "identify_extent",
     "basis_columns",
     "fit_stats",
 ]
@@ -613,6 +615,142 @@ def identify_scan(z, y, n_loc, s, bp, vals, H, R, rm1, r_t, alpha, beta):
 
 
 @njit(error_model="numpy")
+def pinned_sse(yty, lo, hi, idx, val, x, ws, lo2, hi2) -> float:
+    """SSE of the box LSQ scaled in ws with variable idx pinned at lo + val (hi - lo)."""
+    for j in range(3):
+        lo2[j], hi2[j] = lo[j], hi[j]
+    pin = lo[idx] + val * (hi[idx] - lo[idx])
+    lo2[idx], hi2[idx] = pin, pin
+    return box_faces_from(yty, lo2, hi2, x, ws, last_face(ws))
+
+
+@njit(error_model="numpy")
+def first_true(yty, lo, hi, idx, vals, thr, a, b, x, ws, lo2, hi2) -> int:
+    """Smallest j in [a, b] with SSE(vals[j]) <= thr, the SSE non-increasing on [a, b]; or -1."""
+    if a > b or not pinned_sse(yty, lo, hi, idx, vals[b], x, ws, lo2, hi2) <= thr:
+        return -1
+    while a < b:  # invariant: b is inside
+        m = (a + b) // 2
+        if pinned_sse(yty, lo, hi, idx, vals[m], x, ws, lo2, hi2) <= thr:
+            b = m
+        else:
+            a = m + 1
+    return b
+
+
+@njit(error_model="numpy")
+def last_true(yty, lo, hi, idx, vals, thr, a, b, x, ws, lo2, hi2) -> int:
+    """Largest j in [a, b] with SSE(vals[j]) <= thr, the SSE non-decreasing on [a, b]; or -1."""
+    if a > b or not pinned_sse(yty, lo, hi, idx, vals[a], x, ws, lo2, hi2) <= thr:
+        return -1
+    while a < b:  # invariant: a is inside
+        m = (a + b + 1) // 2
+        if pinned_sse(yty, lo, hi, idx, vals[m], x, ws, lo2, hi2) <= thr:
+            a = m
+        else:
+            b = m - 1
+    return a
+
+
+@njit(error_model="numpy")
+def identify_extent(z, y, n_loc, s, bp, vals, thr, H, R, rm1, r_t, alpha, beta):
+    """The extent of :func:`identify_scan`'s sets SSE <= thr, without the full scan.
+
+    For each of kc, kphi, cc: the first and last index j of ``vals``
+    (increasing) such that SSE(n, vals[j]) <= thr at some n of n_loc, or -1
+    (-2 for a variable fixed at every n).  At fixed n the SSE with one
+    variable pinned is a convex function of the pinned value (the minimum of
+    a convex quadratic over the others' box), smallest at the unpinned
+    optimum: it is non-increasing up to it and non-decreasing after, so
+    bisection finds each row's ends, and only rows that can widen the
+    extent found so far are searched.  Returns (jlo (3,), jhi (3,), lo (N, 3),
+    hi (N, 3)); equal to the extent of the full scan (tested).
+    """
+    Z = z.shape[0]
+    N = n_loc.shape[0]
+    V = vals.shape[0]
+    w = np.ones(Z)
+    lg = np.empty((3, Z))
+    profile_logs(z, H, R, r_t, lg)
+    A = np.empty(Z)
+    B = np.empty(Z)
+    C = np.empty(Z)
+    G = np.empty((3, 3))
+    g = np.empty(3)
+    lo = np.empty((N, 3))
+    hi = np.empty((N, 3))
+    lo2 = np.empty(3)
+    hi2 = np.empty(3)
+    x = np.empty(3)
+    ws = np.empty((18, 3))
+    jlo = np.full(3, V, dtype=np.int64)
+    jhi = np.full(3, -1, dtype=np.int64)
+    pinned = np.ones(3, dtype=np.bool_)
+    for i in range(N):
+        kbounds(n_loc[i], bp, lo[i], hi[i])
+        for j in range(3):
+            if lo[i, j] != hi[i, j]:
+                pinned[j] = False
+    for i in range(N):
+        yty = normal_at(
+            z, y, w, lg, n_loc[i], s, bp[10], H, R, rm1, r_t, alpha, beta, A, B, C, G, g
+        )
+        box_scale(G, g, ws)
+        # the unpinned optimum at this n: the smallest SSE of every pinned scan
+        smin = box_faces_from(yty, lo[i], hi[i], x, ws, -1)
+        if smin > thr + 1e-9 * max(thr, 1e-300):  # no pinned value can come within thr
+            continue
+        xs0, xs1, xs2 = x[0], x[1], x[2]
+        for idx in range(3):
+            if pinned[idx] or (jlo[idx] == 0 and jhi[idx] == V - 1):
+                continue
+            width = hi[i, idx] - lo[i, idx]
+            xv = xs0 if idx == 0 else (xs1 if idx == 1 else xs2)
+            vs = (xv - lo[i, idx]) / width if width > 0 else 0.0
+            k = 0  # the last index with vals[k] <= vs: the SSE decreases up to k, rises after
+            while k + 1 < V and vals[k + 1] <= vs:
+                k += 1
+            in_l = pinned_sse(yty, lo[i], hi[i], idx, vals[k], x, ws, lo2, hi2) <= thr
+            in_r = (
+                k + 1 < V
+                and pinned_sse(yty, lo[i], hi[i], idx, vals[k + 1], x, ws, lo2, hi2) <= thr
+            )
+            if in_l:  # the row's set reaches down from k
+                a = first_true(
+                    yty, lo[i], hi[i], idx, vals, thr, 0, min(k, jlo[idx] - 1), x, ws, lo2, hi2
+                )
+                if a >= 0:
+                    jlo[idx] = a
+                if not in_r:
+                    jhi[idx] = max(jhi[idx], k)
+            if in_r:  # the row's set reaches up from k + 1
+                b = last_true(
+                    yty,
+                    lo[i],
+                    hi[i],
+                    idx,
+                    vals,
+                    thr,
+                    max(k + 1, jhi[idx] + 1),
+                    V - 1,
+                    x,
+                    ws,
+                    lo2,
+                    hi2,
+                )
+                if b >= 0:
+                    jhi[idx] = b
+                if not in_l:
+                    jlo[idx] = min(jlo[idx], k + 1)
+    for idx in range(3):
+        if pinned[idx]:
+            jlo[idx], jhi[idx] = -2, -2
+        elif jhi[idx] < 0:
+            jlo[idx] = -1
+    return jlo, jhi, lo, hi
+
+
+@njit(error_model="numpy")
 def zoom_refine(zz, yy, w, a, b, s, bp, K, steps, H, R, rm1, r_t, alpha, beta):
     """Zooming-grid minimisation of the SSE over n in [a_p, b_p] at scale s_p, per profile.
 
@@ -678,11 +816,35 @@ def zoom_refine(zz, yy, w, a, b, s, bp, K, steps, H, R, rm1, r_t, alpha, beta):
 
 
 @njit(error_model="numpy")
+def parabola_vertex(xl, fl, xm, fm, xr, fr) -> float:
+    """Vertex of the parabola through (xl, fl), (xm, fm), (xr, fr), xl < xm < xr, or NaN.
+
+    NaN unless fm <= min(fl, fr) (a bracket), the parabola opens upwards and
+    the vertex lies strictly between xl and xr.  Numpy twin: many.py's
+    ``parabola_vertices``.
+    """
+    if not (fm <= fl and fm <= fr) or not (math.isfinite(fl) and math.isfinite(fr)):
+        return math.nan
+    p = (xm - xl) * (fm - fr)
+    q = (xm - xr) * (fm - fl)
+    den = p - q
+    if not den < 0.0:  # opens upwards: (xm - xl)(fm - fr) < (xm - xr)(fm - fl)
+        return math.nan
+    x = xm - 0.5 * ((xm - xl) * p - (xm - xr) * q) / den
+    if not (xl < x < xr):
+        return math.nan
+    return x
+
+
+@njit(error_model="numpy")
 def golden_refine(zz, yy, w, a, b, s, bp, iters, H, R, rm1, r_t, alpha, beta):
     """Golden-section minimisation of the SSE over n in [a_p, b_p] at scale s_p, per profile.
 
     The compiled twin of the golden branch of many.py's ``_minimise_1d``
-    (the same points and comparisons).  Returns (n, SSE, evaluations).
+    (the same points and comparisons): ``iters`` golden steps, then one
+    parabolic step through the best point and its bracketing neighbours
+    (:func:`parabola_vertex`), kept if it lowers the SSE.  Returns (n, SSE,
+    evaluations).
     """
     P, Z = zz.shape
     gr = (math.sqrt(5.0) - 1.0) / 2.0
@@ -694,32 +856,43 @@ def golden_refine(zz, yy, w, a, b, s, bp, iters, H, R, rm1, r_t, alpha, beta):
     ws = np.empty((24, 3))
     xp = np.empty(3)
     lg = np.empty((3, Z))
+    used = 0
     for p in range(P):
         z, y, wp, sp = zz[p], yy[p], w[p], s[p]
         profile_logs(z, H, R, r_t, lg)
         lo, hi = a[p], b[p]
+        flo, fhi = math.inf, math.inf  # SSE at the bracket's ends, once evaluated
         c = hi - gr * (hi - lo)
         d = lo + gr * (hi - lo)
         fc = cell_sse(z, y, wp, lg, c, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
         fd = cell_sse(z, y, wp, lg, d, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
         for _ in range(iters):
             if fc < fd:
-                hi = d
+                hi, fhi = d, fd
                 d = c
                 c = hi - gr * (hi - lo)
                 fd = fc
                 fc = cell_sse(z, y, wp, lg, c, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
             else:
-                lo = c
+                lo, flo = c, fc
                 c = d
                 d = lo + gr * (hi - lo)
                 fc = fd
                 fd = cell_sse(z, y, wp, lg, d, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
         if fc < fd:
-            bx[p], bf[p] = c, fc
+            x, fx = c, fc
+            v = parabola_vertex(lo, flo, c, fc, d, fd)
         else:
-            bx[p], bf[p] = d, fd
-    return bx, bf, (iters + 2) * P
+            x, fx = d, fd
+            v = parabola_vertex(c, fc, d, fd, hi, fhi)
+        used += iters + 2
+        if not math.isnan(v):
+            fv = cell_sse(z, y, wp, lg, v, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
+            used += 1
+            if fv < fx:
+                x, fx = v, fv
+        bx[p], bf[p] = x, fx
+    return bx, bf, used
 
 
 @njit(error_model="numpy")
