@@ -83,7 +83,7 @@ def design(
     """
     if Kc is None:
         # eq. (2-6) fully mobilised: phic only scales the kc and kphi columns
-        A, B, C = cone_index_basis(z, n=n, phic=0.0, law=law, cone=cone)
+        A, B, C = _basis(z, n, law, cone)
         s = 1.0 + np.tan(np.radians(phic)) / math.tan(cone.half_angle)
         A, B = s * A, s * B
     else:
@@ -92,6 +92,27 @@ def design(
     if ratio is not None:
         return np.stack([np.zeros_like(A), ratio * A + B, C], axis=-1)
     return np.stack([A, B, C], axis=-1)
+
+
+def _basis(z, n, law: PressureLaw, cone: Cone):
+    """cone_index_basis at phic = 0; compiled for one profile and one n (predict's polish)."""
+    n = np.asarray(n, dtype=float)
+    z = np.asarray(z, dtype=float)
+    if n.ndim == 0 and z.ndim == 1 and enabled():
+        coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
+        if all(c.size == 1 for c in coef):
+            from .kernels import basis_columns
+
+            A, B, C = basis_columns(
+                np.ascontiguousarray(z),
+                n.reshape(1),
+                cone.height,
+                cone.radius,
+                not law.is_rm0,
+                *(float(c.item()) for c in coef),
+            )
+            return A[0], B[0], C[0]
+    return cone_index_basis(z, n=n, phic=0.0, law=law, cone=cone)
 
 
 def _bounds_arrays(bounds: Bounds, n: np.ndarray, ratio: float | None = None):

@@ -42,6 +42,7 @@ __all__ = [
     "parabola_vertex",
     "zoom_refine",
     "kbounds",
+    "box_grid",
     "identify_scan",
     "identify_extent",
     "basis_columns",
@@ -490,6 +491,18 @@ def kbounds(n, bp, lo, hi) -> None:
         kc_hi = 0.0
     lo[0], lo[1], lo[2] = kc_lo, kp_lo, bp[4]
     hi[0], hi[1], hi[2] = kc_hi, kp_hi, bp[5]
+
+
+@njit(error_model="numpy")
+def box_grid(n, bp):
+    """:func:`kbounds` at every n of (P, K): lo, hi (P, K, 3)."""
+    P, K = n.shape
+    lo = np.empty((P, K, 3))
+    hi = np.empty((P, K, 3))
+    for p in range(P):
+        for k in range(K):
+            kbounds(n[p, k], bp, lo[p, k], hi[p, k])
+    return lo, hi
 
 
 @njit(error_model="numpy")

@@ -27,6 +27,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -161,8 +162,10 @@ class _Kernels:
         self.geom = (cone.height, cone.radius, not law.is_rm0, *coef)
         self.bp = bounds_params(bounds, ratio)
 
-    def __call__(self, zz, yy, w, n, sv, lo, hi, ratio):
-        return self.k.cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, *self.geom)
+    def __call__(self, zz, yy, w, n, sv):
+        n = np.ascontiguousarray(n, dtype=float)
+        lo, hi = self.k.box_grid(n, self.bp)
+        return self.k.cells_kernel(zz, yy, w, n, sv, lo, hi, self.bp[10], *self.geom)
 
     def zoom(self, zz, yy, w, a, b, s):
         return self.k.zoom_refine(zz, yy, w, a, b, s, self.bp, 17, 8, *self.geom)
@@ -181,6 +184,15 @@ def _cells_kernel(
     """
     if not enabled():
         return None
+    try:
+        return _kernels_for(law, cone, bounds, ratio)
+    except TypeError:  # unhashable (array coefficients): not cached
+        return _kernels_for.__wrapped__(law, cone, bounds, ratio)
+
+
+@functools.lru_cache(maxsize=32)
+def _kernels_for(law: PressureLaw, cone: Cone, bounds: Bounds, ratio: float | None):
+    """_Kernels of a law, cone, box (built once per combination: predict calls it per profile)."""
     coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
     if any(c.size != 1 for c in coef):
         return None
@@ -300,20 +312,7 @@ def solve_exact_many(
     def cells(n: np.ndarray, sv: np.ndarray | None = None):
         """Primed x and SSE for n of shape (P, K) and each s of ``sv`` ((P, F) or the grid)."""
         if kern is not None:
-            sv = svals[None, :] if sv is None else sv
-            kc_lo, kc_hi, kp_lo, kp_hi = _kbounds(n)
-            lo = np.stack(np.broadcast_arrays(kc_lo, kp_lo, bounds.cc[0]), axis=-1)
-            hi = np.stack(np.broadcast_arrays(kc_hi, kp_hi, bounds.cc[1]), axis=-1)
-            return kern(
-                zz,
-                yy,
-                w,
-                np.ascontiguousarray(n, float),
-                np.ascontiguousarray(sv, float),
-                lo,
-                hi,
-                math.nan if ratio is None else float(ratio),
-            )
+            return kern(zz, yy, w, n, np.ascontiguousarray(svals[None, :] if sv is None else sv))
         A, B, C = cone_index_basis(zz[:, None, :], n=n[..., None], phic=0.0, law=law, cone=cone)
         if ratio is not None:
             A, B = np.zeros_like(A), ratio * A + B
