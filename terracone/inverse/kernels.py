@@ -114,12 +114,18 @@ def depth_logs(z: float, H: float, R: float, r_t: float) -> tuple[float, float, 
 @njit(error_model="numpy")
 def basis_point_log(z, n, lu1, l1b, l1s, H, R, rm1, r_t, alpha, beta) -> tuple[float, float, float]:
     """:func:`basis_point` with the logarithms of :func:`depth_logs` given."""
-    t = R / H
     u1 = z + H  # depth of the tip
     if not u1 > 0.0:
         return 0.0, 0.0, 0.0
+    return basis_point_p1(z, n, math.exp((n + 1.0) * lu1), l1b, l1s, H, R, rm1, r_t, alpha, beta)
+
+
+@njit(error_model="numpy")
+def basis_point_p1(z, n, p1, l1b, l1s, H, R, rm1, r_t, alpha, beta) -> tuple[float, float, float]:
+    """:func:`basis_point_log` with p1 = (z + H)^(n + 1) given (u1 > 0)."""
+    t = R / H
+    u1 = z + H  # depth of the tip
     L = H if z >= 0.0 else u1  # embedded length along the axis
-    p1 = math.exp((n + 1.0) * lu1)  # u1^(n+1)
     p2 = p1 * u1
     eb = min(max(L / u1, 0.0), 1.0)
     g0b, g1b, _ = tail_moments_log(eb, l1b, n)
@@ -419,17 +425,37 @@ def cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, r_t, alpha, beta):
     ws = np.empty((18, 3))
     use_ratio = not math.isnan(ratio)
     lg = np.empty((3, Z))
+    ratio_q = np.empty(Z)
+    p1q = np.empty(Z)
     for p in range(P):
         profile_logs(zz[p], H, R, r_t, lg)
         yty = 0.0
         for q in range(Z):
             yty += w[p, q] * yy[p, q] * yy[p, q]
         ps = p if sv.shape[0] > 1 else 0
+        # a uniform grid over n (the global grid): u1^(n+1) by recurrence, one exp per
+        # depth instead of one per cell (k ulp after k steps)
+        dn = (n[p, K - 1] - n[p, 0]) / (K - 1) if K > 1 else 0.0
+        uniform = K > 2
+        for k in range(K):
+            if abs(n[p, k] - (n[p, 0] + k * dn)) > 1e-15 * (1.0 + abs(n[p, k])):
+                uniform = False
+        if uniform:
+            for q in range(Z):
+                ratio_q[q] = math.exp(dn * lg[0, q])
+                p1q[q] = math.exp((n[p, 0] + 1.0) * lg[0, q])
         for k in range(K):
             for q in range(Z):
-                a, bb, c = basis_point_log(
-                    zz[p, q], n[p, k], lg[0, q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
-                )
+                if uniform and zz[p, q] + H > 0.0:
+                    if k > 0:
+                        p1q[q] *= ratio_q[q]
+                    a, bb, c = basis_point_p1(
+                        zz[p, q], n[p, k], p1q[q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
+                    )
+                else:
+                    a, bb, c = basis_point_log(
+                        zz[p, q], n[p, k], lg[0, q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
+                    )
                 if use_ratio:
                     A[q], B[q] = 0.0, ratio * a + bb
                 else:
