@@ -34,6 +34,7 @@ from ..jit import enabled
 from ..plate import PressureLaw
 from .bounds import Bounds
 from .boxlsq import box_lsq3, gram
+from .many import grid
 
 __all__ = [
     "ExactSolution",
@@ -589,11 +590,11 @@ def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> No
         np.concatenate(
             [
                 np.linspace(n_lo, n_hi, 17),
-                np.clip(sol.n + np.linspace(-0.1, 0.1, 9), n_lo, n_hi),
+                np.clip(sol.n + grid(-0.1, 0.1, 9), n_lo, n_hi),
             ]
         )
     )
-    vals = np.linspace(0.0, 1.0, 61)  # fractions of each n's range
+    vals = grid(0.0, 1.0, 61)  # fractions of each n's range
     jlo, jhi, lo, hi = identify_extents(
         z, y, n_loc, sol.phic_deg, sol.Kc, bounds, cone, law, vals, thr, ratio
     )

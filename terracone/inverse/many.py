@@ -45,6 +45,7 @@ __all__ = [
     "bounds_params",
     "first_min",
     "parabola_vertices",
+    "grid",
 ]
 
 _GOLD = (math.sqrt(5.0) - 1.0) / 2.0
@@ -223,6 +224,19 @@ def bounds_params(bounds: Bounds, ratio: float | None) -> np.ndarray:
     )
 
 
+@functools.lru_cache(maxsize=64)
+def _grid_cached(lo: float, hi: float, k: int) -> np.ndarray:
+    g = np.array([lo]) if lo == hi else np.linspace(lo, hi, k)
+    g.flags.writeable = False
+    return g
+
+
+def grid(lo: float, hi: float, k: int) -> np.ndarray:
+    """``linspace(lo, hi, k)`` (one point when lo == hi), read-only and cached: per-profile
+    fits ask for the same few grids again and again."""
+    return _grid_cached(float(lo), float(hi), int(k))
+
+
 def first_min(v: np.ndarray, tol: np.ndarray | float) -> np.ndarray:
     """Per row of v (P, M), the first index whose value is within tol (P,) of the row's minimum.
 
@@ -355,7 +369,7 @@ def solve_exact_many(
         sse = np.einsum("pkfz,pz->pkf", r * r, w)
         return xp, sse
 
-    ns = np.linspace(*bounds.n, n_grid) if bounds.n[0] != bounds.n[1] else np.array([bounds.n[0]])
+    ns = grid(bounds.n[0], bounds.n[1], n_grid)
     N = np.broadcast_to(ns, (P, ns.size))
     xg, sseg = cells(N)  # (P, Nn, F)
     nfev += sseg.size
