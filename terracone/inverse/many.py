@@ -272,7 +272,7 @@ def solve_exact_many(
     law: PressureLaw,
     bounds: Bounds,
     n_grid: int = 41,
-    refine_iter: int = 20,
+    refine_iter: int = 40,
     noise_floor: float = 0.01,
     kc_over_kphi: float | None = None,
 ) -> ManySolution:
@@ -288,8 +288,11 @@ def solve_exact_many(
         Points of the global grid over n.
     refine_iter : int
         Golden-section iterations of the refinement of n (the bracket of two
-        grid steps shrinks to 1.3e-5 of n in 20), then one parabolic step
-        through the best point and its neighbours.
+        grid steps shrinks to 4e-10 in 40), then one parabolic step through
+        the best point and its neighbours.  Fewer iterations leave the
+        noise-free optimum visibly short where a bound becomes active at n*
+        (kc = 0 or cc = 0): the SSE over n has a kink in curvature there,
+        which the parabola does not model.
     noise_floor : float
         Relative noise floor for the n interval (see :mod:`exact`).
     kc_over_kphi : float, optional
