@@ -30,8 +30,8 @@ from terracone.cone import cone_index_basis, get_cone
 from terracone.data import CIProfile
 from terracone.inverse import Bounds, predict
 from terracone.inverse.boxlsq import box_lsq3, box_lsq3_reference, gram
-from terracone.inverse.exact import identify_scans
-from terracone.inverse.many import first_min, solve_exact_many
+from terracone.inverse.exact import identify_extents, identify_scans, scan_extents
+from terracone.inverse.many import first_min, parabola_vertices, solve_exact_many
 from terracone.plate import pressure_law
 
 CONE = get_cone("asabe-large")
@@ -119,6 +119,50 @@ def test_identify_scans_match(law):
     np.testing.assert_allclose(lo1, lo0, rtol=1e-12)
     np.testing.assert_allclose(hi1, hi0, rtol=1e-12)
     np.testing.assert_allclose(s1, s0, rtol=1e-12, atol=1e-12 * float(y @ y))
+
+
+@pytest.mark.parametrize("law", sorted(LAWS))
+def test_identify_extents_equal_the_full_scan(law):
+    """The bisected extents of the pinned scans (first and last value within the threshold at
+    some n) equal those read off the full scan of the same path, over terrains, noise levels,
+    kc = 0, cc fixed, and thresholds from just above the best SSE to far above it."""
+    vals = np.linspace(0.0, 1.0, 61)
+    cases = [
+        (1, dict()),
+        (2, dict(noise=0.0)),
+        (3, dict(terrain=(0.0, 1948.9, 0.514, 0.0, 14.37))),
+        (4, dict(noise=0.05, dz=0.025)),
+    ]
+    for seed, kw in cases:
+        z, y = noisy_profile(seed, **kw)
+        n_loc = np.unique(np.r_[np.linspace(0.45, 1.05, 17), np.linspace(0.64, 0.84, 9)])
+        for b in (Bounds(), Bounds(cc=(0.0, 0.0))):
+            sse = identify_scans(z, y, n_loc, 14.0, None, b, CONE, LAWS[law], vals)[0]
+            best = float(np.nanmin(sse))
+            for f in (1.001, 1.05, 1.5, 3.0, 30.0, 1e4):
+                thr = best * f + 1e-9 * float(y @ y)
+                want = scan_extents(sse, thr)
+                got = identify_extents(z, y, n_loc, 14.0, None, b, CONE, LAWS[law], vals, thr)
+                assert got[0].tolist() == want[0].tolist(), (seed, f)
+                assert got[1].tolist() == want[1].tolist(), (seed, f)
+            if b.cc == (0.0, 0.0):
+                assert got[0][2] == got[1][2] == -2  # cc fixed at every n: not scanned
+
+
+def test_parabola_vertex_twins():
+    """The vertex of a parabola through three of its points (hand-made bracket), NaN without a
+    bracket; compiled and numpy alike."""
+    from terracone.inverse.kernels import parabola_vertex
+
+    q = lambda x: 3.0 * (x - 0.37) ** 2 + 2.0  # noqa: E731
+    xl, xm, xr = np.array([0.1, 0.2, 0.0]), np.array([0.35, 0.4, 0.2]), np.array([0.6, 0.9, 0.3])
+    v = parabola_vertices(xl, q(xl), xm, q(xm), xr, q(xr))
+    assert v[0] == pytest.approx(0.37, abs=1e-12)
+    assert v[1] == pytest.approx(0.37, abs=1e-12)
+    assert np.isnan(v[2])  # 0.37 is outside (0, 0.3): no bracket
+    for i in range(3):
+        c = parabola_vertex(xl[i], q(xl[i]), xm[i], q(xm[i]), xr[i], q(xr[i]))
+        assert (np.isnan(c) and np.isnan(v[i])) or c == pytest.approx(v[i], abs=1e-12)
 
 
 def fit_many(zs, ys, **kw):

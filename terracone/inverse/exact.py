@@ -34,8 +34,16 @@ from ..jit import enabled
 from ..plate import PressureLaw
 from .bounds import Bounds
 from .boxlsq import box_lsq3, gram
+from .many import grid
 
-__all__ = ["ExactSolution", "solve_exact", "design", "identify_scans"]
+__all__ = [
+    "ExactSolution",
+    "solve_exact",
+    "design",
+    "identify_scans",
+    "identify_extents",
+    "scan_extents",
+]
 
 CHI2_1_95 = 3.841458820694124  # 95% quantile of chi-square with 1 dof
 
@@ -76,7 +84,7 @@ def design(
     """
     if Kc is None:
         # eq. (2-6) fully mobilised: phic only scales the kc and kphi columns
-        A, B, C = cone_index_basis(z, n=n, phic=0.0, law=law, cone=cone)
+        A, B, C = _basis(z, n, law, cone)
         s = 1.0 + np.tan(np.radians(phic)) / math.tan(cone.half_angle)
         A, B = s * A, s * B
     else:
@@ -85,6 +93,27 @@ def design(
     if ratio is not None:
         return np.stack([np.zeros_like(A), ratio * A + B, C], axis=-1)
     return np.stack([A, B, C], axis=-1)
+
+
+def _basis(z, n, law: PressureLaw, cone: Cone):
+    """cone_index_basis at phic = 0; compiled for one profile and one n (predict's polish)."""
+    n = np.asarray(n, dtype=float)
+    z = np.asarray(z, dtype=float)
+    if n.ndim == 0 and z.ndim == 1 and enabled():
+        coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
+        if all(c.size == 1 for c in coef):
+            from .kernels import basis_columns
+
+            A, B, C = basis_columns(
+                np.ascontiguousarray(z),
+                n.reshape(1),
+                cone.height,
+                cone.radius,
+                not law.is_rm0,
+                *(float(c.item()) for c in coef),
+            )
+            return A[0], B[0], C[0]
+    return cone_index_basis(z, n=n, phic=0.0, law=law, cone=cone)
 
 
 def _bounds_arrays(bounds: Bounds, n: np.ndarray, ratio: float | None = None):
@@ -455,6 +484,73 @@ def identify_scans(
     return sse, lo, hi
 
 
+def scan_extents(sse: np.ndarray, thr: float) -> tuple[np.ndarray, np.ndarray]:
+    """First and last index v of the scans ``sse`` (3, Nn, V) with SSE <= thr at some n.
+
+    -1 where no value is within thr, -2 for a variable fixed at every n (NaN rows).
+    """
+    jlo = np.full(3, -1, dtype=np.int64)
+    jhi = np.full(3, -1, dtype=np.int64)
+    for idx in range(3):
+        if np.all(np.isnan(sse[idx])):
+            jlo[idx] = jhi[idx] = -2
+            continue
+        ok = np.flatnonzero((sse[idx] <= thr).any(axis=0))
+        if ok.size:
+            jlo[idx], jhi[idx] = ok[0], ok[-1]
+    return jlo, jhi
+
+
+def identify_extents(
+    z: np.ndarray,
+    y: np.ndarray,
+    n_loc: np.ndarray,
+    phic_deg: float,
+    Kc: float | None,
+    bounds: Bounds,
+    cone: Cone,
+    law: PressureLaw,
+    vals: np.ndarray,
+    thr: float,
+    ratio: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`scan_extents` of :func:`identify_scans` (same arguments, and thr [kPa^2]).
+
+    Compiled (:func:`terracone.inverse.kernels.identify_extent`, which
+    bisects each n's convex scan instead of evaluating all of it) for fully
+    mobilised shear when numba is enabled; else from the full numpy scans.
+
+    Returns
+    -------
+    jlo, jhi : (3,) int ndarray
+        Per kc, kphi, cc: first and last index of ``vals`` within thr (-1:
+        none; -2: the variable is fixed at every n).
+    lo, hi : (Nn, 3) ndarray
+        The box of (kc, kphi, cc) [SI] at each n.
+    """
+    coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
+    if Kc is None and enabled() and all(c.size == 1 for c in coef):
+        from .kernels import identify_extent
+        from .many import bounds_params
+
+        s = 1.0 + math.tan(math.radians(phic_deg)) / math.tan(cone.half_angle)
+        return identify_extent(
+            np.ascontiguousarray(z, dtype=float),
+            np.ascontiguousarray(y, dtype=float),
+            np.ascontiguousarray(n_loc, dtype=float),
+            s,
+            bounds_params(bounds, ratio),
+            np.ascontiguousarray(vals, dtype=float),
+            float(thr),
+            cone.height,
+            cone.radius,
+            not law.is_rm0,
+            *(float(c.item()) for c in coef),
+        )
+    sse, lo, hi = identify_scans(z, y, n_loc, phic_deg, Kc, bounds, cone, law, vals, ratio)
+    return (*scan_extents(sse, thr), lo, hi)
+
+
 def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> None:
     """Approximate 95% profile-likelihood intervals and the undetermined list.
 
@@ -494,26 +590,22 @@ def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> No
         np.concatenate(
             [
                 np.linspace(n_lo, n_hi, 17),
-                np.clip(sol.n + np.linspace(-0.1, 0.1, 9), n_lo, n_hi),
+                np.clip(sol.n + grid(-0.1, 0.1, 9), n_lo, n_hi),
             ]
         )
     )
-    vals = np.linspace(0.0, 1.0, 61)  # fractions of each n's range
-    sse_all, lo, hi = identify_scans(
-        z, y, n_loc, sol.phic_deg, sol.Kc, bounds, cone, law, vals, ratio
+    vals = grid(0.0, 1.0, 61)  # fractions of each n's range
+    jlo, jhi, lo, hi = identify_extents(
+        z, y, n_loc, sol.phic_deg, sol.Kc, bounds, cone, law, vals, thr, ratio
     )
     lo_at, hi_at = _bounds_arrays(bounds, np.array(sol.n), ratio)
     names = ("kc", "kphi", "cc")
     at_sol = (sol.kc, sol.kphi, sol.cc)
     for idx, name in enumerate(names):
-        lo_s, hi_s = lo[..., idx], hi[..., idx]
-        if np.all(lo_s == hi_s):
+        if jlo[idx] == -2:  # fixed at every n
             continue
-        sse_v = sse_all[idx]  # (Nn, V)
-        inside = sse_v <= thr  # (Nn, V)
-        frac_ok = inside.any(axis=0)
-        if frac_ok.any():
-            f_lo, f_hi = vals[frac_ok].min(), vals[frac_ok].max()
+        if jlo[idx] >= 0:
+            f_lo, f_hi = vals[jlo[idx]], vals[jhi[idx]]
             # express in SI at the solution's n
             lo_n, hi_n = float(lo_at[idx]), float(hi_at[idx])
             a = min(lo_n + max(f_lo - 1 / 60, 0) * (hi_n - lo_n), at_sol[idx])

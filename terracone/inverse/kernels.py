@@ -39,9 +39,12 @@ __all__ = [
     "box_lsq3_flat",
     "cells_kernel",
     "golden_refine",
+    "parabola_vertex",
     "zoom_refine",
     "kbounds",
+    "box_grid",
     "identify_scan",
+    "identify_extent",
     "basis_columns",
     "fit_stats",
 ]
@@ -111,12 +114,18 @@ def depth_logs(z: float, H: float, R: float, r_t: float) -> tuple[float, float, 
 @njit(error_model="numpy")
 def basis_point_log(z, n, lu1, l1b, l1s, H, R, rm1, r_t, alpha, beta) -> tuple[float, float, float]:
     """:func:`basis_point` with the logarithms of :func:`depth_logs` given."""
-    t = R / H
     u1 = z + H  # depth of the tip
     if not u1 > 0.0:
         return 0.0, 0.0, 0.0
+    return basis_point_p1(z, n, math.exp((n + 1.0) * lu1), l1b, l1s, H, R, rm1, r_t, alpha, beta)
+
+
+@njit(error_model="numpy")
+def basis_point_p1(z, n, p1, l1b, l1s, H, R, rm1, r_t, alpha, beta) -> tuple[float, float, float]:
+    """:func:`basis_point_log` with p1 = (z + H)^(n + 1) given (u1 > 0)."""
+    t = R / H
+    u1 = z + H  # depth of the tip
     L = H if z >= 0.0 else u1  # embedded length along the axis
-    p1 = math.exp((n + 1.0) * lu1)  # u1^(n+1)
     p2 = p1 * u1
     eb = min(max(L / u1, 0.0), 1.0)
     g0b, g1b, _ = tail_moments_log(eb, l1b, n)
@@ -416,17 +425,37 @@ def cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, r_t, alpha, beta):
     ws = np.empty((18, 3))
     use_ratio = not math.isnan(ratio)
     lg = np.empty((3, Z))
+    ratio_q = np.empty(Z)
+    p1q = np.empty(Z)
     for p in range(P):
         profile_logs(zz[p], H, R, r_t, lg)
         yty = 0.0
         for q in range(Z):
             yty += w[p, q] * yy[p, q] * yy[p, q]
         ps = p if sv.shape[0] > 1 else 0
+        # a uniform grid over n (the global grid): u1^(n+1) by recurrence, one exp per
+        # depth instead of one per cell (k ulp after k steps)
+        dn = (n[p, K - 1] - n[p, 0]) / (K - 1) if K > 1 else 0.0
+        uniform = K > 2
+        for k in range(K):
+            if abs(n[p, k] - (n[p, 0] + k * dn)) > 1e-15 * (1.0 + abs(n[p, k])):
+                uniform = False
+        if uniform:
+            for q in range(Z):
+                ratio_q[q] = math.exp(dn * lg[0, q])
+                p1q[q] = math.exp((n[p, 0] + 1.0) * lg[0, q])
         for k in range(K):
             for q in range(Z):
-                a, bb, c = basis_point_log(
-                    zz[p, q], n[p, k], lg[0, q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
-                )
+                if uniform and zz[p, q] + H > 0.0:
+                    if k > 0:
+                        p1q[q] *= ratio_q[q]
+                    a, bb, c = basis_point_p1(
+                        zz[p, q], n[p, k], p1q[q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
+                    )
+                else:
+                    a, bb, c = basis_point_log(
+                        zz[p, q], n[p, k], lg[0, q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
+                    )
                 if use_ratio:
                     A[q], B[q] = 0.0, ratio * a + bb
                 else:
@@ -488,6 +517,18 @@ def kbounds(n, bp, lo, hi) -> None:
         kc_hi = 0.0
     lo[0], lo[1], lo[2] = kc_lo, kp_lo, bp[4]
     hi[0], hi[1], hi[2] = kc_hi, kp_hi, bp[5]
+
+
+@njit(error_model="numpy")
+def box_grid(n, bp):
+    """:func:`kbounds` at every n of (P, K): lo, hi (P, K, 3)."""
+    P, K = n.shape
+    lo = np.empty((P, K, 3))
+    hi = np.empty((P, K, 3))
+    for p in range(P):
+        for k in range(K):
+            kbounds(n[p, k], bp, lo[p, k], hi[p, k])
+    return lo, hi
 
 
 @njit(error_model="numpy")
@@ -613,6 +654,142 @@ def identify_scan(z, y, n_loc, s, bp, vals, H, R, rm1, r_t, alpha, beta):
 
 
 @njit(error_model="numpy")
+def pinned_sse(yty, lo, hi, idx, val, x, ws, lo2, hi2) -> float:
+    """SSE of the box LSQ scaled in ws with variable idx pinned at lo + val (hi - lo)."""
+    for j in range(3):
+        lo2[j], hi2[j] = lo[j], hi[j]
+    pin = lo[idx] + val * (hi[idx] - lo[idx])
+    lo2[idx], hi2[idx] = pin, pin
+    return box_faces_from(yty, lo2, hi2, x, ws, last_face(ws))
+
+
+@njit(error_model="numpy")
+def first_true(yty, lo, hi, idx, vals, thr, a, b, x, ws, lo2, hi2) -> int:
+    """Smallest j in [a, b] with SSE(vals[j]) <= thr, the SSE non-increasing on [a, b]; or -1."""
+    if a > b or not pinned_sse(yty, lo, hi, idx, vals[b], x, ws, lo2, hi2) <= thr:
+        return -1
+    while a < b:  # invariant: b is inside
+        m = (a + b) // 2
+        if pinned_sse(yty, lo, hi, idx, vals[m], x, ws, lo2, hi2) <= thr:
+            b = m
+        else:
+            a = m + 1
+    return b
+
+
+@njit(error_model="numpy")
+def last_true(yty, lo, hi, idx, vals, thr, a, b, x, ws, lo2, hi2) -> int:
+    """Largest j in [a, b] with SSE(vals[j]) <= thr, the SSE non-decreasing on [a, b]; or -1."""
+    if a > b or not pinned_sse(yty, lo, hi, idx, vals[a], x, ws, lo2, hi2) <= thr:
+        return -1
+    while a < b:  # invariant: a is inside
+        m = (a + b + 1) // 2
+        if pinned_sse(yty, lo, hi, idx, vals[m], x, ws, lo2, hi2) <= thr:
+            a = m
+        else:
+            b = m - 1
+    return a
+
+
+@njit(error_model="numpy")
+def identify_extent(z, y, n_loc, s, bp, vals, thr, H, R, rm1, r_t, alpha, beta):
+    """The extent of :func:`identify_scan`'s sets SSE <= thr, without the full scan.
+
+    For each of kc, kphi, cc: the first and last index j of ``vals``
+    (increasing) such that SSE(n, vals[j]) <= thr at some n of n_loc, or -1
+    (-2 for a variable fixed at every n).  At fixed n the SSE with one
+    variable pinned is a convex function of the pinned value (the minimum of
+    a convex quadratic over the others' box), smallest at the unpinned
+    optimum: it is non-increasing up to it and non-decreasing after, so
+    bisection finds each row's ends, and only rows that can widen the
+    extent found so far are searched.  Returns (jlo (3,), jhi (3,), lo (N, 3),
+    hi (N, 3)); equal to the extent of the full scan (tested).
+    """
+    Z = z.shape[0]
+    N = n_loc.shape[0]
+    V = vals.shape[0]
+    w = np.ones(Z)
+    lg = np.empty((3, Z))
+    profile_logs(z, H, R, r_t, lg)
+    A = np.empty(Z)
+    B = np.empty(Z)
+    C = np.empty(Z)
+    G = np.empty((3, 3))
+    g = np.empty(3)
+    lo = np.empty((N, 3))
+    hi = np.empty((N, 3))
+    lo2 = np.empty(3)
+    hi2 = np.empty(3)
+    x = np.empty(3)
+    ws = np.empty((18, 3))
+    jlo = np.full(3, V, dtype=np.int64)
+    jhi = np.full(3, -1, dtype=np.int64)
+    pinned = np.ones(3, dtype=np.bool_)
+    for i in range(N):
+        kbounds(n_loc[i], bp, lo[i], hi[i])
+        for j in range(3):
+            if lo[i, j] != hi[i, j]:
+                pinned[j] = False
+    for i in range(N):
+        yty = normal_at(
+            z, y, w, lg, n_loc[i], s, bp[10], H, R, rm1, r_t, alpha, beta, A, B, C, G, g
+        )
+        box_scale(G, g, ws)
+        # the unpinned optimum at this n: the smallest SSE of every pinned scan
+        smin = box_faces_from(yty, lo[i], hi[i], x, ws, -1)
+        if smin > thr + 1e-9 * max(thr, 1e-300):  # no pinned value can come within thr
+            continue
+        xs0, xs1, xs2 = x[0], x[1], x[2]
+        for idx in range(3):
+            if pinned[idx] or (jlo[idx] == 0 and jhi[idx] == V - 1):
+                continue
+            width = hi[i, idx] - lo[i, idx]
+            xv = xs0 if idx == 0 else (xs1 if idx == 1 else xs2)
+            vs = (xv - lo[i, idx]) / width if width > 0 else 0.0
+            k = 0  # the last index with vals[k] <= vs: the SSE decreases up to k, rises after
+            while k + 1 < V and vals[k + 1] <= vs:
+                k += 1
+            in_l = pinned_sse(yty, lo[i], hi[i], idx, vals[k], x, ws, lo2, hi2) <= thr
+            in_r = (
+                k + 1 < V
+                and pinned_sse(yty, lo[i], hi[i], idx, vals[k + 1], x, ws, lo2, hi2) <= thr
+            )
+            if in_l:  # the row's set reaches down from k
+                a = first_true(
+                    yty, lo[i], hi[i], idx, vals, thr, 0, min(k, jlo[idx] - 1), x, ws, lo2, hi2
+                )
+                if a >= 0:
+                    jlo[idx] = a
+                if not in_r:
+                    jhi[idx] = max(jhi[idx], k)
+            if in_r:  # the row's set reaches up from k + 1
+                b = last_true(
+                    yty,
+                    lo[i],
+                    hi[i],
+                    idx,
+                    vals,
+                    thr,
+                    max(k + 1, jhi[idx] + 1),
+                    V - 1,
+                    x,
+                    ws,
+                    lo2,
+                    hi2,
+                )
+                if b >= 0:
+                    jhi[idx] = b
+                if not in_l:
+                    jlo[idx] = min(jlo[idx], k + 1)
+    for idx in range(3):
+        if pinned[idx]:
+            jlo[idx], jhi[idx] = -2, -2
+        elif jhi[idx] < 0:
+            jlo[idx] = -1
+    return jlo, jhi, lo, hi
+
+
+@njit(error_model="numpy")
 def zoom_refine(zz, yy, w, a, b, s, bp, K, steps, H, R, rm1, r_t, alpha, beta):
     """Zooming-grid minimisation of the SSE over n in [a_p, b_p] at scale s_p, per profile.
 
@@ -678,11 +855,35 @@ def zoom_refine(zz, yy, w, a, b, s, bp, K, steps, H, R, rm1, r_t, alpha, beta):
 
 
 @njit(error_model="numpy")
+def parabola_vertex(xl, fl, xm, fm, xr, fr) -> float:
+    """Vertex of the parabola through (xl, fl), (xm, fm), (xr, fr), xl < xm < xr, or NaN.
+
+    NaN unless fm <= min(fl, fr) (a bracket), the parabola opens upwards and
+    the vertex lies strictly between xl and xr.  Numpy twin: many.py's
+    ``parabola_vertices``.
+    """
+    if not (fm <= fl and fm <= fr) or not (math.isfinite(fl) and math.isfinite(fr)):
+        return math.nan
+    p = (xm - xl) * (fm - fr)
+    q = (xm - xr) * (fm - fl)
+    den = p - q
+    if not den < 0.0:  # opens upwards: (xm - xl)(fm - fr) < (xm - xr)(fm - fl)
+        return math.nan
+    x = xm - 0.5 * ((xm - xl) * p - (xm - xr) * q) / den
+    if not (xl < x < xr):
+        return math.nan
+    return x
+
+
+@njit(error_model="numpy")
 def golden_refine(zz, yy, w, a, b, s, bp, iters, H, R, rm1, r_t, alpha, beta):
     """Golden-section minimisation of the SSE over n in [a_p, b_p] at scale s_p, per profile.
 
     The compiled twin of the golden branch of many.py's ``_minimise_1d``
-    (the same points and comparisons).  Returns (n, SSE, evaluations).
+    (the same points and comparisons): ``iters`` golden steps, then one
+    parabolic step through the best point and its bracketing neighbours
+    (:func:`parabola_vertex`), kept if it lowers the SSE.  Returns (n, SSE,
+    evaluations).
     """
     P, Z = zz.shape
     gr = (math.sqrt(5.0) - 1.0) / 2.0
@@ -694,32 +895,43 @@ def golden_refine(zz, yy, w, a, b, s, bp, iters, H, R, rm1, r_t, alpha, beta):
     ws = np.empty((24, 3))
     xp = np.empty(3)
     lg = np.empty((3, Z))
+    used = 0
     for p in range(P):
         z, y, wp, sp = zz[p], yy[p], w[p], s[p]
         profile_logs(z, H, R, r_t, lg)
         lo, hi = a[p], b[p]
+        flo, fhi = math.inf, math.inf  # SSE at the bracket's ends, once evaluated
         c = hi - gr * (hi - lo)
         d = lo + gr * (hi - lo)
         fc = cell_sse(z, y, wp, lg, c, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
         fd = cell_sse(z, y, wp, lg, d, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
         for _ in range(iters):
             if fc < fd:
-                hi = d
+                hi, fhi = d, fd
                 d = c
                 c = hi - gr * (hi - lo)
                 fd = fc
                 fc = cell_sse(z, y, wp, lg, c, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
             else:
-                lo = c
+                lo, flo = c, fc
                 c = d
                 d = lo + gr * (hi - lo)
                 fc = fd
                 fd = cell_sse(z, y, wp, lg, d, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
         if fc < fd:
-            bx[p], bf[p] = c, fc
+            x, fx = c, fc
+            v = parabola_vertex(lo, flo, c, fc, d, fd)
         else:
-            bx[p], bf[p] = d, fd
-    return bx, bf, (iters + 2) * P
+            x, fx = d, fd
+            v = parabola_vertex(c, fc, d, fd, hi, fhi)
+        used += iters + 2
+        if not math.isnan(v):
+            fv = cell_sse(z, y, wp, lg, v, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
+            used += 1
+            if fv < fx:
+                x, fx = v, fv
+        bx[p], bf[p] = x, fx
+    return bx, bf, used
 
 
 @njit(error_model="numpy")

@@ -27,6 +27,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -38,7 +39,14 @@ from ..plate import PressureLaw
 from .bounds import Bounds
 from .boxlsq import box_lsq3
 
-__all__ = ["ManySolution", "solve_exact_many", "bounds_params", "first_min"]
+__all__ = [
+    "ManySolution",
+    "solve_exact_many",
+    "bounds_params",
+    "first_min",
+    "parabola_vertices",
+    "grid",
+]
 
 _GOLD = (math.sqrt(5.0) - 1.0) / 2.0
 
@@ -95,8 +103,12 @@ def _minimise_1d(f, a: np.ndarray, b: np.ndarray, iters: int):
     c = b - _GOLD * (b - a)
     d = a + _GOLD * (b - a)
     fc, fd = f(c[:, None])[:, 0], f(d[:, None])[:, 0]
+    fa = np.full(P, np.inf)  # SSE at the bracket's ends, once evaluated
+    fb = np.full(P, np.inf)
     for _ in range(iters):
         left = fc < fd
+        fb = np.where(left, fd, fb)
+        fa = np.where(left, fa, fc)
         b = np.where(left, d, b)
         a = np.where(left, a, c)
         d_new = np.where(left, c, a + _GOLD * (b - a))
@@ -105,8 +117,40 @@ def _minimise_1d(f, a: np.ndarray, b: np.ndarray, iters: int):
         fnew = f(new_pt[:, None])[:, 0]
         fc, fd = np.where(left, fnew, fd), np.where(left, fc, fnew)
         c, d = c_new, d_new
-    x = np.where(fc < fd, c, d)
-    return x, np.minimum(fc, fd), (iters + 2) * P
+    left = fc < fd
+    x = np.where(left, c, d)
+    fx = np.where(left, fc, fd)
+    # one parabolic step through the best point and its bracketing neighbours
+    v = np.where(
+        left,
+        parabola_vertices(a, fa, c, fc, d, fd),
+        parabola_vertices(c, fc, d, fd, b, fb),
+    )
+    has = ~np.isnan(v)
+    used = (iters + 2) * P
+    if has.any():
+        fv = f(np.where(has, v, x)[:, None])[:, 0]
+        used += int(has.sum())
+        better = has & (fv < fx)
+        x, fx = np.where(better, v, x), np.where(better, fv, fx)
+    return x, fx, used
+
+
+def parabola_vertices(xl, fl, xm, fm, xr, fr) -> np.ndarray:
+    """Vertex of the parabola through (xl, fl), (xm, fm), (xr, fr) per element, xl < xm < xr, or NaN.
+
+    NaN unless fm <= min(fl, fr), the parabola opens upwards and the vertex
+    lies strictly between xl and xr (the numpy twin of
+    :func:`terracone.inverse.kernels.parabola_vertex`).
+    """
+    with np.errstate(all="ignore"):
+        p = (xm - xl) * (fm - fr)
+        q = (xm - xr) * (fm - fl)
+        den = p - q
+        x = xm - 0.5 * ((xm - xl) * p - (xm - xr) * q) / den
+        ok = (fm <= fl) & (fm <= fr) & np.isfinite(fl) & np.isfinite(fr) & (den < 0.0)
+        ok &= (xl < x) & (x < xr)
+    return np.where(ok, x, np.nan)
 
 
 class _Kernels:
@@ -119,8 +163,10 @@ class _Kernels:
         self.geom = (cone.height, cone.radius, not law.is_rm0, *coef)
         self.bp = bounds_params(bounds, ratio)
 
-    def __call__(self, zz, yy, w, n, sv, lo, hi, ratio):
-        return self.k.cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, *self.geom)
+    def __call__(self, zz, yy, w, n, sv):
+        n = np.ascontiguousarray(n, dtype=float)
+        lo, hi = self.k.box_grid(n, self.bp)
+        return self.k.cells_kernel(zz, yy, w, n, sv, lo, hi, self.bp[10], *self.geom)
 
     def zoom(self, zz, yy, w, a, b, s):
         return self.k.zoom_refine(zz, yy, w, a, b, s, self.bp, 17, 8, *self.geom)
@@ -139,6 +185,15 @@ def _cells_kernel(
     """
     if not enabled():
         return None
+    try:
+        return _kernels_for(law, cone, bounds, ratio)
+    except TypeError:  # unhashable (array coefficients): not cached
+        return _kernels_for.__wrapped__(law, cone, bounds, ratio)
+
+
+@functools.lru_cache(maxsize=32)
+def _kernels_for(law: PressureLaw, cone: Cone, bounds: Bounds, ratio: float | None):
+    """_Kernels of a law, cone, box (built once per combination: predict calls it per profile)."""
     coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
     if any(c.size != 1 for c in coef):
         return None
@@ -167,6 +222,19 @@ def bounds_params(bounds: Bounds, ratio: float | None) -> np.ndarray:
         ],
         dtype=float,
     )
+
+
+@functools.lru_cache(maxsize=64)
+def _grid_cached(lo: float, hi: float, k: int) -> np.ndarray:
+    g = np.array([lo]) if lo == hi else np.linspace(lo, hi, k)
+    g.flags.writeable = False
+    return g
+
+
+def grid(lo: float, hi: float, k: int) -> np.ndarray:
+    """``linspace(lo, hi, k)`` (one point when lo == hi), read-only and cached: per-profile
+    fits ask for the same few grids again and again."""
+    return _grid_cached(float(lo), float(hi), int(k))
 
 
 def first_min(v: np.ndarray, tol: np.ndarray | float) -> np.ndarray:
@@ -219,7 +287,12 @@ def solve_exact_many(
     n_grid : int
         Points of the global grid over n.
     refine_iter : int
-        Golden-section iterations of the refinement of n.
+        Golden-section iterations of the refinement of n (the bracket of two
+        grid steps shrinks to 4e-10 in 40), then one parabolic step through
+        the best point and its neighbours.  Fewer iterations leave the
+        noise-free optimum visibly short where a bound becomes active at n*
+        (kc = 0 or cc = 0): the SSE over n has a kink in curvature there,
+        which the parabola does not model.
     noise_floor : float
         Relative noise floor for the n interval (see :mod:`exact`).
     kc_over_kphi : float, optional
@@ -256,20 +329,7 @@ def solve_exact_many(
     def cells(n: np.ndarray, sv: np.ndarray | None = None):
         """Primed x and SSE for n of shape (P, K) and each s of ``sv`` ((P, F) or the grid)."""
         if kern is not None:
-            sv = svals[None, :] if sv is None else sv
-            kc_lo, kc_hi, kp_lo, kp_hi = _kbounds(n)
-            lo = np.stack(np.broadcast_arrays(kc_lo, kp_lo, bounds.cc[0]), axis=-1)
-            hi = np.stack(np.broadcast_arrays(kc_hi, kp_hi, bounds.cc[1]), axis=-1)
-            return kern(
-                zz,
-                yy,
-                w,
-                np.ascontiguousarray(n, float),
-                np.ascontiguousarray(sv, float),
-                lo,
-                hi,
-                math.nan if ratio is None else float(ratio),
-            )
+            return kern(zz, yy, w, n, np.ascontiguousarray(svals[None, :] if sv is None else sv))
         A, B, C = cone_index_basis(zz[:, None, :], n=n[..., None], phic=0.0, law=law, cone=cone)
         if ratio is not None:
             A, B = np.zeros_like(A), ratio * A + B
@@ -312,7 +372,7 @@ def solve_exact_many(
         sse = np.einsum("pkfz,pz->pkf", r * r, w)
         return xp, sse
 
-    ns = np.linspace(*bounds.n, n_grid) if bounds.n[0] != bounds.n[1] else np.array([bounds.n[0]])
+    ns = grid(bounds.n[0], bounds.n[1], n_grid)
     N = np.broadcast_to(ns, (P, ns.size))
     xg, sseg = cells(N)  # (P, Nn, F)
     nfev += sseg.size
@@ -330,11 +390,10 @@ def solve_exact_many(
             return cells(nv, svals[phi_idx][:, None])[1][:, :, 0]
 
         a_n, b_n = np.clip(n_best - step, *bounds.n), np.clip(n_best + step, *bounds.n)
-        if kern is not None:  # the two branches of _minimise_1d, compiled
-            if P < 32:
-                n_ref, f_ref, used = kern.zoom(zz, yy, w, a_n, b_n, svals[phi_idx])
-            else:
-                n_ref, f_ref, used = kern.golden(zz, yy, w, a_n, b_n, svals[phi_idx], refine_iter)
+        if kern is not None:
+            # compiled: golden section at any P (the zooming grid of _minimise_1d only
+            # saves numpy calls, at about six times the evaluations)
+            n_ref, f_ref, used = kern.golden(zz, yy, w, a_n, b_n, svals[phi_idx], refine_iter)
         else:
             n_ref, f_ref, used = _minimise_1d(f, a_n, b_n, refine_iter)
         nfev += used
