@@ -32,8 +32,9 @@ import tempfile
 import time
 from pathlib import Path
 
-# run as a script, benchmarks/ heads sys.path and its coverage.py would shadow the
-# coverage package that numba imports (numba would then be silently off)
+# run as a script, benchmarks/ heads sys.path: keep it off, so no script here can shadow an
+# installed package (a benchmark named coverage.py once hid the one numba probes, silently
+# turning the compiled kernels off)
 _HERE = Path(__file__).resolve().parent
 sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != _HERE]
 

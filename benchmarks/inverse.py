@@ -45,8 +45,9 @@ import warnings
 from pathlib import Path
 
 _HERE = Path(__file__).resolve().parent
-# run as a script, benchmarks/ heads sys.path and its coverage.py would shadow the
-# coverage package that numba imports (numba would then be silently off)
+# run as a script, benchmarks/ heads sys.path: keep it off, so no script here can shadow an
+# installed package (a benchmark named coverage.py once hid the one numba probes, silently
+# turning the compiled kernels off)
 sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != _HERE]
 
 import numpy as np  # noqa: E402

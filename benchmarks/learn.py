@@ -31,9 +31,9 @@ from terracone import CIProfile, PlateTest, cone_index, plate_pressure
 from terracone.inverse import Bounds
 from terracone.inverse.learn import learn
 
-# benchmarks/coverage.py (another benchmark) would shadow the coverage package that numba
-# probes when it is imported (lazily, on the first kernel call), which would disable the
-# compiled kernels: drop this folder from the path
+# run as a script, benchmarks/ heads sys.path: keep it off, so no script here can shadow an
+# installed package (a benchmark named coverage.py once hid the one numba probes, silently
+# turning the compiled kernels off)
 sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
 
 Z = np.round(np.arange(0.0, 0.3001, 0.01), 10)

@@ -12,8 +12,8 @@ snippet reports for its first call (imports excluded), so that the compile
 (cold) or cache-load (warm) cost is visible apart from the work itself.
 
 Used by benchmarks/forward.py, inverse.py and batch.py (loaded by path:
-``benchmarks/`` must not be on sys.path, its coverage.py would shadow the
-coverage package that numba imports).
+``benchmarks/`` is kept off sys.path, so that no script here can shadow an
+installed package).
 """
 
 from __future__ import annotations
