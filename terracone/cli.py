@@ -382,6 +382,23 @@ def _read_profiles(
     )
 
 
+def _fit_items(ci_file, cone, fmt, depth_ref, depth_range, units, file_units, depth_unit, ci_unit):
+    """CI profiles of a fit command, read and cut to --depth-range (bad ones as InputError)."""
+    return _windowed(
+        _read_profiles(
+            ci_file,
+            cone,
+            fmt,
+            depth_ref,
+            units=file_units,
+            depth_unit=depth_unit,
+            ci_unit=ci_unit,
+        ),
+        _depth_range(depth_range, units),
+        units,
+    )
+
+
 def _load_calibration(calibration: str | None, terrain: str | None, library: str | None):
     from .inverse.learn import Calibration
 
@@ -519,12 +536,8 @@ def predict_cmd(
         raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
     cal = _load_calibration(calibration, terrain, library)
     radii = _lengths_si(plates, units, "--plates")
-    items = _windowed(
-        _read_profiles(
-            ci_file, cone, fmt, depth_ref, units=file_units, depth_unit=depth_unit, ci_unit=ci_unit
-        ),
-        _depth_range(depth_range, units),
-        units,
+    items = _fit_items(
+        ci_file, cone, fmt, depth_ref, depth_range, units, file_units, depth_unit, ci_unit
     )
     run = predict_profiles(
         items,
@@ -1364,6 +1377,27 @@ def _sites_table(sites: list[dict[str, Any]], units: str) -> str:
     return text
 
 
+def _sites_doc(ci_file, by, L, cal, model, b, depth_range, target_cv, bootstrap, seed, units):
+    """The head of the ``terracone sites --json`` document (command, input, settings)."""
+    return {
+        "terracone": __version__,
+        "command": "sites",
+        "input": str(ci_file),
+        "settings": {
+            "by": by,
+            "radius": None if L is None else float(u.length_from_si(L, units)),
+            "model": cal.model if cal else model,
+            "calibration": cal.terrain if cal else None,
+            "bounds": b.as_dict(units),
+            "depth_range": depth_range,
+            "target_cv": target_cv,
+            "bootstrap": bootstrap if bootstrap is not None else (0 if cal else 40),
+            "seed": seed,
+            "units": units,
+        },
+    }
+
+
 @cli.command("sites")
 @click.argument("ci_file", type=click.Path(dir_okay=False))
 @_fit_options
@@ -1450,18 +1484,8 @@ def sites_cmd(
         raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
     cal = _load_calibration(calibration, terrain, library)
     radii = _lengths_si(plates, units, "--plates") or [0.0375, 0.05]
-    items = _windowed(
-        _read_profiles(
-            ci_file,
-            cone,
-            fmt,
-            depth_ref,
-            units=file_units,
-            depth_unit=depth_unit,
-            ci_unit=ci_unit,
-        ),
-        _depth_range(depth_range, units),
-        units,
+    items = _fit_items(
+        ci_file, cone, fmt, depth_ref, depth_range, units, file_units, depth_unit, ci_unit
     )
     profiles = [it for it in items if not isinstance(it, InputError)]
     bad = [it for it in items if isinstance(it, InputError)]
@@ -1487,26 +1511,10 @@ def sites_cmd(
         bootstrap=bootstrap,
         seed=seed,
     )
-    doc = {
-        "terracone": __version__,
-        "command": "sites",
-        "input": str(ci_file),
-        "settings": {
-            "by": by,
-            "radius": None if L is None else float(u.length_from_si(L, units)),
-            "model": cal.model if cal else model,
-            "calibration": cal.terrain if cal else None,
-            "bounds": b.as_dict(units),
-            "depth_range": depth_range,
-            "target_cv": target_cv,
-            "bootstrap": bootstrap if bootstrap is not None else (0 if cal else 40),
-            "seed": seed,
-            "units": units,
-        },
-        "sites": [r.as_dict(units) for r in results],
-        "unassigned": [{"id": i, "reason": why} for i, why in grouping.unassigned],
-        "errors": [str(e) for e in bad],
-    }
+    doc = _sites_doc(ci_file, by, L, cal, model, b, depth_range, target_cv, bootstrap, seed, units)
+    doc["sites"] = [r.as_dict(units) for r in results]
+    doc["unassigned"] = [{"id": i, "reason": why} for i, why in grouping.unassigned]
+    doc["errors"] = [str(e) for e in bad]
     if out:
         _emit_json(doc, out)
     if as_json:
@@ -1623,11 +1631,7 @@ def design_cmd(
         cands = parse_candidates(candidates, units)
     except ValueError as exc:
         raise click.BadParameter(str(exc)) from None
-    items = _windowed(
-        _read_profiles(ci_file, cone, fmt, depth_ref, depth_unit=depth_unit, ci_unit=ci_unit),
-        _depth_range(depth_range, units),
-        units,
-    )
+    items = _fit_items(ci_file, cone, fmt, depth_ref, depth_range, units, None, depth_unit, ci_unit)
     designs = []
     for it in items:
         if isinstance(it, InputError):
