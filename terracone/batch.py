@@ -2374,16 +2374,8 @@ def run_batch(
     files = _input_files(input)
     fingerprint = _fingerprint(input, files)
     original_files = files
-    run_key = hashlib.sha256(
-        json.dumps({"settings": settings, "input": fingerprint}, sort_keys=True).encode()
-    ).hexdigest()[:16]
-    run = {
-        "terracone_batch": 1,
-        "terracone_version": __version__,
-        "run_key": run_key,
-        "settings": settings,
-        "input": fingerprint,
-    }
+    run = _run_record(settings, fingerprint)
+    run_key = run["run_key"]
     out = Path(out_dir)
     in_dir = Path(input) if Path(input).is_dir() else None
     resuming = _prepare_out_dir(out, resume, run, in_dir)
@@ -2397,10 +2389,7 @@ def run_batch(
         files = [(_sc900_to_parquet(files[0][0], out, default_cone, **reader), "parquet")]
     summary = BatchSummary(out_dir=str(out), scheduler=scheduler)
     with _lock(out):
-        for e in out.iterdir():  # temporary files of an interrupted write
-            if e.name != "_lock" and _is_leftover(e):
-                with contextlib.suppress(FileNotFoundError):
-                    e.unlink()
+        _remove_leftovers(out)
         t0 = time.perf_counter()
         plan = _scan(files)
         summary.scan_s = time.perf_counter() - t0
@@ -2440,14 +2429,41 @@ def run_batch(
         summary.wall_s = time.perf_counter() - t_start
         computed = sum(expected[i] for i in range(n_chunks) if i not in done)
         summary.profiles_per_s = computed / summary.wall_s if summary.wall_s > 0 else 0.0
-        doc = summary.as_dict()
-        doc["finished"] = datetime.now(UTC).isoformat(timespec="seconds")
-        doc["run_key"] = run_key
-        doc["units"] = units  # read by terracone report
-        doc["settings"] = settings
-        doc["input"] = fingerprint["path"]
-        _write_json(out, "_summary.json", doc)
+        _write_summary(out, summary, run, units)
     return summary
+
+
+def _run_record(settings: dict[str, Any], fingerprint: dict[str, Any]) -> dict[str, Any]:
+    """The run's identity (``_run.json``): settings and input, keyed by their hash."""
+    run_key = hashlib.sha256(
+        json.dumps({"settings": settings, "input": fingerprint}, sort_keys=True).encode()
+    ).hexdigest()[:16]
+    return {
+        "terracone_batch": 1,
+        "terracone_version": __version__,
+        "run_key": run_key,
+        "settings": settings,
+        "input": fingerprint,
+    }
+
+
+def _remove_leftovers(out: Path) -> None:
+    """Remove the temporary files of an interrupted write."""
+    for e in out.iterdir():
+        if e.name != "_lock" and _is_leftover(e):
+            with contextlib.suppress(FileNotFoundError):
+                e.unlink()
+
+
+def _write_summary(out: Path, summary: BatchSummary, run: dict[str, Any], units: str) -> None:
+    """``_summary.json``: the summary, the run's key, units and settings (read by report)."""
+    doc = summary.as_dict()
+    doc["finished"] = datetime.now(UTC).isoformat(timespec="seconds")
+    doc["run_key"] = run["run_key"]
+    doc["units"] = units  # read by terracone report
+    doc["settings"] = run["settings"]
+    doc["input"] = run["input"]["path"]
+    _write_json(out, "_summary.json", doc)
 
 
 def _make_bar(
