@@ -207,7 +207,7 @@ def main() -> None:
     "--cone",
     default="asabe-large",
     show_default=True,
-    help=f"{' | '.join(CONES)} | DIAMETER<unit>:ANGLE",
+    help=f"{' | '.join(CONES)} | DIAMETER<unit>:ANGLE (20.27mm:30) | AREA<unit>2:ANGLE (5cm2:60)",
 )
 @click.option("--units", type=_UNITS, default="si", show_default=True)
 @click.option("--depths", required=True, help="Cone-base depths, comma separated [m or in].")
@@ -589,7 +589,12 @@ def predict_cmd(
 @click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm1", show_default=True)
 @click.option("--bounds", default=None, help="kc=LO:HI,... as for predict, in --units.")
 @click.option("--units", type=_UNITS, default="si", show_default=True)
-@click.option("--cone", default="asabe-large", show_default=True)
+@click.option(
+    "--cone",
+    default="asabe-large",
+    show_default=True,
+    help="Cone when the input does not name one (as predict --cone).",
+)
 @click.option("--format", "fmt", type=click.Choice(["csv", "sc900", "wide"]), default=None)
 @_shared(*_wide_options)
 @click.option("--depth-ref", type=click.Choice(["base", "tip"]), default="base", show_default=True)
