@@ -847,31 +847,19 @@ def _read_sc900(
         if readings.bad.any():
             k = int(np.flatnonzero(readings.bad)[0])
             raise fail(readings.reasons[k], labels[k])
-        values = readings.values
-        nonzero = np.flatnonzero(values != 0)
-        keep = int(nonzero[-1]) + 1 if nonzero.size else 0
-        dropped = nd - keep
-        notes = []
-        if dropped:
-            s = "" if dropped == 1 else "s"
-            notes.append(
-                f"dropped {dropped} trailing zero reading{s} (push stopped at {labels[keep]})"
-            )
         metadata["pressure_unit"] = ci_unit
         metadata["length_unit"] = depth_units[0] if len(depth_units) == 1 else ",".join(depth_units)
-        metadata["trailing_zeros_dropped"] = dropped
-        z = depths[:keep]
-        if depth_ref == "tip":
-            z = z - push_cone.height
-        profile = CIProfile(
-            id=pid,
-            depth=z,
-            ci=values[:keep] * factor,
-            cone=push_cone,
-            metadata=metadata,
-            source=path,
-            notes=notes,
-            rows=np.full(keep, push.line, dtype=int),
+        profile, keep, dropped = _push_profile(
+            pid,
+            depths,
+            readings.values * factor,
+            push_cone,
+            depth_ref,
+            metadata,
+            path,
+            push.line,
+            [],
+            lambda k: str(labels[k]),
         )
 
         def locate(k: int | None, column: str | None) -> tuple[int | None, str | None, str]:
@@ -1242,6 +1230,49 @@ def read_wide_ci(
     return _collect(list(enumerate(rows, 1)), build, on_error)
 
 
+def _push_profile(
+    pid: str,
+    depth: np.ndarray,
+    ci: np.ndarray,
+    cone: Cone,
+    depth_ref: str,
+    metadata: dict[str, Any],
+    source: str,
+    line: int,
+    notes: list[str],
+    stop_label: Callable[[int], str],
+) -> tuple[CIProfile, int, int]:
+    """One instrument push (a row of an SC900 export or a wide table) as a CIProfile.
+
+    ``depth`` [m] and ``ci`` [kPa] are the push's readings in depth order.  Trailing
+    zero readings mean the push stopped: they are dropped, noted (``stop_label(k)``
+    names where the k-th reading stood) and counted in
+    ``metadata["trailing_zeros_dropped"]``; with ``depth_ref="tip"`` the cone base is
+    H above the tip.  Returns the profile, the readings kept and the readings dropped.
+    """
+    nonzero = np.flatnonzero(ci != 0)
+    keep = int(nonzero[-1]) + 1 if nonzero.size else 0
+    dropped = ci.size - keep
+    if dropped:
+        s = "" if dropped == 1 else "s"
+        notes.append(
+            f"dropped {dropped} trailing zero reading{s} (push stopped at {stop_label(keep)})"
+        )
+    metadata["trailing_zeros_dropped"] = dropped
+    z = depth[:keep] - cone.height if depth_ref == "tip" else depth[:keep]
+    profile = CIProfile(
+        id=pid,
+        depth=z,
+        ci=ci[:keep],
+        cone=cone,
+        metadata=metadata,
+        source=source,
+        notes=notes,
+        rows=np.full(keep, line, dtype=int),
+    )
+    return profile, keep, dropped
+
+
 def _wide_push(
     source: str,
     pid: str,
@@ -1273,31 +1304,20 @@ def _wide_push(
     if readings.bad.any():
         k = int(np.flatnonzero(readings.bad)[0])
         raise fail(readings.reasons[k], head.depth_cols[a + k])
-    values = readings.values
-    nonzero = np.flatnonzero(values != 0)
-    keep = int(nonzero[-1]) + 1 if nonzero.size else 0
-    dropped = values.size - keep
     notes = []
     if a:
         notes.append(f"first reading at {head.depth_labels[a]} (the cells before it are empty)")
-    if dropped:
-        s = "" if dropped == 1 else "s"
-        notes.append(
-            f"dropped {dropped} trailing zero reading{s} (push stopped at depth column {head.depth_labels[a + keep]!r})"
-        )
-    metadata["trailing_zeros_dropped"] = dropped
-    z = depths[a : a + keep]
-    if depth_ref == "tip":
-        z = z - push_cone.height
-    profile = CIProfile(
-        id=pid,
-        depth=z,
-        ci=values[:keep] * factor,
-        cone=push_cone,
-        metadata=metadata,
-        source=source,
-        notes=notes,
-        rows=np.full(keep, line, dtype=int),
+    profile, keep, dropped = _push_profile(
+        pid,
+        depths[a:b],
+        readings.values * factor,
+        push_cone,
+        depth_ref,
+        metadata,
+        source,
+        line,
+        notes,
+        lambda k: f"depth column {head.depth_labels[a + k]!r}",
     )
 
     def locate(k: int | None, column: str | None) -> tuple[int | None, str | None, str]:
