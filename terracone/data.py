@@ -8,6 +8,7 @@ unit of the file it came from.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -16,7 +17,16 @@ import numpy as np
 from . import units as u
 from .cone import Cone, get_cone
 
-__all__ = ["CIProfile", "PlateTest", "ShearTest", "TerrainParameters", "InputError"]
+__all__ = [
+    "CIProfile",
+    "ProfileSet",
+    "depth_window",
+    "SourceFile",
+    "PlateTest",
+    "ShearTest",
+    "TerrainParameters",
+    "InputError",
+]
 
 
 class InputError(ValueError):
@@ -130,14 +140,252 @@ class CIProfile:
         return self
 
     def window(self, lo: float | None = None, hi: float | None = None) -> CIProfile:
-        """The part of the profile with lo <= depth <= hi [m]."""
-        keep = np.ones(self.depth.shape, bool)
-        if lo is not None:
-            keep &= self.depth >= lo
-        if hi is not None:
-            keep &= self.depth <= hi
+        """The part of the profile with lo <= depth <= hi [m] (see :func:`depth_window`)."""
+        keep = depth_window(self.depth, lo, hi)
         rows = None if self.rows is None else self.rows[keep]
         return replace(self, depth=self.depth[keep], ci=self.ci[keep], rows=rows)
+
+
+def depth_window(depth: np.ndarray, lo: float | None, hi: float | None) -> np.ndarray:
+    """Boolean mask of the points with lo <= depth <= hi [m]; None: no limit.
+
+    The one depth window of the package: :meth:`CIProfile.window`,
+    :meth:`ProfileSet.window` and the CLI's ``--depth-range`` all use it.
+    """
+    keep = np.ones(np.shape(depth), dtype=bool)
+    if lo is not None:
+        keep &= depth >= lo
+    if hi is not None:
+        keep &= depth <= hi
+    return keep
+
+
+@dataclass(frozen=True)
+class SourceFile:
+    """A file profiles were read from, and how its columns are named (for error messages).
+
+    ``row_word`` is what a location in the file is called: ``"row"`` (file
+    line) for text files, ``"record"`` for Parquet.
+    """
+
+    path: str
+    depth_column: str = "depth"
+    ci_column: str = "ci"
+    row_word: str = "row"
+
+
+@dataclass
+class ProfileSet:
+    """Many CI profiles as flat columns: the package's one profile data model.
+
+    Every reader of :mod:`terracone.io` produces it, the solvers of
+    :mod:`terracone.inverse` consume it and :func:`terracone.batch.run_batch`
+    streams it chunk by chunk.  Profile ``i`` holds the points
+    ``offsets[i]:offsets[i+1]`` of ``depth``, ``ci`` and ``rows``; a
+    :class:`CIProfile` is one element (``profiles[i]``).
+
+    Attributes
+    ----------
+    ids : ndarray of str, shape (P,)
+        Profile ids.
+    offsets : ndarray of int64, shape (P+1,)
+        Start of each profile in the point arrays; ``offsets[-1] == N``.
+    depth : ndarray, shape (N,)
+        Depth of the cone base [m] (origin where the base is flush).
+    ci : ndarray, shape (N,)
+        Cone index [kPa].
+    cone_idx : ndarray of int, shape (P,)
+        Each profile's cone, an index into ``cones``.
+    cones : list of Cone
+    rows : ndarray of int64, shape (N,), optional
+        File line (or record) of each point; -1 where unknown.
+    file_idx : ndarray of int, shape (P,), optional
+        Each profile's source, an index into ``files``; -1 where none.
+    files : list of SourceFile
+    metadata : pyarrow.Table, optional
+        One row per profile: everything else the source carried (site, lat,
+        lon, date, ...).
+    notes : list of list of str, optional
+        What the reader did to each profile (e.g. trailing zeros dropped).
+    errors : list of InputError
+        Profiles a reader refused, each located; they are not in the set.
+    """
+
+    ids: np.ndarray
+    offsets: np.ndarray
+    depth: np.ndarray
+    ci: np.ndarray
+    cone_idx: np.ndarray
+    cones: list[Cone]
+    rows: np.ndarray | None = None
+    file_idx: np.ndarray | None = None
+    files: list[SourceFile] = field(default_factory=list)
+    metadata: Any = None
+    notes: list[list[str]] | None = None
+    errors: list[InputError] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.ids = np.asarray(self.ids, dtype=object)
+        self.offsets = np.asarray(self.offsets, dtype=np.int64)
+        self.depth = np.asarray(self.depth, dtype=float)
+        self.ci = np.asarray(self.ci, dtype=float)
+        self.cone_idx = np.asarray(self.cone_idx, dtype=np.intp)
+        P = self.ids.size
+        if self.offsets.shape != (P + 1,) or self.offsets[0] != 0:
+            raise ValueError(f"offsets must have {P + 1} entries starting at 0")
+        if np.any(np.diff(self.offsets) < 0) or self.offsets[-1] != self.depth.size:
+            raise ValueError("offsets must increase to the number of points")
+        if self.ci.shape != self.depth.shape or self.cone_idx.shape != (P,):
+            raise ValueError("depth and ci need one value per point, cone_idx one per profile")
+
+    def __len__(self) -> int:
+        return int(self.ids.size)
+
+    @property
+    def counts(self) -> np.ndarray:
+        """Number of points of each profile, shape (P,)."""
+        return np.diff(self.offsets)
+
+    def source(self, i: int) -> SourceFile | None:
+        """The file profile ``i`` was read from, or None."""
+        if self.file_idx is None or self.file_idx[i] < 0:
+            return None
+        return self.files[int(self.file_idx[i])]
+
+    def __getitem__(self, i: int) -> CIProfile:
+        if not -len(self) <= i < len(self):
+            raise IndexError(f"profile {i} of {len(self)}")
+        i = int(i) % len(self)
+        s, e = int(self.offsets[i]), int(self.offsets[i + 1])
+        src = self.source(i)
+        meta = {} if self.metadata is None else self.metadata.slice(i, 1).to_pylist()[0]
+        return CIProfile(
+            id=str(self.ids[i]),
+            depth=self.depth[s:e],
+            ci=self.ci[s:e],
+            cone=self.cones[int(self.cone_idx[i])],
+            metadata=meta,
+            source=None if src is None else src.path,
+            notes=[] if self.notes is None else list(self.notes[i]),
+            rows=None if self.rows is None else self.rows[s:e],
+        )
+
+    def __iter__(self) -> Iterator[CIProfile]:
+        return (self[i] for i in range(len(self)))
+
+    def to_profiles(self) -> list[CIProfile]:
+        """The profiles as a list of :class:`CIProfile`."""
+        return list(self)
+
+    @classmethod
+    def from_profiles(cls, items: Iterable[CIProfile | InputError]) -> ProfileSet:
+        """Gather profiles (and reader errors, which go to ``errors``) into one set."""
+        profs: list[CIProfile] = []
+        errors: list[InputError] = []
+        for it in items:
+            (errors if isinstance(it, InputError) else profs).append(it)
+        cones: list[Cone] = []
+        files: list[SourceFile] = []
+        cone_idx = [_index_of(cones, p.cone) for p in profs]
+        file_idx = [
+            -1 if p.source is None else _index_of(files, SourceFile(p.source)) for p in profs
+        ]
+        counts = [p.depth.size for p in profs]
+        rows = [p.rows if p.rows is not None else np.full(p.depth.size, -1) for p in profs]
+        metadata = None
+        if any(p.metadata for p in profs):
+            import pyarrow as pa
+
+            keys = list(dict.fromkeys(k for p in profs for k in p.metadata))
+            metadata = pa.table({k: [p.metadata.get(k) for p in profs] for k in keys})
+        return cls(
+            ids=np.array([p.id for p in profs], dtype=object),
+            offsets=np.concatenate([[0], np.cumsum(counts, dtype=np.int64)]),
+            depth=np.concatenate([p.depth for p in profs]) if profs else np.zeros(0),
+            ci=np.concatenate([p.ci for p in profs]) if profs else np.zeros(0),
+            cone_idx=np.array(cone_idx, dtype=np.intp),
+            cones=cones,
+            rows=np.concatenate(rows).astype(np.int64) if profs else np.zeros(0, np.int64),
+            file_idx=np.array(file_idx, dtype=np.intp),
+            files=files,
+            metadata=metadata,
+            notes=[list(p.notes) for p in profs],
+            errors=errors,
+        )
+
+    def take(self, index: Sequence[int] | np.ndarray) -> ProfileSet:
+        """The profiles ``index`` (in that order) as a new set; ``errors`` are kept."""
+        index = np.asarray(index, dtype=np.intp)
+        counts = self.counts[index]
+        pts = _point_index(self.offsets[index], counts)
+        return replace(
+            self,
+            ids=self.ids[index],
+            offsets=np.concatenate([[0], np.cumsum(counts, dtype=np.int64)]),
+            depth=self.depth[pts],
+            ci=self.ci[pts],
+            cone_idx=self.cone_idx[index],
+            rows=None if self.rows is None else self.rows[pts],
+            file_idx=None if self.file_idx is None else self.file_idx[index],
+            metadata=None if self.metadata is None else self.metadata.take(index),
+            notes=None if self.notes is None else [self.notes[int(i)] for i in index],
+        )
+
+    def keep_points(self, keep: np.ndarray) -> ProfileSet:
+        """The set with only the points where ``keep`` (shape (N,)) is True."""
+        per = np.repeat(np.arange(len(self)), self.counts)
+        kept = np.bincount(per[keep], minlength=len(self))
+        return replace(
+            self,
+            offsets=np.concatenate([[0], np.cumsum(kept, dtype=np.int64)]),
+            depth=self.depth[keep],
+            ci=self.ci[keep],
+            rows=None if self.rows is None else self.rows[keep],
+        )
+
+    def heights(self) -> np.ndarray:
+        """Cone height H of each profile [m], shape (P,)."""
+        return np.array([c.height for c in self.cones], dtype=float).reshape(-1)[self.cone_idx]
+
+    def window(self, lo: float | None = None, hi: float | None = None) -> ProfileSet:
+        """Every profile restricted to lo <= depth <= hi [m] (:func:`depth_window`).
+
+        A profile the window empties keeps no points; callers report it.
+        """
+        return self.keep_points(depth_window(self.depth, lo, hi))
+
+    def padded(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(depth, ci, mask), each (P, Zmax): profiles padded for vectorised solvers.
+
+        Padding repeats a profile's last depth and has ci 0 and mask False.
+        """
+        P, counts = len(self), self.counts
+        Z = int(counts.max()) if P else 0
+        col = np.arange(Z)
+        mask = col[None, :] < counts[:, None]
+        last = np.maximum(self.offsets[1:] - 1, 0)
+        idx = np.where(mask, self.offsets[:-1, None] + col[None, :], last[:, None])
+        zz = self.depth[idx] if self.depth.size else np.zeros((P, Z))
+        yy = np.where(mask, self.ci[idx] if self.ci.size else 0.0, 0.0)
+        return zz, yy, mask
+
+
+def _index_of(items: list[Any], item: Any) -> int:
+    """Index of ``item`` in ``items``, appending it when new."""
+    for k, x in enumerate(items):
+        if x == item:
+            return k
+    items.append(item)
+    return len(items) - 1
+
+
+def _point_index(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Indices of the points of profiles starting at ``starts`` with ``counts`` points."""
+    total = int(counts.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.intp)
+    first = np.repeat(starts - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts)
+    return (first + np.arange(total)).astype(np.intp)
 
 
 class _FileRows:
