@@ -13,6 +13,17 @@ closed form (``expm1``/``log1p``, no cancellation at shallow depth) or, deep
 below the surface where the closed form would cancel, by their binomial
 series.  Everything broadcasts over depths and parameter sets.
 
+Models, named after who proposed them (as pvlib names its models):
+
+* :func:`cone_index_huang`: the improved model of Huang et al., eqs. (2-2)
+  to (2-7) (old name :func:`improved`, kept as an alias);
+* :func:`cone_index_janosi`: Janosi's equation (2-1) (old name
+  :func:`janosi`, kept as an alias);
+* :func:`cone_index`: either, with unit conversion at the edges.
+
+Parameter names follow :mod:`terracone.vocabulary`: ``phic_deg`` (alias
+``phic``) and ``K_cone`` (alias ``Kc``).
+
 References
 ----------
 .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
@@ -34,6 +45,7 @@ from numpy.typing import ArrayLike
 
 from . import units as u
 from .plate import PressureLaw, pressure_law
+from .vocabulary import alias
 
 __all__ = [
     "Cone",
@@ -41,8 +53,12 @@ __all__ = [
     "get_cone",
     "cone_index",
     "cone_index_basis",
+    "cone_index_huang",
+    "cone_index_janosi",
     "janosi",
     "improved",
+    "normal_integrals",
+    "check_depth",
 ]
 
 
@@ -277,10 +293,12 @@ def cone_index_basis(
     depth: ArrayLike,
     *,
     n: ArrayLike,
-    phic: ArrayLike = 0.0,
-    Kc: ArrayLike | None = None,
+    phic_deg: ArrayLike | None = None,
+    K_cone: ArrayLike | None = None,
     law: PressureLaw | None = None,
     cone: str | Cone = "asabe-large",
+    phic: ArrayLike | None = None,
+    Kc: ArrayLike | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Columns A, B, C with CI = kc*A + kphi*B + cc*C, all in SI.
 
@@ -293,11 +311,11 @@ def cone_index_basis(
         Depth of the cone base below the surface [m]; -H <= z.
     n : array_like
         Sinkage exponent [-].
-    phic : array_like
-        Cone-terrain friction angle [deg].
-    Kc : array_like or None
-        Cone-terrain shear deformation parameter [m]; None for fully
-        mobilised shear.
+    phic_deg : array_like
+        Cone-terrain friction angle [deg] (default 0); alias ``phic``.
+    K_cone : array_like or None
+        Cone-terrain shear deformation parameter Kc [m]; None for fully
+        mobilised shear; alias ``Kc``.
     law : PressureLaw
         RM0 or RM1 pressure law (section 3.2); RM0 when None.
     cone : str or Cone
@@ -306,13 +324,19 @@ def cone_index_basis(
     -------
     A, B, C : ndarray
         [kPa per kN/m^(n+1)], [kPa per kN/m^(n+2)] and [-].
+
+    References
+    ----------
+    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eqs. (2-5) to (2-7).
     """
+    phic_deg = alias("phic_deg", phic_deg, "phic", phic)
+    K_cone = alias("K_cone", K_cone, "Kc", Kc)
     cone = get_cone(cone)
     law = law or pressure_law("rm0")
     z = check_depth(depth, cone)
     n = _check_n(n)
-    phic = _check_phic(phic)
-    return _basis(z, n, phic, Kc, law, cone)
+    phic_deg = _check_phic(0.0 if phic_deg is None else phic_deg)
+    return _basis(z, n, phic_deg, K_cone, law, cone)
 
 
 def _integrals(z: np.ndarray, n: np.ndarray, law: PressureLaw, cone: Cone):
@@ -503,19 +527,26 @@ def _mobilised(z, u1, L, d_s, n, law, Kc, cone):
     return bc + lc, bp + lp, bcc + lcc
 
 
-def improved(
+def cone_index_huang(
     depth: ArrayLike,
     *,
     kc: ArrayLike,
     kphi: ArrayLike,
     n: ArrayLike,
     cc: ArrayLike = 0.0,
-    phic: ArrayLike = 0.0,
-    Kc: ArrayLike | None = None,
+    phic_deg: ArrayLike | None = None,
+    K_cone: ArrayLike | None = None,
     law: PressureLaw | None = None,
     cone: str | Cone = "asabe-large",
+    phic: ArrayLike | None = None,
+    Kc: ArrayLike | None = None,
 ) -> np.ndarray:
-    """Cone index of the improved model, eqs. (2-2) to (2-7) in [1]_, in SI.
+    """Cone index of the improved model of Huang et al., eqs. (2-2) to (2-7) in [1]_, in SI.
+
+    CI = (Fp + Fs) / (pi R^2) (eq. (2-7)) with the normal force Fp of the
+    Bekker pressure (eqs. (2-2), (2-3), (2-5)) and the shear force Fs of the
+    cone-metal shear stress (eqs. (2-4), (2-6)) over the embedded cone.
+    ``improved`` is the old name of this function (the same object).
 
     Parameters
     ----------
@@ -529,10 +560,11 @@ def improved(
         [-]
     cc : array_like
         Cone-terrain adhesion [kPa].
-    phic : array_like
-        Cone-terrain friction angle [deg].
-    Kc : array_like or None
-        Shear deformation parameter [m]; None: fully mobilised shear.
+    phic_deg : array_like
+        Cone-terrain friction angle [deg] (default 0); alias ``phic``.
+    K_cone : array_like or None
+        Cone-terrain shear deformation parameter Kc [m]; None: fully
+        mobilised shear; alias ``Kc``.
     law : PressureLaw
         RM0 (default) or RM1.
     cone : str or Cone
@@ -541,24 +573,39 @@ def improved(
     -------
     ndarray
         Cone index [kPa].
+
+    References
+    ----------
+    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eqs. (2-2) to (2-7).
     """
+    phic_deg = alias("phic_deg", phic_deg, "phic", phic)
+    Kc = _check_Kc(alias("K_cone", K_cone, "Kc", Kc))
     kc = _check_nonneg("kc", kc)
     kphi = _check_nonneg("kphi", kphi)
     cc = _check_nonneg("cc", cc)
     cone = get_cone(cone)
     z = check_depth(depth, cone)
-    Kc = _check_Kc(Kc)
-    return _improved(
-        z, kc, kphi, _check_n(n), cc, _check_phic(phic), Kc, law or pressure_law("rm0"), cone
-    )
+    phic_deg = _check_phic(0.0 if phic_deg is None else phic_deg)
+    return _improved(z, kc, kphi, _check_n(n), cc, phic_deg, Kc, law or pressure_law("rm0"), cone)
 
 
-def janosi(depth: ArrayLike, *, kc: ArrayLike, kphi: ArrayLike, n: ArrayLike) -> np.ndarray:
+#: Old name of :func:`cone_index_huang` (the same function).
+improved = cone_index_huang
+
+
+def cone_index_janosi(
+    depth: ArrayLike, *, kc: ArrayLike, kphi: ArrayLike, n: ArrayLike
+) -> np.ndarray:
     """Janosi's cone index, eq. (2-1) in [1]_, for the standard cone.
 
     US customary units throughout, as in the paper: depth z [in] from the
     point where the cone base is flush, kc [lb/in^(n+1)], kphi
-    [lb/in^(n+2)], CI [psi].
+    [lb/in^(n+2)], CI [psi].  ``janosi`` is the old name of this function
+    (the same object).
+
+    References
+    ----------
+    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eq. (2-1).
     """
     z = np.asarray(depth, dtype=float)
     if np.any(z < 0) or not np.all(np.isfinite(z)):
@@ -580,6 +627,10 @@ def janosi(depth: ArrayLike, *, kc: ArrayLike, kphi: ArrayLike, n: ArrayLike) ->
     )
 
 
+#: Old name of :func:`cone_index_janosi` (the same function).
+janosi = cone_index_janosi
+
+
 def cone_index(
     depth: ArrayLike,
     *,
@@ -587,13 +638,15 @@ def cone_index(
     kphi: ArrayLike,
     n: ArrayLike,
     cc: ArrayLike = 0.0,
-    phic: ArrayLike = 0.0,
-    Kc: ArrayLike | None = None,
+    phic_deg: ArrayLike | None = None,
+    K_cone: ArrayLike | None = None,
     model: str = "rm0",
     r_min: ArrayLike | None = None,
     cone: str | Cone = "asabe-large",
     units: str = "si",
     plate_pair: tuple[float, float] | None = None,
+    phic: ArrayLike | None = None,
+    Kc: ArrayLike | None = None,
 ) -> np.ndarray:
     """Cone index against depth for given terrain parameters.
 
@@ -607,11 +660,12 @@ def cone_index(
         [lb/in^(n+1), lb/in^(n+2), -].
     cc : array_like
         Cone (metal)-terrain adhesion [kPa or psi].
-    phic : array_like
-        Cone-terrain friction angle [deg].
-    Kc : array_like or None
-        Cone-terrain shear deformation parameter [m or in]; None means fully
-        mobilised shear (the paper's setting), a number uses eq. (2-4).
+    phic_deg : array_like
+        Cone-terrain friction angle [deg] (default 0); alias ``phic``.
+    K_cone : array_like or None
+        Cone-terrain shear deformation parameter Kc [m or in]; None means
+        fully mobilised shear (the paper's setting), a number uses eq.
+        (2-4); alias ``Kc``.
     model : {"rm0", "rm1", "janosi"}
         Pressure model of section 3.2, or eq. (2-1).
     r_min : array_like, optional
@@ -632,7 +686,14 @@ def cone_index(
     Examples
     --------
     >>> cone_index([0.0, 0.1], kc=0, kphi=1000, n=1)  # doctest: +SKIP
+
+    References
+    ----------
+    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eqs. (2-1) to (2-7), section 3.2.
     """
+    phic = alias("phic_deg", phic_deg, "phic", phic)
+    phic = 0.0 if phic is None else phic
+    Kc = alias("K_cone", K_cone, "Kc", Kc)
     units = u.check_system(units)
     n_arr = _check_n(n)
     if model == "janosi":
@@ -645,7 +706,7 @@ def cone_index(
         z_in = u.length_to_si(depth, units) / u.INCH
         kc_us = u.kc_from_si(u.kc_to_si(kc, n_arr, units), n_arr, "us")
         kphi_us = u.kphi_from_si(u.kphi_to_si(kphi, n_arr, units), n_arr, "us")
-        ci_psi = janosi(z_in, kc=kc_us, kphi=kphi_us, n=n_arr)
+        ci_psi = cone_index_janosi(z_in, kc=kc_us, kphi=kphi_us, n=n_arr)
         return u.pressure_from_si(u.pressure_to_si(ci_psi, "us"), units)
     pair = (
         None if plate_pair is None else tuple(float(v) for v in u.length_to_si(plate_pair, units))

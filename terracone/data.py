@@ -16,6 +16,7 @@ import numpy as np
 
 from . import units as u
 from .cone import Cone, get_cone
+from .vocabulary import alias
 
 __all__ = [
     "CIProfile",
@@ -25,6 +26,7 @@ __all__ = [
     "PlateTest",
     "ShearTest",
     "TerrainParameters",
+    "TerrainShear",
     "InputError",
 ]
 
@@ -482,9 +484,14 @@ class ShearTest(_FileRows):
         self.stress = np.asarray(self.stress, dtype=float)
 
 
-@dataclass
+@dataclass(init=False)
 class TerrainParameters:
     """Bekker-Wong pressure-sinkage and cone-terrain shear parameters, SI.
+
+    The cone-terrain interaction of eqs. (2-2) to (2-7) in [1]_: the Bekker
+    parameters kc, kphi, n (eq. (2-2)) and the cone (metal)-terrain shear
+    parameters cc, phic, Kc (eq. (2-4)).  The terrain's *internal* shear
+    strength is a different quantity: :class:`TerrainShear`.
 
     Attributes
     ----------
@@ -498,11 +505,18 @@ class TerrainParameters:
         Cone (metal)-terrain adhesion [kPa].
     phic_deg : float
         Cone (metal)-terrain friction angle [deg].
-    Kc : float or None
-        Cone-terrain shear deformation parameter [m]; None: fully mobilised.
+    K_cone : float or None
+        Cone-terrain shear deformation parameter Kc [m]; None: fully
+        mobilised.  ``Kc`` is its alias (attribute and keyword; JSON key).
     model : {"rm0", "rm1"}
     r_min : float or None
         RM1 transition radius [m].
+
+    References
+    ----------
+    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+       terrain parameters for physics-based vehicle mobility models from cone
+       index data. Eqs. (2-2) to (2-7), section 3.2.
     """
 
     kc: float
@@ -510,9 +524,47 @@ class TerrainParameters:
     n: float
     cc: float = 0.0
     phic_deg: float = 0.0
-    Kc: float | None = None
+    K_cone: float | None = None
     model: str = "rm0"
     r_min: float | None = None
+
+    def __init__(
+        self,
+        kc: float,
+        kphi: float,
+        n: float,
+        cc: float = 0.0,
+        phic_deg: float | None = None,
+        K_cone: float | None = None,
+        model: str = "rm0",
+        r_min: float | None = None,
+        *,
+        Kc: float | None = None,
+        phic: float | None = None,
+    ) -> None:
+        self.kc = kc
+        self.kphi = kphi
+        self.n = n
+        self.cc = cc
+        phic_deg = alias("phic_deg", phic_deg, "phic", phic)
+        self.phic_deg = 0.0 if phic_deg is None else phic_deg
+        self.K_cone = alias("K_cone", K_cone, "Kc", Kc)
+        self.model = model
+        self.r_min = r_min
+
+    @property
+    def Kc(self) -> float | None:
+        """Alias of :attr:`K_cone` [m] (the JSON key and the paper's symbol)."""
+        return self.K_cone
+
+    @Kc.setter
+    def Kc(self, value: float | None) -> None:
+        self.K_cone = value
+
+    @property
+    def kc_over_kphi(self) -> float | None:
+        """kc/kphi [m], the ratio a calibration can hold in prediction; None if kphi is 0."""
+        return self.kc / self.kphi if self.kphi > 0 else None
 
     def _repr_html_(self) -> str:
         """A table with SI and US columns, for Jupyter."""
@@ -529,7 +581,7 @@ class TerrainParameters:
             "n": float(self.n),
             "cc": float(u.pressure_from_si(self.cc, units)),
             "phic_deg": float(self.phic_deg),
-            "Kc": None if self.Kc is None else float(u.length_from_si(self.Kc, units)),
+            "Kc": None if self.K_cone is None else float(u.length_from_si(self.K_cone, units)),
             "model": self.model,
             "r_min": None if self.r_min is None else float(u.length_from_si(self.r_min, units)),
             "units": units,
@@ -548,7 +600,85 @@ class TerrainParameters:
             n=n,
             cc=float(u.pressure_to_si(d.get("cc", 0.0) or 0.0, units)),
             phic_deg=float(d.get("phic_deg", 0.0) or 0.0),
-            Kc=None if Kc is None else float(u.length_to_si(Kc, units)),
+            K_cone=None if Kc is None else float(u.length_to_si(Kc, units)),
             model=d.get("model", "rm0") or "rm0",
             r_min=None if r_min is None else float(u.length_to_si(r_min, units)),
         )
+
+
+@dataclass(frozen=True)
+class TerrainShear:
+    """The terrain's internal shear strength and shear deformation, SI.
+
+    Mohr-Coulomb strength and the Janosi-Hanamoto shear deformation
+    modulus, tau = (c + sigma tan(phi)) (1 - exp(-j/K)) ([2]_; the same form
+    as eq. (2-4) of [1]_, which applies it to the cone-metal interface with
+    cc, phic, Kc: :class:`TerrainParameters`).  Measured with shear rings or
+    plates (:func:`terracone.shear.fit_shear`), tabulated for reference
+    terrains (:mod:`terracone.library`), exported as Chrono's Mohr and
+    Janosi parameters (:mod:`terracone.export`).
+
+    Attributes
+    ----------
+    c : float or None
+        Cohesion [kPa]; None where unknown.
+    phi_deg : float or None
+        Angle of internal friction [deg].
+    K : float or None
+        Shear deformation modulus [m].
+
+    References
+    ----------
+    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+       terrain parameters for physics-based vehicle mobility models from cone
+       index data. Eq. (2-4).
+    .. [2] Janosi, Z., Hanamoto, B. (1961). The analytical determination of
+       drawbar pull as a function of slip for tracked vehicles in deformable
+       soils. Proc. 1st Int. Conf. on Terrain-Vehicle Systems, Turin.
+    """
+
+    c: float | None = None
+    phi_deg: float | None = None
+    K: float | None = None
+
+    def __post_init__(self) -> None:
+        for name, lo, hi in (("c", 0.0, math.inf), ("phi_deg", 0.0, 90.0), ("K", 0.0, math.inf)):
+            v = getattr(self, name)
+            if v is None:
+                continue
+            if not (math.isfinite(v) and lo <= v < hi) or (name == "K" and v == 0):
+                raise ValueError(f"terrain shear {name} out of range (got {v!r})")
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        """``{"c", "phi_deg", "K", "units"}`` in a unit system (kPa, m or psi, in)."""
+        units = u.check_system(units)
+        return {
+            "c": None if self.c is None else float(u.pressure_from_si(self.c, units)),
+            "phi_deg": None if self.phi_deg is None else float(self.phi_deg),
+            "K": None if self.K is None else float(u.length_from_si(self.K, units)),
+            "units": units,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any], units: str | None = None) -> TerrainShear:
+        """Inverse of :meth:`as_dict` (``units`` defaults to ``d["units"]`` or si)."""
+        units = u.check_system(units or d.get("units", "si"))
+        c, phi, K = d.get("c"), d.get("phi_deg"), d.get("K")
+        return cls(
+            c=None if c is None else float(u.pressure_to_si(c, units)),
+            phi_deg=None if phi is None else float(phi),
+            K=None if K is None else float(u.length_to_si(K, units)),
+        )
+
+    def library_params(self) -> dict[str, float]:
+        """The terrain-library keys (SI): ``c_kpa``, ``phi_deg``, ``K_m`` (None dropped)."""
+        d = {"c_kpa": self.c, "phi_deg": self.phi_deg, "K_m": self.K}
+        return {k: float(v) for k, v in d.items() if v is not None}
+
+    @classmethod
+    def from_library_params(cls, params: dict[str, Any]) -> TerrainShear | None:
+        """From terrain-library keys; None when none of c_kpa, phi_deg, K_m is there."""
+        c, phi, K = params.get("c_kpa"), params.get("phi_deg"), params.get("K_m")
+        if c is None and phi is None and K is None:
+            return None
+        return cls(c=c, phi_deg=phi, K=K)

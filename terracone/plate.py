@@ -33,7 +33,14 @@ from numpy.typing import ArrayLike
 
 from . import units as u
 
-__all__ = ["PressureLaw", "pressure_law", "bekker", "plate_pressure", "plate_basis"]
+__all__ = [
+    "PressureLaw",
+    "pressure_law",
+    "pressure_bekker",
+    "bekker",
+    "plate_pressure",
+    "plate_basis",
+]
 
 
 @dataclass(frozen=True)
@@ -106,13 +113,45 @@ def pressure_law(
     return PressureLaw("rm1", rm if rm.ndim else float(rm), plate_pair)
 
 
-def bekker(
+def pressure_bekker(
     sinkage: ArrayLike, *, kc: ArrayLike, kphi: ArrayLike, n: ArrayLike, b: ArrayLike
 ) -> np.ndarray:
-    """Bekker pressure p = (kc/b + kphi) z^n [kPa] (eq. (2-2) in [1]_), SI."""
+    """Bekker's pressure-sinkage equation p = (kc/b + kphi) z^n, SI.
+
+    ``bekker`` is the old name of this function (the same object).
+
+    Parameters
+    ----------
+    sinkage : array_like
+        Sinkage z [m].
+    kc : array_like
+        [kN/m^(n+1)]
+    kphi : array_like
+        [kN/m^(n+2)]
+    n : array_like
+        Sinkage exponent [-].
+    b : array_like
+        Plate size [m]: radius of a circular plate, smaller side of a
+        rectangular one.
+
+    Returns
+    -------
+    ndarray
+        Pressure p [kPa].
+
+    References
+    ----------
+    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eq. (2-2).
+    .. [2] Bekker (1969).
+    """
+    # eq. (2-2)
     return (np.asarray(kc) / np.asarray(b) + np.asarray(kphi)) * np.asarray(
         sinkage, float
     ) ** np.asarray(n)
+
+
+#: Old name of :func:`pressure_bekker` (the same function).
+bekker = pressure_bekker
 
 
 def plate_basis(sinkage: ArrayLike, *, n: ArrayLike, b: ArrayLike, law: PressureLaw | None = None):

@@ -60,13 +60,48 @@ from scipy import optimize, stats
 from . import units as u
 from .data import InputError, ShearTest
 
-__all__ = ["ShearTestFit", "ShearFit", "fit_shear", "fit_shear_test", "janosi_hanamoto"]
+__all__ = [
+    "ShearTestFit",
+    "ShearFit",
+    "fit_shear",
+    "fit_shear_test",
+    "shear_stress_janosi_hanamoto",
+    "janosi_hanamoto",
+]
 
 
-def janosi_hanamoto(displacement: Any, tau_max: float, K: float) -> np.ndarray:
-    """Shear stress ``tau_max (1 - exp(-j/K))`` [kPa] at displacement j [m] (K [m])."""
+def shear_stress_janosi_hanamoto(displacement: Any, tau_max: Any, K: Any) -> np.ndarray:
+    """Janosi-Hanamoto shear stress tau = tau_max (1 - exp(-j/K)).
+
+    ``janosi_hanamoto`` is the old name of this function (the same object).
+
+    Parameters
+    ----------
+    displacement : array_like
+        Shear displacement j [m].
+    tau_max : array_like
+        Shear strength c + sigma tan(phi) [kPa] (cc + p tan(phic) on the
+        cone-metal interface).
+    K : array_like
+        Shear deformation modulus [m] (Kc on the cone-metal interface).
+
+    Returns
+    -------
+    ndarray
+        Shear stress [kPa].
+
+    References
+    ----------
+    .. [1] Janosi and Hanamoto (1961).
+    .. [2] Huang, Wong, Preston-Thomas, Jayakumar, eq. (2-4).
+    """
     j = np.asarray(displacement, dtype=float)
+    # eq. (2-4): s = (c + p tan phi)(1 - exp(-j/K))
     return tau_max * -np.expm1(-j / K)
+
+
+#: Old name of :func:`shear_stress_janosi_hanamoto` (the same function).
+janosi_hanamoto = shear_stress_janosi_hanamoto
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,164 @@
+"""One name per concept: the parameter vocabulary of terracone.
+
+Every terrain parameter has one name in the Python API, and the JSON keys,
+CLI flags and terrain-library keys that earlier releases fixed (contracts,
+kept as they are).  :data:`NAMES` is that table; ``docs/physics.md`` shows
+it.  Older Python names stay accepted as documented aliases; they resolve
+through :func:`alias`.
+
+Rules of the Python names:
+
+* angles carry their unit, ``_deg`` (``phic_deg``, ``phi_deg``), as the JSON
+  keys always did;
+* the cone (metal)-terrain shear parameters carry ``c`` or ``_cone``
+  (``cc``, ``phic_deg``, ``K_cone``), the terrain's internal shear none
+  (``c``, ``phi_deg``, ``K`` of :class:`terracone.data.TerrainShear`);
+  ``Kc`` (one letter's case away from ``kc``) is the alias of ``K_cone``;
+* the held ratio kc/kphi [m] is ``kc_over_kphi``.
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Nomenclature, eqs. (2-2) to (2-7).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["Name", "NAMES", "ALIASES", "alias"]
+
+
+@dataclass(frozen=True)
+class Name:
+    """How one concept is called in the paper, the Python API, JSON and the CLI.
+
+    Attributes
+    ----------
+    concept : str
+    symbol : str
+        Symbol in the paper's nomenclature ([1]_ of the module).
+    python : str
+        The Python name (keyword argument and attribute).
+    aliases : tuple of str
+        Older Python names still accepted.
+    json : str
+        Key in JSON results and calibration files ("" for none).
+    cli : str
+        Command-line flag or ``--bounds`` key ("" for none).
+    library : str
+        Key of a terrain-library record (SI; "" for none).
+    unit : str
+        SI unit (US customary in parentheses where the CLI offers it).
+    """
+
+    concept: str
+    symbol: str
+    python: str
+    aliases: tuple[str, ...]
+    json: str
+    cli: str
+    library: str
+    unit: str
+
+
+#: The vocabulary (see ``docs/physics.md``).
+NAMES: tuple[Name, ...] = (
+    Name(
+        "Bekker cohesive modulus",
+        "k_c",
+        "kc",
+        (),
+        "kc",
+        "--kc; --bounds kc=LO:HI",
+        "kc",
+        "kN/m^(n+1) (lb/in^(n+1))",
+    ),
+    Name(
+        "Bekker frictional modulus",
+        "k_phi",
+        "kphi",
+        (),
+        "kphi",
+        "--kphi; --bounds kphi=LO:HI",
+        "kphi",
+        "kN/m^(n+2) (lb/in^(n+2))",
+    ),
+    Name("sinkage exponent", "n", "n", (), "n", "--n; --bounds n=LO:HI", "n", "-"),
+    Name(
+        "cone (metal)-terrain adhesion",
+        "c_c",
+        "cc",
+        (),
+        "cc",
+        "--cc; --bounds cc=LO:HI",
+        "cc",
+        "kPa (psi)",
+    ),
+    Name(
+        "cone (metal)-terrain friction angle",
+        "phi_c",
+        "phic_deg",
+        ("phic",),
+        "phic_deg",
+        "--phic; --bounds phic=LO:HI",
+        "phic_deg",
+        "deg",
+    ),
+    Name(
+        "cone (metal)-terrain shear deformation parameter",
+        "K_c",
+        "K_cone",
+        ("Kc",),
+        "Kc",
+        "--Kc; --bounds Kc=LO:HI",
+        "Kc",
+        "m (in)",
+    ),
+    Name("terrain cohesion", "c", "c", (), "c", "--cohesion", "c_kpa", "kPa (psi)"),
+    Name("terrain internal friction angle", "phi", "phi_deg", (), "phi_deg", "", "phi_deg", "deg"),
+    Name("terrain shear deformation modulus", "K", "K", (), "K", "--janosi", "K_m", "m (in)"),
+    Name(
+        "ratio kc/kphi held from a calibration",
+        "k_c/k_phi",
+        "kc_over_kphi",
+        ("ratio",),
+        "",
+        "",
+        "",
+        "m",
+    ),
+    Name("pressure law", "RM0, RM1", "model", (), "model", "--model", "model", "-"),
+    Name(
+        "RM1 transition radius",
+        "r_min",
+        "r_min",
+        (),
+        "r_min",
+        "--r-min",
+        "r_min",
+        "m (in)",
+    ),
+)
+
+#: Old Python name -> the name now used.
+ALIASES: dict[str, str] = {a: nm.python for nm in NAMES for a in nm.aliases}
+
+
+def alias(name: str, value: Any, old: str, old_value: Any) -> Any:
+    """The value of keyword ``name``, given either as itself or as its alias ``old``.
+
+    ``None`` means "not given" for both.  Giving both is an error.
+
+    Examples
+    --------
+    >>> alias("K_cone", None, "Kc", 0.01)
+    0.01
+    """
+    if old_value is None:
+        return value
+    if value is not None:
+        raise TypeError(f"give {name} or its alias {old}, not both")
+    return old_value
