@@ -32,7 +32,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -56,44 +56,87 @@ from .learnsearch import (
 __all__ = ["Calibration", "LearnResult", "learn", "learn_problem", "jacobians", "sandwich_cov"]
 
 
-@dataclass
+@dataclass(init=False)
 class Calibration:
     """A learned calibration: what prediction takes from the learning process.
+
+    Built from a :class:`~terracone.data.TerrainParameters` (``params``); its
+    values are also readable flat (``cal.kc``, ``cal.phic_deg``, ...), and the
+    old positional form ``Calibration(terrain, model, r_min, plate_pair,
+    phic_deg, cc, kc, kphi, n, cone, provenance)`` still builds one.
 
     Attributes
     ----------
     terrain : str
         Terrain or site label.
-    model : {"rm0", "rm1"}
-    r_min : float or None
-        [m]
+    params : TerrainParameters
+        kc, kphi, n (the calibrated terrain's P-S parameters), cc, phic_deg,
+        model and r_min (SI).
     plate_pair : (float, float) or None
         Plate radii [m] of the learning data (RM1 secant when r_min > r2).
-    phic_deg : float
-        [deg]
-    cc : float
-        [kPa]
-    kc, kphi, n : float
-        The calibrated terrain's P-S parameters (SI).
     cone : str
     provenance : dict
+    model, r_min, phic_deg, cc, kc, kphi, n : read-only
+        The fields of ``params`` ([m], [deg], [kPa], SI moduli).
+    kc_over_kphi : float or None
+        kc/kphi [m], the ratio prediction can hold.
     """
 
     terrain: str
-    model: str
-    r_min: float | None
+    params: TerrainParameters
     plate_pair: tuple[float, float] | None
-    phic_deg: float
-    cc: float
-    kc: float
-    kphi: float
-    n: float
-    cone: str = "asabe-large"
-    provenance: dict[str, Any] = field(default_factory=dict)
+    cone: str
+    provenance: dict[str, Any]
+
+    def __init__(
+        self,
+        terrain: str,
+        model: str | None = None,
+        r_min: float | None = None,
+        plate_pair: tuple[float, float] | None = None,
+        phic_deg: float | None = None,
+        cc: float | None = None,
+        kc: float | None = None,
+        kphi: float | None = None,
+        n: float | None = None,
+        cone: str = "asabe-large",
+        provenance: dict[str, Any] | None = None,
+        *,
+        params: TerrainParameters | None = None,
+    ) -> None:
+        flat = dict(model=model, phic_deg=phic_deg, cc=cc, kc=kc, kphi=kphi, n=n)
+        if params is None:
+            missing = [k for k, v in flat.items() if v is None]
+            if missing:
+                raise TypeError(f"Calibration needs params= or {', '.join(missing)}")
+            params = TerrainParameters(kc, kphi, n, cc, phic_deg, None, model, r_min)
+        elif any(v is not None for v in flat.values()) or r_min is not None:
+            raise TypeError("give Calibration params= or the flat values, not both")
+        self.terrain = terrain
+        self.params = params
+        self.plate_pair = plate_pair
+        self.cone = cone
+        self.provenance = dict(provenance or {})
+
+    model = property(lambda self: self.params.model, doc="Pressure law, 'rm0' or 'rm1'.")
+    r_min = property(lambda self: self.params.r_min, doc="RM1 transition radius [m] or None.")
+    phic_deg = property(lambda self: self.params.phic_deg, doc="Cone-terrain friction [deg].")
+    cc = property(lambda self: self.params.cc, doc="Cone-terrain adhesion [kPa].")
+    kc = property(lambda self: self.params.kc, doc="kc [kN/m^(n+1)].")
+    kphi = property(lambda self: self.params.kphi, doc="kphi [kN/m^(n+2)].")
+    n = property(lambda self: self.params.n, doc="Sinkage exponent [-].")
+    kc_over_kphi = property(
+        lambda self: self.params.kc_over_kphi, doc="kc/kphi [m]; None when kphi is 0."
+    )
 
     def to_json(self) -> dict[str, Any]:
-        d = asdict(self)
+        """The calibration file's content (format 1, SI, flat keys as always)."""
+        d: dict[str, Any] = {"terrain": self.terrain, "model": self.model, "r_min": self.r_min}
         d["plate_pair"] = list(self.plate_pair) if self.plate_pair else None
+        d.update({k: getattr(self, k) for k in ("phic_deg", "cc", "kc", "kphi", "n")})
+        if self.params.K_cone is not None:
+            d["Kc"] = self.params.K_cone
+        d.update({"cone": self.cone, "provenance": dict(self.provenance)})
         return {"terracone_calibration": 1, "units": "si", **d}
 
     def save(self, path: str | Path) -> None:
@@ -107,18 +150,22 @@ class Calibration:
         if d.get("units", "si") != "si":
             raise ValueError("calibration files are stored in SI")
         pp = d.get("plate_pair")
-        return cls(
-            terrain=str(d["terrain"]),
-            model=str(d["model"]),
-            r_min=None if d.get("r_min") is None else float(d["r_min"]),
-            plate_pair=None if not pp else (float(pp[0]), float(pp[1])),
-            phic_deg=float(d["phic_deg"]),
-            cc=float(d["cc"]),
+        params = TerrainParameters(
             kc=float(d["kc"]),
             kphi=float(d["kphi"]),
             n=float(d["n"]),
+            cc=float(d["cc"]),
+            phic_deg=float(d["phic_deg"]),
+            K_cone=None if d.get("Kc") is None else float(d["Kc"]),
+            model=str(d["model"]),
+            r_min=None if d.get("r_min") is None else float(d["r_min"]),
+        )
+        return cls(
+            terrain=str(d["terrain"]),
+            plate_pair=None if not pp else (float(pp[0]), float(pp[1])),
             cone=str(d.get("cone", "asabe-large")),
             provenance=dict(d.get("provenance", {})),
+            params=params,
         )
 
     def library_params(self) -> dict[str, Any]:
@@ -199,19 +246,10 @@ class LearnResult:
             "terracone": __version__,
             **provenance,
         }
-        p = self.params
+        # the calibration holds what prediction uses: not a fixed Kc of the learning
+        params = replace(self.params, K_cone=None)
         return Calibration(
-            terrain,
-            p.model,
-            p.r_min,
-            self.plate_pair,
-            p.phic_deg,
-            p.cc,
-            p.kc,
-            p.kphi,
-            p.n,
-            cone,
-            prov,
+            terrain, plate_pair=self.plate_pair, cone=cone, provenance=prov, params=params
         )
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
@@ -359,32 +397,8 @@ def learn(
         np.array([theta[0]]), np.array([theta[1]]), np.array([theta[2]]), rtol=1e-9
     )
     datasets, J_res = _datasets(prob, x, theta)
-    certificate = {
-        "objective": J_res,
-        "lower_bound": min(lower, J_res),
-        "gap": max(J_res - lower, 0.0),
-        "inner_gap": float(final.gap[0]),
-        "cells_not_excluded": n_cells,
-        "grid": [int(a.size) for a in stage.axes],
-        "method": (
-            "inner (kc, kphi, cc): convex, solved with a duality-gap certificate (its dual value "
-            "is a proven lower bound at each grid point); outer (n, phic, log r_min): each cell's "
-            "bound is its smallest corner lower bound less the error of linear interpolation, "
-            "sum_k M_k h_k^2 / 8, with the curvature M_k taken as 2 times the largest second "
-            "divided difference of J on the cell's sample points (an estimate, not a proof: J "
-            "is assumed no more curved inside a cell than twice what its samples show); RM1 "
-            "branch points, where J jumps, are cell boundaries; cells below J by more than the "
-            "target are halved by branch and bound; J >= 0 certifies a zero-residual fit"
-        ),
-        "assumption": "curvature of J inside a cell at most 2x its sampled second differences",
-    }
-    worst = max(ds["cv"] for ds in datasets)
-    criteria = {
-        "max_cv": max_cv,
-        "worst_cv": worst,
-        "satisfied": bool(worst <= max_cv),
-        "at_bounds": _at_bounds(prob, params),
-    }
+    certificate = _certificate(stage, J_res, lower, float(final.gap[0]), n_cells)
+    criteria = _criteria(prob, params, datasets, max_cv)
     intervals, und, r_profile = _intervals(prob, stage, x, theta, datasets, noise_floor)
     res = [np.concatenate(r) for r in _split_residuals(prob, x, theta)]
     return LearnResult(
@@ -402,6 +416,44 @@ def learn(
         intervals=intervals,
         certificate=certificate,
     )
+
+
+def _certificate(
+    stage: GridStage, J_res: float, lower: float, inner_gap: float, n_cells: int
+) -> dict[str, Any]:
+    """The certificate of :func:`learn`: J, a lower bound of the global minimum, how found."""
+    return {
+        "objective": J_res,
+        "lower_bound": min(lower, J_res),
+        "gap": max(J_res - lower, 0.0),
+        "inner_gap": inner_gap,
+        "cells_not_excluded": n_cells,
+        "grid": [int(a.size) for a in stage.axes],
+        "method": (
+            "inner (kc, kphi, cc): convex, solved with a duality-gap certificate (its dual value "
+            "is a proven lower bound at each grid point); outer (n, phic, log r_min): each cell's "
+            "bound is its smallest corner lower bound less the error of linear interpolation, "
+            "sum_k M_k h_k^2 / 8, with the curvature M_k taken as 2 times the largest second "
+            "divided difference of J on the cell's sample points (an estimate, not a proof: J "
+            "is assumed no more curved inside a cell than twice what its samples show); RM1 "
+            "branch points, where J jumps, are cell boundaries; cells below J by more than the "
+            "target are halved by branch and bound; J >= 0 certifies a zero-residual fit"
+        ),
+        "assumption": "curvature of J inside a cell at most 2x its sampled second differences",
+    }
+
+
+def _criteria(
+    prob: LearnProblem, params: TerrainParameters, datasets: list[dict[str, Any]], max_cv: float
+) -> dict[str, Any]:
+    """The fit criterion of :func:`learn` (every data set's CV below ``max_cv``)."""
+    worst = max(ds["cv"] for ds in datasets)
+    return {
+        "max_cv": max_cv,
+        "worst_cv": worst,
+        "satisfied": bool(worst <= max_cv),
+        "at_bounds": _at_bounds(prob, params),
+    }
 
 
 def _search(prob: LearnProblem, grid, starts: int, certify_levels: int, target: float):
