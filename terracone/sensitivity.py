@@ -38,7 +38,7 @@ References
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,33 +46,65 @@ import numpy as np
 from SALib.analyze import sobol as sobol_analyze
 from SALib.sample import sobol as sobol_sample
 
-from .cone import Cone, get_cone, improved
+from .cone import Cone, cone_index_huang, get_cone
+from .data import TerrainParameters
 from .plate import pressure_law
 
-__all__ = ["BOXES", "SOBOL_NAMES", "SobolResult", "sobol_ci"]
+__all__ = ["BOXES", "SOBOL_NAMES", "SobolBox", "SobolResult", "sobol_ci"]
 
-#: Parameter order of the Sobol analysis.
+#: Parameter order of the Sobol analysis (the keys of a box; ``phic`` is
+#: :attr:`TerrainParameters.phic_deg`, ``Kc`` is :attr:`TerrainParameters.K_cone`).
 SOBOL_NAMES = ("kc", "kphi", "n", "cc", "phic", "Kc")
+_FIELDS = ("kc", "kphi", "n", "cc", "phic_deg", "K_cone")
 
-#: Named boxes: (lo, hi) per parameter in SI (kc kN/m^(n+1), kphi kN/m^(n+2),
-#: cc kPa, phic deg, Kc m); Kc is log-uniform.
-BOXES: dict[str, dict[str, tuple[float, float]]] = {
-    "bounds": {
-        "kc": (0.0, 1000.0),
-        "kphi": (0.0, 20000.0),
-        "n": (0.05, 2.0),
-        "cc": (0.0, 100.0),
-        "phic": (0.0, 45.0),
-        "Kc": (1e-4, 0.1),
-    },
-    "lete": {
-        "kc": (51.0, 153.0),
-        "kphi": (2650.0, 7950.0),
-        "n": (0.5, 1.1),
-        "cc": (0.0, 2.0),
-        "phic": (5.0, 20.0),
-        "Kc": (1e-4, 0.1),
-    },
+
+@dataclass(frozen=True, eq=False)
+class SobolBox(Mapping):
+    """A box of terrain parameters: its lower and upper corners, SI.
+
+    Both corners are :class:`~terracone.data.TerrainParameters`; the box
+    reads like the dict of ranges it replaces, ``box["kc"] == (lo, hi)``
+    with the keys :data:`SOBOL_NAMES` (``"phic"`` [deg], ``"Kc"`` [m],
+    log-uniform in :func:`sobol_ci`).
+    """
+
+    lo: TerrainParameters
+    hi: TerrainParameters
+
+    def __getitem__(self, name: str) -> tuple[float, float]:
+        if name not in SOBOL_NAMES:
+            raise KeyError(name)
+        f = _FIELDS[SOBOL_NAMES.index(name)]
+        return (getattr(self.lo, f), getattr(self.hi, f))
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(SOBOL_NAMES)
+
+    def __len__(self) -> int:
+        return len(SOBOL_NAMES)
+
+    @classmethod
+    def from_ranges(cls, ranges: Mapping[str, tuple[float, float]]) -> SobolBox:
+        """Box from ``{name: (lo, hi)}`` with the keys of :data:`SOBOL_NAMES` (SI)."""
+        missing = [k for k in SOBOL_NAMES if k not in ranges]
+        if missing:
+            raise ValueError(f"box lacks {missing}")
+        corner = [{f: float(ranges[k][i]) for k, f in zip(SOBOL_NAMES, _FIELDS)} for i in (0, 1)]
+        return cls(TerrainParameters(**corner[0]), TerrainParameters(**corner[1]))
+
+
+#: Named boxes (SI: kc kN/m^(n+1), kphi kN/m^(n+2), cc kPa, phic deg, Kc m);
+#: Kc is log-uniform.
+BOXES: dict[str, SobolBox] = {
+    "bounds": SobolBox(
+        TerrainParameters(kc=0.0, kphi=0.0, n=0.05, cc=0.0, phic_deg=0.0, K_cone=1e-4),
+        TerrainParameters(kc=1000.0, kphi=20000.0, n=2.0, cc=100.0, phic_deg=45.0, K_cone=0.1),
+    ),
+    # LETE sand (Wong: kc 102, kphi 5301, n 0.79) +-50 %; n, cc, phic around the paper's fit
+    "lete": SobolBox(
+        TerrainParameters(kc=51.0, kphi=2650.0, n=0.5, cc=0.0, phic_deg=5.0, K_cone=1e-4),
+        TerrainParameters(kc=153.0, kphi=7950.0, n=1.1, cc=2.0, phic_deg=20.0, K_cone=0.1),
+    ),
 }
 
 
@@ -155,14 +187,14 @@ def _evaluate(
     for a in range(0, X.shape[0], chunk):
         x = X[a : a + chunk]
         col = [x[:, j : j + 1] for j in range(6)]
-        out[a : a + chunk] = improved(
+        out[a : a + chunk] = cone_index_huang(
             depths,
             kc=col[0],
             kphi=col[1],
             n=col[2],
             cc=col[3],
-            phic=col[4],
-            Kc=col[5],
+            phic_deg=col[4],
+            K_cone=col[5],
             law=law,
             cone=cone,
         )
@@ -188,9 +220,10 @@ def sobol_ci(
 
     Parameters
     ----------
-    box : "bounds", "lete" or dict
+    box : "bounds", "lete", SobolBox or dict
         Ranges (SI) of kc [kN/m^(n+1)], kphi [kN/m^(n+2)], n [-], cc [kPa],
-        phic [deg] (uniform) and Kc [m] (log-uniform); see :data:`BOXES`.
+        phic [deg] (uniform) and Kc [m] (log-uniform); see :data:`BOXES`
+        and :class:`SobolBox`.
     depths : sequence of float
         Cone-base depths [m] of the point outputs.
     mean_range : (float, float)
@@ -220,21 +253,10 @@ def sobol_ci(
     """
     t0 = time.perf_counter()
     b = dict(BOXES[box]) if isinstance(box, str) else dict(box)
-    missing = [k for k in SOBOL_NAMES if k not in b]
-    if missing:
-        raise ValueError(f"box lacks {missing}")
-    if b["Kc"][0] <= 0:
-        raise ValueError("Kc range must be > 0 (log-uniform)")
-    cone = get_cone(cone)
-    bounds = [list(b[k]) for k in SOBOL_NAMES]
-    bounds[5] = [float(np.log10(b["Kc"][0])), float(np.log10(b["Kc"][1]))]
-    problem = {"num_vars": 6, "names": list(SOBOL_NAMES), "bounds": bounds}
-    U = sobol_sample.sample(problem, n_base, calc_second_order=False, seed=seed)
-    X = np.array(U, dtype=float)
-    X[:, 5] = 10.0 ** X[:, 5]
+    problem, X = _sample(b, n_base, seed)
     mean_z = np.arange(mean_range[0], mean_range[1] + mean_step / 2, mean_step)
     z = np.concatenate([mean_z, np.asarray(depths, dtype=float)])
-    ci = _evaluate(X, z, cone=cone, model=model, r_min=r_min, chunk=chunk)
+    ci = _evaluate(X, z, cone=get_cone(cone), model=model, r_min=r_min, chunk=chunk)
     outs = {
         f"mean CI {100 * mean_range[0]:g}-{100 * mean_range[1]:g} cm": ci[:, : mean_z.size].mean(
             axis=1
@@ -242,6 +264,41 @@ def sobol_ci(
     }
     for j, d in enumerate(depths):
         outs[f"CI at {100 * d:g} cm"] = ci[:, mean_z.size + j]
+    S1, S1c, ST, STc = _analyse(problem, outs, log, num_resamples, seed)
+    return SobolResult(
+        names=SOBOL_NAMES,
+        outputs=tuple(outs),
+        S1=S1,
+        S1_conf=S1c,
+        ST=ST,
+        ST_conf=STc,
+        box={k: tuple(float(v) for v in b[k]) for k in SOBOL_NAMES},
+        log=log,
+        n_base=n_base,
+        n_evals=int(X.shape[0]),
+        time_s=time.perf_counter() - t0,
+    )
+
+
+def _sample(
+    b: Mapping[str, tuple[float, float]], n_base: int, seed: int | None
+) -> tuple[dict[str, Any], np.ndarray]:
+    """SALib problem and Saltelli sample (S, 6) of a box; Kc log-uniform."""
+    missing = [k for k in SOBOL_NAMES if k not in b]
+    if missing:
+        raise ValueError(f"box lacks {missing}")
+    if b["Kc"][0] <= 0:
+        raise ValueError("Kc range must be > 0 (log-uniform)")
+    bounds = [list(b[k]) for k in SOBOL_NAMES]
+    bounds[5] = [float(np.log10(b["Kc"][0])), float(np.log10(b["Kc"][1]))]
+    problem = {"num_vars": 6, "names": list(SOBOL_NAMES), "bounds": bounds}
+    X = np.array(sobol_sample.sample(problem, n_base, calc_second_order=False, seed=seed), float)
+    X[:, 5] = 10.0 ** X[:, 5]
+    return problem, X
+
+
+def _analyse(problem: dict[str, Any], outs: dict[str, np.ndarray], log, num_resamples, seed):
+    """S1, S1_conf, ST, ST_conf per output ``{output: {parameter: value}}`` (Saltelli)."""
     S1, S1c, ST, STc = {}, {}, {}, {}
     for name, Y in outs.items():
         Yv = np.log(np.maximum(Y, 1e-300)) if log else Y
@@ -257,16 +314,4 @@ def sobol_ci(
         S1c[name] = {k: float(v) for k, v in zip(SOBOL_NAMES, res["S1_conf"])}
         ST[name] = {k: float(v) for k, v in zip(SOBOL_NAMES, res["ST"])}
         STc[name] = {k: float(v) for k, v in zip(SOBOL_NAMES, res["ST_conf"])}
-    return SobolResult(
-        names=SOBOL_NAMES,
-        outputs=tuple(outs),
-        S1=S1,
-        S1_conf=S1c,
-        ST=ST,
-        ST_conf=STc,
-        box={k: tuple(float(v) for v in b[k]) for k in SOBOL_NAMES},
-        log=log,
-        n_base=n_base,
-        n_evals=int(X.shape[0]),
-        time_s=time.perf_counter() - t0,
-    )
+    return S1, S1c, ST, STc
