@@ -58,8 +58,8 @@ from pathlib import Path
 from typing import Any
 
 from . import units as u
-from .data import TerrainParameters
-from .library import TerrainRecord, check_params
+from .data import TerrainParameters, TerrainShear
+from .library import TerrainRecord, check_params, record_params
 
 __all__ = [
     "CHRONO_KEYS",
@@ -109,22 +109,14 @@ PLAIN_FIELDS = (
 FORMATS = ("chrono-scm", "json", "csv")
 
 
-def _params_of(obj: TerrainRecord | TerrainParameters | Mapping[str, Any]) -> dict[str, Any]:
-    """SI parameter dict (library keys) of a record, TerrainParameters or dict."""
+def _params_of(
+    obj: TerrainRecord | TerrainParameters | TerrainShear | Mapping[str, Any],
+) -> dict[str, Any]:
+    """SI parameter dict (library keys) of a record, TerrainParameters, TerrainShear or dict."""
     if isinstance(obj, TerrainRecord):
         return check_params(obj.params)
-    if isinstance(obj, TerrainParameters):
-        d = {
-            "kc": obj.kc,
-            "kphi": obj.kphi,
-            "n": obj.n,
-            "cc": obj.cc,
-            "phic_deg": obj.phic_deg,
-            "Kc": obj.Kc,
-            "model": obj.model,
-            "r_min": obj.r_min,
-        }
-        return check_params(d)
+    if isinstance(obj, TerrainParameters | TerrainShear):
+        return record_params(obj)
     if isinstance(obj, Mapping):
         d = dict(obj)
         units = d.pop("units", "si")
@@ -132,7 +124,8 @@ def _params_of(obj: TerrainRecord | TerrainParameters | Mapping[str, Any]) -> di
             raise ValueError("parameter dicts must be in SI (library keys); got units=" + units)
         return check_params(d)
     raise TypeError(
-        f"expected a TerrainRecord, TerrainParameters or dict (got {type(obj).__name__})"
+        "expected a TerrainRecord, TerrainParameters, TerrainShear or dict "
+        f"(got {type(obj).__name__})"
     )
 
 

@@ -34,6 +34,16 @@ the cone-metal shear (cc, phic_deg, Kc) of [1]_ are different quantities and
 are kept under different keys; ambiguous keys such as ``c`` or ``phi`` are
 refused.
 
+Records and the parameter types.  A record's parameters are built from, and
+read back as, the package's two parameter types:
+:class:`~terracone.data.TerrainParameters` (kc, kphi, n, cc, phic_deg,
+K_cone stored as ``Kc``, model, r_min) and
+:class:`~terracone.data.TerrainShear` (c, phi_deg, K stored as ``c_kpa``,
+``phi_deg``, ``K_m``): :func:`record_params` writes the stored keys from
+them, :attr:`TerrainRecord.terrain_parameters` and
+:attr:`TerrainRecord.terrain_shear` read them.  The stored keys are those
+of the table above, as they always were.
+
 Reference terrains.  The values tabulated by Wong [2]_ ship with the package
 (``terracone/data/wong_terrain_values.csv``) and are a *read-only overlay*:
 every library shows them (kind ``"reference"``, ``builtin=True``) without
@@ -77,6 +87,8 @@ from importlib import metadata, resources
 from pathlib import Path
 from typing import Any
 
+from .data import TerrainParameters, TerrainShear
+
 __all__ = [
     "PARAM_UNITS",
     "REFERENCE_CITATION",
@@ -84,6 +96,7 @@ __all__ = [
     "Library",
     "TerrainRecord",
     "check_params",
+    "record_params",
     "default_library_path",
     "make_provenance",
     "reference_records",
@@ -224,6 +237,51 @@ def check_params(params: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
+def record_params(
+    *parts: TerrainParameters | TerrainShear | Mapping[str, Any], **extra: Any
+) -> dict[str, Any]:
+    """The stored (SI) parameter dict of a record, from the parameter types.
+
+    Parameters
+    ----------
+    *parts : TerrainParameters, TerrainShear or mapping
+        A :class:`~terracone.data.TerrainParameters` gives kc, kphi, n, cc,
+        phic_deg, Kc (its K_cone, when set), model and r_min (when set); a
+        :class:`~terracone.data.TerrainShear` gives c_kpa, phi_deg and K_m
+        (those it has); a mapping gives its keys as they are.
+    **extra
+        Further keys (``plate_pair``, ``cone``, ``moisture_pct``, ...).
+
+    Returns
+    -------
+    dict
+        Checked by :func:`check_params` (None values dropped).
+    """
+    d: dict[str, Any] = {}
+    for part in parts:
+        if isinstance(part, TerrainParameters):
+            d.update(
+                kc=part.kc,
+                kphi=part.kphi,
+                n=part.n,
+                cc=part.cc,
+                phic_deg=part.phic_deg,
+                Kc=part.K_cone,
+                model=part.model,
+                r_min=part.r_min,
+            )
+        elif isinstance(part, TerrainShear):
+            d.update(part.library_params())
+        elif isinstance(part, Mapping):
+            d.update(part)
+        else:
+            raise TypeError(
+                f"expected TerrainParameters, TerrainShear or a mapping (got {type(part).__name__})"
+            )
+    d.update(extra)
+    return check_params(d)
+
+
 @dataclass(frozen=True)
 class TerrainRecord:
     """One named terrain.
@@ -253,6 +311,32 @@ class TerrainRecord:
     created: str | None = None
     modified: str | None = None
     builtin: bool = False
+
+    @property
+    def terrain_parameters(self) -> TerrainParameters | None:
+        """kc, kphi, n (and cc, phic_deg, Kc, model, r_min where stored), SI.
+
+        None when the record lacks kc, kphi or n.  cc and phic_deg read 0 and
+        model "rm0" when the record has none (a plate-only terrain).
+        """
+        p = self.params
+        if any(p.get(k) is None for k in ("kc", "kphi", "n")):
+            return None
+        return TerrainParameters(
+            kc=float(p["kc"]),
+            kphi=float(p["kphi"]),
+            n=float(p["n"]),
+            cc=float(p.get("cc", 0.0)),
+            phic_deg=float(p.get("phic_deg", 0.0)),
+            K_cone=None if p.get("Kc") is None else float(p["Kc"]),
+            model=str(p.get("model", "rm0")),
+            r_min=None if p.get("r_min") is None else float(p["r_min"]),
+        )
+
+    @property
+    def terrain_shear(self) -> TerrainShear | None:
+        """The terrain's internal c, phi_deg, K (stored c_kpa, phi_deg, K_m); None if none."""
+        return TerrainShear.from_library_params(self.params)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict (the format of :meth:`Library.export`)."""
@@ -342,21 +426,18 @@ def _reference_records() -> tuple[TerrainRecord, ...]:
             name = f"{name} #{i}"
         seen.add(name)
         K_cm = num(r["K_cm"])
-        params = {
-            "kc": num(r["kc_si"]),
-            "kphi": num(r["kphi_si"]),
-            "n": num(r["n"]),
-            # plate / internal shear values: c and phi of the terrain, not cc, phic
-            "c_kpa": num(r["c_kpa"]),
-            "phi_deg": num(r["phi_deg"]),
-            "K_m": None if K_cm is None else K_cm / 100.0,  # cm -> m
-            "moisture_pct": moist,
-        }
+        # plate values (kc, kphi, n; no cone-metal cc, phic) and the terrain's internal shear
+        shear = TerrainShear(
+            c=num(r["c_kpa"]),
+            phi_deg=num(r["phi_deg"]),
+            K=None if K_cm is None else K_cm / 100.0,  # cm -> m
+        )
+        plates = {"kc": num(r["kc_si"]), "kphi": num(r["kphi_si"]), "n": num(r["n"])}
         out.append(
             TerrainRecord(
                 name=name,
                 kind="reference",
-                params=check_params(params),
+                params=record_params(plates, shear, moisture_pct=moist),
                 provenance={
                     "source": f"terracone/data/{_REFERENCE_FILE}",
                     "method": "tabulated",

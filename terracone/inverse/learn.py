@@ -169,19 +169,11 @@ class Calibration:
         )
 
     def library_params(self) -> dict[str, Any]:
-        """Parameters to store in the terrain library (SI keys)."""
-        d = {
-            "kc": self.kc,
-            "kphi": self.kphi,
-            "n": self.n,
-            "cc": self.cc,
-            "phic_deg": self.phic_deg,
-            "model": self.model,
-            "r_min": self.r_min,
-            "plate_pair": list(self.plate_pair) if self.plate_pair else None,
-            "cone": self.cone,
-        }
-        return {k: v for k, v in d.items() if v is not None}
+        """Parameters to store in the terrain library (SI keys, :func:`~terracone.library.record_params`)."""
+        from ..library import record_params
+
+        pair = list(self.plate_pair) if self.plate_pair else None
+        return record_params(self.params, plate_pair=pair, cone=self.cone)
 
     @classmethod
     def from_library_record(cls, rec: Any) -> Calibration:
