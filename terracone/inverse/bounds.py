@@ -18,6 +18,9 @@ __all__ = ["Bounds", "PARAMS", "DEFAULT_BOUNDS_SI"]
 
 PARAMS = ("kc", "kphi", "n", "cc", "phic")
 
+# Python names (terracone.vocabulary) of the fields named like the CLI's --bounds keys
+_FIELD_OF = {"phic_deg": "phic", "K_cone": "Kc"}
+
 #: Default bounds in SI (kc kN/m^(n+1), kphi kN/m^(n+2), n, cc kPa, phic deg).
 DEFAULT_BOUNDS_SI = {
     "kc": (0.0, 1000.0),
@@ -43,6 +46,14 @@ class Bounds:
         [deg]
     Kc : (float, float)
         [m], used only when Kc is fitted.
+
+    Notes
+    -----
+    The fields are named like the keys of the CLI's ``--bounds`` (a
+    contract): ``phic`` holds the bounds of ``phic_deg`` and ``Kc`` those of
+    ``K_cone`` (:mod:`terracone.vocabulary`).  The Python names work too:
+    the properties :attr:`phic_deg` and :attr:`K_cone`, and as keywords of
+    :meth:`fixed` and keys of :meth:`parse`.
     """
 
     kc: tuple[float, float] = DEFAULT_BOUNDS_SI["kc"]
@@ -85,6 +96,7 @@ class Bounds:
             if "=" not in part or ":" not in part:
                 raise ValueError(f"bounds: expected NAME=LO:HI, got {part!r}")
             name, rng = (s.strip() for s in part.split("=", 1))
+            name = _FIELD_OF.get(name, name)
             if name not in PARAMS + ("Kc",):
                 raise ValueError(
                     f"bounds: unknown parameter {name!r} (use {', '.join(PARAMS)}, Kc)"
@@ -117,9 +129,21 @@ class Bounds:
             self.kphi[1] + 0 * n, n, self.kphi_units
         )
 
+    @property
+    def phic_deg(self) -> tuple[float, float]:
+        """Bounds of phic_deg [deg] (the field ``phic``)."""
+        return self.phic
+
+    @property
+    def K_cone(self) -> tuple[float, float]:
+        """Bounds of K_cone [m] (the field ``Kc``)."""
+        return self.Kc
+
     def fixed(self, **values: float) -> Bounds:
-        """Copy with some of n, cc [kPa], phic [deg] pinned (LO = HI)."""
-        return replace(self, **{k: (float(v), float(v)) for k, v in values.items()})
+        """Copy with some of n, cc [kPa], phic (or phic_deg) [deg] pinned (LO = HI)."""
+        return replace(
+            self, **{_FIELD_OF.get(k, k): (float(v), float(v)) for k, v in values.items()}
+        )
 
     def as_dict(self, units: str = "si") -> dict[str, object]:
         """Bounds for reports: cc in ``units``, kc/kphi in the units they were given in."""

@@ -12,6 +12,8 @@ Builders:
 * :func:`parameters_table`: kc, kphi, n, cc, phic in SI and US columns
   (Tables 4-1 and 4-3).  The US values of kc and kphi depend on n
   (:mod:`terracone.units`).
+* :func:`shear_table`: the terrain's internal c, phi, K
+  (:class:`~terracone.data.TerrainShear`) in SI and US columns.
 * :func:`agreement_table`: R, R2, RMSD (kPa and psi) and CV per prediction
   and plate test, one column group per plate size (Tables 4-2 and 4-4).
 * :func:`comparison_table`: ours beside the published values, row by row.
@@ -36,12 +38,15 @@ from pathlib import Path
 from typing import Any
 
 from .. import units as u
+from ..data import TerrainParameters, TerrainShear
 
 __all__ = [
     "Table",
     "PARAM_NAMES",
     "fmt_value",
     "parameters_table",
+    "shear_table",
+    "terrain_parameters_of",
     "agreement_table",
     "flat_agreement_table",
     "comparison_table",
@@ -298,8 +303,46 @@ _PARAM_COLUMNS = [
 ]
 
 
+def _values(row: Mapping[str, Any]) -> Mapping[str, Any]:
+    """A row's SI values: its ``parameters`` (TerrainParameters) spread out, if it has one."""
+    tp = row.get("parameters")
+    if isinstance(tp, TerrainParameters):
+        return {**row, **tp.as_dict("si")}
+    return row
+
+
+def terrain_parameters_of(row: Mapping[str, Any]) -> TerrainParameters | None:
+    """The TerrainParameters of a table row (SI), or None if a value is missing.
+
+    A row is a mapping with ``parameters`` (a TerrainParameters) or with the
+    values kc [kN/m^(n+1)], kphi [kN/m^(n+2)], n, cc [kPa] and phic_deg
+    (or phic) [deg].
+    """
+    tp = row.get("parameters")
+    if isinstance(tp, TerrainParameters):
+        return tp
+    v = [_f(row.get(k)) for k in ("kc", "kphi", "n", "cc")]
+    phic = _f(row.get("phic_deg", row.get("phic")))
+    if any(x is None for x in v) or phic is None:
+        return None
+    return TerrainParameters(v[0], v[1], v[2], v[3], phic)
+
+
 def _param_cells(p: Mapping[str, Any]) -> list[Any]:
     """SI and US cells of one parameter set given in SI (kc, kphi, n, cc, phic_deg)."""
+    tp = terrain_parameters_of(p)
+    if tp is not None:  # the unit conversion of the parameter type (Tables 4-1, 4-3)
+        si, us = tp.as_dict("si"), tp.as_dict("us")
+        return [
+            si["kc"],
+            us["kc"],
+            si["kphi"],
+            us["kphi"],
+            si["n"],
+            si["cc"],
+            us["cc"],
+            si["phic_deg"],
+        ]
     n = _f(p.get("n"))
     kc, kphi, cc = _f(p.get("kc")), _f(p.get("kphi")), _f(p.get("cc"))
     phic = _f(p.get("phic_deg", p.get("phic")))
@@ -332,8 +375,10 @@ def parameters_table(
     Parameters
     ----------
     rows : sequence of mappings
-        ``id`` and ``kc`` [kN/m^(n+1)], ``kphi`` [kN/m^(n+2)], ``n``,
-        ``cc`` [kPa], ``phic_deg`` [deg], all SI (None where unknown).
+        ``id`` and either ``parameters`` (a
+        :class:`~terracone.data.TerrainParameters`) or ``kc``
+        [kN/m^(n+1)], ``kphi`` [kN/m^(n+2)], ``n``, ``cc`` [kPa],
+        ``phic_deg`` [deg], all SI (None where unknown).
     extra : sequence of (group, sub, getter)
         Further columns, e.g. ``("RMSD CI", "kPa", lambda r: r["rmsd"])``.
     """
@@ -341,6 +386,39 @@ def parameters_table(
     body = []
     for r in rows:
         body.append([r.get("id")] + _param_cells(r) + [fn(r) for _, _, fn in extra])
+    return Table(key, title, cols, body, list(notes), synthetic)
+
+
+def shear_table(
+    rows: Sequence[tuple[str, TerrainShear]],
+    *,
+    key: str,
+    title: str,
+    first: str = "Terrain",
+    notes: Sequence[str] = (),
+    synthetic: bool = False,
+) -> Table:
+    """The terrain's internal shear c, phi, K with SI and US columns.
+
+    Parameters
+    ----------
+    rows : sequence of (str, TerrainShear)
+        Label and shear parameters (SI: c [kPa], phi_deg [deg], K [m]).
+    """
+    cols = [(first, ""), ("c", "kPa"), ("c", "psi"), ("phi", "deg"), ("K", "cm"), ("K", "in")]
+    body = []
+    for label, sh in rows:
+        us = sh.as_dict("us")
+        body.append(
+            [
+                label,
+                sh.c,
+                us["c"],
+                sh.phi_deg,
+                None if sh.K is None else sh.K * 100.0,
+                us["K"],
+            ]
+        )
     return Table(key, title, cols, body, list(notes), synthetic)
 
 
@@ -371,6 +449,7 @@ def mark_bounds(
 
     hits = []
     for i, r in enumerate(rows):
+        r = _values(r)
         if _f(r.get("n")) is None:
             continue
         if on(_f(r.get("cc")), cc, upper_only=True):
