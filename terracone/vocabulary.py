@@ -28,7 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["Name", "NAMES", "ALIASES", "alias"]
+__all__ = ["Name", "NAMES", "ALIASES", "alias", "markdown_table"]
 
 
 @dataclass(frozen=True)
@@ -124,7 +124,7 @@ NAMES: tuple[Name, ...] = (
         "ratio kc/kphi held from a calibration",
         "k_c/k_phi",
         "kc_over_kphi",
-        ("ratio",),
+        (),
         "",
         "",
         "",
@@ -162,3 +162,23 @@ def alias(name: str, value: Any, old: str, old_value: Any) -> Any:
     if value is not None:
         raise TypeError(f"give {name} or its alias {old}, not both")
     return old_value
+
+
+def markdown_table() -> str:
+    """:data:`NAMES` as the Markdown table of ``docs/physics.md``."""
+
+    def code(x: str) -> str:
+        return f"`{x}`" if x else "-"
+
+    rows = [
+        "| concept | paper | Python | alias (old Python) | JSON key | CLI | library key | unit |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for nm in NAMES:
+        cli = "; ".join(code(p.strip()) for p in nm.cli.split(";")) if nm.cli else "-"
+        old = ", ".join(code(a) for a in nm.aliases) or "-"
+        rows.append(
+            f"| {nm.concept} | {nm.symbol} | {code(nm.python)} | {old} | {code(nm.json)} "
+            f"| {cli} | {code(nm.library)} | {nm.unit} |"
+        )
+    return "\n".join(rows)

@@ -41,6 +41,7 @@ import numpy as np
 
 from .. import units as u
 from ..data import CIProfile, PlateTest, TerrainParameters
+from ..vocabulary import alias
 from .bounds import Bounds
 from .learnsearch import (
     GridStage,
@@ -295,7 +296,7 @@ def learn_problem(
     model: str,
     bounds: Bounds,
     r_min_bounds: tuple[float, float] | None,
-    Kc: float | None,
+    K_cone: float | None,
 ) -> LearnProblem:
     """The checked data and search space of :func:`learn` (plates' loading branches only)."""
     if model not in ("rm0", "rm1"):
@@ -313,7 +314,7 @@ def learn_problem(
         rb = r_min_bounds or (5e-4, 3.0 * max(b.b for b in branches))
         if not (0 < rb[0] <= rb[1] and math.isfinite(rb[1])):
             raise ValueError(f"r_min range: need 0 < LO <= HI (got {rb[0]}:{rb[1]})")
-    return LearnProblem(profiles, branches, model, bounds, rb, Kc, _plate_pair(branches))
+    return LearnProblem(profiles, branches, model, bounds, rb, K_cone, _plate_pair(branches))
 
 
 def learn(
@@ -323,13 +324,14 @@ def learn(
     model: str = "rm1",
     bounds: Bounds | None = None,
     r_min_bounds: tuple[float, float] | None = None,
-    Kc: float | None = None,
+    K_cone: float | None = None,
     grid: tuple[int, int, int] = (17, 10, 12),
     max_cv: float = 0.25,
     noise_floor: float = 0.01,
     starts: int = 3,
     certify_levels: int = 6,
     certify_target: float = 0.04,
+    Kc: float | None = None,
 ) -> LearnResult:
     """Fit kc, kphi, n, cc, phic (and r_min for RM1) to CI and plate data.
 
@@ -348,8 +350,9 @@ def learn(
     bounds : Bounds
     r_min_bounds : (float, float), optional
         Search range of r_min [m]; default 0.5 mm to 3 times the larger plate.
-    Kc : float, optional
-        Fixed shear deformation parameter [m] (None: fully mobilised).
+    K_cone : float, optional
+        Fixed cone-terrain shear deformation parameter Kc [m] (None: fully
+        mobilised); alias ``Kc``.
     grid : (int, int, int)
         Grid sizes for n, phic and r_min.
     max_cv : float
@@ -378,12 +381,13 @@ def learn(
     .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Section 3.3.1.
     """
     t0 = time.perf_counter()
-    prob = learn_problem(profiles, plates, model, bounds or Bounds(), r_min_bounds, Kc)
+    K_cone = alias("K_cone", K_cone, "Kc", Kc)
+    prob = learn_problem(profiles, plates, model, bounds or Bounds(), r_min_bounds, K_cone)
     stage, best, nfev, lower, n_cells = _search(prob, grid, starts, certify_levels, certify_target)
     x, theta = best.x, best.theta
     rm = float(np.exp(theta[2])) if model == "rm1" else None
     params = TerrainParameters(
-        float(x[0]), float(x[1]), float(theta[0]), float(x[2]), float(theta[1]), Kc, model, rm
+        float(x[0]), float(x[1]), float(theta[0]), float(x[2]), float(theta[1]), K_cone, model, rm
     )
     final = prob.solve_cells(
         np.array([theta[0]]), np.array([theta[1]]), np.array([theta[2]]), rtol=1e-9
