@@ -631,6 +631,15 @@ def cone_index_janosi(
 janosi = cone_index_janosi
 
 
+def _janosi_in(depth, kc, kphi, n: np.ndarray, units: str) -> np.ndarray:
+    """Eq. (2-1) with inputs and output in a unit system (the equation itself is in US units)."""
+    z_in = u.length_to_si(depth, units) / u.INCH
+    kc_us = u.kc_from_si(u.kc_to_si(kc, n, units), n, "us")
+    kphi_us = u.kphi_from_si(u.kphi_to_si(kphi, n, units), n, "us")
+    ci_psi = cone_index_janosi(z_in, kc=kc_us, kphi=kphi_us, n=n)
+    return u.pressure_from_si(u.pressure_to_si(ci_psi, "us"), units)
+
+
 def cone_index(
     depth: ArrayLike,
     *,
@@ -703,11 +712,7 @@ def cone_index(
             )
         if Kc is not None or np.any(np.asarray(cc) != 0) or np.any(np.asarray(phic) != 0):
             raise ValueError("cc, phic and Kc are not parameters of the Janosi equation (2-1)")
-        z_in = u.length_to_si(depth, units) / u.INCH
-        kc_us = u.kc_from_si(u.kc_to_si(kc, n_arr, units), n_arr, "us")
-        kphi_us = u.kphi_from_si(u.kphi_to_si(kphi, n_arr, units), n_arr, "us")
-        ci_psi = cone_index_janosi(z_in, kc=kc_us, kphi=kphi_us, n=n_arr)
-        return u.pressure_from_si(u.pressure_to_si(ci_psi, "us"), units)
+        return _janosi_in(depth, kc, kphi, n_arr, units)
     pair = (
         None if plate_pair is None else tuple(float(v) for v in u.length_to_si(plate_pair, units))
     )
