@@ -687,8 +687,10 @@ def empty_columns(P: int) -> dict[str, np.ndarray]:
 def _arrow(values: Any, t: pa.DataType) -> pa.Array:
     if isinstance(values, pa.Array | pa.ChunkedArray):
         return values
-    if isinstance(values, np.ndarray) and values.dtype.kind == "f":
-        return pa.array(values, t, from_pandas=True)  # NaN -> null
+    if isinstance(values, np.ndarray):
+        if values.dtype.kind in "fiub":
+            return pa.array(values, t, from_pandas=True)  # NaN -> null
+        values = values.tolist()
     return pa.array(list(values), t, from_pandas=True)
 
 
