@@ -60,6 +60,7 @@ __all__ = [
     "PredictionResults",
     "arrow_table",
     "check_schema",
+    "check_table_schema",
     "dumps",
     "empty_columns",
     "from_document",
@@ -826,3 +827,22 @@ def write_parquet(path: PathLike, results: Sequence[PredictionResult], units: st
     p = Path(path)
     pq.write_table(to_table(results, units), p)
     return p
+
+
+def check_table_schema(path: PathLike) -> int:
+    """Schema version of a prediction Parquet file; 0 for one written before schemas.
+
+    Raises
+    ------
+    ValueError
+        When the file records another schema or a version this terracone
+        cannot read, or is not a Parquet file.
+    """
+    try:
+        md = pq.read_schema(path).metadata or {}
+    except (OSError, pa.ArrowInvalid) as exc:
+        raise ValueError(f"file {path}: cannot read Parquet ({exc})") from exc
+    raw = md.get(PARQUET_SCHEMA_KEY)
+    if raw is None:
+        return 0
+    return check_schema({"schema": raw.decode(errors="replace")}, f"file {path}")
