@@ -367,6 +367,7 @@ class PredictionResult:
 
     def _fit_dict(self, units: str) -> dict[str, Any]:
         d: dict[str, Any] = {"id": self.id, "status": self.status, "error": self.error}
+        d["error_row"], d["error_column"] = self.error_row, self.error_column
         keys = ("kc", "kphi", "n", "cc", "phic_deg", "Kc", "model", "r_min")
         if self.params is not None:
             p = self.params.as_dict(units)
@@ -392,9 +393,6 @@ class PredictionResult:
             "converged": self.converged,
             "message": self.message,
         }
-        if self.error_row is not None or self.error_column is not None:
-            d["error_row"] = self.error_row
-            d["error_column"] = self.error_column
         d["cone"] = self.cone
         d["metadata"] = self.metadata
         d["notes"] = list(self.notes)

@@ -192,6 +192,9 @@ def predict_profiles(
         bounds=bounds,
         seed=seed,
     )
+    for it, r in zip(items, results):  # a reader's error: its row and column for the table
+        if isinstance(it, InputError) and r.error_row is None and r.error_column is None:
+            r.error_row, r.error_column = it.row, it.column
     pair = calibration.plate_pair if calibration else None
     run = PredictRun(
         PredictionResults(results),
