@@ -689,8 +689,8 @@ def _arrow(values: Any, t: pa.DataType) -> pa.Array:
     if isinstance(values, np.ndarray):
         if values.dtype.kind in "fiub":
             return pa.array(values, t, from_pandas=True)  # NaN -> null
-        values = values.tolist()
-    return pa.array(list(values), t, from_pandas=True)
+        return pa.array(values.tolist(), t)
+    return pa.array(values if isinstance(values, list) else list(values), t, from_pandas=True)
 
 
 def arrow_table(
