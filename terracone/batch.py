@@ -80,12 +80,21 @@ from .io import (
     Table,
     column_layout,
     detect_format,
-    json_default,
     to_numbers,
 )
 from .jit import enabled
 from .metrics import check_fit_fast
 from .plate import pressure_law
+from .result import (
+    FLOAT_COLUMNS,
+    PARQUET_COLUMNS,
+    RESULT_COLUMNS,
+    TEXT_COLUMNS,
+    UQ_PARAMS,
+    arrow_table,
+    dumps,
+    empty_columns,
+)
 
 __all__ = ["BatchSummary", "run_batch", "OUTPUT_COLUMNS"]
 
@@ -115,84 +124,16 @@ _PART = re.compile(r"^part-(\d{6,})\.parquet$")
 _TMP_PREFIX = ".part-"
 _PART_META_KEY = b"terracone_batch"
 
-#: parameters with posterior intervals and identifiability labels (``uncertainty=True``)
-_UQ_PARAMS = ("kc", "kphi", "n", "cc", "phic_deg")
-
+#: The part-file columns and the per-profile results: one definition, in terracone.result
+#: (the prediction schema, docs/results.md); the old names stay as aliases.
+_UQ_PARAMS = UQ_PARAMS
 #: Output columns before the metadata columns, with their Arrow types.
-OUTPUT_COLUMNS: tuple[tuple[str, pa.DataType], ...] = (
-    ("profile", pa.string()),
-    ("status", pa.string()),
-    ("error", pa.string()),
-    ("error_row", pa.int64()),
-    ("error_column", pa.string()),
-    ("kc", pa.float64()),
-    ("kphi", pa.float64()),
-    ("n", pa.float64()),
-    ("cc", pa.float64()),
-    ("phic_deg", pa.float64()),
-    ("phic_lo", pa.float64()),
-    ("phic_hi", pa.float64()),
-    ("n_lo", pa.float64()),
-    ("n_hi", pa.float64()),
-    ("rmsd", pa.float64()),
-    ("r2_ci", pa.float64()),
-    ("longest_run", pa.float64()),
-    ("lack_of_fit", pa.string()),
-    *[(f"{p}_{q}", pa.float64()) for p in _UQ_PARAMS for q in ("q05", "q95")],
-    *[(f"ident_{p}", pa.string()) for p in _UQ_PARAMS],
-    ("bic_single", pa.float64()),
-    ("bic_layered", pa.float64()),
-    ("preferred_layers", pa.float64()),
-    ("r2_layered", pa.float64()),
-    ("interfaces", pa.string()),
-    ("n_layers", pa.string()),
-    ("lack_of_fit_layered", pa.string()),
-    ("n_points", pa.int64()),
-    ("undetermined", pa.string()),
-    ("model", pa.string()),
-    ("r_min", pa.float64()),
-    ("units", pa.string()),
-    ("cone", pa.string()),
-    ("source", pa.string()),
-    ("source_row", pa.int64()),
-    ("chunk", pa.int64()),
-    ("fit_time_s", pa.float64()),
-)
-_FLOAT_RESULTS = (
-    "kc",
-    "kphi",
-    "n",
-    "cc",
-    "phic_deg",
-    "phic_lo",
-    "phic_hi",
-    "n_lo",
-    "n_hi",
-    "rmsd",
-    "r2_ci",
-    "longest_run",
-    *[f"{p}_{q}" for p in _UQ_PARAMS for q in ("q05", "q95")],
-    "bic_single",
-    "bic_layered",
-    "preferred_layers",
-    "r2_layered",
-)
-_TEXT_RESULTS = (
-    "lack_of_fit",
-    *[f"ident_{p}" for p in _UQ_PARAMS],
-    "interfaces",
-    "n_layers",
-    "lack_of_fit_layered",
-)
+OUTPUT_COLUMNS = PARQUET_COLUMNS
+_FLOAT_RESULTS = FLOAT_COLUMNS
+_TEXT_RESULTS = TEXT_COLUMNS
 #: every per-profile result: the floats and the texts (None or text)
-_RESULT_KEYS = _FLOAT_RESULTS + _TEXT_RESULTS
-
-
-def _empty_results(P: int) -> dict[str, np.ndarray]:
-    res: dict[str, np.ndarray] = {k: np.full(P, np.nan) for k in _FLOAT_RESULTS}
-    for k in _TEXT_RESULTS:
-        res[k] = np.full(P, None, dtype=object)
-    return res
+_RESULT_KEYS = RESULT_COLUMNS
+_empty_results = empty_columns
 
 
 # ---------------------------------------------------------------------------
@@ -1764,37 +1705,36 @@ def _table(
         fit_time = float(res["fit_time_s"])
     r_min = fit.r_min
     r_min_out = None if r_min is None else float(u.length_from_si(r_min, fit.units))
-    cols: dict[str, pa.Array] = {
+    cols: dict[str, Any] = {
         "profile": pa.array(chunk.ids.tolist(), pa.string()),
-        "status": pa.array(status.tolist(), pa.string()),
-        "error": pa.array(error.tolist(), pa.string()),
+        "status": status,
+        "error": error,
         "error_row": pa.array(error_row, pa.int64(), mask=error_row < 0),
-        "error_column": pa.array(error_column.tolist(), pa.string()),
+        "error_column": error_column,
         "n_points": pa.array(chunk.counts, pa.int64()),
-        "undetermined": pa.array(undetermined.tolist(), pa.string()),
-        "model": pa.array([fit.model] * P, pa.string()),
-        "r_min": pa.array([r_min_out] * P, pa.float64()),
-        "units": pa.array([fit.units] * P, pa.string()),
-        "cone": pa.array(chunk.cone.tolist(), pa.string()),
-        "source": pa.array(chunk.source.tolist(), pa.string()),
+        "undetermined": undetermined,
+        "model": [fit.model] * P,
+        "r_min": [r_min_out] * P,
+        "units": [fit.units] * P,
+        "cone": chunk.cone,
+        "source": chunk.source,
         "source_row": pa.array(chunk.first_row, pa.int64()),
-        "chunk": pa.array(np.full(P, chunk.index, dtype=np.int64), pa.int64()),
-        "fit_time_s": pa.array(np.full(P, fit_time), pa.float64()),
+        "chunk": np.full(P, chunk.index, dtype=np.int64),
+        "fit_time_s": np.full(P, fit_time),
+        **floats,
     }
-    for k in _FLOAT_RESULTS:
-        cols[k] = pa.array(floats[k], pa.float64(), from_pandas=True)
-    for k in _TEXT_RESULTS:
-        cols[k] = pa.array(floats[k].tolist(), pa.string())
-    schema = plan.schema
-    arrays = [cols[name] for name, _ in OUTPUT_COLUMNS] + [chunk.meta[o] for o, _, _ in plan.meta]
     meta = {
         "chunk": chunk.index,
         "profiles": P,
         "failed": failure is not None,
         "run_key": run_key,
     }
-    schema = schema.with_metadata({_PART_META_KEY: json.dumps(meta).encode()})
-    return pa.Table.from_arrays(arrays, schema=schema)
+    return arrow_table(
+        cols,
+        [(o, chunk.meta[o]) for o, _, _ in plan.meta],
+        schema=plan.schema,
+        metadata={_PART_META_KEY: json.dumps(meta).encode()},
+    )
 
 
 def _write_atomic(out_dir: Path, name: str, write: Callable[[Any], None]) -> None:
@@ -1811,7 +1751,7 @@ def _write_atomic(out_dir: Path, name: str, write: Callable[[Any], None]) -> Non
 
 
 def _write_json(out_dir: Path, name: str, obj: Any) -> None:
-    data = (json.dumps(obj, indent=2, default=json_default) + "\n").encode()
+    data = (dumps(obj) + "\n").encode()
     _write_atomic(out_dir, name, lambda f: f.write(data))
 
 

@@ -116,7 +116,10 @@ def _windowed(items, rng: tuple[float | None, float | None], units: str):
 
 
 def _emit_json(obj: Any, out: str | None = None) -> None:
-    text = json.dumps(obj, indent=2, default=json_default)
+    """Print a JSON document, or write it to ``out`` (terracone.result's one JSON writer)."""
+    from .result import dumps
+
+    text = dumps(obj)
     if out:
         Path(out).write_text(text + "\n")
     else:
@@ -499,6 +502,13 @@ def _layered_text(layered: dict, units: str) -> str:
 @click.option(
     "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
 )
+@click.option(
+    "--parquet",
+    "parquet_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Also write the results as a Parquet table, with batch's columns (docs/results.md).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def predict_cmd(
     ci_file,
@@ -522,6 +532,7 @@ def predict_cmd(
     prior,
     layers,
     out,
+    parquet_path,
     as_json,
     depth_unit,
     ci_unit,
@@ -559,6 +570,10 @@ def predict_cmd(
     doc = run.as_dict(units, input=str(ci_file), depth_ref=depth_ref, depth_range=depth_range)
     if out:
         _emit_json(doc, out)
+    if parquet_path:
+        from .result import write_parquet
+
+        write_parquet(parquet_path, results, units)
     if as_json:
         _emit_json(doc)
     else:

@@ -25,7 +25,6 @@ References
 
 from __future__ import annotations
 
-import json
 import sys
 from importlib.resources import files
 from pathlib import Path
@@ -117,9 +116,11 @@ def write_example(directory: str | Path) -> None:
 def run_demo(units: str = "si", out: str | None = None) -> str:
     """Learn on profile 1 and the plates, predict all profiles, evaluate; return the text."""
     from .inverse import predict_many
+    from .inverse.bounds import Bounds
     from .inverse.evaluate import cross_table
     from .inverse.learn import learn
-    from .io import json_default, read_ci_profiles, read_plate_tests
+    from .io import read_ci_profiles, read_plate_tests
+    from .result import dumps, settings_dict, write_json
 
     d = example_dir()
     profiles = read_ci_profiles(d / CI_FILE)
@@ -155,18 +156,17 @@ def run_demo(units: str = "si", out: str | None = None) -> str:
     if out:
         o = Path(out)
         o.mkdir(parents=True, exist_ok=True)
-        (o / "learn.json").write_text(json.dumps(ld, indent=2, default=json_default) + "\n")
+        (o / "learn.json").write_text(dumps(ld) + "\n")
         cal.save(o / "calibration.json")
-        (o / "predict.json").write_text(
-            json.dumps(
-                {"profiles": [r.as_dict(units) for r in results]}, indent=2, default=json_default
-            )
-            + "\n"
+        settings = {"model": cal.model, "r_min": cal.r_min, "solver": "exact", "bounds": Bounds()}
+        write_json(
+            o / "predict.json",
+            results,
+            units,
+            input=str(d / CI_FILE),
+            settings=settings_dict({**settings, "calibration": cal.terrain}, units),
         )
-        (o / "evaluate.json").write_text(
-            json.dumps({"plates": [r.as_dict(units) for r in rows]}, indent=2, default=json_default)
-            + "\n"
-        )
+        (o / "evaluate.json").write_text(dumps({"plates": [r.as_dict(units) for r in rows]}) + "\n")
         parts.append(f"\nJSON written to {o}")
     return "\n".join(parts)
 

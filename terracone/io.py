@@ -76,6 +76,9 @@ __all__ = [
     "write_plate_tests",
     "write_shear_tests",
     "SC900_CONES",
+    "read_results_json",
+    "write_results_json",
+    "write_results_parquet",
 ]
 
 PathLike = str | os.PathLike[str]
@@ -1711,3 +1714,9 @@ def json_default(o: Any) -> Any:
     if isinstance(o, os.PathLike):
         return os.fspath(o)
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+# the writers and reader of prediction results (terracone.result), with the other readers
+from .result import read_json as read_results_json  # noqa: E402
+from .result import write_json as write_results_json  # noqa: E402
+from .result import write_parquet as write_results_parquet  # noqa: E402

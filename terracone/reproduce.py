@@ -57,7 +57,6 @@ References
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import shutil
@@ -78,8 +77,8 @@ from .data import CIProfile, PlateTest, TerrainParameters
 from .inverse.bounds import Bounds
 from .inverse.evaluate import PlateEvaluation, cross_table, predicted_plate_pressure
 from .inverse.learn import Calibration, LearnResult, learn
-from .inverse.predict import PredictionResult, predict
-from .io import json_default, write_ci_profiles, write_plate_tests
+from .inverse.predict import predict
+from .io import write_ci_profiles, write_plate_tests
 from .plate import plate_pressure
 from .report import figures as F
 from .report.html import render_document
@@ -94,6 +93,8 @@ from .report.tables import (
     parameters_table,
     summary_statistics,
 )
+from .result import PredictionResult, dumps, settings_dict, to_document
+from .workflow import plate_curves
 
 __all__ = ["ReproduceSummary", "reproduce", "NOISE_MODEL", "WONG_LETE"]
 
@@ -399,7 +400,7 @@ def _rows(evals, where, prediction: str | None = None) -> list[dict[str, Any]]:
 
 def _write_json(path: Path, obj: Any) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(obj, indent=1, default=json_default) + "\n")
+    path.write_text(dumps(obj, indent=1) + "\n")
     return path
 
 
@@ -413,21 +414,9 @@ def _posterior(profile, result, cal, radii, seed, draws):
         post = posterior(
             profile, prior=cal, seed=seed, draws=draws, plates=list(radii), start=result
         )
-        return post.as_dict("si"), None
+        return post, None
     except Exception as exc:  # noqa: BLE001 - a colleague's module: report, do not fail
         return None, f"posterior not computed ({type(exc).__name__}: {exc})"
-
-
-def _plate_curves(params, radii, plate_pair, s_max=0.1):
-    s = np.linspace(0.0, s_max, 41)
-    return [
-        {
-            "radius": float(r),
-            "sinkage": [float(v) for v in s],
-            "pressure": [float(v) for v in predicted_plate_pressure(params, s, r, plate_pair)],
-        }
-        for r in radii
-    ]
 
 
 def _predict_doc(
@@ -438,33 +427,27 @@ def _predict_doc(
     cal_of: dict[str, Calibration] | None = None,
     calibration: str | None = None,
     model: str = "rm0",
-    posts: dict[str, dict[str, Any] | None] | None = None,
 ) -> dict[str, Any]:
-    """predict JSON of ``results``; ``cal_of``: profile id -> its calibration, if any."""
-    profiles = []
+    """Prediction document of ``results`` (terracone.result's schema), plate curves attached.
+
+    ``cal_of``: profile id -> its calibration, if any (its plate pair makes
+    the RM1 secant of the predicted plate curves, 0 to 10 cm).
+    """
+    s = np.linspace(0.0, 0.1, 41)
     for r in results:
-        d = r.as_dict("si")
         c = (cal_of or {}).get(r.id)
-        if r.ok:
-            d["plates"] = _plate_curves(r.params, radii, c.plate_pair if c else None)
-        if posts and posts.get(r.id):
-            d.update(posts[r.id])
-        profiles.append(d)
-    return {
-        "terracone": __version__,
-        "command": "predict",
-        "input": input_file,
-        "synthetic": True,
-        "note": SYNTHETIC_TEXT,
-        "settings": {
-            "model": model,
-            "solver": "exact",
-            "bounds": Bounds().as_dict("si"),
-            "calibration": calibration,
-            "units": "si",
-        },
-        "profiles": profiles,
-    }
+        if r.ok and not r.plate_curves:
+            r.plate_curves = plate_curves(r.params, radii, s, c.plate_pair if c else None)
+    settings = {"model": model, "solver": "exact", "bounds": Bounds(), "calibration": calibration}
+    return to_document(
+        results,
+        "si",
+        input=input_file,
+        settings=settings_dict(settings, "si"),
+        samples=False,
+        synthetic=True,
+        note=SYNTHETIC_TEXT,
+    )
 
 
 def _learn_doc(res: LearnResult, terrain: str) -> dict[str, Any]:
@@ -759,9 +742,10 @@ def _predict_all(
         for case, i, p in jobs
     ]
     for (case, _, p), (rc, rf, post, why) in zip(jobs, mapper(_call, tasks)):
+        rc.posterior = post  # written with the calibrated prediction
         case.cal_res.append(rc)
         case.free_res.append(rf)
-        case.posts[p.id] = post
+        case.posts[p.id] = None if post is None else post.as_dict("si")
         if why and why not in notes:
             notes.append(why)
 
@@ -807,7 +791,6 @@ def _write_results(out: _Out, case: _Case, ci_file: Path) -> None:
             cal_of={p.id: case.cal_of(p.id) for p in case.profiles},
             calibration=calibration,
             model=next(iter(case.cals.values())).model,
-            posts=case.posts,
             **common,
         ),
     )
@@ -1021,7 +1004,7 @@ def _bands(post: dict[str, Any] | None, id_: str) -> list[dict[str, Any]]:
 def _ident_profiles(results, posts):
     out = []
     for r in results:
-        d = r.as_dict("si", curves=False)
+        d = r.as_dict("si", curves=False, samples=False)
         if posts and posts.get(r.id):
             d["identifiability"] = posts[r.id].get("identifiability")
             d["intervals"] = posts[r.id].get("intervals")

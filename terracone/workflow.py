@@ -4,9 +4,12 @@
 over a set of CI profiles with what the command adds on request: predicted
 plate pressure-sinkage curves (eq. (2-2), RM1 of section 3.2), the posterior of
 each fit (:mod:`terracone.uncertainty`) and layered fits
-(:mod:`terracone.layers`).  The result, :class:`PredictRun`, writes the same
-JSON document as ``terracone predict --json`` (:meth:`PredictRun.as_dict`), so
-a Python user gets what the command prints without reaching into the CLI.
+(:mod:`terracone.layers`), attached to each
+:class:`~terracone.result.PredictionResult`.  The result, :class:`PredictRun`,
+writes the same JSON document as ``terracone predict --json``
+(:meth:`PredictRun.as_dict`) and the same table as ``--parquet``
+(:meth:`PredictRun.to_table`), through :mod:`terracone.result`, so a Python
+user gets what the command writes without reaching into the CLI.
 
 References
 ----------
@@ -22,14 +25,22 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import pyarrow as pa
 
-from . import __version__
 from . import units as u
 from .data import CIProfile, InputError, TerrainParameters
 from .inverse.bounds import Bounds
 from .inverse.evaluate import predicted_plate_pressure
 from .inverse.learn import Calibration
-from .inverse.predict import PredictionResult, predict_many
+from .inverse.predict import predict_many
+from .result import (
+    PlateCurve,
+    PredictionResult,
+    PredictionResults,
+    settings_dict,
+    to_document,
+    to_table,
+)
 
 __all__ = ["PredictRun", "plate_curves", "predict_profiles", "sinkage_grid"]
 
@@ -45,18 +56,16 @@ def plate_curves(
     radii: Sequence[float],
     sinkage: np.ndarray,
     plate_pair: tuple[float, float] | None = None,
-) -> list[dict[str, Any]]:
+) -> list[PlateCurve]:
     """Predicted plate pressure [kPa] at ``sinkage`` [m] for each plate radius [m] (SI).
 
     Bekker's equation (2-2), or RM1 below r_min (section 3.2 of [1]_), with the
     secant through ``plate_pair`` when r_min is above the larger plate.
     """
+    s = np.asarray(sinkage, dtype=float)
     return [
-        {
-            "radius": float(r),
-            "sinkage": np.asarray(sinkage, dtype=float),
-            "pressure": predicted_plate_pressure(params, sinkage, r, plate_pair),
-        }
+        # eq. (2-2), RM1 of section 3.2
+        PlateCurve(float(r), s, predicted_plate_pressure(params, s, r, plate_pair))
         for r in radii
     ]
 
@@ -67,71 +76,68 @@ class PredictRun:
 
     Attributes
     ----------
-    results : list of PredictionResult
-        One per input item, in input order (bad profiles carry their error).
-    plates : dict
-        Profile id to its predicted plate curves (:func:`plate_curves`).
-    posteriors : dict
-        Profile id to its :class:`terracone.uncertainty.PosteriorResult`.
-    layered : dict
-        Profile id to its :class:`terracone.layers.LayeredResult`.
-    layered_posteriors : dict
-        Profile id to the posterior of its layered fit.
+    results : PredictionResults
+        One :class:`~terracone.result.PredictionResult` per input item, in
+        input order (bad profiles carry their error), with the plate curves,
+        posterior and layered fit attached (``plate_curves``, ``posterior``,
+        ``layered``, ``layered_posterior``).
     settings : dict
         What the run was asked (SI; converted by :meth:`as_dict`).
+
+    ``plates``, ``posteriors``, ``layered`` and ``layered_posteriors`` map
+    profile ids to what is attached to the results (kept from before the
+    result model).
     """
 
-    results: list[PredictionResult]
-    plates: dict[str, list[dict[str, Any]]] = field(default_factory=dict)
-    posteriors: dict[str, Any] = field(default_factory=dict)
-    layered: dict[str, Any] = field(default_factory=dict)
-    layered_posteriors: dict[str, Any] = field(default_factory=dict)
+    results: PredictionResults
     settings: dict[str, Any] = field(default_factory=dict)
+
+    def _attached(self, name: str) -> dict[str, Any]:
+        out = {}
+        for r in self.results:
+            v = getattr(r, name)
+            if v is not None and (not isinstance(v, list) or v):
+                out[r.id] = v
+        return out
+
+    @property
+    def plates(self) -> dict[str, list[PlateCurve]]:
+        """Profile id to its predicted plate curves."""
+        return self._attached("plate_curves")
+
+    @property
+    def posteriors(self) -> dict[str, Any]:
+        """Profile id to its :class:`terracone.uncertainty.PosteriorResult`."""
+        return self._attached("posterior")
+
+    @property
+    def layered(self) -> dict[str, Any]:
+        """Profile id to its :class:`terracone.layers.LayeredResult`."""
+        return self._attached("layered")
+
+    @property
+    def layered_posteriors(self) -> dict[str, Any]:
+        """Profile id to the posterior of its layered fit."""
+        return self._attached("layered_posterior")
 
     def profile_dict(self, r: PredictionResult, units: str = "si") -> dict[str, Any]:
         """One profile of the ``terracone predict --json`` document."""
-        d = r.as_dict(units)
-        if r.id in self.plates:
-            d["plates"] = [
-                {
-                    "radius": float(u.length_from_si(c["radius"], units)),
-                    "sinkage": [float(v) for v in u.length_from_si(c["sinkage"], units)],
-                    "pressure": [float(v) for v in u.pressure_from_si(c["pressure"], units)],
-                }
-                for c in self.plates[r.id]
-            ]
-        if r.id in self.posteriors:
-            post = self.posteriors[r.id]
-            d.update(post.as_dict(units))
-            d["samples"] = post.samples_dict(units)  # for export --samples
-        if r.id in self.layered:
-            d["layered"] = self.layered[r.id].as_dict(units)
-            if r.id in self.layered_posteriors:
-                d["layered"]["posterior"] = self.layered_posteriors[r.id].as_dict(units)
-        return d
+        return r.as_dict(units)
 
     def as_dict(
         self, units: str = "si", *, input: str | None = None, **settings: Any
     ) -> dict[str, Any]:
         """The ``terracone predict --json`` document; ``settings`` are recorded as given."""
-        s = self.settings
-        r_min = s.get("r_min")
-        return {
-            "terracone": __version__,
-            "command": "predict",
-            "input": input,
-            "settings": {
-                "model": s.get("model"),
-                "r_min": None if r_min is None else float(u.length_from_si(r_min, units)),
-                "solver": s.get("solver"),
-                "seed": s.get("seed"),
-                "bounds": s["bounds"].as_dict(units),
-                "calibration": s.get("calibration"),
-                **settings,
-                "units": units,
-            },
-            "profiles": [self.profile_dict(r, units) for r in self.results],
-        }
+        return to_document(
+            self.results,
+            units,
+            input=input,
+            settings=settings_dict(self.settings, units, **settings),
+        )
+
+    def to_table(self, units: str = "si") -> pa.Table:
+        """The ``terracone predict --parquet`` table (batch's part-file columns)."""
+        return to_table(self.results, units)
 
 
 def predict_profiles(
@@ -186,9 +192,12 @@ def predict_profiles(
         bounds=bounds,
         seed=seed,
     )
+    for it, r in zip(items, results):  # a reader's error: its row and column for the table
+        if isinstance(it, InputError) and r.error_row is None and r.error_column is None:
+            r.error_row, r.error_column = it.row, it.column
     pair = calibration.plate_pair if calibration else None
     run = PredictRun(
-        results,
+        PredictionResults(results),
         settings={
             "model": calibration.model if calibration else model,
             "r_min": calibration.r_min if calibration else r_min,
@@ -204,13 +213,13 @@ def predict_profiles(
         if not r.ok:
             continue
         if plates:
-            run.plates[r.id] = plate_curves(r.params, plates, s, pair)
+            r.plate_curves = plate_curves(r.params, plates, s, pair)
         if uncertainty:
-            run.posteriors[r.id] = _posterior(
+            r.posterior = _posterior(
                 by_id[r.id], r, prior, draws, seed, plates, band_sinkage, bounds, pair
             )
         if layers > 1:
-            _layered(run, by_id[r.id], layers, model, r_min, bounds, uncertainty, draws, seed)
+            _layered(r, by_id[r.id], layers, model, r_min, bounds, uncertainty, draws, seed)
     return run
 
 
@@ -230,14 +239,15 @@ def _posterior(profile, result, prior, draws, seed, plates, band_sinkage, bounds
     )
 
 
-def _layered(run, profile, layers, model, r_min, bounds, uncertainty, draws, seed) -> None:
+def _layered(result, profile, layers, model, r_min, bounds, uncertainty, draws, seed) -> None:
+    """Attach a layered fit (and its posterior) to ``result``."""
     from .layers import fit_layered
 
     lr = fit_layered(profile, layers=layers, model=model, r_min=r_min, bounds=bounds)
-    run.layered[profile.id] = lr
+    result.layered = lr
     if uncertainty and lr.ok:
         from .uncertainty import layered_posterior
 
-        run.layered_posteriors[profile.id] = layered_posterior(
+        result.layered_posterior = layered_posterior(
             profile, lr, bounds=bounds, draws=draws, seed=seed
         )

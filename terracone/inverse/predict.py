@@ -19,10 +19,8 @@ References
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -32,143 +30,12 @@ from ..cone import improved
 from ..data import CIProfile, InputError, TerrainParameters
 from ..metrics import check_fit_fast
 from ..plate import PressureLaw, pressure_law
+from ..result import PredictionResult, PredictionResults
 from .bounds import Bounds
 from .exact import solve_exact
 from .pso import pso
 
 __all__ = ["PredictionResult", "PredictionResults", "predict", "predict_many", "rmsd_objective"]
-
-
-@dataclass
-class PredictionResult:
-    """Result of the prediction process for one profile (SI inside).
-
-    Attributes
-    ----------
-    id : str
-        Profile id.
-    status : {"ok", "error"}
-    error : str or None
-        Why the profile could not be fitted.
-    params : TerrainParameters or None
-        kc, kphi, n, cc, phic (and Kc, model, r_min).
-    rmsd : float
-        RMSD between measured and model CI [kPa].
-    r2_ci : float
-        Coefficient of determination of the CI fit [-].
-    longest_run : int
-        Largest number of consecutive residuals of one sign.
-    lack_of_fit : str or None
-        None, or why the model does not follow the data
-        (:func:`terracone.metrics.check_fit`): then the parameters must not
-        be taken as the terrain's.
-    depth, ci, ci_model : ndarray
-        Base depths [m], measured and model CI [kPa].
-    undetermined : list of str
-        Parameters (or combinations, written ``a~b``) that the data leave
-        free within the bounds.
-    phic_range : (float, float)
-        Interval of phic [deg] attaining the optimum.
-    profile_intervals : dict
-        Approximate 95% profile-likelihood intervals (SI).
-    solver, nfev, nit, time_s, converged, message
-        Diagnostics.
-    """
-
-    id: str
-    status: str
-    error: str | None = None
-    params: TerrainParameters | None = None
-    rmsd: float = float("nan")
-    r2_ci: float = float("nan")
-    longest_run: int = 0
-    lack_of_fit: str | None = None
-    depth: np.ndarray | None = None
-    ci: np.ndarray | None = None
-    ci_model: np.ndarray | None = None
-    undetermined: list[str] = field(default_factory=list)
-    phic_range: tuple[float, float] | None = None
-    profile_intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
-    sigma: float = float("nan")
-    solver: str = "exact"
-    nfev: int = 0
-    nit: int = 0
-    time_s: float = 0.0
-    converged: bool = False
-    message: str = ""
-    cone: str = "asabe-large"
-    metadata: dict[str, Any] = field(default_factory=dict)
-    notes: list[str] = field(default_factory=list)
-    source: str | None = None
-    extra: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def ok(self) -> bool:
-        return self.status == "ok"
-
-    def _repr_html_(self) -> str:
-        """A table of the parameters (SI and US) and the fit, for Jupyter."""
-        from ..report.notebook import prediction_html
-
-        return prediction_html(self)
-
-    def as_dict(self, units: str = "si", *, curves: bool = True) -> dict[str, Any]:
-        """JSON-ready dict in a unit system (the ``predict --json`` contract)."""
-        units = u.check_system(units)
-        d: dict[str, Any] = {"id": self.id, "status": self.status, "error": self.error}
-        keys = ("kc", "kphi", "n", "cc", "phic_deg", "Kc", "model", "r_min")
-        if self.params is not None:
-            p = self.params.as_dict(units)
-            d.update({k: p[k] for k in keys})
-        else:
-            d.update({k: None for k in keys})
-        d["rmsd"] = _num(u.pressure_from_si(self.rmsd, units)) if self.ok else None
-        d["r2_ci"] = _num(self.r2_ci) if self.ok else None
-        d["longest_run"] = self.longest_run if self.ok else None
-        d["lack_of_fit"] = self.lack_of_fit
-        d["units"] = units
-        d["undetermined"] = list(self.undetermined)
-        d["phic_range_deg"] = list(self.phic_range) if self.phic_range else None
-        if self.ok and self.params is not None:
-            d["profile_intervals"] = _intervals_in(self.profile_intervals, self.params.n, units)
-        d["solver"] = self.solver
-        d["diagnostics"] = {
-            "nfev": self.nfev,
-            "nit": self.nit,
-            "time_s": self.time_s,
-            "converged": self.converged,
-            "message": self.message,
-        }
-        d["cone"] = self.cone
-        d["metadata"] = self.metadata
-        d["notes"] = list(self.notes)
-        d["source"] = self.source
-        if curves and self.ok:
-            d["depth"] = [float(v) for v in u.length_from_si(self.depth, units)]
-            d["ci"] = [float(v) for v in u.pressure_from_si(self.ci, units)]
-            d["ci_model"] = [float(v) for v in u.pressure_from_si(self.ci_model, units)]
-        d.update(self.extra)
-        return d
-
-
-def _num(v) -> float | None:
-    v = float(v)
-    return v if math.isfinite(v) else None
-
-
-def _intervals_in(
-    iv: dict[str, tuple[float, float]], n: float, units: str
-) -> dict[str, list[float]]:
-    conv = {
-        "kc": lambda v: u.kc_from_si(v, n, units),
-        "kphi": lambda v: u.kphi_from_si(v, n, units),
-        "cc": lambda v: u.pressure_from_si(v, units),
-    }
-    out = {}
-    for k, (lo, hi) in iv.items():
-        f = conv.get(k, lambda v: v)
-        out[k] = [float(f(lo)), float(f(hi))]
-    return out
 
 
 def rmsd_objective(profile: CIProfile, law: PressureLaw, bounds: Bounds, Kc: float | None = None):
@@ -371,15 +238,6 @@ def _error(profile: CIProfile, reason: str) -> PredictionResult:
         notes=list(profile.notes),
         source=profile.source,
     )
-
-
-class PredictionResults(list):
-    """A list of :class:`PredictionResult` that shows as one table in Jupyter."""
-
-    def _repr_html_(self) -> str:
-        from ..report.notebook import predictions_html
-
-        return predictions_html(self)
 
 
 def predict_many(items: Iterable[CIProfile | InputError], **kwargs: Any) -> PredictionResults:

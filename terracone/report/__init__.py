@@ -2,7 +2,9 @@
 
 :func:`build_report` turns any terracone result into a single HTML file:
 
-* the JSON of ``terracone predict --json`` (``"command": "predict"``),
+* the JSON of ``terracone predict --json`` (``"schema":
+  "terracone.prediction/1"``, docs/results.md; older documents by
+  ``"command": "predict"``),
   ``terracone learn --json`` or ``terracone evaluate --json``;
 * the output directory of ``terracone batch`` (``part-*.parquet`` and
   ``_summary.json``);
@@ -21,6 +23,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from ..result import check_schema, check_table_schema
 from .html import (
     batch_document,
     evaluate_document,
@@ -33,9 +36,17 @@ __all__ = ["build_report", "load_document", "result_kind"]
 
 
 def result_kind(doc: Any) -> str:
-    """Kind of a terracone JSON result: "predict", "learn", "evaluate" or "reproduce"."""
+    """Kind of a terracone JSON result: "predict", "learn", "evaluate" or "reproduce".
+
+    A document with a ``schema`` key is read by it (``terracone.prediction/1``
+    is a prediction; another schema or version is refused with the reason);
+    older documents without it are told apart by their keys.
+    """
     if not isinstance(doc, dict):
         raise ValueError("not a terracone result: expected a JSON object")
+    if "schema" in doc or "schema_version" in doc:
+        check_schema(doc)
+        return "predict"
     cmd = doc.get("command")
     if doc.get("kind") == "terracone-reproduce":
         return "reproduce"
@@ -78,7 +89,9 @@ def load_document(
             if result_kind(doc) != "reproduce":
                 raise ValueError(f"{p / 'reproduce.json'}: not written by terracone reproduce")
             return doc["document"], p
-        if list(p.glob("part-*.parquet")):
+        parts = sorted(p.glob("part-*.parquet"))
+        if parts:
+            check_table_schema(parts[0])
             return batch_document(p, map_by=map_by), p
         docs = []
         for f in sorted(p.glob("*.json")):

@@ -1,0 +1,846 @@
+"""The result model of the prediction process and its one versioned schema.
+
+One profile's fit is a :class:`PredictionResult`: the parameters of the
+improved cone model (eqs. (2-2) to (2-7) of [1]_) that minimise the RMSD
+between measured and model CI (section 3.3.2 of [1]_), with the fields of
+:class:`scipy.optimize.OptimizeResult` (``params`` in place of ``x``,
+``success``, ``status``, ``message``, ``nfev``, ``nit``) and what terracone
+adds: the fit's statistics, the identifiability analysis, and, when asked
+for, the posterior, the layered fit and the predicted plate curves.
+
+Many results (:class:`PredictionResults`) are written by one JSON writer
+(:func:`to_document`, :func:`to_json`, :func:`write_json`) and one Parquet
+writer (:func:`to_table`, :func:`write_parquet`), both following the schema
+:data:`SCHEMA` (``"terracone.prediction/1"``), documented field by field in
+``docs/results.md``.  ``terracone predict --json`` and ``--parquet``,
+:func:`terracone.reproduce.reproduce`, ``terracone demo --out`` and
+``terracone batch`` write through them, and ``terracone report`` tells a
+prediction document by its ``schema`` key (:func:`check_schema`).
+
+``status`` keeps its values "ok" and "error" (a JSON contract since the
+first release); :attr:`PredictionResult.success` is ``status == "ok"``, and
+``message`` says why the solver stopped or, for an error, why the profile
+could not be fitted.
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from . import units as u
+from .data import InputError, TerrainParameters
+
+__all__ = [
+    "SCHEMA",
+    "SCHEMA_NAME",
+    "SCHEMA_VERSION",
+    "PARQUET_COLUMNS",
+    "FLOAT_COLUMNS",
+    "TEXT_COLUMNS",
+    "RESULT_COLUMNS",
+    "UQ_PARAMS",
+    "PlateCurve",
+    "PredictionResult",
+    "PredictionResults",
+    "arrow_table",
+    "check_schema",
+    "check_table_schema",
+    "dumps",
+    "empty_columns",
+    "from_document",
+    "read_json",
+    "result_columns",
+    "settings_dict",
+    "to_document",
+    "to_json",
+    "to_table",
+    "write_json",
+    "write_parquet",
+]
+
+PathLike = str | os.PathLike[str]
+
+#: Name and version of the prediction schema (JSON documents and Parquet tables).
+SCHEMA_NAME = "terracone.prediction"
+SCHEMA_VERSION = 1
+SCHEMA = f"{SCHEMA_NAME}/{SCHEMA_VERSION}"
+#: Key of the schema in the Arrow metadata of a Parquet table.
+PARQUET_SCHEMA_KEY = b"terracone.schema"
+
+#: Parameters with posterior intervals and identifiability labels.
+UQ_PARAMS = ("kc", "kphi", "n", "cc", "phic_deg")
+
+#: Columns of a prediction table (batch part files, ``predict --parquet``),
+#: before the metadata columns, with their Arrow types.
+PARQUET_COLUMNS: tuple[tuple[str, pa.DataType], ...] = (
+    ("profile", pa.string()),
+    ("status", pa.string()),
+    ("error", pa.string()),
+    ("error_row", pa.int64()),
+    ("error_column", pa.string()),
+    ("kc", pa.float64()),
+    ("kphi", pa.float64()),
+    ("n", pa.float64()),
+    ("cc", pa.float64()),
+    ("phic_deg", pa.float64()),
+    ("phic_lo", pa.float64()),
+    ("phic_hi", pa.float64()),
+    ("n_lo", pa.float64()),
+    ("n_hi", pa.float64()),
+    ("rmsd", pa.float64()),
+    ("r2_ci", pa.float64()),
+    ("longest_run", pa.float64()),
+    ("lack_of_fit", pa.string()),
+    *[(f"{p}_{q}", pa.float64()) for p in UQ_PARAMS for q in ("q05", "q95")],
+    *[(f"ident_{p}", pa.string()) for p in UQ_PARAMS],
+    ("bic_single", pa.float64()),
+    ("bic_layered", pa.float64()),
+    ("preferred_layers", pa.float64()),
+    ("r2_layered", pa.float64()),
+    ("interfaces", pa.string()),
+    ("n_layers", pa.string()),
+    ("lack_of_fit_layered", pa.string()),
+    ("n_points", pa.int64()),
+    ("undetermined", pa.string()),
+    ("model", pa.string()),
+    ("r_min", pa.float64()),
+    ("units", pa.string()),
+    ("cone", pa.string()),
+    ("source", pa.string()),
+    ("source_row", pa.int64()),
+    ("chunk", pa.int64()),
+    ("fit_time_s", pa.float64()),
+)
+_TYPES = dict(PARQUET_COLUMNS)
+#: Per-profile results that are floats (NaN = null) ...
+FLOAT_COLUMNS = (
+    "kc",
+    "kphi",
+    "n",
+    "cc",
+    "phic_deg",
+    "phic_lo",
+    "phic_hi",
+    "n_lo",
+    "n_hi",
+    "rmsd",
+    "r2_ci",
+    "longest_run",
+    *[f"{p}_{q}" for p in UQ_PARAMS for q in ("q05", "q95")],
+    "bic_single",
+    "bic_layered",
+    "preferred_layers",
+    "r2_layered",
+)
+#: ... and texts (None = null).
+TEXT_COLUMNS = (
+    "lack_of_fit",
+    *[f"ident_{p}" for p in UQ_PARAMS],
+    "interfaces",
+    "n_layers",
+    "lack_of_fit_layered",
+)
+#: Every per-profile fit result of the table.
+RESULT_COLUMNS = FLOAT_COLUMNS + TEXT_COLUMNS
+
+
+# ---------------------------------------------------------------------------
+# the result model
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class PlateCurve:
+    """A predicted plate pressure-sinkage curve (SI).
+
+    Attributes
+    ----------
+    radius : float
+        Plate radius [m].
+    sinkage : ndarray
+        Sinkages [m].
+    pressure : ndarray
+        Predicted pressure [kPa]: Bekker's eq. (2-2) of [1]_, or RM1 below
+        r_min (section 3.2 of [1]_).
+
+    ``curve["radius"]`` reads a field too (plate curves used to be dicts).
+
+    References
+    ----------
+    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, as in :mod:`terracone.result`.
+    """
+
+    radius: float
+    sinkage: np.ndarray
+    pressure: np.ndarray
+
+    def __getitem__(self, key: str) -> Any:
+        if key not in ("radius", "sinkage", "pressure"):
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        """``{"radius", "sinkage", "pressure"}`` in a unit system (lists of floats)."""
+        return {
+            "radius": float(u.length_from_si(self.radius, units)),
+            "sinkage": [float(v) for v in u.length_from_si(self.sinkage, units)],
+            "pressure": [float(v) for v in u.pressure_from_si(self.pressure, units)],
+        }
+
+
+@dataclass
+class PredictionResult:
+    """Result of the prediction process for one profile (SI inside).
+
+    Fields after :class:`scipy.optimize.OptimizeResult`: ``params`` (the
+    optimum, as :class:`~terracone.data.TerrainParameters`; ``x`` is it as
+    an array), ``success``, ``status``, ``message``, ``nfev``, ``nit`` and
+    ``fun`` (the RMSD).
+
+    Attributes
+    ----------
+    id : str
+        Profile id.
+    status : {"ok", "error"}
+        "ok": fitted (``success`` is True); "error": not fitted, ``error``
+        says why.  A JSON contract; scipy's integer status has no use here.
+    error : str or None
+        Why the profile could not be fitted (file, profile, row, column).
+    error_row, error_column : int or str or None
+        The row (file line) and column of a reader's error, when known.
+    params : TerrainParameters or None
+        kc, kphi, n, cc, phic (and Kc, model, r_min).
+    rmsd : float
+        RMSD between measured and model CI [kPa].
+    r2_ci : float
+        Coefficient of determination of the CI fit [-].
+    longest_run : int
+        Largest number of consecutive residuals of one sign.
+    lack_of_fit : str or None
+        None, or why the model does not follow the data
+        (:func:`terracone.metrics.check_fit`): then the parameters must not
+        be taken as the terrain's.
+    depth, ci, ci_model : ndarray
+        Base depths [m], measured and model CI [kPa].
+    undetermined : list of str
+        Parameters (or combinations, written ``a~b``) that the data leave
+        free within the bounds.
+    phic_range : (float, float)
+        Interval of phic [deg] attaining the optimum.
+    profile_intervals : dict
+        Approximate 95% profile-likelihood intervals (SI).
+    sigma : float
+        Residual standard deviation used by the intervals [kPa].
+    solver, nfev, nit, time_s, converged, message
+        Diagnostics: ``message`` says why the solver stopped, or for an
+        error result, why the profile was not fitted.
+    cone, metadata, notes, source, extra
+        The profile's cone, its metadata, notes of the readers and the fit,
+        its file, and further keys of the JSON document.
+    posterior : PosteriorResult or None
+        Posterior of the fit (:func:`terracone.uncertainty.posterior_for_result`).
+    layered : LayeredResult or None
+        Layered fit of the profile (:func:`terracone.layers.fit_layered`).
+    layered_posterior : LayeredPosterior or None
+        Posterior of the layered fit.
+    plate_curves : list of PlateCurve
+        Predicted plate pressure-sinkage curves.
+
+    References
+    ----------
+    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, section 3.3.2.
+    """
+
+    id: str
+    status: str
+    error: str | None = None
+    params: TerrainParameters | None = None
+    rmsd: float = float("nan")
+    r2_ci: float = float("nan")
+    longest_run: int = 0
+    lack_of_fit: str | None = None
+    depth: np.ndarray | None = None
+    ci: np.ndarray | None = None
+    ci_model: np.ndarray | None = None
+    undetermined: list[str] = field(default_factory=list)
+    phic_range: tuple[float, float] | None = None
+    profile_intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
+    sigma: float = float("nan")
+    solver: str = "exact"
+    nfev: int = 0
+    nit: int = 0
+    time_s: float = 0.0
+    converged: bool = False
+    message: str = ""
+    cone: str = "asabe-large"
+    metadata: dict[str, Any] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    source: str | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+    error_row: int | None = None
+    error_column: str | None = None
+    posterior: Any = None
+    layered: Any = None
+    layered_posterior: Any = None
+    plate_curves: list[PlateCurve] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.error, InputError):
+            exc = self.error
+            self.error_row = exc.row if self.error_row is None else self.error_row
+            self.error_column = exc.column if self.error_column is None else self.error_column
+            self.error = str(exc)
+        if self.status != "ok" and not self.message and self.error:
+            self.message = str(self.error)
+
+    @property
+    def ok(self) -> bool:
+        """True when fitted (``status == "ok"``)."""
+        return self.status == "ok"
+
+    @property
+    def success(self) -> bool:
+        """OptimizeResult's ``success``: ``status == "ok"``."""
+        return self.status == "ok"
+
+    @property
+    def fun(self) -> float:
+        """OptimizeResult's ``fun``: the objective at the optimum, the RMSD [kPa]."""
+        return self.rmsd
+
+    @property
+    def x(self) -> np.ndarray:
+        """OptimizeResult's ``x``: (kc, kphi, n, cc, phic_deg) in SI, NaN when not fitted."""
+        p = self.params
+        if p is None:
+            return np.full(5, np.nan)
+        return np.array([p.kc, p.kphi, p.n, p.cc, p.phic_deg], dtype=float)
+
+    def _repr_html_(self) -> str:
+        """A table of the parameters (SI and US) and the fit, for Jupyter."""
+        from .report.notebook import prediction_html
+
+        return prediction_html(self)
+
+    def as_dict(
+        self, units: str = "si", *, curves: bool = True, samples: bool = True
+    ) -> dict[str, Any]:
+        """One profile of a prediction document (the ``predict --json`` contract).
+
+        ``curves``: include depth, CI and model CI; ``samples``: include the
+        posterior draws (key ``samples``, read by ``terracone export``).
+        """
+        units = u.check_system(units)
+        d = self._fit_dict(units)
+        if curves and self.ok:
+            d["depth"] = [float(v) for v in u.length_from_si(self.depth, units)]
+            d["ci"] = [float(v) for v in u.pressure_from_si(self.ci, units)]
+            d["ci_model"] = [float(v) for v in u.pressure_from_si(self.ci_model, units)]
+        d.update(self.extra)
+        if self.plate_curves:
+            d["plates"] = [c.as_dict(units) for c in self.plate_curves]
+        if self.posterior is not None:
+            d.update(self.posterior.as_dict(units))
+            if samples:
+                d["samples"] = self.posterior.samples_dict(units)
+        if self.layered is not None:
+            d["layered"] = self.layered.as_dict(units)
+            if self.layered_posterior is not None:
+                d["layered"]["posterior"] = self.layered_posterior.as_dict(units)
+        return d
+
+    def _fit_dict(self, units: str) -> dict[str, Any]:
+        d: dict[str, Any] = {"id": self.id, "status": self.status, "error": self.error}
+        d["error_row"], d["error_column"] = self.error_row, self.error_column
+        keys = ("kc", "kphi", "n", "cc", "phic_deg", "Kc", "model", "r_min")
+        if self.params is not None:
+            p = self.params.as_dict(units)
+            d.update({k: p[k] for k in keys})
+        else:
+            d.update({k: None for k in keys})
+        d["rmsd"] = _num(u.pressure_from_si(self.rmsd, units)) if self.ok else None
+        d["r2_ci"] = _num(self.r2_ci) if self.ok else None
+        d["longest_run"] = self.longest_run if self.ok else None
+        d["lack_of_fit"] = self.lack_of_fit
+        d["units"] = units
+        d["undetermined"] = list(self.undetermined)
+        d["phic_range_deg"] = list(self.phic_range) if self.phic_range else None
+        if self.ok and self.params is not None:
+            d["profile_intervals"] = _intervals_from_si(
+                self.profile_intervals, self.params.n, units
+            )
+        d["solver"] = self.solver
+        d["diagnostics"] = {
+            "nfev": self.nfev,
+            "nit": self.nit,
+            "time_s": self.time_s,
+            "converged": self.converged,
+            "message": self.message,
+        }
+        d["cone"] = self.cone
+        d["metadata"] = self.metadata
+        d["notes"] = list(self.notes)
+        d["source"] = self.source
+        return d
+
+
+class PredictionResults(list):
+    """A list of :class:`PredictionResult` that shows as one table in Jupyter."""
+
+    def _repr_html_(self) -> str:
+        from .report.notebook import predictions_html
+
+        return predictions_html(self)
+
+    def to_document(self, units: str = "si", **kwargs: Any) -> dict[str, Any]:
+        """:func:`to_document` of these results."""
+        return to_document(self, units, **kwargs)
+
+    def to_table(self, units: str = "si") -> pa.Table:
+        """:func:`to_table` of these results."""
+        return to_table(self, units)
+
+
+def _num(v: Any) -> float | None:
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def _intervals_from_si(
+    iv: Mapping[str, Sequence[float]], n: float, units: str
+) -> dict[str, list[float]]:
+    conv = {
+        "kc": lambda v: u.kc_from_si(v, n, units),
+        "kphi": lambda v: u.kphi_from_si(v, n, units),
+        "cc": lambda v: u.pressure_from_si(v, units),
+    }
+    out = {}
+    for k, (lo, hi) in iv.items():
+        f = conv.get(k, lambda v: v)
+        out[k] = [float(f(lo)), float(f(hi))]
+    return out
+
+
+def _intervals_to_si(
+    iv: Mapping[str, Sequence[float]], n: float, units: str
+) -> dict[str, tuple[float, float]]:
+    conv = {
+        "kc": lambda v: u.kc_to_si(v, n, units),
+        "kphi": lambda v: u.kphi_to_si(v, n, units),
+        "cc": lambda v: u.pressure_to_si(v, units),
+    }
+    out = {}
+    for k, (lo, hi) in iv.items():
+        f = conv.get(k, lambda v: v)
+        out[k] = (float(f(lo)), float(f(hi)))
+    return out
+
+
+# ---------------------------------------------------------------------------
+# JSON: one document per set of results
+# ---------------------------------------------------------------------------
+
+
+def settings_dict(settings: Mapping[str, Any], units: str = "si", **extra: Any) -> dict[str, Any]:
+    """The ``settings`` of a prediction document, from SI settings.
+
+    ``r_min`` [m] is converted to ``units``, objects with ``as_dict(units)``
+    (:class:`~terracone.inverse.Bounds`) become dicts, ``extra`` is recorded
+    as given and ``units`` comes last.
+    """
+    units = u.check_system(units)
+    out: dict[str, Any] = {}
+    for k, v in settings.items():
+        if k == "r_min" and v is not None:
+            v = float(u.length_from_si(v, units))
+        elif hasattr(v, "as_dict"):
+            v = v.as_dict(units)
+        out[k] = v
+    out.update(extra)
+    out["units"] = units
+    return out
+
+
+def to_document(
+    results: Iterable[PredictionResult],
+    units: str = "si",
+    *,
+    command: str = "predict",
+    input: str | None = None,
+    settings: Mapping[str, Any] | None = None,
+    samples: bool = True,
+    **extra: Any,
+) -> dict[str, Any]:
+    """The JSON document of predictions (schema :data:`SCHEMA`, ``docs/results.md``).
+
+    Parameters
+    ----------
+    results : iterable of PredictionResult
+    units : {"si", "us"}
+        Unit system of every value of the document.
+    command : str
+        What wrote it ("predict").
+    input : str, optional
+        The input file.
+    settings : mapping, optional
+        What the run was asked, already converted (:func:`settings_dict`);
+        None leaves ``settings`` out.
+    samples : bool
+        Include the posterior draws of each profile (key ``samples``).
+    extra
+        Further top-level keys (e.g. ``synthetic``, ``note``), recorded as given.
+    """
+    from . import __version__
+
+    units = u.check_system(units)
+    doc: dict[str, Any] = {
+        "schema": SCHEMA,
+        "schema_version": SCHEMA_VERSION,
+        "terracone": __version__,
+        "command": command,
+        "input": input,
+        **extra,
+    }
+    if settings is not None:
+        doc["settings"] = dict(settings)
+    doc["units"] = units
+    doc["profiles"] = [r.as_dict(units, samples=samples) for r in results]
+    return doc
+
+
+def dumps(obj: Any, indent: int | None = 2) -> str:
+    """JSON text of a terracone document (numpy values, tuples and paths allowed)."""
+    from .io import json_default
+
+    return json.dumps(obj, indent=indent, default=json_default)
+
+
+def to_json(results: Iterable[PredictionResult], units: str = "si", **kwargs: Any) -> str:
+    """JSON text of :func:`to_document` (``kwargs`` as there)."""
+    return dumps(to_document(results, units, **kwargs))
+
+
+def write_json(
+    path: PathLike,
+    results: Iterable[PredictionResult] | Mapping[str, Any],
+    units: str = "si",
+    **kwargs: Any,
+) -> Path:
+    """Write :func:`to_document` of ``results`` (or a document made by it) to ``path``."""
+    doc = results if isinstance(results, Mapping) else to_document(results, units, **kwargs)
+    p = Path(path)
+    p.write_text(dumps(doc) + "\n")
+    return p
+
+
+def check_schema(doc: Any, source: str | None = None) -> int:
+    """Schema version of a prediction document; 0 for one written before schemas.
+
+    Raises
+    ------
+    ValueError
+        When ``doc`` names another schema or a version this terracone cannot
+        read (the message names ``source``).
+    """
+    from . import __version__
+
+    where = f"{source}: " if source else ""
+    if not isinstance(doc, Mapping):
+        raise ValueError(f"{where}not a terracone result: expected a JSON object")
+    if "schema" not in doc and "schema_version" not in doc:
+        return 0
+    name, _, tail = str(doc.get("schema", SCHEMA_NAME)).partition("/")
+    if name != SCHEMA_NAME:
+        raise ValueError(
+            f"{where}unknown schema {doc.get('schema')!r}: terracone {__version__} reads {SCHEMA}"
+        )
+    raw = doc.get("schema_version", tail)
+    try:
+        version = int(raw)
+    except (TypeError, ValueError):
+        version = -1
+    if version != SCHEMA_VERSION or (tail and tail != str(raw)):
+        raise ValueError(
+            f"{where}schema_version {raw!r} of {SCHEMA_NAME} is not supported: terracone "
+            f"{__version__} reads version {SCHEMA_VERSION} only (a newer terracone may read it)"
+        )
+    return version
+
+
+_FIT_KEYS = {
+    *("id", "status", "error", "kc", "kphi", "n", "cc", "phic_deg", "Kc", "model", "r_min"),
+    *("rmsd", "r2_ci", "longest_run", "lack_of_fit", "units", "undetermined"),
+    *("phic_range_deg", "profile_intervals", "solver", "diagnostics", "cone", "metadata"),
+    *("notes", "source", "depth", "ci", "ci_model", "plates", "error_row", "error_column"),
+}
+
+
+def _result_from_dict(p: Mapping[str, Any], units: str) -> PredictionResult:
+    """One profile of a document back to SI (keys outside the fit kept in ``extra``)."""
+    units = u.check_system(p.get("units") or units)
+    params = None if p.get("n") is None else TerrainParameters.from_dict(p, units)
+    diag = p.get("diagnostics") or {}
+
+    def arr(key: str, to_si: Any) -> np.ndarray | None:
+        return None if p.get(key) is None else np.asarray(to_si(p[key], units), dtype=float)
+
+    rng = p.get("phic_range_deg")
+    return PredictionResult(
+        id=str(p["id"]),
+        status=str(p["status"]),
+        error=p.get("error"),
+        params=params,
+        rmsd=float(u.pressure_to_si(p["rmsd"], units)) if p.get("rmsd") is not None else math.nan,
+        r2_ci=math.nan if p.get("r2_ci") is None else float(p["r2_ci"]),
+        longest_run=int(p.get("longest_run") or 0),
+        lack_of_fit=p.get("lack_of_fit"),
+        depth=arr("depth", u.length_to_si),
+        ci=arr("ci", u.pressure_to_si),
+        ci_model=arr("ci_model", u.pressure_to_si),
+        undetermined=list(p.get("undetermined") or []),
+        phic_range=None if rng is None else (float(rng[0]), float(rng[1])),
+        profile_intervals=(
+            {}
+            if params is None
+            else _intervals_to_si(p.get("profile_intervals") or {}, params.n, units)
+        ),
+        solver=p.get("solver", "exact"),
+        nfev=int(diag.get("nfev", 0)),
+        nit=int(diag.get("nit", 0)),
+        time_s=float(diag.get("time_s", 0.0)),
+        converged=bool(diag.get("converged", False)),
+        message=str(diag.get("message", "")),
+        cone=p.get("cone", "asabe-large"),
+        metadata=dict(p.get("metadata") or {}),
+        notes=list(p.get("notes") or []),
+        source=p.get("source"),
+        extra={k: v for k, v in p.items() if k not in _FIT_KEYS},
+        error_row=p.get("error_row"),
+        error_column=p.get("error_column"),
+        plate_curves=[
+            PlateCurve(
+                float(u.length_to_si(c["radius"], units)),
+                np.asarray(u.length_to_si(c["sinkage"], units), dtype=float),
+                np.asarray(u.pressure_to_si(c["pressure"], units), dtype=float),
+            )
+            for c in p.get("plates") or []
+        ],
+    )
+
+
+def from_document(doc: Mapping[str, Any], source: str | None = None) -> PredictionResults:
+    """The results (SI) of a prediction document, also one written before schemas.
+
+    The fit, its diagnostics and the plate curves are read back in SI; the
+    other keys of a profile (posterior, layered fit, ...) stay as written,
+    in the document's units, in :attr:`PredictionResult.extra`.
+    """
+    check_schema(doc, source)
+    profiles = doc.get("profiles")
+    if not isinstance(profiles, list):
+        where = f"{source}: " if source else ""
+        raise ValueError(f"{where}not a prediction document: no list 'profiles'")
+    units = doc.get("units") or (doc.get("settings") or {}).get("units") or "si"
+    return PredictionResults(_result_from_dict(p, units) for p in profiles)
+
+
+def read_json(path: PathLike) -> PredictionResults:
+    """The results (SI) of a prediction JSON file (:func:`write_json`, ``predict --json``)."""
+    p = Path(path)
+    try:
+        doc = json.loads(p.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"file {p}: cannot read JSON ({exc})") from exc
+    return from_document(doc, source=f"file {p}")
+
+
+# ---------------------------------------------------------------------------
+# Parquet: one row per profile
+# ---------------------------------------------------------------------------
+
+
+def empty_columns(P: int) -> dict[str, np.ndarray]:
+    """The fit-result columns of ``P`` profiles, all null (NaN or None)."""
+    res: dict[str, np.ndarray] = {k: np.full(P, np.nan) for k in FLOAT_COLUMNS}
+    for k in TEXT_COLUMNS:
+        res[k] = np.full(P, None, dtype=object)
+    return res
+
+
+def _arrow(values: Any, t: pa.DataType) -> pa.Array:
+    if isinstance(values, pa.Array | pa.ChunkedArray):
+        return values
+    if isinstance(values, np.ndarray):
+        if values.dtype.kind in "fiub":
+            return pa.array(values, t, from_pandas=True)  # NaN -> null
+        return pa.array(values.tolist(), t)
+    return pa.array(values if isinstance(values, list) else list(values), t, from_pandas=True)
+
+
+def arrow_table(
+    cols: Mapping[str, Any],
+    meta: Sequence[tuple[str, pa.Array]] = (),
+    *,
+    schema: pa.Schema | None = None,
+    metadata: Mapping[bytes, bytes] | None = None,
+) -> pa.Table:
+    """The prediction table: :data:`PARQUET_COLUMNS` from ``cols``, then ``meta``.
+
+    ``cols`` maps column names to arrays (NumPy float NaN and None are null;
+    a missing column is all null); ``meta`` are the metadata columns
+    (name, array).  ``schema`` fixes the metadata types (batch's scan).  The
+    Arrow metadata records :data:`SCHEMA` under ``terracone.schema``.
+    """
+    P = len(cols["profile"])
+    arrays = [_arrow(cols[k], t) if k in cols else pa.nulls(P, t) for k, t in PARQUET_COLUMNS] + [
+        a for _, a in meta
+    ]
+    if schema is None:
+        schema = pa.schema(
+            [pa.field(k, t) for k, t in PARQUET_COLUMNS] + [pa.field(n, a.type) for n, a in meta]
+        )
+    md = dict(schema.metadata or {})
+    md[PARQUET_SCHEMA_KEY] = SCHEMA.encode()
+    md.update(metadata or {})
+    return pa.Table.from_arrays(arrays, schema=schema.with_metadata(md))
+
+
+def _posterior_row(post: Any, units: str) -> dict[str, Any]:
+    d = post.as_dict(units)
+    row: dict[str, Any] = {}
+    for p in UQ_PARAMS:
+        lo, hi = d["intervals"][p]
+        row[f"{p}_q05"], row[f"{p}_q95"] = lo, hi
+        row[f"ident_{p}"] = d["identifiability"].get(p)
+    return row
+
+
+def _layered_row(lr: Any, units: str) -> dict[str, Any]:
+    if not lr.ok:
+        return {"lack_of_fit_layered": f"layered fit not possible: {lr.error}"}
+    return {
+        "bic_single": lr.bic_single,
+        "bic_layered": lr.bic,
+        "preferred_layers": lr.preferred_layers,
+        "r2_layered": lr.r2_ci,
+        "interfaces": ",".join(f"{float(u.length_from_si(d, units)):.6g}" for d in lr.interfaces),
+        "n_layers": ",".join(f"{p.n:.6g}" for p in lr.layers),
+        "lack_of_fit_layered": lr.lack_of_fit,
+    }
+
+
+def _row(r: PredictionResult, units: str) -> dict[str, Any]:
+    """The table row of one result (columns left out are null)."""
+    row: dict[str, Any] = {
+        "profile": r.id,
+        "status": r.status,
+        "error": r.error,
+        "error_row": r.error_row,
+        "error_column": r.error_column,
+        "n_points": None if r.depth is None else int(len(r.depth)),
+        "units": units,
+        "cone": r.cone,
+        "source": r.source,
+        "fit_time_s": r.time_s,
+    }
+    if r.params is not None:
+        p = r.params.as_dict(units)
+        row.update({k: p[k] for k in ("kc", "kphi", "n", "cc", "phic_deg", "model", "r_min")})
+    if not r.ok:
+        return row
+    if r.phic_range:
+        row["phic_lo"], row["phic_hi"] = r.phic_range
+    if "n" in r.profile_intervals:
+        row["n_lo"], row["n_hi"] = r.profile_intervals["n"]
+    row.update(
+        rmsd=float(u.pressure_from_si(r.rmsd, units)),
+        r2_ci=r.r2_ci,
+        longest_run=float(r.longest_run),
+        lack_of_fit=r.lack_of_fit,
+        undetermined=";".join(r.undetermined),
+    )
+    if r.posterior is not None:
+        row.update(_posterior_row(r.posterior, units))
+    if r.layered is not None:
+        row.update(_layered_row(r.layered, units))
+    return row
+
+
+def result_columns(results: Sequence[PredictionResult], units: str = "si") -> dict[str, list]:
+    """The :data:`PARQUET_COLUMNS` of ``results`` in ``units``, as lists (None = null)."""
+    units = u.check_system(units)
+    rows = [_row(r, units) for r in results]
+    return {k: [row.get(k) for row in rows] for k, _ in PARQUET_COLUMNS}
+
+
+def _metadata_columns(results: Sequence[PredictionResult]) -> list[tuple[str, pa.Array]]:
+    """One column per metadata key (first-seen order); a name taken by a column gets ``meta_``."""
+    keys: list[str] = []
+    for r in results:
+        keys += [k for k in r.metadata if k not in keys]
+    taken = {k.lower() for k, _ in PARQUET_COLUMNS}
+    out = []
+    for k in keys:
+        name = k
+        while name.lower() in taken:
+            name = "meta_" + name
+        taken.add(name.lower())
+        values = [r.metadata.get(k) for r in results]
+        try:
+            arr = pa.array(values, from_pandas=True)
+        except (pa.ArrowInvalid, pa.ArrowTypeError):
+            arr = pa.array([None if v is None else str(v) for v in values], pa.string())
+        out.append((name, arr))
+    return out
+
+
+def to_table(results: Sequence[PredictionResult], units: str = "si") -> pa.Table:
+    """The prediction table of ``results``: batch's part-file columns, then the metadata.
+
+    One row per result, parameters in ``units``; ``source_row`` and
+    ``chunk`` are null outside batch.  ``docs/results.md`` lists the columns.
+    """
+    results = list(results)
+    return arrow_table(result_columns(results, units), _metadata_columns(results))
+
+
+def write_parquet(path: PathLike, results: Sequence[PredictionResult], units: str = "si") -> Path:
+    """Write :func:`to_table` of ``results`` to a Parquet file at ``path``."""
+    p = Path(path)
+    pq.write_table(to_table(results, units), p)
+    return p
+
+
+def check_table_schema(path: PathLike) -> int:
+    """Schema version of a prediction Parquet file; 0 for one written before schemas.
+
+    Raises
+    ------
+    ValueError
+        When the file records another schema or a version this terracone
+        cannot read, or is not a Parquet file.
+    """
+    try:
+        md = pq.read_schema(path).metadata or {}
+    except (OSError, pa.ArrowInvalid) as exc:
+        raise ValueError(f"file {path}: cannot read Parquet ({exc})") from exc
+    raw = md.get(PARQUET_SCHEMA_KEY)
+    if raw is None:
+        return 0
+    return check_schema({"schema": raw.decode(errors="replace")}, f"file {path}")
