@@ -323,7 +323,12 @@ def read_profile_set(
         check_options(on_error, depth_ref, units)
         sets = list(
             iter_profile_sets(
-                [source], chunk_size=None, cone=cone, depth_ref=depth_ref, units=units, on_error=on_error
+                [source],
+                chunk_size=None,
+                cone=cone,
+                depth_ref=depth_ref,
+                units=units,
+                on_error=on_error,
             )
         )
         return ProfileSet.concat(sets)
