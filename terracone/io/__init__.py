@@ -65,7 +65,6 @@ Modules
 from .bevameter import read_plate_tests, read_shear_tests
 from .profiles import detect_format, read_ci_profiles, read_profile_set
 from .sc900 import SC900_CONES, read_sc900
-from .stream import iter_profile_sets
 from .tables import (
     CI_SCHEMA,
     DECIMAL,
@@ -117,3 +116,13 @@ __all__ = [
     "WIDE_CI_UNITS",
     "json_default",
 ]
+
+
+def __getattr__(name: str) -> object:
+    # the streaming reader needs pyarrow and pandas: imported on first use, so that
+    # importing terracone.io (the CLI's start-up) stays light
+    if name == "iter_profile_sets":
+        from .stream import iter_profile_sets
+
+        return iter_profile_sets
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -10,7 +10,7 @@ import csv
 import os
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
@@ -23,7 +23,7 @@ from .tables import (
     DECIMAL,
     OnError,
     PathLike,
-    check_on_error,
+    check_options,
     collect,
     push_profile,
     read_lines,
@@ -294,16 +294,43 @@ def read_wide_ci(
     --------
     >>> read_wide_ci("pushes.csv", depth_unit="cm", ci_unit="mpa")  # doctest: +SKIP
     """
-    check_on_error(on_error)
-    if depth_ref not in ("base", "tip"):
-        raise ValueError(f"depth_ref must be 'base' or 'tip' (got {depth_ref!r})")
+    check_options(on_error, depth_ref)
     source = os.fspath(path)
     default_cone = get_cone(cone)
     text = read_lines(source)
     head = _wide_header(source, text, delimiter)
     depths, ci_u, depth_units = _wide_units(source, head, depth_unit, ci_unit)
-    factor = u.PRESSURE_UNITS[ci_u]
-    comma = head.delimiter in (";", "\t")
+    cols = _wide_columns(source, head, depths, default_cone, depth_ref)
+    cols.factor = u.PRESSURE_UNITS[ci_u]
+    cols.common = {"pressure_unit": ci_u, "length_unit": ",".join(depth_units)}
+    rows = _wide_rows(source, text, head)
+    seen: dict[str, int] = {}
+    return collect(list(enumerate(rows, 1)), lambda item: _wide_row(cols, *item, seen), on_error)
+
+
+@dataclass
+class _WideColumns:
+    """What every row of a wide table shares: its header and the columns' roles."""
+
+    source: str
+    head: _WideHeader
+    depths: np.ndarray  # [m]
+    comma: bool  # decimal commas accepted
+    id_j: int | None
+    lat_j: int | None
+    lon_j: int | None
+    cone_j: int | None
+    meta_cols: list[int]
+    default_cone: Cone
+    depth_ref: str
+    factor: float = 1.0  # CI unit to kPa
+    common: dict[str, Any] = field(default_factory=dict)  # metadata of every push
+
+
+def _wide_columns(
+    source: str, head: _WideHeader, depths: np.ndarray, default_cone: Cone, depth_ref: str
+) -> _WideColumns:
+    """Find the id, coordinate, cone and metadata columns of a wide table."""
     lower = [c.lower() for c in head.cells]
     depth_set = set(head.depth_cols)
 
@@ -317,7 +344,14 @@ def read_wide_ci(
     cone_j = first(("cone",))
     special = {j for j in (id_j, lat_j, lon_j, cone_j) if j is not None}
     meta_cols = [j for j in range(len(head.cells)) if j not in depth_set and j not in special]
-    stem = Path(source).stem
+    comma = head.delimiter in (";", "\t")
+    return _WideColumns(
+        source, head, depths, comma, id_j, lat_j, lon_j, cone_j, meta_cols, default_cone, depth_ref
+    )
+
+
+def _wide_rows(source: str, text: list[str], head: _WideHeader) -> list[tuple[int, list[str]]]:
+    """(file line, cells) of every data row, padded to the header's width."""
     rows: list[tuple[int, list[str]]] = []
     for lineno in range(head.line + 1, len(text) + 1):
         raw = text[lineno - 1]
@@ -331,58 +365,60 @@ def read_wide_ci(
         rows.append((lineno, cells + [""] * (len(head.cells) - len(cells))))
     if not rows:
         raise InputError("no data rows", file=source, row=head.line)
-    seen: dict[str, int] = {}
-    common = {"pressure_unit": ci_u, "length_unit": ",".join(depth_units)}
+    return rows
 
-    def build(item: tuple[int, tuple[int, list[str]]]) -> CIProfile:
-        k, (line, cells) = item
-        pid = cells[id_j].strip() if id_j is not None else f"{stem}/{k}"
 
-        def fail(msg: str, j: int | None) -> InputError:
-            column = head.cells[j] if j is not None else None
-            return InputError(msg, file=source, profile=pid, row=line, column=column)
+def _wide_row(
+    cols: _WideColumns, k: int, row: tuple[int, list[str]], seen: dict[str, int]
+) -> CIProfile:
+    """The k-th data row (1-based) of a wide table as a validated profile."""
+    line, cells = row
+    head = cols.head
+    pid = cells[cols.id_j].strip() if cols.id_j is not None else f"{Path(cols.source).stem}/{k}"
 
-        if id_j is not None:
-            if not pid:
-                raise fail("empty id", id_j)
-            if pid in seen:
-                raise fail(f"duplicate id (also on line {seen[pid]})", id_j)
-        seen.setdefault(pid, line)
-        metadata: dict[str, Any] = {}
-        for j in meta_cols:
-            cell = cells[j]
-            num = _wide_number(cell, comma)
-            metadata[head.cells[j]] = float(num) if DECIMAL.match(num) else cell.strip()
-        for j, key in ((lat_j, "lat"), (lon_j, "lon")):
-            if j is not None:
-                try:
-                    value = parse_coordinate(cells[j], key)  # type: ignore[arg-type]
-                except ValueError as exc:
-                    raise fail(str(exc), j) from None
-                if value is not None:
-                    metadata[key] = value
-        push_cone = default_cone
-        if cone_j is not None and cells[cone_j].strip():
+    def fail(msg: str, j: int | None) -> InputError:
+        column = head.cells[j] if j is not None else None
+        return InputError(msg, file=cols.source, profile=pid, row=line, column=column)
+
+    if cols.id_j is not None:
+        if not pid:
+            raise fail("empty id", cols.id_j)
+        if pid in seen:
+            raise fail(f"duplicate id (also on line {seen[pid]})", cols.id_j)
+    seen.setdefault(pid, line)
+    metadata: dict[str, Any] = {}
+    for j in cols.meta_cols:
+        cell = cells[j]
+        num = _wide_number(cell, cols.comma)
+        metadata[head.cells[j]] = float(num) if DECIMAL.match(num) else cell.strip()
+    for j, key in ((cols.lat_j, "lat"), (cols.lon_j, "lon")):
+        if j is not None:
             try:
-                push_cone = get_cone(cells[cone_j].strip())
+                value = parse_coordinate(cells[j], key)  # type: ignore[arg-type]
             except ValueError as exc:
-                raise fail(str(exc), cone_j) from None
-        return _wide_push(
-            source,
-            pid,
-            line,
-            cells,
-            head,
-            depths,
-            factor,
-            comma,
-            push_cone,
-            depth_ref,
-            {**metadata, **common, "line": line},
-            fail,
-        )
-
-    return collect(list(enumerate(rows, 1)), build, on_error)
+                raise fail(str(exc), j) from None
+            if value is not None:
+                metadata[key] = value
+    push_cone = cols.default_cone
+    if cols.cone_j is not None and cells[cols.cone_j].strip():
+        try:
+            push_cone = get_cone(cells[cols.cone_j].strip())
+        except ValueError as exc:
+            raise fail(str(exc), cols.cone_j) from None
+    return _wide_push(
+        cols.source,
+        pid,
+        line,
+        cells,
+        head,
+        cols.depths,
+        cols.factor,
+        cols.comma,
+        push_cone,
+        cols.depth_ref,
+        {**metadata, **cols.common, "line": line},
+        fail,
+    )
 
 
 def _wide_push(
