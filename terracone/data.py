@@ -398,14 +398,16 @@ class ProfileSet:
         tables = [s.metadata for s in sets if s.metadata is not None and len(s)]
         metadata = None
         if tables:
+            schema = pa.unify_schemas([t.schema for t in tables], promote_options="permissive")
+            none = {f.name: f.type for f in schema}  # a set without metadata: nulls
             metas = [
-                s.metadata if s.metadata is not None else pa.table({"_": pa.nulls(len(s))})
+                s.metadata
+                if s.metadata is not None
+                else pa.table({k: pa.nulls(len(s), ty) for k, ty in none.items()})
                 for s in sets
                 if len(s)
             ]
             metadata = pa.concat_tables(metas, promote_options="permissive")
-            if "_" in metadata.column_names and all("_" not in t.column_names for t in tables):
-                metadata = metadata.drop_columns(["_"])
         return cls(
             ids=np.concatenate([s.ids for s in sets]),
             offsets=np.concatenate(offsets),

@@ -385,6 +385,10 @@ def test_concat_merges_cones_files_and_metadata():
         [CIProfile("c", [0, 1], [7, 8], cone="asabe-small", metadata={"y": "s"}, source="f1")]
     )
     b.errors = [InputError("bad", profile="d")]
+    bare = ProfileSet.from_profiles([CIProfile("e", [0, 1, 2], [9, 9, 9])])
+    assert bare.metadata is None
+    with_bare = ProfileSet.concat([a, bare])
+    assert with_bare.metadata.to_pydict() == {"x": [1.0, 2.0, None]}
     c = ProfileSet.concat([a, b])
     assert list(c.ids) == ["a", "b", "c"] and list(c.offsets) == [0, 3, 6, 8]
     assert [p.cone.name for p in c] == ["asabe-large", "asabe-small", "asabe-small"]
