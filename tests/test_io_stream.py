@@ -397,3 +397,19 @@ def test_concat_merges_cones_files_and_metadata():
     assert c.metadata.to_pydict() == {"x": [1.0, 2.0, None], "y": [None, None, "s"]}
     assert [e.profile for e in c.errors] == ["d"]
     np.testing.assert_array_equal(c.ci, np.arange(1, 9))
+
+
+def test_stream_gzip_bom_crlf_quotes_and_empty_bodies(tmp_path):
+    import gzip
+
+    body = '\ufeffprofile,depth_m,ci_kpa\r\n# c\r\n"a,1",0,1\r\n"a,1",1,"2"\r\n"a,1",2,3\r\n'
+    with gzip.open(tmp_path / "g.csv.gz", "wt", encoding="utf-8", newline="") as f:
+        f.write(body)
+    (chunk,) = iter_profile_sets(tmp_path / "g.csv.gz")
+    assert list(chunk.ids) == ["a,1"] and list(chunk.rows) == [3, 4, 5]
+    np.testing.assert_array_equal(chunk.ci, [1.0, 2.0, 3.0])
+    (tmp_path / "h.csv").write_text("profile,depth_m,ci_kpa\n# no data\n")
+    assert list(iter_profile_sets(tmp_path / "h.csv")) == []
+    (tmp_path / "u.csv").write_bytes(b"profile,depth_m,ci_kpa\na,0,1\na,1,\xff\na,2,3\n")
+    with pytest.raises(InputError, match=r"u\.csv: not a UTF-8 text file \(invalid start byte\)"):
+        list(iter_profile_sets(tmp_path / "u.csv"))

@@ -337,18 +337,16 @@ class CsvLines(io.RawIOBase):
         return out
 
 
-class _Ragged(Exception):
-    """A row with another number of fields than the header: use the csv module."""
-
-
 def csv_blocks(stream: CsvLines, width: int, fields: int) -> Iterator[tuple[pa.RecordBatch, int]]:
     """Blocks of a CSV body (after :meth:`CsvLines.header`), every cell as text.
 
     Yields (batch, index of its first data row); the batch has the header's
     ``width`` columns ``c0..``.  ``fields`` is the number of fields of the
     header line (trailing empty ones included).  pyarrow parses the body;
-    when a row has another number of fields, the file is read again from the
-    current block with :mod:`csv` (:func:`_csv_module_blocks`).
+    when a row has another number of fields, or a block is not UTF-8, the
+    file is read again from the current block with :mod:`csv`
+    (:func:`_csv_module_blocks`), which pads short rows, checks extra fields
+    and names the bad byte.
     """
     path = stream.path
     names = [f"c{j}" for j in range(fields)]
@@ -375,31 +373,33 @@ def csv_blocks(stream: CsvLines, width: int, fields: int) -> Iterator[tuple[pa.R
     except pa.ArrowInvalid as exc:
         if "Empty CSV file" in str(exc):
             return
-        raise _csv_error(path, exc) from None
+        if not _not_utf8(exc):
+            raise _csv_error(path, exc) from None
+        reader = None
     row0 = 0
-    try:
-        while True:
-            try:
-                batch = reader.read_next_batch()
-            except StopIteration:
-                return
-            except pa.ArrowInvalid as exc:
+    while reader is not None:
+        try:
+            batch = reader.read_next_batch()
+        except StopIteration:
+            return
+        except pa.ArrowInvalid as exc:
+            if not _not_utf8(exc):
                 raise _csv_error(path, exc) from None
-            if ragged:
-                raise _Ragged
-            if batch.num_rows:
-                yield batch, row0
-                row0 += batch.num_rows
-    except _Ragged:
-        pass
+            break  # the csv module names the bad byte
+        if ragged:
+            break
+        if batch.num_rows:
+            yield batch, row0
+            row0 += batch.num_rows
     yield from _csv_module_blocks(path, width, row0)
 
 
+def _not_utf8(exc: Exception) -> bool:
+    return "UTF8" in str(exc) or "UTF-8" in str(exc)
+
+
 def _csv_error(path: str, exc: Exception) -> InputError:
-    msg = str(exc)
-    if "UTF8" in msg or "UTF-8" in msg:
-        return InputError("not a UTF-8 text file (invalid UTF-8 data)", file=path)
-    return InputError(f"bad CSV: {msg}", file=path)
+    return InputError(f"bad CSV: {exc}", file=path)
 
 
 def _csv_module_blocks(path: str, width: int, row0: int) -> Iterator[tuple[pa.RecordBatch, int]]:
