@@ -86,6 +86,7 @@ H_TOL = 1e-9
 
 
 def kind_of(path: Path, strict: bool) -> str | None:
+    """The kind of an input file by its name (``csv`` or ``parquet``); None when ``strict`` and neither."""
     name = path.name.lower()
     if name.endswith((".csv", ".csv.gz")):
         return "csv"
@@ -182,6 +183,7 @@ def instrument_to_parquet(path: Path, out: Path, cone: Cone, **reader: Any) -> P
 
 
 def fingerprint(input: PathLike, files: list[tuple[Path, str]]) -> dict[str, Any]:
+    """Path, size and modification time of every input file (a resumed run checks it)."""
     out = []
     for f, kind in files:
         st = f.stat()
@@ -446,6 +448,8 @@ def _text_batch(rows: list[list[str]], width: int) -> pa.RecordBatch:
 
 @dataclass
 class FileInfo:
+    """One input file as the scan saw it: its columns, their SI factors and its profile count."""
+
     path: str
     kind: str  # "csv" or "parquet"
     id_col: str | None
@@ -593,6 +597,7 @@ def arrow_text(arr: pa.Array | pa.ChunkedArray) -> pa.Array:
 
 
 def plain_type(t: pa.DataType) -> pa.DataType | None:
+    """The value type of an Arrow column (dictionaries decoded, large strings as strings); None for null."""
     if pa.types.is_dictionary(t):
         t = t.value_type
     if pa.types.is_large_string(t) or pa.types.is_string_view(t):
@@ -793,6 +798,7 @@ class Rows:
 
 
 def text_numbers(cells: np.ndarray, factor: float) -> tuple[np.ndarray, np.ndarray | None]:
+    """Text cells as numbers [SI] and why a cell is unusable (None when every cell is fine)."""
     num = to_numbers(cells)
     why = None
     if num.bad.any():
@@ -824,6 +830,7 @@ def csv_numbers(cells: pa.Array, factor: float) -> tuple[np.ndarray, np.ndarray 
 
 
 def arrow_numbers(arr: pa.Array, factor: float) -> tuple[np.ndarray, np.ndarray | None]:
+    """A Parquet column as numbers [SI] and why a cell is unusable (None when every cell is fine)."""
     if pa.types.is_dictionary(arr.type):
         arr = arr.dictionary_decode()
     t = plain_type(arr.type)
@@ -940,6 +947,8 @@ class Chunk:
 
 
 class ConeCache:
+    """Cones by the name written in a ``cone`` column (or why the name is not a cone), looked up once."""
+
     def __init__(self, default: Cone) -> None:
         self.default = default
         self._by_name: dict[str, Cone | str] = {}
@@ -977,6 +986,8 @@ def _meta_array(values: Any, t: pa.DataType, from_csv: bool) -> pa.Array:
 
 @dataclass
 class Piece:
+    """Complete profiles of one file inside a chunk: per-profile facts and the rows they came from."""
+
     n: int
     ids: np.ndarray
     counts: np.ndarray
@@ -1128,6 +1139,7 @@ def make_piece(rows: Rows, starts: np.ndarray, plan: ScanPlan, cones: ConeCache)
 
 
 def make_chunk(index: int, pieces: list[Piece], plan: ScanPlan) -> Chunk:
+    """Join the pieces of a chunk; the fittable profiles become its ProfileSet (``task``)."""
     cat = np.concatenate
     fit = cat([p.fit for p in pieces])
     cone_list: list[Cone] = []

@@ -51,6 +51,7 @@ SPECIAL_FLOAT = re.compile(r"^\s*[+-]?(?:nan|inf|infinity)\s*$", re.IGNORECASE)
 
 
 def check_on_error(on_error: str) -> None:
+    """Refuse an ``on_error`` other than ``raise`` or ``collect``."""
     if on_error not in ("raise", "collect"):
         raise ValueError(f"on_error must be 'raise' or 'collect' (got {on_error!r})")
 
@@ -119,6 +120,7 @@ def to_numbers(cells: Sequence[str]) -> Numbers:
 
 
 def open_text(path: str) -> TextIO:
+    """Open a text file (UTF-8, byte order mark accepted); a located InputError if it cannot be."""
     try:
         return open(path, encoding="utf-8-sig", newline="")  # noqa: SIM115
     except FileNotFoundError:
@@ -130,6 +132,7 @@ def open_text(path: str) -> TextIO:
 
 
 def read_lines(path: str) -> list[str]:
+    """The lines of a UTF-8 text file (a located InputError if it is not text)."""
     with open_text(path) as f:
         try:
             return f.read().splitlines()
@@ -223,6 +226,8 @@ class Field:
 
 @dataclass(frozen=True)
 class Schema:
+    """The columns of a file type: its id column, quantity fields and required groups."""
+
     id_column: str
     fields: tuple[Field, ...]
     required: tuple[str, ...]  # groups
@@ -259,6 +264,8 @@ SHEAR_SCHEMA = Schema(
 
 @dataclass
 class Column:
+    """A column of a table: position, header name, its field and the factor to SI."""
+
     index: int
     name: str  # as written in the header
     field: Field | None = None
@@ -286,6 +293,7 @@ def match_field(lower: str, schema: Schema) -> tuple[Field, str | None] | None:
 
 
 def unit_choices(kind: str) -> str:
+    """The unit suffixes of a kind of quantity, as ``m|cm|mm|in``."""
     return "|".join(UNIT_TABLES[kind])
 
 
@@ -383,6 +391,7 @@ def first_bad(
 
 
 def row_metadata(table: Table, layout: Layout, i: int) -> dict[str, Any]:
+    """The metadata cells of table row ``i`` (numbers as floats)."""
     return {c.name: metadata_value(table.columns[c.index][i]) for c in layout.metadata}
 
 
