@@ -371,6 +371,64 @@ class ProfileSet:
         yy = np.where(mask, self.ci[idx] if self.ci.size else 0.0, 0.0)
         return zz, yy, mask
 
+    @classmethod
+    def concat(cls, sets: Sequence[ProfileSet]) -> ProfileSet:
+        """The profiles of several sets, in order, as one set (errors gathered too).
+
+        Cones and files are merged (each listed once); metadata tables are
+        concatenated with their schemas unified (a column missing from a set
+        is null there).
+        """
+        import pyarrow as pa
+
+        sets = list(sets)
+        if not sets:
+            return cls.from_profiles([])
+        cones: list[Cone] = []
+        files: list[SourceFile] = []
+        cone_idx, file_idx, offsets = [], [], [np.zeros(1, np.int64)]
+        end = 0
+        for s in sets:
+            cmap = np.array([_index_of(cones, c) for c in s.cones] or [0], dtype=np.intp)
+            cone_idx.append(cmap[s.cone_idx] if len(s) else s.cone_idx)
+            fmap = np.array([_index_of(files, f) for f in s.files] + [-1], dtype=np.intp)
+            fi = np.full(len(s), -1, np.intp) if s.file_idx is None else s.file_idx
+            file_idx.append(fmap[fi])  # -1 maps to the trailing -1
+            offsets.append(s.offsets[1:] + end)
+            end += int(s.offsets[-1])
+        rows = [s.rows if s.rows is not None else np.full(s.depth.size, -1) for s in sets]
+        tables = [s.metadata for s in sets if s.metadata is not None and len(s)]
+        metadata = None
+        if tables:
+            schema = pa.unify_schemas([t.schema for t in tables], promote_options="permissive")
+            none = {f.name: f.type for f in schema}  # a set without metadata: nulls
+            metas = [
+                s.metadata
+                if s.metadata is not None
+                else pa.table({k: pa.nulls(len(s), ty) for k, ty in none.items()})
+                for s in sets
+                if len(s)
+            ]
+            metadata = pa.concat_tables(metas, promote_options="permissive")
+        return cls(
+            ids=np.concatenate([s.ids for s in sets]),
+            offsets=np.concatenate(offsets),
+            depth=np.concatenate([s.depth for s in sets]),
+            ci=np.concatenate([s.ci for s in sets]),
+            cone_idx=np.concatenate(cone_idx).astype(np.intp),
+            cones=cones,
+            rows=np.concatenate(rows).astype(np.int64),
+            file_idx=np.concatenate(file_idx).astype(np.intp),
+            files=files,
+            metadata=metadata,
+            notes=[
+                list(n)
+                for s in sets
+                for n in (s.notes if s.notes is not None else [[] for _ in range(len(s))])
+            ],
+            errors=[e for s in sets for e in s.errors],
+        )
+
 
 def _index_of(items: list[Any], item: Any) -> int:
     """Index of ``item`` in ``items``, appending it when new."""

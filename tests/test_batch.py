@@ -27,10 +27,11 @@ import pytest
 
 from terracone import cone_index, get_cone
 from terracone import units as u
-from terracone.batch import OUTPUT_COLUMNS, _CsvLines, _fit_chunk, _FitSettings, _Task, run_batch
-from terracone.data import CIProfile
+from terracone.batch import OUTPUT_COLUMNS, _fit_chunk, _FitSettings, run_batch
+from terracone.data import CIProfile, ProfileSet, SourceFile
 from terracone.inverse.bounds import Bounds
 from terracone.io import write_ci_profiles
+from terracone.io.stream import CsvLines
 
 H = get_cone("asabe-large").height
 #: Columns that legitimately differ between two runs of the same input.
@@ -376,17 +377,16 @@ def test_fit_chunk_isolates_a_solver_failure(monkeypatch):
 
     monkeypatch.setattr(batch, "solve_exact_many", flaky)
     counts = np.array([p.depth.size for p in profiles])
-    task = _Task(
-        index=0,
+    task = ProfileSet(
         ids=[p.id for p in profiles],
         offsets=np.concatenate([[0], np.cumsum(counts)]),
         depth=np.concatenate([p.depth for p in profiles]),
         ci=np.concatenate([p.ci for p in profiles]),
-        lines=np.arange(counts.sum()) + 2,
+        rows=np.arange(counts.sum()) + 2,
         cone_idx=np.zeros(9, dtype=np.int64),
         cones=[get_cone("asabe-large")],
         file_idx=np.zeros(9, dtype=np.int64),
-        files=[("mem.csv", "depth_m", "ci_kpa", "line")],
+        files=[SourceFile("mem.csv", "depth_m", "ci_kpa", "line")],
     )
     fit = _FitSettings("rm0", None, None, Bounds(), None, "si")
     res = _fit_chunk(task, fit)
@@ -502,7 +502,7 @@ def test_csv_lines_keeps_file_line_numbers(tmp_path):
     text = "# c1\n\nprofile,depth_m\n  # c2\na,1\n\nb,2\r\n#c3\nc,3"
     p = tmp_path / "t.csv"
     p.write_bytes("\ufeff".encode() + text.encode())
-    with _CsvLines(str(p)) as s:
+    with CsvLines(str(p)) as s:
         assert s.header() == ["profile", "depth_m"] and s.header_line == 3
         body = s.read()
         assert body == b"a,1\nb,2\r\nc,3\n"

@@ -1,0 +1,174 @@
+"""Plate sinkage and shear test files (bevameter data)."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..data import InputError, PlateTest, ShearTest
+from .tables import (
+    PLATE_SCHEMA,
+    SHEAR_SCHEMA,
+    OnError,
+    PathLike,
+    check_constant,
+    check_on_error,
+    collect,
+    column_layout,
+    first_bad,
+    read_table,
+    row_metadata,
+    table_groups,
+    to_numbers,
+)
+
+# ---------------------------------------------------------------------------
+# plate and shear tests
+# ---------------------------------------------------------------------------
+
+
+def read_plate_tests(
+    path: PathLike, *, on_error: OnError = "raise"
+) -> list[PlateTest | InputError]:
+    """Read plate pressure-sinkage tests from a CSV file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        CSV with an optional ``test`` column (test id; without it the file
+        is one test whose id is the file stem), exactly one of
+        ``plate_radius_<u>``, ``plate_diameter_<u>`` (circular plate, b =
+        radius) or ``plate_width_<u>`` (rectangular, b = width),
+        ``sinkage_<u>`` and ``pressure_<u>``; other columns are metadata.
+    on_error : {"raise", "collect"}
+        As in :func:`read_ci_profiles`.
+
+    Returns
+    -------
+    list of PlateTest or InputError
+        In order of first appearance of the test ids; b and sinkage in m,
+        pressure in kPa, ``rows`` the file line numbers.
+
+    Notes
+    -----
+    Raw bevameter data are kept as they are: negative sinkages and
+    pressures (zero drift) and unloading are legal.  Errors are a
+    non-numeric, NaN or empty cell, a plate size that changes within a
+    test or is not > 0, and the file-level problems of
+    :func:`read_ci_profiles`.
+    """
+    check_on_error(on_error)
+    source = os.fspath(path)
+    table = read_table(source)
+    layout = column_layout(table, PLATE_SCHEMA)
+    scol, zcol, pcol = (layout.groups[g] for g in ("size", "sinkage", "pressure"))
+    size, sink, pres = (to_numbers(table.columns[c.index]) for c in (scol, zcol, pcol))
+    circular = scol.field is not None and scol.field.name != "plate_width"
+    halve = scol.field is not None and scol.field.name == "plate_diameter"
+
+    def build(group: tuple[str, np.ndarray]) -> PlateTest:
+        tid, idx = group
+        if layout.id_col is not None and not tid:
+            raise InputError(
+                "empty test id",
+                file=source,
+                profile=tid,
+                item="test",
+                row=int(table.lines[idx[0]]),
+                column=layout.id_col.name,
+            )
+        bad = first_bad(idx, [(scol, size), (zcol, sink), (pcol, pres)])
+        if bad is not None:
+            i, col, why = bad
+            raise InputError(
+                why, file=source, profile=tid, item="test", row=int(table.lines[i]), column=col.name
+            )
+        b = check_constant(source, tid, table, idx, scol, size, "plate size") * scol.factor
+        if halve:
+            b /= 2.0
+        if not b > 0:
+            raise InputError(
+                "plate size must be > 0",
+                file=source,
+                profile=tid,
+                item="test",
+                row=int(table.lines[idx[0]]),
+                column=scol.name,
+            )
+        return PlateTest(
+            id=tid,
+            b=b,
+            shape="circular" if circular else "rectangular",
+            sinkage=sink.values[idx] * zcol.factor,
+            pressure=pres.values[idx] * pcol.factor,
+            metadata=row_metadata(table, layout, int(idx[0])),
+            source=source,
+            rows=table.lines[idx].copy(),
+        )
+
+    return collect(table_groups(table, layout.id_col), build, on_error)
+
+
+def read_shear_tests(
+    path: PathLike, *, on_error: OnError = "raise"
+) -> list[ShearTest | InputError]:
+    """Read shear stress-displacement tests from a CSV file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        CSV with an optional ``test`` column, ``normal_pressure_<u>``
+        (constant within a test), ``shear_displacement_<u>`` and
+        ``shear_stress_<u>``; other columns are metadata.
+    on_error : {"raise", "collect"}
+        As in :func:`read_ci_profiles`.
+
+    Returns
+    -------
+    list of ShearTest or InputError
+        In order of first appearance of the test ids; normal pressure and
+        stress in kPa, displacement in m.
+
+    Notes
+    -----
+    Negative displacements and stresses (zero drift) are legal; errors are
+    a non-numeric, NaN or empty cell, a normal pressure that changes
+    within a test and the file-level problems of :func:`read_ci_profiles`.
+    """
+    check_on_error(on_error)
+    source = os.fspath(path)
+    table = read_table(source)
+    layout = column_layout(table, SHEAR_SCHEMA)
+    ncol, jcol, tcol = (layout.groups[g] for g in ("normal_pressure", "displacement", "stress"))
+    normal, disp, stress = (to_numbers(table.columns[c.index]) for c in (ncol, jcol, tcol))
+
+    def build(group: tuple[str, np.ndarray]) -> ShearTest:
+        tid, idx = group
+        if layout.id_col is not None and not tid:
+            raise InputError(
+                "empty test id",
+                file=source,
+                profile=tid,
+                item="test",
+                row=int(table.lines[idx[0]]),
+                column=layout.id_col.name,
+            )
+        bad = first_bad(idx, [(ncol, normal), (jcol, disp), (tcol, stress)])
+        if bad is not None:
+            i, col, why = bad
+            raise InputError(
+                why, file=source, profile=tid, item="test", row=int(table.lines[i]), column=col.name
+            )
+        sigma = check_constant(source, tid, table, idx, ncol, normal, "normal pressure")
+        return ShearTest(
+            id=tid,
+            normal_pressure=sigma * ncol.factor,
+            displacement=disp.values[idx] * jcol.factor,
+            stress=stress.values[idx] * tcol.factor,
+            metadata=row_metadata(table, layout, int(idx[0])),
+            source=source,
+            rows=table.lines[idx].copy(),
+        )
+
+    return collect(table_groups(table, layout.id_col), build, on_error)

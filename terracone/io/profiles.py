@@ -1,0 +1,378 @@
+"""Cone index profiles from a file: format detection, long CSV files, profile sets.
+
+:func:`read_ci_profiles` reads one file (long CSV, FieldScout SC900 export or
+wide table, :func:`detect_format`) into a list of profiles;
+:func:`read_profile_set` reads any CI file, Parquet included, into one
+:class:`~terracone.data.ProfileSet`.  Streaming readers of large inputs are
+in :mod:`terracone.io.stream`.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import re
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import Literal
+
+import numpy as np
+
+from ..cone import Cone, get_cone
+from ..data import CIProfile, InputError, ProfileSet
+from .sc900 import read_sc900
+from .tables import (
+    CI_SCHEMA,
+    OnError,
+    PathLike,
+    check_options,
+    collect,
+    column_layout,
+    first_bad,
+    match_field,
+    read_table,
+    row_metadata,
+    table_groups,
+    to_numbers,
+    validated,
+)
+from .wide import read_wide_ci, wide_depth_header
+
+
+def _sniff_format(path: str) -> str:
+    """``"sc900"`` if the file starts like a FieldScout SC900 export, else ``"csv"``."""
+    try:
+        with open(path, encoding="utf-8-sig", errors="replace") as f:
+            head = [f.readline() for _ in range(12)]
+    except OSError:
+        return "csv"  # the CSV reader reports the problem
+    lines = [ln.strip() for ln in head if ln.strip()]
+    if lines and re.match(r"^Name\s*:", lines[0], re.IGNORECASE):
+        return "sc900"
+    if any(re.match(r"^Longitude\s*,\s*Latitude\s*,\s*Number\s*,", ln, re.I) for ln in lines):
+        return "sc900"
+    return "csv"
+
+
+def detect_format(path: PathLike) -> Literal["csv", "sc900", "wide"]:
+    """The format of a cone index file: ``"sc900"``, ``"wide"`` or ``"csv"``.
+
+    An SC900 export is recognised by its first lines; a wide table when its
+    first line of 3 or more cells (after blank, comment and short preamble
+    lines of at most 2 cells) has 3 or more depth headers
+    (:func:`wide_depth_header`) and no ``depth_<unit>`` or ``ci_<unit>``
+    column; anything else is read as a long CSV file, whose reader reports
+    what is wrong.
+    """
+    source = os.fspath(path)
+    if _sniff_format(source) == "sc900":
+        return "sc900"
+    try:
+        with open(source, encoding="utf-8-sig", errors="replace") as f:
+            head = [f.readline() for _ in range(50)]
+    except OSError:
+        return "csv"
+    for raw in head:
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        delim = "\t" if "\t" in line else ";" if ";" in line else ","
+        cells = [c.strip().lower() for c in next(csv.reader([raw], delimiter=delim))]
+        if any(match_field(c, CI_SCHEMA) and wide_depth_header(c) is None for c in cells):
+            return "csv"
+        if sum(wide_depth_header(c) is not None for c in cells) >= 3:
+            return "wide"
+        if sum(bool(c) for c in cells) >= 3:  # a header that is not wide
+            return "csv"
+        # short preamble lines ("Unit: MPa", "Date;2019-06-11") may precede the header
+    return "csv"
+
+
+def read_ci_profiles(
+    path: PathLike,
+    *,
+    cone: str | Cone = "asabe-large",
+    depth_ref: Literal["base", "tip"] = "base",
+    units: str | None = None,
+    on_error: OnError = "raise",
+    format: Literal["csv", "sc900", "wide"] | None = None,
+    depth_unit: str | None = None,
+    ci_unit: str | None = None,
+) -> list[CIProfile | InputError]:
+    """Read cone index profiles from a CSV file, an SC900 export or a wide table.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+    cone : str or Cone
+        Cone of profiles whose file does not say (no ``cone`` column).  A
+        ``cone`` column of a CSV file, and the ``Cone Size`` of an SC900
+        export, take precedence.
+    depth_ref : {"base", "tip"}
+        What the file's depths measure: the depth of the cone base
+        (``"base"``, the model's depth) or of the cone tip (``"tip"``, then
+        base depth = tip depth - H with H the cone height, so the first
+        readings may be partial penetrations, -H <= base depth < 0).
+    units : {"si", "us"} or None
+        Unit system assumed for CSV columns written without a unit suffix
+        (``depth``, ``ci``) and for an SC900 export without a unit line.
+        None (default) requires the units to be stated in the file.
+    on_error : {"raise", "collect"}
+        ``"raise"``: the first bad profile raises :class:`InputError`.
+        ``"collect"``: a bad profile becomes an :class:`InputError` item of
+        the returned list (with ``.profile`` set), in file order; the good
+        ones are returned as :class:`CIProfile`.  Problems with the file
+        itself (missing, bad header) raise in both modes.
+    format : {"csv", "sc900", "wide"} or None
+        File format; None detects it (:func:`detect_format`).  ``"wide"``:
+        one row per push, one column per depth, read by :func:`read_wide_ci`.
+    depth_unit, ci_unit : str, optional
+        Units of a wide table (see :func:`read_wide_ci`); not used otherwise.
+
+    Returns
+    -------
+    list of CIProfile or InputError
+        One item per profile (CSV) or push (SC900), in file order.  Depths
+        in m (cone base), CI in kPa; ``rows`` holds the file line number of
+        every point and ``source`` the path.
+
+    Raises
+    ------
+    InputError
+        Naming the file, profile, row (line number) and column of the
+        problem: missing file or column, unknown unit suffix, two columns
+        for one quantity; and, per profile, a non-numeric, NaN or empty
+        cell, a negative CI, depths not strictly increasing, fewer than 3
+        points or a base depth above -H.
+
+    Notes
+    -----
+    SC900 exports give one profile per push with id
+    ``"{file stem}/{ordinal:04d}-N{push}"`` (ordinal: 1-based count of push
+    lines in the file, as push numbers restart after each "Logger Started"
+    line).  Trailing zero readings mean that the push stopped; they are
+    dropped and recorded in ``notes`` and in ``metadata["trailing_zeros_dropped"]``.
+    The cone comes from the ``Cone Size`` column (``SC900_CONES``), the
+    pressure unit from the "... In KPa" / "... In PSI" line, the depths from
+    the depth column labels; every point of a push has the push line as
+    its row.  Metadata: ``logger``, ``serial``, ``datum``, ``push``,
+    ``line``, ``longitude`` and ``latitude`` (when present),
+    ``pressure_unit`` and ``length_unit`` (the file's CI and depth units)
+    and ``trailing_zeros_dropped``; none of these names reads as a data
+    column, so :func:`write_ci_profiles` can write the profiles to CSV.
+
+    Examples
+    --------
+    >>> profiles = read_ci_profiles("site.csv", cone="asabe-small")  # doctest: +SKIP
+    """
+    check_options(on_error, depth_ref, units)
+    default_cone = get_cone(cone)
+    source = os.fspath(path)
+    if format is None:
+        format = detect_format(source)
+    if format == "csv":
+        return _read_ci_csv(source, default_cone, depth_ref, units, on_error)
+    if format == "sc900":
+        return read_sc900(source, depth_ref=depth_ref, units=units, on_error=on_error)
+    if format == "wide":
+        return read_wide_ci(
+            source,
+            depth_unit=depth_unit,
+            ci_unit=ci_unit,
+            cone=default_cone,
+            depth_ref=depth_ref,
+            on_error=on_error,
+        )
+    raise ValueError(f"format must be 'csv', 'sc900', 'wide' or None (got {format!r})")
+
+
+def _read_ci_csv(
+    path: str, default_cone: Cone, depth_ref: str, units: str | None, on_error: str
+) -> list[CIProfile | InputError]:
+    table = read_table(path)
+    layout = column_layout(table, CI_SCHEMA, units)
+    dcol, ccol = layout.groups["depth"], layout.groups["ci"]
+    depth = to_numbers(table.columns[dcol.index])
+    ci = to_numbers(table.columns[ccol.index])
+    cone_col = layout.extra.get("cone")
+    lines = table.lines
+
+    def build(group: tuple[str, np.ndarray]) -> CIProfile:
+        pid, idx = group
+
+        def fail(msg: str, i: int, column: str | None) -> InputError:
+            return InputError(msg, file=path, profile=pid, row=int(lines[i]), column=column)
+
+        if layout.id_col is not None and not pid:
+            raise fail("empty profile id", int(idx[0]), layout.id_col.name)
+        bad = first_bad(idx, [(dcol, depth), (ccol, ci)])
+        if bad is not None:
+            i, col, why = bad
+            raise fail(why, i, col.name)
+        prof_cone = default_cone
+        if cone_col is not None:
+            cells = table.columns[cone_col.index]
+            name = cells[int(idx[0])].strip()
+            try:
+                prof_cone = get_cone(name)
+            except ValueError as exc:
+                why = "empty cell" if not name else str(exc)
+                raise fail(why, int(idx[0]), cone_col.name) from None
+            for i in idx[1:]:
+                if cells[int(i)].strip() != name:
+                    raise fail(
+                        f"cone changes within the profile ({cells[int(i)].strip()!r} here, "
+                        f"{name!r} on line {int(lines[idx[0]])})",
+                        int(i),
+                        cone_col.name,
+                    )
+        z = depth.values[idx] * dcol.factor
+        if depth_ref == "tip":
+            z = z - prof_cone.height
+        profile = CIProfile(
+            id=pid,
+            depth=z,
+            ci=ci.values[idx] * ccol.factor,
+            cone=prof_cone,
+            metadata=row_metadata(table, layout, int(idx[0])),
+            source=path,
+            rows=lines[idx].copy(),
+        )
+
+        def locate(k: int | None, column: str | None) -> tuple[int | None, str | None, str]:
+            col = dcol if column == "depth" else ccol
+            if k is None:  # too few points
+                span = f"line {int(lines[idx[0]])}"
+                if idx.size > 1:
+                    span = f"lines {int(lines[idx[0]])}-{int(lines[idx[-1]])}"
+                return int(lines[idx[0]]), col.name, f" (the profile is on {span})"
+            i = int(idx[k])
+            more = f" (cell {table.columns[col.index][i].strip()!r}"
+            if column == "depth" and depth_ref == "tip":
+                more += f", a tip depth; base depth = tip depth - H, H = {prof_cone.height:.4g} m"
+            if column == "depth" and k > 0:
+                prev = int(idx[k - 1])
+                more += f"; previous depth {table.columns[col.index][prev].strip()!r} on line {int(lines[prev])}"
+            return int(lines[i]), col.name, more + ")"
+
+        return validated(profile, locate)
+
+    return collect(table_groups(table, layout.id_col), build, on_error)
+
+
+def read_profile_set(
+    path: PathLike,
+    *,
+    cone: str | Cone = "asabe-large",
+    depth_ref: Literal["base", "tip"] = "base",
+    units: str | None = None,
+    on_error: OnError = "collect",
+    format: Literal["csv", "sc900", "wide", "parquet"] | None = None,
+    depth_unit: str | None = None,
+    ci_unit: str | None = None,
+) -> ProfileSet:
+    """Read every cone index profile of a file into one :class:`~terracone.data.ProfileSet`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A long CSV file, a FieldScout SC900 export, a wide table or a Parquet
+        file (columns as in a long CSV file).
+    cone, depth_ref, units, depth_unit, ci_unit
+        As in :func:`read_ci_profiles`.
+    on_error : {"collect", "raise"}
+        ``"collect"`` (default): a profile the reader refuses goes to the
+        set's ``errors`` as a located :class:`~terracone.data.InputError`;
+        ``"raise"``: the first one raises.  Problems with the file itself
+        raise in both modes.
+    format : {"csv", "sc900", "wide", "parquet"} or None
+        None detects it: ``"parquet"`` by the file's magic number or a
+        ``.parquet`` / ``.pq`` name, else :func:`detect_format`.
+
+    Returns
+    -------
+    ProfileSet
+        Profiles in file order (depths in m of the cone base, CI in kPa),
+        ``rows`` the file line of every point (the record for Parquet),
+        ``metadata`` one row per profile, ``errors`` the refused profiles.
+
+    Notes
+    -----
+    Text formats go through :func:`read_ci_profiles` (the profiles of a set
+    equal its list one by one); Parquet through
+    :func:`terracone.io.stream.iter_profile_sets` in one chunk.  A metadata
+    column holding both numbers and text (CSV cells are typed cell by cell)
+    becomes a text column.
+
+    References
+    ----------
+    Huang, Wong, Preston-Thomas, Jayakumar: the cone index profile, eq. (2-3).
+
+    Examples
+    --------
+    >>> profiles = read_profile_set("site.csv", cone="asabe-small")  # doctest: +SKIP
+    >>> profiles[0].depth, profiles.errors  # doctest: +SKIP
+    """
+    source = os.fspath(path)
+    if format is None:
+        format = "parquet" if is_parquet(source) else detect_format(source)
+    if format == "parquet":
+        from .stream import iter_profile_sets
+
+        check_options(on_error, depth_ref, units)
+        sets = list(
+            iter_profile_sets(
+                [source],
+                chunk_size=None,
+                cone=cone,
+                depth_ref=depth_ref,
+                units=units,
+                on_error=on_error,
+            )
+        )
+        return ProfileSet.concat(sets)
+    items = read_ci_profiles(
+        source,
+        cone=cone,
+        depth_ref=depth_ref,
+        units=units,
+        on_error=on_error,
+        format=format,
+        depth_unit=depth_unit,
+        ci_unit=ci_unit,
+    )
+    return gather_profiles(items)
+
+
+def is_parquet(path: PathLike) -> bool:
+    """Whether a file is Parquet: a ``.parquet`` / ``.pq`` name or the ``PAR1`` magic number."""
+    name = os.fspath(path).lower()
+    if name.endswith((".parquet", ".pq")):
+        return True
+    try:
+        with open(path, "rb") as f:
+            return f.read(4) == b"PAR1"
+    except OSError:
+        return False
+
+
+def gather_profiles(items: Sequence[CIProfile | InputError]) -> ProfileSet:
+    """:meth:`ProfileSet.from_profiles`, with metadata columns mixing numbers and text as text."""
+    import pyarrow as pa
+
+    try:
+        return ProfileSet.from_profiles(items)
+    except (pa.ArrowInvalid, pa.ArrowTypeError):
+        pass
+    profs = [p for p in items if isinstance(p, CIProfile)]
+    bare = [p if isinstance(p, InputError) else replace(p, metadata={}) for p in items]
+    keys = list(dict.fromkeys(k for p in profs for k in p.metadata))
+    columns = {}
+    for k in keys:
+        vals = [p.metadata.get(k) for p in profs]
+        try:
+            columns[k] = pa.array(vals)
+        except (pa.ArrowInvalid, pa.ArrowTypeError):
+            columns[k] = pa.array([None if v is None else str(v) for v in vals], pa.string())
+    return replace(ProfileSet.from_profiles(bare), metadata=pa.table(columns))

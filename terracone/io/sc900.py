@@ -1,0 +1,264 @@
+"""FieldScout SC900 exports: one cone index profile per push.
+
+The text export of the Spectrum FieldScout SC900 logger: a few header lines
+(logger name, serial number, datum, the pressure unit), a column line
+``Longitude,Latitude,Number,0.0 cm,2.5 cm,...,Cone Size``, "Logger Started"
+lines and one ``N= k , ...`` line per push.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from .. import units as u
+from ..cone import CONES
+from ..data import CIProfile, InputError
+from .tables import (
+    OnError,
+    PathLike,
+    cell_problem,
+    check_on_error,
+    collect,
+    push_profile,
+    read_lines,
+    to_numbers,
+    validated,
+)
+
+#: Cone sizes of the SC900 export (normalised to lower case) and their cones.
+SC900_CONES: dict[str, str] = {"1/2 inch": "asabe-small", "3/4 inch": "asabe-large"}
+
+# ---------------------------------------------------------------------------
+# FieldScout SC900 export
+# ---------------------------------------------------------------------------
+
+_SC900_DEPTH = re.compile(r"^\s*([+-]?(?:\d+\.?\d*|\.\d+))\s*([a-zA-Z]+)\s*$")
+_SC900_UNIT = re.compile(r"\bIn\s+(KPa|PSI)\s*$", re.IGNORECASE)
+_SC900_PUSH = re.compile(r"^N\s*=\s*(\d+)$", re.IGNORECASE)
+
+
+@dataclass
+class _Push:
+    ordinal: int
+    line: int
+    fields: list[str]
+
+
+@dataclass
+class _Export:
+    """What the lines of an SC900 export hold, before the pushes are read."""
+
+    header: dict[str, Any]  # logger, serial, datum
+    ci_unit: str | None  # "kpa" or "psi" from the unit line
+    labels: list[str] | None  # the column line's cells after Longitude,Latitude,Number
+    column_line: int
+    pushes: list[_Push]
+
+
+def _export_lines(path: str, text: list[str]) -> _Export:
+    """Sort the lines of an export: header, unit line, column line and push lines."""
+    ex = _Export({}, None, None, 0, [])
+    for lineno, raw in enumerate(text, 1):
+        line = raw.strip()
+        if not line:
+            continue
+        if ex.labels is None:
+            m = re.match(r"^(Name|Serial\s*#?|Datum)\s*:\s*(.*)$", line, re.IGNORECASE)
+            if m:
+                key = m.group(1).lower()
+                key = "logger" if key == "name" else "serial" if key.startswith("serial") else key
+                ex.header[key] = m.group(2).strip()
+                continue
+            m = _SC900_UNIT.search(line)
+            if m:
+                ex.ci_unit = m.group(1).lower()
+                continue
+            if re.match(r"^Longitude\s*,\s*Latitude\s*,\s*Number\s*,", line, re.IGNORECASE):
+                ex.labels = [c.strip() for c in line.split(",")[3:]]
+                ex.column_line = lineno
+            continue  # other header text carries nothing we use
+        fields = [c.strip() for c in line.split(",")]
+        if len(fields) >= 3 and fields[2].lower() == "logger started":
+            continue
+        if len(fields) >= 3 and fields[2].upper().startswith("N="):
+            ex.pushes.append(_Push(len(ex.pushes) + 1, lineno, fields))
+            continue
+        raise InputError(
+            "not a push line (expected 'lon,lat,N= k , readings..., cone size') "
+            "nor a 'Logger Started' line",
+            file=path,
+            row=lineno,
+        )
+    return ex
+
+
+def _export_depths(path: str, ex: _Export) -> tuple[list[str], np.ndarray, list[str]]:
+    """Depth labels, depths [m] and the depth units used, from the column line."""
+    labels = ex.labels
+    if labels is None:
+        raise InputError(
+            "no column line 'Longitude,Latitude,Number,<depths>,Cone Size' (not an SC900 export?)",
+            file=path,
+        )
+    if not labels or labels[-1].lower() != "cone size":
+        raise InputError(
+            "the column line does not end with 'Cone Size'",
+            file=path,
+            row=ex.column_line,
+            column=labels[-1] if labels else None,
+        )
+    labels = labels[:-1]
+    depths = np.empty(len(labels))
+    depth_units: list[str] = []
+    for k, label in enumerate(labels):
+        m = _SC900_DEPTH.match(label)
+        unit = m.group(2).lower() if m else None
+        if m is None or unit not in u.LENGTH_UNITS:
+            raise InputError(
+                f"not a depth label like '2.5 cm' (units {', '.join(u.LENGTH_UNITS)})",
+                file=path,
+                row=ex.column_line,
+                column=label,
+            )
+        depths[k] = float(m.group(1)) * u.LENGTH_UNITS[unit]
+        if unit not in depth_units:
+            depth_units.append(unit)
+    return labels, depths, depth_units
+
+
+@dataclass
+class _Columns:
+    """The file-wide facts every push of an export shares."""
+
+    path: str
+    stem: str
+    header: dict[str, Any]
+    labels: list[str]
+    depths: np.ndarray  # [m]
+    length_unit: str
+    ci_unit: str
+    depth_ref: str
+
+
+def _push(cols: _Columns, push: _Push) -> CIProfile:
+    """One push line as a validated profile (raises a located InputError)."""
+    f, labels, nd = push.fields, cols.labels, len(cols.labels)
+    m = _SC900_PUSH.match(f[2].replace(" ", ""))
+    number = int(m.group(1)) if m else None
+    pid = f"{cols.stem}/{push.ordinal:04d}-N{number if number is not None else '?'}"
+
+    def fail(msg: str, column: str | None) -> InputError:
+        return InputError(msg, file=cols.path, profile=pid, row=push.line, column=column)
+
+    if number is None:
+        raise fail(f"push number {f[2]!r} is not 'N= <integer>'", "Number")
+    if len(f) != nd + 4:
+        got = len(f) - 4
+        column = labels[got] if got < nd else "Cone Size"
+        raise fail(f"{max(got, 0)} readings but the column line has {nd} depths", column)
+    size = f[-1]
+    cone_name = SC900_CONES.get(" ".join(size.lower().split()))
+    if cone_name is None:
+        known = ", ".join(repr(s.title()) for s in SC900_CONES)
+        raise fail(f"unknown cone size {size!r} (known: {known})", "Cone Size")
+    push_cone = CONES[cone_name]
+    metadata: dict[str, Any] = dict(cols.header)
+    metadata["push"] = number
+    metadata["line"] = push.line
+    for k, key in ((0, "longitude"), (1, "latitude")):
+        if f[k]:
+            if cell_problem(f[k]) is not None:
+                raise fail(f"{key} {f[k]!r} is not a number", key.title())
+            metadata[key] = float(f[k])
+    readings = to_numbers(f[3 : 3 + nd])
+    if readings.bad.any():
+        k = int(np.flatnonzero(readings.bad)[0])
+        raise fail(readings.reasons[k], labels[k])
+    metadata["pressure_unit"] = cols.ci_unit
+    metadata["length_unit"] = cols.length_unit
+    factor = u.PRESSURE_UNITS[cols.ci_unit]
+    profile, keep, dropped = push_profile(
+        pid,
+        cols.depths,
+        readings.values * factor,
+        push_cone,
+        cols.depth_ref,
+        metadata,
+        cols.path,
+        push.line,
+        [],
+        lambda k: str(labels[k]),
+    )
+
+    def locate(k: int | None, column: str | None) -> tuple[int | None, str | None, str]:
+        if k is None:  # too few points
+            more = f" after dropping {dropped} trailing zero readings" if dropped else ""
+            return push.line, labels[keep] if dropped else labels[0], more
+        more = f" (reading {f[3 + k]!r})"
+        if column == "depth" and cols.depth_ref == "tip":
+            more = f" (a tip depth; base depth = tip depth - H, H = {push_cone.height:.4g} m)"
+        return push.line, labels[k], more
+
+    return validated(profile, locate)
+
+
+def read_sc900(
+    path: PathLike,
+    *,
+    depth_ref: Literal["base", "tip"] = "base",
+    units: str | None = None,
+    on_error: OnError = "raise",
+) -> list[CIProfile | InputError]:
+    """Read a FieldScout SC900 export: one profile per push.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The export (text).
+    depth_ref : {"base", "tip"}
+        As in :func:`terracone.io.read_ci_profiles`.
+    units : {"si", "us"} or None
+        Unit system of an export without a unit line ("... In KPa").
+    on_error : {"raise", "collect"}
+        As in :func:`terracone.io.read_ci_profiles`.
+
+    Returns
+    -------
+    list of CIProfile or InputError
+        One item per push, in file order; see the Notes of
+        :func:`terracone.io.read_ci_profiles` for ids, cones and metadata.
+
+    References
+    ----------
+    Spectrum Technologies, FieldScout SC900 Soil Compaction Meter, product
+    manual (the text export).
+    """
+    check_on_error(on_error)
+    source = os.fspath(path)
+    ex = _export_lines(source, read_lines(source))
+    labels, depths, depth_units = _export_depths(source, ex)
+    ci_unit = ex.ci_unit
+    if ci_unit is None:
+        if units is None:
+            raise InputError(
+                "no unit line (e.g. 'Soil Compation In KPa'); state the unit system (units='si' or 'us' in Python, --file-units on the command line)",
+                file=source,
+            )
+        ci_unit = u.pressure_unit(units).lower()
+    cols = _Columns(
+        source,
+        Path(source).stem,
+        ex.header,
+        labels,
+        depths,
+        depth_units[0] if len(depth_units) == 1 else ",".join(depth_units),
+        ci_unit,
+        depth_ref,
+    )
+    return collect(ex.pushes, lambda push: _push(cols, push), on_error)

@@ -1,0 +1,1479 @@
+"""Streaming profile sets: long CSV and Parquet inputs larger than memory.
+
+:func:`iter_profile_sets` reads CSV and Parquet files (or a directory of
+them) block by block through pyarrow's readers
+(:func:`pyarrow.csv.open_csv`, :meth:`pyarrow.parquet.ParquetFile.iter_batches`)
+and yields :class:`~terracone.data.ProfileSet` chunks of a fixed number of
+profiles.  The rows of a profile must be contiguous; the last profile of a
+block is carried over to the next block, so a profile is never split.
+
+:func:`terracone.batch.run_batch` uses the same stream one level down: a
+first, cheap pass (:func:`scan_inputs`) checks every header, counts the
+profiles and fixes the type of every metadata column; then
+:func:`iter_chunks` cuts the input into :class:`Chunk` objects, which hold
+the per-profile facts the output needs and a :class:`~terracone.data.ProfileSet`
+of the profiles that can be fitted.
+
+CSV files follow the conventions of :mod:`terracone.io`: ``#`` comment and
+blank lines are dropped by :class:`CsvLines` (a line filter that keeps the
+file line of every data row); pyarrow parses the rest.  A file whose rows do
+not all have the header's number of fields is read by the standard library's
+:mod:`csv` module instead (missing fields are empty, extra fields must be).
+
+References
+----------
+Huang, Wong, Preston-Thomas, Jayakumar: the cone index profile, eq. (2-3).
+"""
+
+from __future__ import annotations
+
+import csv
+import gzip
+import io
+import os
+import re
+from array import array
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.csv as pacsv
+import pyarrow.parquet as pq
+
+from ..cone import Cone, get_cone
+from ..data import CIProfile, InputError, ProfileSet, SourceFile
+from .tables import (
+    CI_SCHEMA,
+    DECIMAL,
+    SPECIAL_FLOAT,
+    OnError,
+    PathLike,
+    Table,
+    check_options,
+    column_layout,
+    to_numbers,
+)
+
+__all__ = [
+    "iter_profile_sets",
+    "validate_set",
+    "input_files",
+    "scan_inputs",
+    "iter_chunks",
+    "ScanPlan",
+    "Chunk",
+    "ConeCache",
+    "CsvLines",
+]
+
+#: Rows read per block (CSV / Parquet); memory per block, not per profile.
+CSV_BLOCK_BYTES = 1 << 22
+PARQUET_BLOCK_ROWS = 1 << 16
+#: Rows per block of the standard-library CSV path (ragged rows).
+CSV_BLOCK_ROWS = 1 << 15
+#: Same tolerance as CIProfile.validate for a base depth above -H.
+H_TOL = 1e-9
+
+
+# ---------------------------------------------------------------------------
+# input files
+# ---------------------------------------------------------------------------
+
+
+def kind_of(path: Path, strict: bool) -> str | None:
+    """The kind of an input file by its name (``csv`` or ``parquet``); None when ``strict`` and neither."""
+    name = path.name.lower()
+    if name.endswith((".csv", ".csv.gz")):
+        return "csv"
+    if name.endswith((".parquet", ".pq")):
+        return "parquet"
+    if strict:
+        return None
+    try:  # a single file with another name: sniff the Parquet magic number
+        with open(path, "rb") as f:
+            return "parquet" if f.read(4) == b"PAR1" else "csv"
+    except OSError:
+        return "csv"
+
+
+def input_files(input: PathLike) -> list[tuple[Path, str]]:
+    """(absolute path, kind) of the input files, in processing order."""
+    p = Path(input)
+    if p.is_dir():
+        files = []
+        for f in sorted(p.iterdir(), key=lambda x: x.name):
+            if f.name.startswith((".", "_")) or not f.is_file():
+                continue
+            kind = kind_of(f, strict=True)
+            if kind is not None:
+                files.append((f.resolve(), kind))
+        if not files:
+            raise InputError(
+                "no input files (*.csv, *.csv.gz, *.parquet, *.pq) in the directory", file=str(p)
+            )
+        return files
+    if p.is_file():
+        return [(p.resolve(), kind_of(p, strict=False) or "csv")]
+    raise InputError("file or directory not found", file=str(p))
+
+
+def instrument_to_parquet(path: Path, out: Path, cone: Cone, **reader: Any) -> Path:
+    """An SC900 export or wide table as terracone Parquet in OUT_DIR/_input (kept for --resume).
+
+    ``reader`` are keywords of :func:`terracone.io.read_ci_profiles` (format
+    "sc900" by default; "wide" with its depth_unit and ci_unit).
+    """
+    from .profiles import read_ci_profiles
+
+    target = out / "_input" / (path.stem + ".parquet")
+    if target.exists():
+        return target
+    reader.setdefault("format", "sc900")
+    items = read_ci_profiles(path, on_error="collect", cone=cone, **reader)
+    target.parent.mkdir(parents=True, exist_ok=True)  # after the file-level checks
+    rows: dict[str, list] = {
+        "profile": [],
+        "cone": [],
+        "reader_error": [],
+        "reader_error_row": [],
+        "reader_error_column": [],
+        "depth_m": [],
+        "ci_kpa": [],
+    }
+    meta_keys: list[str] = []
+    for it in items:
+        if isinstance(it, CIProfile):
+            for k in it.metadata:
+                if k not in meta_keys and k not in rows:
+                    meta_keys.append(k)
+    for k in meta_keys:
+        rows[k] = []
+    for it in items:
+        if isinstance(it, CIProfile):
+            k = len(it)
+            rows["profile"] += [it.id] * k
+            rows["cone"] += [it.cone.name] * k
+            rows["reader_error"] += [None] * k
+            rows["reader_error_row"] += [None] * k
+            rows["reader_error_column"] += [None] * k
+            rows["depth_m"] += list(it.depth)
+            rows["ci_kpa"] += list(it.ci)
+            for mk in meta_keys:
+                v = it.metadata.get(mk)
+                rows[mk] += [None if v is None else str(v)] * k
+        else:  # rejected by the reader: one row without a reading, the reason alongside
+            rows["profile"].append(str(it.profile))
+            rows["cone"].append(cone.name)
+            rows["reader_error"].append(str(it))
+            rows["reader_error_row"].append(it.row)
+            rows["reader_error_column"].append(it.column)
+            rows["depth_m"].append(float("nan"))
+            rows["ci_kpa"].append(float("nan"))
+            for mk in meta_keys:
+                rows[mk].append(None)
+    tmp = target.with_name("." + target.name + ".tmp")
+    pq.write_table(pa.table(rows), tmp)
+    os.replace(tmp, target)
+    return target
+
+
+def fingerprint(input: PathLike, files: list[tuple[Path, str]]) -> dict[str, Any]:
+    """Path, size and modification time of every input file (a resumed run checks it)."""
+    out = []
+    for f, kind in files:
+        st = f.stat()
+        out.append({"path": str(f), "kind": kind, "size": st.st_size, "mtime_ns": st.st_mtime_ns})
+    return {"path": str(Path(input).resolve()), "files": out}
+
+
+# ---------------------------------------------------------------------------
+# CSV streaming without comment lines
+# ---------------------------------------------------------------------------
+
+# a "\n" followed by a comment or blank line (literal prefix: fast to search)
+_SKIP_NEXT = re.compile(rb"\n(?=[ \t\r\f\v]*[#\n])")
+_SKIP_FIRST = re.compile(rb"[ \t\r\f\v]*[#\n]")
+
+
+class CsvLines(io.RawIOBase):
+    """Binary, read-only file object: a CSV file without comment and blank lines.
+
+    Follows the conventions of :mod:`terracone.io`: a line whose first
+    non-blank character is ``#`` is a comment, blank lines are skipped.  The
+    physical line numbers of the dropped lines are kept (only those not yet
+    needed to number the rows already handed out), so every data row maps
+    back to its line in the file (exact as long as no quoted field holds a
+    line break).  Handles ``.gz`` files and a UTF-8 byte order mark.
+    """
+
+    BLOCK = 1 << 20
+
+    def __init__(self, path: str) -> None:
+        super().__init__()
+        self.path = path
+        self.header_fields = 0
+        try:
+            opener = gzip.open if path.lower().endswith(".gz") else open
+            self._f = opener(path, "rb")
+        except OSError as exc:
+            raise InputError(f"cannot open: {exc.strerror or exc}", file=path) from None
+        self._pending = b""
+        self._out = bytearray()
+        self._line = 0  # physical lines consumed
+        self._dropped = array("q")  # dropped lines not yet accounted in _drop_base
+        self._drop_base = 0  # dropped lines before the rows already numbered
+        self._eof = False
+        self._first = True
+        self.header_line: int | None = None
+
+    def close(self) -> None:
+        self._f.close()
+        super().close()
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer: Any) -> int:
+        data = self.read(len(buffer))
+        buffer[: len(data)] = data
+        return len(data)
+
+    def __enter__(self) -> CsvLines:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _fill(self) -> None:
+        raw = self._f.read(self.BLOCK)
+        if self._first:
+            self._first = False
+            if raw.startswith(b"\xef\xbb\xbf"):
+                raw = raw[3:]
+        if not raw:
+            self._eof = True
+            data, self._pending = self._pending, b""
+            if data:
+                self._filter(data + b"\n")
+            return
+        data = self._pending + raw
+        cut = data.rfind(b"\n")
+        if cut < 0:
+            self._pending = data
+            return
+        self._pending = data[cut + 1 :]
+        self._filter(data[: cut + 1])
+
+    def _filter(self, data: bytes) -> None:
+        """Append the kept lines of ``data`` (whole lines) to the output buffer."""
+        base = self._line
+        out = self._out
+        starts = [m.start() + 1 for m in _SKIP_NEXT.finditer(data)]  # dropped line starts
+        if _SKIP_FIRST.match(data):
+            starts.insert(0, 0)
+        keep_from = 0
+        pos = 0
+        nl_before = 0
+        for s in starts:
+            nl_before += data.count(b"\n", pos, s)
+            pos = s
+            out += data[keep_from:s]
+            keep_from = data.index(b"\n", s) + 1
+            self._dropped.append(base + 1 + nl_before)
+        out += data[keep_from:]
+        self._line = base + data.count(b"\n")
+
+    def read(self, n: int | None = -1) -> bytes:
+        while not self._eof and (n is None or n < 0 or len(self._out) < n):
+            self._fill()
+        if n is None or n < 0:
+            n = len(self._out)
+        chunk = bytes(self._out[:n])
+        del self._out[:n]
+        return chunk
+
+    def header(self) -> list[str]:
+        """Read the header line (the first kept line) and return its cells."""
+        while b"\n" not in self._out and not self._eof:
+            self._fill()
+        if not self._out:
+            raise InputError("no header line (the file is empty or all comments)", file=self.path)
+        cut = self._out.find(b"\n")
+        raw = bytes(self._out[:cut]) if cut >= 0 else bytes(self._out)
+        del self._out[: cut + 1 if cut >= 0 else len(self._out)]
+        self.header_line = int(self.lines(-1, 1)[0])
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise InputError(
+                f"not a UTF-8 text file ({exc.reason})", file=self.path, row=self.header_line
+            ) from None
+        cells = next(csv.reader([text.rstrip("\r")]), [])
+        cells = [c.strip() for c in cells]
+        self.header_fields = len(cells)
+        while cells and not cells[-1]:
+            cells.pop()
+        return cells
+
+    def lines(self, first_row: int, n: int) -> np.ndarray:
+        """File line numbers of data rows ``first_row`` .. ``first_row + n - 1``.
+
+        Rows count from 0 after the header (``first_row = -1`` is the header);
+        must be called with increasing ``first_row``.
+        """
+        p = np.arange(first_row + 1, first_row + 1 + n, dtype=np.int64)  # kept-line index
+        d = np.frombuffer(self._dropped.tobytes(), dtype=np.int64)
+        key = d - (self._drop_base + np.arange(d.size, dtype=np.int64))
+        k = self._drop_base + np.searchsorted(key, p + 1, side="right")
+        out = p + 1 + k
+        if n and d.size:  # forget the dropped lines before the last numbered row
+            done = int(np.searchsorted(d, out[-1]))
+            if done:
+                del self._dropped[:done]
+                self._drop_base += done
+        return out
+
+
+def csv_blocks(stream: CsvLines, width: int, fields: int) -> Iterator[tuple[pa.RecordBatch, int]]:
+    """Blocks of a CSV body (after :meth:`CsvLines.header`), every cell as text.
+
+    Yields (batch, index of its first data row); the batch has the header's
+    ``width`` columns ``c0..``.  ``fields`` is the number of fields of the
+    header line (trailing empty ones included).  pyarrow parses the body;
+    when a row has another number of fields, or a block is not UTF-8, the
+    file is read again from the current block with :mod:`csv`
+    (:func:`_csv_module_blocks`), which pads short rows, checks extra fields
+    and names the bad byte.
+    """
+    path = stream.path
+    names = [f"c{j}" for j in range(fields)]
+    ragged: list[str] = []
+
+    def on_invalid(row: Any) -> str:
+        ragged.append(row.text)
+        return "skip"
+
+    try:
+        reader = pacsv.open_csv(
+            stream,
+            read_options=pacsv.ReadOptions(column_names=names, block_size=CSV_BLOCK_BYTES),
+            parse_options=pacsv.ParseOptions(
+                newlines_in_values=True, ignore_empty_lines=False, invalid_row_handler=on_invalid
+            ),
+            convert_options=pacsv.ConvertOptions(
+                column_types={n: pa.string() for n in names},
+                include_columns=names[:width],
+                strings_can_be_null=False,
+                quoted_strings_can_be_null=False,
+            ),
+        )
+    except pa.ArrowInvalid as exc:
+        if "Empty CSV file" in str(exc):
+            return
+        if not _not_utf8(exc):
+            raise _csv_error(path, exc) from None
+        reader = None
+    row0 = 0
+    while reader is not None:
+        try:
+            batch = reader.read_next_batch()
+        except StopIteration:
+            return
+        except pa.ArrowInvalid as exc:
+            if not _not_utf8(exc):
+                raise _csv_error(path, exc) from None
+            break  # the csv module names the bad byte
+        if ragged:
+            break
+        if batch.num_rows:
+            yield batch, row0
+            row0 += batch.num_rows
+    yield from _csv_module_blocks(path, width, row0)
+
+
+def _not_utf8(exc: Exception) -> bool:
+    return "UTF8" in str(exc) or "UTF-8" in str(exc)
+
+
+def _csv_error(path: str, exc: Exception) -> InputError:
+    return InputError(f"bad CSV: {exc}", file=path)
+
+
+def _csv_module_blocks(path: str, width: int, row0: int) -> Iterator[tuple[pa.RecordBatch, int]]:
+    """Blocks from data row ``row0`` on, parsed by :mod:`csv` (rows of any length)."""
+    with CsvLines(path) as stream:
+        stream.header()
+        text = io.TextIOWrapper(stream, encoding="utf-8", newline="")
+        records = csv.reader(text)
+        rows: list[list[str]] = []
+        i = 0
+        try:
+            for rec in records:
+                if i >= row0:
+                    if len(rec) < width:
+                        rec.extend([""] * (width - len(rec)))
+                    elif len(rec) > width:
+                        if any(c.strip() for c in rec[width:]):
+                            raise InputError(
+                                f"more fields than the header ({width}) and the extra ones "
+                                "are not empty",
+                                file=path,
+                                row=int(stream.lines(i, 1)[0]),
+                            )
+                        del rec[width:]
+                    rows.append(rec)
+                    if len(rows) == CSV_BLOCK_ROWS:
+                        yield _text_batch(rows, width), i + 1 - len(rows)
+                        rows = []
+                i += 1
+        except UnicodeDecodeError as exc:
+            raise InputError(f"not a UTF-8 text file ({exc.reason})", file=path) from None
+        except csv.Error as exc:
+            raise InputError(f"bad CSV: {exc}", file=path, row=int(stream.lines(i, 1)[0])) from None
+        if rows:
+            yield _text_batch(rows, width), i - len(rows)
+
+
+def _text_batch(rows: list[list[str]], width: int) -> pa.RecordBatch:
+    cols = list(zip(*rows)) if rows else [() for _ in range(width)]
+    return pa.record_batch(
+        [pa.array(list(c), pa.string()) for c in cols], names=[f"c{j}" for j in range(width)]
+    )
+
+
+@dataclass
+class FileInfo:
+    """One input file as the scan saw it: its columns, their SI factors and its profile count."""
+
+    path: str
+    kind: str  # "csv" or "parquet"
+    id_col: str | None
+    depth_col: str
+    ci_col: str
+    cone_col: str | None
+    depth_factor: float
+    ci_factor: float
+    meta_cols: list[str]
+    width: int = 0  # CSV: header fields (trailing empty ones dropped)
+    fields: int = 0  # CSV: fields of the header line
+    col_index: dict[str, int] = field(default_factory=dict)  # CSV: name -> position
+    profiles: int = 0
+
+    @property
+    def row_word(self) -> str:
+        return "line" if self.kind == "csv" else "row"
+
+    @property
+    def stem(self) -> str:
+        name = Path(self.path).name
+        for suffix in (".csv.gz", ".csv", ".parquet", ".pq"):
+            if name.lower().endswith(suffix):
+                return name[: -len(suffix)]
+        return Path(self.path).stem
+
+
+@dataclass
+class ScanPlan:
+    """What the scan found: the files, the profile count and the metadata columns."""
+
+    files: list[FileInfo]
+    profiles: int
+    id_hash: int  # sum of the uint64 hashes of the profile ids (mod 2**64)
+    meta: list[tuple[str, str, pa.DataType]]  # (output name, input name, type)
+    leading: Sequence[tuple[str, pa.DataType]] = ()  # output columns before the metadata
+
+    @property
+    def schema(self) -> pa.Schema:
+        """The leading columns, then the metadata columns (output names)."""
+        fields = [pa.field(n, t) for n, t in self.leading]
+        fields += [pa.field(out, t) for out, _, t in self.meta]
+        return pa.schema(fields)
+
+
+def _header_table(path: str, header: list[str], line: int | None) -> Table:
+    return Table(path, header, line, [], np.empty(0, dtype=int))  # type: ignore[arg-type]
+
+
+def file_layout(
+    path: str, kind: str, header: list[str], line: int | None, units: str | None = None
+) -> FileInfo:
+    """The columns of a CI file from its header (raises a located InputError)."""
+    layout = column_layout(_header_table(path, header, line), CI_SCHEMA, units)
+    d, c = layout.groups["depth"], layout.groups["ci"]
+    cone = layout.extra.get("cone")
+    return FileInfo(
+        path=path,
+        kind=kind,
+        id_col=None if layout.id_col is None else layout.id_col.name,
+        depth_col=d.name,
+        ci_col=c.name,
+        cone_col=None if cone is None else cone.name,
+        depth_factor=d.factor,
+        ci_factor=c.factor,
+        meta_cols=[m.name for m in layout.metadata],
+        width=len(header),
+        col_index={name: j for j, name in enumerate(header)},
+    )
+
+
+def hash_ids(ids: np.ndarray) -> np.ndarray:
+    """Deterministic uint64 hash of each id (pandas' SipHash with a fixed key)."""
+    if ids.size == 0:
+        return np.empty(0, dtype=np.uint64)
+    return pd.util.hash_array(np.asarray(ids, dtype=object), categorize=False)
+
+
+def profile_starts(ids: np.ndarray) -> np.ndarray:
+    """Indices where a new profile starts (0 included).
+
+    ``ids`` are the raw cells: a profile is a run of rows whose ids are equal
+    once stripped of surrounding blanks (only the first cell of each run of
+    equal raw cells is stripped, so the cost is per profile, not per row).
+    """
+    if ids.size == 0:
+        return np.empty(0, dtype=np.int64)
+    st = np.concatenate([[0], np.flatnonzero(ids[1:] != ids[:-1]) + 1]).astype(np.int64)
+    if st.size > 1:
+        first = _strip(ids[st])
+        keep = np.ones(st.size, dtype=bool)
+        keep[1:] = first[1:] != first[:-1]
+        st = st[keep]
+    return st
+
+
+def _strip(values: np.ndarray) -> np.ndarray:
+    return np.array([v.strip() for v in values.tolist()], dtype=object).reshape(len(values))
+
+
+def _is_number_text(v: str) -> bool:
+    return not v.strip() or bool(DECIMAL.match(v) or SPECIAL_FLOAT.match(v))
+
+
+def _scan_csv(path: str, units: str | None) -> tuple[FileInfo, int, int, dict[str, bool]]:
+    with CsvLines(path) as stream:
+        header = stream.header()
+        info = file_layout(path, "csv", header, stream.header_line, units)
+        info.fields = stream.header_fields
+        numeric = {m: True for m in info.meta_cols}
+        count = 0
+        hsum = np.uint64(0)
+        prev: str | None = None
+        for block, _ in csv_blocks(stream, info.width, info.fields):
+            if info.id_col is None:
+                ids = np.full(block.num_rows, info.stem, dtype=object)
+            else:
+                ids = _cells(block, info.col_index[info.id_col])
+            st = profile_starts(ids)
+            first = _strip(ids[st])
+            if st.size and prev is not None and first[0] == prev:
+                st, first = st[1:], first[1:]
+            if first.size:
+                prev = first[-1]
+            count += int(st.size)
+            with np.errstate(over="ignore"):
+                hsum += hash_ids(first).sum(dtype=np.uint64)
+            for m in info.meta_cols:
+                if numeric[m]:
+                    vals = _cells(block, info.col_index[m])[st]
+                    numeric[m] = all(_is_number_text(v) for v in vals)
+    info.profiles = count
+    return info, count, int(hsum), numeric
+
+
+def arrow_text(arr: pa.Array | pa.ChunkedArray) -> pa.Array:
+    """A column as stripped strings (nulls as "")."""
+    if isinstance(arr, pa.ChunkedArray):
+        arr = arr.combine_chunks()
+    if pa.types.is_dictionary(arr.type):
+        arr = arr.dictionary_decode()
+    if not pa.types.is_string(arr.type):
+        arr = pc.cast(arr, pa.string())
+    return pc.utf8_trim_whitespace(pc.fill_null(arr, ""))
+
+
+def plain_type(t: pa.DataType) -> pa.DataType | None:
+    """The value type of an Arrow column (dictionaries decoded, large strings as strings); None for null."""
+    if pa.types.is_dictionary(t):
+        t = t.value_type
+    if pa.types.is_large_string(t) or pa.types.is_string_view(t):
+        return pa.string()
+    if pa.types.is_null(t):
+        return None
+    return t
+
+
+def _number_column_ok(t: pa.DataType) -> bool:
+    t = plain_type(t) or pa.null()
+    return (
+        pa.types.is_integer(t)
+        or pa.types.is_floating(t)
+        or pa.types.is_decimal(t)
+        or pa.types.is_string(t)
+        or pa.types.is_null(t)
+    )
+
+
+def parquet_file(path: str) -> pq.ParquetFile:
+    """A Parquet reader whose memory stays flat while iterating over the file.
+
+    With pre-buffering (pyarrow's default) ``iter_batches`` keeps the column
+    chunks it has read: memory grows with the file (0.7 GB for a 0.8 GB file).
+    """
+    return pq.ParquetFile(path, pre_buffer=False)
+
+
+def _cells(block: pa.RecordBatch, j: int) -> np.ndarray:
+    """Column ``c<j>`` of a CSV block as an object array of str."""
+    return block.column(j).to_numpy(zero_copy_only=False).astype(object, copy=False)
+
+
+def _scan_parquet(
+    path: str, units: str | None
+) -> tuple[FileInfo, int, int, dict[str, pa.DataType | None]]:
+    try:
+        pf = parquet_file(path)
+    except (OSError, pa.ArrowException) as exc:
+        raise InputError(f"cannot read as Parquet: {exc}", file=path) from None
+    schema = pf.schema_arrow
+    info = file_layout(path, "parquet", list(schema.names), None, units)
+    for col in (info.depth_col, info.ci_col):
+        t = schema.field(col).type
+        if not _number_column_ok(t):
+            raise InputError(f"column type {t} cannot hold numbers", file=path, column=col)
+    types = {m: plain_type(schema.field(m).type) for m in info.meta_cols}
+    count = 0
+    hsum = np.uint64(0)
+    if info.id_col is None:
+        if pf.metadata.num_rows:
+            count = 1
+            hsum = hash_ids(np.array([info.stem], dtype=object))[0]
+    else:
+        prev: str | None = None
+        for batch in pf.iter_batches(batch_size=PARQUET_BLOCK_ROWS, columns=[info.id_col]):
+            ids = arrow_text(batch.column(0))
+            n = len(ids)
+            if n == 0:
+                continue
+            change = pc.not_equal(ids.slice(1), ids.slice(0, n - 1)).to_numpy(zero_copy_only=False)
+            st = np.concatenate([[0], np.flatnonzero(change) + 1]).astype(np.int64)
+            first = ids.take(pa.array(st)).to_numpy(zero_copy_only=False)
+            if prev is not None and first[0] == prev:
+                st, first = st[1:], first[1:]
+            prev = ids[n - 1].as_py()
+            count += int(st.size)
+            with np.errstate(over="ignore"):
+                hsum += hash_ids(first).sum(dtype=np.uint64)
+    info.profiles = count
+    return info, count, int(hsum), types
+
+
+def _unify(types: list[pa.DataType]) -> pa.DataType:
+    known = [t for t in types if t is not None]
+    if not known:
+        return pa.string()
+    if all(t == known[0] for t in known):
+        return known[0]
+    if all(pa.types.is_integer(t) for t in known):
+        return pa.int64()
+    if all(pa.types.is_integer(t) or pa.types.is_floating(t) for t in known):
+        return pa.float64()
+    return pa.string()
+
+
+def scan_inputs(
+    files: list[tuple[Path, str]],
+    leading: Sequence[tuple[str, pa.DataType]] = (),
+    units: str | None = None,
+) -> ScanPlan:
+    """The first, cheap pass over the input: headers, profile count and id checksum,
+    and one type per metadata column (a name taken by a ``leading`` output column
+    is prefixed ``meta_``).  Raises a located InputError for file-level problems."""
+    infos: list[FileInfo] = []
+    total = 0
+    hsum = 0
+    meta_types: dict[str, list[pa.DataType | None]] = {}
+    for path, kind in files:
+        if kind == "csv":
+            info, count, h, numeric = _scan_csv(str(path), units)
+            typed = {m: (pa.float64() if ok else pa.string()) for m, ok in numeric.items()}
+        else:
+            info, count, h, typed = _scan_parquet(str(path), units)
+        infos.append(info)
+        total += count
+        hsum = (hsum + h) % (1 << 64)
+        for m, t in typed.items():
+            meta_types.setdefault(m, []).append(t)
+    reserved = {name.lower() for name, _ in leading}
+    meta: list[tuple[str, str, pa.DataType]] = []
+    taken = set(reserved)
+    for name, ts in meta_types.items():
+        out = name
+        while out.lower() in taken:
+            out = "meta_" + out
+        taken.add(out.lower())
+        meta.append((out, name, _unify(ts)))
+    return ScanPlan(infos, total, hsum, meta, tuple(leading))
+
+
+# ---------------------------------------------------------------------------
+# reading rows
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class Rows:
+    """A block of input rows of one file, numbers already in SI."""
+
+    file: int
+    ids: np.ndarray  # object (str), per row; CSV: raw cells (see profile_starts)
+    depth: np.ndarray
+    ci: np.ndarray
+    depth_why: np.ndarray | None  # object: why a cell is unusable (None where fine)
+    ci_why: np.ndarray | None
+    cone: np.ndarray | None  # object (CSV: raw cells), None without a cone column
+    lines: np.ndarray  # int64: file line (CSV) or 1-based data row (Parquet)
+    meta: dict[str, Any]  # input name -> ndarray (CSV text) or pa.Array (Parquet)
+
+    def __len__(self) -> int:
+        return int(self.ids.size)
+
+    def slice(self, a: int, b: int) -> Rows:
+        def cut(x: Any) -> Any:
+            if x is None:
+                return None
+            if isinstance(x, pa.Array):
+                return x.slice(a, b - a)
+            return x[a:b]
+
+        return Rows(
+            self.file,
+            self.ids[a:b],
+            self.depth[a:b],
+            self.ci[a:b],
+            cut(self.depth_why),
+            cut(self.ci_why),
+            cut(self.cone),
+            self.lines[a:b],
+            {k: cut(v) for k, v in self.meta.items()},
+        )
+
+    @staticmethod
+    def concat(parts: list[Rows]) -> Rows:
+        if len(parts) == 1:
+            return parts[0]
+
+        def why(name: str) -> np.ndarray | None:
+            arrs = [getattr(p, name) for p in parts]
+            if all(a is None for a in arrs):
+                return None
+            return np.concatenate(
+                [
+                    np.full(len(p), None, dtype=object) if a is None else a
+                    for p, a in zip(parts, arrs)
+                ]
+            )
+
+        def join(xs: list[Any]) -> Any:
+            if isinstance(xs[0], pa.Array):
+                return pa.concat_arrays(xs)
+            return np.concatenate(xs)
+
+        first = parts[0]
+        return Rows(
+            first.file,
+            np.concatenate([p.ids for p in parts]),
+            np.concatenate([p.depth for p in parts]),
+            np.concatenate([p.ci for p in parts]),
+            why("depth_why"),
+            why("ci_why"),
+            None if first.cone is None else np.concatenate([p.cone for p in parts]),
+            np.concatenate([p.lines for p in parts]),
+            {k: join([p.meta[k] for p in parts]) for k in first.meta},
+        )
+
+
+def text_numbers(cells: np.ndarray, factor: float) -> tuple[np.ndarray, np.ndarray | None]:
+    """Text cells as numbers [SI] and why a cell is unusable (None when every cell is fine)."""
+    num = to_numbers(cells)
+    why = None
+    if num.bad.any():
+        why = np.full(len(cells), None, dtype=object)
+        for i, reason in num.reasons.items():
+            why[i] = reason
+    return num.values * factor, why
+
+
+#: :data:`terracone.io.tables.DECIMAL` for pyarrow (RE2 accepts no more than Python's re)
+_DECIMAL_RE2 = r"^\s*[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\s*$"
+
+
+def csv_numbers(cells: pa.Array, factor: float) -> tuple[np.ndarray, np.ndarray | None]:
+    """Text cells of a CSV column as numbers [SI] and why a cell is unusable (or None).
+
+    Converts like :func:`terracone.io.tables.to_numbers`: when every cell is a
+    plain decimal number pyarrow casts the column (a correctly rounded parse,
+    as Python's float); otherwise :func:`to_numbers` says cell by cell.
+    """
+    if pc.all(pc.match_substring_regex(cells, _DECIMAL_RE2)).as_py() is not False:
+        try:
+            vals = pc.cast(cells, pa.float64()).to_numpy(zero_copy_only=False)
+        except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+            pass  # blanks around a number: to_numbers takes them
+        else:
+            return vals * factor, None
+    return text_numbers(cells.to_numpy(zero_copy_only=False), factor)
+
+
+def arrow_numbers(arr: pa.Array, factor: float) -> tuple[np.ndarray, np.ndarray | None]:
+    """A Parquet column as numbers [SI] and why a cell is unusable (None when every cell is fine)."""
+    if pa.types.is_dictionary(arr.type):
+        arr = arr.dictionary_decode()
+    t = plain_type(arr.type)
+    if t is not None and pa.types.is_string(t):
+        cells = np.array(["" if c is None else c for c in arr.to_pylist()], dtype=object)
+        return text_numbers(cells, factor)
+    if t is None:
+        vals = np.full(len(arr), np.nan)
+        nulls = np.ones(len(arr), dtype=bool)
+    else:
+        vals = pc.cast(arr, pa.float64()).to_numpy(zero_copy_only=False).astype(float)
+        nulls = arr.is_null().to_numpy(zero_copy_only=False)
+    bad = nulls | ~np.isfinite(vals)
+    why = None
+    if bad.any():
+        why = np.full(len(arr), None, dtype=object)
+        for i in np.flatnonzero(bad):
+            why[i] = "empty cell" if nulls[i] else f"not a finite number: {str(vals[i])!r}"
+    return vals * factor, why
+
+
+def read_file(k: int, info: FileInfo) -> Iterator[Rows]:
+    """Blocks of rows of one input file."""
+    if info.kind == "csv":
+        with CsvLines(info.path) as stream:
+            header = stream.header()
+            if len(header) != info.width or stream.header_fields != info.fields:
+                raise InputError("the header changed since the scan", file=info.path)
+            col = info.col_index
+            for block, row0 in csv_blocks(stream, info.width, info.fields):
+                n = block.num_rows
+                if info.id_col is None:
+                    ids = np.full(n, info.stem, dtype=object)
+                else:
+                    ids = _cells(block, col[info.id_col])  # raw: stripped per profile
+                depth, dwhy = csv_numbers(block.column(col[info.depth_col]), info.depth_factor)
+                ci, cwhy = csv_numbers(block.column(col[info.ci_col]), info.ci_factor)
+                cone = None if info.cone_col is None else _cells(block, col[info.cone_col])
+                meta = {m: _cells(block, col[m]) for m in info.meta_cols}
+                yield Rows(k, ids, depth, ci, dwhy, cwhy, cone, stream.lines(row0, n), meta)
+    else:
+        pf = parquet_file(info.path)
+        row0 = 0
+        if info.id_col is None and pf.metadata.num_rows == 0:
+            return
+        for batch in pf.iter_batches(batch_size=PARQUET_BLOCK_ROWS):
+            n = batch.num_rows
+            if n == 0:
+                continue
+            if info.id_col is None:
+                ids = np.full(n, info.stem, dtype=object)
+            else:
+                ids = arrow_text(batch.column(info.id_col)).to_numpy(zero_copy_only=False)
+                ids = ids.astype(object)
+            depth, dwhy = arrow_numbers(batch.column(info.depth_col), info.depth_factor)
+            ci, cwhy = arrow_numbers(batch.column(info.ci_col), info.ci_factor)
+            cone = None
+            if info.cone_col is not None:
+                cone = arrow_text(batch.column(info.cone_col)).to_numpy(zero_copy_only=False)
+                cone = cone.astype(object)
+            meta = {m: batch.column(m) for m in info.meta_cols}
+            lines = np.arange(row0 + 1, row0 + 1 + n, dtype=np.int64)
+            yield Rows(k, ids, depth, ci, dwhy, cwhy, cone, lines, meta)
+            row0 += n
+
+
+def profile_blocks(plan: ScanPlan) -> Iterator[tuple[Rows, np.ndarray]]:
+    """(rows, profile starts) holding complete profiles only, in input order.
+
+    The last profile of a block may continue in the next block: its rows are
+    carried over, so a profile is never split.  A file ends all its profiles.
+    """
+    for k, info in enumerate(plan.files):
+        tail: list[Rows] = []
+        for rows in read_file(k, info):
+            if tail:
+                if not np.any(rows.ids != tail[0].ids[0]):  # all rows continue the tail
+                    tail.append(rows)
+                    continue
+                rows = Rows.concat([*tail, rows])
+                tail = []
+            st = profile_starts(rows.ids)
+            last = int(st[-1])
+            if last > 0:
+                yield rows.slice(0, last), st[:-1]
+            tail = [rows.slice(last, len(rows))]
+        if tail:
+            rows = Rows.concat(tail)
+            yield rows, np.zeros(1, dtype=np.int64)
+
+
+# ---------------------------------------------------------------------------
+# chunks: client side
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class Chunk:
+    """Everything about one chunk that the client keeps while it is fitted."""
+
+    index: int
+    ids: np.ndarray  # object (P,)
+    counts: np.ndarray
+    first_row: np.ndarray
+    source: np.ndarray  # object (P,)
+    cone: np.ndarray  # object (P,)
+    error: np.ndarray  # object (P,) message or None (problems found while reading)
+    error_row: np.ndarray  # int64, -1 = none
+    error_column: np.ndarray  # object
+    fit: np.ndarray  # bool (P,): sent to the workers
+    meta: dict[str, pa.Array]
+    task: ProfileSet | None  # the profiles to fit (no metadata), None when there are none
+    problems: np.ndarray | None = None  # object (P,): the located InputError, or None
+
+
+class ConeCache:
+    """Cones by the name written in a ``cone`` column (or why the name is not a cone), looked up once."""
+
+    def __init__(self, default: Cone) -> None:
+        self.default = default
+        self._by_name: dict[str, Cone | str] = {}
+
+    def get(self, name: str) -> Cone | str:
+        """The cone, or why the name is not one."""
+        hit = self._by_name.get(name)
+        if hit is None:
+            if not name:
+                hit = "empty cell"
+            else:
+                try:
+                    hit = get_cone(name)
+                except ValueError as exc:
+                    hit = str(exc)
+            self._by_name[name] = hit
+        return hit
+
+
+def _meta_array(values: Any, t: pa.DataType, from_csv: bool) -> pa.Array:
+    """Per-profile metadata values as an Arrow array of the output type."""
+    if from_csv:
+        text = [str(v).strip() for v in values]
+        if pa.types.is_floating(t) or pa.types.is_integer(t):
+            nums = [None if not v else float(v) for v in text]
+            return pa.array(nums, type=pa.float64()).cast(t)
+        return pa.array(text, type=t)
+    arr = values
+    if pa.types.is_dictionary(arr.type):
+        arr = arr.dictionary_decode()
+    if arr.type != t:
+        arr = pc.cast(arr, t) if plain_type(arr.type) is not None else pa.nulls(len(arr), t)
+    return arr
+
+
+@dataclass
+class Piece:
+    """Complete profiles of one file inside a chunk: per-profile facts and the rows they came from."""
+
+    n: int
+    ids: np.ndarray
+    counts: np.ndarray
+    first_row: np.ndarray
+    source: str
+    cone_name: np.ndarray
+    cone_obj: list[Cone | None]
+    error: np.ndarray
+    error_row: np.ndarray
+    error_column: np.ndarray
+    fit: np.ndarray
+    rows: Rows
+    starts: np.ndarray
+    meta: dict[str, pa.Array]
+    problems: np.ndarray  # object (P,): the located InputError of a profile, or None
+
+
+def _reader_errors(
+    rows: Rows,
+    starts: np.ndarray,
+    error: np.ndarray,
+    error_row: np.ndarray,
+    error_column: np.ndarray,
+    flagged: np.ndarray,
+) -> None:
+    """Errors kept by :func:`instrument_to_parquet` (with the file's row and column)."""
+
+    def cells(name: str) -> list[Any]:
+        col = rows.meta.get(name)
+        if col is None:
+            return [None] * int(starts.size)
+        vals = col[starts] if isinstance(col, np.ndarray) else col.take(pa.array(starts))
+        return list(vals) if isinstance(vals, np.ndarray) else vals.to_pylist()
+
+    for i, (why, row, column) in enumerate(
+        zip(cells("reader_error"), cells("reader_error_row"), cells("reader_error_column"))
+    ):
+        if why is None or (isinstance(why, str) and not why):
+            continue
+        error[i] = str(why)
+        error_row[i] = -1 if row in (None, "") else int(float(row))
+        error_column[i] = None if column in (None, "") else str(column)
+        flagged[i] = True
+
+
+def _located(message: str, path: str, pid: str, row: int) -> InputError:
+    """An InputError whose message is already located (an instrument reader's)."""
+    exc = InputError(message)
+    exc.file, exc.profile, exc.row = path, pid or None, None if row < 0 else int(row)
+    return exc
+
+
+def make_piece(rows: Rows, starts: np.ndarray, plan: ScanPlan, cones: ConeCache) -> Piece:
+    """Per-profile view of complete profiles of one file; problems found while reading."""
+    info = plan.files[rows.file]
+    n = len(rows)
+    P = int(starts.size)
+    ends = np.append(starts[1:], n)
+    counts = ends - starts
+    ids = _strip(rows.ids[starts])
+    first = rows.lines[starts]
+    flagged = np.zeros(P, dtype=bool)
+    if info.id_col is not None:
+        flagged |= ids == ""
+    bad_row = np.zeros(n, dtype=bool)
+    if rows.depth_why is not None:
+        bad_row |= np.not_equal(rows.depth_why, None)
+    if rows.ci_why is not None:
+        bad_row |= np.not_equal(rows.ci_why, None)
+    if bad_row.any():
+        flagged |= np.logical_or.reduceat(bad_row, starts)
+    if rows.cone is None:
+        cone_name = np.full(P, cones.default.name, dtype=object)
+        cone_obj: list[Cone | str] = [cones.default] * P
+    else:
+        raw_first = rows.cone[starts]
+        cone_name = _strip(raw_first)
+        cone_obj = [cones.get(c) for c in cone_name]
+        flagged |= np.array([not isinstance(c, Cone) for c in cone_obj], dtype=bool)
+        changes = rows.cone != np.repeat(raw_first, counts)
+        if changes.any():  # compare the differing cells again, stripped
+            at = np.flatnonzero(changes)
+            owner = np.searchsorted(starts, at, side="right") - 1
+            changes[at] = _strip(rows.cone[at]) != cone_name[owner]
+            flagged |= np.logical_or.reduceat(changes, starts)
+    error = np.full(P, None, dtype=object)
+    error_row = np.full(P, -1, dtype=np.int64)
+    error_column = np.full(P, None, dtype=object)
+    problems = np.full(P, None, dtype=object)
+    word = info.row_word
+    for i in np.flatnonzero(flagged):
+        s, e = int(starts[i]), int(ends[i])
+        pid = str(ids[i])
+        reason = row = column = None
+        if info.id_col is not None and pid == "":
+            reason, row, column = "empty profile id", rows.lines[s], info.id_col
+        elif bad_row[s:e].any():
+            r = s + int(np.flatnonzero(bad_row[s:e])[0])
+            if rows.depth_why is not None and rows.depth_why[r] is not None:
+                reason, column = rows.depth_why[r], info.depth_col
+            else:
+                reason, column = rows.ci_why[r], info.ci_col
+            row = rows.lines[r]
+        elif not isinstance(cone_obj[i], Cone):
+            reason, row, column = cone_obj[i], rows.lines[s], info.cone_col
+        else:
+            r = s + int(np.flatnonzero(changes[s:e])[0])
+            reason = (
+                f"cone changes within the profile ({rows.cone[r].strip()!r} here, "
+                f"{cone_name[i]!r} on {word} {int(rows.lines[s])})"
+            )
+            row, column = rows.lines[r], info.cone_col
+        where = dict(file=info.path, profile=pid or None, row=int(row), column=column)
+        problems[i] = InputError(reason, **where)
+        error[i] = str(problems[i])
+        error_row[i] = int(row)
+        error_column[i] = column
+    if "reader_error" in rows.meta:  # an instrument file's push rejected by its reader
+        _reader_errors(rows, starts, error, error_row, error_column, flagged)
+        for i in np.flatnonzero(flagged):
+            if problems[i] is None or str(problems[i]) != error[i]:
+                problems[i] = _located(str(error[i]), info.path, str(ids[i]), error_row[i])
+                problems[i].column = error_column[i]
+    meta: dict[str, pa.Array] = {}
+    for out, name, t in plan.meta:
+        if name in rows.meta:
+            col = rows.meta[name]
+            vals = col[starts] if isinstance(col, np.ndarray) else col.take(pa.array(starts))
+            meta[out] = _meta_array(vals, t, info.kind == "csv")
+        else:
+            meta[out] = pa.nulls(P, t)
+    return Piece(
+        P,
+        ids,
+        counts,
+        first,
+        info.path,
+        cone_name,
+        [c if isinstance(c, Cone) else None for c in cone_obj],
+        error,
+        error_row,
+        error_column,
+        ~flagged,
+        rows,
+        starts,
+        meta,
+        problems,
+    )
+
+
+def make_chunk(index: int, pieces: list[Piece], plan: ScanPlan) -> Chunk:
+    """Join the pieces of a chunk; the fittable profiles become its ProfileSet (``task``)."""
+    cat = np.concatenate
+    fit = cat([p.fit for p in pieces])
+    cone_list: list[Cone] = []
+    cone_pos: dict[Cone, int] = {}
+    files: list[SourceFile] = []
+    file_pos: dict[str, int] = {}
+    t_ids: list[str] = []
+    t_counts: list[np.ndarray] = []
+    t_depth: list[np.ndarray] = []
+    t_ci: list[np.ndarray] = []
+    t_lines: list[np.ndarray] = []
+    t_cone: list[int] = []
+    t_file: list[int] = []
+    for p in pieces:
+        if not p.fit.any():
+            continue
+        info = plan.files[p.rows.file]
+        if info.path not in file_pos:
+            file_pos[info.path] = len(files)
+            files.append(SourceFile(info.path, info.depth_col, info.ci_col, info.row_word))
+        keep_rows = np.repeat(p.fit, p.counts)
+        t_depth.append(p.rows.depth[keep_rows])
+        t_ci.append(p.rows.ci[keep_rows])
+        t_lines.append(p.rows.lines[keep_rows])
+        t_counts.append(p.counts[p.fit])
+        for i in np.flatnonzero(p.fit):
+            c = p.cone_obj[i]
+            if c not in cone_pos:
+                cone_pos[c] = len(cone_list)
+                cone_list.append(c)
+            t_cone.append(cone_pos[c])
+            t_ids.append(str(p.ids[i]))
+            t_file.append(file_pos[info.path])
+    task = None
+    if t_ids:
+        counts = cat(t_counts)
+        task = ProfileSet(
+            ids=np.array(t_ids, dtype=object),
+            offsets=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+            depth=cat(t_depth),
+            ci=cat(t_ci),
+            cone_idx=np.asarray(t_cone, dtype=np.intp),
+            cones=cone_list,
+            rows=cat(t_lines),
+            file_idx=np.asarray(t_file, dtype=np.intp),
+            files=files,
+        )
+    meta = {out: pa.concat_arrays([p.meta[out] for p in pieces]) for out, _, _ in plan.meta}
+    return Chunk(
+        index=index,
+        ids=cat([p.ids for p in pieces]),
+        counts=cat([p.counts for p in pieces]),
+        first_row=cat([p.first_row for p in pieces]),
+        source=cat([np.full(p.n, p.source, dtype=object) for p in pieces]),
+        cone=cat([p.cone_name for p in pieces]),
+        error=cat([p.error for p in pieces]),
+        error_row=cat([p.error_row for p in pieces]),
+        error_column=cat([p.error_column for p in pieces]),
+        fit=fit,
+        meta=meta,
+        task=task,
+        problems=cat([p.problems for p in pieces]),
+    )
+
+
+def iter_chunks(
+    plan: ScanPlan, chunk_size: int, cones: ConeCache, skip: set[int]
+) -> Iterator[tuple[int, Chunk | None, int]]:
+    """(index, chunk or None when skipped, profiles) in input order."""
+    pieces: list[Piece] = []
+    have = 0
+    index = 0
+    for rows, starts in profile_blocks(plan):
+        i = 0
+        P = int(starts.size)
+        n = len(rows)
+        while i < P:
+            take = min(chunk_size - have, P - i)
+            if index not in skip:
+                a = int(starts[i])
+                b = int(starts[i + take]) if i + take < P else n
+                sub = rows.slice(a, b)
+                pieces.append(make_piece(sub, starts[i : i + take] - a, plan, cones))
+            have += take
+            i += take
+            if have == chunk_size:
+                yield index, (None if index in skip else make_chunk(index, pieces, plan)), have
+                pieces, have = [], 0
+                index += 1
+    if have:
+        yield index, (None if index in skip else make_chunk(index, pieces, plan)), have
+
+
+# ---------------------------------------------------------------------------
+# profile sets
+# ---------------------------------------------------------------------------
+
+
+def locate_validation_error(profiles: ProfileSet, j: int, exc: InputError) -> InputError:
+    """An error of :meth:`CIProfile.validate` on profile ``j`` (whose ``rows`` were
+    0..n-1), located in its file: the file row and column of the point."""
+    src = profiles.source(j) or SourceFile("")
+    s, e = int(profiles.offsets[j]), int(profiles.offsets[j + 1])
+    rows = profiles.rows[s:e] if profiles.rows is not None else np.arange(1, e - s + 1)
+    column = src.depth_column if exc.column == "depth" else src.ci_column
+    word = src.row_word
+    more = ""
+    if exc.row is None or rows.size == 0:  # too few points
+        row = int(rows[0]) if rows.size else None
+        if rows.size:
+            span = f"{word} {row}" if rows.size == 1 else f"{word}s {row}-{int(rows[-1])}"
+            more = f" (the profile is on {span})"
+    else:
+        row = int(rows[exc.row])
+        if exc.column == "depth" and exc.row > 0 and "increasing" in exc.reason:
+            more = f" (previous depth on {word} {int(rows[exc.row - 1])})"
+    path = src.path or None
+    return InputError(
+        exc.reason + more, file=path, profile=str(profiles.ids[j]), row=row, column=column
+    )
+
+
+def _validation_errors(profiles: ProfileSet) -> dict[int, InputError]:
+    """Profile index -> located error of the profiles :meth:`CIProfile.validate` refuses.
+
+    A vectorised screen (negative CI, depths not increasing, fewer than 3
+    points, a base above -H) picks the candidates; validate() decides.
+    """
+    P = len(profiles)
+    if P == 0:
+        return {}
+    off = profiles.offsets
+    starts = off[:-1]
+    z, y = profiles.depth, profiles.ci
+    with np.errstate(invalid="ignore"):
+        row_bad = ~np.isfinite(z) | ~np.isfinite(y) | (y < 0)
+        row_bad[1:] |= z[1:] <= z[:-1]
+        first = np.minimum(starts, max(z.size - 1, 0))
+        if z.size:
+            row_bad[first] = ~np.isfinite(z[first]) | ~np.isfinite(y[first]) | (y[first] < 0)
+        counts = np.diff(off)
+        nonempty = counts > 0
+        bad = np.ones(P, dtype=bool)
+        if z.size:
+            bad[nonempty] = np.logical_or.reduceat(row_bad, starts[nonempty])
+        bad |= counts < 3
+        zfirst = np.where(nonempty, z[first] if z.size else 0.0, 0.0)
+        bad |= zfirst < -profiles.heights() * (1 + H_TOL)
+    errors = {}
+    for j in np.flatnonzero(bad):
+        s, e = int(off[j]), int(off[j + 1])
+        prof = CIProfile(
+            id=str(profiles.ids[j]),
+            depth=z[s:e],
+            ci=y[s:e],
+            cone=profiles.cones[int(profiles.cone_idx[j])],
+            rows=np.arange(e - s),
+        )
+        try:
+            prof.validate()
+        except InputError as exc:
+            errors[int(j)] = locate_validation_error(profiles, int(j), exc)
+    return errors
+
+
+def validate_set(profiles: ProfileSet) -> ProfileSet:
+    """The profiles of a set that :meth:`CIProfile.validate` accepts.
+
+    The others move to ``errors``, located in their file (row and column of
+    the point, as :func:`terracone.batch.run_batch` reports them).
+    """
+    bad = _validation_errors(profiles)
+    if not bad:
+        return profiles
+    keep = [j for j in range(len(profiles)) if j not in bad]
+    out = profiles.take(keep)
+    out.errors = list(profiles.errors) + [bad[j] for j in sorted(bad)]
+    return out
+
+
+def chunk_set(chunk: Chunk, plan: ScanPlan, depth_ref: str = "base") -> ProfileSet:
+    """A chunk as a validated :class:`ProfileSet` with its metadata (input column
+    names) and the refused profiles in ``errors``, in input order."""
+    fit = np.flatnonzero(chunk.fit)
+    task = chunk.task
+    if task is None:
+        task = ProfileSet([], [0], [], [], [], [], rows=np.zeros(0, np.int64), files=[])
+    if depth_ref == "tip":
+        task = replace(task, depth=task.depth - np.repeat(task.heights(), task.counts))
+    take = pa.array(fit, pa.int64())
+    meta = {name: chunk.meta[out].take(take) for out, name, _ in plan.meta}
+    task = replace(
+        task,
+        metadata=pa.table(meta) if meta else None,
+        notes=[[] for _ in range(len(task))],
+    )
+    bad = _validation_errors(task)
+    where = {int(i): chunk.problems[i] for i in np.flatnonzero(~chunk.fit)}
+    where.update({int(fit[j]): exc for j, exc in bad.items()})
+    out = task.take([j for j in range(len(task)) if j not in bad]) if bad else task
+    out.errors = [where[i] for i in sorted(where)]
+    return out
+
+
+def iter_profile_sets(
+    paths: PathLike | Sequence[PathLike],
+    *,
+    chunk_size: int | None = 10_000,
+    cone: str | Cone = "asabe-large",
+    depth_ref: Literal["base", "tip"] = "base",
+    units: str | None = None,
+    on_error: OnError = "collect",
+    format: Literal["csv", "sc900", "wide", "parquet"] | None = None,
+    depth_unit: str | None = None,
+    ci_unit: str | None = None,
+) -> Iterator[ProfileSet]:
+    """Stream cone index profiles as :class:`~terracone.data.ProfileSet` chunks.
+
+    Parameters
+    ----------
+    paths : path, directory or sequence of paths
+        Long CSV (``.csv``, ``.csv.gz``) and Parquet (``.parquet``, ``.pq``)
+        files, streamed block by block; a directory stands for its CSV and
+        Parquet files in name order (names starting with ``.`` or ``_`` are
+        ignored).  An SC900 export or a wide table (:func:`detect_format`) is
+        read whole (instrument files are small) and cut into chunks.
+    chunk_size : int or None
+        Profiles per chunk, counting the refused ones (a chunk holds
+        ``len(chunk) + len(chunk.errors) == chunk_size`` profiles, the last
+        one fewer); chunks do not span a file of another format.  None: one
+        chunk per group of files.
+    cone, depth_ref, units, format, depth_unit, ci_unit
+        As in :func:`terracone.io.read_ci_profiles` (``format`` for a single file).
+    on_error : {"collect", "raise"}
+        ``"collect"``: refused profiles go to each chunk's ``errors``, each a
+        located :class:`~terracone.data.InputError`; ``"raise"``: the first
+        one raises.
+
+    Yields
+    ------
+    ProfileSet
+        Profiles in input order: depths [m] of the cone base, CI [kPa],
+        ``rows`` the file line of every point (1-based record for Parquet),
+        ``metadata`` (one type per column, fixed by a first pass over the input).
+
+    Raises
+    ------
+    InputError
+        A file-level problem (missing file or column, unknown unit, bad CSV
+        structure), found by the first pass before any chunk is yielded.
+
+    Notes
+    -----
+    The rows of a profile must be contiguous (a profile id seen again later
+    is a second profile).  Errors name the file, profile, row and column;
+    a depth that does not increase is reported as ``"depth is not strictly
+    increasing (previous depth on line 7)"``.
+
+    References
+    ----------
+    Huang, Wong, Preston-Thomas, Jayakumar: the cone index profile, eq. (2-3).
+
+    Examples
+    --------
+    >>> for chunk in iter_profile_sets("big.csv", chunk_size=5000):  # doctest: +SKIP
+    ...     print(len(chunk), len(chunk.errors))
+    """
+    check_options(on_error, depth_ref, units)
+    if chunk_size is not None and chunk_size < 1:
+        raise ValueError(f"chunk_size must be >= 1 (got {chunk_size})")
+    default = get_cone(cone)
+    for group, kind in _file_groups(paths, format):
+        if kind in ("sc900", "wide"):
+            from .profiles import read_profile_set
+
+            one = read_profile_set(
+                group[0][0],
+                cone=default,
+                depth_ref=depth_ref,
+                units=units,
+                format=kind,  # type: ignore[arg-type]
+                depth_unit=depth_unit,
+                ci_unit=ci_unit,
+            )
+            sets: Iterable[ProfileSet] = _cut(one, chunk_size)
+        else:
+            plan = scan_inputs(group, units=units)
+            size = chunk_size or max(plan.profiles, 1)
+            chunks = iter_chunks(plan, size, ConeCache(default), set())
+            sets = (chunk_set(c, plan, depth_ref) for _, c, _ in chunks if c is not None)
+        for s in sets:
+            if on_error == "raise" and s.errors:
+                raise s.errors[0]
+            yield s
+
+
+def _file_groups(
+    paths: PathLike | Sequence[PathLike], format: str | None
+) -> Iterator[tuple[list[tuple[Path, str]], str]]:
+    """Runs of input files read together: (files, "stream") or ([file], instrument format)."""
+    items = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
+    run: list[tuple[Path, str]] = []
+    for item in items:
+        for path, kind in input_files(item):
+            fmt = format
+            if fmt is None and kind == "csv":
+                from .profiles import detect_format
+
+                fmt = detect_format(path)
+            if fmt in ("sc900", "wide"):
+                if run:
+                    yield run, "stream"
+                    run = []
+                yield [(path, kind)], fmt
+            else:
+                run.append((path, "parquet" if fmt == "parquet" else kind))
+    if run:
+        yield run, "stream"
+
+
+def _cut(profiles: ProfileSet, chunk_size: int | None) -> Iterator[ProfileSet]:
+    """A whole-file set cut into chunks of ``chunk_size`` profiles (errors counted, in place)."""
+    errors = profiles.errors
+    # place each error by its row: refused profiles count where they stood in the file
+    order = sorted(
+        [
+            (int(profiles.rows[profiles.offsets[i]]) if profiles.counts[i] else -1, 0, i)
+            for i in range(len(profiles))
+        ]
+        + [(e.row if e.row is not None else -1, 1, k) for k, e in enumerate(errors)]
+    )
+    size = chunk_size or max(len(order), 1)
+    for a in range(0, max(len(order), 1), size):
+        part = order[a : a + size]
+        s = profiles.take([i for _, kind, i in part if kind == 0])
+        s.errors = [errors[k] for _, kind, k in part if kind == 1]
+        yield s

@@ -1,0 +1,502 @@
+"""CSV tables, column schemas and cell conversion: what every reader of :mod:`terracone.io` shares.
+
+A CSV file is read into a :class:`Table` (header, cells by column, the file
+line of every record), its header classified against a :class:`Schema`
+(:func:`column_layout`: quantity columns with their unit, the id column,
+metadata), and its cells converted by :func:`to_numbers`, which says why a
+cell is not a finite number.  :func:`validated` runs
+:meth:`~terracone.data.CIProfile.validate` and locates its error in the file;
+:func:`push_profile` turns one instrument push into a profile.
+
+References
+----------
+Huang, Wong, Preston-Thomas, Jayakumar: the cone index data model of
+:mod:`terracone.data` (depth of the cone base, eq. (2-3)).
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import re
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Literal, TextIO
+
+import numpy as np
+
+from .. import units as u
+from ..cone import Cone
+from ..data import CIProfile, InputError
+
+PathLike = str | os.PathLike[str]
+OnError = Literal["raise", "collect"]
+
+LENGTH = "length"
+PRESSURE = "pressure"
+UNIT_TABLES: dict[str, dict[str, float]] = {
+    LENGTH: u.LENGTH_UNITS,
+    PRESSURE: u.PRESSURE_UNITS,
+}
+
+# decimal numbers only: float() would also take "2018_13" (a plot id) as 201813
+DECIMAL = re.compile(r"^\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*$")
+SPECIAL_FLOAT = re.compile(r"^\s*[+-]?(?:nan|inf|infinity)\s*$", re.IGNORECASE)
+
+
+# ---------------------------------------------------------------------------
+# small helpers
+# ---------------------------------------------------------------------------
+
+
+def check_on_error(on_error: str) -> None:
+    """Refuse an ``on_error`` other than ``raise`` or ``collect``."""
+    if on_error not in ("raise", "collect"):
+        raise ValueError(f"on_error must be 'raise' or 'collect' (got {on_error!r})")
+
+
+def check_options(on_error: str, depth_ref: str, units: str | None = None) -> None:
+    """Refuse bad reader options (ValueError naming the option)."""
+    check_on_error(on_error)
+    if depth_ref not in ("base", "tip"):
+        raise ValueError(f"depth_ref must be 'base' or 'tip' (got {depth_ref!r})")
+    if units is not None:
+        u.check_system(units)
+
+
+def metadata_value(cell: str) -> float | str:
+    """A metadata cell: float when it reads as a number, else the stripped text."""
+    if DECIMAL.match(cell) or SPECIAL_FLOAT.match(cell):
+        return float(cell)
+    return cell.strip()
+
+
+@dataclass
+class Numbers:
+    """A column of cells converted to float; ``bad`` marks unusable cells."""
+
+    values: np.ndarray
+    bad: np.ndarray
+    reasons: dict[int, str]
+
+
+def cell_problem(cell: str) -> str | None:
+    """Why a cell is not a finite number, or None if it is one."""
+    if not cell.strip():
+        return "empty cell"
+    if DECIMAL.match(cell):
+        return None
+    if SPECIAL_FLOAT.match(cell):
+        return f"not a finite number: {cell.strip()!r}"
+    return f"not a number: {cell.strip()!r}"
+
+
+def to_numbers(cells: Sequence[str]) -> Numbers:
+    """Convert cells to floats (vectorised when every cell is a plain number)."""
+    n = len(cells)
+    joined = "".join(cells)
+    values: np.ndarray | None = None
+    if joined.isascii() and "_" not in joined:
+        try:
+            values = np.array(cells, dtype=float).reshape(n)
+        except ValueError:
+            values = None
+    if values is not None:
+        bad = ~np.isfinite(values)
+        reasons = {int(i): cell_problem(cells[i]) or "bad cell" for i in np.flatnonzero(bad)}
+        return Numbers(values, bad, reasons)
+    values = np.full(n, np.nan)
+    bad = np.zeros(n, dtype=bool)
+    reasons: dict[int, str] = {}
+    for i, cell in enumerate(cells):
+        why = cell_problem(cell)
+        if why is None:
+            values[i] = float(cell)
+        else:
+            bad[i] = True
+            reasons[i] = why
+    return Numbers(values, bad, reasons)
+
+
+def open_text(path: str) -> TextIO:
+    """Open a text file (UTF-8, byte order mark accepted); a located InputError if it cannot be."""
+    try:
+        return open(path, encoding="utf-8-sig", newline="")  # noqa: SIM115
+    except FileNotFoundError:
+        raise InputError("file not found", file=path) from None
+    except IsADirectoryError:
+        raise InputError("is a directory, not a file", file=path) from None
+    except OSError as exc:
+        raise InputError(f"cannot open: {exc.strerror or exc}", file=path) from None
+
+
+def read_lines(path: str) -> list[str]:
+    """The lines of a UTF-8 text file (a located InputError if it is not text)."""
+    with open_text(path) as f:
+        try:
+            return f.read().splitlines()
+        except UnicodeDecodeError as exc:
+            raise InputError(f"not a UTF-8 text file ({exc.reason})", file=path) from None
+
+
+# ---------------------------------------------------------------------------
+# CSV tables
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class Table:
+    """A CSV table as read: header, its file line, columns of cells and the file line of
+    each data row (shared by the readers here and by batch's streaming reader)."""
+
+    path: str
+    header: list[str]
+    header_line: int
+    columns: list[list[str]]
+    lines: np.ndarray  # file line number of each data row
+
+    @property
+    def n_rows(self) -> int:
+        return int(self.lines.size)
+
+
+def read_table(path: str) -> Table:
+    """Read a CSV file: header, cells by column and the line of every record.
+
+    A line is a comment (skipped) when it starts with ``#`` at the start of a
+    record; blank lines are skipped.  Line numbers count every physical line.
+    """
+    first_line: list[int | None] = [None]
+
+    def lines(f: TextIO) -> Iterator[str]:
+        for lineno, line in enumerate(f, 1):
+            if first_line[0] is None:  # at the start of a record
+                stripped = line.strip()
+                if not stripped or stripped.startswith("#"):
+                    continue
+                first_line[0] = lineno
+            yield line
+
+    records: list[list[str]] = []
+    starts: list[int] = []
+    with open_text(path) as f:
+        try:
+            for record in csv.reader(lines(f)):
+                starts.append(first_line[0] or 0)
+                first_line[0] = None
+                records.append(record)
+        except UnicodeDecodeError as exc:
+            raise InputError(f"not a UTF-8 text file ({exc.reason})", file=path) from None
+        except csv.Error as exc:
+            raise InputError(f"bad CSV: {exc}", file=path, row=first_line[0]) from None
+    if not records:
+        raise InputError("no header line (the file is empty or all comments)", file=path)
+    header = [h.strip() for h in records[0]]
+    while header and not header[-1]:  # trailing separators
+        header.pop()
+    width = len(header)
+    for j, name in enumerate(header):
+        if not name:
+            raise InputError(f"column {j + 1} has no name", file=path, row=starts[0])
+    body = records[1:]
+    if not body:
+        raise InputError("no data rows", file=path, row=starts[0])
+    for rec, line in zip(body, starts[1:]):
+        if len(rec) < width:
+            rec.extend([""] * (width - len(rec)))
+        elif len(rec) > width:
+            if any(c.strip() for c in rec[width:]):
+                raise InputError(
+                    f"{len(rec)} fields but the header has {width}", file=path, row=line
+                )
+            del rec[width:]
+    columns = [list(col) for col in zip(*body)]
+    return Table(path, header, starts[0], columns, np.asarray(starts[1:], dtype=int))
+
+
+@dataclass(frozen=True)
+class Field:
+    """A quantity column of a schema: ``<name>_<unit>``."""
+
+    name: str  # column prefix, e.g. "plate_radius"
+    kind: str  # LENGTH or PRESSURE
+    group: str  # alternatives share a group, e.g. "size"
+
+
+@dataclass(frozen=True)
+class Schema:
+    """The columns of a file type: its id column, quantity fields and required groups."""
+
+    id_column: str
+    fields: tuple[Field, ...]
+    required: tuple[str, ...]  # groups
+    extra: tuple[str, ...] = ()  # other reserved plain columns (e.g. "cone")
+
+
+CI_SCHEMA = Schema(
+    "profile",
+    (Field("depth", LENGTH, "depth"), Field("ci", PRESSURE, "ci")),
+    ("depth", "ci"),
+    ("cone",),
+)
+PLATE_SCHEMA = Schema(
+    "test",
+    (
+        Field("plate_radius", LENGTH, "size"),
+        Field("plate_diameter", LENGTH, "size"),
+        Field("plate_width", LENGTH, "size"),
+        Field("sinkage", LENGTH, "sinkage"),
+        Field("pressure", PRESSURE, "pressure"),
+    ),
+    ("size", "sinkage", "pressure"),
+)
+SHEAR_SCHEMA = Schema(
+    "test",
+    (
+        Field("normal_pressure", PRESSURE, "normal_pressure"),
+        Field("shear_displacement", LENGTH, "displacement"),
+        Field("shear_stress", PRESSURE, "stress"),
+    ),
+    ("normal_pressure", "displacement", "stress"),
+)
+
+
+@dataclass
+class Column:
+    """A column of a table: position, header name, its field and the factor to SI."""
+
+    index: int
+    name: str  # as written in the header
+    field: Field | None = None
+    factor: float = 1.0  # to SI
+
+
+@dataclass
+class Layout:
+    """Where a schema's columns are in a table."""
+
+    groups: dict[str, Column]
+    id_col: Column | None
+    extra: dict[str, Column]
+    metadata: list[Column]
+
+
+def match_field(lower: str, schema: Schema) -> tuple[Field, str | None] | None:
+    """The field a lower-case column name belongs to and its unit suffix."""
+    for fld in schema.fields:
+        if lower == fld.name:
+            return fld, None
+        if lower.startswith(fld.name + "_"):
+            return fld, lower[len(fld.name) + 1 :]
+    return None
+
+
+def unit_choices(kind: str) -> str:
+    """The unit suffixes of a kind of quantity, as ``m|cm|mm|in``."""
+    return "|".join(UNIT_TABLES[kind])
+
+
+def column_layout(table: Table, schema: Schema, units: str | None = None) -> Layout:
+    """Classify the header of a table; raise InputError for header problems."""
+    path, row = table.path, table.header_line
+    seen: dict[str, str] = {}
+    groups: dict[str, Column] = {}
+    id_col: Column | None = None
+    extra: dict[str, Column] = {}
+    metadata: list[Column] = []
+    for j, name in enumerate(table.header):
+        lower = name.lower()
+        if lower in seen:
+            raise InputError(
+                f"duplicate column name ({seen[lower]} is already a column)",
+                file=path,
+                row=row,
+                column=name,
+            )
+        seen[lower] = name
+        if lower == schema.id_column:
+            id_col = Column(j, name)
+            continue
+        if lower in schema.extra:
+            extra[lower] = Column(j, name)
+            continue
+        match = match_field(lower, schema)
+        if match is None:
+            metadata.append(Column(j, name))
+            continue
+        fld, unit = match
+        table_units = UNIT_TABLES[fld.kind]
+        if unit is None:
+            if units is None:
+                raise InputError(
+                    f"no unit in the column name: write {fld.name}_<{unit_choices(fld.kind)}>",
+                    file=path,
+                    row=row,
+                    column=name,
+                )
+            sys_unit = u.length_unit(units) if fld.kind == LENGTH else u.pressure_unit(units)
+            unit = sys_unit.lower()
+        if unit not in table_units:
+            raise InputError(
+                f"unknown {fld.kind} unit {unit!r} (use {fld.name}_<{unit_choices(fld.kind)}>)",
+                file=path,
+                row=row,
+                column=name,
+            )
+        if fld.group in groups:
+            other = groups[fld.group].name
+            raise InputError(
+                f"more than one {fld.group} column ({other} is already one)",
+                file=path,
+                row=row,
+                column=name,
+            )
+        groups[fld.group] = Column(j, name, fld, table_units[unit])
+    for group in schema.required:
+        if group not in groups:
+            names = " or ".join(
+                f"{f.name}_<{unit_choices(f.kind)}>" for f in schema.fields if f.group == group
+            )
+            raise InputError(f"missing required column {names}", file=path, row=row, column=names)
+    return Layout(groups, id_col, extra, metadata)
+
+
+def table_groups(table: Table, id_col: Column | None) -> list[tuple[str, np.ndarray]]:
+    """(id, row indices) of each profile or test, in order of first appearance."""
+    if id_col is None:
+        return [(Path(table.path).stem, np.arange(table.n_rows))]
+    index: dict[str, list[int]] = {}
+    for i, cell in enumerate(table.columns[id_col.index]):
+        index.setdefault(cell.strip(), []).append(i)
+    return [(key, np.asarray(rows, dtype=int)) for key, rows in index.items()]
+
+
+def first_bad(
+    idx: np.ndarray, checks: Sequence[tuple[Column, Numbers]]
+) -> tuple[int, Column, str] | None:
+    """The earliest unusable cell of a group (row order, then column order)."""
+    best: tuple[tuple[int, int], Column, str] | None = None
+    for order, (col, num) in enumerate(checks):
+        hits = np.flatnonzero(num.bad[idx])
+        if hits.size:
+            key = (int(hits[0]), order)
+            if best is None or key < best[0]:
+                i = int(idx[hits[0]])
+                best = (key, col, num.reasons[i])
+    if best is None:
+        return None
+    (k, _), col, why = best
+    return int(idx[k]), col, why
+
+
+def row_metadata(table: Table, layout: Layout, i: int) -> dict[str, Any]:
+    """The metadata cells of table row ``i`` (numbers as floats)."""
+    return {c.name: metadata_value(table.columns[c.index][i]) for c in layout.metadata}
+
+
+def collect(items: Sequence[Any], build: Callable[[Any], Any], on_error: str) -> list[Any]:
+    """Build each item; on InputError raise or keep the error in its place."""
+    out: list[Any] = []
+    for item in items:
+        try:
+            out.append(build(item))
+        except InputError as exc:
+            if on_error == "raise":
+                raise
+            out.append(exc)
+    return out
+
+
+def check_constant(
+    path: str, gid: str, table: Table, idx: np.ndarray, col: Column, num: Numbers, what: str
+) -> float:
+    """The value of a column that must not change within a test."""
+    vals = num.values[idx]
+    diff = np.flatnonzero(vals != vals[0])
+    if diff.size:
+        i = int(idx[diff[0]])
+        first = table.columns[col.index][int(idx[0])].strip()
+        raise InputError(
+            f"{what} changes within the test ({table.columns[col.index][i].strip()} "
+            f"here, {first} on line {int(table.lines[idx[0]])})",
+            file=path,
+            profile=gid,
+            item="test",
+            row=int(table.lines[i]),
+            column=col.name,
+        )
+    return float(vals[0])
+
+
+# ---------------------------------------------------------------------------
+# profiles built from cells
+# ---------------------------------------------------------------------------
+
+
+def validated(
+    profile: CIProfile,
+    locate: Callable[[int | None, str | None], tuple[int | None, str | None, str]],
+) -> CIProfile:
+    """Run :meth:`CIProfile.validate` and relocate its error in the file.
+
+    ``locate(index, column)`` maps the point index and the model's column
+    name (``"depth"``, ``"ci"`` or None) to (file row, file column, extra
+    text for the message).
+    """
+    probe = replace(profile, rows=np.arange(len(profile)))
+    try:
+        probe.validate()
+    except InputError as exc:
+        row, column, more = locate(exc.row, exc.column)
+        raise InputError(
+            exc.reason + more,
+            file=profile.source,
+            profile=profile.id,
+            row=row,
+            column=column,
+        ) from None
+    return profile
+
+
+def push_profile(
+    pid: str,
+    depth: np.ndarray,
+    ci: np.ndarray,
+    cone: Cone,
+    depth_ref: str,
+    metadata: dict[str, Any],
+    source: str,
+    line: int,
+    notes: list[str],
+    stop_label: Callable[[int], str],
+) -> tuple[CIProfile, int, int]:
+    """One instrument push (a row of an SC900 export or a wide table) as a CIProfile.
+
+    ``depth`` [m] and ``ci`` [kPa] are the push's readings in depth order.  Trailing
+    zero readings mean the push stopped: they are dropped, noted (``stop_label(k)``
+    names where the k-th reading stood) and counted in
+    ``metadata["trailing_zeros_dropped"]``; with ``depth_ref="tip"`` the cone base is
+    H above the tip.  Returns the profile, the readings kept and the readings dropped.
+    """
+    nonzero = np.flatnonzero(ci != 0)
+    keep = int(nonzero[-1]) + 1 if nonzero.size else 0
+    dropped = ci.size - keep
+    if dropped:
+        s = "" if dropped == 1 else "s"
+        notes.append(
+            f"dropped {dropped} trailing zero reading{s} (push stopped at {stop_label(keep)})"
+        )
+    metadata["trailing_zeros_dropped"] = dropped
+    z = depth[:keep] - cone.height if depth_ref == "tip" else depth[:keep]
+    profile = CIProfile(
+        id=pid,
+        depth=z,
+        ci=ci[:keep],
+        cone=cone,
+        metadata=metadata,
+        source=source,
+        notes=notes,
+        rows=np.full(keep, line, dtype=int),
+    )
+    return profile, keep, dropped

@@ -1,0 +1,253 @@
+"""Writers of cone index, plate and shear CSV files (read back by the readers)."""
+
+from __future__ import annotations
+
+import csv
+import os
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..cone import Cone, get_cone
+from ..data import CIProfile, PlateTest, ShearTest
+from .tables import (
+    CI_SCHEMA,
+    LENGTH,
+    PLATE_SCHEMA,
+    PRESSURE,
+    SHEAR_SCHEMA,
+    UNIT_TABLES,
+    PathLike,
+    Schema,
+    match_field,
+)
+
+# ---------------------------------------------------------------------------
+# writers
+# ---------------------------------------------------------------------------
+
+
+def _unit(name: str, kind: str) -> tuple[str, float]:
+    key = str(name).lower()
+    table = UNIT_TABLES[kind]
+    if key not in table:
+        raise ValueError(f"{kind} unit must be one of {', '.join(table)} (got {name!r})")
+    return key, table[key]
+
+
+def _fmt(value: Any) -> str:
+    """A cell: floats with repr (round-trips exactly), None as empty."""
+    if value is None:
+        return ""
+    if isinstance(value, float | np.floating):
+        return repr(float(value))
+    return str(value)
+
+
+def _numbers(values: np.ndarray, factor: float) -> list[str]:
+    return [repr(v) for v in (np.asarray(values, dtype=float) / factor).tolist()]
+
+
+def _metadata_columns(items: Sequence[Any], schema: Schema, reserved: Sequence[str]) -> list[str]:
+    """Union of the metadata keys of the items, in order of first appearance."""
+    keys: dict[str, str] = {}
+    for item in items:
+        for key in item.metadata:
+            name = str(key)
+            lower = name.strip().lower()
+            if name != name.strip() or not name:
+                raise ValueError(f"metadata key {name!r} cannot be a column name")
+            if lower in reserved or match_field(lower, schema) is not None:
+                raise ValueError(
+                    f"metadata key {name!r} would be read back as a data column; rename it"
+                )
+            if lower in keys and keys[lower] != name:
+                raise ValueError(f"metadata keys {keys[lower]!r} and {name!r} differ only in case")
+            keys[lower] = name
+    return list(keys.values())
+
+
+def _write_rows(
+    path: PathLike,
+    header: list[str],
+    rows: Iterator[list[str]],
+    comment: str | Sequence[str] | None,
+) -> None:
+    with open(os.fspath(path), "w", encoding="utf-8", newline="") as f:
+        if comment is not None:
+            lines = comment.splitlines() if isinstance(comment, str) else list(comment)
+            for line in lines:
+                f.write(f"# {line}\n" if line else "#\n")
+        plain = csv.writer(f, lineterminator="\n")
+        quoted = csv.writer(f, lineterminator="\n", quoting=csv.QUOTE_ALL)
+        plain.writerow(header)
+        for row in rows:
+            # a record starting with '#' would read back as a comment: quote it
+            (quoted if row and row[0].lstrip().startswith("#") else plain).writerow(row)
+
+
+def _check_unique_ids(items: Sequence[Any], what: str) -> None:
+    seen: set[str] = set()
+    for item in items:
+        if item.id in seen:
+            raise ValueError(f"duplicate {what} id {item.id!r}: they would merge on reading")
+        seen.add(item.id)
+
+
+def _cone_spec(cone: Cone) -> str:
+    """A string that :func:`get_cone` turns back into ``cone``."""
+    try:
+        if get_cone(cone.name) == cone:
+            return cone.name
+    except ValueError:
+        pass
+    return f"{2.0 * cone.radius!r}m:{cone.angle_deg!r}"
+
+
+def write_ci_profiles(
+    path: PathLike,
+    profiles: Sequence[CIProfile],
+    *,
+    length_unit: str = "m",
+    pressure_unit: str = "kpa",
+    comment: str | Sequence[str] | None = None,
+) -> None:
+    """Write CI profiles to a CSV file that :func:`read_ci_profiles` reads back.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Output file (overwritten).
+    profiles : sequence of CIProfile
+        Profiles with unique ids.
+    length_unit : {"m", "cm", "mm", "in"}
+        Unit of the ``depth_<unit>`` column (base depths).
+    pressure_unit : {"kpa", "mpa", "psi", "pa"}
+        Unit of the ``ci_<unit>`` column.
+    comment : str or sequence of str, optional
+        Written first, one ``# `` line per line.
+
+    Notes
+    -----
+    Columns: ``profile``, ``cone``, the metadata keys (union over the
+    profiles, in order of first appearance; empty where a profile lacks
+    one), ``depth_<unit>``, ``ci_<unit>``.  Floats are written with
+    ``repr``, so in m and kPa the numbers read back bit for bit.  Notes,
+    rows and source are not written.  A cone that is not a named cone is
+    written as ``"<diameter>m:<angle>"``.
+    """
+    lu, lf = _unit(length_unit, LENGTH)
+    pu, pf = _unit(pressure_unit, PRESSURE)
+    _check_unique_ids(profiles, "profile")
+    meta = _metadata_columns(profiles, CI_SCHEMA, ("profile", "cone"))
+    header = ["profile", "cone", *meta, f"depth_{lu}", f"ci_{pu}"]
+
+    def rows() -> Iterator[list[str]]:
+        for p in profiles:
+            fixed = [str(p.id), _cone_spec(p.cone)] + [_fmt(p.metadata.get(k)) for k in meta]
+            for z, c in zip(_numbers(p.depth, lf), _numbers(p.ci, pf)):
+                yield [*fixed, z, c]
+
+    _write_rows(path, header, rows(), comment)
+
+
+def write_plate_tests(
+    path: PathLike,
+    tests: Sequence[PlateTest],
+    *,
+    length_unit: str = "m",
+    pressure_unit: str = "kpa",
+    comment: str | Sequence[str] | None = None,
+) -> None:
+    """Write plate tests to a CSV file that :func:`read_plate_tests` reads back.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Output file (overwritten).
+    tests : sequence of PlateTest
+        Tests with unique ids, all circular (written as ``plate_radius``)
+        or all rectangular (``plate_width``).
+    length_unit : {"m", "cm", "mm", "in"}
+        Unit of the plate size and sinkage columns.
+    pressure_unit : {"kpa", "mpa", "psi", "pa"}
+        Unit of the pressure column.
+    comment : str or sequence of str, optional
+        Written first, one ``# `` line per line.
+    """
+    lu, lf = _unit(length_unit, LENGTH)
+    pu, pf = _unit(pressure_unit, PRESSURE)
+    _check_unique_ids(tests, "test")
+    shapes = {t.shape for t in tests}
+    if len(shapes) > 1:
+        raise ValueError("circular and rectangular plates cannot share a file (one size column)")
+    size_col = "plate_width" if shapes == {"rectangular"} else "plate_radius"
+    meta = _metadata_columns(tests, PLATE_SCHEMA, ("test",))
+    header = ["test", f"{size_col}_{lu}", *meta, f"sinkage_{lu}", f"pressure_{pu}"]
+
+    def rows() -> Iterator[list[str]]:
+        for t in tests:
+            fixed = [str(t.id), repr(float(t.b) / lf)] + [_fmt(t.metadata.get(k)) for k in meta]
+            for z, p in zip(_numbers(t.sinkage, lf), _numbers(t.pressure, pf)):
+                yield [*fixed, z, p]
+
+    _write_rows(path, header, rows(), comment)
+
+
+def write_shear_tests(
+    path: PathLike,
+    tests: Sequence[ShearTest],
+    *,
+    length_unit: str = "m",
+    pressure_unit: str = "kpa",
+    comment: str | Sequence[str] | None = None,
+) -> None:
+    """Write shear tests to a CSV file that :func:`read_shear_tests` reads back.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Output file (overwritten).
+    tests : sequence of ShearTest
+        Tests with unique ids.
+    length_unit : {"m", "cm", "mm", "in"}
+        Unit of the shear displacement column.
+    pressure_unit : {"kpa", "mpa", "psi", "pa"}
+        Unit of the normal pressure and shear stress columns.
+    comment : str or sequence of str, optional
+        Written first, one ``# `` line per line.
+    """
+    lu, lf = _unit(length_unit, LENGTH)
+    pu, pf = _unit(pressure_unit, PRESSURE)
+    _check_unique_ids(tests, "test")
+    meta = _metadata_columns(tests, SHEAR_SCHEMA, ("test",))
+    header = [
+        "test",
+        f"normal_pressure_{pu}",
+        *meta,
+        f"shear_displacement_{lu}",
+        f"shear_stress_{pu}",
+    ]
+
+    def rows() -> Iterator[list[str]]:
+        for t in tests:
+            fixed = [str(t.id), repr(float(t.normal_pressure) / pf)]
+            fixed += [_fmt(t.metadata.get(k)) for k in meta]
+            for j, s in zip(_numbers(t.displacement, lf), _numbers(t.stress, pf)):
+                yield [*fixed, j, s]
+
+    _write_rows(path, header, rows(), comment)
+
+
+def json_default(o: Any) -> Any:
+    """``default=`` for :func:`json.dumps` of terracone results (numpy, tuples, paths)."""
+    if isinstance(o, np.floating | np.integer):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, tuple):
+        return list(o)
+    if isinstance(o, os.PathLike):
+        return os.fspath(o)
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
