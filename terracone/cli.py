@@ -24,9 +24,19 @@ from .cone import CONES, cone_index
 from .data import InputError, TerrainParameters
 from .io import json_default
 from .plate import plate_pressure
-from .text import evaluate_text, learn_text, predict_text
-from .text import format_value as _fmt
-from .text import table as _table
+from .text import (
+    curve_text,
+    design_text,
+    evaluate_text,
+    learn_text,
+    library_text,
+    plate_fit_text,
+    predict_text,
+    shear_fit_text,
+    sites_text,
+)
+from .text import layered_text as _layered_text  # the names predict_cmd prints with
+from .text import posterior_text as _posterior_text
 
 _UNITS = click.Choice(["si", "us"])
 _LEN_RE = re.compile(r"^\s*([-+0-9.eE]+)\s*(m|cm|mm|in)?\s*$")
@@ -131,7 +141,7 @@ def _curve_out(xkey, x, ykey, y, units: str, as_json: bool) -> None:
         )
         return
     heads = [f"{xkey[1]} [{u.length_unit(units)}]", f"{ykey[1]} [{u.pressure_unit(units)}]"]
-    click.echo(_table(heads, list(zip(x, y))))
+    click.echo(curve_text(heads, x, y))
 
 
 class _Group(click.Group):
@@ -425,47 +435,6 @@ def _prior(prior: str, library: str | None):
         with Library(library) as lib:
             return Calibration.from_library_record(lib.get(prior.split(":", 1)[1]))
     raise click.BadParameter(f"--prior: expected bounds or terrain:NAME, got {prior!r}")
-
-
-def _posterior_text(posts: dict, units: str) -> str:
-    lines = ["", "Posterior 90% intervals and identifiability (--uncertainty):"]
-    for pid, post in posts.items():
-        d = post.as_dict(units)
-        rows = []
-        for k, (lo, hi) in d["intervals"].items():
-            rows.append([k, lo, d["medians"].get(k), hi, d["identifiability"].get(k, "-")])
-        lines.append(f"{pid}:")
-        lines.append(_table(["parameter", "5%", "median", "95%", "identifiability"], rows))
-        for band in d.get("plate_bands", []):
-            i = len(band["sinkage"]) - 1
-            lines.append(
-                f"  plate r = {band['radius']:.4g} {u.length_unit(units)}: pressure at "
-                f"{band['sinkage'][i]:.3g} {u.length_unit(units)} sinkage {band['median'][i]:.4g} "
-                f"[{band['lo'][i]:.4g}, {band['hi'][i]:.4g}] {u.pressure_unit(units)} (90% band)"
-            )
-    return "\n".join(lines)
-
-
-def _layered_text(layered: dict, units: str) -> str:
-    rows = []
-    for pid, lr in layered.items():
-        if not lr.ok:
-            rows.append([pid, "error", lr.error, "-", "-", "-", "-", "-"])
-            continue
-        iface = ",".join(f"{float(u.length_from_si(v, units)):.3g}" for v in lr.interfaces)
-        ns = ",".join(f"{p.n:.3g}" for p in lr.layers)
-        rows.append([pid, "ok", iface, ns, lr.r2_ci, lr.bic_single, lr.bic, lr.preferred_layers])
-    heads = [
-        "profile",
-        "status",
-        f"interfaces [{u.length_unit(units)}]",
-        "n per layer",
-        "R2 CI",
-        "BIC 1 layer",
-        "BIC layered",
-        "preferred layers",
-    ]
-    return "\n\nLayered fits (element-wise integration; lower BIC wins):\n" + _table(heads, rows)
 
 
 @cli.command("predict")
@@ -813,23 +782,7 @@ def fit_plates_cmd(plates_file, method, units, save_as, library, as_json):
     if as_json:
         _emit_json(d)
         return
-    rows = [[t["test"], t["b"], t["k"], t["n"], t["points_used"], t["r2"]] for t in d["tests"]]
-    text = _table(
-        ["test", f"b [{u.length_unit(units)}]", f"k [{u.kphi_unit(units)}]", "n", "points", "R2"],
-        rows,
-    )
-    text += f"\n\nCommon n = {d['n']:.4g}" + (
-        f", 95% interval {d['n_ci'][0]:.3g} to {d['n_ci'][1]:.3g}" if d["n_ci"] else ""
-    )
-    if d["kc"] is not None:
-        text += (
-            f"\nkc = {d['kc']:.4g} {u.kc_unit(units)}, kphi = {d['kphi']:.4g} {u.kphi_unit(units)}"
-        )
-    for note in d["notes"]:
-        text += f"\n{note}"
-    if d["undetermined"]:
-        text += f"\nUndetermined: {', '.join(d['undetermined'])}"
-    click.echo(text)
+    click.echo(plate_fit_text(d, units))
 
 
 @cli.command("fit-shear")
@@ -861,16 +814,7 @@ def fit_shear_cmd(shear_file, units, save_as, library, as_json):
     if as_json:
         _emit_json(d)
         return
-    L, Pu = u.length_unit(units), u.pressure_unit(units)
-    rows = [
-        [t["test"], t["normal_pressure"], t["tau_max"], t["K"], t["points_used"]]
-        for t in d["tests"]
-    ]
-    text = _table(["test", f"sigma [{Pu}]", f"tau_max [{Pu}]", f"K [{L}]", "points"], rows)
-    text += f"\n\nc = {_fmt(d['c'])} {Pu}, phi = {_fmt(d['phi_deg'])} deg, common K = {_fmt(d['K'])} {L}"
-    for note in d["notes"]:
-        text += f"\n{note}"
-    click.echo(text)
+    click.echo(shear_fit_text(d, units))
 
 
 @cli.group("library", cls=_Group)
@@ -901,10 +845,7 @@ def library_list(ctx, kind, as_json):
     if as_json:
         _emit_json([r.to_dict() for r in recs])
         return
-    rows = [
-        [r.name, r.kind, r.params.get("kc"), r.params.get("kphi"), r.params.get("n")] for r in recs
-    ]
-    click.echo(_table(["name", "kind", "kc [kN/m^(n+1)]", "kphi [kN/m^(n+2)]", "n"], rows))
+    click.echo(library_text(recs))
 
 
 @library_grp.command("show")
@@ -1334,54 +1275,6 @@ def reproduce_cmd(out, quick, workers):
 # ---------------------------------------------------------------------------
 
 
-def _sites_table(sites: list[dict[str, Any]], units: str) -> str:
-    pu = u.pressure_unit(units)
-    rows = []
-    for d in sites:
-        pl = d["plate_pressure"][0] if d["plate_pressure"] else None
-        i = len(pl["sinkage"]) // 2 if pl else 0
-        rows.append(
-            [
-                d["site"],
-                d["n_profiles"],
-                d["params"].get("n"),
-                pl["median"][i] if pl else None,
-                f"{_fmt(pl['lo'][i])}-{_fmt(pl['hi'][i])}" if pl else "-",
-                pl["between_cv"][i] if pl else None,
-                f"{_fmt(pl['between_cv_lo'][i])}-{_fmt(pl['between_cv_hi'][i])}" if pl else "-",
-                pl["naive_cv"][i] if pl else None,
-                d["profiles_needed"],
-                d["profiles_needed_hi"],
-                "LACK OF FIT" if d["lack_of_fit"] else "ok",
-            ]
-        )
-    pl0 = next((d["plate_pressure"][0] for d in sites if d["plate_pressure"]), None)
-    at = ""
-    if pl0:
-        k = len(pl0["sinkage"]) // 2
-        at = f" at r = {pl0['radius']:.3g} {u.length_unit(units)}, z = {pl0['sinkage'][k]:.3g}"
-    heads = [
-        "site",
-        "pushes",
-        "n",
-        f"p [{pu}]",
-        "p 90%",
-        "between CV",
-        "CV 90%",
-        "naive CV",
-        "needed",
-        "needed (CV hi)",
-        "fit",
-    ]
-    text = f"Site plate pressure{at} {u.length_unit(units)}:\n" + _table(heads, rows)
-    for d in sites:
-        extra = [d["lack_of_fit"]] if d["lack_of_fit"] else []
-        extra += d["notes"] + [f"{f['id']}: {f['error']}" for f in d["failed"]]
-        if extra:
-            text += f"\n  {d['site']}: " + f"\n  {d['site']}: ".join(extra)
-    return text
-
-
 def _sites_doc(ci_file, by, L, cal, model, b, depth_range, target_cv, bootstrap, seed, units):
     """The head of the ``terracone sites --json`` document (command, input, settings)."""
     return {
@@ -1525,40 +1418,13 @@ def sites_cmd(
     if as_json:
         _emit_json(doc)
     else:
-        click.echo(_sites_table(doc["sites"], units))
+        click.echo(sites_text(doc["sites"], units))
         for d in doc["unassigned"]:
             click.echo(f"not in a site: {d['id']}: {d['reason']}")
         for e in doc["errors"]:
             click.echo(f"not read: {e}")
     if not any(r.profiles for r in results):
         sys.exit(1)
-
-
-def _design_table(designs: list[dict[str, Any]], units: str) -> str:
-    pu = u.pressure_unit(units)
-    parts = []
-    for d in designs:
-        if d["status"] != "ok":
-            parts.append(f"{d['id']}: not fitted: {d['error']}")
-            continue
-        head = (
-            f"{d['id']} (prior {d['prior']}): plate pressure at z = {d['sinkage']:.3g} "
-            f"{u.length_unit(units)}: "
-            + ", ".join(
-                f"r = {r:.3g}: {m:.4g} {pu}, 90% width {w:.3g}"
-                for r, m, w in zip(d["plates"], d["median"], d["current_width"])
-            )
-        )
-        rows = [
-            [c["rank"], c["test"], ", ".join(f"{w:.3g}" for w in c["expected_width"]),
-             c["width_ratio"], c["note"]]
-            for c in d["candidates"]
-        ]  # fmt: skip
-        tab = _table(["rank", "test", f"expected 90% width [{pu}]", "ratio", "note"], rows)
-        if d["lack_of_fit"]:
-            tab += f"\n  lack of fit: {d['lack_of_fit']}"
-        parts.append(head + "\n" + tab)
-    return "\n\n".join(parts)
 
 
 @cli.command("design")
@@ -1663,7 +1529,7 @@ def design_cmd(
     if as_json:
         _emit_json(doc)
     else:
-        click.echo(_design_table(designs, units))
+        click.echo(design_text(designs, units))
     if not any(d["status"] == "ok" for d in designs):
         sys.exit(1)
 
