@@ -12,6 +12,7 @@ import json
 import os
 import re
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -313,6 +314,14 @@ _wide_options = (
     ),
 )
 
+#: --out and --json of a command that writes one JSON document.
+_json_options = (
+    click.option(
+        "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
+    ),
+    click.option("--json", "as_json", is_flag=True, help="Print JSON."),
+)
+
 _fit_options = _shared(
     click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True),
     click.option(
@@ -406,6 +415,49 @@ def _fit_items(ci_file, cone, fmt, depth_ref, depth_range, units, file_units, de
         ),
         _depth_range(depth_range, units),
         units,
+    )
+
+
+@dataclass
+class _FitArgs:
+    """The parsed ``_fit_options`` of a command (lengths in m)."""
+
+    model: str
+    r_min: float | None
+    calibration: Any
+    bounds: Any
+    units: str
+    layers: int
+    depth_range: str | None
+    reading: dict[str, Any]
+
+    def items(self, ci_file: str, file_units: str | None = None) -> list[Any]:
+        """The command's CI profiles, cut to --depth-range (bad ones as InputError)."""
+        r = self.reading
+        return _fit_items(
+            ci_file, r["cone"], r["fmt"], r["depth_ref"], self.depth_range, self.units,
+            file_units, r["depth_unit"], r["ci_unit"],
+        )  # fmt: skip
+
+    def check_r_min(self, calibration: Any) -> None:
+        if self.model == "rm1" and self.r_min is None and calibration is None:
+            raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
+
+
+def _fit_args(opts: dict[str, Any]) -> _FitArgs:
+    """Parse the ``_fit_options`` given to a command as ``**opts``."""
+    from .inverse import Bounds
+
+    units = opts["units"]
+    return _FitArgs(
+        model=opts["model"],
+        bounds=Bounds.parse(opts["bounds"], units),
+        r_min=_length_si(opts["r_min"], units, "--r-min") if opts["r_min"] else None,
+        calibration=_load_calibration(opts["calibration"], opts["terrain"], opts["library"]),
+        units=units,
+        layers=opts["layers"],
+        depth_range=opts["depth_range"],
+        reading={k: opts[k] for k in ("cone", "fmt", "depth_ref", "depth_unit", "ci_unit")},
     )
 
 
@@ -654,35 +706,6 @@ def learn_cmd(
     click.echo(learn_text(d, units))
 
 
-def _params_from_json(path: str) -> list[tuple[str, TerrainParameters]]:
-    try:
-        doc = json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ValueError(f"file {path}: cannot read JSON ({exc})") from exc
-
-    def params(d: dict, where: str) -> TerrainParameters:
-        try:
-            return TerrainParameters.from_dict(d)
-        except KeyError as exc:
-            raise ValueError(f"file {path}, {where}: missing key {exc.args[0]!r}") from None
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"file {path}, {where}: {exc}") from None
-
-    out = []
-    if isinstance(doc, dict) and "profiles" in doc:
-        for p in doc["profiles"]:
-            if p.get("status") == "ok":
-                out.append((str(p["id"]), params(p, f"profile {p['id']}")))
-    elif isinstance(doc, dict) and "kc" in doc:
-        name = str(doc.get("terrain", Path(path).stem))
-        out.append((name, params(doc, f"terrain {name}")))
-    if not out:
-        raise ValueError(
-            f"file {path}: no fitted parameters found (expected predict or learn JSON)"
-        )
-    return out
-
-
 @cli.command("evaluate")
 @click.option("--plates", "plates_file", required=True, type=click.Path(dir_okay=False))
 @click.option("--kc", type=float, default=None)
@@ -699,13 +722,13 @@ def _params_from_json(path: str) -> list[tuple[str, TerrainParameters]]:
 @click.option("--json", "as_json", is_flag=True)
 def evaluate_cmd(plates_file, kc, kphi, n, params_file, units, as_json):
     """R, R2, RMSD and CV of predicted against measured plate P-S curves (Tables 4-2, 4-4)."""
-    from .inverse.evaluate import cross_table
+    from .inverse.evaluate import cross_table, parameters_from_json
     from .io import read_plate_tests
 
     if params_file and any(v is not None for v in (kc, kphi, n)):
         raise click.UsageError("give either --kc/--kphi/--n or --params, not both")
     if params_file:
-        preds = _params_from_json(params_file)
+        preds = parameters_from_json(params_file)
     else:
         if kc is None or kphi is None or n is None:
             raise click.UsageError("give --kc, --kphi and --n, or --params")
@@ -1336,83 +1359,42 @@ def _sites_doc(ci_file, by, L, cal, model, b, depth_range, target_cv, bootstrap,
     default=None,
     help="Unit system of an input that does not state its units.",
 )
-@click.option(
-    "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
-)
-@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@_shared(*_json_options)
 def sites_cmd(
-    ci_file,
-    model,
-    r_min,
-    calibration,
-    terrain,
-    library,
-    bounds,
-    units,
-    cone,
-    fmt,
-    depth_ref,
-    depth_range,
-    layers,
-    depth_unit,
-    ci_unit,
-    by,
-    radius,
-    plates,
-    target_cv,
-    bootstrap,
-    seed,
-    file_units,
-    out,
-    as_json,
+    ci_file, by, radius, plates, target_cv, bootstrap, seed, file_units, out, as_json, **opts
 ):
     """Site statistics: pushes pooled per site (median terrain, push-to-push CV, pushes needed)."""
-    from .inverse import Bounds
-    from .inverse.sites import fit_sites, group_profiles
+    from .inverse.sites import default_sinkages, site_statistics
 
     if by is None and radius is None:
         raise click.UsageError("give --by COLUMN or --radius L to group the profiles into sites")
-    if layers > 1:
+    if opts["layers"] > 1:
         raise click.UsageError("sites pools one-layer fits; --layers is not supported here")
     if not target_cv > 0:
         raise click.BadParameter(f"--target-cv: must be > 0, got {target_cv}")
-    b = Bounds.parse(bounds, units)
-    rm = _length_si(r_min, units, "--r-min") if r_min else None
-    if model == "rm1" and rm is None and not (calibration or terrain):
-        raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
-    cal = _load_calibration(calibration, terrain, library)
-    radii = _lengths_si(plates, units, "--plates") or [0.0375, 0.05]
-    items = _fit_items(
-        ci_file, cone, fmt, depth_ref, depth_range, units, file_units, depth_unit, ci_unit
-    )
-    profiles = [it for it in items if not isinstance(it, InputError)]
-    bad = [it for it in items if isinstance(it, InputError)]
+    a = _fit_args(opts)
+    a.check_r_min(a.calibration)
+    units, cal = a.units, a.calibration
     L = _length_si(radius, units, "--radius") if radius else None
-    grouping = group_profiles(profiles, by=by, radius=L)
-    if not grouping.sites:
-        raise click.ClickException(
-            f"{ci_file}: no profile could be put in a site"
-            + (f" ({grouping.unassigned[0][1]})" if grouping.unassigned else "")
-        )
-    from .inverse.sites import default_sinkages
-
-    results = fit_sites(
-        profiles,
-        grouping,
-        model=model,
-        r_min=rm,
+    run = site_statistics(
+        a.items(ci_file, file_units),
+        by=by,
+        radius=L,
+        source=str(ci_file),
+        model=a.model,
+        r_min=a.r_min,
         calibration=cal,
-        bounds=b,
-        plates=radii,
+        bounds=a.bounds,
+        plates=_lengths_si(plates, units, "--plates") or [0.0375, 0.05],
         sinkage=default_sinkages(units),
         target_cv=target_cv,
         bootstrap=bootstrap,
         seed=seed,
     )
-    doc = _sites_doc(ci_file, by, L, cal, model, b, depth_range, target_cv, bootstrap, seed, units)
-    doc["sites"] = [r.as_dict(units) for r in results]
-    doc["unassigned"] = [{"id": i, "reason": why} for i, why in grouping.unassigned]
-    doc["errors"] = [str(e) for e in bad]
+    doc = _sites_doc(
+        ci_file, by, L, cal, a.model, a.bounds, a.depth_range, target_cv, bootstrap, seed, units
+    )
+    doc.update(run.as_dict(units))
     if out:
         _emit_json(doc, out)
     if as_json:
@@ -1423,7 +1405,7 @@ def sites_cmd(
             click.echo(f"not in a site: {d['id']}: {d['reason']}")
         for e in doc["errors"]:
             click.echo(f"not read: {e}")
-    if not any(r.profiles for r in results):
+    if not run.fitted_any:
         sys.exit(1)
 
 
@@ -1451,60 +1433,32 @@ def sites_cmd(
     help="Relative error of one plate reading.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-def design_cmd(
-    ci_file,
-    model,
-    r_min,
-    calibration,
-    terrain,
-    library,
-    bounds,
-    units,
-    cone,
-    fmt,
-    depth_ref,
-    depth_range,
-    layers,
-    depth_unit,
-    ci_unit,
-    prior,
-    plates,
-    candidates,
-    plate_noise,
-    as_json,
-):
+def design_cmd(ci_file, prior, plates, candidates, plate_noise, as_json, **opts):
     """Value of information: which one extra test narrows the predicted plate pressure most."""
-    from .inverse import Bounds
     from .inverse.design import parse_candidates, plan_test
-    from .inverse.learn import Calibration
-    from .library import Library
 
-    if layers > 1:
+    if opts["layers"] > 1:
         raise click.UsageError("design works on one-layer fits; --layers is not supported here")
     if not plate_noise > 0:
         raise click.BadParameter(f"--plate-noise: must be > 0, got {plate_noise}")
-    b = Bounds.parse(bounds, units)
-    rm = _length_si(r_min, units, "--r-min") if r_min else None
-    cal = _load_calibration(calibration, terrain, library)
+    a = _fit_args(opts)
+    units, cal = a.units, a.calibration
     if prior.startswith("terrain:"):
         if cal is not None:
             raise click.UsageError(
                 "give the calibration once: --prior terrain:NAME or --calibration"
             )
-        with Library(library) as lib:
-            cal = Calibration.from_library_record(lib.get(prior.split(":", 1)[1]))
+        cal = _prior(prior, opts["library"])
     elif prior != "bounds":
         raise click.BadParameter(f"--prior: expected bounds or terrain:NAME, got {prior!r}")
-    if model == "rm1" and rm is None and cal is None:
-        raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
+    a.check_r_min(cal)
     radii = _lengths_si(plates, units, "--plates")
     try:
         cands = parse_candidates(candidates, units)
     except ValueError as exc:
         raise click.BadParameter(str(exc)) from None
-    items = _fit_items(ci_file, cone, fmt, depth_ref, depth_range, units, None, depth_unit, ci_unit)
     designs = []
-    for it in items:
+    for it in a.items(ci_file):
         if isinstance(it, InputError):
             designs.append({"id": str(it.profile), "status": "error", "error": str(it)})
             continue
@@ -1513,9 +1467,9 @@ def design_cmd(
             candidates=cands,
             plates=radii,
             prior=cal if cal is not None else "bounds",
-            bounds=b,
-            model=model,
-            r_min=rm,
+            bounds=a.bounds,
+            model=a.model,
+            r_min=a.r_min,
             plate_noise=plate_noise,
         )
         designs.append(r.as_dict(units))
