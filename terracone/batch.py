@@ -7,16 +7,20 @@ a Dask cluster, and writes one row per profile to Parquet part files.
 
 Design
 ------
-* **One execution path.**  Work always runs on ``dask.distributed``: a
-  :class:`~distributed.LocalCluster` of ``workers`` processes (one thread
-  each) started and stopped by :func:`run_batch`, or an existing scheduler
-  (``scheduler="tcp://HOST:PORT"``).
+* **One execution path, any pool.**  By default work runs on
+  ``dask.distributed``: a :class:`~distributed.LocalCluster` of ``workers``
+  processes (one thread each) started and stopped by :func:`run_batch`, or
+  an existing scheduler (``scheduler="tcp://HOST:PORT"``).  ``pool=`` takes
+  any pool instead (emcee's pattern): a Dask client, a ``concurrent.futures``
+  executor, or anything with ``map`` (a ``multiprocessing`` pool, ``map``
+  itself); :func:`_run_on` is the one place that tells them apart.
 * **Chunks, not profiles.**  The input stream is cut into chunks of
   ``chunk_size`` profiles: chunk *i* holds profiles ``i*chunk_size`` to
   ``(i+1)*chunk_size - 1`` in input order (files in name order).  One Dask
   task fits one chunk, with one ``solve_exact_many`` call per cone.  At most
-  ``2 x worker threads`` chunks are in flight, and the reader only reads
-  ahead when a slot is free, so memory stays flat whatever the input size.
+  ``2 x worker threads`` chunks are in flight (a ``map`` pool gets windows of
+  that many), and the reader only reads ahead when a slot is free, so memory
+  stays flat whatever the input size.
 * **Streaming input.**  CSV is read in blocks with ``pandas.read_csv``
   (every cell as text, converted like :func:`terracone.io.read_ci_profiles`
   does), Parquet with ``ParquetFile.iter_batches``.  The last, possibly

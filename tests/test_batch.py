@@ -201,17 +201,22 @@ def same_parts(a: Path, b: Path) -> None:
         assert pq.read_schema(a / name).metadata == pq.read_schema(b / name).metadata
 
 
-@pytest.mark.parametrize("kind", ["map", "threads"])
-def test_any_pool_gives_the_output_of_the_dask_run(data, reference, tmp_path, kind):
+@pytest.mark.parametrize("kind", ["map", "threads", "client"])
+def test_any_pool_gives_the_output_of_the_dask_run(cluster, data, reference, tmp_path, kind):
     from concurrent.futures import ThreadPoolExecutor
 
     ref_summary, ref_out = reference
     out = tmp_path / kind
-    if kind == "map":
+    if kind == "client":  # a Dask client of the caller's, left open
+        with distributed.Client(cluster, set_as_default=False) as client:
+            s = run_batch(data["parquet"], out, pool=client, chunk_size=16, quiet=True)
+            assert client.status == "running"
+        assert s.workers == 2 and s.scheduler == cluster
+    elif kind == "map":
         pool = PlainMap()
         s = run_batch(data["parquet"], out, pool=pool, chunk_size=16, quiet=True)
         # 5 chunks of a one-worker pool, mapped lazily in windows of 2 (memory stays flat)
-        assert pool.calls == [2, 2, 1] and s.workers == 1
+        assert pool.calls == [2, 2, 1] and s.workers == 1 and s.scheduler is None
     else:
         with ThreadPoolExecutor(2) as ex:
             s = run_batch(data["parquet"], out, pool=ex, chunk_size=16, quiet=True)
@@ -219,7 +224,7 @@ def test_any_pool_gives_the_output_of_the_dask_run(data, reference, tmp_path, ki
     same_parts(ref_out, out)
     assert s.success, s.problems
     assert (s.profiles, s.profiles_ok, s.chunks_run) == (80, ref_summary.profiles_ok, 5)
-    assert ref_summary.profiles_ok == 80 and s.scheduler is None
+    assert ref_summary.profiles_ok == 80
     run = json.loads((out / "_run.json").read_text())
     assert run["run_key"] == json.loads((ref_out / "_run.json").read_text())["run_key"]
 
