@@ -2241,7 +2241,7 @@ def _pool_size(pool: Any) -> int:
     return 1
 
 
-def fit_chunk_or_failure(task: Any, fit: Any) -> tuple[dict[str, Any] | None, str | None]:
+def _fit_chunk_or_failure(task: Any, fit: Any) -> tuple[dict[str, Any] | None, str | None]:
     """Fit one chunk on a worker: ``(results, None)``, or ``(None, reason)`` when it fails.
 
     The task function of executor and ``map`` pools: a failure stays with its
@@ -2356,7 +2356,7 @@ def _on_executor(executor: Executor, chunks: Iterator[_Chunk], sink: _Sink) -> N
 
     for chunk in chunks:
         drain(limit - 1)
-        inflight[executor.submit(fit_chunk_or_failure, chunk.task, sink.fit)] = chunk
+        inflight[executor.submit(_fit_chunk_or_failure, chunk.task, sink.fit)] = chunk
         chunk.task = None
     drain(0)
 
@@ -2366,7 +2366,7 @@ def _on_map(pool: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
     in windows of 2 per worker, so only a window of chunks is in memory."""
     mapper = pool.map if hasattr(pool, "map") else pool
     sink.summary.workers = _pool_size(pool)
-    task = functools.partial(fit_chunk_or_failure, fit=sink.fit)
+    task = functools.partial(_fit_chunk_or_failure, fit=sink.fit)
     size = max(2, 2 * sink.summary.workers)
     while window := list(itertools.islice(chunks, size)):
         tasks = [c.task for c in window]
