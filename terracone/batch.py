@@ -7,16 +7,20 @@ a Dask cluster, and writes one row per profile to Parquet part files.
 
 Design
 ------
-* **One execution path.**  Work always runs on ``dask.distributed``: a
-  :class:`~distributed.LocalCluster` of ``workers`` processes (one thread
-  each) started and stopped by :func:`run_batch`, or an existing scheduler
-  (``scheduler="tcp://HOST:PORT"``).
+* **One execution path, any pool.**  By default work runs on
+  ``dask.distributed``: a :class:`~distributed.LocalCluster` of ``workers``
+  processes (one thread each) started and stopped by :func:`run_batch`, or
+  an existing scheduler (``scheduler="tcp://HOST:PORT"``).  ``pool=`` takes
+  any pool instead (emcee's pattern): a Dask client, a ``concurrent.futures``
+  executor, or anything with ``map`` (a ``multiprocessing`` pool, ``map``
+  itself); :func:`_run_on` is the one place that tells them apart.
 * **Chunks, not profiles.**  The input stream is cut into chunks of
   ``chunk_size`` profiles: chunk *i* holds profiles ``i*chunk_size`` to
   ``(i+1)*chunk_size - 1`` in input order (files in name order).  One Dask
   task fits one chunk, with one ``solve_exact_many`` call per cone.  At most
-  ``2 x worker threads`` chunks are in flight, and the reader only reads
-  ahead when a slot is free, so memory stays flat whatever the input size.
+  ``2 x worker threads`` chunks are in flight (a ``map`` pool gets windows of
+  that many), and the reader only reads ahead when a slot is free, so memory
+  stays flat whatever the input size.
 * **Streaming input.**  CSV is read in blocks with ``pandas.read_csv``
   (every cell as text, converted like :func:`terracone.io.read_ci_profiles`
   does), Parquet with ``ParquetFile.iter_batches``.  The last, possibly
@@ -41,7 +45,9 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import hashlib
+import itertools
 import json
 import logging
 import os
@@ -51,6 +57,7 @@ import time
 import uuid
 from collections import Counter
 from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -1064,8 +1071,25 @@ def _worker_environ(env: dict[str, str]) -> Iterator[None]:
                 os.environ[k] = v
 
 
+def _check_workers(client: Any, where: str) -> None:
+    """Wait for a worker of ``client`` and check that all run this terracone version."""
+    try:
+        client.wait_for_workers(1, timeout=_WAIT_WORKERS_S)
+    except TimeoutError:
+        raise RuntimeError(
+            f"no Dask worker joined the scheduler {where} within {_WAIT_WORKERS_S:g} s"
+        ) from None
+    versions = client.run(_worker_version)
+    wrong = {w: v for w, v in versions.items() if v != __version__}
+    if wrong:
+        raise RuntimeError(
+            f"Dask workers run another terracone version than this client ({__version__}): {wrong}"
+        )
+
+
 @contextlib.contextmanager
 def _dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
+    """A client of the scheduler at ``scheduler``, or of a local cluster of ``workers``."""
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -1074,27 +1098,14 @@ def _dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
         except (OSError, TimeoutError) as exc:
             raise RuntimeError(f"cannot connect to the Dask scheduler {scheduler}: {exc}") from exc
         try:
-            try:
-                client.wait_for_workers(1, timeout=_WAIT_WORKERS_S)
-            except TimeoutError:
-                raise RuntimeError(
-                    f"no Dask worker joined the scheduler {scheduler} within {_WAIT_WORKERS_S:g} s"
-                ) from None
-            versions = client.run(_worker_version)
-            wrong = {w: v for w, v in versions.items() if v != __version__}
-            if wrong:
-                raise RuntimeError(
-                    f"Dask workers run another terracone version than this client "
-                    f"({__version__}): {wrong}"
-                )
+            _check_workers(client, scheduler)
             yield client
         finally:
             client.close()
         return
-    n = workers or _cpu_count()
     with _worker_environ(WORKER_MALLOC_ENV):
         cluster = LocalCluster(
-            n_workers=n,
+            n_workers=workers or _cpu_count(),
             threads_per_worker=1,
             processes=True,
             host="127.0.0.1",
@@ -1113,6 +1124,175 @@ def _dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
 
 
 # ---------------------------------------------------------------------------
+# pools: a Dask client, a concurrent.futures executor, or anything with map
+# ---------------------------------------------------------------------------
+
+
+def _is_dask_client(pool: Any) -> bool:
+    try:
+        from distributed import Client
+    except ImportError:  # pragma: no cover - a required dependency
+        return False
+    return isinstance(pool, Client)
+
+
+def _pool_size(pool: Any) -> int:
+    """Workers of a pool: an executor's or multiprocessing pool's size, else 1."""
+    for name in ("_max_workers", "_processes"):  # concurrent.futures, multiprocessing
+        n = getattr(pool, name, None)
+        if isinstance(n, int) and n > 0:
+            return n
+    return 1
+
+
+def _fit_chunk_or_failure(task: Any, fit: Any) -> tuple[dict[str, Any] | None, str | None]:
+    """Fit one chunk on a worker: ``(results, None)``, or ``(None, reason)`` when it fails.
+
+    The task function of executor and ``map`` pools: a failure stays with its
+    chunk (its profiles become error rows) instead of ending the whole map.
+    """
+    try:
+        return _fit_chunk(task, fit), None
+    except Exception as exc:  # noqa: BLE001 - reported in the chunk's rows
+        return None, f"{type(exc).__name__}: {exc}"
+
+
+@dataclass
+class _Sink:
+    """Writes the part file of each finished chunk and keeps the counts and the progress."""
+
+    out: Path
+    plan: _Plan
+    fit: _FitSettings
+    run_key: str
+    summary: BatchSummary
+    profiles_done: int
+    bar: Any = None
+    callback: Callable[[int, int], None] | None = None
+
+    def write(self, chunk: _Chunk, res: dict[str, Any] | None, failure: str | None) -> None:
+        t = time.perf_counter()
+        table = _table(chunk, res, failure, self.run_key, self.plan, self.fit)
+        _write_atomic(self.out, _part_name(chunk.index), lambda f: pq.write_table(table, f))
+        s = self.summary
+        s.write_s += time.perf_counter() - t
+        s.chunks_run += 1
+        if res is not None:
+            s.fit_s += float(res["fit_time_s"])
+            s.fit_cpu_s += float(res["fit_cpu_s"])
+        self.profiles_done += int(chunk.ids.size)
+        if self.bar is not None:
+            self.bar.update(int(chunk.ids.size))
+        if self.callback is not None:
+            self.callback(self.profiles_done, self.plan.profiles)
+
+
+def _to_fit(chunks: Iterator[tuple[int, _Chunk | None, int]], sink: _Sink) -> Iterator[_Chunk]:
+    """The chunks to fit, read lazily; chunks with nothing to fit are written at once."""
+    while True:
+        t = time.perf_counter()
+        item = next(chunks, None)
+        sink.summary.read_s += time.perf_counter() - t
+        if item is None:
+            return
+        chunk = item[1]
+        if chunk is None:  # done by an earlier run
+            continue
+        if chunk.task is None:  # nothing to fit: every profile failed reading
+            sink.write(chunk, None, None)
+            continue
+        yield chunk
+
+
+def _on_dask(client: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
+    """Submit the chunks to a Dask client, at most 2 per worker thread in flight."""
+    from distributed import as_completed
+
+    t0 = time.perf_counter()
+    # each worker loads (or, with a cold cache, compiles) the solver's kernels once,
+    # here, counted as start-up rather than in its first chunk
+    client.run(warm_kernels)
+    sink.summary.startup_s += time.perf_counter() - t0
+    sink.summary.workers = sum(client.nthreads().values())
+    limit = max(2, 2 * sink.summary.workers)
+    token = uuid.uuid4().hex[:8]
+    inflight: dict[Any, _Chunk] = {}
+    ac = as_completed(loop=client.loop)
+
+    def collect(fut: Any) -> None:
+        chunk = inflight.pop(fut)
+        if fut.status == "finished":
+            res, failure = fut.result(), None
+        elif fut.status == "error":
+            exc = fut.exception()
+            res, failure = None, f"{type(exc).__name__}: {exc}"
+        else:
+            raise RuntimeError(
+                f"lost the Dask cluster (chunk {chunk.index} is {fut.status}); "
+                "rerun with resume to finish"
+            )
+        fut.release()
+        sink.write(chunk, res, failure)
+
+    for chunk in chunks:
+        while len(inflight) >= limit:
+            collect(next(ac))
+        key = f"terracone-batch-{token}-{chunk.index:06d}"
+        fut = client.submit(_fit_chunk, chunk.task, sink.fit, key=key, pure=False, retries=1)
+        chunk.task = None  # the worker has it; keep only what the output needs
+        inflight[fut] = chunk
+        ac.add(fut)
+    while inflight:
+        collect(next(ac))
+
+
+def _on_executor(executor: Executor, chunks: Iterator[_Chunk], sink: _Sink) -> None:
+    """Submit the chunks to a concurrent.futures executor, 2 per worker in flight."""
+    sink.summary.workers = _pool_size(executor)
+    limit = max(2, 2 * sink.summary.workers)
+    inflight: dict[Future, _Chunk] = {}
+
+    def drain(keep: int) -> None:
+        while len(inflight) > keep:
+            finished, _ = wait(inflight, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                sink.write(inflight.pop(fut), *fut.result())
+
+    for chunk in chunks:
+        drain(limit - 1)
+        inflight[executor.submit(_fit_chunk_or_failure, chunk.task, sink.fit)] = chunk
+        chunk.task = None
+    drain(0)
+
+
+def _on_map(pool: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
+    """Map the chunks with ``pool.map`` (or ``pool`` itself, e.g. the built-in ``map``)
+    in windows of 2 per worker, so only a window of chunks is in memory."""
+    mapper = pool.map if hasattr(pool, "map") else pool
+    sink.summary.workers = _pool_size(pool)
+    task = functools.partial(_fit_chunk_or_failure, fit=sink.fit)
+    size = max(2, 2 * sink.summary.workers)
+    while window := list(itertools.islice(chunks, size)):
+        tasks = [c.task for c in window]
+        for c in window:
+            c.task = None
+        for chunk, (res, failure) in zip(window, mapper(task, tasks), strict=True):
+            sink.write(chunk, res, failure)
+
+
+def _run_on(pool: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
+    """Fit the chunks on the pool: the one place that knows the kinds of pool."""
+    if _is_dask_client(pool):
+        sink.summary.scheduler = sink.summary.scheduler or getattr(pool.scheduler, "address", None)
+        _check_workers(pool, str(sink.summary.scheduler))
+        _on_dask(pool, chunks, sink)
+    elif isinstance(pool, Executor):
+        _on_executor(pool, chunks, sink)
+    else:
+        _on_map(pool, chunks, sink)
+
+
+# ---------------------------------------------------------------------------
 # run_batch
 # ---------------------------------------------------------------------------
 
@@ -1121,6 +1301,19 @@ def _resolve_calibration(calibration: Any) -> Calibration | None:
     if calibration is None or isinstance(calibration, Calibration):
         return calibration
     return Calibration.load(calibration)
+
+
+def _check_args(chunk_size: int, workers: int | None, scheduler: str | None, pool: Any) -> None:
+    if chunk_size < 1:
+        raise ValueError(f"chunk_size must be >= 1 (got {chunk_size})")
+    if workers is not None and scheduler:
+        raise ValueError("workers applies to the local cluster; not allowed with scheduler")
+    if workers is not None and workers < 1:
+        raise ValueError(f"workers must be >= 1 (got {workers})")
+    if pool is not None and (workers is not None or scheduler):
+        raise ValueError("give a pool, or workers / scheduler for run_batch's Dask cluster")
+    if pool is not None and not (hasattr(pool, "map") or callable(pool)):
+        raise ValueError(f"pool must have a map method (got {type(pool).__name__})")
 
 
 def run_batch(
@@ -1148,6 +1341,7 @@ def run_batch(
     format: str | None = None,
     depth_unit: str | None = None,
     ci_unit: str | None = None,
+    pool: Any = None,
 ) -> BatchSummary:
     """Fit every CI profile of a file or directory; write Parquet results.
 
@@ -1171,6 +1365,15 @@ def run_batch(
     scheduler : str, optional
         Address of a running Dask scheduler (``"tcp://HOST:PORT"``); its
         workers need this version of terracone.
+    pool : optional
+        Where to fit the chunks instead of the Dask cluster this call would
+        start (emcee's pattern): a ``distributed.Client``, a
+        ``concurrent.futures`` executor, a ``multiprocessing`` pool, or
+        anything with a ``map(function, iterable)`` method (or ``map``
+        itself).  Clients and executors get at most two chunks per worker
+        in flight; other pools are mapped in windows of that size.  The
+        caller starts and closes it; not allowed with ``workers`` or
+        ``scheduler``.  Process pools need picklable tasks (they are).
     resume : bool
         Continue an interrupted run: chunks whose part file is whole are
         kept, the others are computed.
@@ -1246,22 +1449,14 @@ def run_batch(
     the ``spawn`` method, which imports the main module.
     """
     t_start = time.perf_counter()
-    if chunk_size < 1:
-        raise ValueError(f"chunk_size must be >= 1 (got {chunk_size})")
-    if workers is not None and scheduler:
-        raise ValueError("workers applies to the local cluster; not allowed with scheduler")
-    if workers is not None and workers < 1:
-        raise ValueError(f"workers must be >= 1 (got {workers})")
+    _check_args(chunk_size, workers, scheduler, pool)
     units = u.check_system(units)
     default_cone = get_cone(cone)
-    cal = _resolve_calibration(calibration)
-    if isinstance(bounds, str):
-        bounds = Bounds.parse(bounds, units)
-    bounds = bounds or Bounds()
+    bounds = Bounds.parse(bounds, units) if isinstance(bounds, str) else bounds or Bounds()
     settings, fit = _settings(
         model=model,
         r_min=r_min,
-        calibration=cal,
+        calibration=_resolve_calibration(calibration),
         bounds=bounds,
         units=units,
         cone=default_cone,
@@ -1277,64 +1472,91 @@ def run_batch(
         settings["wide_units"] = {"depth_unit": depth_unit, "ci_unit": ci_unit}
     files = _input_files(input)
     fingerprint = _fingerprint(input, files)
-    original_files = files
     run = _run_record(settings, fingerprint)
-    run_key = run["run_key"]
     out = Path(out_dir)
     in_dir = Path(input) if Path(input).is_dir() else None
     resuming = _prepare_out_dir(out, resume, run, in_dir)
-    kind = format
-    if in_dir is None and format is None and files[0][1] == "csv":
-        kind = detect_format(files[0][0])
-    if in_dir is None and kind in ("sc900", "wide"):
-        reader = {"format": kind}
-        if kind == "wide":
-            reader.update(depth_unit=depth_unit, ci_unit=ci_unit, depth_ref="base")
-        files = [(_sc900_to_parquet(files[0][0], out, default_cone, **reader), "parquet")]
+    wide = {"depth_unit": depth_unit, "ci_unit": ci_unit}
+    readable = files if in_dir else _readable(files, out, format, default_cone, wide)
     summary = BatchSummary(out_dir=str(out), scheduler=scheduler)
     with _lock(out):
         _remove_leftovers(out)
-        t0 = time.perf_counter()
-        plan = _scan(files)
-        summary.scan_s = time.perf_counter() - t0
-        n_chunks = -(-plan.profiles // chunk_size)
-        expected = {i: min(chunk_size, plan.profiles - i * chunk_size) for i in range(n_chunks)}
-        run.update(profiles=plan.profiles, chunks=n_chunks)
-        run["output_columns"] = plan.schema.names
-        done: set[int] = set()
-        if resuming:
-            done = _done_chunks(out, run_key, expected)
-            with contextlib.suppress(FileNotFoundError):
-                (out / "_summary.json").unlink()
-        else:
-            run["created"] = datetime.now(UTC).isoformat(timespec="seconds")
-            _write_json(out, "_run.json", run)
-        summary.chunks_skipped = len(done)
-        _process(
-            out,
-            plan,
-            fit,
-            run_key,
-            default_cone,
-            chunk_size,
-            done,
-            expected,
-            summary,
-            workers,
-            scheduler,
-            quiet,
-            progress,
-        )
-        t0 = time.perf_counter()
-        _verify(out, plan, n_chunks, summary)
-        if _fingerprint(input, original_files) != fingerprint:
-            summary.problems.append("the input files changed during the run")
-        summary.verify_s = time.perf_counter() - t0
-        summary.wall_s = time.perf_counter() - t_start
-        computed = sum(expected[i] for i in range(n_chunks) if i not in done)
-        summary.profiles_per_s = computed / summary.wall_s if summary.wall_s > 0 else 0.0
-        _write_summary(out, summary, run, units)
+        plan, expected, done = _begin(out, readable, run, resuming, chunk_size, summary)
+        sink = _Sink(out, plan, fit, run["run_key"], summary, sum(expected[i] for i in done))
+        chunks = _chunks(plan, chunk_size, _ConeCache(default_cone), done)
+        where = {"pool": pool, "workers": workers, "scheduler": scheduler}
+        _process(sink, chunks, len(done) < len(expected), where, quiet, progress)
+        changed = _fingerprint(input, files) != fingerprint
+        _finish(sink, expected, done, run, units, t_start, changed)
     return summary
+
+
+def _readable(
+    files: list[tuple[Path, str]], out: Path, format: str | None, cone: Cone, wide: dict
+) -> list[tuple[Path, str]]:
+    """The files to read: a single SC900 export or wide table becomes Parquet once."""
+    kind = format
+    if format is None and files[0][1] == "csv":
+        kind = detect_format(files[0][0])
+    if kind not in ("sc900", "wide"):
+        return files
+    reader: dict[str, Any] = {"format": kind}
+    if kind == "wide":
+        reader.update(wide, depth_ref="base")
+    return [(_sc900_to_parquet(files[0][0], out, cone, **reader), "parquet")]
+
+
+def _begin(
+    out: Path,
+    files: list[tuple[Path, str]],
+    run: dict[str, Any],
+    resuming: bool,
+    chunk_size: int,
+    summary: BatchSummary,
+) -> tuple[_Plan, dict[int, int], set[int]]:
+    """Scan the input; write ``_run.json``, or find the chunks an earlier run finished.
+
+    Returns the plan, the profiles expected per chunk and the chunks already done.
+    """
+    t0 = time.perf_counter()
+    plan = _scan(files)
+    summary.scan_s = time.perf_counter() - t0
+    n_chunks = -(-plan.profiles // chunk_size)
+    expected = {i: min(chunk_size, plan.profiles - i * chunk_size) for i in range(n_chunks)}
+    run.update(profiles=plan.profiles, chunks=n_chunks)
+    run["output_columns"] = plan.schema.names
+    done: set[int] = set()
+    if resuming:
+        done = _done_chunks(out, run["run_key"], expected)
+        with contextlib.suppress(FileNotFoundError):
+            (out / "_summary.json").unlink()
+    else:
+        run["created"] = datetime.now(UTC).isoformat(timespec="seconds")
+        _write_json(out, "_run.json", run)
+    summary.chunks_skipped = len(done)
+    return plan, expected, done
+
+
+def _finish(
+    sink: _Sink,
+    expected: dict[int, int],
+    done: set[int],
+    run: dict[str, Any],
+    units: str,
+    t_start: float,
+    input_changed: bool,
+) -> None:
+    """Check the output against the scan, time the run and write ``_summary.json``."""
+    summary = sink.summary
+    t0 = time.perf_counter()
+    _verify(sink.out, sink.plan, len(expected), summary)
+    if input_changed:
+        summary.problems.append("the input files changed during the run")
+    summary.verify_s = time.perf_counter() - t0
+    summary.wall_s = time.perf_counter() - t_start
+    computed = sum(n for i, n in expected.items() if i not in done)
+    summary.profiles_per_s = computed / summary.wall_s if summary.wall_s > 0 else 0.0
+    _write_summary(sink.out, summary, run, units)
 
 
 def _run_record(settings: dict[str, Any], fingerprint: dict[str, Any]) -> dict[str, Any]:
@@ -1394,103 +1616,29 @@ def _make_bar(
 
 
 def _process(
-    out: Path,
-    plan: _Plan,
-    fit: _FitSettings,
-    run_key: str,
-    default_cone: Cone,
-    chunk_size: int,
-    done: set[int],
-    expected: dict[int, int],
-    summary: BatchSummary,
-    workers: int | None,
-    scheduler: str | None,
+    sink: _Sink,
+    chunks: Iterator[tuple[int, _Chunk | None, int]],
+    todo: bool,
+    where: dict[str, Any],
     quiet: bool,
     progress: bool | Callable[[int, int], None] | None,
 ) -> None:
-    """Stream the chunks through the cluster and write the part files."""
-    todo = [i for i in expected if i not in done]
-    profiles_done = sum(expected[i] for i in done)
-    bar, callback = _make_bar(progress, quiet, plan.profiles, profiles_done)
-    if callback is not None:
-        callback(profiles_done, plan.profiles)
+    """Stream the chunks through the pool (``where["pool"]``, or a Dask cluster of
+    ``where["workers"]`` or at ``where["scheduler"]``) and write the part files."""
+    total = sink.plan.profiles
+    sink.bar, sink.callback = _make_bar(progress, quiet, total, sink.profiles_done)
+    if sink.callback is not None:
+        sink.callback(sink.profiles_done, total)
     try:
         if not todo:
             return
+        if where["pool"] is not None:
+            _run_on(where["pool"], _to_fit(chunks, sink), sink)
+            return
         t0 = time.perf_counter()
-        with _dask_client(workers, scheduler) as client:
-            from distributed import as_completed
-
-            # each worker loads (or, with a cold cache, compiles) the solver's kernels once,
-            # here, counted as start-up rather than in its first chunk
-            client.run(warm_kernels)
-            summary.startup_s = time.perf_counter() - t0
-            nthreads = sum(client.nthreads().values())
-            summary.workers = nthreads
-            limit = max(2, 2 * nthreads)
-            token = uuid.uuid4().hex[:8]
-            inflight: dict[Any, _Chunk] = {}
-            ac = as_completed(loop=client.loop)
-
-            def write(chunk: _Chunk, res: dict[str, Any] | None, failure: str | None) -> None:
-                nonlocal profiles_done
-                t = time.perf_counter()
-                table = _table(chunk, res, failure, run_key, plan, fit)
-                _write_atomic(out, _part_name(chunk.index), lambda f: pq.write_table(table, f))
-                summary.write_s += time.perf_counter() - t
-                summary.chunks_run += 1
-                if res is not None:
-                    summary.fit_s += float(res["fit_time_s"])
-                    summary.fit_cpu_s += float(res["fit_cpu_s"])
-                profiles_done += int(chunk.ids.size)
-                if bar is not None:
-                    bar.update(int(chunk.ids.size))
-                if callback is not None:
-                    callback(profiles_done, plan.profiles)
-
-            def collect(fut: Any) -> None:
-                chunk = inflight.pop(fut)
-                if fut.status == "finished":
-                    res, failure = fut.result(), None
-                elif fut.status == "error":
-                    exc = fut.exception()
-                    res, failure = None, f"{type(exc).__name__}: {exc}"
-                else:
-                    raise RuntimeError(
-                        f"lost the Dask cluster (chunk {chunk.index} is {fut.status}); "
-                        "rerun with resume to finish"
-                    )
-                fut.release()
-                write(chunk, res, failure)
-
-            gen = _chunks(plan, chunk_size, _ConeCache(default_cone), done)
-            while True:
-                t = time.perf_counter()
-                item = next(gen, None)
-                summary.read_s += time.perf_counter() - t
-                if item is None:
-                    break
-                index, chunk, _ = item
-                if chunk is None:
-                    continue
-                if chunk.task is None:  # nothing to fit: every profile failed reading
-                    write(chunk, None, None)
-                    continue
-                while len(inflight) >= limit:
-                    collect(next(ac))
-                fut = client.submit(
-                    _fit_chunk,
-                    chunk.task,
-                    fit,
-                    key=f"terracone-batch-{token}-{index:06d}",
-                    pure=False,
-                    retries=1,
-                )
-                chunk.task = None  # the worker has it; keep only what the output needs
-                inflight[fut] = chunk
-                ac.add(fut)
-            while inflight:
-                collect(next(ac))
+        with _dask_client(where["workers"], where["scheduler"]) as client:
+            sink.summary.startup_s = time.perf_counter() - t0
+            _on_dask(client, _to_fit(chunks, sink), sink)
     finally:
-        if bar is not None:
-            bar.close()
+        if sink.bar is not None:
+            sink.bar.close()

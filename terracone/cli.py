@@ -12,6 +12,7 @@ import json
 import os
 import re
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -24,9 +25,19 @@ from .cone import CONES, cone_index
 from .data import InputError, TerrainParameters
 from .io import json_default
 from .plate import plate_pressure
-from .text import evaluate_text, learn_text, predict_text
-from .text import format_value as _fmt
-from .text import table as _table
+from .text import (
+    curve_text,
+    design_text,
+    evaluate_text,
+    learn_text,
+    library_text,
+    plate_fit_text,
+    predict_text,
+    shear_fit_text,
+    sites_text,
+)
+from .text import layered_text as _layered_text  # the names predict_cmd prints with
+from .text import posterior_text as _posterior_text
 
 _UNITS = click.Choice(["si", "us"])
 _LEN_RE = re.compile(r"^\s*([-+0-9.eE]+)\s*(m|cm|mm|in)?\s*$")
@@ -134,7 +145,7 @@ def _curve_out(xkey, x, ykey, y, units: str, as_json: bool) -> None:
         )
         return
     heads = [f"{xkey[1]} [{u.length_unit(units)}]", f"{ykey[1]} [{u.pressure_unit(units)}]"]
-    click.echo(_table(heads, list(zip(x, y))))
+    click.echo(curve_text(heads, x, y))
 
 
 class _Group(click.Group):
@@ -306,6 +317,14 @@ _wide_options = (
     ),
 )
 
+#: --out and --json of a command that writes one JSON document.
+_json_options = (
+    click.option(
+        "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
+    ),
+    click.option("--json", "as_json", is_flag=True, help="Print JSON."),
+)
+
 _fit_options = _shared(
     click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True),
     click.option(
@@ -402,6 +421,49 @@ def _fit_items(ci_file, cone, fmt, depth_ref, depth_range, units, file_units, de
     )
 
 
+@dataclass
+class _FitArgs:
+    """The parsed ``_fit_options`` of a command (lengths in m)."""
+
+    model: str
+    r_min: float | None
+    calibration: Any
+    bounds: Any
+    units: str
+    layers: int
+    depth_range: str | None
+    reading: dict[str, Any]
+
+    def items(self, ci_file: str, file_units: str | None = None) -> list[Any]:
+        """The command's CI profiles, cut to --depth-range (bad ones as InputError)."""
+        r = self.reading
+        return _fit_items(
+            ci_file, r["cone"], r["fmt"], r["depth_ref"], self.depth_range, self.units,
+            file_units, r["depth_unit"], r["ci_unit"],
+        )  # fmt: skip
+
+    def check_r_min(self, calibration: Any) -> None:
+        if self.model == "rm1" and self.r_min is None and calibration is None:
+            raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
+
+
+def _fit_args(opts: dict[str, Any]) -> _FitArgs:
+    """Parse the ``_fit_options`` given to a command as ``**opts``."""
+    from .inverse import Bounds
+
+    units = opts["units"]
+    return _FitArgs(
+        model=opts["model"],
+        bounds=Bounds.parse(opts["bounds"], units),
+        r_min=_length_si(opts["r_min"], units, "--r-min") if opts["r_min"] else None,
+        calibration=_load_calibration(opts["calibration"], opts["terrain"], opts["library"]),
+        units=units,
+        layers=opts["layers"],
+        depth_range=opts["depth_range"],
+        reading={k: opts[k] for k in ("cone", "fmt", "depth_ref", "depth_unit", "ci_unit")},
+    )
+
+
 def _load_calibration(calibration: str | None, terrain: str | None, library: str | None):
     from .inverse.learn import Calibration
 
@@ -428,47 +490,6 @@ def _prior(prior: str, library: str | None):
         with Library(library) as lib:
             return Calibration.from_library_record(lib.get(prior.split(":", 1)[1]))
     raise click.BadParameter(f"--prior: expected bounds or terrain:NAME, got {prior!r}")
-
-
-def _posterior_text(posts: dict, units: str) -> str:
-    lines = ["", "Posterior 90% intervals and identifiability (--uncertainty):"]
-    for pid, post in posts.items():
-        d = post.as_dict(units)
-        rows = []
-        for k, (lo, hi) in d["intervals"].items():
-            rows.append([k, lo, d["medians"].get(k), hi, d["identifiability"].get(k, "-")])
-        lines.append(f"{pid}:")
-        lines.append(_table(["parameter", "5%", "median", "95%", "identifiability"], rows))
-        for band in d.get("plate_bands", []):
-            i = len(band["sinkage"]) - 1
-            lines.append(
-                f"  plate r = {band['radius']:.4g} {u.length_unit(units)}: pressure at "
-                f"{band['sinkage'][i]:.3g} {u.length_unit(units)} sinkage {band['median'][i]:.4g} "
-                f"[{band['lo'][i]:.4g}, {band['hi'][i]:.4g}] {u.pressure_unit(units)} (90% band)"
-            )
-    return "\n".join(lines)
-
-
-def _layered_text(layered: dict, units: str) -> str:
-    rows = []
-    for pid, lr in layered.items():
-        if not lr.ok:
-            rows.append([pid, "error", lr.error, "-", "-", "-", "-", "-"])
-            continue
-        iface = ",".join(f"{float(u.length_from_si(v, units)):.3g}" for v in lr.interfaces)
-        ns = ",".join(f"{p.n:.3g}" for p in lr.layers)
-        rows.append([pid, "ok", iface, ns, lr.r2_ci, lr.bic_single, lr.bic, lr.preferred_layers])
-    heads = [
-        "profile",
-        "status",
-        f"interfaces [{u.length_unit(units)}]",
-        "n per layer",
-        "R2 CI",
-        "BIC 1 layer",
-        "BIC layered",
-        "preferred layers",
-    ]
-    return "\n\nLayered fits (element-wise integration; lower BIC wins):\n" + _table(heads, rows)
 
 
 @cli.command("predict")
@@ -700,35 +721,6 @@ def learn_cmd(
     click.echo(learn_text(d, units))
 
 
-def _params_from_json(path: str) -> list[tuple[str, TerrainParameters]]:
-    try:
-        doc = json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ValueError(f"file {path}: cannot read JSON ({exc})") from exc
-
-    def params(d: dict, where: str) -> TerrainParameters:
-        try:
-            return TerrainParameters.from_dict(d)
-        except KeyError as exc:
-            raise ValueError(f"file {path}, {where}: missing key {exc.args[0]!r}") from None
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"file {path}, {where}: {exc}") from None
-
-    out = []
-    if isinstance(doc, dict) and "profiles" in doc:
-        for p in doc["profiles"]:
-            if p.get("status") == "ok":
-                out.append((str(p["id"]), params(p, f"profile {p['id']}")))
-    elif isinstance(doc, dict) and "kc" in doc:
-        name = str(doc.get("terrain", Path(path).stem))
-        out.append((name, params(doc, f"terrain {name}")))
-    if not out:
-        raise ValueError(
-            f"file {path}: no fitted parameters found (expected predict or learn JSON)"
-        )
-    return out
-
-
 @cli.command("evaluate")
 @click.option("--plates", "plates_file", required=True, type=click.Path(dir_okay=False))
 @click.option("--kc", type=float, default=None)
@@ -745,13 +737,13 @@ def _params_from_json(path: str) -> list[tuple[str, TerrainParameters]]:
 @click.option("--json", "as_json", is_flag=True)
 def evaluate_cmd(plates_file, kc, kphi, n, params_file, units, as_json):
     """R, R2, RMSD and CV of predicted against measured plate P-S curves (Tables 4-2, 4-4)."""
-    from .inverse.evaluate import cross_table
+    from .inverse.evaluate import cross_table, parameters_from_json
     from .io import read_plate_tests
 
     if params_file and any(v is not None for v in (kc, kphi, n)):
         raise click.UsageError("give either --kc/--kphi/--n or --params, not both")
     if params_file:
-        preds = _params_from_json(params_file)
+        preds = parameters_from_json(params_file)
     else:
         if kc is None or kphi is None or n is None:
             raise click.UsageError("give --kc, --kphi and --n, or --params")
@@ -828,23 +820,7 @@ def fit_plates_cmd(plates_file, method, units, save_as, library, as_json):
     if as_json:
         _emit_json(d)
         return
-    rows = [[t["test"], t["b"], t["k"], t["n"], t["points_used"], t["r2"]] for t in d["tests"]]
-    text = _table(
-        ["test", f"b [{u.length_unit(units)}]", f"k [{u.kphi_unit(units)}]", "n", "points", "R2"],
-        rows,
-    )
-    text += f"\n\nCommon n = {d['n']:.4g}" + (
-        f", 95% interval {d['n_ci'][0]:.3g} to {d['n_ci'][1]:.3g}" if d["n_ci"] else ""
-    )
-    if d["kc"] is not None:
-        text += (
-            f"\nkc = {d['kc']:.4g} {u.kc_unit(units)}, kphi = {d['kphi']:.4g} {u.kphi_unit(units)}"
-        )
-    for note in d["notes"]:
-        text += f"\n{note}"
-    if d["undetermined"]:
-        text += f"\nUndetermined: {', '.join(d['undetermined'])}"
-    click.echo(text)
+    click.echo(plate_fit_text(d, units))
 
 
 @cli.command("fit-shear")
@@ -876,16 +852,7 @@ def fit_shear_cmd(shear_file, units, save_as, library, as_json):
     if as_json:
         _emit_json(d)
         return
-    L, Pu = u.length_unit(units), u.pressure_unit(units)
-    rows = [
-        [t["test"], t["normal_pressure"], t["tau_max"], t["K"], t["points_used"]]
-        for t in d["tests"]
-    ]
-    text = _table(["test", f"sigma [{Pu}]", f"tau_max [{Pu}]", f"K [{L}]", "points"], rows)
-    text += f"\n\nc = {_fmt(d['c'])} {Pu}, phi = {_fmt(d['phi_deg'])} deg, common K = {_fmt(d['K'])} {L}"
-    for note in d["notes"]:
-        text += f"\n{note}"
-    click.echo(text)
+    click.echo(shear_fit_text(d, units))
 
 
 @cli.group("library", cls=_Group)
@@ -916,10 +883,7 @@ def library_list(ctx, kind, as_json):
     if as_json:
         _emit_json([r.to_dict() for r in recs])
         return
-    rows = [
-        [r.name, r.kind, r.params.get("kc"), r.params.get("kphi"), r.params.get("n")] for r in recs
-    ]
-    click.echo(_table(["name", "kind", "kc [kN/m^(n+1)]", "kphi [kN/m^(n+2)]", "n"], rows))
+    click.echo(library_text(recs))
 
 
 @library_grp.command("show")
@@ -1349,54 +1313,6 @@ def reproduce_cmd(out, quick, workers):
 # ---------------------------------------------------------------------------
 
 
-def _sites_table(sites: list[dict[str, Any]], units: str) -> str:
-    pu = u.pressure_unit(units)
-    rows = []
-    for d in sites:
-        pl = d["plate_pressure"][0] if d["plate_pressure"] else None
-        i = len(pl["sinkage"]) // 2 if pl else 0
-        rows.append(
-            [
-                d["site"],
-                d["n_profiles"],
-                d["params"].get("n"),
-                pl["median"][i] if pl else None,
-                f"{_fmt(pl['lo'][i])}-{_fmt(pl['hi'][i])}" if pl else "-",
-                pl["between_cv"][i] if pl else None,
-                f"{_fmt(pl['between_cv_lo'][i])}-{_fmt(pl['between_cv_hi'][i])}" if pl else "-",
-                pl["naive_cv"][i] if pl else None,
-                d["profiles_needed"],
-                d["profiles_needed_hi"],
-                "LACK OF FIT" if d["lack_of_fit"] else "ok",
-            ]
-        )
-    pl0 = next((d["plate_pressure"][0] for d in sites if d["plate_pressure"]), None)
-    at = ""
-    if pl0:
-        k = len(pl0["sinkage"]) // 2
-        at = f" at r = {pl0['radius']:.3g} {u.length_unit(units)}, z = {pl0['sinkage'][k]:.3g}"
-    heads = [
-        "site",
-        "pushes",
-        "n",
-        f"p [{pu}]",
-        "p 90%",
-        "between CV",
-        "CV 90%",
-        "naive CV",
-        "needed",
-        "needed (CV hi)",
-        "fit",
-    ]
-    text = f"Site plate pressure{at} {u.length_unit(units)}:\n" + _table(heads, rows)
-    for d in sites:
-        extra = [d["lack_of_fit"]] if d["lack_of_fit"] else []
-        extra += d["notes"] + [f"{f['id']}: {f['error']}" for f in d["failed"]]
-        if extra:
-            text += f"\n  {d['site']}: " + f"\n  {d['site']}: ".join(extra)
-    return text
-
-
 def _sites_doc(ci_file, by, L, cal, model, b, depth_range, target_cv, bootstrap, seed, units):
     """The head of the ``terracone sites --json`` document (command, input, settings)."""
     return {
@@ -1458,122 +1374,54 @@ def _sites_doc(ci_file, by, L, cal, model, b, depth_range, target_cv, bootstrap,
     default=None,
     help="Unit system of an input that does not state its units.",
 )
-@click.option(
-    "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
-)
-@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@_shared(*_json_options)
 def sites_cmd(
-    ci_file,
-    model,
-    r_min,
-    calibration,
-    terrain,
-    library,
-    bounds,
-    units,
-    cone,
-    fmt,
-    depth_ref,
-    depth_range,
-    layers,
-    depth_unit,
-    ci_unit,
-    by,
-    radius,
-    plates,
-    target_cv,
-    bootstrap,
-    seed,
-    file_units,
-    out,
-    as_json,
+    ci_file, by, radius, plates, target_cv, bootstrap, seed, file_units, out, as_json, **opts
 ):
     """Site statistics: pushes pooled per site (median terrain, push-to-push CV, pushes needed)."""
-    from .inverse import Bounds
-    from .inverse.sites import fit_sites, group_profiles
+    from .inverse.sites import default_sinkages, site_statistics
 
     if by is None and radius is None:
         raise click.UsageError("give --by COLUMN or --radius L to group the profiles into sites")
-    if layers > 1:
+    if opts["layers"] > 1:
         raise click.UsageError("sites pools one-layer fits; --layers is not supported here")
     if not target_cv > 0:
         raise click.BadParameter(f"--target-cv: must be > 0, got {target_cv}")
-    b = Bounds.parse(bounds, units)
-    rm = _length_si(r_min, units, "--r-min") if r_min else None
-    if model == "rm1" and rm is None and not (calibration or terrain):
-        raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
-    cal = _load_calibration(calibration, terrain, library)
-    radii = _lengths_si(plates, units, "--plates") or [0.0375, 0.05]
-    items = _fit_items(
-        ci_file, cone, fmt, depth_ref, depth_range, units, file_units, depth_unit, ci_unit
-    )
-    profiles = [it for it in items if not isinstance(it, InputError)]
-    bad = [it for it in items if isinstance(it, InputError)]
+    a = _fit_args(opts)
+    a.check_r_min(a.calibration)
+    units, cal = a.units, a.calibration
     L = _length_si(radius, units, "--radius") if radius else None
-    grouping = group_profiles(profiles, by=by, radius=L)
-    if not grouping.sites:
-        raise click.ClickException(
-            f"{ci_file}: no profile could be put in a site"
-            + (f" ({grouping.unassigned[0][1]})" if grouping.unassigned else "")
-        )
-    from .inverse.sites import default_sinkages
-
-    results = fit_sites(
-        profiles,
-        grouping,
-        model=model,
-        r_min=rm,
+    run = site_statistics(
+        a.items(ci_file, file_units),
+        by=by,
+        radius=L,
+        source=str(ci_file),
+        model=a.model,
+        r_min=a.r_min,
         calibration=cal,
-        bounds=b,
-        plates=radii,
+        bounds=a.bounds,
+        plates=_lengths_si(plates, units, "--plates") or [0.0375, 0.05],
         sinkage=default_sinkages(units),
         target_cv=target_cv,
         bootstrap=bootstrap,
         seed=seed,
     )
-    doc = _sites_doc(ci_file, by, L, cal, model, b, depth_range, target_cv, bootstrap, seed, units)
-    doc["sites"] = [r.as_dict(units) for r in results]
-    doc["unassigned"] = [{"id": i, "reason": why} for i, why in grouping.unassigned]
-    doc["errors"] = [str(e) for e in bad]
+    doc = _sites_doc(
+        ci_file, by, L, cal, a.model, a.bounds, a.depth_range, target_cv, bootstrap, seed, units
+    )
+    doc.update(run.as_dict(units))
     if out:
         _emit_json(doc, out)
     if as_json:
         _emit_json(doc)
     else:
-        click.echo(_sites_table(doc["sites"], units))
+        click.echo(sites_text(doc["sites"], units))
         for d in doc["unassigned"]:
             click.echo(f"not in a site: {d['id']}: {d['reason']}")
         for e in doc["errors"]:
             click.echo(f"not read: {e}")
-    if not any(r.profiles for r in results):
+    if not run.fitted_any:
         sys.exit(1)
-
-
-def _design_table(designs: list[dict[str, Any]], units: str) -> str:
-    pu = u.pressure_unit(units)
-    parts = []
-    for d in designs:
-        if d["status"] != "ok":
-            parts.append(f"{d['id']}: not fitted: {d['error']}")
-            continue
-        head = (
-            f"{d['id']} (prior {d['prior']}): plate pressure at z = {d['sinkage']:.3g} "
-            f"{u.length_unit(units)}: "
-            + ", ".join(
-                f"r = {r:.3g}: {m:.4g} {pu}, 90% width {w:.3g}"
-                for r, m, w in zip(d["plates"], d["median"], d["current_width"])
-            )
-        )
-        rows = [
-            [c["rank"], c["test"], ", ".join(f"{w:.3g}" for w in c["expected_width"]),
-             c["width_ratio"], c["note"]]
-            for c in d["candidates"]
-        ]  # fmt: skip
-        tab = _table(["rank", "test", f"expected 90% width [{pu}]", "ratio", "note"], rows)
-        if d["lack_of_fit"]:
-            tab += f"\n  lack of fit: {d['lack_of_fit']}"
-        parts.append(head + "\n" + tab)
-    return "\n\n".join(parts)
 
 
 @cli.command("design")
@@ -1600,60 +1448,32 @@ def _design_table(designs: list[dict[str, Any]], units: str) -> str:
     help="Relative error of one plate reading.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-def design_cmd(
-    ci_file,
-    model,
-    r_min,
-    calibration,
-    terrain,
-    library,
-    bounds,
-    units,
-    cone,
-    fmt,
-    depth_ref,
-    depth_range,
-    layers,
-    depth_unit,
-    ci_unit,
-    prior,
-    plates,
-    candidates,
-    plate_noise,
-    as_json,
-):
+def design_cmd(ci_file, prior, plates, candidates, plate_noise, as_json, **opts):
     """Value of information: which one extra test narrows the predicted plate pressure most."""
-    from .inverse import Bounds
     from .inverse.design import parse_candidates, plan_test
-    from .inverse.learn import Calibration
-    from .library import Library
 
-    if layers > 1:
+    if opts["layers"] > 1:
         raise click.UsageError("design works on one-layer fits; --layers is not supported here")
     if not plate_noise > 0:
         raise click.BadParameter(f"--plate-noise: must be > 0, got {plate_noise}")
-    b = Bounds.parse(bounds, units)
-    rm = _length_si(r_min, units, "--r-min") if r_min else None
-    cal = _load_calibration(calibration, terrain, library)
+    a = _fit_args(opts)
+    units, cal = a.units, a.calibration
     if prior.startswith("terrain:"):
         if cal is not None:
             raise click.UsageError(
                 "give the calibration once: --prior terrain:NAME or --calibration"
             )
-        with Library(library) as lib:
-            cal = Calibration.from_library_record(lib.get(prior.split(":", 1)[1]))
+        cal = _prior(prior, opts["library"])
     elif prior != "bounds":
         raise click.BadParameter(f"--prior: expected bounds or terrain:NAME, got {prior!r}")
-    if model == "rm1" and rm is None and cal is None:
-        raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
+    a.check_r_min(cal)
     radii = _lengths_si(plates, units, "--plates")
     try:
         cands = parse_candidates(candidates, units)
     except ValueError as exc:
         raise click.BadParameter(str(exc)) from None
-    items = _fit_items(ci_file, cone, fmt, depth_ref, depth_range, units, None, depth_unit, ci_unit)
     designs = []
-    for it in items:
+    for it in a.items(ci_file):
         if isinstance(it, InputError):
             designs.append({"id": str(it.profile), "status": "error", "error": str(it)})
             continue
@@ -1662,9 +1482,9 @@ def design_cmd(
             candidates=cands,
             plates=radii,
             prior=cal if cal is not None else "bounds",
-            bounds=b,
-            model=model,
-            r_min=rm,
+            bounds=a.bounds,
+            model=a.model,
+            r_min=a.r_min,
             plate_noise=plate_noise,
         )
         designs.append(r.as_dict(units))
@@ -1678,7 +1498,7 @@ def design_cmd(
     if as_json:
         _emit_json(doc)
     else:
-        click.echo(_design_table(designs, units))
+        click.echo(design_text(designs, units))
     if not any(d["status"] == "ok" for d in designs):
         sys.exit(1)
 

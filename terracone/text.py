@@ -20,7 +20,21 @@ if TYPE_CHECKING:  # pragma: no cover - annotations only
     from .inverse.evaluate import PlateEvaluation
     from .inverse.predict import PredictionResult
 
-__all__ = ["evaluate_text", "format_value", "learn_text", "predict_text", "table"]
+__all__ = [
+    "curve_text",
+    "design_text",
+    "evaluate_text",
+    "format_value",
+    "layered_text",
+    "learn_text",
+    "library_text",
+    "plate_fit_text",
+    "posterior_text",
+    "predict_text",
+    "shear_fit_text",
+    "sites_text",
+    "table",
+]
 
 PHIC_UNDETERMINED = (
     "\n\nphic is undetermined: with fully mobilised shear it trades exactly against a common"
@@ -63,6 +77,23 @@ def table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
     ]
     lines.insert(1, "  ".join("-" * w for w in widths))
     return "\n".join(lines)
+
+
+def curve_text(headers: Sequence[str], x: Any, y: Any) -> str:
+    """A two-column table of a curve (``terracone ci`` and ``terracone plate``).
+
+    Parameters
+    ----------
+    headers : (str, str)
+        Headings of x and y, with their units.
+    x, y : array_like
+        The curve, already in the output units.
+
+    Returns
+    -------
+    str
+    """
+    return table(headers, list(zip(np.asarray(x).tolist(), np.asarray(y).tolist())))
 
 
 def predict_text(results: Sequence[PredictionResult], units: str) -> str:
@@ -202,3 +233,262 @@ def evaluate_text(rows: Sequence[PlateEvaluation], units: str) -> str:
         "CV",
     ]
     return table(heads, tab)
+
+
+def posterior_text(posts: Mapping[str, Any], units: str) -> str:
+    """The posterior section ``terracone predict --uncertainty`` prints.
+
+    Parameters
+    ----------
+    posts : mapping
+        Profile id -> posterior (anything with ``as_dict(units)`` giving
+        ``intervals``, ``medians``, ``identifiability`` and ``plate_bands``),
+        as :class:`terracone.uncertainty.PosteriorResult`.
+    units : {"si", "us"}
+        Units of the printed intervals and plate bands.
+
+    Returns
+    -------
+    str
+        90% intervals, medians and identifiability labels per parameter, and
+        the plate pressure band at the deepest sinkage of each plate.
+    """
+    lines = ["", "Posterior 90% intervals and identifiability (--uncertainty):"]
+    L, P = u.length_unit(units), u.pressure_unit(units)
+    for pid, post in posts.items():
+        d = post.as_dict(units)
+        rows = [
+            [k, lo, d["medians"].get(k), hi, d["identifiability"].get(k, "-")]
+            for k, (lo, hi) in d["intervals"].items()
+        ]
+        lines.append(f"{pid}:")
+        lines.append(table(["parameter", "5%", "median", "95%", "identifiability"], rows))
+        for band in d.get("plate_bands", []):
+            i = len(band["sinkage"]) - 1
+            lines.append(
+                f"  plate r = {band['radius']:.4g} {L}: pressure at "
+                f"{band['sinkage'][i]:.3g} {L} sinkage {band['median'][i]:.4g} "
+                f"[{band['lo'][i]:.4g}, {band['hi'][i]:.4g}] {P} (90% band)"
+            )
+    return "\n".join(lines)
+
+
+def layered_text(layered: Mapping[str, Any], units: str) -> str:
+    """The layered-fit table ``terracone predict --layers N`` prints.
+
+    Parameters
+    ----------
+    layered : mapping
+        Profile id -> :class:`terracone.layers.LayeredResult` (interfaces [m]).
+    units : {"si", "us"}
+        Unit of the printed interface depths.
+
+    Returns
+    -------
+    str
+    """
+    rows = []
+    for pid, lr in layered.items():
+        if not lr.ok:
+            rows.append([pid, "error", lr.error, "-", "-", "-", "-", "-"])
+            continue
+        iface = ",".join(f"{float(u.length_from_si(v, units)):.3g}" for v in lr.interfaces)
+        ns = ",".join(f"{p.n:.3g}" for p in lr.layers)
+        rows.append([pid, "ok", iface, ns, lr.r2_ci, lr.bic_single, lr.bic, lr.preferred_layers])
+    heads = [
+        "profile",
+        "status",
+        f"interfaces [{u.length_unit(units)}]",
+        "n per layer",
+        "R2 CI",
+        "BIC 1 layer",
+        "BIC layered",
+        "preferred layers",
+    ]
+    return "\n\nLayered fits (element-wise integration; lower BIC wins):\n" + table(heads, rows)
+
+
+def plate_fit_text(d: Mapping[str, Any], units: str) -> str:
+    """The report ``terracone fit-plates`` prints.
+
+    Parameters
+    ----------
+    d : mapping
+        ``PlatesFit.as_dict(units)`` (:func:`terracone.bevameter.fit_plates`).
+    units : {"si", "us"}
+        The units ``d`` is in.
+
+    Returns
+    -------
+    str
+        Per-test b, k, n, points and R2; the common n with its 95% interval,
+        kc and kphi, notes and undetermined parameters.
+    """
+    rows = [[t["test"], t["b"], t["k"], t["n"], t["points_used"], t["r2"]] for t in d["tests"]]
+    text = table(
+        ["test", f"b [{u.length_unit(units)}]", f"k [{u.kphi_unit(units)}]", "n", "points", "R2"],
+        rows,
+    )
+    text += f"\n\nCommon n = {d['n']:.4g}" + (
+        f", 95% interval {d['n_ci'][0]:.3g} to {d['n_ci'][1]:.3g}" if d["n_ci"] else ""
+    )
+    if d["kc"] is not None:
+        text += (
+            f"\nkc = {d['kc']:.4g} {u.kc_unit(units)}, kphi = {d['kphi']:.4g} {u.kphi_unit(units)}"
+        )
+    text += "".join(f"\n{note}" for note in d["notes"])
+    if d["undetermined"]:
+        text += f"\nUndetermined: {', '.join(d['undetermined'])}"
+    return text
+
+
+def shear_fit_text(d: Mapping[str, Any], units: str) -> str:
+    """The report ``terracone fit-shear`` prints (Janosi-Hanamoto fits).
+
+    Parameters
+    ----------
+    d : mapping
+        ``ShearFit.as_dict(units)`` (:func:`terracone.shear.fit_shear`).
+    units : {"si", "us"}
+        The units ``d`` is in.
+
+    Returns
+    -------
+    str
+    """
+    L, Pu = u.length_unit(units), u.pressure_unit(units)
+    rows = [
+        [t["test"], t["normal_pressure"], t["tau_max"], t["K"], t["points_used"]]
+        for t in d["tests"]
+    ]
+    text = table(["test", f"sigma [{Pu}]", f"tau_max [{Pu}]", f"K [{L}]", "points"], rows)
+    text += (
+        f"\n\nc = {format_value(d['c'])} {Pu}, phi = {format_value(d['phi_deg'])} deg, "
+        f"common K = {format_value(d['K'])} {L}"
+    )
+    return text + "".join(f"\n{note}" for note in d["notes"])
+
+
+def library_text(records: Sequence[Any]) -> str:
+    """The table ``terracone library list`` prints: name, kind, kc, kphi, n (SI).
+
+    Parameters
+    ----------
+    records : sequence of TerrainRecord
+        From :meth:`terracone.library.Library.list`.
+
+    Returns
+    -------
+    str
+    """
+    rows = [
+        [r.name, r.kind, r.params.get("kc"), r.params.get("kphi"), r.params.get("n")]
+        for r in records
+    ]
+    return table(["name", "kind", "kc [kN/m^(n+1)]", "kphi [kN/m^(n+2)]", "n"], rows)
+
+
+def _site_row(d: Mapping[str, Any]) -> list[Any]:
+    pl = d["plate_pressure"][0] if d["plate_pressure"] else None
+    i = len(pl["sinkage"]) // 2 if pl else 0
+    return [
+        d["site"],
+        d["n_profiles"],
+        d["params"].get("n"),
+        pl["median"][i] if pl else None,
+        f"{format_value(pl['lo'][i])}-{format_value(pl['hi'][i])}" if pl else "-",
+        pl["between_cv"][i] if pl else None,
+        f"{format_value(pl['between_cv_lo'][i])}-{format_value(pl['between_cv_hi'][i])}"
+        if pl
+        else "-",
+        pl["naive_cv"][i] if pl else None,
+        d["profiles_needed"],
+        d["profiles_needed_hi"],
+        "LACK OF FIT" if d["lack_of_fit"] else "ok",
+    ]
+
+
+def sites_text(sites: Sequence[Mapping[str, Any]], units: str) -> str:
+    """The site table ``terracone sites`` prints, with each site's notes and failed pushes.
+
+    Parameters
+    ----------
+    sites : sequence of mapping
+        ``SiteResult.as_dict(units)`` per site (:func:`terracone.inverse.sites.fit_sites`).
+    units : {"si", "us"}
+        The units the sites are in.
+
+    Returns
+    -------
+    str
+        Plate pressure, its 90% interval, the push-to-push CV with its
+        interval, the naive CV and the pushes needed, at the middle sinkage
+        of each site's first plate.
+    """
+    pl0 = next((d["plate_pressure"][0] for d in sites if d["plate_pressure"]), None)
+    at = ""
+    if pl0:
+        k = len(pl0["sinkage"]) // 2
+        at = f" at r = {pl0['radius']:.3g} {u.length_unit(units)}, z = {pl0['sinkage'][k]:.3g}"
+    heads = [
+        "site",
+        "pushes",
+        "n",
+        f"p [{u.pressure_unit(units)}]",
+        "p 90%",
+        "between CV",
+        "CV 90%",
+        "naive CV",
+        "needed",
+        "needed (CV hi)",
+        "fit",
+    ]
+    rows = [_site_row(d) for d in sites]
+    text = f"Site plate pressure{at} {u.length_unit(units)}:\n" + table(heads, rows)
+    for d in sites:
+        extra = [d["lack_of_fit"]] if d["lack_of_fit"] else []
+        extra += d["notes"] + [f"{f['id']}: {f['error']}" for f in d["failed"]]
+        if extra:
+            text += f"\n  {d['site']}: " + f"\n  {d['site']}: ".join(extra)
+    return text
+
+
+def design_text(designs: Sequence[Mapping[str, Any]], units: str) -> str:
+    """The ranking ``terracone design`` prints: per profile, the candidate tests by value.
+
+    Parameters
+    ----------
+    designs : sequence of mapping
+        ``DesignResult.as_dict(units)`` per profile, or ``{"id", "status", "error"}``
+        for a profile that could not be planned.
+    units : {"si", "us"}
+        The units the designs are in.
+
+    Returns
+    -------
+    str
+    """
+    pu = u.pressure_unit(units)
+    parts = []
+    for d in designs:
+        if d["status"] != "ok":
+            parts.append(f"{d['id']}: not fitted: {d['error']}")
+            continue
+        head = (
+            f"{d['id']} (prior {d['prior']}): plate pressure at z = {d['sinkage']:.3g} "
+            f"{u.length_unit(units)}: "
+            + ", ".join(
+                f"r = {r:.3g}: {m:.4g} {pu}, 90% width {w:.3g}"
+                for r, m, w in zip(d["plates"], d["median"], d["current_width"])
+            )
+        )
+        rows = [
+            [c["rank"], c["test"], ", ".join(f"{w:.3g}" for w in c["expected_width"]),
+             c["width_ratio"], c["note"]]
+            for c in d["candidates"]
+        ]  # fmt: skip
+        tab = table(["rank", "test", f"expected 90% width [{pu}]", "ratio", "note"], rows)
+        if d["lack_of_fit"]:
+            tab += f"\n  lack of fit: {d['lack_of_fit']}"
+        parts.append(head + "\n" + tab)
+    return "\n\n".join(parts)

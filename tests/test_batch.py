@@ -177,6 +177,86 @@ def test_scheduler_equals_local_run(cluster, data, reference, tmp_path):
 
 
 # ---------------------------------------------------------------------------
+# any pool with map (emcee's pattern)
+# ---------------------------------------------------------------------------
+
+
+class PlainMap:
+    """A pool that only has ``map`` (the built-in one); records the size of each call."""
+
+    def __init__(self):
+        self.calls = []
+
+    def map(self, function, iterable):
+        items = list(iterable)
+        self.calls.append(len(items))
+        return map(function, items)
+
+
+def same_parts(a: Path, b: Path) -> None:
+    """The same part files, row for row (timings aside), with the same run metadata."""
+    names = sorted(p.name for p in a.glob("part-*.parquet"))
+    assert names == sorted(p.name for p in b.glob("part-*.parquet")) and names
+    for name in names:
+        same_results(pd.read_parquet(a / name), pd.read_parquet(b / name))
+        assert pq.read_schema(a / name).metadata == pq.read_schema(b / name).metadata
+
+
+@pytest.mark.parametrize("kind", ["map", "threads", "client"])
+def test_any_pool_gives_the_output_of_the_dask_run(cluster, data, reference, tmp_path, kind):
+    from concurrent.futures import ThreadPoolExecutor
+
+    ref_summary, ref_out = reference
+    out = tmp_path / kind
+    if kind == "client":  # a Dask client of the caller's, left open
+        with distributed.Client(cluster, set_as_default=False) as client:
+            s = run_batch(data["parquet"], out, pool=client, chunk_size=16, quiet=True)
+            assert client.status == "running"
+        assert s.workers == 2 and s.scheduler == cluster
+    elif kind == "map":
+        pool = PlainMap()
+        s = run_batch(data["parquet"], out, pool=pool, chunk_size=16, quiet=True)
+        # 5 chunks of a one-worker pool, mapped lazily in windows of 2 (memory stays flat)
+        assert pool.calls == [2, 2, 1] and s.workers == 1 and s.scheduler is None
+    else:
+        with ThreadPoolExecutor(2) as ex:
+            s = run_batch(data["parquet"], out, pool=ex, chunk_size=16, quiet=True)
+        assert s.workers == 2
+    same_parts(ref_out, out)
+    assert s.success, s.problems
+    assert (s.profiles, s.profiles_ok, s.chunks_run) == (80, ref_summary.profiles_ok, 5)
+    assert ref_summary.profiles_ok == 80
+    run = json.loads((out / "_run.json").read_text())
+    assert run["run_key"] == json.loads((ref_out / "_run.json").read_text())["run_key"]
+
+
+def test_a_failing_chunk_on_a_map_pool_becomes_error_rows(data, tmp_path, monkeypatch):
+    import terracone.batch as batch
+
+    def broken(task, fit):
+        if task.index == 1:
+            raise MemoryError("synthetic")
+        return real(task, fit)
+
+    real = batch._fit_chunk
+    monkeypatch.setattr(batch, "_fit_chunk", broken)
+    s = run_batch(data["parquet"], tmp_path / "o", pool=map, chunk_size=16, quiet=True)
+    df = read_out(tmp_path / "o")
+    bad = df["chunk"] == 1
+    assert (df.loc[bad, "status"] == "error").all() and (df.loc[~bad, "status"] == "ok").all()
+    assert df.loc[bad, "error"].str.contains(r"chunk 1 failed .*MemoryError: synthetic").all()
+    assert s.chunks_failed == 1 and (s.profiles_ok, s.profiles_error) == (64, 16)
+    assert not s.success and "rerun with resume" in s.problems[0]
+
+
+def test_pool_settings_are_checked(data, tmp_path):
+    with pytest.raises(ValueError, match="give a pool, or workers / scheduler"):
+        run_batch(data["parquet"], tmp_path / "o", pool=map, workers=2)
+    with pytest.raises(ValueError, match="pool must have a map method \\(got int\\)"):
+        run_batch(data["parquet"], tmp_path / "o", pool=3)
+
+
+# ---------------------------------------------------------------------------
 # formats, metadata, units
 # ---------------------------------------------------------------------------
 

@@ -289,6 +289,41 @@ def _as_prior(prior: Any) -> CalibrationPrior | None:
     return cal
 
 
+def _information(
+    profile: CIProfile,
+    res: Any,
+    law: Any,
+    bounds: Bounds,
+    cal: CalibrationPrior | None,
+    ci_noise: float | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The fitted parameters, which of them are free, and the Fisher information of
+    the CI data alone and of the CI data with the prior (free parameters only)."""
+    c = cal.calibration if cal is not None else None
+    prm = res.params
+    theta = np.array([prm.kc, prm.kphi, prm.n, prm.cc, prm.phic_deg])
+    fixed = [bounds.kc, bounds.kphi, bounds.n, bounds.cc, bounds.phic]
+    free = np.array([lo < hi for lo, hi in fixed])
+    if c is not None and c.kc <= 0:
+        free[0] = False
+
+    def ci_of(t):  # eq. (2-7)
+        c = dict(kc=t[0], kphi=t[1], n=t[2], cc=t[3], phic=t[4])
+        return improved(profile.depth, **c, Kc=None, law=law, cone=profile.cone)
+
+    J = _jacobian(ci_of, theta, free)
+    I_ci = _ci_precision(profile, res.ci_model, J, ci_noise)
+    return theta, free, I_ci, _prior_precision(theta, free, bounds, cal) + I_ci
+
+
+def _ranked(candidates: list[CandidateResult]) -> list[CandidateResult]:
+    """The candidates by expected width ratio, best first, with their ranks set."""
+    out = sorted(candidates, key=lambda cnd: cnd.width_ratio)
+    for i, cnd in enumerate(out):
+        cnd.rank = i + 1
+    return out
+
+
 def plan_test(
     profile: CIProfile,
     *,
@@ -351,20 +386,8 @@ def plan_test(
         return DesignResult(profile.id, "error", res.error, label)
     prm = res.params
     law = pressure_law(prm.model, r_min=prm.r_min, plate_pair=c.plate_pair if c else None)
-    theta = np.array([prm.kc, prm.kphi, prm.n, prm.cc, prm.phic_deg])
-    fixed = [bounds.kc, bounds.kphi, bounds.n, bounds.cc, bounds.phic]
-    free = np.array([lo < hi for lo, hi in fixed])
-    if c is not None and c.kc <= 0:
-        free[0] = False
+    theta, free, I_ci, I0 = _information(profile, res, law, bounds, cal, ci_noise)
     s_mid = default_sinkages()[12] if sinkage is None else float(sinkage)
-
-    def ci_of(t):  # eq. (2-7)
-        c = dict(kc=t[0], kphi=t[1], n=t[2], cc=t[3], phic=t[4])
-        return improved(profile.depth, **c, Kc=None, law=law, cone=profile.cone)
-
-    J = _jacobian(ci_of, theta, free)
-    I_ci = _ci_precision(profile, res.ci_model, J, ci_noise)
-    I0 = _prior_precision(theta, free, bounds, cal) + I_ci
     G = np.stack([_jacobian(lambda t, r=r: np.atleast_1d(_plate(t, law, r, s_mid)), theta, free)[0]
                   for r in plates])  # fmt: skip
     zq = stats.norm.ppf(0.5 + level / 2)
@@ -378,13 +401,12 @@ def plan_test(
         [float(predicted_plate_pressure(prm, s_mid, r, law.plate_pair)) for r in plates]
     )
     s_test = np.linspace(0.005, 0.05, 10) if plate_sinkages is None else np.asarray(plate_sinkages)
-    out = [
-        _candidate(c, widths, I0, I_ci, current, theta, free, law, plate_noise, s_test)
-        for c in candidates
-    ]
-    out.sort(key=lambda cnd: cnd.width_ratio)
-    for i, cnd in enumerate(out):
-        cnd.rank = i + 1
+    out = _ranked(
+        [
+            _candidate(c, widths, I0, I_ci, current, theta, free, law, plate_noise, s_test)
+            for c in candidates
+        ]
+    )
     notes = list(res.notes)
     if res.undetermined:
         notes.append("left free by the CI: " + ", ".join(res.undetermined))

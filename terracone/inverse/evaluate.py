@@ -15,7 +15,10 @@ References
 
 from __future__ import annotations
 
+import json
+import os
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,7 +28,13 @@ from ..data import PlateTest, TerrainParameters
 from ..metrics import Agreement, agreement
 from ..plate import plate_basis, pressure_law
 
-__all__ = ["PlateEvaluation", "evaluate", "cross_table", "predicted_plate_pressure"]
+__all__ = [
+    "PlateEvaluation",
+    "evaluate",
+    "cross_table",
+    "parameters_from_json",
+    "predicted_plate_pressure",
+]
 
 
 @dataclass(frozen=True)
@@ -111,3 +120,52 @@ def cross_table(
     for label, params in predictions:
         rows.extend(evaluate(params, plates, label=label, plate_pair=plate_pair))
     return rows
+
+
+def parameters_from_json(path: str | os.PathLike[str]) -> list[tuple[str, TerrainParameters]]:
+    """The fitted parameter sets of a ``predict --json`` or ``learn --json`` file.
+
+    Parameters
+    ----------
+    path : path
+        A predict document (its profiles with status "ok", named by their
+        id) or a learn document (one set, named by its terrain).
+
+    Returns
+    -------
+    list of (str, TerrainParameters)
+        Label and parameters, as :func:`cross_table` takes them.
+
+    Raises
+    ------
+    ValueError
+        The file cannot be read as JSON, a parameter set lacks a key or has
+        a bad value (naming the file and the profile or terrain), or the
+        file holds no fitted parameters.
+    """
+    try:
+        doc = json.loads(Path(path).read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ValueError(f"file {path}: cannot read JSON ({exc})") from exc
+
+    def params(d: dict, where: str) -> TerrainParameters:
+        try:
+            return TerrainParameters.from_dict(d)
+        except KeyError as exc:
+            raise ValueError(f"file {path}, {where}: missing key {exc.args[0]!r}") from None
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"file {path}, {where}: {exc}") from None
+
+    out = []
+    if isinstance(doc, dict) and "profiles" in doc:
+        for p in doc["profiles"]:
+            if p.get("status") == "ok":
+                out.append((str(p["id"]), params(p, f"profile {p['id']}")))
+    elif isinstance(doc, dict) and "kc" in doc:
+        name = str(doc.get("terrain", Path(path).stem))
+        out.append((name, params(doc, f"terrain {name}")))
+    if not out:
+        raise ValueError(
+            f"file {path}: no fitted parameters found (expected predict or learn JSON)"
+        )
+    return out

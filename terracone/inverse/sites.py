@@ -116,7 +116,9 @@ __all__ = [
     "shape_pushes",
     "site_centers",
     "site_correlation",
+    "site_statistics",
     "site_terrain",
+    "SiteStatistics",
 ]
 
 #: Additive floor of the relative CI noise weights, as a fraction of the largest model CI.
@@ -1152,6 +1154,71 @@ def _pool_all(fits: PushFits, members_ok, reps, plates, sinkage, level, shapes=N
     return est, random_effects(Y, V, M, level=level)
 
 
+def _site_covariances(
+    profiles: Sequence[CIProfile],
+    grouping: Grouping,
+    fits: Any,
+    law: Any,
+    b: Bounds,
+    ratio: float | None,
+) -> list[list[int]]:
+    """The fitted pushes of each site; sets their covariance under the site's one
+    noise correlation (from all its pushes' residuals).  Returns their indices."""
+    members_ok = []
+    for members in grouping.sites.values():
+        idx = [i for i in members if fits.ok[i]]
+        if len(idx) > 1:
+            rho = site_correlation([fits.residuals[i] for i in idx])
+            for i in idx:
+                prm = fits.params[i]
+                fits.cov[i] = _push_covariance(
+                    profiles[i], fits.theta[i], law, b, ratio, prm.kc, prm.kphi, rho
+                )[0]
+                fits.rho[i] = rho
+        members_ok.append(idx)
+    return members_ok
+
+
+def _bootstrap_sites(
+    profiles: Sequence[CIProfile],
+    fits: Any,
+    members_ok: list[list[int]],
+    pressure: tuple[Any, Bounds, float | None],
+    fit: dict[str, Any],
+    plates: list[float],
+    sinkage: np.ndarray,
+    bootstrap: int,
+    seed: int,
+) -> tuple[list[np.ndarray | None], list[tuple[np.ndarray, np.ndarray] | None]]:
+    """Bootstrap replicates of each site's pushes (``reps``) and, without a
+    calibration, the plate rows of what the CI fixes (``shapes``), per site."""
+    law, b, ratio = pressure
+    shapes: list[tuple[np.ndarray, np.ndarray] | None] = [None] * len(members_ok)
+    rng = np.random.default_rng([seed, 1])
+    flat = [i for idx in members_ok for i in idx]
+    centers = []
+    for k, idx in enumerate(members_ok):
+        if len(idx) > 1:
+            terrain = site_terrain(profiles, fits, idx, law, b, ratio)
+            centers += site_centers(profiles, fits, idx, law, b, ratio, terrain)
+            if fit["calibration"] is None:  # plate rows from what the CI fixes (shape_pushes)
+                shapes[k] = shape_pushes(
+                    profiles, fits, idx, terrain[0], plates, sinkage, replicates=bootstrap, rng=rng
+                )
+        elif idx:  # one push: its own fitted CI
+            e, _, _, w = fits.residuals[idx[0]]
+            centers.append(profiles[idx[0]].ci - e * w)
+    allr = bootstrap_pushes(
+        profiles, fits, flat, replicates=bootstrap, seed=seed, centers=centers, **fit
+    )
+    reps: list[np.ndarray | None] = []
+    start = 0
+    for idx in members_ok:
+        reps.append(allr[start : start + len(idx)])
+        start += len(idx)
+    return reps, shapes
+
+
 def fit_sites(
     profiles: Sequence[CIProfile],
     grouping: Grouping,
@@ -1205,47 +1272,16 @@ def fit_sites(
         raise ValueError("site sinkages must be > 0")
     fits = fit_pushes(profiles, model=model, r_min=r_min, calibration=calibration, bounds=bounds)
     law, b, ratio, model, _ = _settings(model, r_min, calibration, bounds)
-    members_ok = []
-    for members in grouping.sites.values():
-        idx = [i for i in members if fits.ok[i]]
-        if len(idx) > 1:
-            # one noise correlation per site, from all its pushes' residuals
-            rho = site_correlation([fits.residuals[i] for i in idx])
-            for i in idx:
-                prm = fits.params[i]
-                fits.cov[i] = _push_covariance(
-                    profiles[i], fits.theta[i], law, b, ratio, prm.kc, prm.kphi, rho
-                )[0]
-                fits.rho[i] = rho
-        members_ok.append(idx)
+    members_ok = _site_covariances(profiles, grouping, fits, law, b, ratio)
     if bootstrap is None:
         bootstrap = 0 if calibration is not None else 40
     reps: list[np.ndarray | None] = [None] * len(members_ok)
     shapes: list[tuple[np.ndarray, np.ndarray] | None] = [None] * len(members_ok)
-    rng = np.random.default_rng([seed, 1])
     if bootstrap:
-        flat = [i for idx in members_ok for i in idx]
-        centers = []
-        for k, idx in enumerate(members_ok):
-            if len(idx) > 1:
-                terrain = site_terrain(profiles, fits, idx, law, b, ratio)
-                centers += site_centers(profiles, fits, idx, law, b, ratio, terrain)
-                if calibration is None:  # plate rows from what the CI fixes (shape_pushes)
-                    shapes[k] = shape_pushes(
-                        profiles, fits, idx, terrain[0], list(plates), sinkage,
-                        replicates=bootstrap, rng=rng,
-                    )  # fmt: skip
-            elif idx:  # one push: its own fitted CI
-                e, _, _, w = fits.residuals[idx[0]]
-                centers.append(profiles[idx[0]].ci - e * w)
-        allr = bootstrap_pushes(
-            profiles, fits, flat, replicates=bootstrap, seed=seed, centers=centers, model=model,
-            r_min=r_min, calibration=calibration, bounds=bounds,
-        )  # fmt: skip
-        start = 0
-        for k, idx in enumerate(members_ok):
-            reps[k] = allr[start : start + len(idx)]
-            start += len(idx)
+        fit = {"model": model, "r_min": r_min, "calibration": calibration, "bounds": bounds}
+        reps, shapes = _bootstrap_sites(
+            profiles, fits, members_ok, (law, b, ratio), fit, list(plates), sinkage, bootstrap, seed
+        )
     est, re_all = _pool_all(fits, members_ok, reps, list(plates), sinkage, level, shapes)
     out = []
     for k, (name, members) in enumerate(grouping.sites.items()):
@@ -1260,3 +1296,81 @@ def fit_sites(
             )
         )  # fmt: skip
     return out
+
+
+# ---------------------------------------------------------------------------
+# the whole workflow of ``terracone sites``
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class SiteStatistics:
+    """Profiles read, grouped into sites and pooled per site.
+
+    Attributes
+    ----------
+    sites : list of SiteResult
+        In the order of the grouping.
+    grouping : Grouping
+        Which profiles make each site, and those that are in none.
+    errors : list of InputError
+        Profiles the reader could not use (not grouped, not fitted).
+    """
+
+    sites: list[SiteResult]
+    grouping: Grouping
+    errors: list[InputError]
+
+    @property
+    def fitted_any(self) -> bool:
+        """Whether any site has a fitted push."""
+        return any(r.profiles for r in self.sites)
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        """The ``sites``, ``unassigned`` and ``errors`` of ``terracone sites --json``."""
+        return {
+            "sites": [r.as_dict(units) for r in self.sites],
+            "unassigned": [{"id": i, "reason": why} for i, why in self.grouping.unassigned],
+            "errors": [str(e) for e in self.errors],
+        }
+
+
+def site_statistics(
+    items: Sequence[CIProfile | InputError],
+    *,
+    by: str | None = None,
+    radius: float | None = None,
+    source: str = "input",
+    **fit: Any,
+) -> SiteStatistics:
+    """Group profiles into sites and pool each site (:func:`group_profiles`, :func:`fit_sites`).
+
+    Parameters
+    ----------
+    items : sequence of CIProfile or InputError
+        As a reader returns them with ``on_error="collect"``; the errors are
+        kept, not fitted.
+    by, radius
+        Site grouping: metadata column(s), or a distance [m].
+    source : str
+        Name of the input, for the error message.
+    **fit
+        Keywords of :func:`fit_sites` (model, r_min, calibration, bounds,
+        plates, sinkage, target_cv, bootstrap, seed, level).
+
+    Returns
+    -------
+    SiteStatistics
+
+    Raises
+    ------
+    ValueError
+        No profile could be put in a site (the first reason is given).
+    """
+    profiles = [it for it in items if not isinstance(it, InputError)]
+    errors = [it for it in items if isinstance(it, InputError)]
+    grouping = group_profiles(profiles, by=by, radius=radius)
+    if not grouping.sites:
+        why = f" ({grouping.unassigned[0][1]})" if grouping.unassigned else ""
+        raise ValueError(f"{source}: no profile could be put in a site{why}")
+    return SiteStatistics(fit_sites(profiles, grouping, **fit), grouping, errors)

@@ -783,30 +783,35 @@ def learn_document(doc: Mapping[str, Any], *, source: str | None = None) -> dict
     sp = _si_params(doc, units) or {}
     sp["id"] = doc.get("terrain", "learned")
     crit = doc.get("criteria") or {}
-    sections: list[dict[str, Any]] = []
-    sections.append(
-        {
-            "id": "inputs",
-            "heading": "Inputs and settings",
-            "parts": [
-                kv_part(
-                    {
-                        "results file": source,
-                        "terrain": doc.get("terrain"),
-                        "model": doc.get("model"),
-                        "units of the file": units,
-                        "plate pair": doc.get("plate_pair"),
-                        "calibration saved to": doc.get("saved"),
-                        "library name": doc.get("saved_as"),
-                        "results written by": f"terracone {doc.get('terracone', '?')}",
-                        "fit criterion": f"every CV <= {crit.get('max_cv')}: "
-                        + ("satisfied" if crit.get("satisfied") else "NOT satisfied")
-                        + f" (worst {fmt_value(crit.get('worst_cv'))})",
-                    }
-                )
-            ],
-        }
-    )
+    inputs = {
+        "results file": source,
+        "terrain": doc.get("terrain"),
+        "model": doc.get("model"),
+        "units of the file": units,
+        "plate pair": doc.get("plate_pair"),
+        "calibration saved to": doc.get("saved"),
+        "library name": doc.get("saved_as"),
+        "results written by": f"terracone {doc.get('terracone', '?')}",
+        "fit criterion": f"every CV <= {crit.get('max_cv')}: "
+        + ("satisfied" if crit.get("satisfied") else "NOT satisfied")
+        + f" (worst {fmt_value(crit.get('worst_cv'))})",
+    }
+    parts = [table_part(t) for t in _learn_tables(doc, sp, units)]
+    parts += _learn_figures(doc, sp, units)
+    return {
+        "title": "terracone report: learning from cone and plate tests",
+        **_synthetic(doc),
+        "subtitle": f"terrain {doc.get('terrain', '?')}",
+        "meta": {"results": source, "command": "learn"},
+        "sections": [
+            {"id": "inputs", "heading": "Inputs and settings", "parts": [kv_part(inputs)]},
+            {"id": "results", "heading": "Results", "parts": parts},
+        ],
+    }
+
+
+def _learn_tables(doc: Mapping[str, Any], sp: dict[str, Any], units: str) -> list[Table]:
+    """The learned parameters, what the data determine, and the fit per data set."""
     tab = parameters_table(
         [sp],
         key="learned",
@@ -864,7 +869,14 @@ def learn_document(doc: Mapping[str, Any], *, source: str | None = None) -> dict
         ds_rows,
         notes=["CV = RMSD / mean measured value; the objective sums it over the data sets."],
     )
-    parts = [table_part(tab), table_part(ident), table_part(ds_tab)]
+    return [tab, ident, ds_tab]
+
+
+def _learn_figures(doc: Mapping[str, Any], sp: dict[str, Any], units: str) -> list[dict[str, Any]]:
+    """The CV per data set, and the plate curves of the learned parameters."""
+    ds = list(doc.get("datasets") or [])
+    crit = doc.get("criteria") or {}
+    parts = []
     if ds:
         fig = F.fig_bars(
             [str(x.get("id")) for x in ds],
@@ -905,14 +917,7 @@ def learn_document(doc: Mapping[str, Any], *, source: str | None = None) -> dict
                 "the learning data (the learn JSON holds no measured curves).",
             )
         )
-    sections.append({"id": "results", "heading": "Results", "parts": parts})
-    return {
-        "title": "terracone report: learning from cone and plate tests",
-        **_synthetic(doc),
-        "subtitle": f"terrain {doc.get('terrain', '?')}",
-        "meta": {"results": source, "command": "learn"},
-        "sections": sections,
-    }
+    return parts
 
 
 # ---------------------------------------------------------------------------
@@ -980,12 +985,7 @@ def batch_document(directory: str | Path, *, map_by: str = "n") -> dict[str, Any
 
     d = Path(directory)
     parts_files = sorted(d.glob("part-*.parquet"))
-    summary: dict[str, Any] = {}
-    if (d / "_summary.json").exists():
-        try:
-            summary = json.loads((d / "_summary.json").read_text())
-        except (OSError, json.JSONDecodeError):
-            summary = {}
+    summary = _batch_summary(d)
     frames = [pd.read_parquet(f) for f in parts_files]
     df = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
     units = _units_of(summary)
@@ -1012,21 +1012,7 @@ def batch_document(directory: str | Path, *, map_by: str = "n") -> dict[str, Any
         parts.append(kv_part(_settings_pairs(summary)))
     sections.append({"id": "inputs", "heading": "Inputs and settings", "parts": parts})
 
-    rows = []
-    for _, r in df.iterrows():
-        row = {"id": r.get("profile", r.get("id"))}
-        if r.get("status", "ok") == "ok" and r.get("n") is not None and np.isfinite(r.get("n")):
-            p = _si_params(
-                {k: _nan_none(r.get(k)) for k in ("kc", "kphi", "n", "cc", "phic_deg")}
-                | {"units": units},
-                units,
-            )
-            if p:
-                row.update({k: p[k] for k in ("kc", "kphi", "n", "cc", "phic_deg")})
-        rm = _nan_none(r.get("rmsd"))
-        row["rmsd"] = None if rm is None else float(u.pressure_to_si(rm, units))
-        row["r2_ci"] = _nan_none(r.get("r2_ci"))
-        rows.append(row)
+    rows = [_batch_row(r, units) for _, r in df.iterrows()]
     tab = parameters_table(
         [x for x in rows if x.get("n") is not None],
         key="parameters",
@@ -1049,42 +1035,70 @@ def batch_document(directory: str | Path, *, map_by: str = "n") -> dict[str, Any
             )
     sections.append({"id": "parameters", "heading": "Parameters", "parts": tparts})
     if n_total and "undetermined" in df:
-        ident_rows = []
-        for _, r in df.head(200).iterrows():
-            und = r.get("undetermined")
-            und = [x for x in str(und).split(";") if x] if isinstance(und, str) else []
-            lo, hi = _nan_none(r.get("phic_lo")), _nan_none(r.get("phic_hi"))
-            nlo, nhi = _nan_none(r.get("n_lo")), _nan_none(r.get("n_hi"))
-            ident_rows.append(
-                {
-                    "id": r.get("profile", r.get("id")),
-                    "status": r.get("status", "ok"),
-                    "undetermined": und,
-                    "phic_range_deg": None if lo is None or hi is None else [lo, hi],
-                    "intervals": {} if nlo is None or nhi is None else {"n": [nlo, nhi]},
-                }
-            )
-        fixed = ("phic", "cc") if (summary.get("settings") or {}).get("calibration") else ()
-        ident = identifiability_table(
-            ident_rows,
-            key="identifiability",
-            title="What each CI profile determines (first 200 profiles)",
-            fixed=fixed,
-            assessed=("n", "phic"),
-            notes=[
-                "From the batch output's undetermined, phic_lo/hi and n_lo/hi columns; the "
-                "batch profiles only n and phic."
-            ],
-        )
-        sections.append(
-            {"id": "identifiability", "heading": "Identifiability", "parts": [table_part(ident)]}
-        )
+        sections.append(_batch_identifiability(df, summary))
     return {
         "title": "terracone report: batch prediction",
         "subtitle": f"{n_total} profiles in {len(parts_files)} part file(s)",
         "meta": {"results": str(d), "command": "batch"},
         "sections": sections,
     }
+
+
+def _batch_summary(directory: Path) -> dict[str, Any]:
+    """``_summary.json`` of a batch directory; empty when missing or unreadable."""
+    try:
+        return json.loads((directory / "_summary.json").read_text())
+    except (OSError, json.JSONDecodeError):
+        return {}
+
+
+def _batch_row(r: Any, units: str) -> dict[str, Any]:
+    """One output row of a batch as a parameters-table record (SI)."""
+    row = {"id": r.get("profile", r.get("id"))}
+    if r.get("status", "ok") == "ok" and r.get("n") is not None and np.isfinite(r.get("n")):
+        p = _si_params(
+            {k: _nan_none(r.get(k)) for k in ("kc", "kphi", "n", "cc", "phic_deg")}
+            | {"units": units},
+            units,
+        )
+        if p:
+            row.update({k: p[k] for k in ("kc", "kphi", "n", "cc", "phic_deg")})
+    rm = _nan_none(r.get("rmsd"))
+    row["rmsd"] = None if rm is None else float(u.pressure_to_si(rm, units))
+    row["r2_ci"] = _nan_none(r.get("r2_ci"))
+    return row
+
+
+def _batch_identifiability(df: Any, summary: Mapping[str, Any]) -> dict[str, Any]:
+    """The identifiability section of a batch report (first 200 profiles)."""
+    ident_rows = []
+    for _, r in df.head(200).iterrows():
+        und = r.get("undetermined")
+        und = [x for x in str(und).split(";") if x] if isinstance(und, str) else []
+        lo, hi = _nan_none(r.get("phic_lo")), _nan_none(r.get("phic_hi"))
+        nlo, nhi = _nan_none(r.get("n_lo")), _nan_none(r.get("n_hi"))
+        ident_rows.append(
+            {
+                "id": r.get("profile", r.get("id")),
+                "status": r.get("status", "ok"),
+                "undetermined": und,
+                "phic_range_deg": None if lo is None or hi is None else [lo, hi],
+                "intervals": {} if nlo is None or nhi is None else {"n": [nlo, nhi]},
+            }
+        )
+    fixed = ("phic", "cc") if (summary.get("settings") or {}).get("calibration") else ()
+    ident = identifiability_table(
+        ident_rows,
+        key="identifiability",
+        title="What each CI profile determines (first 200 profiles)",
+        fixed=fixed,
+        assessed=("n", "phic"),
+        notes=[
+            "From the batch output's undetermined, phic_lo/hi and n_lo/hi columns; the "
+            "batch profiles only n and phic."
+        ],
+    )
+    return {"id": "identifiability", "heading": "Identifiability", "parts": [table_part(ident)]}
 
 
 def _nan_none(v: Any) -> Any:
