@@ -428,10 +428,9 @@ def posterior(
     correlation : "estimate", "sample", "none" or float
         AR(1) coefficient of the noise at the median spacing [-]: plug-in
         estimate, sampled (uniform on [0, 0.95]), 0, or the value given.
-    noise_model : {"relative", "absolute"}
-    noise_floor : float
-        Floor of the relative model, a fraction of the largest model CI [-]
-        (:mod:`terracone.inverse.noise`).
+    noise_model, noise_floor
+        "relative" or "absolute"; floor of the relative model, a fraction of
+        the largest model CI [-] (:mod:`terracone.inverse.noise`).
     Kc : float, optional
         Cone-terrain shear deformation parameter [m]; None: fully mobilised.
     draws : int
@@ -481,22 +480,7 @@ def posterior(
     sink = np.asarray(DEFAULT_SINKAGES if plate_sinkages is None else plate_sinkages, float)
     bands = plate_bands(samples, radii, sink, law=st.law, level=level)
     diag.time_s, diag.cpu_s = time.perf_counter() - t0, time.process_time() - c0
-    return PosteriorResult(
-        id=profile.id,
-        samples=samples,
-        **summary,
-        plate_bands=bands,
-        noise=noise_out,
-        diagnostics=diag,
-        prior=st.prior.describe(),
-        model=st.model,
-        r_min=st.r_min,
-        Kc=Kc,
-        level=level,
-        best_fit=st.start,
-        notes=st.notes,
-        prior_samples=st.prior_draws[:2000],
-    )
+    return _result(profile, st, samples, summary, bands, noise_out, diag, level)
 
 
 @dataclass
@@ -506,6 +490,7 @@ class _Setup:
     model: str
     r_min: float | None
     plate_pair: tuple[float, float] | None
+    Kc: float | None
     law: PressureLaw
     start: TerrainParameters
     noise: NoiseSetup
@@ -517,6 +502,35 @@ class _Setup:
     prior_draws: np.ndarray
     rng: np.random.Generator
     notes: list[str]
+
+
+def _result(
+    profile: CIProfile,
+    st: _Setup,
+    samples: np.ndarray,
+    summary: dict[str, dict],
+    bands: list[PlateBand],
+    noise_out: NoiseModel,
+    diag: SamplerDiagnostics,
+    level: float,
+) -> PosteriorResult:
+    """The :class:`PosteriorResult` of a run of :func:`posterior`."""
+    return PosteriorResult(
+        id=profile.id,
+        samples=samples,
+        **summary,
+        plate_bands=bands,
+        noise=noise_out,
+        diagnostics=diag,
+        prior=st.prior.describe(),
+        model=st.model,
+        r_min=st.r_min,
+        Kc=st.Kc,
+        level=level,
+        best_fit=st.start,
+        notes=st.notes,
+        prior_samples=st.prior_draws[:2000],
+    )
 
 
 def _prepare(
@@ -574,20 +588,21 @@ def _prepare(
     target = LogPosterior(coords, pri, lik, na["noise"], ns.rho_sampled, ns.rho)
     prior_draws = pri.sample(rng, _N_PRIOR_DRAWS)
     return _Setup(
-        model,
-        r_min,
-        plate_pair,
-        law,
-        p0,
-        ns,
-        pri,
-        lik,
-        x0,
-        coords,
-        target,
-        prior_draws,
-        rng,
-        list(ns.notes),
+        model=model,
+        r_min=r_min,
+        plate_pair=plate_pair,
+        Kc=Kc,
+        law=law,
+        start=p0,
+        noise=ns,
+        prior=pri,
+        lik=lik,
+        x0=x0,
+        coords=coords,
+        target=target,
+        prior_draws=prior_draws,
+        rng=rng,
+        notes=list(ns.notes),
     )
 
 
