@@ -3,7 +3,7 @@
 The posterior of the prediction process moved when the forward models and
 the fits were put apart:
 
-* :mod:`terracone.inverse.posterior`: :func:`posterior`,
+* :mod:`terracone.inverse.uncertainty`: :func:`posterior`,
   :func:`posterior_for_result`, :class:`PosteriorResult`, the plate bands and
   the identifiability labels;
 * :mod:`terracone.inverse.noise`: the CI error model (weights, AR(1));
@@ -34,7 +34,9 @@ from .inverse.noise import (
     ar1_noise,
     estimate_correlation,
 )
-from .inverse.posterior import (
+from .inverse.priors import PARAM_NAMES, CalibrationPrior
+from .inverse.sampler import integrated_time
+from .inverse.uncertainty import (
     DEFAULT_PLATES,
     DEFAULT_SINKAGES,
     DETERMINED_BELOW,
@@ -48,8 +50,6 @@ from .inverse.posterior import (
     posterior,
     posterior_for_result,
 )
-from .inverse.priors import PARAM_NAMES, CalibrationPrior
-from .inverse.sampler import integrated_time
 
 __all__ = [
     "PARAM_NAMES",

@@ -36,17 +36,17 @@ MOVES = {
 #: Every public name terracone.uncertainty defined before the move, and its new home.
 UNCERTAINTY = {
     "PARAM_NAMES": "priors",
-    "LABELS": "posterior",
-    "DETERMINED_BELOW": "posterior",
-    "WEAKLY_BELOW": "posterior",
-    "DEFAULT_PLATES": "posterior",
-    "DEFAULT_SINKAGES": "posterior",
+    "LABELS": "uncertainty",
+    "DETERMINED_BELOW": "uncertainty",
+    "WEAKLY_BELOW": "uncertainty",
+    "DEFAULT_PLATES": "uncertainty",
+    "DEFAULT_SINKAGES": "uncertainty",
     "RHO_MAX": "noise",
-    "identifiability_label": "posterior",
-    "PlateBand": "posterior",
+    "identifiability_label": "uncertainty",
+    "PlateBand": "uncertainty",
     "NoiseModel": "noise",
-    "SamplerDiagnostics": "posterior",
-    "PosteriorResult": "posterior",
+    "SamplerDiagnostics": "uncertainty",
+    "PosteriorResult": "uncertainty",
     "CalibrationPrior": "priors",
     "ar1_coefficients": "noise",
     "ar1_noise": "noise",
@@ -54,16 +54,16 @@ UNCERTAINTY = {
     "spline_sse": "likelihood",
     "spline_sse_compiled": "likelihood",
     "Likelihood": "likelihood",
-    "posterior": "posterior",
+    "posterior": "uncertainty",
     "integrated_time": "sampler",
-    "plate_bands": "posterior",
-    "posterior_for_result": "posterior",
+    "plate_bands": "uncertainty",
+    "posterior_for_result": "uncertainty",
     "LayeredPosterior": "layered",
     "layered_posterior": "layered",
 }
 
 #: Modules this move wrote; the aliases are the four old modules.
-MOVED = ["layered", "plates", "shear", "posterior", "noise", "priors", "likelihood", "sampler"]
+MOVED = ["layered", "plates", "shear", "uncertainty", "noise", "priors", "likelihood", "sampler"]
 OWNED = [PKG / "inverse" / f"{m}.py" for m in MOVED] + [PKG / "layers.py", PKG / "shear.py"]
 ALIASES = {"terracone.layers", "terracone.shear", "terracone.bevameter", "terracone.uncertainty"}
 
@@ -87,8 +87,7 @@ def test_uncertainty_keeps_every_public_name():
 
 
 def test_inverse_exports_the_fits():
-    # import_module: the attribute terracone.inverse.posterior is the function (as for predict)
-    for home in ("layered", "plates", "posterior", "shear"):
+    for home in ("layered", "plates", "uncertainty", "shear"):
         mod = importlib.import_module(f"terracone.inverse.{home}")
         for name in mod.__all__:
             if name in inverse.__all__:

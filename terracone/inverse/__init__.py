@@ -6,22 +6,42 @@
 * :func:`evaluate` compares predicted and measured plate pressure-sinkage
   curves (Tables 4-2 and 4-4);
 * :func:`posterior` samples the posterior of one profile's parameters
-  (:mod:`.posterior`, with :mod:`.noise`, :mod:`.priors`, :mod:`.likelihood`,
+  (:mod:`.uncertainty`, with :mod:`.noise`, :mod:`.priors`, :mod:`.likelihood`,
   :mod:`.sampler`);
 * :func:`fit_layered` and :func:`layered_posterior` fit a layered terrain
   (:mod:`.layered`; the forward model is :mod:`terracone.layers`);
 * :func:`fit_plates` / :func:`fit_plate_test` fit bevameter plate tests
   (:mod:`.plates`) and :func:`fit_shear` / :func:`fit_shear_test` shear tests
   (:mod:`.shear`).
+
+The fits are loaded on first use of their name (emcee and scipy.stats are
+not needed to predict), so ``import terracone.inverse`` stays as light as it was.
 """
 
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
 from .bounds import Bounds
-from .layered import LayeredPosterior, LayeredResult, fit_layered, layered_posterior
-from .plates import PlateFit, PlatesFit, fit_plate_test, fit_plates
-from .posterior import PosteriorResult, posterior, posterior_for_result
 from .predict import PredictionResult, PredictionResults, predict, predict_many
 from .pso import PSOResult, pso
-from .shear import ShearFit, ShearTestFit, fit_shear, fit_shear_test
+
+if TYPE_CHECKING:  # loaded on first use, see __getattr__
+    from .layered import LayeredPosterior, LayeredResult, fit_layered, layered_posterior
+    from .plates import PlateFit, PlatesFit, fit_plate_test, fit_plates
+    from .shear import ShearFit, ShearTestFit, fit_shear, fit_shear_test
+    from .uncertainty import PosteriorResult, posterior, posterior_for_result
+
+#: Names exported from submodules loaded on first use, and their submodule.
+LAZY = {
+    **dict.fromkeys(
+        ["LayeredPosterior", "LayeredResult", "fit_layered", "layered_posterior"], "layered"
+    ),
+    **dict.fromkeys(["PlateFit", "PlatesFit", "fit_plate_test", "fit_plates"], "plates"),
+    **dict.fromkeys(["ShearFit", "ShearTestFit", "fit_shear", "fit_shear_test"], "shear"),
+    **dict.fromkeys(["PosteriorResult", "posterior", "posterior_for_result"], "uncertainty"),
+}
 
 __all__ = [
     "Bounds",
@@ -48,3 +68,16 @@ __all__ = [
     "posterior",
     "posterior_for_result",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """The fits of :data:`LAZY`, imported from their submodule on first use."""
+    if name in LAZY:
+        value = getattr(import_module(f".{LAZY[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(LAZY))

@@ -44,7 +44,7 @@ from ..metrics import check_fit
 from ..plate import PressureLaw, pressure_law
 from .bounds import Bounds
 from .exact import design, solve_exact
-from .posterior import LABELS, identifiability_label
+from .uncertainty import LABELS, identifiability_label
 
 __all__ = ["LayeredPosterior", "LayeredResult", "fit_layered", "layered_posterior"]
 

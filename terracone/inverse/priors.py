@@ -12,7 +12,7 @@
   uniform within its bounds (the profile, not the calibration, sets n).
   A calibration with kc = 0 fixes kc = 0.
 
-Part of the posterior of :mod:`terracone.inverse.posterior`; before the forward
+Part of the posterior of :mod:`terracone.inverse.uncertainty`; before the forward
 and inverse modules were put apart (issue 13) it was in ``terracone.uncertainty``,
 which still re-exports every public name.
 

@@ -19,7 +19,7 @@ ones, and the interval ends move by about 1% of the interval's width
 against a 20000-draw run.  Acceptance fraction and autocorrelation times
 are reported, not enforced.
 
-Part of the posterior of :mod:`terracone.inverse.posterior`; before the forward
+Part of the posterior of :mod:`terracone.inverse.uncertainty`; before the forward
 and inverse modules were put apart (issue 13) it was in ``terracone.uncertainty``,
 which still re-exports every public name.
 
