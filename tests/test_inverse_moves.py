@@ -133,9 +133,13 @@ def test_moved_modules_do_not_use_the_old_paths(path):
 def test_moved_modules_are_short(path):
     text = path.read_text()
     assert len(text.splitlines()) < 900
-    for node in ast.walk(ast.parse(text)):
+    tree = ast.parse(text)
+    for node in ast.walk(tree):
         if isinstance(node, ast.FunctionDef):
             assert node.end_lineno - node.lineno < 100, f"{path.name}: {node.name}"
+    # a move is a cut, not a copy: every top-level function and class is defined once
+    defs = [n.name for n in tree.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))]
+    assert sorted(defs) == sorted(set(defs)), path.name
 
 
 def test_whiten_ar1_is_the_inverse_cholesky_factor():

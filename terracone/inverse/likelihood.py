@@ -8,15 +8,14 @@ squares of all walkers is one compiled kernel (:func:`spline_sse_compiled`,
 numba; its numpy twin :func:`spline_sse` is the tested reference and is used
 when TERRACONE_NUMBA=0).
 
-Part of the posterior of :mod:`terracone.inverse.uncertainty`; before the forward
-and inverse modules were put apart (issue 13) it was in ``terracone.uncertainty``,
-which still re-exports every public name.
+The likelihood of :func:`terracone.inverse.uncertainty.posterior` (formerly in
+``terracone.uncertainty``).
 
 References
 ----------
 .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
    terrain parameters for physics-based vehicle mobility models from cone
-   index data. Sections 2 and 3.
+   index data. Eqs. (2-6), (2-7).
 """
 
 from __future__ import annotations

@@ -30,9 +30,7 @@ The CI error at depth z_i is Gaussian with standard deviation
   ``noise`` fixes it.  Draws of sigma are reported from its conditional
   posterior ``sigma^2 | theta ~ Q / chi^2_N``.
 
-Part of the posterior of :mod:`terracone.inverse.uncertainty`; before the forward
-and inverse modules were put apart (issue 13) it was in ``terracone.uncertainty``,
-which still re-exports every public name.
+A part of :mod:`terracone.inverse.uncertainty` (until issue 13, of ``terracone.uncertainty``).
 
 References
 ----------

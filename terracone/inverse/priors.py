@@ -12,15 +12,13 @@
   uniform within its bounds (the profile, not the calibration, sets n).
   A calibration with kc = 0 fixes kc = 0.
 
-Part of the posterior of :mod:`terracone.inverse.uncertainty`; before the forward
-and inverse modules were put apart (issue 13) it was in ``terracone.uncertainty``,
-which still re-exports every public name.
+Used by :func:`terracone.inverse.uncertainty.posterior`; ``terracone.uncertainty`` re-exports it.
 
 References
 ----------
 .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
    terrain parameters for physics-based vehicle mobility models from cone
-   index data. Sections 2 and 3.
+   index data. Section 3.3.1 and Table 4-1.
 """
 
 from __future__ import annotations

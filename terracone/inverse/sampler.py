@@ -19,15 +19,14 @@ ones, and the interval ends move by about 1% of the interval's width
 against a 20000-draw run.  Acceptance fraction and autocorrelation times
 are reported, not enforced.
 
-Part of the posterior of :mod:`terracone.inverse.uncertainty`; before the forward
-and inverse modules were put apart (issue 13) it was in ``terracone.uncertainty``,
-which still re-exports every public name.
+The sampler of :func:`terracone.inverse.uncertainty.posterior`, moved from
+``terracone.uncertainty``.
 
 References
 ----------
 .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
    terrain parameters for physics-based vehicle mobility models from cone
-   index data. Sections 2 and 3.
+   index data. Section 2 (the phic ridge, eqs. (2-6), (2-7)).
 .. [2] Foreman-Mackey, D., Hogg, D.W., Lang, D., Goodman, J. (2013). emcee:
    the MCMC hammer. PASP 125, 306-312.
 .. [3] Goodman, J., Weare, J. (2010). Ensemble samplers with affine

@@ -1,15 +1,9 @@
 """Terrain internal shear: Janosi-Hanamoto fits of shear tests (the inverse side).
 
-The shear stress-displacement relationship of the terrain is described by the
-Janosi-Hanamoto equation [1]_ (the form used on the cone-metal interface in
-eq. (2-4) of [2]_; here it is the *internal* shear of the terrain measured
-with a shear ring or shear plate, not the cone-metal cc, phic):
-
-.. math:: \\tau = (c + \\sigma \\tan\\phi)(1 - e^{-j/K}) = \\tau_{max} (1 - e^{-j/K})
-
-with tau the shear stress [kPa], sigma the normal pressure [kPa], j the shear
-displacement [m], c the cohesion [kPa], phi the angle of internal friction
-and K the shear deformation modulus [m].
+The terrain's internal shear follows the Janosi-Hanamoto curve [1]_
+``tau = (c + sigma tan(phi)) (1 - exp(-j/K))`` (:func:`terracone.shear.janosi_hanamoto`,
+the forward model; the form of eq. (2-4) of [2]_, but for the terrain's own
+shear measured with a shear ring or plate, not the cone-metal cc, phic).
 
 :func:`fit_shear` works in two stages:
 
@@ -34,9 +28,7 @@ With a single normal pressure c and phi cannot be separated: they are None
 and listed in ``undetermined``; tau_max and K per test and the common K are
 still given.
 
-The curve itself, :func:`terracone.shear.janosi_hanamoto`, is forward physics
-and stays in :mod:`terracone.shear`, which re-exports these fits under their
-old import path.
+:mod:`terracone.shear` re-exports these fits under their old import path.
 
 References
 ----------
