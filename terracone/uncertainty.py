@@ -25,8 +25,10 @@ References
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 from .inverse.layered import LayeredPosterior, layered_posterior
-from .inverse.likelihood import Likelihood, spline_sse, spline_sse_compiled
+from .inverse.likelihood import Likelihood, spline_sse
 from .inverse.noise import (
     RHO_MAX,
     NoiseModel,
@@ -36,6 +38,9 @@ from .inverse.noise import (
 )
 from .inverse.priors import PARAM_NAMES, CalibrationPrior
 from .inverse.sampler import integrated_time
+
+if TYPE_CHECKING:
+    from .inverse.likelihood import spline_sse_compiled
 from .inverse.uncertainty import (
     DEFAULT_PLATES,
     DEFAULT_SINKAGES,
@@ -78,3 +83,16 @@ __all__ = [
     "spline_sse",
     "spline_sse_compiled",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """``spline_sse_compiled``, read from :mod:`terracone.inverse.likelihood` at each access.
+
+    Its lazy numba kernel replaces itself there by the compiled dispatcher on
+    first use; reading it through this alias then gives that same object.
+    """
+    if name == "spline_sse_compiled":
+        from .inverse import likelihood
+
+        return likelihood.spline_sse_compiled
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
