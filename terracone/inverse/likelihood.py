@@ -52,8 +52,8 @@ def spline_sse(
     """Whitened sum of squares of parameter rows against tabulated basis columns (numpy).
 
     The reference implementation of :func:`spline_sse_compiled` (the
-    log-likelihood kernel of :func:`posterior`).  The model CI of eq. (2-7)
-    is ``s (kc A + kphi B) + cc C`` with ``s = 1 + tan(phic)/t`` (fully
+    log-likelihood kernel of :func:`~terracone.inverse.uncertainty.posterior`).
+    The model CI of eq. (2-7) is ``s (kc A + kphi B) + cc C`` with ``s = 1 + tan(phic)/t`` (fully
     mobilised shear, eq. (2-6); K = 3 columns) or ``kc (A_p + tan(phic)
     A_s) + kphi (B_p + tan(phic) B_s) + cc C`` (finite Kc; K = 5), with
     every column already divided by the noise weights and whitened, and
@@ -117,7 +117,7 @@ def spline_sse_compiled(coef, n0, h, wy, params, t, rho, dzr):  # pragma: no cov
     """:func:`spline_sse` compiled with numba (one pass per row, no temporaries).
 
     Agrees with :func:`spline_sse` to rounding (tests: 1e-12 relative).
-    With TERRACONE_NUMBA=0 this is plain Python; :func:`posterior` then
+    With TERRACONE_NUMBA=0 this is plain Python; the posterior then
     calls :func:`spline_sse` instead.
     """
     P = params.shape[0]

@@ -187,7 +187,7 @@ def ar1_noise(
     spacing: float | None = None,
     size: int | None = None,
 ) -> np.ndarray:
-    """Standard-normal AR(1) noise along depth, the correlation model of :func:`posterior`.
+    """Standard-normal AR(1) noise along depth, the correlation model of the posterior.
 
     Parameters
     ----------
@@ -219,7 +219,24 @@ def ar1_noise(
 
 
 def whiten_ar1(v: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """Whitening of AR(1) along the last axis: u_1 = v_1, u_i = (v_i - phi v_{i-1})/sqrt(1-phi^2)."""
+    """Whiten AR(1) series along the last axis (the inverse of its Cholesky factor).
+
+    ``u_1 = v_1``, ``u_i = (v_i - phi_i v_(i-1)) / sqrt(1 - phi_i^2)``: AR(1)
+    noise of unit variance with lag-1 coefficients ``phi`` becomes white noise
+    of unit variance.
+
+    Parameters
+    ----------
+    v : ndarray, shape (..., N)
+        Series along the last axis (residuals, or basis columns).
+    phi : ndarray, shape (N - 1,)
+        Lag-1 coefficients between neighbours (:func:`ar1_coefficients`) [-].
+
+    Returns
+    -------
+    ndarray, shape (..., N)
+        A new array (also when ``phi`` is all zero).
+    """
     if not np.any(phi):
         return np.array(v, dtype=float, copy=True)
     out = np.empty(np.shape(v))
