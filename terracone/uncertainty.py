@@ -14,7 +14,11 @@ the fits were put apart:
 
 This module re-exports every public name it defined before, so that
 ``from terracone.uncertainty import posterior`` keeps working; they are the
-same objects.  New code should import from :mod:`terracone.inverse`.
+same objects.  ``JIT_ENABLED`` (the switch between the compiled likelihood
+kernel and its numpy twin) and ``spline_sse_compiled`` are read from, and
+``JIT_ENABLED`` is written to, :mod:`terracone.inverse.likelihood`, so
+``terracone.uncertainty.JIT_ENABLED = False`` still selects the numpy kernel.
+New code should import from :mod:`terracone.inverse`.
 
 References
 ----------
@@ -25,8 +29,11 @@ References
 
 from __future__ import annotations
 
+import sys
+import types
 from typing import TYPE_CHECKING, Any
 
+from .inverse import likelihood
 from .inverse.layered import LayeredPosterior, layered_posterior
 from .inverse.likelihood import Likelihood, spline_sse
 from .inverse.noise import (
@@ -38,9 +45,6 @@ from .inverse.noise import (
 )
 from .inverse.priors import PARAM_NAMES, CalibrationPrior
 from .inverse.sampler import integrated_time
-
-if TYPE_CHECKING:
-    from .inverse.likelihood import spline_sse_compiled
 from .inverse.uncertainty import (
     DEFAULT_PLATES,
     DEFAULT_SINKAGES,
@@ -55,6 +59,9 @@ from .inverse.uncertainty import (
     posterior,
     posterior_for_result,
 )
+
+if TYPE_CHECKING:  # read from the likelihood module at each access, see __getattr__
+    from .inverse.likelihood import spline_sse_compiled
 
 __all__ = [
     "PARAM_NAMES",
@@ -85,14 +92,29 @@ __all__ = [
 ]
 
 
+#: Names read from and written to :mod:`terracone.inverse.likelihood` at each access.
+FORWARDED = ("JIT_ENABLED", "spline_sse_compiled")
+
+
 def __getattr__(name: str) -> Any:
-    """``spline_sse_compiled``, read from :mod:`terracone.inverse.likelihood` at each access.
+    """``JIT_ENABLED`` and ``spline_sse_compiled``, from :mod:`terracone.inverse.likelihood`.
 
-    Its lazy numba kernel replaces itself there by the compiled dispatcher on
-    first use; reading it through this alias then gives that same object.
+    The lazy numba kernel replaces itself there by its dispatcher on first
+    use; reading it through this alias then gives that same object.
     """
-    if name == "spline_sse_compiled":
-        from .inverse import likelihood
-
-        return likelihood.spline_sse_compiled
+    if name in FORWARDED:
+        return getattr(likelihood, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+class _AliasModule(types.ModuleType):
+    """This module's type: assignments to :data:`FORWARDED` names go to the likelihood module."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name in FORWARDED:
+            setattr(likelihood, name, value)
+        else:
+            super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _AliasModule

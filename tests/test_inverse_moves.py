@@ -86,6 +86,30 @@ def test_uncertainty_keeps_every_public_name():
     assert set(unc.__all__) == set(UNCERTAINTY)
 
 
+def test_uncertainty_jit_switch_reaches_the_likelihood(monkeypatch):
+    """``terracone.uncertainty.JIT_ENABLED = False`` (benchmarks/uncertainty.py) still switches."""
+    unc = importlib.import_module("terracone.uncertainty")
+    from terracone.inverse import likelihood
+
+    assert unc.JIT_ENABLED is likelihood.JIT_ENABLED
+    monkeypatch.setattr(unc, "JIT_ENABLED", False)
+    assert likelihood.JIT_ENABLED is False and unc.JIT_ENABLED is False
+    calls = []
+    monkeypatch.setattr(likelihood, "spline_sse", lambda *a: calls.append(a) or np.zeros(1))
+    lik = likelihood.Likelihood(
+        np.array([0.0, 0.01, 0.02]),
+        np.array([100.0, 200.0, 300.0]),
+        cone=terracone.get_cone("asabe-large"),
+        law=terracone.plate.pressure_law("rm0"),
+        Kc=None,
+        n_range=(0.5, 0.5),
+        weights=np.ones(3),
+        phi=np.zeros(2),
+    )
+    lik.sse(np.array([[1.0, 1.0, 0.5, 0.0, 0.0]]))
+    assert len(calls) == 1
+
+
 def test_inverse_exports_the_fits():
     for home in ("layered", "plates", "uncertainty", "shear"):
         mod = importlib.import_module(f"terracone.inverse.{home}")

@@ -26,8 +26,8 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .. import jit
 from ..cone import Cone, cone_index_basis
+from ..jit import ENABLED as JIT_ENABLED
 from ..jit import njit
 from ..plate import PressureLaw
 from .noise import whiten_ar1
@@ -288,7 +288,7 @@ class Likelihood:
         """Whitened sum of squares Q of parameter rows (P, 5) (and rho (P,) if sampled)."""
         params = np.ascontiguousarray(params, dtype=float)
         r = np.zeros(0) if rho is None or not self.per_row else np.asarray(rho, dtype=float)
-        kernel = spline_sse_compiled if jit.ENABLED else spline_sse  # numba loads on first use
+        kernel = spline_sse_compiled if JIT_ENABLED else spline_sse
         return kernel(self.coef, self.n0, self.h, self.wy, params, self.t, r, self.dzr)
 
     def gram_half_logdet(self, free: Sequence[bool], phic_deg: float = 0.0) -> np.ndarray:
