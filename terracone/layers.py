@@ -17,10 +17,11 @@ depth from the surface, not from the layer top; the shear is fully
 mobilised.  It is a description of the CI curve, not a soil-mechanics model
 of the interface.
 
-Models with one and two (or more) layers are compared by the Bayesian
-information criterion BIC = N ln(SSE/N) + k ln N, with k = 4 per layer (kc,
-kphi, n, cc) plus one per interface (phic is not counted: it trades exactly
-with the scale of the k's).
+This module is the forward model.  The fit (:func:`fit_layered`,
+:class:`LayeredResult`, compared with the one-layer fit by BIC) lives in
+:mod:`terracone.inverse.layered`; it is re-exported here under its old names
+(a documented alias, resolved on first use so that the two modules do not
+import each other at load time).
 
 References
 ----------
@@ -32,19 +33,16 @@ References
 from __future__ import annotations
 
 import math
-import time
-from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.optimize import lsq_linear, minimize, nnls
 
-from . import units as u
 from .cone import Cone, check_depth, normal_integrals
-from .data import CIProfile, InputError, TerrainParameters
-from .inverse.bounds import Bounds
-from .metrics import check_fit
+from .data import TerrainParameters
 from .plate import PressureLaw, pressure_law
+
+if TYPE_CHECKING:  # the fit, for type checkers; at run time see __getattr__ below
+    from .inverse.layered import LayeredResult, fit_layered
 
 __all__ = ["layered_basis", "layered_cone_index", "LayeredResult", "fit_layered"]
 
@@ -114,7 +112,32 @@ def layered_cone_index(
     cone: Cone,
     law: PressureLaw | None = None,
 ) -> np.ndarray:
-    """CI [kPa] of a layered terrain (SI; phic taken from the first layer)."""
+    """CI [kPa] of a layered terrain (SI; phic taken from the first layer).
+
+    Parameters
+    ----------
+    depth : (Z,) array_like
+        Cone-base depths [m].
+    layers : list of TerrainParameters
+        Each layer's kc [kN/m^(n+1)], kphi [kN/m^(n+2)], n [-] and cc [kPa],
+        top first; phic [deg] of the first layer is common to all.
+    interfaces : list of float
+        Depths of the layer boundaries [m], increasing (one fewer than layers).
+    cone : Cone
+    law : PressureLaw, optional
+        RM0 (default) or RM1 (section 3.2).
+
+    Returns
+    -------
+    (Z,) ndarray
+        Cone index [kPa].
+
+    References
+    ----------
+    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+       terrain parameters for physics-based vehicle mobility models from cone
+       index data. Eqs. (2-5) to (2-7).
+    """
     X = layered_basis(
         depth,
         n=[p.n for p in layers],
@@ -124,353 +147,21 @@ def layered_cone_index(
         cone=cone,
     )
     x = np.concatenate([[p.kc, p.kphi, p.cc] for p in layers])
-    return X @ x
+    return X @ x  # eq. (2-7), layer by layer
 
 
-@dataclass
-class LayeredResult:
-    """Fit of a layered model to one profile (SI).
-
-    Attributes
-    ----------
-    layers : list of TerrainParameters
-        Parameters of each layer, top first.
-    interfaces : list of float
-        Depths of the layer boundaries [m].
-    rmsd : float
-        [kPa]
-    bic : float
-        Bayesian information criterion of this fit.
-    bic_single : float
-        BIC of the one-layer fit of the same data.
-    preferred_layers : int
-        Number of layers with the lower BIC.
-    r2_ci, longest_run, lack_of_fit
-        As in :class:`terracone.inverse.PredictionResult`.
-    phic_range : (float, float)
-        Interval of the common phic that fits equally well [deg].
-    """
-
-    id: str
-    status: str
-    error: str | None = None
-    layers: list[TerrainParameters] = field(default_factory=list)
-    interfaces: list[float] = field(default_factory=list)
-    rmsd: float = float("nan")
-    sse: float = float("nan")
-    bic: float = float("nan")
-    bic_single: float = float("nan")
-    preferred_layers: int = 1
-    r2_ci: float = float("nan")
-    longest_run: int = 0
-    lack_of_fit: str | None = None
-    phic_range: tuple[float, float] | None = None
-    depth: np.ndarray | None = None
-    ci: np.ndarray | None = None
-    ci_model: np.ndarray | None = None
-    ci_model_single: np.ndarray | None = None
-    time_s: float = 0.0
-    metadata: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def ok(self) -> bool:
-        return self.status == "ok"
-
-    def _repr_html_(self) -> str:
-        """A table of the layers (SI) and the BIC comparison, for Jupyter."""
-        from .report.notebook import layered_html
-
-        return layered_html(self)
-
-    def as_dict(self, units: str = "si", *, curves: bool = True) -> dict[str, Any]:
-        units = u.check_system(units)
-        d: dict[str, Any] = {"id": self.id, "status": self.status, "error": self.error}
-        if not self.ok:
-            return d
-        d.update(
-            {
-                "layers": [p.as_dict(units) for p in self.layers],
-                "interfaces": [float(v) for v in u.length_from_si(self.interfaces, units)],
-                "rmsd": float(u.pressure_from_si(self.rmsd, units)),
-                "r2_ci": self.r2_ci,
-                "longest_run": self.longest_run,
-                "lack_of_fit": self.lack_of_fit,
-                "bic": self.bic,
-                "bic_single": self.bic_single,
-                "preferred_layers": self.preferred_layers,
-                "phic_range_deg": list(self.phic_range) if self.phic_range else None,
-                "units": units,
-                "undetermined": ["phic", "phic~scale(kc,kphi)"],
-                "metadata": self.metadata,
-            }
-        )
-        if curves:
-            d["depth"] = [float(v) for v in u.length_from_si(self.depth, units)]
-            d["ci"] = [float(v) for v in u.pressure_from_si(self.ci, units)]
-            d["ci_model"] = [float(v) for v in u.pressure_from_si(self.ci_model, units)]
-        return d
+#: Names of :mod:`terracone.inverse.layered` that this module re-exports.
+MOVED_TO_INVERSE = ("LayeredResult", "fit_layered")
 
 
-def _bic(sse: float, N: int, k: int) -> float:
-    return N * math.log(max(sse, 1e-300) / N) + k * math.log(N)
+def __getattr__(name: str) -> Any:
+    """The layered fit, from :mod:`terracone.inverse.layered` (its home since issue 13)."""
+    if name in MOVED_TO_INVERSE:
+        from .inverse import layered
+
+        return getattr(layered, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def _box_lsq(
-    X: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray
-) -> tuple[np.ndarray, float]:
-    """min |Xx - y|^2 over lo <= x <= hi; NNLS fast path when lo = 0 and hi does not bind."""
-    scale = np.sqrt(np.sum(X * X, axis=0))
-    scale = np.where(scale > 0, scale, 1.0)
-    Xs = X / scale
-    if np.all(lo == 0):
-        xs, _ = nnls(Xs, y, maxiter=50 * X.shape[1])
-        x = xs / scale
-        if np.all(x <= hi * (1 + 1e-12)):
-            r = X @ x - y
-            return x, float(r @ r)
-    res = lsq_linear(Xs, y, bounds=(lo * scale, hi * scale), method="bvls")
-    x = res.x / scale
-    r = X @ x - y
-    return x, float(r @ r)
-
-
-def _layer_box(bounds: Bounds, ns: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Lower and upper bounds of (kc, kphi, cc) of every layer, in SI, for the n's ``ns``."""
-    lo, hi = [], []
-    for nj in ns:
-        klo, khi = bounds.kc_si(nj)
-        plo, phi_ = bounds.kphi_si(nj)
-        lo += [float(klo), float(plo), bounds.cc[0]]
-        hi += [float(khi), float(phi_), bounds.cc[1]]
-    return np.array(lo), np.array(hi)
-
-
-def _search_layers(
-    profile: CIProfile,
-    layers: int,
-    bounds: Bounds,
-    law: Any,
-    phi: float,
-    min_thick: float,
-    n_grid: int,
-    solve: Any,
-) -> tuple[np.ndarray, np.ndarray] | LayeredResult:
-    """Each layer's n and the interfaces of the best layered fit (two or more layers).
-
-    Two layers: a grid over (n_1, n_2) and the interface (midpoints between measured
-    depths), a bounded linear least squares per cell, then Nelder-Mead from the best
-    cell.  More layers: Nelder-Mead from six seeded random starts.  A profile too short
-    for the minimum thickness gives an error result.
-    """
-    z, y, cone = profile.depth, profile.ci, profile.cone
-    lo_d, hi_d = z[0] + min_thick, z[-1] - min_thick
-    cands = 0.5 * (z[1:] + z[:-1])
-    cands = cands[(cands >= lo_d) & (cands <= hi_d)]
-    if cands.size == 0:
-        return LayeredResult(
-            profile.id,
-            "error",
-            "profile too short for the minimum layer thickness",
-            metadata=dict(profile.metadata),
-        )
-    nlo, nhi = bounds.n
-    ng = np.linspace(nlo, nhi, n_grid)
-
-    def objective(v):
-        ns = np.clip(v[:layers], nlo, nhi)
-        D = np.sort(np.clip(v[layers:], lo_d, hi_d))
-        if np.any(np.diff(np.concatenate([[z[0]], D, [z[-1]]])) < min_thick * 0.5):
-            return np.inf
-        return solve(ns, D)[1]
-
-    starts = []
-    if layers == 2:
-        best = (np.inf, None)
-        # columns of the layer above and below each candidate interface, per n
-        cols = {
-            (i, k): layered_basis(z, n=[ni, ni], interfaces=[d], phic=phi, law=law, cone=cone)
-            for i, ni in enumerate(ng)
-            for k, d in enumerate(cands)
-        }
-        for k, d in enumerate(cands):
-            for i, n1 in enumerate(ng):
-                for j, n2 in enumerate(ng):
-                    X = np.concatenate([cols[i, k][:, :3], cols[j, k][:, 3:]], axis=1)
-                    lo, hi = _layer_box(bounds, [n1, n2])
-                    f = _box_lsq(X, y, lo, hi)[1]
-                    if f < best[0]:
-                        best = (f, np.array([n1, n2, d]))
-        starts.append(best[1])
-    else:
-        rng = np.random.default_rng(0)
-        for _ in range(6):
-            starts.append(
-                np.concatenate(
-                    [
-                        rng.uniform(0.3, 1.2, layers),
-                        np.sort(rng.uniform(lo_d, hi_d, layers - 1)),
-                    ]
-                )
-            )
-    best_v, best_f = None, np.inf
-    for v0 in starts:
-        f0 = objective(v0)
-        # tolerance relative to the SSE: an absolute one never fires on large SSE values
-        res = minimize(
-            objective,
-            v0,
-            method="Nelder-Mead",
-            options={"xatol": 1e-6, "fatol": 1e-10 * max(f0, 1e-300), "maxiter": 2000},
-        )
-        v, f = (res.x, res.fun) if res.fun <= f0 else (v0, f0)
-        if f < best_f:
-            best_v, best_f = v, f
-    return np.clip(best_v[:layers], nlo, nhi), np.sort(np.clip(best_v[layers:], lo_d, hi_d))
-
-
-def _phic_ridge_layers(
-    x: np.ndarray, ns_best: np.ndarray, bounds: Bounds, cone: Any
-) -> tuple[float, float, float, float]:
-    """The interval of phic that fits equally well over all layers, and its middle.
-
-    The fit is made at phic's upper bound; every layer's scaled kc and kphi must stay in
-    its box (the nested-box argument of :mod:`terracone.inverse.many`).  Returns
-    (phic_lo, phic_mid, s_hi, s_mid), s = 1 + tan(phic)/tan(alpha) (eqs. (2-6), (2-7)).
-    """
-    phi = bounds.phic[1]
-    # phic ridge over all layers: the scaled k's must fit every layer's box
-    tt = math.tan(cone.half_angle)
-    s_hi = 1.0 + math.tan(math.radians(phi)) / tt
-    need = 1.0 + math.tan(math.radians(bounds.phic[0])) / tt
-    for j, nj in enumerate(ns_best):
-        khi = float(bounds.kc_si(nj)[1])
-        phi_hi = float(bounds.kphi_si(nj)[1])
-        kc_p, kp_p = x[3 * j] * s_hi, x[3 * j + 1] * s_hi
-        if khi > 0:
-            need = max(need, kc_p / khi)
-        if phi_hi > 0:
-            need = max(need, kp_p / phi_hi)
-    ph_lo = float(np.clip(math.degrees(math.atan((need - 1.0) * tt)), bounds.phic[0], phi))
-    ph = 0.5 * (ph_lo + phi) if bounds.phic[0] != bounds.phic[1] else phi
-    s_mid = 1.0 + math.tan(math.radians(ph)) / tt
-    return ph_lo, ph, s_hi, s_mid
-
-
-def fit_layered(
-    profile: CIProfile,
-    *,
-    layers: int = 2,
-    model: str = "rm0",
-    r_min: float | None = None,
-    bounds: Bounds | None = None,
-    n_grid: int = 12,
-    min_thickness: float | None = None,
-) -> LayeredResult:
-    """Fit a model of ``layers`` layers (interfaces fitted) to one CI profile.
-
-    Parameters
-    ----------
-    profile : CIProfile
-    layers : int
-        Number of layers (1 gives the homogeneous model, for comparison).
-    model, r_min
-        Pressure law (section 3.2).
-    bounds : Bounds
-        Bounds of each layer's kc, kphi, n, cc, and of the common phic.
-    n_grid : int
-        Grid over each layer's n in the global stage (two layers).
-    min_thickness : float, optional
-        Smallest layer thickness [m]; default: two depth steps.
-
-    Notes
-    -----
-    Global stage for two layers: a grid over (n_1, n_2) and the interface
-    depth (midpoints between measured depths); for each cell a bounded
-    linear least squares in the six linear parameters.  Then Nelder-Mead
-    over the n's and interfaces from the best cell.  With more layers,
-    Nelder-Mead from several starts.  phic is put at the upper bound and
-    its equally good interval reported (the nested-box argument of
-    :mod:`terracone.inverse.many`, which needs zero lower bounds of kc and
-    kphi).
-    """
-    t0 = time.perf_counter()
-    bounds = bounds or Bounds()
-    try:
-        profile.validate(min_points=max(3, 4 * layers + layers))
-    except InputError as exc:
-        return LayeredResult(profile.id, "error", str(exc), metadata=dict(profile.metadata))
-    law = pressure_law(model, r_min=r_min)
-    cone = profile.cone
-    z, y = profile.depth, profile.ci
-    N = y.size
-    phi = bounds.phic[1]
-    step = float(np.median(np.diff(z)))
-    min_thick = min_thickness if min_thickness is not None else 2 * step
-
-    def solve(ns, D):
-        X = layered_basis(z, n=ns, interfaces=D, phic=phi, law=law, cone=cone)
-        lo, hi = _layer_box(bounds, ns)
-        return _box_lsq(X, y, lo, hi)
-
-    def single():
-        from .inverse.exact import solve_exact
-
-        sol = solve_exact(z, y, cone=cone, law=law, bounds=bounds, profiles=False)
-        return sol
-
-    s1 = single()
-    bic1 = _bic(s1.sse, N, 4)
-    if layers == 1:
-        ns_best, D_best = np.array([s1.n]), np.array([])
-        x, sse = solve(ns_best, D_best)
-    else:
-        found = _search_layers(profile, layers, bounds, law, phi, min_thick, n_grid, solve)
-        if isinstance(found, LayeredResult):
-            return found
-        ns_best, D_best = found
-        x, sse = solve(ns_best, D_best)
-
-    ph_lo, ph, s_hi, s_mid = _phic_ridge_layers(x, ns_best, bounds, cone)
-    params = [
-        TerrainParameters(
-            kc=float(x[3 * j] * s_hi / s_mid),
-            kphi=float(x[3 * j + 1] * s_hi / s_mid),
-            n=float(ns_best[j]),
-            cc=float(x[3 * j + 2]),
-            phic_deg=ph,
-            model=model,
-            r_min=r_min,
-        )
-        for j in range(len(ns_best))
-    ]
-    X = layered_basis(z, n=ns_best, interfaces=D_best, phic=phi, law=law, cone=cone)
-    m = X @ x
-    chk = check_fit(z, y, m, monotone_model=len(ns_best) == 1)
-    k = 4 * len(ns_best) + len(D_best)
-    bic = _bic(sse, N, k)
-    from .inverse.exact import design
-
-    m1 = design(z, np.array(s1.n), np.array(s1.phic_deg), cone=cone, law=law, Kc=None) @ np.array(
-        [s1.kc, s1.kphi, s1.cc]
-    )
-    return LayeredResult(
-        id=profile.id,
-        status="ok",
-        layers=params,
-        interfaces=[float(v) for v in D_best],
-        rmsd=math.sqrt(sse / N),
-        sse=sse,
-        bic=bic,
-        bic_single=bic1,
-        preferred_layers=len(ns_best) if bic < bic1 else 1,
-        r2_ci=chk.r2,
-        longest_run=chk.longest_run,
-        lack_of_fit=chk.lack_of_fit,
-        phic_range=(ph_lo, phi),
-        depth=z,
-        ci=y,
-        ci_model=m,
-        ci_model_single=m1,
-        time_s=time.perf_counter() - t0,
-        metadata=dict(profile.metadata),
-    )
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(MOVED_TO_INVERSE))
