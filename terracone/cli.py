@@ -801,7 +801,7 @@ def _store(library: str | None, name: str, kind: str, params: dict, provenance: 
 @click.option("--json", "as_json", is_flag=True)
 def fit_plates_cmd(plates_file, method, units, save_as, library, as_json):
     """Fit p = k z^n per plate test, and kc, kphi from k = kc/b + kphi (two or more sizes)."""
-    from .bevameter import fit_plates
+    from .inverse.plates import fit_plates
     from .io import read_plate_tests
 
     fit = fit_plates(read_plate_tests(plates_file), method=method)
@@ -833,8 +833,8 @@ def fit_plates_cmd(plates_file, method, units, save_as, library, as_json):
 @click.option("--json", "as_json", is_flag=True)
 def fit_shear_cmd(shear_file, units, save_as, library, as_json):
     """Fit Janosi-Hanamoto tau = (c + sigma tan phi)(1 - exp(-j/K)) to shear tests."""
+    from .inverse.shear import fit_shear
     from .io import read_shear_tests
-    from .shear import fit_shear
 
     fit = fit_shear(read_shear_tests(shear_file))
     if save_as:

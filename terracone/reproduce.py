@@ -39,7 +39,7 @@ every plate test (the cross table of Table 4-2).  KRC: learning per site
 (CI and the site's plates), prediction of the site's CI with the site's
 calibration (Table 4-3/4-4 analogues) and without; evaluation against the
 site's plates (Table 4-4).  Posterior plate bands come from
-:func:`terracone.uncertainty.posterior` when that module is available.
+:func:`terracone.inverse.uncertainty.posterior` when that module is available.
 
 Layout: each case study is one spec (its data generator, file names, and
 per report section the tables and figures with their keys, titles, notes
@@ -407,7 +407,7 @@ def _write_json(path: Path, obj: Any) -> Path:
 def _posterior(profile, result, cal, radii, seed, draws):
     """Posterior plate bands and identifiability, when terracone.uncertainty is there."""
     try:
-        from .uncertainty import posterior
+        from .inverse.uncertainty import posterior
     except ImportError as exc:  # pragma: no cover - module is optional here
         return None, f"posterior not computed ({exc})"
     try:

@@ -254,7 +254,7 @@ class PredictionResult:
         The profile's cone, its metadata, notes of the readers and the fit,
         its file, and further keys of the JSON document.
     posterior : PosteriorResult or None
-        Posterior of the fit (:func:`terracone.uncertainty.posterior_for_result`).
+        Posterior of the fit (:func:`terracone.inverse.uncertainty.posterior_for_result`).
     layered : LayeredResult or None
         Layered fit of the profile (:func:`terracone.layers.fit_layered`).
     layered_posterior : LayeredPosterior or None

@@ -243,7 +243,7 @@ def posterior_text(posts: Mapping[str, Any], units: str) -> str:
     posts : mapping
         Profile id -> posterior (anything with ``as_dict(units)`` giving
         ``intervals``, ``medians``, ``identifiability`` and ``plate_bands``),
-        as :class:`terracone.uncertainty.PosteriorResult`.
+        as :class:`terracone.inverse.uncertainty.PosteriorResult`.
     units : {"si", "us"}
         Units of the printed intervals and plate bands.
 
@@ -314,7 +314,7 @@ def plate_fit_text(d: Mapping[str, Any], units: str) -> str:
     Parameters
     ----------
     d : mapping
-        ``PlatesFit.as_dict(units)`` (:func:`terracone.bevameter.fit_plates`).
+        ``PlatesFit.as_dict(units)`` (:func:`terracone.inverse.plates.fit_plates`).
     units : {"si", "us"}
         The units ``d`` is in.
 

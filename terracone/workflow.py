@@ -3,7 +3,7 @@
 :func:`predict_profiles` chains the prediction process (section 3.3.2 of [1]_)
 over a set of CI profiles with what the command adds on request: predicted
 plate pressure-sinkage curves (eq. (2-2), RM1 of section 3.2), the posterior of
-each fit (:mod:`terracone.uncertainty`) and layered fits
+each fit (:mod:`terracone.inverse.uncertainty`) and layered fits
 (:mod:`terracone.layers`), attached to each
 :class:`~terracone.result.PredictionResult`.  The result, :class:`PredictRun`,
 writes the same JSON document as ``terracone predict --json``
@@ -107,7 +107,7 @@ class PredictRun:
 
     @property
     def posteriors(self) -> dict[str, Any]:
-        """Profile id to its :class:`terracone.uncertainty.PosteriorResult`."""
+        """Profile id to its :class:`terracone.inverse.uncertainty.PosteriorResult`."""
         return self._attached("posterior")
 
     @property
@@ -171,7 +171,7 @@ def predict_profiles(
     sinkage : ndarray, optional
         Sinkages [m] of the plate curves (default :func:`sinkage_grid`).
     uncertainty : bool
-        Sample each fit's posterior (:func:`terracone.uncertainty.posterior_for_result`).
+        Sample each fit's posterior (:func:`terracone.inverse.uncertainty.posterior_for_result`).
     prior : "bounds" or Calibration
         Prior of the posterior.
     draws : int
@@ -224,7 +224,7 @@ def predict_profiles(
 
 
 def _posterior(profile, result, prior, draws, seed, plates, band_sinkage, bounds, pair):
-    from .uncertainty import posterior_for_result
+    from .inverse.uncertainty import posterior_for_result
 
     return posterior_for_result(
         profile,
@@ -241,12 +241,12 @@ def _posterior(profile, result, prior, draws, seed, plates, band_sinkage, bounds
 
 def _layered(result, profile, layers, model, r_min, bounds, uncertainty, draws, seed) -> None:
     """Attach a layered fit (and its posterior) to ``result``."""
-    from .layers import fit_layered
+    from .inverse.layered import fit_layered
 
     lr = fit_layered(profile, layers=layers, model=model, r_min=r_min, bounds=bounds)
     result.layered = lr
     if uncertainty and lr.ok:
-        from .uncertainty import layered_posterior
+        from .inverse.layered import layered_posterior
 
         result.layered_posterior = layered_posterior(
             profile, lr, bounds=bounds, draws=draws, seed=seed

@@ -32,7 +32,7 @@ Candidates:
 Priors: ``"bounds"`` - uniform over the search box, approximated by its
 variance ``(hi - lo)^2 / 12`` per parameter; a calibration - phic and cc
 normal around the calibrated values and ln(kc/kphi) normal with the widths
-of :class:`terracone.uncertainty.CalibrationPrior` (kphi and n keep their
+of :class:`terracone.inverse.priors.CalibrationPrior` (kphi and n keep their
 uniform bounds).  Under the bounds prior the CI leaves a whole direction
 free (phic against a common scale of kc and kphi, section 2 of [2]_), so a
 plate test, which measures that scale, beats another CI push; the ranking
@@ -63,10 +63,11 @@ from .. import units as u
 from ..cone import improved
 from ..data import CIProfile
 from ..plate import pressure_law
-from ..uncertainty import CalibrationPrior, estimate_correlation
 from .bounds import Bounds
 from .evaluate import predicted_plate_pressure
+from .noise import estimate_correlation
 from .predict import predict
+from .priors import CalibrationPrior
 from .sites import NOISE_FLOOR, default_sinkages
 
 __all__ = ["CandidateResult", "DesignResult", "parse_candidates", "plan_test"]

@@ -25,7 +25,7 @@ Model
    ``G = J^T J``), with the CI error covariance ``S = sigma^2 W R W``:
    relative noise weights ``W`` (model CI with a 5% floor), the AR(1)
    correlation ``R`` along depth estimated from the residuals
-   (:func:`terracone.uncertainty.estimate_correlation`) and ``sigma`` from
+   (:func:`terracone.inverse.noise.estimate_correlation`) and ``sigma`` from
    the weighted residuals.  A lack of fit (layered soil) shows as large,
    correlated residuals and so as a large estimation variance: the misfit is
    carried into the site intervals, not hidden.  Parameters at a bound are
@@ -96,9 +96,9 @@ from ..cone import cone_index_basis
 from ..data import CIProfile, InputError, TerrainParameters
 from ..metrics import check_fit
 from ..plate import PressureLaw, plate_basis, pressure_law
-from ..uncertainty import estimate_correlation
 from .bounds import Bounds
 from .many import solve_exact_many
+from .noise import estimate_correlation
 from .randeff import random_effects
 
 __all__ = [
@@ -946,7 +946,7 @@ def site_correlation(
     noise to the centred weighted residuals of the *unweighted* least
     squares the solver solves (``J`` its Jacobian, ``W`` the noise weights,
     ``C`` the centring); the correction of
-    :func:`terracone.uncertainty.estimate_correlation` applied to the
+    :func:`terracone.inverse.noise.estimate_correlation` applied to the
     pooled statistic and to that estimator.
 
     Parameters
