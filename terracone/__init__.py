@@ -9,7 +9,15 @@ data".  Forward models live in :mod:`terracone.cone` and
 from importlib.metadata import PackageNotFoundError, version
 
 from .cone import CONES, Cone, cone_index, get_cone
-from .data import CIProfile, InputError, PlateTest, ShearTest, TerrainParameters
+from .data import (
+    CIProfile,
+    InputError,
+    PlateTest,
+    ProfileSet,
+    ShearTest,
+    TerrainParameters,
+    TerrainShear,
+)
 from .metrics import agreement
 from .plate import plate_pressure
 
@@ -24,8 +32,10 @@ __all__ = [
     "Cone",
     "InputError",
     "PlateTest",
+    "ProfileSet",
     "ShearTest",
     "TerrainParameters",
+    "TerrainShear",
     "agreement",
     "cone_index",
     "get_cone",

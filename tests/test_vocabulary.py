@@ -369,3 +369,15 @@ def test_split_functions_are_under_100_lines(path, name):
     tree = ast.parse((ROOT / path).read_text())
     fn = next(n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef) and n.name == name)
     assert 10 < fn.end_lineno - fn.lineno + 1 < 100
+
+
+def test_shear_fit_gives_its_terrain_shear():
+    from terracone.inverse.shear import ShearFit
+
+    fit = ShearFit.__new__(ShearFit)
+    object.__setattr__(fit, "c", 1.5)
+    object.__setattr__(fit, "phi_deg", 31.0)
+    object.__setattr__(fit, "K", 0.02)
+    ts = fit.terrain_shear
+    assert (ts.c, ts.phi_deg, ts.K) == (1.5, 31.0, 0.02)
+    assert ts.library_params() == fit.params()

@@ -54,7 +54,7 @@ import numpy as np
 from scipy import optimize, stats
 
 from .. import units as u
-from ..data import InputError, ShearTest
+from ..data import InputError, ShearTest, TerrainShear
 from ..shear import janosi_hanamoto
 
 __all__ = ["ShearTestFit", "ShearFit", "fit_shear", "fit_shear_test"]
@@ -141,6 +141,11 @@ class ShearFit:
     c_ci: tuple[float, float] | None = None
     phi_deg_ci: tuple[float, float] | None = None
     notes: list[str] = field(default_factory=list)
+
+    @property
+    def terrain_shear(self) -> TerrainShear:
+        """The fitted c, phi and K as a :class:`terracone.data.TerrainShear`."""
+        return TerrainShear(c=self.c, phi_deg=self.phi_deg, K=self.K)
 
     def params(self) -> dict[str, float]:
         """Determined parameters as library/export keys (SI): c_kpa, phi_deg, K_m."""
