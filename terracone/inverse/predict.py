@@ -55,6 +55,7 @@ __all__ = [
     "linear_intervals",
     "identification",
     "polish_many",
+    "mgs_lstsq",
     "rmsd_objective",
 ]
 
@@ -279,14 +280,19 @@ def predict_settings(
     n_grid: int = N_GRID,
     detail: str = "full",
     solve_many: Callable[..., ManySolution] | None = None,
+    kc_over_kphi: float | None = None,
 ) -> PredictSettings:
-    """The settings of :func:`predict_many` (same keywords), checked, with a calibration applied."""
+    """The settings of :func:`predict_many` (same keywords), checked, with a calibration applied.
+
+    ``kc_over_kphi`` [m] holds kc/kphi fixed without a calibration (exact
+    solver only); a calibration with ``fix_ratio`` sets its own.
+    """
     if solver not in ("exact", "pso"):
         raise ValueError(f"solver must be 'exact' or 'pso' (got {solver!r})")
     if detail not in ("full", "summary"):
         raise ValueError(f"detail must be 'full' or 'summary' (got {detail!r})")
     bounds = bounds or Bounds()
-    ratio = note = None
+    ratio, note = kc_over_kphi, None
     if calibration is not None:
         model, r_min = calibration.model, calibration.r_min
         plate_pair = calibration.plate_pair
@@ -406,6 +412,8 @@ def predict_many(
         (what ``terracone batch`` writes).
     solve_many : callable, optional
         The vectorised solver (default :func:`solve_exact_many`).
+    kc_over_kphi : float, optional
+        Hold kc/kphi [m] fixed (exact solver), as a calibration does.
 
     Returns
     -------
@@ -422,10 +430,11 @@ def predict_many(
     pset, order, errors, originals = _gather(profiles)
     if chunk_size < 1:
         raise ValueError(f"chunk_size must be >= 1 (got {chunk_size})")
-    chunks = [
-        pset.take(np.arange(a, min(a + chunk_size, len(pset))))
-        for a in range(0, len(pset), chunk_size)
-    ]
+    starts = range(0, len(pset), chunk_size)
+    if len(pset) <= chunk_size:
+        chunks = [pset]
+    else:
+        chunks = [pset.take(np.arange(a, min(a + chunk_size, len(pset)))) for a in starts]
     mapper = map if pool is None else pool.map
     fitted = [r for part in mapper(functools.partial(fit_set, settings), chunks) for r in part]
     out = PredictionResults([None] * (len(fitted) + len(errors)))
@@ -433,29 +442,53 @@ def predict_many(
         if orig is not None:
             res.metadata = dict(orig.metadata)
         out[pos] = res
-    for pos, err in errors:
-        out[pos] = PredictionResult(
-            id=str(err.profile), status="error", error=str(err), source=err.file
-        )
+    for pos, res in errors:
+        out[pos] = res
     return out
 
 
-def _gather(profiles) -> tuple[ProfileSet, list[int], list[tuple[int, InputError]], list]:
-    """The input as (set, output position of each set profile, reader errors, originals)."""
+def _gather(profiles) -> tuple[ProfileSet, list[int], list[tuple[int, PredictionResult]], list]:
+    """The input as (set, output position of each set profile, error results, originals).
+
+    Reader errors become error results; so do CI profiles that fail
+    :meth:`CIProfile.validate` (worded as it words them).  A ProfileSet's
+    profiles are validated later, by :func:`screen`.
+    """
     if isinstance(profiles, ProfileSet):
         P = len(profiles)
-        errs = [(P + k, e) for k, e in enumerate(profiles.errors)]
+        errs = [(P + k, _reader_error(e)) for k, e in enumerate(profiles.errors)]
         return profiles, list(range(P)), errs, [None] * P
     order, errs, profs = [], [], []
     for pos, it in enumerate(profiles):
         if isinstance(it, InputError):
-            errs.append((pos, it))
-        else:
-            order.append(pos)
-            profs.append(it)
+            errs.append((pos, _reader_error(it)))
+            continue
+        try:
+            it.validate()
+        except InputError as exc:
+            errs.append((pos, _profile_error(it, str(exc))))
+            continue
+        order.append(pos)
+        profs.append(it)
     # metadata stays with the originals (any Python values): the set carries none
     pset = ProfileSet.from_profiles(replace(p, metadata={}) for p in profs)
     return pset, order, errs, profs
+
+
+def _reader_error(err: InputError) -> PredictionResult:
+    return PredictionResult(id=str(err.profile), status="error", error=str(err), source=err.file)
+
+
+def _profile_error(profile: CIProfile, reason: str) -> PredictionResult:
+    return PredictionResult(
+        id=profile.id,
+        status="error",
+        error=reason,
+        cone=profile.cone.name,
+        metadata=dict(profile.metadata),
+        notes=list(profile.notes),
+        source=profile.source,
+    )
 
 
 def fit_set(settings: PredictSettings, pset: ProfileSet) -> list[PredictionResult]:
@@ -472,7 +505,8 @@ def fit_set(settings: PredictSettings, pset: ProfileSet) -> list[PredictionResul
     if settings.vectorised:
         for c in np.unique(pset.cone_idx[good]):
             members = good[pset.cone_idx[good] == c]
-            for j, res in zip(members, _fit_group(settings, pset.take(members))):
+            group = pset if members.size == len(pset) else pset.take(members)
+            for j, res in zip(members, _fit_group(settings, group)):
                 out[j] = res
     else:
         for j in good:
@@ -536,8 +570,10 @@ def locate_error(pset: ProfileSet, j: int, exc: InputError) -> InputError:
     """``exc`` (raised by :meth:`CIProfile.validate` with rows = point index) located in its file.
 
     The row becomes the file line (or record), the column the file's own
-    column name, and the reason says where the profile lies, or where the
-    previous depth is.  Without file lines (-1) the row is left out.
+    column name (the CI column for a profile with too few points, where
+    the reader reports it too), and the reason says where the profile
+    lies, or where the previous depth is.  Without file lines (-1) the row
+    is left out.
     """
     src = pset.source(j)
     path = None if src is None else src.path
@@ -545,12 +581,10 @@ def locate_error(pset: ProfileSet, j: int, exc: InputError) -> InputError:
     s, e = int(pset.offsets[j]), int(pset.offsets[j + 1])
     lines = np.full(e - s, -1) if pset.rows is None else pset.rows[s:e]
     known = lines.size > 0 and bool(np.all(lines >= 0))
-    names = (
-        {"depth": "depth", "ci": "ci"}
-        if src is None
-        else {"depth": src.depth_column, "ci": src.ci_column}
-    )
-    column = names.get(exc.column, exc.column)
+    if src is None:
+        column = exc.column
+    else:
+        column = src.depth_column if exc.column == "depth" else src.ci_column
     more, row = "", None
     if exc.row is None:  # too few points
         if known:
@@ -609,8 +643,7 @@ def _fit_group(settings: PredictSettings, group: ProfileSet) -> list[PredictionR
         return _fit_group(settings, group.take(np.arange(h))) + _fit_group(
             settings, group.take(np.arange(h, P))
         )
-    per = (time.perf_counter() - t0) / len(group)
-    return [_group_result(settings, group, fit, j, per) for j in range(len(group))]
+    return _group_results(settings, group, fit, (time.perf_counter() - t0) / len(group))
 
 
 @dataclass
@@ -628,6 +661,7 @@ class SetFit:
     phic_lo: np.ndarray
     phic_hi: np.ndarray
     sse: np.ndarray
+    rmsd: np.ndarray
     sigma: np.ndarray
     model: np.ndarray
     undetermined: list[list[str]]
@@ -648,8 +682,9 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
 
     s, b = settings, settings.bounds
     cone = group.cones[int(group.cone_idx[0])]
-    zs = np.split(group.depth, group.offsets[1:-1])
-    ys = np.split(group.ci, group.offsets[1:-1])
+    bounds_of = list(zip(group.offsets[:-1].tolist(), group.offsets[1:].tolist()))
+    zs = [group.depth[a:e] for a, e in bounds_of]
+    ys = [group.ci[a:e] for a, e in bounds_of]
     ms = s.solve_many(
         zs,
         ys,
@@ -681,7 +716,8 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
     sse = np.einsum("pz,pz->p", r, r)
     sigma, thr, n_lo, n_hi = n_intervals(ms, sse, yy, mask, b, s.noise_floor)
     und, intervals = [], []
-    for j, k in enumerate(group.counts):
+    counts = group.counts
+    for j, k in enumerate(counts):
         linear: tuple[list[str], dict[str, tuple[float, float]]] = ([], {})
         if s.detail == "full":
             args = (zz[j, :k], yy[j, :k], x[j], ms.n[j], ms.phic_deg[j], thr[j], (n_lo[j], n_hi[j]))
@@ -689,9 +725,7 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
         found = identification(b, (n_lo[j], n_hi[j]), (ms.phic_lo[j], ms.phic_hi[j]), linear)
         und.append(found[0])
         intervals.append(found[1])
-    checks = [
-        check_fit_fast(zz[j, :k], yy[j, :k], model[j, :k]) for j, k in enumerate(group.counts)
-    ]
+    checks = [check_fit_fast(zz[j, :k], yy[j, :k], model[j, :k]) for j, k in enumerate(counts)]
     return SetFit(
         x,
         ms.n,
@@ -699,6 +733,7 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
         ms.phic_lo,
         ms.phic_hi,
         sse,
+        np.sqrt(sse / counts),
         sigma,
         model,
         und,
@@ -834,29 +869,30 @@ def polish_many(
     act = free & (x0 > lo) & (x0 < hi)
     x = x0.copy()
     todo = free.any(axis=1)
-    for pattern in np.unique(act[todo], axis=0):
-        sel = np.flatnonzero(todo & (act == pattern).all(axis=1))
-        cand, ok = _on_face(X[sel], y[sel], x0[sel], lo[sel], hi[sel], pattern)
-        r = np.einsum("pzk,pk->pz", X[sel], cand) - y[sel]
-        grad = np.einsum("pzk,pz->pk", X[sel], r)  # half the gradient of the SSE
-        tol = (
-            1e-8
-            * np.sqrt((X[sel] ** 2).sum(axis=1))
-            * np.sqrt((r * r).sum(axis=1) + 1e-300)[:, None]
-        )  # noqa: E501
-        held_lo = free[sel] & ~pattern & (x0[sel] <= lo[sel])
-        held_hi = free[sel] & ~pattern & (x0[sel] >= hi[sel])
-        ok &= ~(held_lo & (grad < -tol)).any(axis=1) & ~(held_hi & (grad > tol)).any(axis=1)
+    norms = np.sqrt(np.einsum("pzk,pzk->pk", X, X))
+    code = act @ np.array([1, 2, 4])  # the face: which variables are strictly inside
+    for c in np.unique(code[todo]):
+        pattern = (c & np.array([1, 2, 4])) > 0
+        sel = np.flatnonzero(todo & (code == c))
+        Xs, ys, x0s = X[sel], y[sel], x0[sel]
+        cand, ok = _on_face(Xs, ys, x0s, lo[sel], hi[sel], pattern)
+        r = np.einsum("pzk,pk->pz", Xs, cand) - ys
+        grad = np.einsum("pzk,pz->pk", Xs, r)  # half the gradient of the SSE
+        tol = 1e-8 * norms[sel] * np.sqrt(np.einsum("pz,pz->p", r, r) + 1e-300)[:, None]
+        held = free[sel] & ~pattern
+        wrong = (held & (x0s <= lo[sel]) & (grad < -tol)) | (held & (x0s >= hi[sel]) & (grad > tol))
+        ok &= ~wrong.any(axis=1)
         x[sel[ok]] = cand[ok]
         todo[sel[ok]] = False
     for p in np.flatnonzero(todo):
         x[p] = _bvls(X[p], y[p], lo[p], hi[p], x0[p])
-    sse = lambda v: ((np.einsum("pzk,pk->pz", X, v) - y) ** 2).sum(axis=1)  # noqa: E731
-    return np.where((sse(x) < sse(x0))[:, None], x, x0)
+    r1, r0 = np.einsum("pzk,pk->pz", X, x) - y, np.einsum("pzk,pk->pz", X, x0) - y
+    better = np.einsum("pz,pz->p", r1, r1) < np.einsum("pz,pz->p", r0, r0)
+    return np.where(better[:, None], x, x0)
 
 
 def _on_face(X, y, x0, lo, hi, pattern) -> tuple[np.ndarray, np.ndarray]:
-    """Least squares in the ``pattern`` columns (the others held at x0) by stacked QR.
+    """Least squares in the ``pattern`` columns (the others held at x0), per profile.
 
     Returns the candidates and whether each is usable: full rank and
     strictly inside the box (the caller checks the signs at held bounds).
@@ -865,19 +901,60 @@ def _on_face(X, y, x0, lo, hi, pattern) -> tuple[np.ndarray, np.ndarray]:
     cand = x0.copy()
     if not pattern.any():
         return cand, np.ones(G, dtype=bool)
-    Xa = X[..., pattern]
-    scale = np.sqrt((Xa * Xa).sum(axis=1))
+    rhs = y.copy()
+    for i in np.flatnonzero(~pattern):
+        rhs -= X[:, :, i] * x0[:, i, None]
+    cols = np.flatnonzero(pattern)
+    scale = np.sqrt(np.stack([np.einsum("pz,pz->p", X[:, :, i], X[:, :, i]) for i in cols], 1))
     ok = (scale > 0).all(axis=1)
     scale = np.where(scale > 0, scale, 1.0)
-    rhs = y - np.einsum("pzk,pk->pz", X[..., ~pattern], x0[:, ~pattern])
-    Q, R = np.linalg.qr(Xa / scale[:, None, :])
-    d = np.abs(np.diagonal(R, axis1=1, axis2=2))
-    ok &= d.min(axis=1) > 1e-13 * d.max(axis=1)
-    R = np.where(ok[:, None, None], R, np.eye(R.shape[-1]))
-    sol = np.linalg.solve(R, np.einsum("pzk,pz->pk", Q, rhs)[..., None])[..., 0] / scale
+    sol, full = mgs_lstsq([X[:, :, i] / scale[:, m, None] for m, i in enumerate(cols)], rhs)
+    sol = sol / scale
     cand[:, pattern] = sol
     inside = ((sol > lo[:, pattern]) & (sol < hi[:, pattern])).all(axis=1)
-    return cand, ok & inside
+    return cand, ok & full & inside
+
+
+def mgs_lstsq(
+    A: list[np.ndarray], b: np.ndarray, rtol: float = 1e-13
+) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares min ||A x - b|| for a stack of small problems, by modified Gram-Schmidt.
+
+    ``A``: the k columns, each (P, Z); ``b`` (P, Z).  MGS applied to the
+    augmented matrix [A | b] is backward stable for least squares ([1]_),
+    unlike the normal equations, and vectorised over P it needs a few
+    passes over the data instead of one LAPACK call per problem.  Returns
+    x (P, k) and whether each problem has full rank (|R_ii| > rtol max
+    |R_jj|; x is 0 where not).
+
+    References
+    ----------
+    .. [1] Bjorck, A. (1967). Solving linear least squares problems by
+       Gram-Schmidt orthogonalization. BIT 7, 1-21.
+    """
+    k = len(A)
+    P = b.shape[0]
+    q = [np.array(a, dtype=float) for a in A]
+    c = np.array(b, dtype=float)
+    R = np.zeros((P, k, k))
+    qb = np.zeros((P, k))
+    for i in range(k):
+        R[:, i, i] = np.sqrt(np.einsum("pz,pz->p", q[i], q[i]))
+        q[i] = q[i] / np.where(R[:, i, i] > 0, R[:, i, i], 1.0)[:, None]
+        for j in range(i + 1, k):
+            R[:, i, j] = np.einsum("pz,pz->p", q[i], q[j])
+            q[j] = q[j] - R[:, i, j, None] * q[i]
+        qb[:, i] = np.einsum("pz,pz->p", q[i], c)
+        c = c - qb[:, i, None] * q[i]
+    d = np.abs(np.diagonal(R, axis1=1, axis2=2))
+    full = d.min(axis=1) > rtol * d.max(axis=1)
+    x = np.zeros((P, k))
+    with np.errstate(all="ignore"):
+        for i in range(k - 1, -1, -1):  # back substitution, R x = Q'b
+            x[:, i] = (qb[:, i] - np.einsum("pj,pj->p", R[:, i, i + 1 :], x[:, i + 1 :])) / R[
+                :, i, i
+            ]
+    return np.where(full[:, None], x, 0.0), full
 
 
 def _bvls(X, y, lo, hi, x0) -> np.ndarray:
@@ -901,45 +978,55 @@ def _bvls(X, y, lo, hi, x0) -> np.ndarray:
     return xf
 
 
-def _group_result(
-    settings: PredictSettings, group: ProfileSet, fit: SetFit, j: int, time_s: float
-) -> PredictionResult:
-    """The result of profile j of a vectorised fit."""
-    k = int(group.counts[j])
-    s, e = int(group.offsets[j]), int(group.offsets[j + 1])
-    kc, kphi, cc = (float(v) for v in fit.x[j])
-    n, phic = float(fit.n[j]), float(fit.phic[j])
-    params = TerrainParameters(kc, kphi, n, cc, phic, None, settings.model, settings.r_min)
-    extra = dict(
-        undetermined=fit.undetermined[j],
-        phic_range=(float(fit.phic_lo[j]), float(fit.phic_hi[j])),
-        profile_intervals=fit.intervals[j],
-        sigma=float(fit.sigma[j]),
-        nfev=fit.nfev,
-        nit=1,
-        converged=True,
-        message="global optimum of the bounded linear least squares over the n, phic grid",
-    )
-    return _ok_result(
-        group, j, params, group.ci[s:e], fit.model[j, :k], fit.checks[j], "exact", time_s, extra
-    )  # noqa: E501
+_EXACT_MESSAGE = "global optimum of the bounded linear least squares over the n, phic grid"
+
+
+def _group_results(
+    settings: PredictSettings, group: ProfileSet, fit: SetFit, time_s: float
+) -> list[PredictionResult]:
+    """The results of a vectorised fit, one per profile (arrays read as Python lists once)."""
+    starts, counts = group.offsets[:-1].tolist(), group.counts.tolist()
+    x, n, phic = fit.x.tolist(), fit.n.tolist(), fit.phic.tolist()
+    ranges = list(zip(fit.phic_lo.tolist(), fit.phic_hi.tolist()))
+    sigma, rmsd = fit.sigma.tolist(), fit.rmsd.tolist()
+    out = []
+    for j, (s, k) in enumerate(zip(starts, counts)):
+        kc, kphi, cc = x[j]
+        params = TerrainParameters(
+            kc, kphi, n[j], cc, phic[j], None, settings.model, settings.r_min
+        )
+        extra = dict(
+            undetermined=fit.undetermined[j],
+            phic_range=ranges[j],
+            profile_intervals=fit.intervals[j],
+            sigma=sigma[j],
+            nfev=fit.nfev,
+            nit=1,
+            converged=True,
+            message=_EXACT_MESSAGE,
+        )
+        y, m = group.ci[s : s + k], fit.model[j, :k]
+        out.append(
+            _ok_result(group, j, params, y, m, rmsd[j], fit.checks[j], "exact", time_s, extra)
+        )
+    return out
 
 
 def _ok_result(
-    pset: ProfileSet, j: int, params, y, m, chk, solver: str, time_s: float, extra: dict
+    pset: ProfileSet, j: int, params, y, m, rmsd, chk, solver: str, time_s: float, extra: dict
 ) -> PredictionResult:
-    s, e = int(pset.offsets[j]), int(pset.offsets[j + 1])
-    r = m - y
+    """An ok result: profile j of the set, its parameters, measured y and model m [kPa]."""
+    s = int(pset.offsets[j])
     src = pset.source(j)
     return PredictionResult(
         id=str(pset.ids[j]),
         status="ok",
         params=params,
-        rmsd=float(np.sqrt(np.mean(r * r))),
+        rmsd=float(rmsd),
         r2_ci=chk.r2,
         longest_run=chk.longest_run,
         lack_of_fit=chk.lack_of_fit,
-        depth=pset.depth[s:e],
+        depth=pset.depth[s : s + y.size],
         ci=y,
         ci_model=m,
         solver=solver,
@@ -981,7 +1068,9 @@ def _fit_one(settings: PredictSettings, pset: ProfileSet, j: int) -> PredictionR
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
         return _solver_error(pset, j, f"solver failed: {exc}")
     chk = check_fit_fast(z, y, m)
-    return _ok_result(pset, j, params, y, m, chk, settings.solver, time.perf_counter() - t0, extra)
+    rmsd = np.sqrt(np.mean((m - y) ** 2))
+    t = time.perf_counter() - t0
+    return _ok_result(pset, j, params, y, m, rmsd, chk, settings.solver, t, extra)
 
 
 def _exact_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainParameters, dict]:
@@ -1010,7 +1099,7 @@ def _exact_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainPara
         nfev=sol.nfev,
         nit=sol.nit,
         converged=True,
-        message="global optimum of the bounded linear least squares over the n, phic grid",
+        message=_EXACT_MESSAGE,
     )
     return params, extra
 
