@@ -327,10 +327,28 @@ def predict_settings(
 # ---------------------------------------------------------------------------
 
 
-def predict(profile: CIProfile, **kwargs: Any) -> PredictionResult:
+def predict(
+    profile: CIProfile,
+    *,
+    model: str = "rm0",
+    r_min: float | None = None,
+    plate_pair: tuple[float, float] | None = None,
+    calibration: Any = None,
+    solver: str = "exact",
+    bounds: Bounds | None = None,
+    Kc: float | None = None,
+    fit_Kc: bool = False,
+    seed: int | None = None,
+    noise_floor: float = 0.01,
+    pso_options: dict[str, Any] | None = None,
+    fix_ratio: bool = True,
+    n_grid: int = N_GRID,
+    detail: str = "full",
+    kc_over_kphi: float | None = None,
+) -> PredictionResult:
     """Fit the improved cone model to one CI profile (prediction process).
 
-    ``predict_many([profile], **kwargs)[0]``: one profile through the one
+    ``predict_many([profile], ...)[0]``: one profile through the one
     solving path.
 
     Parameters
@@ -360,7 +378,7 @@ def predict(profile: CIProfile, **kwargs: Any) -> PredictionResult:
         With a calibration, hold kc/kphi at the calibrated terrain's value:
         the cone barely separates kc from kphi (their columns are nearly
         collinear), plates of two sizes do.  Only the exact solver uses it.
-    n_grid, detail
+    n_grid, detail, kc_over_kphi
         As :func:`predict_many`.
 
     References
@@ -369,15 +387,47 @@ def predict(profile: CIProfile, **kwargs: Any) -> PredictionResult:
        Predicting terrain parameters for physics-based vehicle mobility
        models from cone index data. Section 3.3.2.
     """
-    return predict_many([profile], **kwargs)[0]
+    return predict_many(
+        [profile],
+        model=model,
+        r_min=r_min,
+        plate_pair=plate_pair,
+        calibration=calibration,
+        solver=solver,
+        bounds=bounds,
+        Kc=Kc,
+        fit_Kc=fit_Kc,
+        seed=seed,
+        noise_floor=noise_floor,
+        pso_options=pso_options,
+        fix_ratio=fix_ratio,
+        n_grid=n_grid,
+        detail=detail,
+        kc_over_kphi=kc_over_kphi,
+    )[0]
 
 
 def predict_many(
     profiles: ProfileSet | Iterable[CIProfile | InputError],
     *,
+    model: str = "rm0",
+    r_min: float | None = None,
+    plate_pair: tuple[float, float] | None = None,
+    calibration: Any = None,
+    solver: str = "exact",
+    bounds: Bounds | None = None,
+    Kc: float | None = None,
+    fit_Kc: bool = False,
+    seed: int | None = None,
+    noise_floor: float = 0.01,
+    pso_options: dict[str, Any] | None = None,
+    fix_ratio: bool = True,
+    n_grid: int = N_GRID,
+    detail: str = "full",
+    kc_over_kphi: float | None = None,
     pool: Any = None,
     chunk_size: int = 1000,
-    **kwargs: Any,
+    solve_many: Callable[..., ManySolution] | None = None,
 ) -> PredictionResults:
     """Fit the improved cone model to a set of CI profiles through one vectorised path.
 
@@ -426,7 +476,24 @@ def predict_many(
        Predicting terrain parameters for physics-based vehicle mobility
        models from cone index data. Section 3.3.2.
     """
-    settings = predict_settings(**kwargs)
+    settings = predict_settings(
+        model=model,
+        r_min=r_min,
+        plate_pair=plate_pair,
+        calibration=calibration,
+        solver=solver,
+        bounds=bounds,
+        Kc=Kc,
+        fit_Kc=fit_Kc,
+        seed=seed,
+        noise_floor=noise_floor,
+        pso_options=pso_options,
+        fix_ratio=fix_ratio,
+        n_grid=n_grid,
+        detail=detail,
+        kc_over_kphi=kc_over_kphi,
+        solve_many=solve_many,
+    )
     pset, order, errors, originals = _gather(profiles)
     if chunk_size < 1:
         raise ValueError(f"chunk_size must be >= 1 (got {chunk_size})")
