@@ -936,15 +936,15 @@ def polish_many(
     act = free & (x0 > lo) & (x0 < hi)
     x = x0.copy()
     todo = free.any(axis=1)
-    norms = np.sqrt(np.einsum("pzk,pzk->pk", X, X))
+    norms = np.sqrt(np.stack([np.einsum("pz,pz->p", X[..., i], X[..., i]) for i in range(3)], 1))
     code = act @ np.array([1, 2, 4])  # the face: which variables are strictly inside
     for c in np.unique(code[todo]):
         pattern = (c & np.array([1, 2, 4])) > 0
         sel = np.flatnonzero(todo & (code == c))
         Xs, ys, x0s = X[sel], y[sel], x0[sel]
         cand, ok = _on_face(Xs, ys, x0s, lo[sel], hi[sel], pattern)
-        r = np.einsum("pzk,pk->pz", Xs, cand) - ys
-        grad = np.einsum("pzk,pz->pk", Xs, r)  # half the gradient of the SSE
+        r = _times(Xs, cand) - ys
+        grad = np.stack([np.einsum("pz,pz->p", Xs[..., i], r) for i in range(3)], 1)  # dSSE/2
         tol = 1e-8 * norms[sel] * np.sqrt(np.einsum("pz,pz->p", r, r) + 1e-300)[:, None]
         held = free[sel] & ~pattern
         wrong = (held & (x0s <= lo[sel]) & (grad < -tol)) | (held & (x0s >= hi[sel]) & (grad > tol))
@@ -953,9 +953,21 @@ def polish_many(
         todo[sel[ok]] = False
     for p in np.flatnonzero(todo):
         x[p] = _bvls(X[p], y[p], lo[p], hi[p], x0[p])
-    r1, r0 = np.einsum("pzk,pk->pz", X, x) - y, np.einsum("pzk,pk->pz", X, x0) - y
+    r1, r0 = _times(X, x) - y, _times(X, x0) - y
     better = np.einsum("pz,pz->p", r1, r1) < np.einsum("pz,pz->p", r0, r0)
     return np.where(better[:, None], x, x0)
+
+
+def _times(X: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """X (P, Z, k) times x (P, k): (P, Z), element by element.
+
+    Each profile's values do not depend on the others or on the padding (a
+    batched matmul may block differently), and it is faster than einsum here.
+    """
+    out = X[..., 0] * x[:, 0, None]
+    for i in range(1, X.shape[-1]):
+        out += X[..., i] * x[:, i, None]
+    return out
 
 
 def _on_face(X, y, x0, lo, hi, pattern) -> tuple[np.ndarray, np.ndarray]:
@@ -1056,27 +1068,50 @@ def _group_results(
     x, n, phic = fit.x.tolist(), fit.n.tolist(), fit.phic.tolist()
     ranges = list(zip(fit.phic_lo.tolist(), fit.phic_hi.tolist()))
     sigma, rmsd = fit.sigma.tolist(), fit.rmsd.tolist()
+    sources = _source_paths(group)
+    cone = group.cones[int(group.cone_idx[0])].name
     out = []
     for j, (s, k) in enumerate(zip(starts, counts)):
         kc, kphi, cc = x[j]
-        params = TerrainParameters(
-            kc, kphi, n[j], cc, phic[j], None, settings.model, settings.r_min
-        )
-        extra = dict(
-            undetermined=fit.undetermined[j],
-            phic_range=ranges[j],
-            profile_intervals=fit.intervals[j],
-            sigma=sigma[j],
-            nfev=fit.nfev,
-            nit=1,
-            converged=True,
-            message=_EXACT_MESSAGE,
-        )
-        y, m = group.ci[s : s + k], fit.model[j, :k]
+        chk = fit.checks[j]
         out.append(
-            _ok_result(group, j, params, y, m, rmsd[j], fit.checks[j], "exact", time_s, extra)
+            PredictionResult(
+                id=str(group.ids[j]),
+                status="ok",
+                params=TerrainParameters(
+                    kc, kphi, n[j], cc, phic[j], None, settings.model, settings.r_min
+                ),
+                rmsd=rmsd[j],
+                r2_ci=chk.r2,
+                longest_run=chk.longest_run,
+                lack_of_fit=chk.lack_of_fit,
+                depth=group.depth[s : s + k],
+                ci=group.ci[s : s + k],
+                ci_model=fit.model[j, :k],
+                undetermined=fit.undetermined[j],
+                phic_range=ranges[j],
+                profile_intervals=fit.intervals[j],
+                sigma=sigma[j],
+                solver="exact",
+                nfev=fit.nfev,
+                nit=1,
+                time_s=time_s,
+                converged=True,
+                message=_EXACT_MESSAGE,
+                cone=cone,
+                notes=[] if group.notes is None else list(group.notes[j]),
+                source=sources[j],
+            )
         )
     return out
+
+
+def _source_paths(pset: ProfileSet) -> list[str | None]:
+    """The file path of each profile of a set (None where it has none)."""
+    if pset.file_idx is None:
+        return [None] * len(pset)
+    paths = [f.path for f in pset.files] + [None]  # file_idx -1: the last entry
+    return [paths[i] for i in pset.file_idx.tolist()]
 
 
 def _ok_result(
