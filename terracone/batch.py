@@ -103,8 +103,6 @@ _WAIT_WORKERS_S = 60.0
 #: Grid over n of solve_exact_many (its default) and the noise floor of predict.
 _N_GRID = 41
 _NOISE_FLOOR = 0.01
-#: Same tolerance as CIProfile.validate for a base depth above -H.
-_H_TOL = 1e-9
 #: glibc malloc settings of the local cluster's worker processes.  Dask's
 #: default (MALLOC_TRIM_THRESHOLD_=65536) switches off glibc's dynamic mmap
 #: threshold, so every large numpy temporary of the solver is mmapped and
