@@ -69,14 +69,14 @@ import pyarrow.parquet as pq
 
 from . import __version__
 from . import units as u
-from .cone import Cone, cone_index_basis, get_cone
-from .data import CIProfile, InputError, ProfileSet, TerrainParameters
+from .cone import Cone, get_cone
+from .data import CIProfile, InputError, ProfileSet
 from .inverse.bounds import Bounds
 from .inverse.learn import Calibration
 from .inverse.many import solve_exact_many
+from .inverse.predict import predict_many, screen
 from .io import detect_format
 from .io.stream import (
-    H_TOL,
     Chunk,
     ConeCache,
     ScanPlan,
@@ -110,8 +110,6 @@ _WAIT_WORKERS_S = 60.0
 #: Grid over n of solve_exact_many (its default) and the noise floor of predict.
 _N_GRID = 41
 _NOISE_FLOOR = 0.01
-#: Same tolerance as CIProfile.validate for a base depth above -H.
-_H_TOL = H_TOL
 #: glibc malloc settings of the local cluster's worker processes.  Dask's
 #: default (MALLOC_TRIM_THRESHOLD_=65536) switches off glibc's dynamic mmap
 #: threshold, so every large numpy temporary of the solver is mmapped and
@@ -264,92 +262,6 @@ class _FitSettings:
     depth_range: tuple[float | None, float | None] = (None, None)  # base-depth window [m]
 
 
-def _relocated(task: _Task, j: int, exc: InputError) -> tuple[str, int | None, str | None]:
-    """Message, row, column of a validation error of candidate j, located in its file."""
-    src = task.files[int(task.file_idx[j])]
-    path, dcol, ccol, word = src.path, src.depth_column, src.ci_column, src.row_word
-    s, e = int(task.offsets[j]), int(task.offsets[j + 1])
-    lines = task.rows[s:e]
-    column = dcol if exc.column == "depth" else ccol
-    more = ""
-    if exc.row is None:  # too few points
-        row = int(lines[0])
-        span = f"{word} {row}" if lines.size == 1 else f"{word}s {row}-{int(lines[-1])}"
-        more = f" (the profile is on {span})"
-    else:
-        row = int(lines[exc.row])
-        if exc.column == "depth" and exc.row > 0 and "increasing" in exc.reason:
-            more = f" (previous depth on {word} {int(lines[exc.row - 1])})"
-    msg = str(InputError(exc.reason + more, file=path, profile=task.ids[j], row=row, column=column))
-    return msg, row, column
-
-
-def _solve_many(
-    zs: list[np.ndarray], ys: list[np.ndarray], cone: Cone, fit: _FitSettings
-) -> dict[str, np.ndarray]:
-    """solve_exact_many + fit statistics, SI; raises on solver failure."""
-    law = pressure_law(fit.model, r_min=fit.r_min, plate_pair=fit.plate_pair)
-    b = fit.bounds
-    sol = solve_exact_many(
-        zs,
-        ys,
-        cone=cone,
-        law=law,
-        bounds=b,
-        n_grid=fit.n_grid,
-        noise_floor=fit.noise_floor,
-        kc_over_kphi=fit.ratio,
-    )
-    P = len(zs)
-    Z = max(z.size for z in zs)
-    zz = np.empty((P, Z))
-    yy = np.zeros((P, Z))
-    w = np.zeros((P, Z), dtype=bool)
-    for i, (z, y) in enumerate(zip(zs, ys)):
-        k = z.size
-        zz[i, :k] = z
-        zz[i, k:] = z[-1]
-        yy[i, :k] = y
-        w[i, :k] = True
-    A, B, C = cone_index_basis(zz, n=sol.n[:, None], phic=sol.phic_deg[:, None], law=law, cone=cone)
-    model = sol.kc[:, None] * A + sol.kphi[:, None] * B + sol.cc[:, None] * C
-    r = np.where(w, model - yy, 0.0)
-    npts = w.sum(axis=1)
-    sse = np.einsum("pz,pz->p", r, r)
-    mean = yy.sum(axis=1) / npts
-    dev = np.where(w, yy - mean[:, None], 0.0)
-    ss_tot = np.einsum("pz,pz->p", dev, dev)
-    r2 = np.where(ss_tot > 0, 1.0 - sse / np.where(ss_tot > 0, ss_tot, 1.0), np.nan)
-    # n interval as in predict: the grid points within the threshold, widened by one step
-    if b.n[0] != b.n[1]:
-        step = (b.n[1] - b.n[0]) / (fit.n_grid - 1)
-        n_lo = np.maximum(b.n[0], np.minimum(sol.n_lo - step, sol.n))
-        n_hi = np.minimum(b.n[1], np.maximum(sol.n_hi + step, sol.n))
-    else:
-        n_lo = n_hi = sol.n
-    # lack of fit, as predict reports it (terracone.metrics.check_fit)
-    runs, lof = check_fits(zz, yy, model, npts)
-    full = _empty_results(P)  # every key, so that results of sub-groups concatenate
-    full.update(
-        {
-            "kc": sol.kc,
-            "kphi": sol.kphi,
-            "n": sol.n,
-            "cc": sol.cc,
-            "phic_deg": sol.phic_deg,
-            "phic_lo": sol.phic_lo,
-            "phic_hi": sol.phic_hi,
-            "n_lo": n_lo,
-            "n_hi": n_hi,
-            "rmsd": np.sqrt(sse / npts),
-            "r2_ci": r2,
-            "longest_run": runs,
-            "lack_of_fit": lof,
-        }
-    )
-    return full
-
-
 def check_fits(
     zz: np.ndarray, yy: np.ndarray, model: np.ndarray, npts: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -369,48 +281,14 @@ def check_fits(
     return runs, lof
 
 
-def _undetermined_many(res: dict[str, np.ndarray], fit: _FitSettings) -> list[str]:
-    b = fit.bounds
-    phic_free = b.phic[0] != b.phic[1]  # Kc is None: phic trades against the kc, kphi scale
-    n_free = b.n[0] != b.n[1]
-    wide = (res["n_hi"] - res["n_lo"]) >= 0.5 * (b.n[1] - b.n[0])
-    out = []
-    for k in range(res["n"].size):
-        tokens = ["phic"] if phic_free else []
-        if n_free and wide[k]:
-            tokens.append("n")
-        if phic_free:
-            tokens.append("phic~scale(kc,kphi)")
-        out.append(";".join(tokens))
-    return out
-
-
-def _fit_group(
-    zs: list[np.ndarray], ys: list[np.ndarray], cone: Cone, fit: _FitSettings
-) -> tuple[dict[str, np.ndarray], list[str], list[str | None]]:
-    """Fit profiles of one cone; returns (SI results, undetermined, solver error or None)."""
-    P = len(zs)
-    try:
-        res = _solve_many(zs, ys, cone, fit)
-    except Exception as exc:  # noqa: BLE001 - isolate the failing profiles by bisection
-        if P == 1:
-            return _empty_results(1), [""], [f"solver failed: {exc}"]
-        h = P // 2
-        r1, u1, e1 = _fit_group(zs[:h], ys[:h], cone, fit)
-        r2, u2, e2 = _fit_group(zs[h:], ys[h:], cone, fit)
-        return {k: np.concatenate([r1[k], r2[k]]) for k in r1}, u1 + u2, e1 + e2
-    return res, _undetermined_many(res, fit), [None] * P
-
-
-def _layered_columns(out, task, members, zs, ys, errs, fit: _FitSettings, ci_: int) -> None:
-    """A layered fit per profile (terracone.layers): BIC against one layer, interfaces, n's."""
+def _layered_columns(out, pset: ProfileSet, results, fit: _FitSettings) -> None:
+    """A layered fit per fitted profile (terracone.layers): BIC against one layer, interfaces, n's."""
     from .layers import fit_layered
 
-    cone = task.cones[ci_]
-    for m, j in enumerate(members):
-        if errs[m] is not None:
+    for j, res in enumerate(results):
+        if not res.ok:
             continue
-        prof = CIProfile(task.ids[j], zs[m], ys[m], cone=cone)
+        prof = CIProfile(res.id, res.depth, res.ci, cone=pset.cones[int(pset.cone_idx[j])])
         try:
             lr = fit_layered(
                 prof, layers=fit.layers, model=fit.model, r_min=fit.r_min, bounds=fit.bounds
@@ -432,31 +310,18 @@ def _layered_columns(out, task, members, zs, ys, errs, fit: _FitSettings, ci_: i
         out["lack_of_fit_layered"][j] = lr.lack_of_fit
 
 
-def _posterior_columns(out, task, members, zs, ys, res, errs, fit: _FitSettings, ci_: int) -> None:
+def _posterior_columns(out, pset: ProfileSet, results, fit: _FitSettings) -> None:
     """Posterior 90% intervals and identifiability labels, profile by profile (emcee)."""
-    from .inverse.predict import PredictionResult
     from .uncertainty import posterior_for_result
 
-    cone = task.cones[ci_]
-    for m, j in enumerate(members):
-        if errs[m] is not None or not np.isfinite(res["n"][m]):
+    for j, res in enumerate(results):
+        if not res.ok:
             continue
-        prof = CIProfile(task.ids[j], zs[m], ys[m], cone=cone)
-        params = TerrainParameters(
-            float(res["kc"][m]),
-            float(res["kphi"][m]),
-            float(res["n"][m]),
-            float(res["cc"][m]),
-            float(res["phic_deg"][m]),
-            None,
-            fit.model,
-            fit.r_min,
-        )
-        pr = PredictionResult(id=prof.id, status="ok", params=params, depth=zs[m], ci=ys[m])
+        prof = CIProfile(res.id, res.depth, res.ci, cone=pset.cones[int(pset.cone_idx[j])])
         try:
             post = posterior_for_result(
                 prof,
-                pr,
+                res,
                 prior=fit.prior,
                 draws=fit.draws,
                 seed=fit.seed,
@@ -475,42 +340,47 @@ def _posterior_columns(out, task, members, zs, ys, res, errs, fit: _FitSettings,
             out[f"ident_{p}"][j] = d["identifiability"].get(p)
 
 
-def _depth_options(task: _Task, fit: _FitSettings) -> tuple[_Task, list[int]]:
-    """Apply --depth-ref tip (base = tip - H) and --depth-range to a chunk's rows.
-
-    Returns the task with the kept rows and the profiles the window emptied
-    (those keep their rows here and are reported as errors afterwards).
-    """
-    lo, hi = fit.depth_range
-    if fit.depth_ref == "base" and lo is None and hi is None:
-        return task, []
-    counts = np.diff(task.offsets)
-    z = task.depth
+def _base_depths(pset: ProfileSet, fit: _FitSettings) -> ProfileSet:
+    """--depth-ref tip (base = tip - H of each profile's cone), then --depth-range."""
     if fit.depth_ref == "tip":
-        heights = np.array([c.height for c in task.cones])[task.cone_idx]
-        z = z - np.repeat(heights, counts)
-    keep = np.ones(z.size, dtype=bool)
-    if lo is not None:
-        keep &= z >= lo
-    if hi is not None:
-        keep &= z <= hi
-    prof_of_row = np.repeat(np.arange(counts.size), counts)
-    kept = np.bincount(prof_of_row[keep], minlength=counts.size)
-    emptied = [int(j) for j in np.flatnonzero(kept == 0)]
-    if emptied:  # keep an emptied profile's rows; it is failed after the fit
-        keep |= np.isin(prof_of_row, emptied)
-        kept = np.bincount(prof_of_row[keep], minlength=counts.size)
-    offsets = np.concatenate([[0], np.cumsum(kept)]).astype(np.int64)
-    return (
-        dataclasses.replace(
-            task, depth=z[keep], ci=task.ci[keep], rows=task.rows[keep], offsets=offsets
-        ),
-        emptied,
-    )
+        pset = dataclasses.replace(pset, depth=pset.depth - np.repeat(pset.heights(), pset.counts))
+    lo, hi = fit.depth_range
+    return pset if lo is None and hi is None else pset.window(lo, hi)
 
 
-def _fit_chunk(task: _Task, fit: _FitSettings) -> dict[str, Any]:
-    """Validate and fit the profiles of a chunk (runs on a Dask worker).
+def _result_columns(results: list, fit: _FitSettings) -> dict[str, Any]:
+    """The per-profile results of predict_many as batch's columns, in the output units."""
+    P = len(results)
+    out: dict[str, Any] = _empty_results(P)
+    ok = np.array([r.ok for r in results], dtype=bool)
+    good = [r for r in results if r.ok]
+    n = np.array([r.params.n for r in good])
+    cols = {
+        "kc": u.kc_from_si(np.array([r.params.kc for r in good]), n, fit.units),
+        "kphi": u.kphi_from_si(np.array([r.params.kphi for r in good]), n, fit.units),
+        "n": n,
+        "cc": u.pressure_from_si(np.array([r.params.cc for r in good]), fit.units),
+        "phic_deg": np.array([r.params.phic_deg for r in good]),
+        "phic_lo": np.array([r.phic_range[0] for r in good]),
+        "phic_hi": np.array([r.phic_range[1] for r in good]),
+        "n_lo": np.array([r.profile_intervals["n"][0] for r in good]),
+        "n_hi": np.array([r.profile_intervals["n"][1] for r in good]),
+        "rmsd": u.pressure_from_si(np.array([r.rmsd for r in good]), fit.units),
+        "r2_ci": np.array([r.r2_ci for r in good]),
+        "longest_run": np.array([r.longest_run for r in good], dtype=float),
+        "lack_of_fit": np.array([r.lack_of_fit for r in good] + [None], dtype=object)[:-1],
+    }
+    for k, v in cols.items():
+        out[k][ok] = v
+    out["status"] = np.array([r.status for r in results] + [None], dtype=object)[:-1]
+    out["error"] = np.array([r.error for r in results] + [None], dtype=object)[:-1]
+    und = [";".join(r.undetermined) if r.ok else None for r in results]
+    out["undetermined"] = np.array(und + [None], dtype=object)[:-1]
+    return out
+
+
+def _fit_chunk(task: ProfileSet, fit: _FitSettings) -> dict[str, Any]:
+    """Validate and fit the profiles of a chunk (runs on a Dask worker): predict_many.
 
     Returns per-profile arrays in the output units: status, error,
     error_row (-1 = none), error_column, the parameters, rmsd, r2_ci,
@@ -518,109 +388,44 @@ def _fit_chunk(task: _Task, fit: _FitSettings) -> dict[str, Any]:
     """
     t0 = time.perf_counter()
     c0 = time.process_time()
-    task, emptied = _depth_options(task, fit)
-    P = len(task.ids)
-    out: dict[str, Any] = _empty_results(P)
-    status = np.full(P, "ok", dtype=object)
-    error = np.full(P, None, dtype=object)
-    error_row = np.full(P, -1, dtype=np.int64)
-    error_column = np.full(P, None, dtype=object)
-    undetermined = np.full(P, None, dtype=object)
-
-    def fail(j: int, msg: str, row: int | None, column: str | None) -> None:
-        status[j] = "error"
-        error[j] = msg
-        error_row[j] = -1 if row is None else row
-        error_column[j] = column
-
-    off = task.offsets
-    starts = off[:-1]
-    counts = np.diff(off)
-    z, y = task.depth, task.ci
-    heights = np.array([c.height for c in task.cones])[task.cone_idx]
-    with np.errstate(invalid="ignore"):
-        row_bad = y < 0
-        row_bad[1:] |= z[1:] <= z[:-1]
-        row_bad[starts] = y[starts] < 0  # the first row of a profile has no predecessor
-        bad = np.logical_or.reduceat(row_bad, starts) if P else np.zeros(0, dtype=bool)
-        bad |= counts < 3
-        bad |= z[starts] < -heights * (1 + _H_TOL)
-    for j in np.flatnonzero(bad):
-        s, e = int(off[j]), int(off[j + 1])
-        prof = CIProfile(
-            id=task.ids[j],
-            depth=z[s:e],
-            ci=y[s:e],
-            cone=task.cones[int(task.cone_idx[j])],
-            rows=np.arange(e - s),
-        )
-        try:
-            prof.validate()
-        except InputError as exc:
-            fail(j, *_relocated(task, int(j), exc))
-            continue
-        bad[j] = False  # the quick check was stricter than validate(): fit it
-    good = np.flatnonzero(~bad)
+    pset = _base_depths(task, fit)
+    results = predict_many(
+        pset,
+        detail="summary",
+        model=fit.model,
+        r_min=fit.r_min,
+        plate_pair=fit.plate_pair,
+        bounds=fit.bounds,
+        kc_over_kphi=fit.ratio,
+        noise_floor=fit.noise_floor,
+        n_grid=fit.n_grid,
+        solve_many=solve_exact_many,  # looked up here: tests replace it
+        chunk_size=max(len(pset), 1),
+    )
+    out = _result_columns(results, fit)
+    error_row = np.full(len(pset), -1, dtype=np.int64)
+    error_column = np.full(len(pset), None, dtype=object)
+    for j, exc in screen(pset).items():  # where predict_many's invalid profiles are wrong
+        error_row[j] = -1 if exc.row is None else exc.row
+        error_column[j] = exc.column
     with np.errstate(all="ignore"):
-        for ci_ in np.unique(task.cone_idx[good]):
-            members = good[task.cone_idx[good] == ci_]
-            zs = [z[off[j] : off[j + 1]] for j in members]
-            ys = [y[off[j] : off[j + 1]] for j in members]
-            res, und, errs = _fit_group(zs, ys, task.cones[int(ci_)], fit)
-            n = res["n"]
-            finite = np.ones(members.size, dtype=bool)
-            for k in ("kc", "kphi", "n", "cc", "phic_deg", "rmsd"):
-                finite &= np.isfinite(res[k])
-            conv = {
-                "kc": u.kc_from_si(res["kc"], n, fit.units),
-                "kphi": u.kphi_from_si(res["kphi"], n, fit.units),
-                "cc": u.pressure_from_si(res["cc"], fit.units),
-                "rmsd": u.pressure_from_si(res["rmsd"], fit.units),
-            }
-            for k in _RESULT_KEYS:
-                if k in res:
-                    out[k][members] = conv.get(k, res[k])
-            for m, j in enumerate(members):
-                path = task.files[int(task.file_idx[j])].path
-                why = errs[m]
-                if why is None and not finite[m]:
-                    why = "solver failed: non-finite result"
-                if why is not None:
-                    fail(int(j), str(InputError(why, file=path, profile=task.ids[j])), None, None)
-                    for k in _FLOAT_RESULTS:
-                        out[k][j] = np.nan
-                    for k in _TEXT_RESULTS:
-                        out[k][j] = None
-                else:
-                    undetermined[j] = und[m]
-            if fit.uncertainty:
-                _posterior_columns(out, task, members, zs, ys, res, errs, fit, int(ci_))
-            if fit.layers > 1:
-                _layered_columns(out, task, members, zs, ys, errs, fit, int(ci_))
-    for j in emptied:
-        path = task.files[int(task.file_idx[j])].path
-        lo, hi = fit.depth_range
-        fail(
-            int(j),
-            str(
-                InputError(
-                    f"no points in the depth window {lo}:{hi} m", file=path, profile=task.ids[j]
-                )
-            ),
-            None,
-            None,
+        if fit.uncertainty:
+            _posterior_columns(out, pset, results, fit)
+        if fit.layers > 1:
+            _layered_columns(out, pset, results, fit)
+    lo, hi = fit.depth_range
+    for j in np.flatnonzero(pset.counts == 0):  # emptied by the depth window
+        out["error"][j] = str(
+            InputError(
+                f"no points in the depth window {lo}:{hi} m",
+                file=pset.source(j).path,
+                profile=pset.ids[j],
+            )  # noqa: E501
         )
-        for k in _FLOAT_RESULTS:
-            out[k][j] = np.nan
-        for k in _TEXT_RESULTS:
-            out[k][j] = None
-        undetermined[j] = None
+        error_row[j], error_column[j] = -1, None
     out.update(
-        status=status,
-        error=error,
         error_row=error_row,
         error_column=error_column,
-        undetermined=undetermined,
         fit_time_s=time.perf_counter() - t0,
         fit_cpu_s=time.process_time() - c0,
     )

@@ -108,20 +108,25 @@ def _r_min_range(text: str | None, units: str) -> tuple[float, float] | None:
 
 
 def _windowed(items, rng: tuple[float | None, float | None], units: str):
-    """Restrict profiles to a depth window, with a note; reader errors pass through."""
+    """Restrict profiles to a depth window, with a note; reader errors pass through.
+
+    The window is the package's one depth window,
+    :func:`terracone.data.depth_window` (through :meth:`CIProfile.window`,
+    as :meth:`ProfileSet.window` and ``terracone batch`` apply it).
+    """
     lo, hi = rng
     if lo is None and hi is None:
         return items
+    a = "-" if lo is None else f"{float(u.length_from_si(lo, units)):g}"
+    b = "-" if hi is None else f"{float(u.length_from_si(hi, units)):g}"
+    span = f"depth window {a}:{b} {u.length_unit(units)}"
     out = []
-    lu = u.length_unit(units)
     for it in items:
         if isinstance(it, InputError):
             out.append(it)
             continue
         w = it.window(lo, hi)
-        a = "-" if lo is None else f"{float(u.length_from_si(lo, units)):g}"
-        b = "-" if hi is None else f"{float(u.length_from_si(hi, units)):g}"
-        w.notes = list(it.notes) + [f"depth window {a}:{b} {lu}: {len(w)} of {len(it)} points"]
+        w.notes = list(it.notes) + [f"{span}: {len(w)} of {len(it)} points"]
         out.append(w)
     return out
 

@@ -19,23 +19,48 @@ References
 
 from __future__ import annotations
 
+import functools
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from scipy.optimize import lsq_linear
 
 from .. import units as u
-from ..cone import improved
-from ..data import CIProfile, InputError, TerrainParameters
+from ..cone import Cone, improved
+from ..data import CIProfile, InputError, ProfileSet, TerrainParameters
 from ..metrics import check_fit_fast
 from ..plate import PressureLaw, pressure_law
 from ..result import PredictionResult, PredictionResults
 from .bounds import Bounds
-from .exact import solve_exact
+from .exact import CHI2_1_95, design, identify_extents, solve_exact
+from .many import ManySolution, bounds_params, grid, solve_exact_many
 from .pso import pso
 
-__all__ = ["PredictionResult", "PredictionResults", "predict", "predict_many", "rmsd_objective"]
+__all__ = [
+    "PredictionResult",
+    "PredictionResults",
+    "PredictSettings",
+    "SetFit",
+    "predict",
+    "predict_many",
+    "predict_settings",
+    "fit_set",
+    "solve_set",
+    "screen",
+    "locate_error",
+    "n_intervals",
+    "linear_intervals",
+    "identification",
+    "polish_many",
+    "mgs_lstsq",
+    "rmsd_objective",
+]
+
+#: Points of the global grid over n of the exact solver (solve_exact's default).
+N_GRID = 97
 
 
 def rmsd_objective(profile: CIProfile, law: PressureLaw, bounds: Bounds, Kc: float | None = None):
@@ -61,6 +86,106 @@ def rmsd_objective(profile: CIProfile, law: PressureLaw, bounds: Bounds, Kc: flo
     return f
 
 
+# ---------------------------------------------------------------------------
+# settings
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class PredictSettings:
+    """Everything :func:`predict_many` fixes before it fits (SI; a calibration applied).
+
+    Built by :func:`predict_settings`; picklable, so that a process pool can
+    receive it with each chunk.
+    """
+
+    model: str
+    r_min: float | None
+    plate_pair: tuple[float, float] | None
+    law: PressureLaw
+    solver: str
+    bounds: Bounds
+    Kc: float | None
+    fit_Kc: bool
+    seed: int | None
+    noise_floor: float
+    pso_options: dict[str, Any] | None
+    ratio: float | None  # kc/kphi [m] held (calibration), else None
+    n_grid: int
+    detail: str
+    note: str | None  # added to every fitted profile's notes (the calibration)
+    solve_many: Callable[..., ManySolution]
+
+    @property
+    def vectorised(self) -> bool:
+        """True when the fits go through :func:`solve_exact_many` (exact, fully mobilised)."""
+        return self.solver == "exact" and self.Kc is None and not self.fit_Kc
+
+
+def predict_settings(
+    *,
+    model: str = "rm0",
+    r_min: float | None = None,
+    plate_pair: tuple[float, float] | None = None,
+    calibration: Any = None,
+    solver: str = "exact",
+    bounds: Bounds | None = None,
+    Kc: float | None = None,
+    fit_Kc: bool = False,
+    seed: int | None = None,
+    noise_floor: float = 0.01,
+    pso_options: dict[str, Any] | None = None,
+    fix_ratio: bool = True,
+    n_grid: int = N_GRID,
+    detail: str = "full",
+    solve_many: Callable[..., ManySolution] | None = None,
+    kc_over_kphi: float | None = None,
+) -> PredictSettings:
+    """The settings of :func:`predict_many` (same keywords), checked, with a calibration applied.
+
+    ``kc_over_kphi`` [m] holds kc/kphi fixed without a calibration (exact
+    solver only); a calibration with ``fix_ratio`` sets its own.
+    """
+    if solver not in ("exact", "pso"):
+        raise ValueError(f"solver must be 'exact' or 'pso' (got {solver!r})")
+    if detail not in ("full", "summary"):
+        raise ValueError(f"detail must be 'full' or 'summary' (got {detail!r})")
+    bounds = bounds or Bounds()
+    ratio, note = kc_over_kphi, None
+    if calibration is not None:
+        model, r_min = calibration.model, calibration.r_min
+        plate_pair = calibration.plate_pair
+        bounds = bounds.fixed(phic=calibration.phic_deg, cc=calibration.cc)
+        if fix_ratio and calibration.kphi > 0:
+            ratio = calibration.kc / calibration.kphi
+        held = " and kc/kphi" if ratio is not None and solver == "exact" else ""
+        note = f"calibration {calibration.terrain!r}: model, r_min, phic, cc{held} fixed"
+    law = pressure_law(model, r_min=r_min, plate_pair=plate_pair)
+    return PredictSettings(
+        model,
+        r_min,
+        plate_pair,
+        law,
+        solver,
+        bounds,
+        Kc,
+        fit_Kc,
+        seed,
+        noise_floor,
+        pso_options,
+        ratio,
+        int(n_grid),
+        detail,
+        note,
+        solve_many or solve_exact_many,
+    )
+
+
+# ---------------------------------------------------------------------------
+# the one path: predict_many (predict is predict_many of one profile)
+# ---------------------------------------------------------------------------
+
+
 def predict(
     profile: CIProfile,
     *,
@@ -76,8 +201,14 @@ def predict(
     noise_floor: float = 0.01,
     pso_options: dict[str, Any] | None = None,
     fix_ratio: bool = True,
+    n_grid: int = N_GRID,
+    detail: str = "full",
+    kc_over_kphi: float | None = None,
 ) -> PredictionResult:
     """Fit the improved cone model to one CI profile (prediction process).
+
+    ``predict_many([profile], ...)[0]``: one profile through the one
+    solving path.
 
     Parameters
     ----------
@@ -106,129 +237,175 @@ def predict(
         With a calibration, hold kc/kphi at the calibrated terrain's value:
         the cone barely separates kc from kphi (their columns are nearly
         collinear), plates of two sizes do.  Only the exact solver uses it.
+    n_grid, detail, kc_over_kphi
+        As :func:`predict_many`.
+
+    References
+    ----------
+    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P.
+       Predicting terrain parameters for physics-based vehicle mobility
+       models from cone index data. Section 3.3.2.
     """
-    t0 = time.perf_counter()
-    if solver not in ("exact", "pso"):
-        raise ValueError(f"solver must be 'exact' or 'pso' (got {solver!r})")
-    bounds = bounds or Bounds()
-    try:
-        profile.validate()
-    except InputError as exc:
-        return _error(profile, str(exc))
-    if calibration is not None:
-        model = calibration.model
-        r_min = calibration.r_min
-        plate_pair = calibration.plate_pair
-        bounds = bounds.fixed(phic=calibration.phic_deg, cc=calibration.cc)
-    ratio = None
-    if calibration is not None and fix_ratio and calibration.kphi > 0:
-        ratio = calibration.kc / calibration.kphi
-    law = pressure_law(model, r_min=r_min, plate_pair=plate_pair)
-    z, y = profile.depth, profile.ci
-    try:
-        if solver == "exact":
-            sol = solve_exact(
-                z,
-                y,
-                cone=profile.cone,
-                law=law,
-                bounds=bounds,
-                Kc=Kc,
-                fit_Kc=fit_Kc,
-                noise_floor=noise_floor,
-                kc_over_kphi=ratio,
-            )
-            params = TerrainParameters(
-                sol.kc, sol.kphi, sol.n, sol.cc, sol.phic_deg, sol.Kc, model, r_min
-            )
-            extra = dict(
-                undetermined=sol.undetermined,
-                phic_range=sol.phic_range,
-                profile_intervals=sol.profile_intervals,
-                sigma=sol.sigma,
-                nfev=sol.nfev,
-                nit=sol.nit,
-                converged=True,
-                message="global optimum of the bounded linear least squares over the n, phic grid",
-            )
-        elif solver == "pso":
-            f = rmsd_objective(profile, law, bounds, Kc)
-            lo = [bounds.kc[0], bounds.kphi[0], bounds.n[0], bounds.cc[0], bounds.phic[0]]
-            hi = [bounds.kc[1], bounds.kphi[1], bounds.n[1], bounds.cc[1], bounds.phic[1]]
-            if fit_Kc:
-                lo.append(bounds.Kc[0])
-                hi.append(bounds.Kc[1])
-            res = pso(f, np.array(lo), np.array(hi), seed=seed, **(pso_options or {}))
-            x = res.x
-            n = float(x[2])
-            params = TerrainParameters(
-                float(u.kc_to_si(x[0], n, bounds.kc_units)),
-                float(u.kphi_to_si(x[1], n, bounds.kphi_units)),
-                n,
-                float(x[3]),
-                float(x[4]),
-                float(x[5]) if fit_Kc else Kc,
-                model,
-                r_min,
-            )
-            und = (
-                ["phic", "phic~scale(kc,kphi)"]
-                if (not fit_Kc and Kc is None and bounds.phic[0] != bounds.phic[1])
-                else []
-            )
-            extra = dict(
-                undetermined=und,
-                nfev=res.nfev,
-                nit=res.nit,
-                converged=res.converged,
-                message=res.message + " (pso does not analyse identifiability beyond phic)",
-            )
-        else:
-            raise ValueError(f"solver must be 'exact' or 'pso' (got {solver!r})")
-        m = improved(
-            z,
-            kc=params.kc,
-            kphi=params.kphi,
-            n=params.n,
-            cc=params.cc,
-            phic=params.phic_deg,
-            Kc=params.Kc,
-            law=law,
-            cone=profile.cone,
-        )
-    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
-        return _error(profile, f"solver failed: {exc}")
-    r = m - y
-    rmsd = float(np.sqrt(np.mean(r * r)))
-    chk = check_fit_fast(z, y, m)
-    notes = list(profile.notes)
-    if calibration is not None:
-        fixed = "model, r_min, phic, cc" + (
-            " and kc/kphi" if ratio is not None and solver == "exact" else ""
-        )
-        notes.append(f"calibration {calibration.terrain!r}: {fixed} fixed")
-    return PredictionResult(
-        id=profile.id,
-        status="ok",
-        params=params,
-        rmsd=rmsd,
-        r2_ci=chk.r2,
-        longest_run=chk.longest_run,
-        lack_of_fit=chk.lack_of_fit,
-        depth=z,
-        ci=y,
-        ci_model=m,
+    return predict_many(
+        [profile],
+        model=model,
+        r_min=r_min,
+        plate_pair=plate_pair,
+        calibration=calibration,
         solver=solver,
-        time_s=time.perf_counter() - t0,
-        cone=profile.cone.name,
-        metadata=dict(profile.metadata),
-        notes=notes,
-        source=profile.source,
-        **extra,
+        bounds=bounds,
+        Kc=Kc,
+        fit_Kc=fit_Kc,
+        seed=seed,
+        noise_floor=noise_floor,
+        pso_options=pso_options,
+        fix_ratio=fix_ratio,
+        n_grid=n_grid,
+        detail=detail,
+        kc_over_kphi=kc_over_kphi,
+    )[0]
+
+
+def predict_many(
+    profiles: ProfileSet | Iterable[CIProfile | InputError],
+    *,
+    model: str = "rm0",
+    r_min: float | None = None,
+    plate_pair: tuple[float, float] | None = None,
+    calibration: Any = None,
+    solver: str = "exact",
+    bounds: Bounds | None = None,
+    Kc: float | None = None,
+    fit_Kc: bool = False,
+    seed: int | None = None,
+    noise_floor: float = 0.01,
+    pso_options: dict[str, Any] | None = None,
+    fix_ratio: bool = True,
+    n_grid: int = N_GRID,
+    detail: str = "full",
+    kc_over_kphi: float | None = None,
+    pool: Any = None,
+    chunk_size: int = 1000,
+    solve_many: Callable[..., ManySolution] | None = None,
+) -> PredictionResults:
+    """Fit the improved cone model to a set of CI profiles through one vectorised path.
+
+    Every profile is validated (a bad one becomes an error result naming
+    its file, profile, row and column; reader errors likewise), the valid
+    ones are grouped by cone and each group's optima are found by one
+    :func:`terracone.inverse.many.solve_exact_many` call, re-solved on the
+    design matrix itself (:func:`polish_many`), and given the statistics
+    :func:`predict` reports.  The particle swarm and the fits with finite
+    Kc run profile by profile inside the same function.
+
+    Parameters
+    ----------
+    profiles : ProfileSet or iterable of CIProfile and InputError
+        The set to fit.  A ProfileSet's ``errors`` come after its profiles.
+    pool : object with ``map``, optional
+        Maps the fit over chunks of ``chunk_size`` profiles (emcee's
+        pattern): a ``multiprocessing`` pool, a
+        ``concurrent.futures`` executor, a Dask client adapter; None: the
+        builtin ``map``.  The results do not depend on the pool.
+    chunk_size : int
+        Profiles per chunk.
+    model, r_min, plate_pair, calibration, solver, bounds, Kc, fit_Kc, seed,
+    noise_floor, pso_options, fix_ratio
+        As :func:`predict`.
+    n_grid : int
+        Points of the global grid over n (97; batch uses 41).
+    detail : {"full", "summary"}
+        ``"full"``: everything :func:`predict` reports, with the profile
+        intervals of kc, kphi and cc from the identifiability scans;
+        ``"summary"``: the same optimum and statistics without those scans
+        (what ``terracone batch`` writes).
+    solve_many : callable, optional
+        The vectorised solver (default :func:`solve_exact_many`).
+    kc_over_kphi : float, optional
+        Hold kc/kphi [m] fixed (exact solver), as a calibration does.
+
+    Returns
+    -------
+    PredictionResults
+        One result per input item, in input order.
+
+    References
+    ----------
+    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P.
+       Predicting terrain parameters for physics-based vehicle mobility
+       models from cone index data. Section 3.3.2.
+    """
+    settings = predict_settings(
+        model=model,
+        r_min=r_min,
+        plate_pair=plate_pair,
+        calibration=calibration,
+        solver=solver,
+        bounds=bounds,
+        Kc=Kc,
+        fit_Kc=fit_Kc,
+        seed=seed,
+        noise_floor=noise_floor,
+        pso_options=pso_options,
+        fix_ratio=fix_ratio,
+        n_grid=n_grid,
+        detail=detail,
+        kc_over_kphi=kc_over_kphi,
+        solve_many=solve_many,
     )
+    pset, order, errors, originals = _gather(profiles)
+    if chunk_size < 1:
+        raise ValueError(f"chunk_size must be >= 1 (got {chunk_size})")
+    starts = range(0, len(pset), chunk_size)
+    if len(pset) <= chunk_size:
+        chunks = [pset]
+    else:
+        chunks = [pset.take(np.arange(a, min(a + chunk_size, len(pset)))) for a in starts]
+    mapper = map if pool is None else pool.map
+    fitted = [r for part in mapper(functools.partial(fit_set, settings), chunks) for r in part]
+    out = PredictionResults([None] * (len(fitted) + len(errors)))
+    for pos, res, orig in zip(order, fitted, originals):
+        if orig is not None:
+            res.metadata = dict(orig.metadata)
+        out[pos] = res
+    for pos, res in errors:
+        out[pos] = res
+    return out
 
 
-def _error(profile: CIProfile, reason: str) -> PredictionResult:
+def _gather(profiles) -> tuple[ProfileSet, list[int], list[tuple[int, PredictionResult]], list]:
+    """The input as (set, output position of each set profile, error results, originals).
+
+    Reader errors become error results; so do CI profiles that fail
+    :meth:`CIProfile.validate` (worded as it words them).  A ProfileSet's
+    profiles are validated later, by :func:`screen`.
+    """
+    if isinstance(profiles, ProfileSet):
+        P = len(profiles)
+        errs = [(P + k, _reader_error(e)) for k, e in enumerate(profiles.errors)]
+        return profiles, list(range(P)), errs, [None] * P
+    order, errs, profs = [], [], []
+    for pos, it in enumerate(profiles):
+        if isinstance(it, InputError):
+            errs.append((pos, _reader_error(it)))
+            continue
+        try:
+            it.validate()
+        except InputError as exc:
+            errs.append((pos, _profile_error(it, str(exc))))
+            continue
+        order.append(pos)
+        profs.append(it)
+    # metadata stays with the originals (any Python values): the set carries none
+    pset = ProfileSet.from_profiles(replace(p, metadata={}) for p in profs)
+    return pset, order, errs, profs
+
+
+def _reader_error(err: InputError) -> PredictionResult:
+    return PredictionResult(id=str(err.profile), status="error", error=str(err), source=err.file)
+
+
+def _profile_error(profile: CIProfile, reason: str) -> PredictionResult:
     return PredictionResult(
         id=profile.id,
         status="error",
@@ -240,17 +417,679 @@ def _error(profile: CIProfile, reason: str) -> PredictionResult:
     )
 
 
-def predict_many(items: Iterable[CIProfile | InputError], **kwargs: Any) -> PredictionResults:
-    """:func:`predict` for each item; reader errors become error results.
+def fit_set(settings: PredictSettings, pset: ProfileSet) -> list[PredictionResult]:
+    """Validate and fit every profile of a set (one chunk of :func:`predict_many`).
 
-    Returns a :class:`PredictionResults` (a list) in the order of the items.
+    Returns one result per profile, in order.  Module-level so that process
+    pools can pickle it.
     """
-    out = PredictionResults()
-    for it in items:
-        if isinstance(it, InputError):
-            out.append(
-                PredictionResult(id=str(it.profile), status="error", error=str(it), source=it.file)
-            )
-        else:
-            out.append(predict(it, **kwargs))
+    out: list[PredictionResult | None] = [None] * len(pset)
+    meta = [{}] * len(pset) if pset.metadata is None else pset.metadata.to_pylist()
+    for j, exc in screen(pset).items():
+        out[j] = _error_result(pset, j, str(exc), meta[j])
+    good = np.array([j for j in range(len(pset)) if out[j] is None], dtype=np.intp)
+    if settings.vectorised:
+        for c in np.unique(pset.cone_idx[good]):
+            members = good[pset.cone_idx[good] == c]
+            group = pset if members.size == len(pset) else pset.take(members)
+            for j, res in zip(members, _fit_group(settings, group)):
+                out[j] = res
+    else:
+        for j in good:
+            out[j] = _fit_one(settings, pset, int(j))
+    for j in good:
+        res = out[j]
+        res.metadata = meta[j]
+        if res.ok and settings.note:
+            res.notes.append(settings.note)
     return out
+
+
+# ---------------------------------------------------------------------------
+# validation: located errors, vectorised screen
+# ---------------------------------------------------------------------------
+
+
+def screen(pset: ProfileSet) -> dict[int, InputError]:
+    """The profiles of a set that cannot be fitted, each with its located error.
+
+    A vectorised screen (negative CI, non-increasing depth, too few points,
+    tip above the surface, non-finite values) picks the suspects;
+    :meth:`CIProfile.validate` words each one's reason, and
+    :func:`locate_error` names its file, row and column.
+    """
+    off = pset.offsets
+    P = len(pset)
+    if P == 0:
+        return {}
+    starts, counts = off[:-1], pset.counts
+    z, y = pset.depth, pset.ci
+    with np.errstate(invalid="ignore"):
+        row_bad = ~(y >= 0) | ~np.isfinite(z) | ~np.isfinite(y)
+        row_bad[1:] |= ~(z[1:] > z[:-1])
+        row_bad[starts[counts > 0]] = ~(y[starts[counts > 0]] >= 0) | ~np.isfinite(
+            z[starts[counts > 0]]
+        )
+        has = counts > 0
+        bad = np.ones(P, dtype=bool)
+        bad[has] = np.logical_or.reduceat(row_bad, starts[has])
+        bad |= counts < 3
+        bad[has] |= z[starts[has]] < -pset.heights()[has] * (1 + 1e-9)
+    errors = {}
+    for j in np.flatnonzero(bad):
+        s, e = int(off[j]), int(off[j + 1])
+        prof = CIProfile(
+            str(pset.ids[j]),
+            z[s:e],
+            y[s:e],
+            cone=pset.cones[int(pset.cone_idx[j])],
+            rows=np.arange(e - s),
+        )
+        try:
+            prof.validate()
+        except InputError as exc:
+            errors[int(j)] = locate_error(pset, int(j), exc)
+    return errors
+
+
+def locate_error(pset: ProfileSet, j: int, exc: InputError) -> InputError:
+    """``exc`` (raised by :meth:`CIProfile.validate` with rows = point index) located in its file.
+
+    The row becomes the file line (or record), the column the file's own
+    column name (the CI column for a profile with too few points, where
+    the reader reports it too), and the reason says where the profile
+    lies, or where the previous depth is.  Without file lines (-1) the row
+    is left out.
+    """
+    src = pset.source(j)
+    path = None if src is None else src.path
+    word = "row" if src is None else src.row_word
+    s, e = int(pset.offsets[j]), int(pset.offsets[j + 1])
+    lines = np.full(e - s, -1) if pset.rows is None else pset.rows[s:e]
+    known = lines.size > 0 and bool(np.all(lines >= 0))
+    if src is None:
+        column = exc.column
+    else:
+        column = src.depth_column if exc.column == "depth" else src.ci_column
+    more, row = "", None
+    if exc.row is None:  # too few points
+        if known:
+            row = int(lines[0])
+            span = f"{word} {row}" if lines.size == 1 else f"{word}s {row}-{int(lines[-1])}"
+            more = f" (the profile is on {span})"
+    elif known:
+        row = int(lines[exc.row])
+        if exc.column == "depth" and exc.row > 0 and "increasing" in exc.reason:
+            more = f" (previous depth on {word} {int(lines[exc.row - 1])})"
+    return InputError(
+        exc.reason + more, file=path, profile=str(pset.ids[j]), row=row, column=column
+    )
+
+
+def _error_result(pset: ProfileSet, j: int, reason: str, meta: dict) -> PredictionResult:
+    src = pset.source(j)
+    return PredictionResult(
+        id=str(pset.ids[j]),
+        status="error",
+        error=reason,
+        cone=pset.cones[int(pset.cone_idx[j])].name,
+        metadata=meta,
+        notes=[] if pset.notes is None else list(pset.notes[j]),
+        source=None if src is None else src.path,
+    )
+
+
+def _solver_error(pset: ProfileSet, j: int, why: str) -> PredictionResult:
+    src = pset.source(j)
+    path = None if src is None else src.path
+    msg = str(InputError(why, file=path, profile=str(pset.ids[j])))
+    return _error_result(pset, j, msg, {})
+
+
+# ---------------------------------------------------------------------------
+# the vectorised exact path (fully mobilised shear)
+# ---------------------------------------------------------------------------
+
+
+def _fit_group(settings: PredictSettings, group: ProfileSet) -> list[PredictionResult]:
+    """One cone's profiles through one vectorised solve; a failing profile is isolated.
+
+    Should the solver raise, the group is halved until the profile that
+    breaks it is alone and reported as an error, so the others are fitted.
+    """
+    t0 = time.perf_counter()
+    try:
+        with np.errstate(all="ignore"):
+            fit = solve_set(settings, group)
+    except Exception as exc:  # noqa: BLE001 - isolate the failing profiles by bisection
+        P = len(group)
+        if P == 1:
+            return [_solver_error(group, 0, f"solver failed: {exc}")]
+        h = P // 2
+        return _fit_group(settings, group.take(np.arange(h))) + _fit_group(
+            settings, group.take(np.arange(h, P))
+        )
+    return _group_results(settings, group, fit, (time.perf_counter() - t0) / len(group))
+
+
+@dataclass
+class SetFit:
+    """The optimum of every profile of a one-cone set and its statistics (SI, length P).
+
+    ``x`` holds (kc, kphi, cc); ``model`` the model CI on the padded depths
+    (P, Z); ``intervals`` the profile intervals per profile; ``checks`` the
+    :class:`terracone.metrics.FitCheck` of each profile.
+    """
+
+    x: np.ndarray
+    n: np.ndarray
+    phic: np.ndarray
+    phic_lo: np.ndarray
+    phic_hi: np.ndarray
+    sse: np.ndarray
+    rmsd: np.ndarray
+    sigma: np.ndarray
+    model: np.ndarray
+    undetermined: list[list[str]]
+    intervals: list[dict[str, tuple[float, float]]]
+    checks: list[Any]
+    nfev: int
+
+
+def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
+    """Optima and statistics of a one-cone set (exact solver, fully mobilised shear).
+
+    One :func:`solve_exact_many` call over the set (eqs. (2-5) to (2-7)),
+    the linear parameters re-solved on the design matrix
+    (:func:`polish_many`), then the n interval, the phic ridge and, with
+    ``detail="full"``, the profile scans of kc, kphi and cc.
+    """
+    from .kernels import box_grid
+
+    s, b = settings, settings.bounds
+    cone = group.cones[int(group.cone_idx[0])]
+    bounds_of = list(zip(group.offsets[:-1].tolist(), group.offsets[1:].tolist()))
+    zs = [group.depth[a:e] for a, e in bounds_of]
+    ys = [group.ci[a:e] for a, e in bounds_of]
+    ms = s.solve_many(
+        zs,
+        ys,
+        cone=cone,
+        law=s.law,
+        bounds=b,
+        n_grid=s.n_grid,
+        noise_floor=s.noise_floor,
+        kc_over_kphi=s.ratio,
+    )
+    zz, yy, mask = group.padded()
+    # eq. (2-7): CI = X (kc, kphi, cc) at the optimum's n and phic (eq. (2-6), fully mobilised)
+    X = design(zz, ms.n[:, None], ms.phic_deg[:, None], cone=cone, law=s.law, Kc=None)
+    X = X * mask[..., None]
+    lo, hi = (
+        a[:, 0] for a in box_grid(np.ascontiguousarray(ms.n[:, None]), bounds_params(b, s.ratio))
+    )
+    if s.ratio is None:
+        x = polish_many(X, yy, lo, hi, np.stack([ms.kc, ms.kphi, ms.cc], axis=1))
+    else:  # kc = ratio kphi: the kc column folds into the kphi column
+        Xr = np.stack([np.zeros_like(X[..., 0]), s.ratio * X[..., 0] + X[..., 1], X[..., 2]], -1)
+        xr = polish_many(Xr, yy, lo, hi, np.stack([0 * ms.kc, ms.kphi, ms.cc], axis=1))
+        x = np.stack([s.ratio * xr[:, 1], xr[:, 1], xr[:, 2]], axis=1)
+    # the reported model CI from the model itself (eq. (2-7)), as rmsd_objective evaluates it
+    n_, p_ = ms.n[:, None], ms.phic_deg[:, None]
+    kc, kphi, cc = x[:, 0:1], x[:, 1:2], x[:, 2:3]
+    model = improved(zz, kc=kc, kphi=kphi, n=n_, cc=cc, phic=p_, Kc=None, law=s.law, cone=cone)
+    r = np.where(mask, model - yy, 0.0)
+    sse = np.einsum("pz,pz->p", r, r)
+    sigma, thr, n_lo, n_hi = n_intervals(ms, sse, yy, mask, b, s.noise_floor)
+    und, intervals = [], []
+    counts = group.counts
+    for j, k in enumerate(counts):
+        linear: tuple[list[str], dict[str, tuple[float, float]]] = ([], {})
+        if s.detail == "full":
+            args = (zz[j, :k], yy[j, :k], x[j], ms.n[j], ms.phic_deg[j], thr[j], (n_lo[j], n_hi[j]))
+            linear = linear_intervals(*args, settings=s, cone=cone)
+        found = identification(b, (n_lo[j], n_hi[j]), (ms.phic_lo[j], ms.phic_hi[j]), linear)
+        und.append(found[0])
+        intervals.append(found[1])
+    checks = [check_fit_fast(zz[j, :k], yy[j, :k], model[j, :k]) for j, k in enumerate(counts)]
+    return SetFit(
+        x,
+        ms.n,
+        ms.phic_deg,
+        ms.phic_lo,
+        ms.phic_hi,
+        sse,
+        np.sqrt(sse / counts),
+        sigma,
+        model,
+        und,
+        intervals,
+        checks,
+        int(ms.nfev) // len(group),
+    )
+
+
+def n_intervals(
+    ms: ManySolution,
+    sse: np.ndarray,
+    yy: np.ndarray,
+    mask: np.ndarray,
+    bounds: Bounds,
+    noise_floor: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """sigma [kPa], the threshold [kPa^2] and the approximate 95% profile interval of n.
+
+    sigma is the residual standard deviation, floored at ``noise_floor``
+    times the mean CI (no penetrometer reads better).  The n interval holds
+    the grid values of n whose best fit (over phic and the linear
+    parameters) raises the sum of squares by less than 3.84 sigma^2, widened
+    by one grid step and always holding the optimum (one value per profile).
+    """
+    npts = mask.sum(axis=1)
+    mean_abs = np.where(mask, np.abs(yy), 0.0).sum(axis=1) / npts
+    sigma2 = np.maximum(sse / np.maximum(npts - 5, 1), (noise_floor * mean_abs) ** 2)
+    thr = sse + CHI2_1_95 * sigma2
+    ns, n = ms.n_grid, ms.n
+    ok = ms.sse_n <= thr[:, None]
+    has = ok.any(axis=1)
+    small = np.where(ok, ns[None, :], np.inf).min(axis=1)
+    big = np.where(ok, ns[None, :], -np.inf).max(axis=1)
+    step = (ns[1] - ns[0]) if ns.size > 1 else 0.0
+    n_lo = np.where(has, np.maximum(bounds.n[0], np.minimum(small - step, n)), n)
+    n_hi = np.where(has, np.minimum(bounds.n[1], np.maximum(big + step, n)), n)
+    return np.sqrt(sigma2), thr, n_lo, n_hi
+
+
+def linear_intervals(
+    z: np.ndarray,
+    y: np.ndarray,
+    x: np.ndarray,
+    n: float,
+    phic_deg: float,
+    thr: float,
+    n_range: tuple[float, float],
+    *,
+    settings: PredictSettings,
+    cone: Cone,
+) -> tuple[list[str], dict[str, tuple[float, float]]]:
+    """Profile intervals of kc, kphi, cc [SI] of one profile, and which the data leave free.
+
+    Each is pinned on a grid of 61 fractions of its box, the other two
+    re-fitted with n inside its own interval ``n_range``
+    (:func:`terracone.inverse.exact.identify_extents`, eq. (2-7) with phic
+    held); the interval is the pinned values whose best fit stays within
+    ``thr`` [kPa^2].  A parameter whose interval covers half its box or more
+    is undetermined.
+    """
+    from .kernels import box_grid
+
+    b, ratio = settings.bounds, settings.ratio
+    n_lo, n_hi = n_range
+    n_loc = np.unique(
+        np.concatenate([np.linspace(n_lo, n_hi, 17), np.clip(n + grid(-0.1, 0.1, 9), n_lo, n_hi)])
+    )
+    vals = grid(0.0, 1.0, 61)
+    jlo, jhi, _, _ = identify_extents(
+        z, y, n_loc, phic_deg, None, b, cone, settings.law, vals, thr, ratio
+    )  # noqa: E501
+    lo_at, hi_at = (a[0, 0] for a in box_grid(np.full((1, 1), n), bounds_params(b, ratio)))
+    tokens: list[str] = []
+    intervals: dict[str, tuple[float, float]] = {}
+    for idx, name in enumerate(("kc", "kphi", "cc")):
+        if jlo[idx] == -2:  # fixed at every n
+            continue
+        if jlo[idx] < 0:
+            intervals[name] = (float(x[idx]), float(x[idx]))
+            continue
+        f_lo, f_hi = vals[jlo[idx]], vals[jhi[idx]]
+        lo_n, hi_n = float(lo_at[idx]), float(hi_at[idx])  # in SI at the optimum's n
+        a = min(lo_n + max(f_lo - 1 / 60, 0) * (hi_n - lo_n), float(x[idx]))
+        c = max(lo_n + min(f_hi + 1 / 60, 1) * (hi_n - lo_n), float(x[idx]))
+        intervals[name] = (a, c)
+        if f_hi - f_lo >= 0.5:
+            tokens.append(name)
+    if ratio is not None and "kphi" in intervals:
+        intervals["kc"] = (ratio * intervals["kphi"][0], ratio * intervals["kphi"][1])
+    return tokens, intervals
+
+
+def identification(
+    bounds: Bounds,
+    n_range: tuple[float, float],
+    phic_range: tuple[float, float],
+    linear: tuple[list[str], dict[str, tuple[float, float]]] = ([], {}),
+) -> tuple[list[str], dict[str, tuple[float, float]]]:
+    """The undetermined list and profile intervals of one fully mobilised fit.
+
+    n is undetermined when its interval covers half its range or more;
+    phic always is when its bounds are open, since it trades exactly
+    against the scale of kc and kphi (eq. (2-6) fully mobilised).
+    ``linear`` adds the tokens and intervals of :func:`linear_intervals`.
+    """
+    und: list[str] = []
+    intervals = {"n": (float(n_range[0]), float(n_range[1]))}
+    if bounds.n[0] != bounds.n[1] and n_range[1] - n_range[0] >= 0.5 * (bounds.n[1] - bounds.n[0]):
+        und.append("n")
+    und += linear[0]
+    intervals.update(linear[1])
+    if phic_range[1] - phic_range[0] > 1e-9 or bounds.phic[0] != bounds.phic[1]:
+        und = ["phic", *und, "phic~scale(kc,kphi)"]
+        intervals["phic_deg"] = (float(phic_range[0]), float(phic_range[1]))
+    return und, intervals
+
+
+def polish_many(
+    X: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray
+) -> np.ndarray:
+    """Re-solve bounded linear least squares on the design matrices themselves, per profile.
+
+    ``X`` (P, Z, 3) and ``y`` (P, Z) (padded rows zero), box ``lo``, ``hi``
+    and start ``x0`` (P, 3).  The normal equations the vectorised solver
+    uses lose about cond(X) digits near a perfect fit; a QR solve does not.
+    On x0's face of the box (the variables strictly inside re-solved, the
+    others held) one stacked QR per face pattern; where that leaves the box
+    or breaks the optimality signs, scipy's BVLS.  A profile keeps x0
+    unless its sum of squares drops.
+    """
+    free = hi > lo
+    act = free & (x0 > lo) & (x0 < hi)
+    x = x0.copy()
+    todo = free.any(axis=1)
+    norms = np.sqrt(np.stack([np.einsum("pz,pz->p", X[..., i], X[..., i]) for i in range(3)], 1))
+    code = act @ np.array([1, 2, 4])  # the face: which variables are strictly inside
+    for c in np.unique(code[todo]):
+        pattern = (c & np.array([1, 2, 4])) > 0
+        sel = np.flatnonzero(todo & (code == c))
+        Xs, ys, x0s = X[sel], y[sel], x0[sel]
+        cand, ok = _on_face(Xs, ys, x0s, lo[sel], hi[sel], pattern)
+        r = _times(Xs, cand) - ys
+        grad = np.stack([np.einsum("pz,pz->p", Xs[..., i], r) for i in range(3)], 1)  # dSSE/2
+        tol = 1e-8 * norms[sel] * np.sqrt(np.einsum("pz,pz->p", r, r) + 1e-300)[:, None]
+        held = free[sel] & ~pattern
+        wrong = (held & (x0s <= lo[sel]) & (grad < -tol)) | (held & (x0s >= hi[sel]) & (grad > tol))
+        ok &= ~wrong.any(axis=1)
+        x[sel[ok]] = cand[ok]
+        todo[sel[ok]] = False
+    for p in np.flatnonzero(todo):
+        x[p] = _bvls(X[p], y[p], lo[p], hi[p], x0[p])
+    r1, r0 = _times(X, x) - y, _times(X, x0) - y
+    better = np.einsum("pz,pz->p", r1, r1) < np.einsum("pz,pz->p", r0, r0)
+    return np.where(better[:, None], x, x0)
+
+
+def _times(X: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """X (P, Z, k) times x (P, k): (P, Z), element by element.
+
+    Each profile's values do not depend on the others or on the padding (a
+    batched matmul may block differently), and it is faster than einsum here.
+    """
+    out = X[..., 0] * x[:, 0, None]
+    for i in range(1, X.shape[-1]):
+        out += X[..., i] * x[:, i, None]
+    return out
+
+
+def _on_face(X, y, x0, lo, hi, pattern) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares in the ``pattern`` columns (the others held at x0), per profile.
+
+    Returns the candidates and whether each is usable: full rank and
+    strictly inside the box (the caller checks the signs at held bounds).
+    """
+    G = X.shape[0]
+    cand = x0.copy()
+    if not pattern.any():
+        return cand, np.ones(G, dtype=bool)
+    rhs = y.copy()
+    for i in np.flatnonzero(~pattern):
+        rhs -= X[:, :, i] * x0[:, i, None]
+    cols = np.flatnonzero(pattern)
+    scale = np.sqrt(np.stack([np.einsum("pz,pz->p", X[:, :, i], X[:, :, i]) for i in cols], 1))
+    ok = (scale > 0).all(axis=1)
+    scale = np.where(scale > 0, scale, 1.0)
+    sol, full = mgs_lstsq([X[:, :, i] / scale[:, m, None] for m, i in enumerate(cols)], rhs)
+    sol = sol / scale
+    cand[:, pattern] = sol
+    inside = ((sol > lo[:, pattern]) & (sol < hi[:, pattern])).all(axis=1)
+    return cand, ok & full & inside
+
+
+def mgs_lstsq(
+    A: list[np.ndarray], b: np.ndarray, rtol: float = 1e-13
+) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares min ||A x - b|| for a stack of small problems, by modified Gram-Schmidt.
+
+    ``A``: the k columns, each (P, Z); ``b`` (P, Z).  MGS applied to the
+    augmented matrix [A | b] is backward stable for least squares ([1]_),
+    unlike the normal equations, and vectorised over P it needs a few
+    passes over the data instead of one LAPACK call per problem.  Returns
+    x (P, k) and whether each problem has full rank (|R_ii| > rtol max
+    |R_jj|; x is 0 where not).
+
+    References
+    ----------
+    .. [1] Bjorck, A. (1967). Solving linear least squares problems by
+       Gram-Schmidt orthogonalization. BIT 7, 1-21.
+    """
+    k = len(A)
+    P = b.shape[0]
+    q = [np.array(a, dtype=float) for a in A]
+    c = np.array(b, dtype=float)
+    R = np.zeros((P, k, k))
+    qb = np.zeros((P, k))
+    for i in range(k):
+        R[:, i, i] = np.sqrt(np.einsum("pz,pz->p", q[i], q[i]))
+        q[i] = q[i] / np.where(R[:, i, i] > 0, R[:, i, i], 1.0)[:, None]
+        for j in range(i + 1, k):
+            R[:, i, j] = np.einsum("pz,pz->p", q[i], q[j])
+            q[j] = q[j] - R[:, i, j, None] * q[i]
+        qb[:, i] = np.einsum("pz,pz->p", q[i], c)
+        c = c - qb[:, i, None] * q[i]
+    d = np.abs(np.diagonal(R, axis1=1, axis2=2))
+    full = d.min(axis=1) > rtol * d.max(axis=1)
+    x = np.zeros((P, k))
+    with np.errstate(all="ignore"):
+        for i in range(k - 1, -1, -1):  # back substitution, R x = Q'b
+            x[:, i] = (qb[:, i] - np.einsum("pj,pj->p", R[:, i, i + 1 :], x[:, i + 1 :])) / R[
+                :, i, i
+            ]
+    return np.where(full[:, None], x, 0.0), full
+
+
+def _bvls(X, y, lo, hi, x0) -> np.ndarray:
+    """scipy's BVLS on one profile's free variables (columns scaled); x0 if it fails."""
+    free = hi > lo
+    xf = np.where(free, 0.0, lo)
+    Xf = X[:, free]
+    scale = np.sqrt(np.sum(Xf * Xf, axis=0))
+    scale = np.where(scale > 0, scale, 1.0)
+    try:
+        res = lsq_linear(
+            Xf / scale,
+            y - X @ xf,
+            bounds=(lo[free] * scale, hi[free] * scale),
+            method="bvls",
+            tol=1e-15,
+        )  # noqa: E501
+    except (ValueError, np.linalg.LinAlgError):
+        return x0
+    xf[free] = np.clip(res.x / scale, lo[free], hi[free])
+    return xf
+
+
+_EXACT_MESSAGE = "global optimum of the bounded linear least squares over the n, phic grid"
+
+
+def _group_results(
+    settings: PredictSettings, group: ProfileSet, fit: SetFit, time_s: float
+) -> list[PredictionResult]:
+    """The results of a vectorised fit, one per profile (arrays read as Python lists once)."""
+    starts, counts = group.offsets[:-1].tolist(), group.counts.tolist()
+    x, n, phic = fit.x.tolist(), fit.n.tolist(), fit.phic.tolist()
+    ranges = list(zip(fit.phic_lo.tolist(), fit.phic_hi.tolist()))
+    sigma, rmsd = fit.sigma.tolist(), fit.rmsd.tolist()
+    sources = _source_paths(group)
+    cone = group.cones[int(group.cone_idx[0])].name
+    out = []
+    for j, (s, k) in enumerate(zip(starts, counts)):
+        kc, kphi, cc = x[j]
+        chk = fit.checks[j]
+        out.append(
+            PredictionResult(
+                id=str(group.ids[j]),
+                status="ok",
+                params=TerrainParameters(
+                    kc, kphi, n[j], cc, phic[j], None, settings.model, settings.r_min
+                ),
+                rmsd=rmsd[j],
+                r2_ci=chk.r2,
+                longest_run=chk.longest_run,
+                lack_of_fit=chk.lack_of_fit,
+                depth=group.depth[s : s + k],
+                ci=group.ci[s : s + k],
+                ci_model=fit.model[j, :k],
+                undetermined=fit.undetermined[j],
+                phic_range=ranges[j],
+                profile_intervals=fit.intervals[j],
+                sigma=sigma[j],
+                solver="exact",
+                nfev=fit.nfev,
+                nit=1,
+                time_s=time_s,
+                converged=True,
+                message=_EXACT_MESSAGE,
+                cone=cone,
+                notes=[] if group.notes is None else list(group.notes[j]),
+                source=sources[j],
+            )
+        )
+    return out
+
+
+def _source_paths(pset: ProfileSet) -> list[str | None]:
+    """The file path of each profile of a set (None where it has none)."""
+    if pset.file_idx is None:
+        return [None] * len(pset)
+    paths = [f.path for f in pset.files] + [None]  # file_idx -1: the last entry
+    return [paths[i] for i in pset.file_idx.tolist()]
+
+
+def _ok_result(
+    pset: ProfileSet, j: int, params, y, m, rmsd, chk, solver: str, time_s: float, extra: dict
+) -> PredictionResult:
+    """An ok result: profile j of the set, its parameters, measured y and model m [kPa]."""
+    s = int(pset.offsets[j])
+    src = pset.source(j)
+    return PredictionResult(
+        id=str(pset.ids[j]),
+        status="ok",
+        params=params,
+        rmsd=float(rmsd),
+        r2_ci=chk.r2,
+        longest_run=chk.longest_run,
+        lack_of_fit=chk.lack_of_fit,
+        depth=pset.depth[s : s + y.size],
+        ci=y,
+        ci_model=m,
+        solver=solver,
+        time_s=time_s,
+        cone=pset.cones[int(pset.cone_idx[j])].name,
+        notes=[] if pset.notes is None else list(pset.notes[j]),
+        source=None if src is None else src.path,
+        **extra,
+    )
+
+
+# ---------------------------------------------------------------------------
+# profile by profile: the particle swarm, finite or fitted Kc
+# ---------------------------------------------------------------------------
+
+
+def _fit_one(settings: PredictSettings, pset: ProfileSet, j: int) -> PredictionResult:
+    """One profile through the particle swarm or the exact solver with finite Kc."""
+    t0 = time.perf_counter()
+    s, e = int(pset.offsets[j]), int(pset.offsets[j + 1])
+    z, y = pset.depth[s:e], pset.ci[s:e]
+    cone = pset.cones[int(pset.cone_idx[j])]
+    try:
+        with np.errstate(all="ignore"):
+            fit = _exact_one if settings.solver == "exact" else _pso_one
+            params, extra = fit(settings, z, y, cone)
+            # eq. (2-7), with eq. (2-6) at the fitted Kc
+            m = improved(
+                z,
+                kc=params.kc,
+                kphi=params.kphi,
+                n=params.n,
+                cc=params.cc,
+                phic=params.phic_deg,
+                Kc=params.Kc,
+                law=settings.law,
+                cone=cone,
+            )  # noqa: E501
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
+        return _solver_error(pset, j, f"solver failed: {exc}")
+    chk = check_fit_fast(z, y, m)
+    rmsd = np.sqrt(np.mean((m - y) ** 2))
+    t = time.perf_counter() - t0
+    return _ok_result(pset, j, params, y, m, rmsd, chk, settings.solver, t, extra)
+
+
+def _exact_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainParameters, dict]:
+    """:func:`solve_exact` on one profile (finite or fitted Kc)."""
+    s = settings
+    sol = solve_exact(
+        z,
+        y,
+        cone=cone,
+        law=s.law,
+        bounds=s.bounds,
+        Kc=s.Kc,
+        fit_Kc=s.fit_Kc,
+        n_grid=s.n_grid,
+        noise_floor=s.noise_floor,
+        kc_over_kphi=s.ratio,
+    )  # noqa: E501
+    params = TerrainParameters(
+        sol.kc, sol.kphi, sol.n, sol.cc, sol.phic_deg, sol.Kc, s.model, s.r_min
+    )  # noqa: E501
+    extra = dict(
+        undetermined=sol.undetermined,
+        phic_range=sol.phic_range,
+        profile_intervals=sol.profile_intervals,
+        sigma=sol.sigma,
+        nfev=sol.nfev,
+        nit=sol.nit,
+        converged=True,
+        message=_EXACT_MESSAGE,
+    )
+    return params, extra
+
+
+def _pso_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainParameters, dict]:
+    """The paper's particle swarm on the RMSD (section 3.3.2) for one profile."""
+    s, b = settings, settings.bounds
+    f = rmsd_objective(CIProfile("", z, y, cone=cone), s.law, b, s.Kc)
+    lo = [b.kc[0], b.kphi[0], b.n[0], b.cc[0], b.phic[0]] + ([b.Kc[0]] if s.fit_Kc else [])
+    hi = [b.kc[1], b.kphi[1], b.n[1], b.cc[1], b.phic[1]] + ([b.Kc[1]] if s.fit_Kc else [])
+    res = pso(f, np.array(lo), np.array(hi), seed=s.seed, **(s.pso_options or {}))
+    x = res.x
+    n = float(x[2])
+    params = TerrainParameters(
+        float(u.kc_to_si(x[0], n, b.kc_units)),
+        float(u.kphi_to_si(x[1], n, b.kphi_units)),
+        n,
+        float(x[3]),
+        float(x[4]),
+        float(x[5]) if s.fit_Kc else s.Kc,
+        s.model,
+        s.r_min,
+    )
+    free = not s.fit_Kc and s.Kc is None and b.phic[0] != b.phic[1]
+    extra = dict(
+        undetermined=["phic", "phic~scale(kc,kphi)"] if free else [],
+        nfev=res.nfev,
+        nit=res.nit,
+        converged=res.converged,
+        message=res.message + " (pso does not analyse identifiability beyond phic)",
+    )
+    return params, extra
