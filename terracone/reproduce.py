@@ -77,7 +77,7 @@ from .data import CIProfile, PlateTest, TerrainParameters
 from .inverse.bounds import Bounds
 from .inverse.evaluate import PlateEvaluation, cross_table, predicted_plate_pressure
 from .inverse.learn import Calibration, LearnResult, learn
-from .inverse.predict import predict
+from .inverse.predict import predict_many
 from .io import write_ci_profiles, write_plate_tests
 from .plate import plate_pressure
 from .report import figures as F
@@ -511,12 +511,9 @@ def _learn_task(profiles, plates, grid):
     return learn(profiles, plates, model="rm1", grid=grid)
 
 
-def _predict_task(profile, cal, radii, seed, draws):
-    """Prediction with and without the calibration, and the posterior plate bands."""
-    rc = predict(profile, calibration=cal)
-    rf = predict(profile)
-    post, why = _posterior(profile, rc, cal, radii, seed, draws)
-    return rc, rf, post, why
+def _posterior_task(profile, rc, cal, radii, seed, draws):
+    """The posterior plate bands of one calibrated prediction (runs in the pool)."""
+    return _posterior(profile, rc, cal, radii, seed, draws)
 
 
 def _deferred(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> tuple:
@@ -732,22 +729,33 @@ def _learn_all(cases: Sequence[_Case], mapper: Callable[..., Any], grid: tuple) 
 def _predict_all(
     cases: Sequence[_Case], mapper: Callable[..., Any], draws: int, notes: list[str]
 ) -> None:
-    """Every profile predicted with and without its calibration, with posterior, in the pool."""
-    jobs = [(case, i, p) for case in cases for i, p in enumerate(case.profiles)]
-    tasks = [
-        (
-            _predict_task,
-            (p, case.cal_of(p.id), list(case.spec.plates.values()), case.spec.seed + i, draws),
-        )
-        for case, i, p in jobs
-    ]
-    for (case, _, p), (rc, rf, post, why) in zip(jobs, mapper(_call, tasks)):
-        rc.posterior = post  # written with the calibrated prediction
-        case.cal_res.append(rc)
-        case.free_res.append(rf)
-        case.posts[p.id] = None if post is None else post.as_dict("si")
-        if why and why not in notes:
-            notes.append(why)
+    """Every profile predicted with and without its calibration, then posteriors in the pool.
+
+    The fits go through :func:`terracone.inverse.predict_many` (the package's one
+    solving path): one call per group's calibration and one without; the
+    posteriors, a second or so each, are mapped over the pool.
+    """
+    tasks = []
+    for case in cases:
+        rf = predict_many(case.profiles)
+        rc: dict[str, Any] = {}
+        for g in case.groups:
+            mine = [p for p in case.profiles if case.group_of(p.id) is g]
+            rc.update(zip((p.id for p in mine), predict_many(mine, calibration=case.cals[g.id])))
+        radii = list(case.spec.plates.values())
+        for i, p in enumerate(case.profiles):
+            case.cal_res.append(rc[p.id])
+            case.free_res.append(rf[i])
+            args = (p, rc[p.id], case.cal_of(p.id), radii, case.spec.seed + i, draws)
+            tasks.append((_posterior_task, args))
+    posts = iter(mapper(_call, tasks))
+    for case in cases:
+        for p, r in zip(case.profiles, case.cal_res):
+            post, why = next(posts)
+            r.posterior = post  # written with the calibrated prediction
+            case.posts[p.id] = None if post is None else post.as_dict("si")
+            if why and why not in notes:
+                notes.append(why)
 
 
 def _evaluate(case: _Case) -> None:
