@@ -26,7 +26,6 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-from scipy.optimize import lsq_linear
 
 from .. import units as u
 from ..cone import Cone, improved
@@ -35,8 +34,10 @@ from ..metrics import check_fit_fast
 from ..plate import PressureLaw, pressure_law
 from ..result import PredictionResult, PredictionResults
 from .bounds import Bounds
-from .exact import CHI2_1_95, design, identify_extents, solve_exact
-from .many import ManySolution, bounds_params, grid, solve_exact_many
+from .exact import design, solve_exact
+from .intervals import identification, linear_intervals, n_intervals
+from .many import ManySolution, bounds_params, solve_exact_many
+from .polish import mgs_lstsq, polish_many
 from .pso import pso
 
 __all__ = [
@@ -58,6 +59,8 @@ __all__ = [
     "mgs_lstsq",
     "rmsd_objective",
 ]
+
+_EXACT_MESSAGE = "global optimum of the bounded linear least squares over the n, phic grid"
 
 #: Points of the global grid over n of the exact solver (solve_exact's default).
 N_GRID = 97
@@ -647,7 +650,7 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
         linear: tuple[list[str], dict[str, tuple[float, float]]] = ([], {})
         if s.detail == "full":
             args = (zz[j, :k], yy[j, :k], x[j], ms.n[j], ms.phic_deg[j], thr[j], (n_lo[j], n_hi[j]))
-            linear = linear_intervals(*args, settings=s, cone=cone)
+            linear = linear_intervals(*args, bounds=b, law=s.law, cone=cone, ratio=s.ratio)
         found = identification(b, (n_lo[j], n_hi[j]), (ms.phic_lo[j], ms.phic_hi[j]), linear)
         und.append(found[0])
         intervals.append(found[1])
@@ -667,256 +670,6 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
         checks,
         int(ms.nfev) // len(group),
     )
-
-
-def n_intervals(
-    ms: ManySolution,
-    sse: np.ndarray,
-    yy: np.ndarray,
-    mask: np.ndarray,
-    bounds: Bounds,
-    noise_floor: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """sigma [kPa], the threshold [kPa^2] and the approximate 95% profile interval of n.
-
-    sigma is the residual standard deviation, floored at ``noise_floor``
-    times the mean CI (no penetrometer reads better).  The n interval holds
-    the grid values of n whose best fit (over phic and the linear
-    parameters) raises the sum of squares by less than 3.84 sigma^2, widened
-    by one grid step and always holding the optimum (one value per profile).
-    """
-    npts = mask.sum(axis=1)
-    mean_abs = np.where(mask, np.abs(yy), 0.0).sum(axis=1) / npts
-    sigma2 = np.maximum(sse / np.maximum(npts - 5, 1), (noise_floor * mean_abs) ** 2)
-    thr = sse + CHI2_1_95 * sigma2
-    ns, n = ms.n_grid, ms.n
-    ok = ms.sse_n <= thr[:, None]
-    has = ok.any(axis=1)
-    small = np.where(ok, ns[None, :], np.inf).min(axis=1)
-    big = np.where(ok, ns[None, :], -np.inf).max(axis=1)
-    step = (ns[1] - ns[0]) if ns.size > 1 else 0.0
-    n_lo = np.where(has, np.maximum(bounds.n[0], np.minimum(small - step, n)), n)
-    n_hi = np.where(has, np.minimum(bounds.n[1], np.maximum(big + step, n)), n)
-    return np.sqrt(sigma2), thr, n_lo, n_hi
-
-
-def linear_intervals(
-    z: np.ndarray,
-    y: np.ndarray,
-    x: np.ndarray,
-    n: float,
-    phic_deg: float,
-    thr: float,
-    n_range: tuple[float, float],
-    *,
-    settings: PredictSettings,
-    cone: Cone,
-) -> tuple[list[str], dict[str, tuple[float, float]]]:
-    """Profile intervals of kc, kphi, cc [SI] of one profile, and which the data leave free.
-
-    Each is pinned on a grid of 61 fractions of its box, the other two
-    re-fitted with n inside its own interval ``n_range``
-    (:func:`terracone.inverse.exact.identify_extents`, eq. (2-7) with phic
-    held); the interval is the pinned values whose best fit stays within
-    ``thr`` [kPa^2].  A parameter whose interval covers half its box or more
-    is undetermined.
-    """
-    from .kernels import box_grid
-
-    b, ratio = settings.bounds, settings.ratio
-    n_lo, n_hi = n_range
-    n_loc = np.unique(
-        np.concatenate([np.linspace(n_lo, n_hi, 17), np.clip(n + grid(-0.1, 0.1, 9), n_lo, n_hi)])
-    )
-    vals = grid(0.0, 1.0, 61)
-    jlo, jhi, _, _ = identify_extents(
-        z, y, n_loc, phic_deg, None, b, cone, settings.law, vals, thr, ratio
-    )  # noqa: E501
-    lo_at, hi_at = (a[0, 0] for a in box_grid(np.full((1, 1), n), bounds_params(b, ratio)))
-    tokens: list[str] = []
-    intervals: dict[str, tuple[float, float]] = {}
-    for idx, name in enumerate(("kc", "kphi", "cc")):
-        if jlo[idx] == -2:  # fixed at every n
-            continue
-        if jlo[idx] < 0:
-            intervals[name] = (float(x[idx]), float(x[idx]))
-            continue
-        f_lo, f_hi = vals[jlo[idx]], vals[jhi[idx]]
-        lo_n, hi_n = float(lo_at[idx]), float(hi_at[idx])  # in SI at the optimum's n
-        a = min(lo_n + max(f_lo - 1 / 60, 0) * (hi_n - lo_n), float(x[idx]))
-        c = max(lo_n + min(f_hi + 1 / 60, 1) * (hi_n - lo_n), float(x[idx]))
-        intervals[name] = (a, c)
-        if f_hi - f_lo >= 0.5:
-            tokens.append(name)
-    if ratio is not None and "kphi" in intervals:
-        intervals["kc"] = (ratio * intervals["kphi"][0], ratio * intervals["kphi"][1])
-    return tokens, intervals
-
-
-def identification(
-    bounds: Bounds,
-    n_range: tuple[float, float],
-    phic_range: tuple[float, float],
-    linear: tuple[list[str], dict[str, tuple[float, float]]] = ([], {}),
-) -> tuple[list[str], dict[str, tuple[float, float]]]:
-    """The undetermined list and profile intervals of one fully mobilised fit.
-
-    n is undetermined when its interval covers half its range or more;
-    phic always is when its bounds are open, since it trades exactly
-    against the scale of kc and kphi (eq. (2-6) fully mobilised).
-    ``linear`` adds the tokens and intervals of :func:`linear_intervals`.
-    """
-    und: list[str] = []
-    intervals = {"n": (float(n_range[0]), float(n_range[1]))}
-    if bounds.n[0] != bounds.n[1] and n_range[1] - n_range[0] >= 0.5 * (bounds.n[1] - bounds.n[0]):
-        und.append("n")
-    und += linear[0]
-    intervals.update(linear[1])
-    if phic_range[1] - phic_range[0] > 1e-9 or bounds.phic[0] != bounds.phic[1]:
-        und = ["phic", *und, "phic~scale(kc,kphi)"]
-        intervals["phic_deg"] = (float(phic_range[0]), float(phic_range[1]))
-    return und, intervals
-
-
-def polish_many(
-    X: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray
-) -> np.ndarray:
-    """Re-solve bounded linear least squares on the design matrices themselves, per profile.
-
-    ``X`` (P, Z, 3) and ``y`` (P, Z) (padded rows zero), box ``lo``, ``hi``
-    and start ``x0`` (P, 3).  The normal equations the vectorised solver
-    uses lose about cond(X) digits near a perfect fit; a QR solve does not.
-    On x0's face of the box (the variables strictly inside re-solved, the
-    others held) one stacked QR per face pattern; where that leaves the box
-    or breaks the optimality signs, scipy's BVLS.  A profile keeps x0
-    unless its sum of squares drops.
-    """
-    free = hi > lo
-    act = free & (x0 > lo) & (x0 < hi)
-    x = x0.copy()
-    todo = free.any(axis=1)
-    norms = np.sqrt(np.stack([np.einsum("pz,pz->p", X[..., i], X[..., i]) for i in range(3)], 1))
-    code = act @ np.array([1, 2, 4])  # the face: which variables are strictly inside
-    for c in np.unique(code[todo]):
-        pattern = (c & np.array([1, 2, 4])) > 0
-        sel = np.flatnonzero(todo & (code == c))
-        Xs, ys, x0s = X[sel], y[sel], x0[sel]
-        cand, ok = _on_face(Xs, ys, x0s, lo[sel], hi[sel], pattern)
-        r = _times(Xs, cand) - ys
-        grad = np.stack([np.einsum("pz,pz->p", Xs[..., i], r) for i in range(3)], 1)  # dSSE/2
-        tol = 1e-8 * norms[sel] * np.sqrt(np.einsum("pz,pz->p", r, r) + 1e-300)[:, None]
-        held = free[sel] & ~pattern
-        wrong = (held & (x0s <= lo[sel]) & (grad < -tol)) | (held & (x0s >= hi[sel]) & (grad > tol))
-        ok &= ~wrong.any(axis=1)
-        x[sel[ok]] = cand[ok]
-        todo[sel[ok]] = False
-    for p in np.flatnonzero(todo):
-        x[p] = _bvls(X[p], y[p], lo[p], hi[p], x0[p])
-    r1, r0 = _times(X, x) - y, _times(X, x0) - y
-    better = np.einsum("pz,pz->p", r1, r1) < np.einsum("pz,pz->p", r0, r0)
-    return np.where(better[:, None], x, x0)
-
-
-def _times(X: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """X (P, Z, k) times x (P, k): (P, Z), element by element.
-
-    Each profile's values do not depend on the others or on the padding (a
-    batched matmul may block differently), and it is faster than einsum here.
-    """
-    out = X[..., 0] * x[:, 0, None]
-    for i in range(1, X.shape[-1]):
-        out += X[..., i] * x[:, i, None]
-    return out
-
-
-def _on_face(X, y, x0, lo, hi, pattern) -> tuple[np.ndarray, np.ndarray]:
-    """Least squares in the ``pattern`` columns (the others held at x0), per profile.
-
-    Returns the candidates and whether each is usable: full rank and
-    strictly inside the box (the caller checks the signs at held bounds).
-    """
-    G = X.shape[0]
-    cand = x0.copy()
-    if not pattern.any():
-        return cand, np.ones(G, dtype=bool)
-    rhs = y.copy()
-    for i in np.flatnonzero(~pattern):
-        rhs -= X[:, :, i] * x0[:, i, None]
-    cols = np.flatnonzero(pattern)
-    scale = np.sqrt(np.stack([np.einsum("pz,pz->p", X[:, :, i], X[:, :, i]) for i in cols], 1))
-    ok = (scale > 0).all(axis=1)
-    scale = np.where(scale > 0, scale, 1.0)
-    sol, full = mgs_lstsq([X[:, :, i] / scale[:, m, None] for m, i in enumerate(cols)], rhs)
-    sol = sol / scale
-    cand[:, pattern] = sol
-    inside = ((sol > lo[:, pattern]) & (sol < hi[:, pattern])).all(axis=1)
-    return cand, ok & full & inside
-
-
-def mgs_lstsq(
-    A: list[np.ndarray], b: np.ndarray, rtol: float = 1e-13
-) -> tuple[np.ndarray, np.ndarray]:
-    """Least squares min ||A x - b|| for a stack of small problems, by modified Gram-Schmidt.
-
-    ``A``: the k columns, each (P, Z); ``b`` (P, Z).  MGS applied to the
-    augmented matrix [A | b] is backward stable for least squares ([1]_),
-    unlike the normal equations, and vectorised over P it needs a few
-    passes over the data instead of one LAPACK call per problem.  Returns
-    x (P, k) and whether each problem has full rank (|R_ii| > rtol max
-    |R_jj|; x is 0 where not).
-
-    References
-    ----------
-    .. [1] Bjorck, A. (1967). Solving linear least squares problems by
-       Gram-Schmidt orthogonalization. BIT 7, 1-21.
-    """
-    k = len(A)
-    P = b.shape[0]
-    q = [np.array(a, dtype=float) for a in A]
-    c = np.array(b, dtype=float)
-    R = np.zeros((P, k, k))
-    qb = np.zeros((P, k))
-    for i in range(k):
-        R[:, i, i] = np.sqrt(np.einsum("pz,pz->p", q[i], q[i]))
-        q[i] = q[i] / np.where(R[:, i, i] > 0, R[:, i, i], 1.0)[:, None]
-        for j in range(i + 1, k):
-            R[:, i, j] = np.einsum("pz,pz->p", q[i], q[j])
-            q[j] = q[j] - R[:, i, j, None] * q[i]
-        qb[:, i] = np.einsum("pz,pz->p", q[i], c)
-        c = c - qb[:, i, None] * q[i]
-    d = np.abs(np.diagonal(R, axis1=1, axis2=2))
-    full = d.min(axis=1) > rtol * d.max(axis=1)
-    x = np.zeros((P, k))
-    with np.errstate(all="ignore"):
-        for i in range(k - 1, -1, -1):  # back substitution, R x = Q'b
-            x[:, i] = (qb[:, i] - np.einsum("pj,pj->p", R[:, i, i + 1 :], x[:, i + 1 :])) / R[
-                :, i, i
-            ]
-    return np.where(full[:, None], x, 0.0), full
-
-
-def _bvls(X, y, lo, hi, x0) -> np.ndarray:
-    """scipy's BVLS on one profile's free variables (columns scaled); x0 if it fails."""
-    free = hi > lo
-    xf = np.where(free, 0.0, lo)
-    Xf = X[:, free]
-    scale = np.sqrt(np.sum(Xf * Xf, axis=0))
-    scale = np.where(scale > 0, scale, 1.0)
-    try:
-        res = lsq_linear(
-            Xf / scale,
-            y - X @ xf,
-            bounds=(lo[free] * scale, hi[free] * scale),
-            method="bvls",
-            tol=1e-15,
-        )  # noqa: E501
-    except (ValueError, np.linalg.LinAlgError):
-        return x0
-    xf[free] = np.clip(res.x / scale, lo[free], hi[free])
-    return xf
-
-
-_EXACT_MESSAGE = "global optimum of the bounded linear least squares over the n, phic grid"
 
 
 def _group_results(
