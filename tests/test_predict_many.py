@@ -276,3 +276,15 @@ def test_polish_many_reaches_the_box_optimum():
         sse_ref = float(np.sum((X[p] @ ref - y[p]) ** 2))
         assert sse <= sse_ref * (1 + 1e-10)
         np.testing.assert_allclose(x[p], ref, rtol=1e-7, atol=1e-9)
+
+
+def test_one_list_of_predict_options():
+    # predict and predict_many take **PredictOptions; predict_settings gives the defaults
+    import importlib
+    import inspect
+
+    mod = importlib.import_module("terracone.inverse.predict")
+    keys = set(mod.PredictOptions.__annotations__)
+    assert keys == set(inspect.signature(mod.predict_settings).parameters)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'modle'"):
+        mod.predict_settings(modle="rm1")

@@ -23,7 +23,7 @@ import functools
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, TypedDict, Unpack
 
 import numpy as np
 
@@ -44,6 +44,7 @@ __all__ = [
     "PredictionResult",
     "PredictionResults",
     "PredictSettings",
+    "PredictOptions",
     "SetFit",
     "predict",
     "predict_many",
@@ -125,6 +126,31 @@ class PredictSettings:
         return self.solver == "exact" and self.Kc is None and not self.fit_Kc
 
 
+class PredictOptions(TypedDict, total=False):
+    """The keywords of :func:`predict` and :func:`predict_many` (documented there).
+
+    One list, so that the two functions and :func:`predict_settings`, which
+    gives each its default, cannot drift apart.
+    """
+
+    model: str
+    r_min: float | None
+    plate_pair: tuple[float, float] | None
+    calibration: Any
+    solver: str
+    bounds: Bounds | None
+    Kc: float | None
+    fit_Kc: bool
+    seed: int | None
+    noise_floor: float
+    pso_options: dict[str, Any] | None
+    fix_ratio: bool
+    n_grid: int
+    detail: str
+    solve_many: Callable[..., ManySolution] | None
+    kc_over_kphi: float | None
+
+
 def predict_settings(
     *,
     model: str = "rm0",
@@ -189,59 +215,24 @@ def predict_settings(
 # ---------------------------------------------------------------------------
 
 
-def predict(
-    profile: CIProfile,
-    *,
-    model: str = "rm0",
-    r_min: float | None = None,
-    plate_pair: tuple[float, float] | None = None,
-    calibration: Any = None,
-    solver: str = "exact",
-    bounds: Bounds | None = None,
-    Kc: float | None = None,
-    fit_Kc: bool = False,
-    seed: int | None = None,
-    noise_floor: float = 0.01,
-    pso_options: dict[str, Any] | None = None,
-    fix_ratio: bool = True,
-    n_grid: int = N_GRID,
-    detail: str = "full",
-    kc_over_kphi: float | None = None,
-) -> PredictionResult:
+def predict(profile: CIProfile, **options: Unpack[PredictOptions]) -> PredictionResult:
     """Fit the improved cone model to one CI profile (prediction process).
 
-    ``predict_many([profile], ...)[0]``: one profile through the one
+    ``predict_many([profile], **options)[0]``: one profile through the one
     solving path.
 
     Parameters
     ----------
     profile : CIProfile
-    model : {"rm0", "rm1"}
-    r_min : float, optional
-        RM1 transition radius [m].
-    plate_pair : (r1, r2), optional
-        Plate radii [m] defining the RM1 secant when r_min > r2.
-    calibration : Calibration, optional
-        A learned calibration (section 3.3.1): fixes model, r_min, phic and
-        cc, and (``fix_ratio``) the ratio kc/kphi of the calibrated terrain.
-    solver : {"exact", "pso"}
-    bounds : Bounds, optional
-        Search bounds (defaults in SI: kc 0-1000, kphi 0-20000, n 0.05-2,
-        cc 0-100 kPa, phic 0-45 deg).
-    Kc : float, optional
-        Fixed shear deformation parameter [m]; None: fully mobilised shear.
-    fit_Kc : bool
-        Search Kc as a sixth parameter within ``bounds.Kc``.
-    seed : int, optional
-        Seed of the particle swarm.
-    noise_floor : float
-        Smallest relative noise assumed when judging identifiability.
-    fix_ratio : bool
-        With a calibration, hold kc/kphi at the calibrated terrain's value:
-        the cone barely separates kc from kphi (their columns are nearly
-        collinear), plates of two sizes do.  Only the exact solver uses it.
-    n_grid, detail, kc_over_kphi
-        As :func:`predict_many`.
+    **options
+        The keywords of :func:`predict_many` (:class:`PredictOptions`):
+        model, r_min, plate_pair, calibration, solver, bounds, Kc, fit_Kc,
+        seed, noise_floor, pso_options, fix_ratio, n_grid, detail,
+        kc_over_kphi.
+
+    Returns
+    -------
+    PredictionResult
 
     References
     ----------
@@ -249,47 +240,15 @@ def predict(
        Predicting terrain parameters for physics-based vehicle mobility
        models from cone index data. Section 3.3.2.
     """
-    return predict_many(
-        [profile],
-        model=model,
-        r_min=r_min,
-        plate_pair=plate_pair,
-        calibration=calibration,
-        solver=solver,
-        bounds=bounds,
-        Kc=Kc,
-        fit_Kc=fit_Kc,
-        seed=seed,
-        noise_floor=noise_floor,
-        pso_options=pso_options,
-        fix_ratio=fix_ratio,
-        n_grid=n_grid,
-        detail=detail,
-        kc_over_kphi=kc_over_kphi,
-    )[0]
+    return predict_many([profile], **options)[0]
 
 
 def predict_many(
     profiles: ProfileSet | Iterable[CIProfile | InputError],
     *,
-    model: str = "rm0",
-    r_min: float | None = None,
-    plate_pair: tuple[float, float] | None = None,
-    calibration: Any = None,
-    solver: str = "exact",
-    bounds: Bounds | None = None,
-    Kc: float | None = None,
-    fit_Kc: bool = False,
-    seed: int | None = None,
-    noise_floor: float = 0.01,
-    pso_options: dict[str, Any] | None = None,
-    fix_ratio: bool = True,
-    n_grid: int = N_GRID,
-    detail: str = "full",
-    kc_over_kphi: float | None = None,
     pool: Any = None,
     chunk_size: int = 1000,
-    solve_many: Callable[..., ManySolution] | None = None,
+    **options: Unpack[PredictOptions],
 ) -> PredictionResults:
     """Fit the improved cone model to a set of CI profiles through one vectorised path.
 
@@ -312,9 +271,33 @@ def predict_many(
         builtin ``map``.  The results do not depend on the pool.
     chunk_size : int
         Profiles per chunk.
-    model, r_min, plate_pair, calibration, solver, bounds, Kc, fit_Kc, seed,
-    noise_floor, pso_options, fix_ratio
-        As :func:`predict`.
+    model : {"rm0", "rm1"}
+    r_min : float, optional
+        RM1 transition radius [m].
+    plate_pair : (r1, r2), optional
+        Plate radii [m] defining the RM1 secant when r_min > r2.
+    calibration : Calibration, optional
+        A learned calibration (section 3.3.1): fixes model, r_min, phic and
+        cc, and (``fix_ratio``) the ratio kc/kphi of the calibrated terrain.
+    solver : {"exact", "pso"}
+    bounds : Bounds, optional
+        Search bounds (defaults in SI: kc 0-1000, kphi 0-20000, n 0.05-2,
+        cc 0-100 kPa, phic 0-45 deg).
+    Kc : float, optional
+        Fixed cone-terrain shear deformation parameter [m]; None: fully
+        mobilised shear.
+    fit_Kc : bool
+        Search Kc as a sixth parameter within ``bounds.Kc``.
+    seed : int, optional
+        Seed of the particle swarm.
+    noise_floor : float
+        Smallest relative noise assumed when judging identifiability.
+    pso_options : dict, optional
+        Keywords of :func:`terracone.inverse.pso.pso`.
+    fix_ratio : bool
+        With a calibration, hold kc/kphi at the calibrated terrain's value:
+        the cone barely separates kc from kphi (their columns are nearly
+        collinear), plates of two sizes do.  Only the exact solver uses it.
     n_grid : int
         Points of the global grid over n (97; batch uses 41).
     detail : {"full", "summary"}
@@ -338,24 +321,7 @@ def predict_many(
        Predicting terrain parameters for physics-based vehicle mobility
        models from cone index data. Section 3.3.2.
     """
-    settings = predict_settings(
-        model=model,
-        r_min=r_min,
-        plate_pair=plate_pair,
-        calibration=calibration,
-        solver=solver,
-        bounds=bounds,
-        Kc=Kc,
-        fit_Kc=fit_Kc,
-        seed=seed,
-        noise_floor=noise_floor,
-        pso_options=pso_options,
-        fix_ratio=fix_ratio,
-        n_grid=n_grid,
-        detail=detail,
-        kc_over_kphi=kc_over_kphi,
-        solve_many=solve_many,
-    )
+    settings = predict_settings(**options)
     pset, order, errors, originals = _gather(profiles)
     if chunk_size < 1:
         raise ValueError(f"chunk_size must be >= 1 (got {chunk_size})")
