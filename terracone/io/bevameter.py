@@ -69,21 +69,7 @@ def read_plate_tests(
 
     def build(group: tuple[str, np.ndarray]) -> PlateTest:
         tid, idx = group
-        if layout.id_col is not None and not tid:
-            raise InputError(
-                "empty test id",
-                file=source,
-                profile=tid,
-                item="test",
-                row=int(table.lines[idx[0]]),
-                column=layout.id_col.name,
-            )
-        bad = first_bad(idx, [(scol, size), (zcol, sink), (pcol, pres)])
-        if bad is not None:
-            i, col, why = bad
-            raise InputError(
-                why, file=source, profile=tid, item="test", row=int(table.lines[i]), column=col.name
-            )
+        _check_cells(source, table, layout, tid, idx, [(scol, size), (zcol, sink), (pcol, pres)])
         b = check_constant(source, tid, table, idx, scol, size, "plate size") * scol.factor
         if halve:
             b /= 2.0
@@ -145,21 +131,9 @@ def read_shear_tests(
 
     def build(group: tuple[str, np.ndarray]) -> ShearTest:
         tid, idx = group
-        if layout.id_col is not None and not tid:
-            raise InputError(
-                "empty test id",
-                file=source,
-                profile=tid,
-                item="test",
-                row=int(table.lines[idx[0]]),
-                column=layout.id_col.name,
-            )
-        bad = first_bad(idx, [(ncol, normal), (jcol, disp), (tcol, stress)])
-        if bad is not None:
-            i, col, why = bad
-            raise InputError(
-                why, file=source, profile=tid, item="test", row=int(table.lines[i]), column=col.name
-            )
+        _check_cells(
+            source, table, layout, tid, idx, [(ncol, normal), (jcol, disp), (tcol, stress)]
+        )
         sigma = check_constant(source, tid, table, idx, ncol, normal, "normal pressure")
         return ShearTest(
             id=tid,
@@ -172,3 +146,24 @@ def read_shear_tests(
         )
 
     return collect(table_groups(table, layout.id_col), build, on_error)
+
+
+def _check_cells(
+    source: str, table: Table, layout: Layout, tid: str, idx: np.ndarray, cols: list
+) -> None:
+    """Raise the located InputError of a test's empty id or first bad cell."""
+    if layout.id_col is not None and not tid:
+        raise InputError(
+            "empty test id",
+            file=source,
+            profile=tid,
+            item="test",
+            row=int(table.lines[idx[0]]),
+            column=layout.id_col.name,
+        )
+    bad = first_bad(idx, cols)
+    if bad is not None:
+        i, col, why = bad
+        raise InputError(
+            why, file=source, profile=tid, item="test", row=int(table.lines[i]), column=col.name
+        )
