@@ -10,8 +10,10 @@ from ..data import InputError, PlateTest, ShearTest
 from .tables import (
     PLATE_SCHEMA,
     SHEAR_SCHEMA,
+    Layout,
     OnError,
     PathLike,
+    Table,
     check_constant,
     check_on_error,
     collect,
