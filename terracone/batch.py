@@ -38,6 +38,10 @@ Design
   reason.  At the end the output is checked against the scan: the number of
   rows, a checksum of the profile ids and duplicate ids.
 
+With the default (local) cluster, call :func:`run_batch` from a script under
+``if __name__ == "__main__":``: the worker processes are started with the
+``spawn`` method, which imports the main module.
+
 See ``docs/batch.md`` for the user guide.
 """
 
@@ -555,10 +559,11 @@ def _settings(
     model: str,
     r_min: float | None,
     calibration: Calibration | None,
-    bounds: Bounds,
+    bounds: Bounds | str | None,
     units: str,
     cone: Cone,
     chunk_size: int,
+    wide: dict[str, str | None] | None = None,
     uncertainty: bool = False,
     draws: int = 1000,
     prior: Any = "bounds",
@@ -566,6 +571,8 @@ def _settings(
     depth_range: tuple[float | None, float | None] = (None, None),
     layers: int = 1,
 ) -> tuple[dict[str, Any], _FitSettings]:
+    """The run's settings (recorded in ``_run.json``) and what the workers need to fit."""
+    bounds = Bounds.parse(bounds, units) if isinstance(bounds, str) else bounds or Bounds()
     plate_pair = None
     ratio = None
     if calibration is not None:
@@ -616,6 +623,8 @@ def _settings(
         "noise_floor": fit.noise_floor,
         "terracone_version": __version__,
     }
+    if wide and any(v is not None for v in wide.values()):  # only then: older runs keep their key
+        settings["wide_units"] = dict(wide)
     return json.loads(json.dumps(settings)), fit
 
 
@@ -1153,84 +1162,43 @@ def run_batch(
     Parameters
     ----------
     input : path
-        A CSV (``.csv``, ``.csv.gz``) or Parquet (``.parquet``, ``.pq``)
-        file, or a directory of them (processed in name order; names
-        starting with ``.`` or ``_`` are ignored).  Columns as in
-        :func:`terracone.io.read_ci_profiles`: ``depth_<m|cm|mm|in>`` (base
-        depth), ``ci_<kpa|mpa|psi|pa>``, optional ``profile`` (without it a
-        file is one profile named after the file), optional ``cone``; any
-        other column is metadata, carried to the output (first row of each
-        profile).  The rows of a profile must be contiguous.
+        A CSV (``.csv``, ``.csv.gz``) or Parquet file, or a directory of them (name
+        order; ``.``/``_`` names ignored); columns as :func:`terracone.io.read_ci_profiles`
+        reads them (others are metadata); a profile's rows contiguous.
     out_dir : path
-        Output directory: new or empty, or (``resume=True``) one written by
-        an earlier run with the same settings and input.
-    workers : int, optional
-        Worker processes of the local Dask cluster (default: all cores).
-        Not allowed with ``scheduler``.
-    scheduler : str, optional
-        Address of a running Dask scheduler (``"tcp://HOST:PORT"``); its
-        workers need this version of terracone.
+        New or empty, or (``resume``) written by an earlier run of the same settings.
+    workers, scheduler : optional
+        Processes of the local Dask cluster (default: all cores), or a running
+        scheduler's address (``"tcp://HOST:PORT"``); not both.
     pool : optional
-        Where to fit the chunks instead of the Dask cluster this call would
-        start (emcee's pattern): a ``distributed.Client``, a
-        ``concurrent.futures`` executor, a ``multiprocessing`` pool, or
-        anything with a ``map(function, iterable)`` method (or ``map``
-        itself).  Clients and executors get at most two chunks per worker
-        in flight; other pools are mapped in windows of that size.  The
-        caller starts and closes it; not allowed with ``workers`` or
-        ``scheduler``.  Process pools need picklable tasks (they are).
-    resume : bool
-        Continue an interrupted run: chunks whose part file is whole are
-        kept, the others are computed.
-    quiet : bool
-        No progress bar.
-    model : {"rm0", "rm1"}
-    r_min : float, optional
-        RM1 transition radius [m] (SI, whatever ``units``).
-    calibration : Calibration or path, optional
-        Fixes model, r_min, plate pair, phic and cc, and holds kc/kphi at
-        the calibrated ratio, as :func:`terracone.inverse.predict` does.
-    bounds : Bounds or str, optional
-        Search bounds; a string is parsed by :meth:`Bounds.parse` in ``units``.
-    units : {"si", "us"}
-        Units of the output parameters (and of a bounds string).
-    cone : str or Cone
-        Cone of the profiles of files without a ``cone`` column.
-    chunk_size : int
-        Profiles per chunk (one task, one part file).
+        Fit the chunks there instead (emcee's pattern): a Dask ``Client``, an executor,
+        a ``multiprocessing`` pool or anything with ``map`` (or ``map``); two chunks
+        per worker in flight; the caller closes it; not with ``workers``/``scheduler``.
+    resume, quiet : bool
+        Keep the chunks whose part file is whole and compute the others; no progress bar.
+    model, r_min, calibration, bounds
+        As :func:`terracone.inverse.predict_many` (r_min [m]); or a calibration's
+        path, a bounds string (:meth:`Bounds.parse`, in ``units``).
+    units, cone, chunk_size
+        Units of the output (and of a bounds string); the cone of files without a
+        ``cone`` column; profiles per chunk (one task, one part file).
     progress : bool or callable, optional
-        None: a tqdm bar on stderr when it is a terminal (and not ``quiet``);
-        True / False: force the bar on / off; a callable is called as
-        ``progress(profiles_done, profiles_total)`` after every chunk.
-    uncertainty : bool
-        Also sample each fitted profile's posterior (:mod:`terracone.uncertainty`,
-        about a second per profile): columns ``<p>_q05``, ``<p>_q95`` (90%
-        interval, output units) and ``ident_<p>`` (identifiability label) for
-        p in kc, kphi, n, cc, phic_deg.
-    draws : int
-        Posterior draws per profile.
-    prior : "bounds" or Calibration
-        Prior of the posterior; with a ``calibration`` and any other value
-        than "bounds", the calibration.
-    depth_ref : {"base", "tip"}
-        What the input's depths measure; with "tip", base depth = tip
-        depth - H of the profile's cone.
-    depth_range : (lo, hi)
-        Fit only base depths in [lo, hi] [m] (either may be None).
-    format : {"csv", "sc900", "wide"} or None
-        Input format of a single file; None detects a FieldScout SC900
-        export or a wide table (:func:`terracone.io.detect_format`), each
-        converted once to ``OUT_DIR/_input/<stem>.parquet``, one profile per
-        push, pushes the reader rejects kept as error rows.
-    depth_unit, ci_unit : str, optional
-        Units of a wide table (:func:`terracone.io.read_wide_ci`); part of the
-        run's settings, so a resumed run must give the same.
+        None: a tqdm bar on a terminal; True/False: force it; a callable gets
+        ``progress(profiles_done, profiles_total)`` per chunk.
+    uncertainty, draws, prior
+        Also sample each posterior (:mod:`terracone.inverse.uncertainty`; prior
+        "bounds" or the calibration): columns ``<p>_q05``, ``<p>_q95`` (90%) and
+        ``ident_<p>`` for p in kc, kphi, n, cc, phic_deg.
+    depth_ref, depth_range
+        "tip": input depths are tip depths (base = tip - H); fit only base depths
+        in [lo, hi] [m] (either may be None).
     layers : int
-        With 2 or more, also fit a layered terrain per profile
-        (:func:`terracone.layers.fit_layered`, a second or two each): columns
-        ``bic_single``, ``bic_layered``, ``preferred_layers``, ``r2_layered``,
-        ``interfaces`` (in the output length unit), ``n_layers``,
-        ``lack_of_fit_layered``.
+        With 2 or more, also a layered fit per profile (:mod:`terracone.inverse.layered`):
+        columns ``bic_single``, ``bic_layered``, ``preferred_layers``, ``r2_layered``,
+        ``interfaces``, ``n_layers``, ``lack_of_fit_layered``.
+    format, depth_unit, ci_unit : optional
+        A single file's format ("csv", "sc900", "wide"; None detects it) and a wide
+        table's units; instrument files become ``OUT_DIR/_input/<stem>.parquet``.
 
     Returns
     -------
@@ -1239,25 +1207,15 @@ def run_batch(
     Raises
     ------
     InputError
-        A file-level problem (missing file or column, unknown unit, bad CSV
-        structure), found by the scan before anything is computed.
-    ValueError
-        Bad settings, or an output directory that cannot be used (not
-        empty without ``resume``, or holding another run).
-    RuntimeError
-        The Dask cluster cannot be used or was lost (rerun with ``resume``).
-
-    Notes
-    -----
-    With the default (local) cluster, call this from a script under
-    ``if __name__ == "__main__":``: the worker processes are started with
-    the ``spawn`` method, which imports the main module.
+        A file-level problem, found by the scan before anything is computed.
+    ValueError, RuntimeError
+        Bad settings or an unusable output directory; a lost Dask cluster (resume).
     """
     t_start = time.perf_counter()
     _check_args(chunk_size, workers, scheduler, pool)
     units = u.check_system(units)
     default_cone = get_cone(cone)
-    bounds = Bounds.parse(bounds, units) if isinstance(bounds, str) else bounds or Bounds()
+    wide = {"depth_unit": depth_unit, "ci_unit": ci_unit}
     settings, fit = _settings(
         model=model,
         r_min=r_min,
@@ -1266,6 +1224,7 @@ def run_batch(
         units=units,
         cone=default_cone,
         chunk_size=chunk_size,
+        wide=wide,
         uncertainty=uncertainty,
         draws=draws,
         prior=prior,
@@ -1273,15 +1232,12 @@ def run_batch(
         depth_range=depth_range,
         layers=layers,
     )
-    if depth_unit is not None or ci_unit is not None:  # only then: older runs keep their key
-        settings["wide_units"] = {"depth_unit": depth_unit, "ci_unit": ci_unit}
     files = _input_files(input)
     fingerprint = _fingerprint(input, files)
     run = _run_record(settings, fingerprint)
     out = Path(out_dir)
     in_dir = Path(input) if Path(input).is_dir() else None
     resuming = _prepare_out_dir(out, resume, run, in_dir)
-    wide = {"depth_unit": depth_unit, "ci_unit": ci_unit}
     readable = files if in_dir else _readable(files, out, format, default_cone, wide)
     summary = BatchSummary(out_dir=str(out), scheduler=scheduler)
     with _lock(out):
