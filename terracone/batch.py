@@ -623,8 +623,15 @@ def _settings(
         "noise_floor": fit.noise_floor,
         "terracone_version": __version__,
     }
-    if wide and any(v is not None for v in wide.values()):  # only then: older runs keep their key
+    # recorded only when set, so that runs written before these keys existed still resume
+    if wide and any(v is not None for v in wide.values()):
         settings["wide_units"] = dict(wide)
+    if depth_ref != "base":
+        settings["depth_ref"] = depth_ref
+    if any(v is not None for v in depth_range):
+        settings["depth_range_m"] = list(depth_range)
+    if int(layers) > 1:
+        settings["layers"] = int(layers)
     return json.loads(json.dumps(settings)), fit
 
 

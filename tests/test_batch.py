@@ -817,3 +817,19 @@ def test_sc900_export_in_batch(tmp_path):
     assert bad == {"sc900_export_2019-06-11/0001-N1", "sc900_export_2019-06-11/0009-N7"}
     assert s.profiles_ok == 81 and (out["cone"] == "asabe-small").all()
     assert (tmp_path / "out" / "_input" / "sc900_export_2019-06-11.parquet").exists()
+
+
+def test_resume_refuses_other_depth_options(data, tmp_path):
+    # a resumed run must fit with the depth window, reference and layers of the first one
+    out = tmp_path / "o"
+    kw = dict(pool=map, chunk_size=40, quiet=True)
+    run_batch(data["parquet"], out, depth_range=(0.0, 0.3), **kw)
+    run = json.loads((out / "_run.json").read_text())
+    assert run["settings"]["depth_range_m"] == [0.0, 0.3]
+    assert "depth_ref" not in run["settings"] and "layers" not in run["settings"]
+    with pytest.raises(ValueError, match="depth_range_m"):
+        run_batch(data["parquet"], out, depth_range=(0.0, 0.2), resume=True, **kw)
+    with pytest.raises(ValueError, match="depth_ref"):
+        run_batch(data["parquet"], out, depth_range=(0.0, 0.3), depth_ref="tip", resume=True, **kw)
+    s = run_batch(data["parquet"], out, depth_range=(0.0, 0.3), resume=True, **kw)
+    assert s.profiles == 80
