@@ -153,6 +153,22 @@ def _curve_out(xkey, x, ykey, y, units: str, as_json: bool) -> None:
     click.echo(curve_text(heads, x, y))
 
 
+def os_error_text(exc: OSError) -> str:
+    """A file system error in words: what could not be done to which file, and why.
+
+    ``[Errno 2] No such file or directory: 'out/x.json'`` becomes
+    ``cannot use out/x.json: no such file or directory (folder out does not exist)``.
+    """
+    name = exc.filename
+    if name is None:
+        return str(exc)
+    why = (exc.strerror or str(exc)).lower()
+    parent = Path(os.fspath(name)).parent
+    if isinstance(exc, FileNotFoundError) and str(parent) not in ("", ".") and not parent.exists():
+        why += f" (folder {parent} does not exist)"
+    return f"cannot use {os.fspath(name)}: {why}"
+
+
 class _Group(click.Group):
     """Turns every error into one message and a non-zero exit."""
 
@@ -165,7 +181,9 @@ class _Group(click.Group):
             raise click.ClickException(str(exc)) from None
         except KeyError as exc:
             raise click.ClickException(str(exc.args[0]) if exc.args else repr(exc)) from None
-        except (ValueError, OSError) as exc:
+        except OSError as exc:
+            raise click.ClickException(os_error_text(exc)) from None
+        except ValueError as exc:
             raise click.ClickException(str(exc)) from None
         except Exception as exc:  # pragma: no cover - a bug, but no traceback for users
             if os.environ.get("TERRACONE_DEBUG"):

@@ -453,3 +453,13 @@ def test_report_of_something_else(tmp_path, good):
         f"file {good['ci']}: cannot read JSON (Expecting value: line 1 column 1 (char 0))"
     )
     assert not (tmp_path / "r.html").exists()
+
+
+def test_an_output_folder_that_does_not_exist_is_named(tmp_path):
+    out = tmp_path / "nodir" / "x.json"
+    r = run(
+        "export", "--terrain", "Dry sand (Land Locomotion Lab)", "--format", "json", "--out", out
+    )
+    assert error_line(r) == (
+        f"cannot use {out}: no such file or directory (folder {out.parent} does not exist)"
+    )
