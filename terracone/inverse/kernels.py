@@ -287,7 +287,7 @@ def box_faces(yy, lo, hi, x_out, ws) -> float:
 
 
 @njit(error_model="numpy")
-def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:  # noqa: C901 (one face loop)
+def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:
     """:func:`box_faces`, trying face ``hint`` (0-26, or -1) first.
 
     The first face tried is accepted at once when it is well conditioned
@@ -299,7 +299,7 @@ def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:  # noqa: C901 (one fac
     chosen is left in ws[7] (the state of each variable).
     """
     d, diag, b, L, U, tol = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5]
-    bx, bst, x, st, r, S = ws[6], ws[7], ws[8], ws[9], ws[10], ws[11:14]
+    bx, bst, x, st, S = ws[6], ws[7], ws[8], ws[9], ws[11:14]
     for i in range(3):
         L[i] = lo[i] * d[i]
         U[i] = hi[i] * d[i]
@@ -326,28 +326,7 @@ def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:  # noqa: C901 (one fac
                 skip = True
         if skip:
             continue
-        nfree = 0
-        for i in range(3):
-            if st[i] == 1:
-                x[i] = L[i]
-            elif st[i] == 2:
-                x[i] = U[i]
-            else:
-                nfree += 1
-        for i in range(3):
-            if st[i] == 0:
-                ri = b[i]
-                for j in range(3):
-                    if st[j] != 0:
-                        ri = ri - S[i, j] * x[j]
-                r[i] = ri
-        pmin = 1.0
-        if nfree == 1:
-            for i in range(3):
-                if st[i] == 0:
-                    x[i] = r[i] / S[i, i]
-        elif nfree >= 2:
-            pmin = solve_free(S, r, st, x, ws[14:18])
+        pmin = face_point(ws)
         feas = True
         inside = first and pmin > 1e-6
         for i in range(3):
@@ -370,20 +349,7 @@ def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:  # noqa: C901 (one fac
             for i in range(3):
                 bx[i] = x[i]
                 bst[i] = st[i]
-        if inside:
-            for i in range(3):  # the held variables: the gradient must point out of the box
-                if st[i] != 0 and L[i] != U[i]:
-                    gi = diag[i] * x[i] - b[i]
-                    size = abs(diag[i] * x[i]) + abs(b[i])
-                    for j in range(3):
-                        if j != i:
-                            gi += S[i, j] * x[j]
-                            size += abs(S[i, j] * x[j])
-                    if st[i] == 1 and not gi > 1e-9 * size:
-                        inside = False
-                    if st[i] == 2 and not gi < -1e-9 * size:
-                        inside = False
-        if inside:
+        if inside and held_outward(ws):
             # a well-conditioned face satisfying the optimality conditions with a margin
             # holds the minimum over the box, which no other face can beat but by rounding
             break
@@ -397,6 +363,57 @@ def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:  # noqa: C901 (one fac
             v = bx[i] / d[i]
         x_out[i] = min(max(v, lo[i]), hi[i])
     return max(best + yy, 0.0)
+
+
+@njit(error_model="numpy")
+def face_point(ws) -> float:
+    """The minimiser x (ws[8]) of the scaled quadratic on the face ws[9] (states of the
+    variables), held variables at their scaled bounds ws[3] / ws[4].  Returns the smallest
+    pivot of the solve (1 with fewer than two free variables)."""
+    b, L, U, x, st, r, S = ws[2], ws[3], ws[4], ws[8], ws[9], ws[10], ws[11:14]
+    nfree = 0
+    for i in range(3):
+        if st[i] == 1:
+            x[i] = L[i]
+        elif st[i] == 2:
+            x[i] = U[i]
+        else:
+            nfree += 1
+    for i in range(3):
+        if st[i] == 0:
+            ri = b[i]
+            for j in range(3):
+                if st[j] != 0:
+                    ri = ri - S[i, j] * x[j]
+            r[i] = ri
+    if nfree == 1:
+        for i in range(3):
+            if st[i] == 0:
+                x[i] = r[i] / S[i, i]
+    elif nfree >= 2:
+        return solve_free(S, r, st, x, ws[14:18])
+    return 1.0
+
+
+@njit(error_model="numpy")
+def held_outward(ws) -> bool:
+    """True when the gradient at x (ws[8]) pushes every variable held at a bound (face ws[9])
+    out of the box, with a relative margin of 1e-9."""
+    diag, b, x, st, S = ws[1], ws[2], ws[8], ws[9], ws[11:14]
+    L, U = ws[3], ws[4]
+    for i in range(3):
+        if st[i] != 0 and L[i] != U[i]:
+            gi = diag[i] * x[i] - b[i]
+            size = abs(diag[i] * x[i]) + abs(b[i])
+            for j in range(3):
+                if j != i:
+                    gi += S[i, j] * x[j]
+                    size += abs(S[i, j] * x[j])
+            if st[i] == 1 and not gi > 1e-9 * size:
+                return False
+            if st[i] == 2 and not gi < -1e-9 * size:
+                return False
+    return True
 
 
 @njit(error_model="numpy")
@@ -1159,13 +1176,10 @@ def basis_columns(z, n, H, R, rm1, r_t, alpha, beta):
     A = np.empty((K, Z))
     B = np.empty((K, Z))
     C = np.empty((K, Z))
-    lg = np.empty((3, Z))
-    profile_logs(z, H, R, r_t, lg)
+    tab = np.empty((7, Z))
+    depth_table(z, H, R, r_t, tab)
     for k in range(K):
-        for q in range(Z):
-            A[k, q], B[k, q], C[k, q] = basis_point_log(
-                z[q], n[k], lg[0, q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
-            )
+        columns_at(z, tab, n[k], H, R, rm1, r_t, alpha, beta, z, False, A[k], B[k], C[k])
     return A, B, C
 
 
