@@ -465,3 +465,25 @@ def test_n_search_finds_the_brute_force_optimum(case):
         assert sol.sse[0] >= best * (1.0 - 1e-6) - 1e-12 * yty, (label, sol.sse[0], best)
         if "noise-free" in case or "capped" in case:
             assert sol.n[0] == pytest.approx(n_star, abs=1e-6), label
+
+
+def test_profiles_sharing_depths_fit_as_they_do_alone():
+    """Profiles on one depth grid (as an SC900's) share the grid's columns: each fit equals the
+    same profile fitted alone, and the grid profile of SSE over n equals the numpy path's."""
+    z = np.round(np.arange(0.0, 0.3 + 0.005, 0.01), 10)
+    terrains = [
+        (102.0, 5301.0, 0.79, 1.5, 12.0),
+        (0.0, 1948.9, 0.514, 0.0, 14.37),
+        (30, 900, 1.1, 4, 20),
+    ]
+    ys = [noisy_profile(i, t, noise=0.02 * i)[1] for i, t in enumerate(terrains)]
+    zs = [z, z, z[:-3], z[:-3], z]  # runs of equal depth vectors, a shorter one in between
+    ys = [ys[0], ys[1], ys[2][:-3], ys[0][:-3], ys[2]]
+    c, r = fit_many(zs, ys)
+    yy = np.array([float(y @ y) for y in ys])
+    np.testing.assert_allclose(c.sse_n, r.sse_n, rtol=1e-12, atol=1e-12 * yy.max())
+    for i in range(len(zs)):
+        one = solve_exact_many([zs[i]], [ys[i]], cone=CONE, law=LAWS["rm0"], bounds=Bounds())
+        np.testing.assert_allclose(c.sse_n[i], one.sse_n[0], rtol=1e-12, atol=1e-12 * yy[i])
+        assert c.n[i] == pytest.approx(one.n[0], abs=1e-9)
+        assert c.sse[i] == pytest.approx(one.sse[0], rel=1e-9, abs=1e-15 * yy[i])

@@ -52,6 +52,7 @@ __all__ = [
     "columns_at",
     "normal_eq",
     "cell_fast",
+    "profile_columns",
     "parabola_vertex",
     "zoom_refine",
     "kbounds",
@@ -436,16 +437,17 @@ def cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, r_t, alpha, beta):
     sv : (1 or P, F) phic scales s = 1 + tan(phic)/tan(a); lo, hi : (P, K, 3)
     bounds of (kc, kphi, cc); ratio : kc/kphi [m], or NaN for none.
     Returns the primed solutions xp (P, K, F, 3) and the SSE (P, K, F)
-    from the residuals.
+    from the residuals.  A profile with the depths and n of the one before
+    it (an instrument's common depth grid) reuses its columns
+    (:func:`profile_columns`), so the transcendental work of the grid is
+    done once per run of such profiles.
     """
     P, Z = zz.shape
     K = n.shape[1]
     F = sv.shape[1]
     xp = np.empty((P, K, F, 3))
     sse = np.empty((P, K, F))
-    A = np.empty(Z)
-    B = np.empty(Z)
-    C = np.empty(Z)
+    cols = np.empty((3, K, Z))  # columns at every n of the current depth vector
     G = np.empty((3, 3))
     g = np.empty(3)
     x = np.empty(3)
@@ -455,23 +457,17 @@ def cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, r_t, alpha, beta):
     ratio_q = np.empty(Z)
     p1q = np.empty(Z)
     for p in range(P):
-        depth_table(zz[p], H, R, r_t, tab)
         yty = 0.0
         for q in range(Z):
             yty += w[p, q] * yy[p, q] * yy[p, q]
         ps = p if sv.shape[0] > 1 else 0
-        uniform = uniform_grid(n[p])
-        if uniform:  # u1^(n+1) by recurrence: one exp per depth, not per cell (k ulp at step k)
-            dn = (n[p, K - 1] - n[p, 0]) / (K - 1)
-            for q in range(Z):
-                ratio_q[q] = math.exp(dn * tab[0, q])
-                p1q[q] = math.exp((n[p, 0] + 1.0) * tab[0, q])
+        if not (p > 0 and same_rows(zz, p) and same_rows(n, p)):
+            # a new depth vector (profiles of one instrument share theirs: computed once)
+            profile_columns(
+                zz[p], n[p], tab, H, R, rm1, r_t, alpha, beta, ratio, ratio_q, p1q, cols
+            )
         for k in range(K):
-            if uniform and k > 0:
-                for q in range(Z):
-                    p1q[q] *= ratio_q[q]
-            columns_at(zz[p], tab, n[p, k], H, R, rm1, r_t, alpha, beta, p1q, uniform, A, B, C)
-            fold_ratio(A, B, ratio)
+            A, B, C = cols[0, k], cols[1, k], cols[2, k]
             for f in range(F):
                 s = sv[ps, f]  # phic scales the kc and kphi columns, eq. (2-6)
                 normal_eq(yy[p], w[p], A, B, C, s, G, g)
@@ -480,6 +476,40 @@ def cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, r_t, alpha, beta):
                 xp[p, k, f, 0], xp[p, k, f, 1], xp[p, k, f, 2] = x0, x1, x2
                 sse[p, k, f] = residual_sse(yy[p], w[p], A, B, C, x0, x1, x2)
     return xp, sse
+
+
+@njit(error_model="numpy")
+def same_rows(a, p) -> bool:
+    """True when row p of a (P, M) equals row p - 1."""
+    for j in range(a.shape[1]):
+        if a[p, j] != a[p - 1, j]:
+            return False
+    return True
+
+
+@njit(error_model="numpy")
+def profile_columns(z, n, tab, H, R, rm1, r_t, alpha, beta, ratio, ratio_q, p1q, cols) -> None:
+    """Columns A, B, C of depths z (Z,) at every n of (K,) into cols (3, K, Z).
+
+    kc folded into kphi with a ratio (:func:`fold_ratio`); over a uniform grid
+    of n the powers u1^(n+1) by recurrence, one exp per depth instead of one
+    per cell (k ulp at step k).  tab, ratio_q, p1q are work arrays.
+    """
+    K = n.shape[0]
+    depth_table(z, H, R, r_t, tab)
+    uniform = uniform_grid(n)
+    if uniform:
+        dn = (n[K - 1] - n[0]) / (K - 1)
+        for q in range(z.shape[0]):
+            ratio_q[q] = math.exp(dn * tab[0, q])
+            p1q[q] = math.exp((n[0] + 1.0) * tab[0, q])
+    for k in range(K):
+        if uniform and k > 0:
+            for q in range(z.shape[0]):
+                p1q[q] *= ratio_q[q]
+        A, B, C = cols[0, k], cols[1, k], cols[2, k]
+        columns_at(z, tab, n[k], H, R, rm1, r_t, alpha, beta, p1q, uniform, A, B, C)
+        fold_ratio(A, B, ratio)
 
 
 @njit(error_model="numpy")

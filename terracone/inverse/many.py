@@ -15,8 +15,12 @@ calls over (profile, n) cells:
    scaled solution still fits in the box; the middle of that interval is
    reported (the exact ridge of section 2, never hidden).  Otherwise phic
    is put on a grid;
-3. a golden-section refinement of n around each profile's best grid cell,
-   vectorised across profiles.
+3. a refinement of n around each profile's best grid cell: Brent's method
+   (parabolic steps through the best three points, golden-section steps
+   when a parabola does not shrink the bracket, as where a bound of the box
+   becomes active) in the compiled kernels, golden section vectorised
+   across profiles in the numpy reference; both stop at the same bracket
+   width.
 
 References
 ----------
