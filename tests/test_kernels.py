@@ -485,5 +485,5 @@ def test_profiles_sharing_depths_fit_as_they_do_alone():
     for i in range(len(zs)):
         one = solve_exact_many([zs[i]], [ys[i]], cone=CONE, law=LAWS["rm0"], bounds=Bounds())
         np.testing.assert_allclose(c.sse_n[i], one.sse_n[0], rtol=1e-12, atol=1e-12 * yy[i])
-        assert c.n[i] == pytest.approx(one.n[0], abs=1e-9)
+        assert c.n[i] == pytest.approx(one.n[0], abs=1e-6)  # numpy: the zoom stops for all at once
         assert c.sse[i] == pytest.approx(one.sse[0], rel=1e-9, abs=1e-15 * yy[i])
