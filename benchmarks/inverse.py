@@ -195,6 +195,55 @@ def bench_case(prof: CIProfile, seed: int, repeats: int, bounds: Bounds):
     return times, rmsd, t_fit, t_np, cpu
 
 
+def _refine_ratio(profs, bounds, repeats: int) -> None:
+    """The refinement of n alone, compiled: Brent's method (what solve_exact_many runs) against
+    the golden section it replaced, on the same brackets (two grid steps around each profile's
+    best grid cell), in this process."""
+    from terracone.inverse import kernels
+    from terracone.inverse.many import bounds_params, grid
+    from terracone.plate import pressure_law as _pl
+
+    cone, law = profs[0].cone, _pl("rm0")
+    geom = (cone.height, cone.radius, False, *(float(c) for c in law.coefficients()))
+    bp = bounds_params(bounds, None)
+    Z = max(p.depth.size for p in profs)
+    zz = np.array([np.pad(p.depth, (0, Z - p.depth.size), mode="edge") for p in profs])
+    yy = np.array([np.pad(p.ci, (0, Z - p.ci.size)) for p in profs])
+    w = np.array([np.arange(Z) < p.depth.size for p in profs], dtype=float)
+    ns = grid(*bounds.n, 41)
+    N = np.ascontiguousarray(np.broadcast_to(ns, (len(profs), ns.size)))
+    s = np.full((1, 1), 1.0 + math.tan(math.radians(bounds.phic[1])) / math.tan(cone.half_angle))
+    lo, hi = kernels.box_grid(N, bp)
+    sse = kernels.cells_kernel(zz, yy, w, N, s, lo, hi, bp[10], *geom)[1][:, :, 0]
+    i = np.argmin(sse, axis=1)
+    rows = np.arange(len(profs))
+    step = ns[1] - ns[0]
+    a, b = np.clip(ns[i] - step, *bounds.n), np.clip(ns[i] + step, *bounds.n)
+    f0, fa = sse[rows, i], sse[rows, np.maximum(i - 1, 0)]
+    fb = sse[rows, np.minimum(i + 1, ns.size - 1)]
+    sv = np.full(len(profs), s[0, 0])
+    xtol = 0.5 * step * ((math.sqrt(5.0) - 1.0) / 2.0) ** 40
+
+    def brent():
+        return kernels.brent_refine(zz, yy, w, a, b, ns[i], f0, fa, fb, sv, bp, xtol, 200, *geom)
+
+    def golden():
+        return kernels.golden_refine(zz, yy, w, a, b, sv, bp, 40, *geom)
+
+    (nb, fb_, eb), t_b = timed(brent, repeats)
+    (ng, fg, eg), t_g = timed(golden, repeats)
+    # RMSD excess of Brent over golden, of rms(CI) (the benchmark's absolute floor is 1e-9)
+    npts = w.sum(axis=1)
+    rms = np.sqrt(np.einsum("pz,pz->p", yy, yy) / npts)
+    worse = np.max((np.sqrt(fb_ / npts) - np.sqrt(fg / npts)) / rms)
+    print(
+        f"refinement of n alone (compiled, {len(profs)} profiles): Brent {eb / len(profs):.1f} "
+        f"evaluations and {t_b / len(profs) * 1e6:.0f} us per profile, golden section "
+        f"{eg / len(profs):.1f} and {t_g / len(profs) * 1e6:.0f} us; golden / Brent time "
+        f"{t_g / t_b:.1f}x; Brent's RMSD above golden's at most {worse:.1e} of rms(CI)"
+    )
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="6 cases, 1 repeat")
@@ -308,6 +357,9 @@ def main(argv=None) -> int:
         f"{statistics.median([r[1]['pyswarms'] for r in rows]) / per:.0f}; "
         f"worst RMSD excess over the single-profile exact fit {worst_many:.1e} of rms(CI)"
     )
+
+    if jit.enabled():
+        _refine_ratio(profs, bounds, repeats)
 
     if not args.no_startup:
         print()

@@ -60,6 +60,34 @@ def test_basis_point_equals_cone_index_basis(law):
             np.testing.assert_allclose(got[:, k], ref, rtol=1e-12, atol=1e-300)
 
 
+@pytest.mark.parametrize("law", sorted(LAWS))
+def test_columns_from_the_depth_table_equal_cone_index_basis(law):
+    """The cells' columns (n-free parts from a per-profile table, closed form or series per
+    depth, powers u1^(n+1) given or computed) equal the numpy closed forms to 1e-12."""
+    from terracone.inverse.kernels import basis_columns, columns_at, depth_table
+
+    H, R = CONE.height, CONE.radius
+    z = np.concatenate([[-H + 1e-6, -H / 2, 0.0, 1e-4], np.linspace(0.005, 0.6, 25), [3.0, 8.0]])
+    c = [float(np.asarray(v)) for v in LAWS[law].coefficients()]
+    tab = np.empty((7, z.size))
+    depth_table(z, H, R, c[0], tab)
+    for n in (0.05, 0.37, 0.8, 1.0, 1.9, 3.0):
+        ref = cone_index_basis(z, n=n, law=LAWS[law], cone=CONE)
+        p1 = np.where(z + H > 0, np.abs(z + H) ** (n + 1.0), 1.0)
+        for use_p1 in (False, True):
+            got = np.empty((3, z.size))
+            columns_at(z, tab, n, H, R, law == "rm1", *c, p1, use_p1, *got)
+            for k in range(3):
+                np.testing.assert_allclose(got[k], ref[k], rtol=1e-12, atol=1e-300)
+    ns = np.array([0.05, 0.8, 1.9])
+    cols = basis_columns(z, ns, H, R, law == "rm1", *c)  # every n at once
+    ref = cone_index_basis(z[None, :], n=ns[:, None], law=LAWS[law], cone=CONE)
+    for k in range(3):
+        np.testing.assert_allclose(
+            cols[k], np.broadcast_to(ref[k], cols[k].shape), rtol=1e-12, atol=1e-300
+        )
+
+
 def random_box_problems(rng, M):
     X = rng.normal(size=(M, 12, 3)) * rng.uniform(0.1, 10.0, size=(M, 1, 3))
     y = rng.normal(size=(M, 12)) * 5.0
@@ -363,3 +391,99 @@ def test_check_fits_equal_check_fit():
         assert lof[i] == ref.lack_of_fit
         flagged += ref.lack_of_fit is not None
     assert 10 <= flagged <= 50  # the three reasons and clean fits are all exercised
+
+
+def brute_force_n(z, y, bounds, law, n_vals, phis):
+    """Best (SSE, n) over a grid of n x phic, each cell solved exactly: the columns of
+    cone_index_basis, the 27-face box solve of box_lsq3_reference, the SSE from the residuals."""
+    A, B, C = cone_index_basis(z[None, :], n=n_vals[:, None], phic=0.0, law=law, cone=CONE)
+    s = 1.0 + np.tan(np.radians(phis)) / np.tan(CONE.half_angle)  # eq. (2-6) fully mobilised
+    X = np.stack(
+        np.broadcast_arrays(A[:, None] * s[:, None], B[:, None] * s[:, None], C[:, None]), -1
+    )
+    G, g, yy = gram(X, y)
+    kc, kp = bounds.kc_si(n_vals), bounds.kphi_si(n_vals)
+    lo = np.stack([kc[0], kp[0], np.full(n_vals.size, bounds.cc[0])], -1)[:, None]
+    hi = np.stack([kc[1], kp[1], np.full(n_vals.size, bounds.cc[1])], -1)[:, None]
+    x, _ = box_lsq3_reference(G, g, yy, lo + 0 * G[..., 0], hi + 0 * G[..., 0])
+    r = np.einsum("nfzk,nfk->nfz", X, x) - y
+    sse = np.einsum("nfz,nfz->nf", r, r).min(axis=1)
+    i = int(np.argmin(sse))
+    return float(sse[i]), float(n_vals[i])
+
+
+def dense_optimum(z, y, bounds, law):
+    """Brute force: n on a grid of step 1e-3 over the bounds, then twice 2001 points within two
+    steps of the best (steps 2e-6, 4e-9), phic on ten values each time."""
+    lo, hi = bounds.n
+    phis = np.linspace(*bounds.phic, 10)
+    sse, n = brute_force_n(
+        z, y, bounds, law, np.linspace(lo, hi, int(round((hi - lo) / 1e-3)) + 1), phis
+    )
+    for h in (1e-3, 2e-6):
+        vals = np.linspace(max(lo, n - 2 * h), min(hi, n + 2 * h), 2001)
+        sse2, n2 = brute_force_n(z, y, bounds, law, vals, phis)
+        if sse2 <= sse:
+            sse, n = sse2, n2
+    return sse, n
+
+
+SEARCH_CASES = {
+    "noisy": (dict(), Bounds(), "rm0"),
+    "noise-free": (dict(noise=0.0), Bounds(), "rm0"),
+    "noisy rm1": (dict(), Bounds(), "rm1"),
+    # kc = cc = 0: both lower bounds become active at n* (a kink of the SSE over n)
+    "kc=cc=0 noise-free": (
+        dict(noise=0.0, terrain=(0.0, 1948.9, 0.514, 0.0, 14.37)),
+        Bounds(),
+        "rm0",
+    ),
+    "kc=cc=0 noisy": (dict(noise=0.02, terrain=(0.0, 1948.9, 0.514, 0.0, 14.37)), Bounds(), "rm0"),
+    # the upper bound of kc holds at the optimum, which moves n
+    "kc capped noise-free": (dict(noise=0.0), Bounds(kc=(0.0, 20.0)), "rm0"),
+    # the optimum sits on the upper bound of n (truth n = 0.79)
+    "n capped noisy": (dict(), Bounds(n=(0.05, 0.6)), "rm0"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(SEARCH_CASES))
+def test_n_search_finds_the_brute_force_optimum(case):
+    """The refinement of n (Brent's method compiled, golden section in numpy) ends at least as
+    low as a dense brute force over n and phic (resolution 4e-9 in n), within 1e-9 of the SSE or
+    1e-15 of y'y at a perfect fit (the box solve compares faces by the normal equations, which
+    resolve about 1e-16 of y'y; 20 golden steps leave the noise-free kink case at 3e-14), and at
+    the same n where the data determine it."""
+    kw, bounds, law = SEARCH_CASES[case]
+    z, y = noisy_profile(11, **kw)
+    best, n_star = dense_optimum(z, y, bounds, LAWS[law])
+    yty = float(y @ y)
+    for label, ctx in both_paths():
+        with ctx:
+            sol = solve_exact_many([z], [y], cone=CONE, law=LAWS[law], bounds=bounds)
+        assert sol.sse[0] <= best * (1.0 + 1e-9) + 1e-15 * yty, (label, sol.sse[0], best)
+        # and a real optimum: the brute force is not far below either
+        assert sol.sse[0] >= best * (1.0 - 1e-6) - 1e-12 * yty, (label, sol.sse[0], best)
+        if "noise-free" in case or "capped" in case:
+            assert sol.n[0] == pytest.approx(n_star, abs=1e-6), label
+
+
+def test_profiles_sharing_depths_fit_as_they_do_alone():
+    """Profiles on one depth grid (as an SC900's) share the grid's columns: each fit equals the
+    same profile fitted alone, and the grid profile of SSE over n equals the numpy path's."""
+    z = np.round(np.arange(0.0, 0.3 + 0.005, 0.01), 10)
+    terrains = [
+        (102.0, 5301.0, 0.79, 1.5, 12.0),
+        (0.0, 1948.9, 0.514, 0.0, 14.37),
+        (30, 900, 1.1, 4, 20),
+    ]
+    ys = [noisy_profile(i, t, noise=0.02 * i)[1] for i, t in enumerate(terrains)]
+    zs = [z, z, z[:-3], z[:-3], z]  # runs of equal depth vectors, a shorter one in between
+    ys = [ys[0], ys[1], ys[2][:-3], ys[0][:-3], ys[2]]
+    c, r = fit_many(zs, ys)
+    yy = np.array([float(y @ y) for y in ys])
+    np.testing.assert_allclose(c.sse_n, r.sse_n, rtol=1e-12, atol=1e-12 * yy.max())
+    for i in range(len(zs)):
+        one = solve_exact_many([zs[i]], [ys[i]], cone=CONE, law=LAWS["rm0"], bounds=Bounds())
+        np.testing.assert_allclose(c.sse_n[i], one.sse_n[0], rtol=1e-12, atol=1e-12 * yy[i])
+        assert c.n[i] == pytest.approx(one.n[0], abs=1e-6)  # numpy: the zoom stops for all at once
+        assert c.sse[i] == pytest.approx(one.sse[0], rel=1e-9, abs=1e-15 * yy[i])

@@ -137,69 +137,7 @@ def box_lsq3_reference(
     b = [g[..., i] / d[i] for i in range(3)]
     L = [lo[..., i] * d[i] for i in range(3)]
     H = [hi[..., i] * d[i] for i in range(3)]
-    tol = [1e-9 * np.maximum(H[i] - L[i], 1e-300) + 1e-12 for i in range(3)]
-
-    best = np.full(shape, np.inf)
-    bx = [np.zeros(shape) for _ in range(3)]
-    bstate = [np.zeros(shape, dtype=np.int8) for _ in range(3)]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        for state in _STATES:
-            free = [i for i in range(3) if state[i] == 0]
-            x: list = [None, None, None]
-            for i in range(3):
-                if state[i] == 1:
-                    x[i] = L[i]
-                elif state[i] == 2:
-                    x[i] = H[i]
-            # right-hand sides of the free rows, fixed variables moved over
-            r = {}
-            for i in free:
-                r[i] = b[i]
-                for j in range(3):
-                    if state[j] != 0:
-                        r[i] = r[i] - S[i][j] * x[j]
-            if len(free) == 1:
-                (i,) = free
-                x[i] = r[i] / S[i][i]
-            elif len(free) == 2:
-                i, j = free
-                det = S[i][i] * S[j][j] - S[i][j] * S[j][i]
-                x[i] = (r[i] * S[j][j] - S[i][j] * r[j]) / det
-                x[j] = (S[i][i] * r[j] - S[j][i] * r[i]) / det
-            elif len(free) == 3:
-                a00, a01, a02 = S[0]
-                a10, a11, a12 = S[1]
-                a20, a21, a22 = S[2]
-                c00 = a11 * a22 - a12 * a21
-                c01 = a12 * a20 - a10 * a22
-                c02 = a10 * a21 - a11 * a20
-                det = a00 * c00 + a01 * c01 + a02 * c02
-                r0, r1, r2 = r[0], r[1], r[2]
-                x[0] = (
-                    r0 * c00 + r1 * (a02 * a21 - a01 * a22) + r2 * (a01 * a12 - a02 * a11)
-                ) / det
-                x[1] = (
-                    r0 * c01 + r1 * (a00 * a22 - a02 * a20) + r2 * (a02 * a10 - a00 * a12)
-                ) / det
-                x[2] = (
-                    r0 * c02 + r1 * (a01 * a20 - a00 * a21) + r2 * (a00 * a11 - a01 * a10)
-                ) / det
-            feas = np.ones(shape, dtype=bool)
-            for i in free:
-                feas &= (x[i] >= L[i] - tol[i]) & (x[i] <= H[i] + tol[i])
-                x[i] = np.clip(x[i], L[i], H[i])
-            obj = (
-                diag[0] * x[0] * x[0]
-                + diag[1] * x[1] * x[1]
-                + diag[2] * x[2] * x[2]
-                + 2.0 * (S[0][1] * x[0] * x[1] + S[0][2] * x[0] * x[2] + S[1][2] * x[1] * x[2])
-                - 2.0 * (b[0] * x[0] + b[1] * x[1] + b[2] * x[2])
-            )
-            better = feas & (obj < best)
-            best = np.where(better, obj, best)
-            for i in range(3):
-                bx[i] = np.where(better, x[i], bx[i])
-                bstate[i] = np.where(better, state[i], bstate[i])
+    best, bx, bstate = _best_face(S, diag, b, L, H, shape)
     # variables held at a bound get the bound itself, not a rescaled copy of it
     xs = np.stack(
         [
@@ -216,6 +154,70 @@ def box_lsq3_reference(
     )
     sse = best + yy
     return xs, np.maximum(sse, 0.0)
+
+
+def _best_face(S, diag, b, L, H, shape):
+    """The best feasible face of each problem scaled to unit diagonal (lists per variable).
+
+    Returns the objective without y'y, the scaled x and the state of each
+    variable (0 free, 1 lower, 2 upper).
+    """
+    tol = [1e-9 * np.maximum(H[i] - L[i], 1e-300) + 1e-12 for i in range(3)]
+    best = np.full(shape, np.inf)
+    bx = [np.zeros(shape) for _ in range(3)]
+    bstate = [np.zeros(shape, dtype=np.int8) for _ in range(3)]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for state in _STATES:
+            free = [i for i in range(3) if state[i] == 0]
+            x: list = [L[i] if state[i] == 1 else H[i] if state[i] == 2 else None for i in range(3)]
+            _solve_face(S, b, x, state, free)
+            feas = np.ones(shape, dtype=bool)
+            for i in free:
+                feas &= (x[i] >= L[i] - tol[i]) & (x[i] <= H[i] + tol[i])
+                x[i] = np.clip(x[i], L[i], H[i])
+            obj = (
+                diag[0] * x[0] * x[0]
+                + diag[1] * x[1] * x[1]
+                + diag[2] * x[2] * x[2]
+                + 2.0 * (S[0][1] * x[0] * x[1] + S[0][2] * x[0] * x[2] + S[1][2] * x[1] * x[2])
+                - 2.0 * (b[0] * x[0] + b[1] * x[1] + b[2] * x[2])
+            )
+            better = feas & (obj < best)
+            best = np.where(better, obj, best)
+            for i in range(3):
+                bx[i] = np.where(better, x[i], bx[i])
+                bstate[i] = np.where(better, state[i], bstate[i])
+    return best, bx, bstate
+
+
+def _solve_face(S, b, x, state, free) -> None:
+    """The free variables of x (list) on one face: the reduced normal equations, Cramer's rule."""
+    r = {}  # right-hand sides of the free rows, fixed variables moved over
+    for i in free:
+        r[i] = b[i]
+        for j in range(3):
+            if state[j] != 0:
+                r[i] = r[i] - S[i][j] * x[j]
+    if len(free) == 1:
+        (i,) = free
+        x[i] = r[i] / S[i][i]
+    elif len(free) == 2:
+        i, j = free
+        det = S[i][i] * S[j][j] - S[i][j] * S[j][i]
+        x[i] = (r[i] * S[j][j] - S[i][j] * r[j]) / det
+        x[j] = (S[i][i] * r[j] - S[j][i] * r[i]) / det
+    elif len(free) == 3:
+        a00, a01, a02 = S[0]
+        a10, a11, a12 = S[1]
+        a20, a21, a22 = S[2]
+        c00 = a11 * a22 - a12 * a21
+        c01 = a12 * a20 - a10 * a22
+        c02 = a10 * a21 - a11 * a20
+        det = a00 * c00 + a01 * c01 + a02 * c02
+        r0, r1, r2 = r[0], r[1], r[2]
+        x[0] = (r0 * c00 + r1 * (a02 * a21 - a01 * a22) + r2 * (a01 * a12 - a02 * a11)) / det
+        x[1] = (r0 * c01 + r1 * (a00 * a22 - a02 * a20) + r2 * (a02 * a10 - a00 * a12)) / det
+        x[2] = (r0 * c02 + r1 * (a01 * a20 - a00 * a21) + r2 * (a00 * a11 - a01 * a10)) / det
 
 
 def _box_lsq3_stacked(G, g, yy, lo, hi):

@@ -179,12 +179,83 @@ def solve_exact(
     y = np.asarray(y, float)
     if Kc is None and not fit_Kc:
         return _solve_mobilised(z, y, cone, law, bounds, n_grid, noise_floor, profiles, ratio)
-    z = np.asarray(z, float)
-    y = np.asarray(y, float)
-    nfev = 0
+    fp = _Finite(z, y, cone, law, bounds, Kc, fit_Kc, ratio)
+    return _solve_finite(fp, n_grid, phic_grid, noise_floor, profiles)
+
+
+@dataclass
+class _Finite:
+    """One profile with finite Kc (fixed or fitted): cells and the scaled outer variables."""
+
+    z: np.ndarray
+    y: np.ndarray
+    cone: Cone
+    law: PressureLaw
+    bounds: Bounds
+    Kc: float | None
+    fit_Kc: bool
+    ratio: float | None
+
+    def __post_init__(self) -> None:
+        b = self.bounds
+        lo_v = [b.n[0], b.phic[0]] + ([math.log(b.Kc[0])] if self.fit_Kc else [])
+        hi_v = [b.n[1], b.phic[1]] + ([math.log(b.Kc[1])] if self.fit_Kc else [])
+        self.lo_v, self.hi_v = np.array(lo_v), np.array(hi_v)
+        self.span = np.where(self.hi_v > self.lo_v, self.hi_v - self.lo_v, 1.0)
+
+    def design(self, n, phi, K):
+        return design(self.z, n, phi, cone=self.cone, law=self.law, Kc=K, ratio=self.ratio)
+
+    def cell_sse(self, n, phi, kc_val):
+        """Box-LS over (kc, kphi, cc) for arrays of n, phi, Kc (broadcast)."""
+        K = kc_val[..., None] if self.fit_Kc else self.Kc
+        X = self.design(n[..., None], phi[..., None], K)
+        G, g, yy = gram(X, np.broadcast_to(self.y, X.shape[:-1]))
+        lo, hi = _bounds_arrays(self.bounds, np.broadcast_to(n, G.shape[:-2]), self.ratio)
+        return box_lsq3(G, g, yy, lo, hi)
+
+    def unpack(self, v):
+        """(n, phic [deg], Kc [m] or NaN) of the scaled outer point v."""
+        w = np.clip(self.lo_v + v * self.span, self.lo_v, self.hi_v)
+        K = math.exp(w[2]) if self.fit_Kc else np.nan
+        return float(w[0]), float(w[1]), K
+
+    def scaled(self, n, phi, K):
+        """The scaled outer point of (n, phic, Kc)."""
+        v0 = [n, phi] + ([math.log(K)] if self.fit_Kc else [])
+        return (np.array(v0) - self.lo_v) / self.span
+
+    def resid_v(self, v):
+        nv, pv, Kv = self.unpack(v)
+        x_, _ = self.cell_sse(np.array([nv]), np.array([pv]), np.array([Kv]))
+        Xv = self.design(np.array(nv), np.array(pv), Kv if self.fit_Kc else self.Kc)
+        return Xv @ x_[0] - self.y
+
+    def f_res(self, v):
+        r = self.resid_v(v)
+        return float(r @ r)
+
+
+def _grid_starts(sse_grid: np.ndarray) -> np.ndarray:
+    """Starts of the joint refinement: flat indices of the grid's local minima and the best
+    cell of every Kc slice (a valley between phic and Kc need not show as a local minimum on
+    a coarse Kc grid), the ten best by SSE, ties by position."""
+    local = sse_grid <= minimum_filter(sse_grid, size=3, mode="nearest")
+    for kk in range(sse_grid.shape[2]):
+        sl = sse_grid[..., kk]
+        local[np.unravel_index(np.argmin(sl), sl.shape) + (kk,)] = True
+    idx = np.flatnonzero(local)
+    return idx[np.lexsort((idx, sse_grid.reshape(-1)[idx]))][:10]
+
+
+def _solve_finite(
+    fp: _Finite, n_grid: int, phic_grid: int, noise_floor: float, profiles: bool
+) -> ExactSolution:
+    """Finite Kc: grid over n, phic (and Kc), then a joint refinement from the best minima."""
+    z, y, bounds, ratio = fp.z, fp.y, fp.bounds, fp.ratio
     ns = _grid(*bounds.n, n_grid)
     phis = _grid(*bounds.phic, phic_grid)
-    if fit_Kc:
+    if fp.fit_Kc:
         Kcs = (
             np.exp(np.linspace(*np.log(bounds.Kc), 7))
             if bounds.Kc[0] != bounds.Kc[1]
@@ -192,81 +263,39 @@ def solve_exact(
         )
     else:
         Kcs = np.array([np.nan])
-
-    def cell_sse(n, phi, kc_val):
-        """Box-LS over (kc, kphi, cc) for arrays of n, phi, Kc (broadcast)."""
-        K = kc_val[..., None] if fit_Kc else Kc
-        X = design(z, n[..., None], phi[..., None], cone=cone, law=law, Kc=K, ratio=ratio)
-        G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
-        lo, hi = _bounds_arrays(bounds, np.broadcast_to(n, G.shape[:-2]), ratio)
-        return box_lsq3(G, g, yy, lo, hi)
-
     N, P, K = np.meshgrid(ns, phis, Kcs, indexing="ij")
-    x_grid, sse_grid = cell_sse(N, P, K)
-    nfev += sse_grid.size
+    x_grid, sse_grid = fp.cell_sse(N, P, K)
+    nfev = sse_grid.size
 
     # joint refinement of all parameters (Gauss-Newton, bounded) from the grid's best
     # local minima: with finite Kc phic is no longer a pure scale, and n, phic and Kc
     # form curved valleys that a simplex search can stop in
-    lo_v = [bounds.n[0], bounds.phic[0]] + ([math.log(bounds.Kc[0])] if fit_Kc else [])
-    hi_v = [bounds.n[1], bounds.phic[1]] + ([math.log(bounds.Kc[1])] if fit_Kc else [])
-    lo_v, hi_v = np.array(lo_v), np.array(hi_v)
-    span = np.where(hi_v > lo_v, hi_v - lo_v, 1.0)
-
-    def unpack(v):
-        w = np.clip(lo_v + v * span, lo_v, hi_v)
-        K = math.exp(w[2]) if fit_Kc else np.nan
-        return float(w[0]), float(w[1]), K
-
-    def resid_v(v):
-        nv, pv, Kv = unpack(v)
-        x_, _ = cell_sse(np.array([nv]), np.array([pv]), np.array([Kv]))
-        Xv = design(
-            z, np.array(nv), np.array(pv), cone=cone, law=law, Kc=Kv if fit_Kc else Kc, ratio=ratio
-        )
-        return Xv @ x_[0] - y
-
-    def f_res(v):
-        r = resid_v(v)
-        return float(r @ r)
-
-    # starts: the grid's local minima and the best cell of every Kc slice (a valley
-    # between phic and Kc need not show as a local minimum on a coarse Kc grid)
-    local = sse_grid <= minimum_filter(sse_grid, size=3, mode="nearest")
-    for kk in range(sse_grid.shape[2]):
-        sl = sse_grid[..., kk]
-        local[np.unravel_index(np.argmin(sl), sl.shape) + (kk,)] = True
-    idx = np.flatnonzero(local)
-    order = idx[np.lexsort((idx, sse_grid.reshape(-1)[idx]))][:10]  # by SSE, ties by position
     best_v, best_f = None, np.inf
     nit = 0
     zero = 1e-24 * float(y @ y)
-    for flat_i in order:
+    for flat_i in _grid_starts(sse_grid):
         ii, jj, kk = np.unravel_index(flat_i, sse_grid.shape)
-        v0 = [ns[ii], phis[jj]] + ([math.log(Kcs[kk])] if fit_Kc else [])
-        v0 = (np.array(v0) - lo_v) / span
-        v, fv, ne = _joint_refine(v0, resid_v, f_res)
+        v0 = fp.scaled(ns[ii], phis[jj], Kcs[kk])
+        v, fv, ne = _joint_refine(v0, fp.resid_v, fp.f_res)
         nfev += ne
         nit += 1
         if fv < best_f * (1 - 1e-12):
             best_v, best_f = v, fv
         if best_f <= zero:  # an exact fit: the global minimum
             break
-    n_best, phi_best, best_K = unpack(best_v)
-    phic_range = (phi_best, phi_best)
+    n_best, phi_best, best_K = fp.unpack(best_v)
 
-    x, sse = cell_sse(np.array([n_best]), np.array([phi_best]), np.array([best_K]))
+    x, sse = fp.cell_sse(np.array([n_best]), np.array([phi_best]), np.array([best_K]))
     x = x[0].copy()
-    Kc_out = float(best_K) if fit_Kc else Kc
+    Kc_out = float(best_K) if fp.fit_Kc else fp.Kc
     # report the SSE from the residuals themselves
-    X = design(z, np.array(n_best), np.array(phi_best), cone=cone, law=law, Kc=Kc_out, ratio=ratio)
+    X = fp.design(np.array(n_best), np.array(phi_best), Kc_out)
     # the normal equations lose digits near an exact fit: re-solve on X itself
     lo_b, hi_b = (a[0] for a in _bounds_arrays(bounds, np.array([n_best]), ratio))
     x = _polish(X, y, lo_b, hi_b, x)
     resid = X @ x - y
     if ratio is not None:
         x[0] = ratio * x[1]
-    sse_val = float(resid @ resid)
     sol = ExactSolution(
         kc=float(x[0]),
         kphi=float(x[1]),
@@ -274,13 +303,15 @@ def solve_exact(
         cc=float(x[2]),
         phic_deg=float(phi_best),
         Kc=Kc_out,
-        sse=sse_val,
+        sse=float(resid @ resid),
         nfev=nfev,
         nit=nit,
-        phic_range=phic_range,
+        phic_range=(phi_best, phi_best),
     )
     if profiles:
-        _identify(sol, z, y, ns, sse_grid.min(axis=(1, 2)), bounds, cone, law, noise_floor, ratio)
+        _identify(
+            sol, z, y, ns, sse_grid.min(axis=(1, 2)), bounds, fp.cone, fp.law, noise_floor, ratio
+        )
     return sol
 
 

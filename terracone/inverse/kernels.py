@@ -10,7 +10,14 @@ does what the reference does in hundreds of numpy calls on tiny arrays:
   squares of :func:`terracone.inverse.boxlsq.box_lsq3_reference`;
 * :func:`cells_kernel`: the (profile, n, phic-scale) cells of
   :func:`terracone.inverse.many.solve_exact_many` (basis, normal equations,
-  box solve and the SSE from the residuals) in one pass.
+  box solve and the SSE from the residuals) in one pass;
+* :func:`brent_refine`: the refinement of n of each profile (Brent's
+  parabolic steps with a golden-section fallback) from its best grid cell.
+
+The columns at the cells come from :func:`columns_at`, which reads the
+n-free part of each depth (logarithms, the cc column) from a table built
+once per profile (:func:`depth_table`), so that a cell costs two
+transcendental functions per depth (RM0).
 
 The numpy implementations stay the reference: ``tests/test_kernels.py``
 compares each kernel with its twin to 1e-12, and ``TERRACONE_NUMBA=0`` (or
@@ -39,6 +46,13 @@ __all__ = [
     "box_lsq3_flat",
     "cells_kernel",
     "golden_refine",
+    "brent_refine",
+    "brent_step",
+    "depth_table",
+    "columns_at",
+    "normal_eq",
+    "cell_fast",
+    "profile_columns",
     "parabola_vertex",
     "zoom_refine",
     "kbounds",
@@ -274,7 +288,7 @@ def box_faces(yy, lo, hi, x_out, ws) -> float:
 
 
 @njit(error_model="numpy")
-def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:  # noqa: C901 (one face loop)
+def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:
     """:func:`box_faces`, trying face ``hint`` (0-26, or -1) first.
 
     The first face tried is accepted at once when it is well conditioned
@@ -286,7 +300,7 @@ def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:  # noqa: C901 (one fac
     chosen is left in ws[7] (the state of each variable).
     """
     d, diag, b, L, U, tol = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5]
-    bx, bst, x, st, r, S = ws[6], ws[7], ws[8], ws[9], ws[10], ws[11:14]
+    bx, bst, x, st, S = ws[6], ws[7], ws[8], ws[9], ws[11:14]
     for i in range(3):
         L[i] = lo[i] * d[i]
         U[i] = hi[i] * d[i]
@@ -313,28 +327,7 @@ def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:  # noqa: C901 (one fac
                 skip = True
         if skip:
             continue
-        nfree = 0
-        for i in range(3):
-            if st[i] == 1:
-                x[i] = L[i]
-            elif st[i] == 2:
-                x[i] = U[i]
-            else:
-                nfree += 1
-        for i in range(3):
-            if st[i] == 0:
-                ri = b[i]
-                for j in range(3):
-                    if st[j] != 0:
-                        ri = ri - S[i, j] * x[j]
-                r[i] = ri
-        pmin = 1.0
-        if nfree == 1:
-            for i in range(3):
-                if st[i] == 0:
-                    x[i] = r[i] / S[i, i]
-        elif nfree >= 2:
-            pmin = solve_free(S, r, st, x, ws[14:18])
+        pmin = face_point(ws)
         feas = True
         inside = first and pmin > 1e-6
         for i in range(3):
@@ -357,20 +350,7 @@ def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:  # noqa: C901 (one fac
             for i in range(3):
                 bx[i] = x[i]
                 bst[i] = st[i]
-        if inside:
-            for i in range(3):  # the held variables: the gradient must point out of the box
-                if st[i] != 0 and L[i] != U[i]:
-                    gi = diag[i] * x[i] - b[i]
-                    size = abs(diag[i] * x[i]) + abs(b[i])
-                    for j in range(3):
-                        if j != i:
-                            gi += S[i, j] * x[j]
-                            size += abs(S[i, j] * x[j])
-                    if st[i] == 1 and not gi > 1e-9 * size:
-                        inside = False
-                    if st[i] == 2 and not gi < -1e-9 * size:
-                        inside = False
-        if inside:
+        if inside and held_outward(ws):
             # a well-conditioned face satisfying the optimality conditions with a margin
             # holds the minimum over the box, which no other face can beat but by rounding
             break
@@ -384,6 +364,57 @@ def box_faces_from(yy, lo, hi, x_out, ws, hint) -> float:  # noqa: C901 (one fac
             v = bx[i] / d[i]
         x_out[i] = min(max(v, lo[i]), hi[i])
     return max(best + yy, 0.0)
+
+
+@njit(error_model="numpy")
+def face_point(ws) -> float:
+    """The minimiser x (ws[8]) of the scaled quadratic on the face ws[9] (states of the
+    variables), held variables at their scaled bounds ws[3] / ws[4].  Returns the smallest
+    pivot of the solve (1 with fewer than two free variables)."""
+    b, L, U, x, st, r, S = ws[2], ws[3], ws[4], ws[8], ws[9], ws[10], ws[11:14]
+    nfree = 0
+    for i in range(3):
+        if st[i] == 1:
+            x[i] = L[i]
+        elif st[i] == 2:
+            x[i] = U[i]
+        else:
+            nfree += 1
+    for i in range(3):
+        if st[i] == 0:
+            ri = b[i]
+            for j in range(3):
+                if st[j] != 0:
+                    ri = ri - S[i, j] * x[j]
+            r[i] = ri
+    if nfree == 1:
+        for i in range(3):
+            if st[i] == 0:
+                x[i] = r[i] / S[i, i]
+    elif nfree >= 2:
+        return solve_free(S, r, st, x, ws[14:18])
+    return 1.0
+
+
+@njit(error_model="numpy")
+def held_outward(ws) -> bool:
+    """True when the gradient at x (ws[8]) pushes every variable held at a bound (face ws[9])
+    out of the box, with a relative margin of 1e-9."""
+    diag, b, x, st, S = ws[1], ws[2], ws[8], ws[9], ws[11:14]
+    L, U = ws[3], ws[4]
+    for i in range(3):
+        if st[i] != 0 and L[i] != U[i]:
+            gi = diag[i] * x[i] - b[i]
+            size = abs(diag[i] * x[i]) + abs(b[i])
+            for j in range(3):
+                if j != i:
+                    gi += S[i, j] * x[j]
+                    size += abs(S[i, j] * x[j])
+            if st[i] == 1 and not gi > 1e-9 * size:
+                return False
+            if st[i] == 2 and not gi < -1e-9 * size:
+                return False
+    return True
 
 
 @njit(error_model="numpy")
@@ -406,94 +437,92 @@ def cells_kernel(zz, yy, w, n, sv, lo, hi, ratio, H, R, rm1, r_t, alpha, beta):
     sv : (1 or P, F) phic scales s = 1 + tan(phic)/tan(a); lo, hi : (P, K, 3)
     bounds of (kc, kphi, cc); ratio : kc/kphi [m], or NaN for none.
     Returns the primed solutions xp (P, K, F, 3) and the SSE (P, K, F)
-    from the residuals.
+    from the residuals.  A profile with the depths and n of the one before
+    it (an instrument's common depth grid) reuses its columns
+    (:func:`profile_columns`), so the transcendental work of the grid is
+    done once per run of such profiles.
     """
     P, Z = zz.shape
     K = n.shape[1]
     F = sv.shape[1]
     xp = np.empty((P, K, F, 3))
     sse = np.empty((P, K, F))
-    A = np.empty(Z)
-    B = np.empty(Z)
-    C = np.empty(Z)
+    cols = np.empty((3, K, Z))  # columns at every n of the current depth vector
     G = np.empty((3, 3))
-    Gs = np.empty((3, 3))
     g = np.empty(3)
-    gs = np.empty(3)
-    D = np.empty(3)
     x = np.empty(3)
     ws = np.empty((18, 3))
-    use_ratio = not math.isnan(ratio)
-    lg = np.empty((3, Z))
+    ws[7, 0] = -1.0  # no face yet
+    tab = np.empty((7, Z))
     ratio_q = np.empty(Z)
     p1q = np.empty(Z)
     for p in range(P):
-        profile_logs(zz[p], H, R, r_t, lg)
         yty = 0.0
         for q in range(Z):
             yty += w[p, q] * yy[p, q] * yy[p, q]
         ps = p if sv.shape[0] > 1 else 0
-        # a uniform grid over n (the global grid): u1^(n+1) by recurrence, one exp per
-        # depth instead of one per cell (k ulp after k steps)
-        dn = (n[p, K - 1] - n[p, 0]) / (K - 1) if K > 1 else 0.0
-        uniform = K > 2
+        if not (p > 0 and same_rows(zz, p) and same_rows(n, p)):
+            # a new depth vector (profiles of one instrument share theirs: computed once)
+            profile_columns(
+                zz[p], n[p], tab, H, R, rm1, r_t, alpha, beta, ratio, ratio_q, p1q, cols
+            )
         for k in range(K):
-            if abs(n[p, k] - (n[p, 0] + k * dn)) > 1e-15 * (1.0 + abs(n[p, k])):
-                uniform = False
-        if uniform:
-            for q in range(Z):
-                ratio_q[q] = math.exp(dn * lg[0, q])
-                p1q[q] = math.exp((n[p, 0] + 1.0) * lg[0, q])
-        for k in range(K):
-            for q in range(Z):
-                if uniform and zz[p, q] + H > 0.0:
-                    if k > 0:
-                        p1q[q] *= ratio_q[q]
-                    a, bb, c = basis_point_p1(
-                        zz[p, q], n[p, k], p1q[q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
-                    )
-                else:
-                    a, bb, c = basis_point_log(
-                        zz[p, q], n[p, k], lg[0, q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
-                    )
-                if use_ratio:
-                    A[q], B[q] = 0.0, ratio * a + bb
-                else:
-                    A[q], B[q] = a, bb
-                C[q] = c
-            for i in range(3):
-                g[i] = 0.0
-                for j in range(3):
-                    G[i, j] = 0.0
-            for q in range(Z):
-                wq = w[p, q]
-                aw, bw, cw = A[q] * wq, B[q] * wq, C[q] * wq
-                G[0, 0] += aw * A[q]
-                G[0, 1] += aw * B[q]
-                G[0, 2] += aw * C[q]
-                G[1, 1] += bw * B[q]
-                G[1, 2] += bw * C[q]
-                G[2, 2] += cw * C[q]
-                g[0] += aw * yy[p, q]
-                g[1] += bw * yy[p, q]
-                g[2] += cw * yy[p, q]
-            G[1, 0], G[2, 0], G[2, 1] = G[0, 1], G[0, 2], G[1, 2]
+            A, B, C = cols[0, k], cols[1, k], cols[2, k]
             for f in range(F):
-                s = sv[ps, f]
-                D[0], D[1], D[2] = s, s, 1.0  # phic scales the kc and kphi columns, eq. (2-6)
-                for i in range(3):
-                    gs[i] = g[i] * D[i]
-                    for j in range(3):
-                        Gs[i, j] = G[i, j] * D[i] * D[j]
-                box_lsq3_one(Gs, gs, yty, lo[p, k], hi[p, k], x, ws)
+                s = sv[ps, f]  # phic scales the kc and kphi columns, eq. (2-6)
+                normal_eq(yy[p], w[p], A, B, C, s, G, g)
+                box_lsq3_one(G, g, yty, lo[p, k], hi[p, k], x, ws)
                 x0, x1, x2 = x[0] * s, x[1] * s, x[2]
-                acc = 0.0
-                for q in range(Z):
-                    rq = A[q] * x0 + B[q] * x1 + C[q] * x2 - yy[p, q]
-                    acc += rq * rq * w[p, q]
                 xp[p, k, f, 0], xp[p, k, f, 1], xp[p, k, f, 2] = x0, x1, x2
-                sse[p, k, f] = acc
+                sse[p, k, f] = residual_sse(yy[p], w[p], A, B, C, x0, x1, x2)
     return xp, sse
+
+
+@njit(error_model="numpy")
+def same_rows(a, p) -> bool:
+    """True when row p of a (P, M) equals row p - 1."""
+    for j in range(a.shape[1]):
+        if a[p, j] != a[p - 1, j]:
+            return False
+    return True
+
+
+@njit(error_model="numpy")
+def profile_columns(z, n, tab, H, R, rm1, r_t, alpha, beta, ratio, ratio_q, p1q, cols) -> None:
+    """Columns A, B, C of depths z (Z,) at every n of (K,) into cols (3, K, Z).
+
+    kc folded into kphi with a ratio (:func:`fold_ratio`); over a uniform grid
+    of n the powers u1^(n+1) by recurrence, one exp per depth instead of one
+    per cell (k ulp at step k).  tab, ratio_q, p1q are work arrays.
+    """
+    K = n.shape[0]
+    depth_table(z, H, R, r_t, tab)
+    uniform = uniform_grid(n)
+    if uniform:
+        dn = (n[K - 1] - n[0]) / (K - 1)
+        for q in range(z.shape[0]):
+            ratio_q[q] = math.exp(dn * tab[0, q])
+            p1q[q] = math.exp((n[0] + 1.0) * tab[0, q])
+    for k in range(K):
+        if uniform and k > 0:
+            for q in range(z.shape[0]):
+                p1q[q] *= ratio_q[q]
+        A, B, C = cols[0, k], cols[1, k], cols[2, k]
+        columns_at(z, tab, n[k], H, R, rm1, r_t, alpha, beta, p1q, uniform, A, B, C)
+        fold_ratio(A, B, ratio)
+
+
+@njit(error_model="numpy")
+def uniform_grid(n) -> bool:
+    """True when n (K,) is an evenly spaced grid of more than two points (to 1e-15)."""
+    K = n.shape[0]
+    if K <= 2:
+        return False
+    dn = (n[K - 1] - n[0]) / (K - 1)
+    for k in range(K):
+        if abs(n[k] - (n[0] + k * dn)) > 1e-15 * (1.0 + abs(n[k])):
+            return False
+    return True
 
 
 @njit(error_model="numpy")
@@ -598,6 +627,241 @@ def cell_sse(z, y, w, lg, n, s, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp
         rq = A[q] * xp[0] + B[q] * xp[1] + C[q] * xp[2] - y[q]
         acc += rq * rq * w[q]
     return acc
+
+
+@njit(error_model="numpy")
+def depth_table(z, H, R, r_t, tab) -> None:
+    """The n-free quantities of every depth of z (Z,) into tab (7, Z).
+
+    Rows 0-2 are :func:`depth_logs` (log(u1), log1p(-eps_b), log1p(-eps_s));
+    row 3 the tip depth u1 = z + H [m], row 4 eps_b = L/u1, row 5 the cc
+    column C of eq. (2-7) (it does not depend on n) and row 6 is 1 where the
+    closed form of :func:`columns_at` applies (u1 > 0, 0.01 <= eps_b < 1,
+    no binomial series), else 0.
+    """
+    t = R / H
+    RR = R * R
+    for q in range(z.shape[0]):
+        tab[0, q], tab[1, q], tab[2, q] = depth_logs(z[q], H, R, r_t)
+        u1 = z[q] + H
+        if not u1 > 0.0:
+            tab[3, q] = tab[4, q] = tab[5, q] = tab[6, q] = 0.0
+            continue
+        L = H if z[q] >= 0.0 else u1
+        eb = min(max(L / u1, 0.0), 1.0)
+        tab[3, q] = u1
+        tab[4, q] = eb
+        tab[5, q] = 2.0 * (0.5 * t * L * L) / RR  # eq. (2-7), per unit cc
+        tab[6, q] = 1.0 if SERIES_EPS <= eb < 1.0 else 0.0
+
+
+@njit(error_model="numpy")
+def columns_at(z, tab, n, H, R, rm1, r_t, alpha, beta, p1, use_p1, A, B, C) -> None:
+    """Columns A, B, C (Z,) of eq. (2-7) at exponent n (fully mobilised, phic = 0).
+
+    RM0 at the depths flagged in row 6 of ``tab`` (:func:`depth_table`):
+    A = 2t/R^2 u1^(n+1) G_0, B = 2t^2/R^2 u1^(n+2) G_1 with the closed forms
+    of G_0, G_1 of :func:`tail_moments_log` (eqs. (2-2), (2-5)) and the
+    n-free parts read from ``tab``; elsewhere (RM1, the tip entering, the
+    binomial series) :func:`basis_point_log`.  With ``use_p1`` the powers
+    u1^(n+1) are taken from p1 (Z,) (a recurrence over a uniform grid).
+    """
+    t = R / H
+    RR = R * R
+    ka = 2.0 * t / RR
+    kb = 2.0 * t * t / RR
+    n1 = n + 1.0
+    inv1 = 1.0 / n1
+    inv2 = 1.0 / (n + 2.0)
+    for q in range(z.shape[0]):
+        if rm1 or tab[6, q] == 0.0:
+            if use_p1 and tab[3, q] > 0.0:
+                a, b, c = basis_point_p1(
+                    z[q], n, p1[q], tab[1, q], tab[2, q], H, R, rm1, r_t, alpha, beta
+                )
+            else:
+                a, b, c = basis_point_log(
+                    z[q], n, tab[0, q], tab[1, q], tab[2, q], H, R, rm1, r_t, alpha, beta
+                )
+            A[q], B[q], C[q] = a, b, c
+            continue
+        pw = p1[q] if use_p1 else math.exp(n1 * tab[0, q])  # u1^(n+1)
+        eb = tab[4, q]
+        e1 = math.expm1(n1 * tab[1, q])  # (1 - eps)^(n+1) - 1
+        g0 = -e1 * inv1
+        g1 = g0 - (eb - e1 * (1.0 - eb)) * inv2
+        A[q] = ka * (pw * g0)  # eq. (2-2)
+        B[q] = kb * (pw * tab[3, q] * g1)  # eq. (2-5)
+        C[q] = tab[5, q]
+
+
+@njit(error_model="numpy")
+def fold_ratio(A, B, ratio) -> None:
+    """With kc/kphi = ratio [m] held (not NaN): B = ratio A + B and A = 0 (kc = ratio kphi)."""
+    if not math.isnan(ratio):
+        for q in range(A.shape[0]):
+            B[q] = ratio * A[q] + B[q]
+            A[q] = 0.0
+
+
+@njit(error_model="numpy")
+def normal_eq(y, w, A, B, C, s, G, g) -> None:
+    """Normal equations G (3, 3), g (3,) of columns A, B, C (Z,) at scale s.
+
+    As :func:`normal_at` (kc and kphi columns times s, eq. (2-6) fully
+    mobilised), with the sums in scalar accumulators.
+    """
+    aa = ab = ac = bb = bc = cc = ay = by = cy = 0.0
+    for q in range(A.shape[0]):
+        aw, bw, cw = A[q] * w[q], B[q] * w[q], C[q] * w[q]
+        aa += aw * A[q]
+        ab += aw * B[q]
+        ac += aw * C[q]
+        bb += bw * B[q]
+        bc += bw * C[q]
+        cc += cw * C[q]
+        ay += aw * y[q]
+        by += bw * y[q]
+        cy += cw * y[q]
+    G[0, 0], G[0, 1], G[1, 1] = aa * s * s, ab * s * s, bb * s * s
+    G[0, 2], G[1, 2], G[2, 2] = ac * s, bc * s, cc
+    G[1, 0], G[2, 0], G[2, 1] = G[0, 1], G[0, 2], G[1, 2]
+    g[0], g[1], g[2] = ay * s, by * s, cy
+
+
+@njit(error_model="numpy")
+def residual_sse(y, w, A, B, C, x0, x1, x2) -> float:
+    """Weighted sum of squared residuals of CI = x0 A + x1 B + x2 C (the primed solution)."""
+    acc = 0.0
+    for q in range(y.shape[0]):
+        rq = A[q] * x0 + B[q] * x1 + C[q] * x2 - y[q]
+        acc += rq * rq * w[q]
+    return acc
+
+
+@njit(error_model="numpy")
+def cell_fast(z, y, w, tab, yty, n, s, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp) -> float:
+    """:func:`cell_sse` with the depth table of :func:`depth_table` and y'y given.
+
+    ws is a (24, 3) work array whose rows 0-17 carry the last optimal face
+    from call to call (:func:`box_lsq3_one`).
+    """
+    G = ws[18:21]
+    lo, hi, g = ws[21], ws[22], ws[23]
+    columns_at(z, tab, n, H, R, rm1, r_t, alpha, beta, A, False, A, B, C)
+    fold_ratio(A, B, bp[10])
+    normal_eq(y, w, A, B, C, s, G, g)
+    kbounds(n, bp, lo, hi)
+    box_lsq3_one(G, g, yty, lo, hi, xp, ws)
+    xp[0] *= s
+    xp[1] *= s
+    return residual_sse(y, w, A, B, C, xp[0], xp[1], xp[2])
+
+
+@njit(error_model="numpy")
+def brent_step(a, b, x, w, v, fx, fw, fv, d, e, tol1):
+    """The next trial point of Brent's minimiser on [a, b] and the new (d, e).
+
+    A parabolic step through x, w, v (the best three points so far) when it
+    falls inside the bracket and is shorter than half the step before last;
+    otherwise a golden-section step into the larger part of the bracket.
+    Steps are at least tol1 long.
+    """
+    cg = 0.3819660112501051  # (3 - sqrt(5)) / 2
+    xm = 0.5 * (a + b)
+    golden = True
+    if abs(e) > tol1:
+        r = (x - w) * (fx - fv)
+        q = (x - v) * (fx - fw)
+        p = (x - v) * q - (x - w) * r
+        q = 2.0 * (q - r)
+        if q > 0.0:
+            p = -p
+        q = abs(q)
+        etemp = e
+        if abs(p) < abs(0.5 * q * etemp) and p > q * (a - x) and p < q * (b - x):
+            e = d
+            d = p / q
+            u = x + d
+            if u - a < 2.0 * tol1 or b - u < 2.0 * tol1:
+                d = tol1 if xm >= x else -tol1
+            golden = False
+    if golden:
+        e = (a - x) if x >= xm else (b - x)
+        d = cg * e
+    u = x + d if abs(d) >= tol1 else x + (tol1 if d > 0.0 else -tol1)
+    return u, d, e
+
+
+@njit(error_model="numpy")
+def brent_refine(
+    zz, yy, w, a, b, x0, f0, fa, fb, s, bp, xtol, maxiter, H, R, rm1, r_t, alpha, beta
+):
+    """Brent's minimisation of the SSE over n in [a_p, b_p] at scale s_p, per profile.
+
+    Starts from the best grid point x0_p (SSE f0_p) with the bracket's ends
+    (SSE fa_p, fb_p, from the grid) as the two other points, so the first
+    step is already parabolic; parabolic steps with a golden-section
+    fallback (:func:`brent_step`) keep the bracket around the best point and
+    stop when it is at most 4 xtol wide.  A kink of the SSE where a bound of
+    the box becomes active costs a few golden steps, never accuracy: the
+    bracket still shrinks to 4 xtol around the best point.  Returns (n, SSE,
+    evaluations); the SSE is never above f0.
+    """
+    P, Z = zz.shape
+    bx = np.empty(P)
+    bf = np.empty(P)
+    A = np.empty(Z)
+    B = np.empty(Z)
+    C = np.empty(Z)
+    ws = np.empty((24, 3))
+    ws[7, 0] = -1.0  # no face yet
+    xp = np.empty(3)
+    tab = np.empty((7, Z))
+    used = 0
+    for p in range(P):
+        z, y, wp, sp = zz[p], yy[p], w[p], s[p]
+        depth_table(z, H, R, r_t, tab)
+        yty = 0.0
+        for q in range(Z):
+            yty += wp[q] * y[q] * y[q]
+        lo, hi = a[p], b[p]
+        x, fx = x0[p], f0[p]
+        # the other two points: the bracket's ends (the one at x, if any, left out)
+        if lo == x:
+            w_, fw, v, fv = hi, fb[p], hi, fb[p]
+        elif hi == x:
+            w_, fw, v, fv = lo, fa[p], lo, fa[p]
+        elif fa[p] <= fb[p]:
+            w_, fw, v, fv = lo, fa[p], hi, fb[p]
+        else:
+            w_, fw, v, fv = hi, fb[p], lo, fa[p]
+        d = e = hi - lo
+        for _ in range(maxiter):
+            if abs(x - 0.5 * (lo + hi)) <= 2.0 * xtol - 0.5 * (hi - lo):
+                break
+            u, d, e = brent_step(lo, hi, x, w_, v, fx, fw, fv, d, e, xtol)
+            fu = cell_fast(
+                z, y, wp, tab, yty, u, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp
+            )
+            used += 1
+            if fu <= fx:
+                if u >= x:
+                    lo = x
+                else:
+                    hi = x
+                v, fv, w_, fw, x, fx = w_, fw, x, fx, u, fu
+            else:
+                if u < x:
+                    lo = u
+                else:
+                    hi = u
+                if fu <= fw or w_ == x:
+                    v, fv, w_, fw = w_, fw, u, fu
+                elif fu <= fv or v == x or v == w_:
+                    v, fv = u, fu
+        bx[p], bf[p] = x, fx
+    return bx, bf, used
 
 
 @njit(error_model="numpy")
@@ -942,13 +1206,10 @@ def basis_columns(z, n, H, R, rm1, r_t, alpha, beta):
     A = np.empty((K, Z))
     B = np.empty((K, Z))
     C = np.empty((K, Z))
-    lg = np.empty((3, Z))
-    profile_logs(z, H, R, r_t, lg)
+    tab = np.empty((7, Z))
+    depth_table(z, H, R, r_t, tab)
     for k in range(K):
-        for q in range(Z):
-            A[k, q], B[k, q], C[k, q] = basis_point_log(
-                z[q], n[k], lg[0, q], lg[1, q], lg[2, q], H, R, rm1, r_t, alpha, beta
-            )
+        columns_at(z, tab, n[k], H, R, rm1, r_t, alpha, beta, z, False, A[k], B[k], C[k])
     return A, B, C
 
 

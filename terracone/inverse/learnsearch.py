@@ -183,6 +183,65 @@ def _irls_weights(prob: LearnProblem, x, theta) -> np.ndarray:
     return np.sqrt(prob.a / np.maximum(norms, floor))
 
 
+class _Space:
+    """The free variables of :func:`refine` packed in one vector p, with residuals and Jacobian."""
+
+    def __init__(self, prob: LearnProblem, theta0: np.ndarray) -> None:
+        self.prob = prob
+        self.theta0 = np.asarray(theta0, float)
+        self.lo_x, hi_x = prob.box(np.asarray(theta0[0]))
+        self.free_x = hi_x > self.lo_x
+        self.free_t = prob.theta_hi > prob.theta_lo
+        if prob.model == "rm0":
+            self.free_t[2] = False
+        self.lo = np.concatenate([self.lo_x[self.free_x], prob.theta_lo[self.free_t]])
+        self.hi = np.concatenate([hi_x[self.free_x], prob.theta_hi[self.free_t]])
+        self.nx = int(self.free_x.sum())
+        self.nfev = 0
+
+    def unpack(self, p):
+        x = self.lo_x.copy()
+        x[self.free_x] = p[: self.nx]
+        th = self.theta0.copy()
+        th[self.free_t] = p[self.nx :]
+        return x, th
+
+    def fun(self, p, sw):
+        self.nfev += 1
+        x, th = self.unpack(p)
+        return np.concatenate([s * r for s, r in zip(sw, self.prob.residuals(x, th))])
+
+    def jac(self, p, sw):
+        prob = self.prob
+        x, th = self.unpack(p)
+        ks = np.flatnonzero(self.free_t)
+        T = np.repeat(th[None, :], 1 + 2 * ks.size, axis=0)
+        for j, k in enumerate(ks):  # central differences, all points in one vectorised call
+            h = 1e-6 * max(1.0, abs(th[k]))
+            T[1 + 2 * j, k] = min(th[k] + h, prob.theta_hi[k])
+            T[2 + 2 * j, k] = max(th[k] - h, prob.theta_lo[k])
+        Xs = prob.designs(T[:, 0], T[:, 1], T[:, 2])  # (T, N_d, 3) each
+        cols = [np.concatenate([s * X[0][:, self.free_x] for s, X in zip(sw, Xs)])]
+        for j, k in enumerate(ks):
+            dt = T[1 + 2 * j, k] - T[2 + 2 * j, k]
+            cols.append(
+                np.concatenate(
+                    [s * ((X[1 + 2 * j] - X[2 + 2 * j]) @ x) / dt for s, X in zip(sw, Xs)]
+                )[:, None]
+            )
+        return np.hstack(cols)
+
+    def snap(self, p, J, zero):
+        """Values within 1e-9 of their range from a bound go onto it when J does not rise: the
+        trust region stays strictly inside, the answer should not depend on how far."""
+        lo, hi = self.lo, self.hi
+        q = p.copy()
+        near_lo, near_hi = q - lo <= 1e-9 * (hi - lo), hi - q <= 1e-9 * (hi - lo)
+        q[near_lo], q[near_hi] = lo[near_lo], hi[near_hi]
+        Jq = self.prob.objective(*self.unpack(q))
+        return (q, Jq) if Jq <= J * (1 + 1e-12) + zero * 1e-3 else (p, J)
+
+
 def refine(
     prob: LearnProblem,
     x0: np.ndarray,
@@ -200,62 +259,21 @@ def refine(
     zero-residual data are reached quadratically.  Stops when J no longer
     falls by 1e-12 relative.
     """
-    lo_x, hi_x = prob.box(np.asarray(theta0[0]))
-    free_x = hi_x > lo_x
-    free_t = prob.theta_hi > prob.theta_lo
-    if prob.model == "rm0":
-        free_t[2] = False
-    lo = np.concatenate([lo_x[free_x], prob.theta_lo[free_t]])
-    hi = np.concatenate([hi_x[free_x], prob.theta_hi[free_t]])
-    nx = int(free_x.sum())
-
-    def unpack(p):
-        x = lo_x.copy()
-        x[free_x] = p[:nx]
-        th = np.asarray(theta0, float).copy()
-        th[free_t] = p[nx:]
-        return x, th
-
-    nfev = 0
-
-    def fun(p, sw):
-        nonlocal nfev
-        nfev += 1
-        x, th = unpack(p)
-        return np.concatenate([s * r for s, r in zip(sw, prob.residuals(x, th))])
-
-    def jac(p, sw):
-        x, th = unpack(p)
-        ks = np.flatnonzero(free_t)
-        T = np.repeat(th[None, :], 1 + 2 * ks.size, axis=0)
-        for j, k in enumerate(ks):  # central differences, all points in one vectorised call
-            h = 1e-6 * max(1.0, abs(th[k]))
-            T[1 + 2 * j, k] = min(th[k] + h, prob.theta_hi[k])
-            T[2 + 2 * j, k] = max(th[k] - h, prob.theta_lo[k])
-        Xs = prob.designs(T[:, 0], T[:, 1], T[:, 2])  # (T, N_d, 3) each
-        cols = [np.concatenate([s * X[0][:, free_x] for s, X in zip(sw, Xs)])]
-        for j, k in enumerate(ks):
-            dt = T[1 + 2 * j, k] - T[2 + 2 * j, k]
-            cols.append(
-                np.concatenate(
-                    [s * ((X[1 + 2 * j] - X[2 + 2 * j]) @ x) / dt for s, X in zip(sw, Xs)]
-                )[:, None]
-            )
-        return np.hstack(cols)
-
-    p = np.clip(_pack(prob, x0, np.asarray(theta0, float), free_x, free_t), lo, hi)
-    J = prob.objective(*unpack(p))
+    sp = _Space(prob, theta0)
+    lo, hi = sp.lo, sp.hi
+    p = np.clip(_pack(prob, x0, sp.theta0, sp.free_x, sp.free_t), lo, hi)
+    J = prob.objective(*sp.unpack(p))
     sw = prob.a.copy()
     if reweight_first:
-        sw = _irls_weights(prob, *unpack(p))
+        sw = _irls_weights(prob, *sp.unpack(p))
     zero = 1e-13 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
     for _ in range(rounds):
         if J <= zero:  # zero residual: nothing left to gain
             break
         res = least_squares(
-            fun,
+            sp.fun,
             p,
-            jac=jac,
+            jac=sp.jac,
             bounds=(lo, hi),
             args=(sw,),
             method="trf",
@@ -265,7 +283,7 @@ def refine(
             gtol=1e-12,
             max_nfev=40,
         )
-        J_new = prob.objective(*unpack(res.x))
+        J_new = prob.objective(*sp.unpack(res.x))
         if J_new < J:
             improved = J - J_new > 1e-12 * J
             p, J = res.x, J_new
@@ -273,17 +291,10 @@ def refine(
                 break
         else:
             break
-        sw = _irls_weights(prob, *unpack(p))
-    # values within 1e-9 of their range from a bound go onto it when J does not rise:
-    # the trust region stays strictly inside, the answer should not depend on how far
-    q = p.copy()
-    near_lo, near_hi = q - lo <= 1e-9 * (hi - lo), hi - q <= 1e-9 * (hi - lo)
-    q[near_lo], q[near_hi] = lo[near_lo], hi[near_hi]
-    Jq = prob.objective(*unpack(q))
-    if Jq <= J * (1 + 1e-12) + zero * 1e-3:
-        p, J = q, Jq
-    x, th = unpack(p)
-    return Refined(x, th, J, nfev)
+        sw = _irls_weights(prob, *sp.unpack(p))
+    p, J = sp.snap(p, J, zero)
+    x, th = sp.unpack(p)
+    return Refined(x, th, J, sp.nfev)
 
 
 def jacobians(prob: LearnProblem, x, theta) -> list[np.ndarray]:

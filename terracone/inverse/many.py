@@ -15,8 +15,12 @@ calls over (profile, n) cells:
    scaled solution still fits in the box; the middle of that interval is
    reported (the exact ridge of section 2, never hidden).  Otherwise phic
    is put on a grid;
-3. a golden-section refinement of n around each profile's best grid cell,
-   vectorised across profiles.
+3. a refinement of n around each profile's best grid cell: Brent's method
+   (parabolic steps through the best three points, golden-section steps
+   when a parabola does not shrink the bracket, as where a bound of the box
+   becomes active) in the compiled kernels, golden section vectorised
+   across profiles in the numpy reference; both stop at the same bracket
+   width.
 
 References
 ----------
@@ -174,6 +178,11 @@ class _Kernels:
     def golden(self, zz, yy, w, a, b, s, iters):
         return self.k.golden_refine(zz, yy, w, a, b, s, self.bp, iters, *self.geom)
 
+    def brent(self, zz, yy, w, a, b, x0, f0, fa, fb, s, xtol, maxiter=200):
+        return self.k.brent_refine(
+            zz, yy, w, a, b, x0, f0, fa, fb, s, self.bp, xtol, maxiter, *self.geom
+        )
+
 
 def _cells_kernel(
     law: PressureLaw, cone: Cone, bounds: Bounds, ratio: float | None
@@ -264,6 +273,183 @@ def _pad(depths: list[np.ndarray], cis: list[np.ndarray]):
     return zz, yy, w
 
 
+@dataclass
+class _Problem:
+    """The padded profiles, box and phic grid of one :func:`solve_exact_many` call."""
+
+    zz: np.ndarray  # (P, Z) base depths [m], padded with the last depth
+    yy: np.ndarray  # (P, Z) CI [kPa], padded with 0
+    w: np.ndarray  # (P, Z) 1 at the profile's points, 0 at the padding
+    yty: np.ndarray  # (P,) y'y
+    cone: Cone
+    law: PressureLaw
+    bounds: Bounds
+    ratio: float | None
+    phis: np.ndarray  # (F,) phic grid [deg] (one point: the nested boxes or a fixed phic)
+    kern: _Kernels | None  # compiled kernels, or None (numpy path)
+
+    def s_of(self, phi):
+        """Scale s = 1 + tan(phic)/tan(a) of the kc and kphi columns (eq. (2-6))."""
+        return 1.0 + np.tan(np.radians(phi)) / math.tan(self.cone.half_angle)
+
+    def kbounds(self, n):
+        """Box of kc, kphi [SI] at n (kc pinned at 0 with a ratio)."""
+        kc_lo, kc_hi = self.bounds.kc_si(n)
+        kp_lo, kp_hi = self.bounds.kphi_si(n)
+        ratio = self.ratio
+        if ratio is not None:
+            if ratio > 0:
+                kp_lo = np.maximum(kp_lo, kc_lo / ratio)
+                kp_hi = np.maximum(np.minimum(kp_hi, kc_hi / ratio), kp_lo)
+            kc_lo = kc_hi = np.zeros(np.shape(n))
+        return kc_lo, kc_hi, kp_lo, kp_hi
+
+    def cells(self, n: np.ndarray, sv: np.ndarray | None = None):
+        """Primed x (P, K, F, 3) and SSE (P, K, F) for n (P, K) and each s of sv ((P, F), or the
+        phic grid)."""
+        sv = self.s_of(self.phis)[None, :] if sv is None else sv
+        if self.kern is not None:
+            return self.kern(self.zz, self.yy, self.w, n, np.ascontiguousarray(sv))
+        return numpy_cells(self, n, sv)
+
+
+def numpy_cells(pb: _Problem, n: np.ndarray, sv: np.ndarray):
+    """The numpy reference of the cells (:func:`terracone.inverse.kernels.cells_kernel`)."""
+    zz, yy, w = pb.zz, pb.yy, pb.w
+    A, B, C = cone_index_basis(zz[:, None, :], n=n[..., None], phic=0.0, law=pb.law, cone=pb.cone)
+    if pb.ratio is not None:
+        A, B = np.zeros_like(A), pb.ratio * A + B
+    Aw, Bw = A * w[:, None, :], B * w[:, None, :]
+    Cw = np.broadcast_to(C * w[:, None, :], Aw.shape)
+    ab, ac, bc = (Aw * B).sum(-1), (Aw * C).sum(-1), (Bw * C).sum(-1)
+    G = np.stack(
+        [
+            np.stack([(Aw * A).sum(-1), ab, ac], -1),
+            np.stack([ab, (Bw * B).sum(-1), bc], -1),
+            np.stack([ac, bc, (Cw * C).sum(-1)], -1),
+        ],
+        -2,
+    )
+    yk = yy[:, None, :]
+    g = np.stack([(Aw * yk).sum(-1), (Bw * yk).sum(-1), (Cw * yk).sum(-1)], -1)
+    # phic scales the kc and kphi columns by s, eq. (2-6)
+    D = np.ones(sv.shape + (3,))
+    D[..., 0] = sv
+    D[..., 1] = sv
+    Dk = D[:, None]  # (P or 1, 1, F, 3)
+    Gs = G[:, :, None] * Dk[..., :, None] * Dk[..., None, :]
+    gs = g[:, :, None] * Dk
+    kc_lo, kc_hi, kp_lo, kp_hi = pb.kbounds(n)
+    cc = pb.bounds.cc
+    lo = np.stack(np.broadcast_arrays(kc_lo, kp_lo, cc[0]), axis=-1)[:, :, None] + 0 * Dk
+    hi = np.stack(np.broadcast_arrays(kc_hi, kp_hi, cc[1]), axis=-1)[:, :, None] + 0 * Dk
+    x, _ = box_lsq3(Gs, gs, pb.yty[:, None, None], lo, hi)
+    xp = x * Dk  # (kc', kphi', cc): primed values, CI = kc' A + kphi' B + cc C
+    # the SSE from the residuals: the normal-equation form cancels near a perfect fit,
+    # which would blind the refinement of n on clean data
+    r = (
+        A[:, :, None, :] * xp[..., 0:1]
+        + B[:, :, None, :] * xp[..., 1:2]
+        + C[:, :, None, :] * xp[..., 2:3]
+        - yy[:, None, None, :]
+    )
+    return xp, np.einsum("pkfz,pz->pkf", r * r, w)
+
+
+def _refine_n(pb: _Problem, ns, sseg, i_n, i_f, refine_iter: int):
+    """n of each profile refined around its best grid cell (same phic scale); (n, SSE, nfev).
+
+    Compiled: Brent's method from the grid's three points, to the bracket
+    width that ``refine_iter`` golden steps would leave.  numpy: the golden
+    section / zooming grid of :func:`_minimise_1d` (the reference).
+    """
+    P = pb.zz.shape[0]
+    rows = np.arange(P)
+    step = ns[1] - ns[0]
+    n_best = ns[i_n]
+    a_n, b_n = np.clip(n_best - step, *pb.bounds.n), np.clip(n_best + step, *pb.bounds.n)
+    s = pb.s_of(pb.phis)[i_f]
+    if pb.kern is not None:
+        f0 = sseg[rows, i_n, i_f]
+        fa = sseg[rows, np.maximum(i_n - 1, 0), i_f]
+        fb = sseg[rows, np.minimum(i_n + 1, ns.size - 1), i_f]
+        xtol = 0.5 * step * _GOLD**refine_iter
+        return pb.kern.brent(pb.zz, pb.yy, pb.w, a_n, b_n, n_best, f0, fa, fb, s, xtol)
+
+    def f(nv):  # nv (P, K) -> SSE (P, K)
+        return pb.cells(nv, s[:, None])[1][:, :, 0]
+
+    return _minimise_1d(f, a_n, b_n, refine_iter)
+
+
+def _refine_phi(pb: _Problem, n_best, i_f, refine_iter: int):
+    """phic scale of each profile refined between its phic grid neighbours at n_best; (s, nfev)."""
+    phis = pb.phis
+    s_best = pb.s_of(phis)[i_f]
+
+    def fphi(pv):  # pv (P, K) -> SSE (P, K)
+        return pb.cells(n_best[:, None], pb.s_of(pv))[1][:, 0, :]
+
+    lo, hi = phis[np.maximum(i_f - 1, 0)], phis[np.minimum(i_f + 1, phis.size - 1)]
+    p_ref, f_ref, used = _minimise_1d(fphi, lo, hi, refine_iter)
+    f_grid = pb.cells(n_best[:, None], s_best[:, None])[1][:, 0, 0]
+    return np.where(f_ref < f_grid, pb.s_of(p_ref), s_best), used
+
+
+def _phic_ridge(pb: _Problem, x, n_best, s_best):
+    """phic (middle, low, high) [deg] of the ridge: every s whose box still holds the optimal
+    primed (kc', kphi'), lo <= x'/s <= hi, fits equally well (eq. (2-6) fully mobilised)."""
+    phi_lo, phi_hi = pb.bounds.phic
+    P = x.shape[0]
+    if phi_lo == phi_hi:
+        ph = np.full(P, phi_lo)
+        return ph, ph, ph
+    kc_lo, kc_hi, kp_lo, kp_hi = pb.kbounds(n_best)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        need = np.maximum(
+            np.where(kc_hi > 0, x[:, 0] / kc_hi, 0.0), np.where(kp_hi > 0, x[:, 1] / kp_hi, 0.0)
+        )
+        room = np.minimum(
+            np.where(kc_lo > 0, x[:, 0] / kc_lo, np.inf),
+            np.where(kp_lo > 0, x[:, 1] / kp_lo, np.inf),
+        )
+    s_min, s_max = pb.s_of(phi_lo), pb.s_of(phi_hi)
+    s_lo_r = np.minimum(np.clip(need, s_min, s_max), s_best)
+    s_hi_r = np.maximum(np.clip(room, s_min, s_max), s_best)
+    t = math.tan(pb.cone.half_angle)
+    ph_lo = np.degrees(np.arctan((s_lo_r - 1.0) * t))
+    ph_hi = np.degrees(np.arctan((s_hi_r - 1.0) * t))
+    return 0.5 * (ph_lo + ph_hi), ph_lo, ph_hi
+
+
+def _n_interval(pb: _Problem, ns, sse_n, sse, n_best, noise_floor: float):
+    """n interval from the grid profile of SSE (95% profile likelihood, noise floor)."""
+    w, yy = pb.w, pb.yy
+    npts = w.sum(axis=1)
+    mean_y = np.einsum("pz,pz->p", w, np.abs(yy)) / npts
+    sigma2 = np.maximum(sse / np.maximum(npts - 5, 1), (noise_floor * mean_y) ** 2)
+    thr = sse + 3.841458820694124 * sigma2
+    ok = sse_n <= thr[:, None]
+    big = np.where(ok, ns[None, :], -np.inf).max(axis=1)
+    small = np.where(ok, ns[None, :], np.inf).min(axis=1)
+    n_lo = np.minimum(np.where(np.isfinite(small), small, n_best), n_best)
+    n_hi = np.maximum(np.where(np.isfinite(big), big, n_best), n_best)
+    return n_lo, n_hi
+
+
+def _problem(depths, cis, cone, law, bounds, ratio) -> _Problem:
+    zz, yy, w = _pad(depths, cis)
+    phi_lo, phi_hi = bounds.phic
+    nested = bounds.kc[0] == 0.0 and bounds.kphi[0] == 0.0
+    if phi_lo == phi_hi or nested:
+        phis = np.array([phi_hi])
+    else:
+        phis = np.linspace(phi_lo, phi_hi, 19)
+    yty = np.einsum("pz,pz->p", w * yy, yy)
+    kern = _cells_kernel(law, cone, bounds, ratio)
+    return _Problem(zz, yy, w, yty, cone, law, bounds, ratio, phis, kern)
+
+
 def solve_exact_many(
     depths: list[np.ndarray],
     cis: list[np.ndarray],
@@ -287,173 +473,61 @@ def solve_exact_many(
     n_grid : int
         Points of the global grid over n.
     refine_iter : int
-        Golden-section iterations of the refinement of n (the bracket of two
-        grid steps shrinks to 4e-10 in 40), then one parabolic step through
-        the best point and its neighbours.  Fewer iterations leave the
-        noise-free optimum visibly short where a bound becomes active at n*
-        (kc = 0 or cc = 0): the SSE over n has a kink in curvature there,
-        which the parabola does not model.
+        Accuracy of the refinement of n: the bracket of two grid steps
+        around the best grid point shrinks to what ``refine_iter`` golden
+        steps leave (4e-10 in n at 40).  Compiled kernels get there by
+        Brent's method (parabolic steps, golden fallback; about 15
+        evaluations), the numpy path by golden section then one parabolic
+        step (or a zooming grid for few profiles).  Fewer iterations leave
+        the noise-free optimum visibly short where a bound becomes active
+        at n* (kc = 0 or cc = 0): the SSE over n has a kink in curvature
+        there, which a parabola does not model.
     noise_floor : float
         Relative noise floor for the n interval (see :mod:`exact`).
     kc_over_kphi : float, optional
         Hold kc/kphi [m] fixed (a calibration): the kc column folds into
         the kphi column and kc = ratio * kphi.
+
+    Returns
+    -------
+    ManySolution
+        Per-profile parameters [SI], SSE [kPa^2], phic ridge and n interval.
+
+    References
+    ----------
+    .. [1] Huang et al., eqs. (2-5) to (2-7), section 3.3.2 (see the module).
     """
     ratio = kc_over_kphi
-    zz, yy, w = _pad(depths, cis)
-    P = zz.shape[0]
-    t = math.tan(cone.half_angle)
-    s_of = lambda phi: 1.0 + np.tan(np.radians(phi)) / t  # noqa: E731
-    phi_lo, phi_hi = bounds.phic
-    nested = bounds.kc[0] == 0.0 and bounds.kphi[0] == 0.0
-    if phi_lo == phi_hi or nested:
-        phis = np.array([phi_hi])
-    else:
-        phis = np.linspace(phi_lo, phi_hi, 19)
-    svals = s_of(phis)  # (F,)
-    yty = np.einsum("pz,pz->p", w * yy, yy)
-    nfev = 0
-
-    def _kbounds(n):
-        kc_lo, kc_hi = bounds.kc_si(n)
-        kp_lo, kp_hi = bounds.kphi_si(n)
-        if ratio is not None:
-            if ratio > 0:
-                kp_lo = np.maximum(kp_lo, kc_lo / ratio)
-                kp_hi = np.maximum(np.minimum(kp_hi, kc_hi / ratio), kp_lo)
-            kc_lo = kc_hi = np.zeros(np.shape(n))
-        return kc_lo, kc_hi, kp_lo, kp_hi
-
-    kern = _cells_kernel(law, cone, bounds, ratio)
-
-    def cells(n: np.ndarray, sv: np.ndarray | None = None):
-        """Primed x and SSE for n of shape (P, K) and each s of ``sv`` ((P, F) or the grid)."""
-        if kern is not None:
-            return kern(zz, yy, w, n, np.ascontiguousarray(svals[None, :] if sv is None else sv))
-        A, B, C = cone_index_basis(zz[:, None, :], n=n[..., None], phic=0.0, law=law, cone=cone)
-        if ratio is not None:
-            A, B = np.zeros_like(A), ratio * A + B
-        Aw, Bw = A * w[:, None, :], B * w[:, None, :]
-        Cw = np.broadcast_to(C * w[:, None, :], Aw.shape)
-        ab = (Aw * B).sum(-1)
-        ac = (Aw * C).sum(-1)
-        bc = (Bw * C).sum(-1)
-        G = np.stack(
-            [
-                np.stack([(Aw * A).sum(-1), ab, ac], -1),
-                np.stack([ab, (Bw * B).sum(-1), bc], -1),
-                np.stack([ac, bc, (Cw * C).sum(-1)], -1),
-            ],
-            -2,
-        )
-        yk = yy[:, None, :]
-        g = np.stack([(Aw * yk).sum(-1), (Bw * yk).sum(-1), (Cw * yk).sum(-1)], -1)
-        # phic scales the kc and kphi columns by s
-        sv = svals[None, :] if sv is None else sv
-        D = np.ones(sv.shape + (3,))
-        D[..., 0] = sv
-        D[..., 1] = sv
-        Dk = D[:, None]  # (P or 1, 1, F, 3)
-        Gs = G[:, :, None] * Dk[..., :, None] * Dk[..., None, :]
-        gs = g[:, :, None] * Dk
-        kc_lo, kc_hi, kp_lo, kp_hi = _kbounds(n)
-        lo = np.stack(np.broadcast_arrays(kc_lo, kp_lo, bounds.cc[0]), axis=-1)[:, :, None] + 0 * Dk
-        hi = np.stack(np.broadcast_arrays(kc_hi, kp_hi, bounds.cc[1]), axis=-1)[:, :, None] + 0 * Dk
-        x, _ = box_lsq3(Gs, gs, yty[:, None, None], lo, hi)
-        xp = x * Dk  # (kc', kphi', cc): primed values, CI = kc' A + kphi' B + cc C
-        # the SSE from the residuals: the normal-equation form cancels near a perfect fit,
-        # which would blind the refinement of n on clean data
-        r = (
-            A[:, :, None, :] * xp[..., 0:1]
-            + B[:, :, None, :] * xp[..., 1:2]
-            + C[:, :, None, :] * xp[..., 2:3]
-            - yy[:, None, None, :]
-        )
-        sse = np.einsum("pkfz,pz->pkf", r * r, w)
-        return xp, sse
-
+    pb = _problem(depths, cis, cone, law, bounds, ratio)
+    P = pb.zz.shape[0]
     ns = grid(bounds.n[0], bounds.n[1], n_grid)
-    N = np.broadcast_to(ns, (P, ns.size))
-    xg, sseg = cells(N)  # (P, Nn, F)
-    nfev += sseg.size
+    xg, sseg = pb.cells(np.broadcast_to(ns, (P, ns.size)))  # (P, Nn, F)
+    nfev = sseg.size
     flat = sseg.reshape(P, -1)
-    k = first_min(flat, 1e-12 * yty)
+    k = first_min(flat, 1e-12 * pb.yty)
     i_n, i_f = np.unravel_index(k, sseg.shape[1:])
     sse_n = sseg.min(axis=2)  # (P, Nn)
 
     n_best = ns[i_n]
     if ns.size > 1:
-        step = ns[1] - ns[0]
-        phi_idx = i_f
-
-        def f(nv):  # nv (P, K) -> SSE (P, K)
-            return cells(nv, svals[phi_idx][:, None])[1][:, :, 0]
-
-        a_n, b_n = np.clip(n_best - step, *bounds.n), np.clip(n_best + step, *bounds.n)
-        if kern is not None:
-            # compiled: golden section at any P (the zooming grid of _minimise_1d only
-            # saves numpy calls, at about six times the evaluations)
-            n_ref, f_ref, used = kern.golden(zz, yy, w, a_n, b_n, svals[phi_idx], refine_iter)
-        else:
-            n_ref, f_ref, used = _minimise_1d(f, a_n, b_n, refine_iter)
+        n_ref, f_ref, used = _refine_n(pb, ns, sseg, i_n, i_f, refine_iter)
         nfev += used
-        grid_best = flat[np.arange(P), k]
-        n_best = np.where(f_ref <= grid_best, n_ref, n_best)
+        n_best = np.where(f_ref <= flat[np.arange(P), k], n_ref, n_best)
 
-    s_best = svals[i_f]
-    if phis.size > 1:
-        # refinement of phic between its grid neighbours (bounds cut the ridge)
-        j = i_f
-
-        def fphi(pv):  # pv (P, K) -> SSE (P, K)
-            return cells(n_best[:, None], s_of(pv))[1][:, 0, :]
-
-        p_ref, f_ref, used = _minimise_1d(
-            fphi, phis[np.maximum(j - 1, 0)], phis[np.minimum(j + 1, phis.size - 1)], refine_iter
-        )
+    s_best = pb.s_of(pb.phis)[i_f]
+    if pb.phis.size > 1:  # refinement of phic between its grid neighbours (bounds cut the ridge)
+        s_best, used = _refine_phi(pb, n_best, i_f, refine_iter)
         nfev += used
-        f_grid = cells(n_best[:, None], s_best[:, None])[1][:, 0, 0]
-        s_best = np.where(f_ref < f_grid, s_of(p_ref), s_best)
-    x, sse = cells(n_best[:, None], s_best[:, None])
+    x, sse = pb.cells(n_best[:, None], s_best[:, None])
     x = x[:, 0, 0]  # primed values (kc', kphi', cc)
     sse = sse[:, 0, 0]
     nfev += P
 
-    # phic ridge: every s whose box still holds the optimal primed (kc', kphi'),
-    # lo <= x'/s <= hi, fits equally well (eq. (2-6) fully mobilised)
-    if phi_lo == phi_hi:
-        ph_lo = ph_hi = ph = np.full(P, phi_lo)
-    else:
-        kc_lo, kc_hi, kp_lo, kp_hi = _kbounds(n_best)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            need = np.maximum(
-                np.where(kc_hi > 0, x[:, 0] / kc_hi, 0.0), np.where(kp_hi > 0, x[:, 1] / kp_hi, 0.0)
-            )
-            room = np.minimum(
-                np.where(kc_lo > 0, x[:, 0] / kc_lo, np.inf),
-                np.where(kp_lo > 0, x[:, 1] / kp_lo, np.inf),
-            )
-        s_lo_r = np.clip(need, s_of(phi_lo), s_of(phi_hi))
-        s_hi_r = np.clip(room, s_of(phi_lo), s_of(phi_hi))
-        s_lo_r = np.minimum(s_lo_r, s_best)
-        s_hi_r = np.maximum(s_hi_r, s_best)
-        ph_lo = np.degrees(np.arctan((s_lo_r - 1.0) * t))
-        ph_hi = np.degrees(np.arctan((s_hi_r - 1.0) * t))
-        ph = 0.5 * (ph_lo + ph_hi)
-    s = s_of(ph)
+    ph, ph_lo, ph_hi = _phic_ridge(pb, x, n_best, s_best)
+    s = pb.s_of(ph)
     kphi = x[:, 1] / s
     kc = ratio * kphi if ratio is not None else x[:, 0] / s
-
-    # n interval from the grid profile (95% profile likelihood, noise floor)
-    npts = w.sum(axis=1)
-    mean_y = np.einsum("pz,pz->p", w, np.abs(yy)) / npts
-    sigma2 = np.maximum(sse / np.maximum(npts - 5, 1), (noise_floor * mean_y) ** 2)
-    thr = sse + 3.841458820694124 * sigma2
-    ok = sse_n <= thr[:, None]
-    big = np.where(ok, ns[None, :], -np.inf).max(axis=1)
-    small = np.where(ok, ns[None, :], np.inf).min(axis=1)
-    n_lo = np.minimum(np.where(np.isfinite(small), small, n_best), n_best)
-    n_hi = np.maximum(np.where(np.isfinite(big), big, n_best), n_best)
+    n_lo, n_hi = _n_interval(pb, ns, sse_n, sse, n_best, noise_floor)
     return ManySolution(
         kc, kphi, n_best, x[:, 2], ph, ph_lo, ph_hi, sse, n_lo, n_hi, nfev, ns, sse_n
     )
