@@ -865,6 +865,39 @@ def brent_refine(
 
 
 @njit(error_model="numpy")
+def scan_buffers(z, H, R, r_t):
+    """Work arrays of the identifiability scans of one profile (z (Z,) [m]).
+
+    Returns (w, lg, A, B, C, G, g, lo2, hi2, x, ws): unit weights, the
+    profile's n-free logarithms (:func:`profile_logs`), the basis columns,
+    the normal equations and the box solve's scratch.
+    """
+    Z = z.shape[0]
+    lg = np.empty((3, Z))
+    profile_logs(z, H, R, r_t, lg)
+    return (
+        np.ones(Z), lg, np.empty(Z), np.empty(Z), np.empty(Z), np.empty((3, 3)), np.empty(3),
+        np.empty(3), np.empty(3), np.empty(3), np.empty((18, 3)),
+    )  # fmt: skip
+
+
+@njit(error_model="numpy")
+def scan_boxes(n_loc, bp):
+    """The box (lo, hi), each (N, 3), of kc, kphi, cc at each n of n_loc, and which
+    of the three are fixed at every n (pinned (3,) bool)."""
+    N = n_loc.shape[0]
+    lo = np.empty((N, 3))
+    hi = np.empty((N, 3))
+    pinned = np.ones(3, dtype=np.bool_)
+    for i in range(N):
+        kbounds(n_loc[i], bp, lo[i], hi[i])
+        for j in range(3):
+            if lo[i, j] != hi[i, j]:
+                pinned[j] = False
+    return lo, hi, pinned
+
+
+@njit(error_model="numpy")
 def identify_scan(z, y, n_loc, s, bp, vals, H, R, rm1, r_t, alpha, beta):
     """Profile scans of exact.py's identifiability analysis, fully mobilised shear.
 
@@ -873,30 +906,11 @@ def identify_scan(z, y, n_loc, s, bp, vals, H, R, rm1, r_t, alpha, beta):
     pinned at lo + v (hi - lo), v in vals (V,), the others re-fitted.
     Returns (sse (3, N, V), lo (N, 3), hi (N, 3)).
     """
-    Z = z.shape[0]
     N = n_loc.shape[0]
     V = vals.shape[0]
-    w = np.ones(Z)
-    lg = np.empty((3, Z))
-    profile_logs(z, H, R, r_t, lg)
-    A = np.empty(Z)
-    B = np.empty(Z)
-    C = np.empty(Z)
-    G = np.empty((3, 3))
-    g = np.empty(3)
-    lo = np.empty((N, 3))
-    hi = np.empty((N, 3))
-    lo2 = np.empty(3)
-    hi2 = np.empty(3)
-    x = np.empty(3)
-    ws = np.empty((18, 3))
+    w, lg, A, B, C, G, g, lo2, hi2, x, ws = scan_buffers(z, H, R, r_t)
+    lo, hi, pinned = scan_boxes(n_loc, bp)  # pinned: fixed at every n, nothing to scan
     out = np.empty((3, N, V))
-    pinned = np.ones(3, dtype=np.bool_)  # variables fixed at every n: nothing to scan
-    for i in range(N):
-        kbounds(n_loc[i], bp, lo[i], hi[i])
-        for j in range(3):
-            if lo[i, j] != hi[i, j]:
-                pinned[j] = False
     for i in range(N):
         yty = normal_at(
             z, y, w, lg, n_loc[i], s, bp[10], H, R, rm1, r_t, alpha, beta, A, B, C, G, g
@@ -969,31 +983,12 @@ def identify_extent(z, y, n_loc, s, bp, vals, thr, H, R, rm1, r_t, alpha, beta):
     extent found so far are searched.  Returns (jlo (3,), jhi (3,), lo (N, 3),
     hi (N, 3)); equal to the extent of the full scan (tested).
     """
-    Z = z.shape[0]
     N = n_loc.shape[0]
     V = vals.shape[0]
-    w = np.ones(Z)
-    lg = np.empty((3, Z))
-    profile_logs(z, H, R, r_t, lg)
-    A = np.empty(Z)
-    B = np.empty(Z)
-    C = np.empty(Z)
-    G = np.empty((3, 3))
-    g = np.empty(3)
-    lo = np.empty((N, 3))
-    hi = np.empty((N, 3))
-    lo2 = np.empty(3)
-    hi2 = np.empty(3)
-    x = np.empty(3)
-    ws = np.empty((18, 3))
+    w, lg, A, B, C, G, g, lo2, hi2, x, ws = scan_buffers(z, H, R, r_t)
+    lo, hi, pinned = scan_boxes(n_loc, bp)  # pinned: fixed at every n, nothing to scan
     jlo = np.full(3, V, dtype=np.int64)
     jhi = np.full(3, -1, dtype=np.int64)
-    pinned = np.ones(3, dtype=np.bool_)
-    for i in range(N):
-        kbounds(n_loc[i], bp, lo[i], hi[i])
-        for j in range(3):
-            if lo[i, j] != hi[i, j]:
-                pinned[j] = False
     for i in range(N):
         yty = normal_at(
             z, y, w, lg, n_loc[i], s, bp[10], H, R, rm1, r_t, alpha, beta, A, B, C, G, g
