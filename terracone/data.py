@@ -356,6 +356,80 @@ class ProfileSet:
         """
         return self.keep_points(depth_window(self.depth, lo, hi))
 
+    def screen(self) -> dict[int, InputError]:
+        """The profiles of a set that cannot be fitted, each with its located error.
+
+        A vectorised screen (negative CI, non-increasing depth, too few points,
+        tip above the surface, non-finite values) picks the suspects;
+        :meth:`CIProfile.validate` words each one's reason, and
+        :meth:`locate` names its file, row and column.
+        """
+        off = self.offsets
+        P = len(self)
+        if P == 0:
+            return {}
+        starts, counts = off[:-1], self.counts
+        z, y = self.depth, self.ci
+        with np.errstate(invalid="ignore"):
+            row_bad = ~(y >= 0) | ~np.isfinite(z) | ~np.isfinite(y)
+            row_bad[1:] |= ~(z[1:] > z[:-1])
+            row_bad[starts[counts > 0]] = ~(y[starts[counts > 0]] >= 0) | ~np.isfinite(
+                z[starts[counts > 0]]
+            )
+            has = counts > 0
+            bad = np.ones(P, dtype=bool)
+            bad[has] = np.logical_or.reduceat(row_bad, starts[has])
+            bad |= counts < 3
+            bad[has] |= z[starts[has]] < -self.heights()[has] * (1 + 1e-9)
+        errors = {}
+        for j in np.flatnonzero(bad):
+            s, e = int(off[j]), int(off[j + 1])
+            prof = CIProfile(
+                str(self.ids[j]),
+                z[s:e],
+                y[s:e],
+                cone=self.cones[int(self.cone_idx[j])],
+                rows=np.arange(e - s),
+            )
+            try:
+                prof.validate()
+            except InputError as exc:
+                errors[int(j)] = self.locate(int(j), exc)
+        return errors
+
+    def locate(self, j: int, exc: InputError) -> InputError:
+        """``exc`` (raised by :meth:`CIProfile.validate` with rows = point index) located in its file.
+
+        The row becomes the file line (or record), the column the file's own
+        column name (the CI column for a profile with too few points, where
+        the reader reports it too), and the reason says where the profile
+        lies, or where the previous depth is.  Without file lines (-1) the row
+        is left out.
+        """
+        src = self.source(j)
+        path = None if src is None else src.path
+        word = "row" if src is None else src.row_word
+        s, e = int(self.offsets[j]), int(self.offsets[j + 1])
+        lines = np.full(e - s, -1) if self.rows is None else self.rows[s:e]
+        known = lines.size > 0 and bool(np.all(lines >= 0))
+        if src is None:
+            column = exc.column
+        else:
+            column = src.depth_column if exc.column == "depth" else src.ci_column
+        more, row = "", None
+        if exc.row is None:  # too few points
+            if known:
+                row = int(lines[0])
+                span = f"{word} {row}" if lines.size == 1 else f"{word}s {row}-{int(lines[-1])}"
+                more = f" (the profile is on {span})"
+        elif known:
+            row = int(lines[exc.row])
+            if exc.column == "depth" and exc.row > 0 and "increasing" in exc.reason:
+                more = f" (previous depth on {word} {int(lines[exc.row - 1])})"
+        return InputError(
+            exc.reason + more, file=path, profile=str(self.ids[j]), row=row, column=column
+        )
+
     def padded(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(depth, ci, mask), each (P, Zmax): profiles padded for vectorised solvers.
 

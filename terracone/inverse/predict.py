@@ -420,79 +420,13 @@ def fit_set(settings: PredictSettings, pset: ProfileSet) -> list[PredictionResul
 
 
 def screen(pset: ProfileSet) -> dict[int, InputError]:
-    """The profiles of a set that cannot be fitted, each with its located error.
-
-    A vectorised screen (negative CI, non-increasing depth, too few points,
-    tip above the surface, non-finite values) picks the suspects;
-    :meth:`CIProfile.validate` words each one's reason, and
-    :func:`locate_error` names its file, row and column.
-    """
-    off = pset.offsets
-    P = len(pset)
-    if P == 0:
-        return {}
-    starts, counts = off[:-1], pset.counts
-    z, y = pset.depth, pset.ci
-    with np.errstate(invalid="ignore"):
-        row_bad = ~(y >= 0) | ~np.isfinite(z) | ~np.isfinite(y)
-        row_bad[1:] |= ~(z[1:] > z[:-1])
-        row_bad[starts[counts > 0]] = ~(y[starts[counts > 0]] >= 0) | ~np.isfinite(
-            z[starts[counts > 0]]
-        )
-        has = counts > 0
-        bad = np.ones(P, dtype=bool)
-        bad[has] = np.logical_or.reduceat(row_bad, starts[has])
-        bad |= counts < 3
-        bad[has] |= z[starts[has]] < -pset.heights()[has] * (1 + 1e-9)
-    errors = {}
-    for j in np.flatnonzero(bad):
-        s, e = int(off[j]), int(off[j + 1])
-        prof = CIProfile(
-            str(pset.ids[j]),
-            z[s:e],
-            y[s:e],
-            cone=pset.cones[int(pset.cone_idx[j])],
-            rows=np.arange(e - s),
-        )
-        try:
-            prof.validate()
-        except InputError as exc:
-            errors[int(j)] = locate_error(pset, int(j), exc)
-    return errors
+    """The profiles of a set that cannot be fitted, located (:meth:`ProfileSet.screen`)."""
+    return pset.screen()
 
 
 def locate_error(pset: ProfileSet, j: int, exc: InputError) -> InputError:
-    """``exc`` (raised by :meth:`CIProfile.validate` with rows = point index) located in its file.
-
-    The row becomes the file line (or record), the column the file's own
-    column name (the CI column for a profile with too few points, where
-    the reader reports it too), and the reason says where the profile
-    lies, or where the previous depth is.  Without file lines (-1) the row
-    is left out.
-    """
-    src = pset.source(j)
-    path = None if src is None else src.path
-    word = "row" if src is None else src.row_word
-    s, e = int(pset.offsets[j]), int(pset.offsets[j + 1])
-    lines = np.full(e - s, -1) if pset.rows is None else pset.rows[s:e]
-    known = lines.size > 0 and bool(np.all(lines >= 0))
-    if src is None:
-        column = exc.column
-    else:
-        column = src.depth_column if exc.column == "depth" else src.ci_column
-    more, row = "", None
-    if exc.row is None:  # too few points
-        if known:
-            row = int(lines[0])
-            span = f"{word} {row}" if lines.size == 1 else f"{word}s {row}-{int(lines[-1])}"
-            more = f" (the profile is on {span})"
-    elif known:
-        row = int(lines[exc.row])
-        if exc.column == "depth" and exc.row > 0 and "increasing" in exc.reason:
-            more = f" (previous depth on {word} {int(lines[exc.row - 1])})"
-    return InputError(
-        exc.reason + more, file=path, profile=str(pset.ids[j]), row=row, column=column
-    )
+    """A validation error of profile ``j`` located in its file (:meth:`ProfileSet.locate`)."""
+    return pset.locate(j, exc)
 
 
 def _error_result(pset: ProfileSet, j: int, reason: str, meta: dict) -> PredictionResult:

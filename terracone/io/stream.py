@@ -1239,70 +1239,9 @@ def iter_chunks(
 
 
 def locate_validation_error(profiles: ProfileSet, j: int, exc: InputError) -> InputError:
-    """An error of :meth:`CIProfile.validate` on profile ``j`` (whose ``rows`` were
-    0..n-1), located in its file: the file row and column of the point."""
-    src = profiles.source(j) or SourceFile("")
-    s, e = int(profiles.offsets[j]), int(profiles.offsets[j + 1])
-    rows = profiles.rows[s:e] if profiles.rows is not None else np.arange(1, e - s + 1)
-    column = src.depth_column if exc.column == "depth" else src.ci_column
-    word = src.row_word
-    more = ""
-    if exc.row is None or rows.size == 0:  # too few points
-        row = int(rows[0]) if rows.size else None
-        if rows.size:
-            span = f"{word} {row}" if rows.size == 1 else f"{word}s {row}-{int(rows[-1])}"
-            more = f" (the profile is on {span})"
-    else:
-        row = int(rows[exc.row])
-        if exc.column == "depth" and exc.row > 0 and "increasing" in exc.reason:
-            more = f" (previous depth on {word} {int(rows[exc.row - 1])})"
-    path = src.path or None
-    return InputError(
-        exc.reason + more, file=path, profile=str(profiles.ids[j]), row=row, column=column
-    )
-
-
-def _validation_errors(profiles: ProfileSet) -> dict[int, InputError]:
-    """Profile index -> located error of the profiles :meth:`CIProfile.validate` refuses.
-
-    A vectorised screen (negative CI, depths not increasing, fewer than 3
-    points, a base above -H) picks the candidates; validate() decides.
-    """
-    P = len(profiles)
-    if P == 0:
-        return {}
-    off = profiles.offsets
-    starts = off[:-1]
-    z, y = profiles.depth, profiles.ci
-    with np.errstate(invalid="ignore"):
-        row_bad = ~np.isfinite(z) | ~np.isfinite(y) | (y < 0)
-        row_bad[1:] |= z[1:] <= z[:-1]
-        first = np.minimum(starts, max(z.size - 1, 0))
-        if z.size:
-            row_bad[first] = ~np.isfinite(z[first]) | ~np.isfinite(y[first]) | (y[first] < 0)
-        counts = np.diff(off)
-        nonempty = counts > 0
-        bad = np.ones(P, dtype=bool)
-        if z.size:
-            bad[nonempty] = np.logical_or.reduceat(row_bad, starts[nonempty])
-        bad |= counts < 3
-        zfirst = np.where(nonempty, z[first] if z.size else 0.0, 0.0)
-        bad |= zfirst < -profiles.heights() * (1 + H_TOL)
-    errors = {}
-    for j in np.flatnonzero(bad):
-        s, e = int(off[j]), int(off[j + 1])
-        prof = CIProfile(
-            id=str(profiles.ids[j]),
-            depth=z[s:e],
-            ci=y[s:e],
-            cone=profiles.cones[int(profiles.cone_idx[j])],
-            rows=np.arange(e - s),
-        )
-        try:
-            prof.validate()
-        except InputError as exc:
-            errors[int(j)] = locate_validation_error(profiles, int(j), exc)
-    return errors
+    """An error of :meth:`CIProfile.validate` on profile ``j`` located in its file
+    (:meth:`ProfileSet.locate`)."""
+    return profiles.locate(j, exc)
 
 
 def validate_set(profiles: ProfileSet) -> ProfileSet:
@@ -1311,7 +1250,7 @@ def validate_set(profiles: ProfileSet) -> ProfileSet:
     The others move to ``errors``, located in their file (row and column of
     the point, as :func:`terracone.batch.run_batch` reports them).
     """
-    bad = _validation_errors(profiles)
+    bad = profiles.screen()
     if not bad:
         return profiles
     keep = [j for j in range(len(profiles)) if j not in bad]
@@ -1336,7 +1275,7 @@ def chunk_set(chunk: Chunk, plan: ScanPlan, depth_ref: str = "base") -> ProfileS
         metadata=pa.table(meta) if meta else None,
         notes=[[] for _ in range(len(task))],
     )
-    bad = _validation_errors(task)
+    bad = task.screen()
     where = {int(i): chunk.problems[i] for i in np.flatnonzero(~chunk.fit)}
     where.update({int(fit[j]): exc for j, exc in bad.items()})
     out = task.take([j for j in range(len(task)) if j not in bad]) if bad else task
