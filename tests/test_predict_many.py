@@ -278,6 +278,38 @@ def test_polish_many_reaches_the_box_optimum():
         np.testing.assert_allclose(x[p], ref, rtol=1e-7, atol=1e-9)
 
 
+@pytest.mark.parametrize("seed", [1, 2])
+def test_polish_compiled_equals_its_numpy_twin(seed):
+    """polish_kernel (compiled) against polish_many_numpy to 1e-12, on starts at the box's
+    faces, inside and at its corners, with padded rows and a fixed variable."""
+    import importlib
+
+    from terracone.jit import enabled
+
+    pol = importlib.import_module("terracone.inverse.polish")
+    if not enabled():
+        pytest.skip("kernels switched off (TERRACONE_NUMBA=0): nothing compiled to compare")
+    rng = np.random.default_rng(seed)
+    P, Z = 60, 30
+    X = np.abs(rng.standard_normal((P, Z, 3)))
+    y = rng.standard_normal((P, Z)) + 2.0
+    X[::3, 20:] = 0.0  # padded rows
+    y[::3, 20:] = 0.0
+    lo = np.zeros((P, 3))
+    hi = np.full((P, 3), 0.8)
+    hi[::5, 2] = 0.0  # cc fixed at 0
+    x0 = np.clip(rng.uniform(-0.3, 1.1, (P, 3)), lo, hi)
+    # the starts polish meets: the box optimum where BVLS finds it, rounded a little
+    for p in range(0, P, 2):
+        free = hi[p] > lo[p]
+        ref = lsq_linear(X[p][:, free], y[p], bounds=(lo[p, free], hi[p, free]), method="bvls").x
+        x0[p, free] = np.clip(ref * (1 + 1e-7), lo[p, free], hi[p, free])
+    a = pol.polish_many(X, y, lo, hi, x0)
+    b = pol.polish_many_numpy(X, y, lo, hi, x0)
+    np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
+    assert not np.array_equal(a, x0)  # it did polish
+
+
 def test_one_list_of_predict_options():
     # predict and predict_many take **PredictOptions; predict_settings gives the defaults
     import importlib

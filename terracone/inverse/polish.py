@@ -19,13 +19,38 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import lsq_linear
 
-__all__ = ["polish_many", "mgs_lstsq"]
+from ..jit import enabled, njit
+
+__all__ = ["polish_many", "polish_many_numpy", "polish_kernel", "mgs_lstsq"]
 
 
 def polish_many(
     X: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray
 ) -> np.ndarray:
     """Re-solve bounded linear least squares on the design matrices themselves, per profile.
+
+    ``X`` (P, Z, 3) and ``y`` (P, Z) (padded rows zero), box ``lo``, ``hi``
+    and start ``x0`` (P, 3).  The compiled :func:`polish_kernel` (one loop
+    per profile), or its numpy twin :func:`polish_many_numpy` with
+    ``TERRACONE_NUMBA=0``; profiles whose face solve fails go to scipy's BVLS
+    either way.  A profile keeps x0 unless its sum of squares drops.
+    """
+    if not enabled():
+        return polish_many_numpy(X, y, lo, hi, x0)
+    X = np.ascontiguousarray(X, dtype=float)
+    y = np.ascontiguousarray(y, dtype=float)
+    x, done = polish_kernel(X, y, lo.astype(float), hi.astype(float), x0.astype(float))
+    for p in np.flatnonzero(~done):
+        xb = _bvls(X[p], y[p], lo[p], hi[p], x0[p])
+        r1, r0 = X[p] @ xb - y[p], X[p] @ x0[p] - y[p]
+        x[p] = xb if r1 @ r1 < r0 @ r0 else x0[p]
+    return x
+
+
+def polish_many_numpy(
+    X: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray
+) -> np.ndarray:
+    """The numpy reference of :func:`polish_many`, vectorised over profiles.
 
     ``X`` (P, Z, 3) and ``y`` (P, Z) (padded rows zero), box ``lo``, ``hi``
     and start ``x0`` (P, 3).  The normal equations the vectorised solver
@@ -158,3 +183,136 @@ def _bvls(X, y, lo, hi, x0) -> np.ndarray:
         return x0
     xf[free] = np.clip(res.x / scale, lo[free], hi[free])
     return xf
+
+
+@njit(error_model="numpy")
+def polish_kernel(X, y, lo, hi, x0):  # pragma: no cover - numba (twin: polish_many_numpy)
+    """:func:`polish_many_numpy` profile by profile, compiled.
+
+    For each profile: least squares by modified Gram-Schmidt in the
+    variables strictly inside the box at x0 (the others held), on columns
+    scaled to unit norm; the candidate is kept when it has full rank, stays
+    strictly inside, the gradient at held bounds points outward (tolerance
+    1e-8 |X_i| |r|) and the sum of squares drops.  Returns (x (P, 3), done
+    (P,)); ``done`` is False where the caller must fall back to BVLS.
+    """
+    P, Z = X.shape[0], X.shape[1]
+    x = x0.copy()
+    done = np.ones(P, dtype=np.bool_)
+    q = np.empty((3, Z))
+    c = np.empty(Z)
+    R = np.zeros((3, 3))
+    qb = np.zeros(3)
+    sol = np.zeros(3)
+    cand = np.empty(3)
+    norms = np.empty(3)
+    cols = np.empty(3, dtype=np.int64)
+    for p in range(P):
+        k = 0
+        anyfree = False
+        for i in range(3):
+            free = hi[p, i] > lo[p, i]
+            anyfree = anyfree or free
+            if free and lo[p, i] < x0[p, i] < hi[p, i]:
+                cols[k] = i
+                k += 1
+            s2 = 0.0
+            for z in range(Z):
+                s2 += X[p, z, i] * X[p, z, i]
+            norms[i] = np.sqrt(s2)
+        if not anyfree:
+            continue
+        ok = True
+        for z in range(Z):  # rhs: y minus the held columns at x0
+            v = y[p, z]
+            for i in range(3):
+                held = True
+                for m in range(k):
+                    if cols[m] == i:
+                        held = False
+                if held:
+                    v -= X[p, z, i] * x0[p, i]
+            c[z] = v
+        for i in range(3):
+            cand[i] = x0[p, i]
+        if k > 0:
+            for m in range(k):
+                sc = norms[cols[m]]
+                if not sc > 0:
+                    ok = False
+                    sc = 1.0
+                for z in range(Z):
+                    q[m, z] = X[p, z, cols[m]] / sc
+            for a in range(3):
+                for b in range(3):
+                    R[a, b] = 0.0
+            for m in range(k):  # MGS on [A | b], as mgs_lstsq
+                s2 = 0.0
+                for z in range(Z):
+                    s2 += q[m, z] * q[m, z]
+                R[m, m] = np.sqrt(s2)
+                d = R[m, m] if R[m, m] > 0 else 1.0
+                for z in range(Z):
+                    q[m, z] /= d
+                for j in range(m + 1, k):
+                    s2 = 0.0
+                    for z in range(Z):
+                        s2 += q[m, z] * q[j, z]
+                    R[m, j] = s2
+                    for z in range(Z):
+                        q[j, z] -= s2 * q[m, z]
+                s2 = 0.0
+                for z in range(Z):
+                    s2 += q[m, z] * c[z]
+                qb[m] = s2
+                for z in range(Z):
+                    c[z] -= s2 * q[m, z]
+            dmin, dmax = np.inf, 0.0
+            for m in range(k):
+                dmin = min(dmin, abs(R[m, m]))
+                dmax = max(dmax, abs(R[m, m]))
+            if not dmin > 1e-13 * dmax:
+                ok = False
+            for m in range(k - 1, -1, -1):
+                v = qb[m]
+                for j in range(m + 1, k):
+                    v -= R[m, j] * sol[j]
+                sol[m] = v / R[m, m]
+            for m in range(k):
+                sc = norms[cols[m]] if norms[cols[m]] > 0 else 1.0
+                v = sol[m] / sc
+                cand[cols[m]] = v
+                if not (lo[p, cols[m]] < v < hi[p, cols[m]]):
+                    ok = False
+        if not ok:
+            done[p] = False
+            continue
+        rr, r0 = 0.0, 0.0
+        g0, g1, g2 = 0.0, 0.0, 0.0
+        for z in range(Z):
+            r = X[p, z, 0] * cand[0] + X[p, z, 1] * cand[1] + X[p, z, 2] * cand[2] - y[p, z]
+            e = X[p, z, 0] * x0[p, 0] + X[p, z, 1] * x0[p, 1] + X[p, z, 2] * x0[p, 2] - y[p, z]
+            rr += r * r
+            r0 += e * e
+            g0 += X[p, z, 0] * r
+            g1 += X[p, z, 1] * r
+            g2 += X[p, z, 2] * r
+        rn = np.sqrt(rr + 1e-300)
+        for i in range(3):
+            inside = False
+            for m in range(k):
+                if cols[m] == i:
+                    inside = True
+            if inside or not hi[p, i] > lo[p, i]:
+                continue
+            g = g0 if i == 0 else (g1 if i == 1 else g2)
+            tol = 1e-8 * norms[i] * rn
+            if (x0[p, i] <= lo[p, i] and g < -tol) or (x0[p, i] >= hi[p, i] and g > tol):
+                ok = False
+        if not ok:
+            done[p] = False
+            continue
+        if rr < r0:
+            for i in range(3):
+                x[p, i] = cand[i]
+    return x, done
