@@ -26,8 +26,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.ndimage import minimum_filter
-from scipy.optimize import least_squares, lsq_linear
 
 from ..cone import Cone, cone_index_basis
 from ..jit import enabled
@@ -240,6 +238,8 @@ def _grid_starts(sse_grid: np.ndarray) -> np.ndarray:
     """Starts of the joint refinement: flat indices of the grid's local minima and the best
     cell of every Kc slice (a valley between phic and Kc need not show as a local minimum on
     a coarse Kc grid), the ten best by SSE, ties by position."""
+    from scipy.ndimage import minimum_filter  # only for finite Kc (scipy.ndimage: 0.2 s import)
+
     local = sse_grid <= minimum_filter(sse_grid, size=3, mode="nearest")
     for kk in range(sse_grid.shape[2]):
         sl = sse_grid[..., kk]
@@ -323,6 +323,8 @@ def _joint_refine(v0, resid_v, f_res):
     trades against the scale of kc and kphi is not walked.  Returns the
     scaled outer point, its SSE and the function evaluations.
     """
+    from scipy.optimize import least_squares  # on first use (0.3 s import)
+
     res = least_squares(
         resid_v,
         v0,
@@ -359,6 +361,8 @@ def _polish(
     scale = np.sqrt(np.sum(Xf * Xf, axis=0))
     scale = np.where(scale > 0, scale, 1.0)
     try:
+        from scipy.optimize import lsq_linear  # on first use (0.3 s import)
+
         res = lsq_linear(
             Xf / scale, rhs, bounds=(lo[free] * scale, hi[free] * scale), method="bvls", tol=1e-15
         )

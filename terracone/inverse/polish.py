@@ -17,7 +17,6 @@ References
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import lsq_linear
 
 from ..jit import enabled, njit
 
@@ -172,6 +171,8 @@ def _bvls(X, y, lo, hi, x0) -> np.ndarray:
     scale = np.sqrt(np.sum(Xf * Xf, axis=0))
     scale = np.where(scale > 0, scale, 1.0)
     try:
+        from scipy.optimize import lsq_linear  # on first use (0.3 s import)
+
         res = lsq_linear(
             Xf / scale,
             y - X @ xf,
