@@ -537,8 +537,10 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
         Xr = np.stack([np.zeros_like(X[..., 0]), s.ratio * X[..., 0] + X[..., 1], X[..., 2]], -1)
         xr = polish_many(Xr, yy, lo, hi, np.stack([0 * ms.kc, ms.kphi, ms.cc], axis=1))
         x = np.stack([s.ratio * xr[:, 1], xr[:, 1], xr[:, 2]], axis=1)
-    # the model CI at the optimum, eq. (2-7): the design matrix times (kc, kphi, cc)
-    model = X[..., 0] * x[:, 0, None] + X[..., 1] * x[:, 1, None] + X[..., 2] * x[:, 2, None]
+    # the reported model CI from the model itself (eq. (2-7)), as rmsd_objective evaluates it
+    n_, p_ = ms.n[:, None], ms.phic_deg[:, None]
+    kc, kphi, cc = x[:, 0:1], x[:, 1:2], x[:, 2:3]
+    model = improved(zz, kc=kc, kphi=kphi, n=n_, cc=cc, phic=p_, Kc=None, law=s.law, cone=cone)
     r = np.where(mask, model - yy, 0.0)
     sse = np.einsum("pz,pz->p", r, r)
     sigma, thr, n_lo, n_hi = n_intervals(ms, sse, yy, mask, b, s.noise_floor)
