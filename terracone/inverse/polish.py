@@ -202,118 +202,94 @@ def polish_kernel(X, y, lo, hi, x0):  # pragma: no cover - numba (twin: polish_m
     done = np.ones(P, dtype=np.bool_)
     q = np.empty((3, Z))
     c = np.empty(Z)
-    R = np.zeros((3, 3))
-    qb = np.zeros(3)
-    sol = np.zeros(3)
     cand = np.empty(3)
     norms = np.empty(3)
-    cols = np.empty(3, dtype=np.int64)
+    inside = np.zeros(3, dtype=np.bool_)
     for p in range(P):
-        k = 0
         anyfree = False
         for i in range(3):
             free = hi[p, i] > lo[p, i]
             anyfree = anyfree or free
-            if free and lo[p, i] < x0[p, i] < hi[p, i]:
-                cols[k] = i
-                k += 1
+            inside[i] = free and lo[p, i] < x0[p, i] < hi[p, i]
             s2 = 0.0
             for z in range(Z):
                 s2 += X[p, z, i] * X[p, z, i]
             norms[i] = np.sqrt(s2)
         if not anyfree:
             continue
-        ok = True
-        for z in range(Z):  # rhs: y minus the held columns at x0
-            v = y[p, z]
-            for i in range(3):
-                held = True
-                for m in range(k):
-                    if cols[m] == i:
-                        held = False
-                if held:
-                    v -= X[p, z, i] * x0[p, i]
-            c[z] = v
-        for i in range(3):
-            cand[i] = x0[p, i]
-        if k > 0:
-            for m in range(k):
-                sc = norms[cols[m]]
-                if not sc > 0:
-                    ok = False
-                    sc = 1.0
-                for z in range(Z):
-                    q[m, z] = X[p, z, cols[m]] / sc
-            for a in range(3):
-                for b in range(3):
-                    R[a, b] = 0.0
-            for m in range(k):  # MGS on [A | b], as mgs_lstsq
-                s2 = 0.0
-                for z in range(Z):
-                    s2 += q[m, z] * q[m, z]
-                R[m, m] = np.sqrt(s2)
-                d = R[m, m] if R[m, m] > 0 else 1.0
-                for z in range(Z):
-                    q[m, z] /= d
-                for j in range(m + 1, k):
-                    s2 = 0.0
-                    for z in range(Z):
-                        s2 += q[m, z] * q[j, z]
-                    R[m, j] = s2
-                    for z in range(Z):
-                        q[j, z] -= s2 * q[m, z]
-                s2 = 0.0
-                for z in range(Z):
-                    s2 += q[m, z] * c[z]
-                qb[m] = s2
-                for z in range(Z):
-                    c[z] -= s2 * q[m, z]
-            dmin, dmax = np.inf, 0.0
-            for m in range(k):
-                dmin = min(dmin, abs(R[m, m]))
-                dmax = max(dmax, abs(R[m, m]))
-            if not dmin > 1e-13 * dmax:
-                ok = False
-            for m in range(k - 1, -1, -1):
-                v = qb[m]
-                for j in range(m + 1, k):
-                    v -= R[m, j] * sol[j]
-                sol[m] = v / R[m, m]
-            for m in range(k):
-                sc = norms[cols[m]] if norms[cols[m]] > 0 else 1.0
-                v = sol[m] / sc
-                cand[cols[m]] = v
-                if not (lo[p, cols[m]] < v < hi[p, cols[m]]):
-                    ok = False
-        if not ok:
-            done[p] = False
-            continue
-        rr, r0 = 0.0, 0.0
-        g0, g1, g2 = 0.0, 0.0, 0.0
-        for z in range(Z):
-            r = X[p, z, 0] * cand[0] + X[p, z, 1] * cand[1] + X[p, z, 2] * cand[2] - y[p, z]
-            e = X[p, z, 0] * x0[p, 0] + X[p, z, 1] * x0[p, 1] + X[p, z, 2] * x0[p, 2] - y[p, z]
-            rr += r * r
-            r0 += e * e
-            g0 += X[p, z, 0] * r
-            g1 += X[p, z, 1] * r
-            g2 += X[p, z, 2] * r
-        rn = np.sqrt(rr + 1e-300)
-        for i in range(3):
-            inside = False
-            for m in range(k):
-                if cols[m] == i:
-                    inside = True
-            if inside or not hi[p, i] > lo[p, i]:
-                continue
-            g = g0 if i == 0 else (g1 if i == 1 else g2)
-            tol = 1e-8 * norms[i] * rn
-            if (x0[p, i] <= lo[p, i] and g < -tol) or (x0[p, i] >= hi[p, i] and g > tol):
-                ok = False
-        if not ok:
-            done[p] = False
-            continue
-        if rr < r0:
-            for i in range(3):
-                x[p, i] = cand[i]
+        ok = face_solve(X[p], y[p], lo[p], hi[p], x0[p], inside, norms, q, c, cand)
+        if ok:
+            ok, better = face_accept(X[p], y[p], lo[p], hi[p], x0[p], inside, norms, cand)
+            if ok and better:
+                x[p] = cand
+        done[p] = ok
     return x, done
+
+
+@njit(error_model="numpy")
+def face_solve(X, y, lo, hi, x0, inside, norms, q, c, cand):  # pragma: no cover - numba
+    """Least squares of one profile (X (Z, 3), y (Z,)) in the ``inside`` variables, the
+    others held at x0, by MGS on unit-norm columns as :func:`mgs_lstsq`; the result in
+    ``cand``.  True when it has full rank and stays strictly inside the box."""
+    Z = X.shape[0]
+    cols = np.flatnonzero(inside)
+    k = cols.size
+    for z in range(Z):  # rhs: y minus the held columns at x0
+        v = y[z]
+        for i in range(3):
+            if not inside[i]:
+                v -= X[z, i] * x0[i]
+        c[z] = v
+    cand[:] = x0
+    if k == 0:
+        return True
+    ok = True
+    for m in range(k):
+        sc = norms[cols[m]]
+        if not sc > 0:
+            ok = False
+            sc = 1.0
+        q[m] = X[:, cols[m]] / sc
+    R = np.zeros((3, 3))
+    qb = np.zeros(3)
+    for m in range(k):  # MGS on [A | b]
+        R[m, m] = np.sqrt(np.sum(q[m] * q[m]))
+        q[m] /= R[m, m] if R[m, m] > 0 else 1.0
+        for j in range(m + 1, k):
+            R[m, j] = np.sum(q[m] * q[j])
+            q[j] -= R[m, j] * q[m]
+        qb[m] = np.sum(q[m] * c)
+        c -= qb[m] * q[m]
+    d = np.abs(np.diag(R)[:k])
+    if not d.min() > 1e-13 * d.max():
+        ok = False
+    sol = np.zeros(3)
+    for m in range(k - 1, -1, -1):  # back substitution, R x = Q'b
+        v = qb[m]
+        for j in range(m + 1, k):
+            v -= R[m, j] * sol[j]
+        sol[m] = v / R[m, m]
+    for m in range(k):
+        i = cols[m]
+        cand[i] = sol[m] / (norms[i] if norms[i] > 0 else 1.0)
+        if not (lo[i] < cand[i] < hi[i]):
+            ok = False
+    return ok
+
+
+@njit(error_model="numpy")
+def face_accept(X, y, lo, hi, x0, inside, norms, cand):  # pragma: no cover - numba
+    """(signs ok, better): the gradient of the SSE at ``cand`` points out of the box at
+    every held bound (tolerance 1e-8 |X_i| |r|), and cand's SSE is below x0's."""
+    r = X @ cand - y
+    e = X @ x0 - y
+    rr = np.sum(r * r)
+    g = X.T @ r
+    rn = np.sqrt(rr + 1e-300)
+    for i in range(3):
+        if inside[i] or not hi[i] > lo[i]:
+            continue
+        tol = 1e-8 * norms[i] * rn
+        if (x0[i] <= lo[i] and g[i] < -tol) or (x0[i] >= hi[i] and g[i] > tol):
+            return False, False
+    return True, rr < np.sum(e * e)
