@@ -23,7 +23,6 @@ from . import __version__
 from . import units as u
 from .cone import CONES, cone_index
 from .data import InputError, TerrainParameters
-from .io import json_default
 from .plate import plate_pressure
 from .text import (
     curve_text,
@@ -1128,14 +1127,13 @@ def export_cmd(
 
 
 def _export_geojson(results_path: str | None, out: str) -> None:
-    from .export import geojson, load_results
+    from .export import load_results, write_geojson
 
     if results_path is None:
         raise click.UsageError("--format geojson needs --results (predict JSON or batch directory)")
     results = load_results(results_path)
-    doc, unlocated = geojson(results)
-    Path(out).write_text(json.dumps(doc, indent=1, default=json_default) + "\n")
-    n = len(doc["features"])
+    unlocated = write_geojson(results, out)
+    n = len(results) - len(unlocated)
     msg = f"terracone: {out}: {n} located profile{'s' if n != 1 else ''} of {len(results)}"
     if unlocated:
         shown = ", ".join(unlocated[:3]) + (", ..." if len(unlocated) > 3 else "")
@@ -1146,32 +1144,12 @@ def _export_geojson(results_path: str | None, out: str) -> None:
 
 def _export_samples(res, count: int, seed: int | None, out: str, scm: dict) -> None:
     """N Chrono SCM files from N posterior draws of one profile, and an index CSV."""
-    import csv
+    from .export import write_scm_samples
 
-    from .export import chrono_scm, draw_samples
-
-    draws = draw_samples(res, count, seed)
-    folder = Path(out)
-    folder.mkdir(parents=True, exist_ok=True)
-    safe = re.sub(r"[^A-Za-z0-9._-]+", "_", res.id).strip("_") or "profile"
-    rows = []
-    last = None
-    for k, row in enumerate(draws, 1):
-        params = dict(zip(("kc", "kphi", "n", "cc", "phic_deg"), (float(v) for v in row)))
-        try:
-            last = chrono_scm(params, f"{res.id} posterior draw {k}", **scm)
-        except ValueError as exc:
-            raise click.ClickException(f"draw {k}: {exc}") from None
-        name = f"{safe}-draw-{k:04d}.json"
-        last.write(folder / name)
-        rows.append([name, *params.values()])
-    with open(folder / "draws.csv", "w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(["file", "kc [kN/m^(n+1)]", "kphi [kN/m^(n+2)]", "n", "cc [kPa]", "phic_deg"])
-        w.writerows(rows)
-    if last is not None and last.provenance_text():
-        click.echo(f"terracone: {folder}: {last.provenance_text()}", err=True)
-    click.echo(f"wrote {count} Chrono SCM files and draws.csv to {folder}")
+    written = write_scm_samples(res, count, out, seed=seed, **scm)
+    if written and written[-1].provenance_text():
+        click.echo(f"terracone: {Path(out)}: {written[-1].provenance_text()}", err=True)
+    click.echo(f"wrote {count} Chrono SCM files and draws.csv to {Path(out)}")
 
 
 # ---------------------------------------------------------------------------

@@ -74,7 +74,9 @@ __all__ = [
     "to_chrono_scm",
     "to_plain",
     "write_chrono_scm",
+    "write_geojson",
     "write_plain_csv",
+    "write_scm_samples",
 ]
 
 #: Keys of "Soil Parameters" in a Chrono SCM soil file, in file order.
@@ -775,3 +777,54 @@ def geojson(results: Iterable[ProfileResult]) -> tuple[dict[str, Any], list[str]
             }
         )
     return {"type": "FeatureCollection", "features": features}, unlocated
+
+
+def write_geojson(results: Iterable[ProfileResult], out: str | os.PathLike) -> list[str]:
+    """Write :func:`geojson` of ``results`` to ``out``; returns the ids without coordinates."""
+    import json
+
+    from .io import json_default
+
+    doc, unlocated = geojson(results)
+    Path(out).write_text(json.dumps(doc, indent=1, default=json_default) + "\n")
+    return unlocated
+
+
+def write_scm_samples(
+    result: ProfileResult,
+    count: int,
+    folder: str | os.PathLike,
+    *,
+    seed: int | None = None,
+    **scm: Any,
+) -> list[ChronoSCM]:
+    """Chrono SCM files of ``count`` posterior draws of one profile, and ``draws.csv``.
+
+    Files ``<id>-draw-0001.json``, ... in ``folder`` (created), one per draw
+    of :func:`draw_samples`, each built by :func:`chrono_scm` with the
+    keywords ``scm``; ``draws.csv`` lists file, kc [kN/m^(n+1)], kphi
+    [kN/m^(n+2)], n, cc [kPa] and phic_deg of each.  Raises ValueError
+    naming the draw that cannot be exported.
+    """
+    import csv
+    import re
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    safe = re.sub(r"[^A-Za-z0-9._-]+", "_", result.id).strip("_") or "profile"
+    rows, written = [], []
+    for k, row in enumerate(draw_samples(result, count, seed), 1):
+        params = dict(zip(("kc", "kphi", "n", "cc", "phic_deg"), (float(v) for v in row)))
+        try:
+            scm_file = chrono_scm(params, f"{result.id} posterior draw {k}", **scm)
+        except ValueError as exc:
+            raise ValueError(f"draw {k}: {exc}") from None
+        name = f"{safe}-draw-{k:04d}.json"
+        scm_file.write(folder / name)
+        written.append(scm_file)
+        rows.append([name, *params.values()])
+    with open(folder / "draws.csv", "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["file", "kc [kN/m^(n+1)]", "kphi [kN/m^(n+2)]", "n", "cc [kPa]", "phic_deg"])
+        w.writerows(rows)
+    return written

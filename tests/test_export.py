@@ -312,6 +312,30 @@ def test_geojson_features(tmp_path):
     assert c["properties"]["status"] == "error" and c["properties"]["kc"] is None
 
 
+def test_write_scm_samples_and_geojson_files(tmp_path):
+    import csv
+
+    from terracone.export import load_results, write_geojson, write_scm_samples
+
+    (tmp_path / "p.json").write_text(json.dumps(_predict_doc()))
+    res = load_results(tmp_path / "p.json")
+    files = write_scm_samples(res[0], 4, tmp_path / "draws", seed=1, cohesion_kpa=1.0)
+    assert len(files) == 4
+    names = sorted(p.name for p in (tmp_path / "draws").iterdir())
+    assert names == [f"a-draw-000{k}.json" for k in range(1, 5)] + ["draws.csv"]
+    with open(tmp_path / "draws" / "draws.csv", newline="") as fh:
+        rows = list(csv.reader(fh))
+    assert rows[0][:2] == ["file", "kc [kN/m^(n+1)]"] and len(rows) == 5
+    # each file is the Chrono SCM file of its row (n = 1 in every stored draw)
+    for row in rows[1:]:
+        doc = json.loads((tmp_path / "draws" / row[0]).read_text())
+        assert float(row[1]) in {float(k) for k in range(10)}
+        assert doc["Soil Parameters"]["Bekker n"] == pytest.approx(1.0)
+    unlocated = write_geojson(res, tmp_path / "p.geojson")
+    assert unlocated == ["b"]
+    assert len(json.loads((tmp_path / "p.geojson").read_text())["features"]) == 2
+
+
 def _run(*args):
     from click.testing import CliRunner
 
