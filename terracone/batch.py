@@ -80,17 +80,15 @@ from .inverse.learn import Calibration
 from .inverse.many import solve_exact_many
 from .inverse.predict import predict_many, screen
 from .io import detect_format
-from .io.stream import (
-    Chunk,
-    ConeCache,
+from .io.scan import (
     ScanPlan,
     fingerprint,
     hash_ids,
     input_files,
     instrument_to_parquet,
-    iter_chunks,
     scan_inputs,
 )
+from .io.stream import Chunk, ConeCache, iter_chunks
 from .jit import enabled
 from .metrics import check_fit_fast
 from .plate import pressure_law

@@ -8,6 +8,7 @@ lengths.
 
 from __future__ import annotations
 
+import importlib
 import math
 from pathlib import Path
 
@@ -210,9 +211,10 @@ def test_mixed_metadata_column_becomes_text(tmp_path):
 @pytest.fixture
 def tiny_blocks(monkeypatch):
     """Blocks of a few rows: every profile of the test files is cut by a block."""
-    monkeypatch.setattr(stream, "CSV_BLOCK_BYTES", 96)  # pyarrow's blocks, 2-3 rows
-    monkeypatch.setattr(stream, "CSV_BLOCK_ROWS", 3)
-    monkeypatch.setattr(stream, "PARQUET_BLOCK_ROWS", 5)
+    scan = importlib.import_module("terracone.io.scan")  # where the block sizes live
+    monkeypatch.setattr(scan, "CSV_BLOCK_BYTES", 96)  # pyarrow's blocks, 2-3 rows
+    monkeypatch.setattr(scan, "CSV_BLOCK_ROWS", 3)
+    monkeypatch.setattr(scan, "PARQUET_BLOCK_ROWS", 5)
 
 
 @pytest.mark.parametrize("chunk_size", [1, 2, 7, None])
@@ -224,7 +226,9 @@ def test_stream_chunks_equal_one_read(tmp_path, tiny_blocks, chunk_size, monkeyp
     def no_fallback(*args):
         raise AssertionError("every row has the header's fields: pyarrow parses the file")
 
-    monkeypatch.setattr(stream, "_csv_module_blocks", no_fallback)
+    monkeypatch.setattr(
+        importlib.import_module("terracone.io.scan"), "_csv_module_blocks", no_fallback
+    )
     chunks = list(iter_profile_sets(path, chunk_size=chunk_size))
     n_total = len(ref) + len(ref.errors)
     if chunk_size is not None:
