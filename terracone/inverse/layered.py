@@ -145,15 +145,53 @@ def _box_lsq(
     scale = np.where(scale > 0, scale, 1.0)
     Xs = X / scale
     if np.all(lo == 0):
-        xs, _ = nnls(Xs, y, maxiter=50 * X.shape[1])
-        x = xs / scale
-        if np.all(x <= hi * (1 + 1e-12)):
+        x = _nnls_capped(X, Xs, y, hi, scale)
+        if x is not None:
             r = X @ x - y
             return x, float(r @ r)
     res = lsq_linear(Xs, y, bounds=(lo * scale, hi * scale), method="bvls")
     x = res.x / scale
     r = X @ x - y
     return x, float(r @ r)
+
+
+def _nnls_capped(
+    X: np.ndarray, Xs: np.ndarray, y: np.ndarray, hi: np.ndarray, scale: np.ndarray
+) -> np.ndarray | None:
+    """min |Xx - y|^2 over 0 <= x <= hi by NNLS, holding at hi what NNLS pushes above it.
+
+    Each round fixes the variables above their upper bound at it and solves
+    NNLS for the rest.  The problem is convex, so the result is its global
+    minimum exactly when it satisfies the KKT conditions (gradient zero
+    inside, pointing out of the box at held bounds; tolerance 1e-9 |X_i| |r|);
+    None when it does not (the caller uses BVLS).
+    """
+    k = X.shape[1]
+    at_hi = np.zeros(k, dtype=bool)
+    x = np.zeros(k)
+    for _ in range(k + 1):
+        free = ~at_hi
+        x[at_hi] = hi[at_hi]
+        if not free.any():  # every variable at its cap (scipy's nnls aborts on no columns)
+            break
+        rhs = y - X[:, at_hi] @ hi[at_hi]
+        xs, _ = nnls(Xs[:, free], rhs, maxiter=50 * k)
+        x[free] = xs / scale[free]
+        over = free & (x > hi * (1 + 1e-12))
+        if not over.any():
+            break
+        at_hi |= over
+    else:
+        return None
+    x = np.minimum(x, hi)
+    r = X @ x - y
+    g = X.T @ r
+    tol = 1e-9 * scale * math.sqrt(float(r @ r) + 1e-300)
+    inside = (x > 0) & (x < hi)
+    kkt = np.all(np.abs(g[inside]) <= tol[inside])
+    kkt &= np.all(g[(x <= 0) & ~inside] >= -tol[(x <= 0) & ~inside])
+    kkt &= np.all(g[(x >= hi) & ~inside] <= tol[(x >= hi) & ~inside])
+    return x if kkt else None
 
 
 def _layer_box(bounds: Bounds, ns: Any) -> tuple[np.ndarray, np.ndarray]:
