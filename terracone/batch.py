@@ -78,7 +78,7 @@ from .data import CIProfile, InputError, ProfileSet
 from .inverse.bounds import Bounds
 from .inverse.learn import Calibration
 from .inverse.many import solve_exact_many
-from .inverse.predict import predict_many, screen
+from .inverse.predict import predict_many, predict_settings, screen
 from .io import detect_format
 from .io.scan import (
     ScanPlan,
@@ -571,16 +571,10 @@ def _settings(
 ) -> tuple[dict[str, Any], _FitSettings]:
     """The run's settings (recorded in ``_run.json``) and what the workers need to fit."""
     bounds = Bounds.parse(bounds, units) if isinstance(bounds, str) else bounds or Bounds()
-    plate_pair = None
-    ratio = None
-    if calibration is not None:
-        model = calibration.model
-        r_min = calibration.r_min
-        plate_pair = calibration.plate_pair
-        bounds = bounds.fixed(phic=calibration.phic_deg, cc=calibration.cc)
-        if calibration.kphi > 0:
-            ratio = calibration.kc / calibration.kphi
-    pressure_law(model, r_min=r_min, plate_pair=plate_pair)  # raises on bad settings
+    # the calibration applied as predict applies it (model, r_min, plates, phic, cc, kc/kphi);
+    # raises on bad settings
+    ps = predict_settings(model=model, r_min=r_min, calibration=calibration, bounds=bounds)
+    model, r_min, plate_pair, bounds, ratio = ps.model, ps.r_min, ps.plate_pair, ps.bounds, ps.ratio
     prior_cal = None
     if uncertainty and prior not in (None, "bounds"):
         prior_cal = prior if isinstance(prior, Calibration) else calibration
