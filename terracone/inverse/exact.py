@@ -32,7 +32,6 @@ from ..jit import enabled
 from ..plate import PressureLaw
 from .bounds import Bounds
 from .boxlsq import box_lsq3, gram
-from .many import grid
 
 __all__ = [
     "ExactSolution",
@@ -600,8 +599,6 @@ def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> No
     sigma2 = max(sol.sse / dof, (noise_floor * float(np.mean(np.abs(y)))) ** 2)
     sol.sigma = math.sqrt(sigma2)
     thr = sol.sse + CHI2_1_95 * sigma2
-    und: list[str] = []
-    intervals: dict[str, tuple[float, float]] = {}
 
     # n: profile from the global grid (min over phic, Kc and the linear parameters)
     ok = sse_n <= thr
@@ -614,49 +611,16 @@ def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> No
         )
     else:
         n_lo = n_hi = sol.n
-    intervals["n"] = (n_lo, n_hi)
-    if ns.size > 1 and (n_hi - n_lo) >= 0.5 * (bounds.n[1] - bounds.n[0]):
-        und.append("n")
 
-    # kc, kphi, cc: pin one on a grid, re-fit the others and n.  A fit at an n outside
-    # n's own profile interval cannot come within the threshold, so n is searched
-    # inside that interval (finely), and near the optimum
-    n_loc = np.unique(
-        np.concatenate(
-            [
-                np.linspace(n_lo, n_hi, 17),
-                np.clip(sol.n + grid(-0.1, 0.1, 9), n_lo, n_hi),
-            ]
-        )
-    )
-    vals = grid(0.0, 1.0, 61)  # fractions of each n's range
-    jlo, jhi, lo, hi = identify_extents(
-        z, y, n_loc, sol.phic_deg, sol.Kc, bounds, cone, law, vals, thr, ratio
-    )
-    lo_at, hi_at = _bounds_arrays(bounds, np.array(sol.n), ratio)
-    names = ("kc", "kphi", "cc")
-    at_sol = (sol.kc, sol.kphi, sol.cc)
-    for idx, name in enumerate(names):
-        if jlo[idx] == -2:  # fixed at every n
-            continue
-        if jlo[idx] >= 0:
-            f_lo, f_hi = vals[jlo[idx]], vals[jhi[idx]]
-            # express in SI at the solution's n
-            lo_n, hi_n = float(lo_at[idx]), float(hi_at[idx])
-            a = min(lo_n + max(f_lo - 1 / 60, 0) * (hi_n - lo_n), at_sol[idx])
-            b = max(lo_n + min(f_hi + 1 / 60, 1) * (hi_n - lo_n), at_sol[idx])
-            intervals[name] = (a, b)
-            if f_hi - f_lo >= 0.5:
-                und.append(name)
-        else:
-            intervals[name] = (at_sol[idx], at_sol[idx])
-    if ratio is not None and "kphi" in intervals:
-        intervals["kc"] = (ratio * intervals["kphi"][0], ratio * intervals["kphi"][1])
-    if sol.phic_range[1] - sol.phic_range[0] > 1e-9 or (
-        sol.Kc is None and bounds.phic[0] != bounds.phic[1]
-    ):
-        und.insert(0, "phic")
-        intervals["phic_deg"] = sol.phic_range
-        und.append("phic~scale(kc,kphi)")
+    # kc, kphi, cc: pin one on a grid, re-fit the others and n (inverse/intervals.py,
+    # shared with the vectorised path of predict_many)
+    from .intervals import identification, linear_intervals
+
+    x = np.array([sol.kc, sol.kphi, sol.cc])
+    linear = linear_intervals(
+        z, y, x, sol.n, sol.phic_deg, thr, (n_lo, n_hi),
+        bounds=bounds, law=law, cone=cone, ratio=ratio, Kc=sol.Kc,
+    )  # fmt: skip
+    und, intervals = identification(bounds, (n_lo, n_hi), sol.phic_range, linear, Kc=sol.Kc)
     sol.undetermined = und
     sol.profile_intervals = intervals

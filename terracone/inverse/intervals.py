@@ -72,6 +72,7 @@ def linear_intervals(
     law: PressureLaw,
     cone: Cone,
     ratio: float | None = None,
+    Kc: float | None = None,
 ) -> tuple[list[str], dict[str, tuple[float, float]]]:
     """Profile intervals of kc, kphi, cc [SI] of one profile, and which the data leave free.
 
@@ -80,7 +81,8 @@ def linear_intervals(
     (:func:`terracone.inverse.exact.identify_extents`, eq. (2-7) with phic
     held); the interval is the pinned values whose best fit stays within
     ``thr`` [kPa^2].  A parameter whose interval covers half its box or more
-    is undetermined.  ``ratio``: kc/kphi held fixed (a calibration).
+    is undetermined.  ``ratio``: kc/kphi held fixed (a calibration); ``Kc``: a finite
+    cone-terrain shear deformation [m] (None: fully mobilised).
     """
     b = bounds
     n_lo, n_hi = n_range
@@ -88,7 +90,7 @@ def linear_intervals(
         np.concatenate([np.linspace(n_lo, n_hi, 17), np.clip(n + grid(-0.1, 0.1, 9), n_lo, n_hi)])
     )
     vals = grid(0.0, 1.0, 61)
-    jlo, jhi, _, _ = identify_extents(z, y, n_loc, phic_deg, None, b, cone, law, vals, thr, ratio)  # noqa: E501
+    jlo, jhi, _, _ = identify_extents(z, y, n_loc, phic_deg, Kc, b, cone, law, vals, thr, ratio)  # noqa: E501
     lo_at, hi_at = (a[0, 0] for a in box_grid(np.full((1, 1), n), bounds_params(b, ratio)))
     tokens: list[str] = []
     intervals: dict[str, tuple[float, float]] = {}
@@ -115,12 +117,14 @@ def identification(
     n_range: tuple[float, float],
     phic_range: tuple[float, float],
     linear: tuple[list[str], dict[str, tuple[float, float]]] = ([], {}),
+    Kc: float | None = None,
 ) -> tuple[list[str], dict[str, tuple[float, float]]]:
     """The undetermined list and profile intervals of one fully mobilised fit.
 
     n is undetermined when its interval covers half its range or more;
-    phic always is when its bounds are open, since it trades exactly
-    against the scale of kc and kphi (eq. (2-6) fully mobilised).
+    phic always is when its bounds are open and shear is fully mobilised
+    (``Kc`` None), since it then trades exactly against the scale of kc and
+    kphi (eq. (2-6)); with a finite Kc only when its fitted range is open.
     ``linear`` adds the tokens and intervals of :func:`linear_intervals`.
     """
     und: list[str] = []
@@ -129,7 +133,7 @@ def identification(
         und.append("n")
     und += linear[0]
     intervals.update(linear[1])
-    if phic_range[1] - phic_range[0] > 1e-9 or bounds.phic[0] != bounds.phic[1]:
+    if phic_range[1] - phic_range[0] > 1e-9 or (Kc is None and bounds.phic[0] != bounds.phic[1]):
         und = ["phic", *und, "phic~scale(kc,kphi)"]
         intervals["phic_deg"] = (float(phic_range[0]), float(phic_range[1]))
     return und, intervals
