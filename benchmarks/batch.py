@@ -22,6 +22,7 @@ Every measured run is a fresh Python process.  Usage::
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import platform
@@ -177,6 +178,114 @@ def run_child(
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
+def input_file(work: Path, n: int) -> Path:
+    """The generated Parquet input of n profiles in ``work`` (made once)."""
+    path = work / f"profiles-{n}.parquet"
+    if not path.exists():
+        t = time.perf_counter()
+        generate(path, n)
+        size = path.stat().st_size / 1e6
+        print(
+            f"generated {n:,} profiles -> {path.name} ({size:.1f} MB) in {time.perf_counter() - t:.1f} s"
+        )
+    return path
+
+
+def throughput(args: argparse.Namespace, work: Path, data, counts: list[int]) -> None:
+    """Throughput end to end on 1 and 2 workers, with how the time splits."""
+    print(f"\nThroughput, {args.profiles:,} profiles (Parquet), local cluster, end to end:")
+    print(
+        f"{'run':>7} {'wall s':>7} {'prof/s':>7} {'start s':>7} {'- start':>7} {'scan s':>6} {'read s':>6} "
+        f"{'fit s':>6} {'fit cpu':>7} {'write s':>7} {'check s':>7} {'client cpu':>10} "
+        f"{'fit/cpu-s':>9} {'load':>5}"
+    )
+    src = data(args.profiles)
+    runs = [(w, "compiled", {}) for w in counts]
+    if not args.no_numpy:  # the same with the numpy kernels: the figure before compilation
+        runs.append((max(counts), "numpy", {"TERRACONE_NUMBA": "0"}))
+    fit_rate = {}
+    for w, kind, env in runs:
+        out = work / f"out-tp-{w}-{time.time_ns()}"
+        r = run_child("local", src, out, w, args.chunk_size, env)
+        s = r["summary"]
+        assert s["profiles"] == args.profiles and s["success"], s["problems"]
+        per_cpu = args.profiles / s["fit_cpu_s"] if s["fit_cpu_s"] else float("nan")
+        warm = args.profiles / (s["wall_s"] - s["startup_s"])  # the issue's measure
+        fit_rate[(w, kind)] = (s["profiles_per_s"], per_cpu, warm)
+        print(
+            f"{w:>3} {kind[:3]} {s['wall_s']:>7.1f} {s['profiles_per_s']:>7.0f} {s['startup_s']:>7.1f} "
+            f"{warm:>7.0f} "
+            f"{s['scan_s']:>6.2f} {s['read_s']:>6.2f} {s['fit_s']:>6.1f} {s['fit_cpu_s']:>7.1f} "
+            f"{s['write_s']:>7.2f} {s['verify_s']:>7.2f} {r['client_cpu_s']:>10.1f} "
+            f"{per_cpu:>9.0f} {os.getloadavg()[0]:>5.1f}"
+        )
+    print(
+        "  wall s: whole run_batch call (prof/s = profiles / wall s); start s: local cluster start;\n"
+        "  - start: profiles / (wall s - start s), end to end with the start-up removed;\n"
+        "  scan s: first pass over the input; read s / write s: client time reading chunks /\n"
+        "  writing part files; fit s: worker time in the fit tasks (summed over chunks, wall);\n"
+        "  fit cpu: their CPU seconds; client cpu: CPU seconds of the client process (reading,\n"
+        "  writing, the in-process scheduler, start-up); fit/cpu-s: profiles fitted per CPU-second;\n"
+        "  load: 1-minute load average after the run (2 CPUs: > 2 means other work competed);\n"
+        "  com/num: compiled kernels (warm cache) or numpy kernels (TERRACONE_NUMBA=0)"
+    )
+    w2 = max(counts)
+    if (w2, "numpy") in fit_rate:
+        c, n = fit_rate[(w2, "compiled")], fit_rate[(w2, "numpy")]
+        print(
+            f"  compiled / numpy on {w2} workers: {c[0] / n[0]:.1f}x end to end, "
+            f"{c[1] / n[1]:.1f}x per fit CPU-second"
+        )
+    rate, per_cpu, warm = fit_rate[(w2, "compiled")]
+    print(
+        f"  target >= 8,000 profiles/s on 2 workers end to end, start-up removed: "
+        f"{'MET' if w2 == 2 and warm >= 8000 else 'NOT MET'} ({warm:,.0f}/s; "
+        f"{rate:,.0f}/s with the cluster start); per fit CPU-second {per_cpu:,.0f} profiles"
+    )
+
+
+def startup(args: argparse.Namespace, work: Path, data) -> None:
+    """Start-up: workers compiling into an empty numba cache, then loading from it."""
+    src_s = data(args.startup_profiles)
+    print(f"\nStart-up, {args.startup_profiles:,} profiles, 2 workers (fresh processes):")
+    print(f"{'kernels':>22} {'wall s':>7} {'start s':>7} {'fit s':>6}")
+    with tempfile.TemporaryDirectory() as cache:
+        for label, env in (
+            ("cold (empty cache)", {"NUMBA_CACHE_DIR": cache}),
+            ("warm (cached)", {"NUMBA_CACHE_DIR": cache}),
+            ("numpy (numba off)", {"TERRACONE_NUMBA": "0"}),
+        ):
+            out = work / f"out-st-{time.time_ns()}"
+            r = run_child("local", src_s, out, 2, args.chunk_size, env)
+            s = r["summary"]
+            print(f"{label:>22} {s['wall_s']:>7.1f} {s['startup_s']:>7.1f} {s['fit_s']:>6.1f}")
+    print("  start s includes each worker loading (or compiling) the kernels once")
+
+
+def memory(args: argparse.Namespace, work: Path, data) -> None:
+    """Peak memory of the client and the workers for several input sizes."""
+    sizes = [int(v) for v in args.memory.split(",") if v]
+    if args.million:
+        sizes.append(1_000_000)
+    if sizes:
+        print("\nPeak memory (max RSS), 2 workers:")
+        print(
+            f"{'profiles':>10} {'wall s':>7} {'prof/s':>7} {'client MB':>9} {'workers MB':>14} "
+            f"{'client cpu':>10} {'fit cpu':>8} {'load':>5}"
+        )
+    for n in sizes:
+        src = data(n)
+        out = work / f"out-mem-{n}-{time.time_ns()}"
+        r = run_child("memory", src, out, 2, args.chunk_size)
+        s = r["summary"]
+        assert s["profiles"] == n and s["success"], s["problems"]
+        wr = ", ".join(f"{v:.0f}" for v in r["workers_rss_mb"])
+        print(
+            f"{n:>10,} {s['wall_s']:>7.1f} {s['profiles_per_s']:>7.0f} {r['client_rss_mb']:>9.0f} "
+            f"{wr:>14} {r['client_cpu_s']:>10.1f} {s['fit_cpu_s']:>8.1f} {os.getloadavg()[0]:>5.1f}"
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--profiles", type=int, default=40000, help="profiles of the throughput runs")
@@ -214,107 +323,12 @@ def main() -> None:
         f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}, chunk_size {args.chunk_size}"
     )
 
-    def data(n: int) -> Path:
-        path = work / f"profiles-{n}.parquet"
-        if not path.exists():
-            t = time.perf_counter()
-            generate(path, n)
-            size = path.stat().st_size / 1e6
-            print(
-                f"generated {n:,} profiles -> {path.name} ({size:.1f} MB) in {time.perf_counter() - t:.1f} s"
-            )
-        return path
-
-    # 1. throughput
+    data = functools.partial(input_file, work)
     counts = [int(v) for v in args.workers.split(",") if v.strip()]
     if counts:
-        print(f"\nThroughput, {args.profiles:,} profiles (Parquet), local cluster, end to end:")
-        print(
-            f"{'run':>7} {'wall s':>7} {'prof/s':>7} {'start s':>7} {'- start':>7} {'scan s':>6} {'read s':>6} "
-            f"{'fit s':>6} {'fit cpu':>7} {'write s':>7} {'check s':>7} {'client cpu':>10} "
-            f"{'fit/cpu-s':>9} {'load':>5}"
-        )
-        src = data(args.profiles)
-        runs = [(w, "compiled", {}) for w in counts]
-        if not args.no_numpy:  # the same with the numpy kernels: the figure before compilation
-            runs.append((max(counts), "numpy", {"TERRACONE_NUMBA": "0"}))
-        fit_rate = {}
-        for w, kind, env in runs:
-            out = work / f"out-tp-{w}-{time.time_ns()}"
-            r = run_child("local", src, out, w, args.chunk_size, env)
-            s = r["summary"]
-            assert s["profiles"] == args.profiles and s["success"], s["problems"]
-            per_cpu = args.profiles / s["fit_cpu_s"] if s["fit_cpu_s"] else float("nan")
-            warm = args.profiles / (s["wall_s"] - s["startup_s"])  # the issue's measure
-            fit_rate[(w, kind)] = (s["profiles_per_s"], per_cpu, warm)
-            print(
-                f"{w:>3} {kind[:3]} {s['wall_s']:>7.1f} {s['profiles_per_s']:>7.0f} {s['startup_s']:>7.1f} "
-                f"{warm:>7.0f} "
-                f"{s['scan_s']:>6.2f} {s['read_s']:>6.2f} {s['fit_s']:>6.1f} {s['fit_cpu_s']:>7.1f} "
-                f"{s['write_s']:>7.2f} {s['verify_s']:>7.2f} {r['client_cpu_s']:>10.1f} "
-                f"{per_cpu:>9.0f} {os.getloadavg()[0]:>5.1f}"
-            )
-        print(
-            "  wall s: whole run_batch call (prof/s = profiles / wall s); start s: local cluster start;\n"
-            "  - start: profiles / (wall s - start s), end to end with the start-up removed;\n"
-            "  scan s: first pass over the input; read s / write s: client time reading chunks /\n"
-            "  writing part files; fit s: worker time in the fit tasks (summed over chunks, wall);\n"
-            "  fit cpu: their CPU seconds; client cpu: CPU seconds of the client process (reading,\n"
-            "  writing, the in-process scheduler, start-up); fit/cpu-s: profiles fitted per CPU-second;\n"
-            "  load: 1-minute load average after the run (2 CPUs: > 2 means other work competed);\n"
-            "  com/num: compiled kernels (warm cache) or numpy kernels (TERRACONE_NUMBA=0)"
-        )
-        w2 = max(counts)
-        if (w2, "numpy") in fit_rate:
-            c, n = fit_rate[(w2, "compiled")], fit_rate[(w2, "numpy")]
-            print(
-                f"  compiled / numpy on {w2} workers: {c[0] / n[0]:.1f}x end to end, "
-                f"{c[1] / n[1]:.1f}x per fit CPU-second"
-            )
-        rate, per_cpu, warm = fit_rate[(w2, "compiled")]
-        print(
-            f"  target >= 8,000 profiles/s on 2 workers end to end, start-up removed: "
-            f"{'MET' if w2 == 2 and warm >= 8000 else 'NOT MET'} ({warm:,.0f}/s; "
-            f"{rate:,.0f}/s with the cluster start); per fit CPU-second {per_cpu:,.0f} profiles"
-        )
-
-        # start-up: workers compiling into an empty numba cache, then loading from it
-        src_s = data(args.startup_profiles)
-        print(f"\nStart-up, {args.startup_profiles:,} profiles, 2 workers (fresh processes):")
-        print(f"{'kernels':>22} {'wall s':>7} {'start s':>7} {'fit s':>6}")
-        with tempfile.TemporaryDirectory() as cache:
-            for label, env in (
-                ("cold (empty cache)", {"NUMBA_CACHE_DIR": cache}),
-                ("warm (cached)", {"NUMBA_CACHE_DIR": cache}),
-                ("numpy (numba off)", {"TERRACONE_NUMBA": "0"}),
-            ):
-                out = work / f"out-st-{time.time_ns()}"
-                r = run_child("local", src_s, out, 2, args.chunk_size, env)
-                s = r["summary"]
-                print(f"{label:>22} {s['wall_s']:>7.1f} {s['startup_s']:>7.1f} {s['fit_s']:>6.1f}")
-        print("  start s includes each worker loading (or compiling) the kernels once")
-
-    # 2. memory
-    sizes = [int(v) for v in args.memory.split(",") if v]
-    if args.million:
-        sizes.append(1_000_000)
-    if sizes:
-        print("\nPeak memory (max RSS), 2 workers:")
-        print(
-            f"{'profiles':>10} {'wall s':>7} {'prof/s':>7} {'client MB':>9} {'workers MB':>14} "
-            f"{'client cpu':>10} {'fit cpu':>8} {'load':>5}"
-        )
-    for n in sizes:
-        src = data(n)
-        out = work / f"out-mem-{n}-{time.time_ns()}"
-        r = run_child("memory", src, out, 2, args.chunk_size)
-        s = r["summary"]
-        assert s["profiles"] == n and s["success"], s["problems"]
-        wr = ", ".join(f"{v:.0f}" for v in r["workers_rss_mb"])
-        print(
-            f"{n:>10,} {s['wall_s']:>7.1f} {s['profiles_per_s']:>7.0f} {r['client_rss_mb']:>9.0f} "
-            f"{wr:>14} {r['client_cpu_s']:>10.1f} {s['fit_cpu_s']:>8.1f} {os.getloadavg()[0]:>5.1f}"
-        )
+        throughput(args, work, data, counts)
+        startup(args, work, data)
+    memory(args, work, data)
     print(f"\n(work directory: {work})")
 
 
