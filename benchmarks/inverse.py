@@ -244,27 +244,8 @@ def _refine_ratio(profs, bounds, repeats: int) -> None:
     )
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help="6 cases, 1 repeat")
-    ap.add_argument("--repeats", type=int, default=None, help="timing repeats (default 3, quick 1)")
-    ap.add_argument("--no-startup", action="store_true", help="skip the start-up measurements")
-    args = ap.parse_args(argv)
-    repeats = args.repeats or (1 if args.quick else 3)
-    bounds = Bounds()
-    cases = make_cases(args.quick)
-
-    print(f"terracone inverse benchmark: {len(cases)} cases, timing = min of {repeats} run(s)")
-    print("objective: RMSD of CI [kPa], RM0, fully mobilised shear, default SI bounds")
-    print("de: scipy defaults (best1bin, popsize 15, maxiter 1000, tol 0.01), polish=True")
-    if hasattr(os, "getloadavg"):
-        print(f"load average at start: {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
-    print()
-    head = f"{'case':<30}" + "".join(
-        f"{m + ' t[ms]':>15}{'RMSD[kPa]':>13}{'rel':>10}" for m in METHODS
-    )
-    print(head)
-    print("-" * len(head))
+def run_cases(cases: list, repeats: int, bounds: Bounds) -> list:
+    """Warm the kernels up, then time every method on every case; one row per case."""
     # start-up removed from the per-profile times: compile or load the kernels first
     # (measured apart, cold and warm, at the end)
     t0 = time.perf_counter()
@@ -290,7 +271,11 @@ def main(argv=None) -> int:
             f"{times[m] * 1e3:15.1f}{rmsd[m]:13.6g}{rel[m]:10.2e}" for m in METHODS
         )
         print(line, flush=True)
+    return rows
 
+
+def summarise(rows: list) -> tuple[list[float], list[float]]:
+    """Medians per method and the exact/pyswarms ratios (wall and CPU); returns both ratio lists."""
     print()
     print("summary")
     print(
@@ -329,7 +314,11 @@ def main(argv=None) -> int:
         f"pyswarms {statistics.median([r[7][1] for r in rows]) * 1e3:.1f} ms; "
         f"pyswarms_cpu / exact_cpu: median {statistics.median(ratios_cpu):.1f}"
     )
+    return ratios, ratios_cpu
 
+
+def vectorised(cases: list, rows: list, bounds: Bounds, repeats: int) -> list:
+    """The same exact fits vectorised over all the cases at once (how batch runs them)."""
     # the same exact fits vectorised over all the cases at once (how batch runs them)
     from terracone.inverse.many import solve_exact_many
     from terracone.plate import pressure_law as _pl
@@ -357,27 +346,30 @@ def main(argv=None) -> int:
         f"{statistics.median([r[1]['pyswarms'] for r in rows]) / per:.0f}; "
         f"worst RMSD excess over the single-profile exact fit {worst_many:.1e} of rms(CI)"
     )
+    return profs
 
-    if jit.enabled():
-        _refine_ratio(profs, bounds, repeats)
 
-    if not args.no_startup:
-        print()
-        print("start-up (fresh processes; cold = empty numba cache, warm = cached kernels)")
-        st = _startup()
-        st.report("terracone --help", st.cli_help())
-        st.report(
-            "predict one profile (import, then the first fit)",
-            st.measure(
-                "import numpy as np\n"
-                "from terracone import CIProfile, cone_index\n"
-                "from terracone.inverse import predict\n"
-                "z = np.linspace(0, 0.3, 31)\n"
-                "p = CIProfile('p', z, cone_index(z, kc=100, kphi=5000, n=0.8, cc=1, phic=12))",
-                "predict(p)",
-            ),
-        )
+def startup_report() -> None:
+    """Start-up of fresh processes: cold (empty numba cache) and warm."""
+    print()
+    print("start-up (fresh processes; cold = empty numba cache, warm = cached kernels)")
+    st = _startup()
+    st.report("terracone --help", st.cli_help())
+    st.report(
+        "predict one profile (import, then the first fit)",
+        st.measure(
+            "import numpy as np\n"
+            "from terracone import CIProfile, cone_index\n"
+            "from terracone.inverse import predict\n"
+            "z = np.linspace(0, 0.3, 31)\n"
+            "p = CIProfile('p', z, cone_index(z, kc=100, kphi=5000, n=0.8, cc=1, phic=12))",
+            "predict(p)",
+        ),
+    )
 
+
+def targets(rows: list, ratios: list[float], ratios_cpu: list[float]) -> None:
+    """The issue targets: speed against pyswarms, and never a worse RMSD than the peers."""
     # targets
     fast = statistics.median(ratios) >= 50.0
     others = [m for m in METHODS if m != "exact"]
@@ -417,6 +409,37 @@ def main(argv=None) -> int:
     for r, ok in zip(rows, pso_ok):
         if not ok:
             print(f"    {r[0]}: pso {r[2]['pso']:.6g} vs best {min(r[2].values()):.6g}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="6 cases, 1 repeat")
+    ap.add_argument("--repeats", type=int, default=None, help="timing repeats (default 3, quick 1)")
+    ap.add_argument("--no-startup", action="store_true", help="skip the start-up measurements")
+    args = ap.parse_args(argv)
+    repeats = args.repeats or (1 if args.quick else 3)
+    bounds = Bounds()
+    cases = make_cases(args.quick)
+
+    print(f"terracone inverse benchmark: {len(cases)} cases, timing = min of {repeats} run(s)")
+    print("objective: RMSD of CI [kPa], RM0, fully mobilised shear, default SI bounds")
+    print("de: scipy defaults (best1bin, popsize 15, maxiter 1000, tol 0.01), polish=True")
+    if hasattr(os, "getloadavg"):
+        print(f"load average at start: {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
+    print()
+    head = f"{'case':<30}" + "".join(
+        f"{m + ' t[ms]':>15}{'RMSD[kPa]':>13}{'rel':>10}" for m in METHODS
+    )
+    print(head)
+    print("-" * len(head))
+    rows = run_cases(cases, repeats, bounds)
+    ratios, ratios_cpu = summarise(rows)
+    profs = vectorised(cases, rows, bounds, repeats)
+    if jit.enabled():
+        _refine_ratio(profs, bounds, repeats)
+    if not args.no_startup:
+        startup_report()
+    targets(rows, ratios, ratios_cpu)
     return 0
 
 
