@@ -64,7 +64,7 @@ def test_basis_point_equals_cone_index_basis(law):
 def test_columns_from_the_depth_table_equal_cone_index_basis(law):
     """The cells' columns (n-free parts from a per-profile table, closed form or series per
     depth, powers u1^(n+1) given or computed) equal the numpy closed forms to 1e-12."""
-    from terracone.inverse.kernels import basis_columns, columns_at, depth_table
+    from terracone.inverse.kernels import basis_columns, basis_rows, columns_at, depth_table
 
     H, R = CONE.height, CONE.radius
     z = np.concatenate([[-H + 1e-6, -H / 2, 0.0, 1e-4], np.linspace(0.005, 0.6, 25), [3.0, 8.0]])
@@ -86,6 +86,12 @@ def test_columns_from_the_depth_table_equal_cone_index_basis(law):
         np.testing.assert_allclose(
             cols[k], np.broadcast_to(ref[k], cols[k].shape), rtol=1e-12, atol=1e-300
         )
+    # profile by profile, each at its own n (predict_many's polish)
+    zz = np.stack([z, z * 0.5, z + 0.01])
+    rows = basis_rows(zz, ns, H, R, law == "rm1", *c)
+    ref = cone_index_basis(zz, n=ns[:, None], law=LAWS[law], cone=CONE)
+    for k in range(3):
+        np.testing.assert_allclose(rows[k], ref[k], rtol=1e-12, atol=1e-300)
 
 
 def random_box_problems(rng, M):

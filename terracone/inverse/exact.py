@@ -93,23 +93,27 @@ def design(
 
 
 def _basis(z, n, law: PressureLaw, cone: Cone):
-    """cone_index_basis at phic = 0; compiled for one profile and one n (predict's polish)."""
+    """cone_index_basis at phic = 0.
+
+    Compiled (:func:`terracone.inverse.kernels.basis_columns`, equal to it to
+    1e-12) for one profile and one n, and :func:`~terracone.inverse.kernels.basis_rows`
+    for profiles (P, Z) with one n each (P, 1), as predict_many's polish asks;
+    else the numpy basis.
+    """
     n = np.asarray(n, dtype=float)
     z = np.asarray(z, dtype=float)
-    if n.ndim == 0 and z.ndim == 1 and enabled():
+    one = n.ndim == 0 and z.ndim == 1
+    rows = z.ndim == 2 and n.shape == (z.shape[0], 1)
+    if (one or rows) and enabled():
         coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
         if all(c.size == 1 for c in coef):
-            from .kernels import basis_columns
+            from .kernels import basis_columns, basis_rows
 
-            A, B, C = basis_columns(
-                np.ascontiguousarray(z),
-                n.reshape(1),
-                cone.height,
-                cone.radius,
-                not law.is_rm0,
-                *(float(c.item()) for c in coef),
-            )
-            return A[0], B[0], C[0]
+            args = (cone.height, cone.radius, not law.is_rm0, *(float(c.item()) for c in coef))
+            if one:
+                A, B, C = basis_columns(np.ascontiguousarray(z), n.reshape(1), *args)
+                return A[0], B[0], C[0]
+            return basis_rows(np.ascontiguousarray(z), np.ascontiguousarray(n[:, 0]), *args)
     return cone_index_basis(z, n=n, phic=0.0, law=law, cone=cone)
 
 

@@ -1209,6 +1209,20 @@ def basis_columns(z, n, H, R, rm1, r_t, alpha, beta):
 
 
 @njit(error_model="numpy")
+def basis_rows(z, n, H, R, rm1, r_t, alpha, beta):
+    """:func:`basis_columns` for profiles z (P, Z), each at its own n (P,): A, B, C each (P, Z)."""
+    P, Z = z.shape
+    A = np.empty((P, Z))
+    B = np.empty((P, Z))
+    C = np.empty((P, Z))
+    tab = np.empty((7, Z))
+    for p in range(P):
+        depth_table(z[p], H, R, r_t, tab)
+        columns_at(z[p], tab, n[p], H, R, rm1, r_t, alpha, beta, z[p], False, A[p], B[p], C[p])
+    return A, B, C
+
+
+@njit(error_model="numpy")
 def fit_stats(y, m, min_r2, max_runs_z, max_drop, min_cv, monotone):
     """The numbers behind :func:`terracone.metrics.check_fit` for one profile.
 
