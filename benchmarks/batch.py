@@ -1,4 +1,4 @@
-"""Benchmark of ``terracone batch`` (terracone.batch.run_batch).
+"""Benchmark of ``terracone batch`` (terracone.apps.batch.run_batch).
 
 Measures, on generated noise-free profiles (25-60 depths each, known truth,
 written as Parquet by streaming so that generation itself stays flat in
@@ -100,7 +100,7 @@ def child(args: argparse.Namespace) -> None:
     """One measured run (in its own process); prints a JSON line."""
     import logging
 
-    from terracone.batch import run_batch
+    from terracone.apps.batch import run_batch
 
     t0 = time.perf_counter()
     if args.mode == "local":
@@ -111,7 +111,7 @@ def child(args: argparse.Namespace) -> None:
     else:  # memory: our own cluster, so that the workers can be asked for their peak RSS
         import distributed
 
-        from terracone.batch import WORKER_MALLOC_ENV, _worker_environ
+        from terracone.apps.batch import WORKER_MALLOC_ENV, _worker_environ
 
         with _worker_environ(WORKER_MALLOC_ENV):  # the workers run_batch would start
             cluster = distributed.LocalCluster(

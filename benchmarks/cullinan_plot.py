@@ -36,8 +36,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from terracone.bevameter import METHODS, fit_plate_test  # noqa: E402
 from terracone.data import PlateTest  # noqa: E402
+from terracone.inverse.bevameter.plates import METHODS, fit_plate_test  # noqa: E402
 
 DEFAULT_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "cullinan-sand"
 

@@ -18,7 +18,7 @@ terracone/plain, and the largest relative errors of terracone against
 quad (on the 200 pairs) and against the plain form (on the whole batch).
 
 Targets: terracone >= 1000x quad, >= 1x the plain closed form, error <= 1e-9.
-With ``--profile`` the time spent inside terracone.cone.cone_index_basis is
+With ``--profile`` the time spent inside terracone.physics.cone.cone_index_basis is
 broken down line by line (by timing its steps on the same batch).
 """
 
@@ -43,8 +43,8 @@ import numpy as np  # noqa: E402
 from scipy.integrate import IntegrationWarning, quad  # noqa: E402
 
 import terracone  # noqa: E402
-from terracone.cone import cone_index_basis, get_cone  # noqa: E402
-from terracone.plate import pressure_law  # noqa: E402
+from terracone.physics.cone import cone_index_basis, get_cone  # noqa: E402
+from terracone.physics.plate import pressure_law  # noqa: E402
 
 INCH = 0.0254
 AREA = 0.5 * INCH**2  # asabe-large, 0.5 in^2, 30 deg
@@ -254,7 +254,7 @@ def line_times(fn, functions, calls: int, rounds: int = 7):
 
 def profile(params, r_min, depth, model: str = "rm0", top: int = 14):
     """Where the time of cone_index goes: the wrapper and the lines of cone_index_basis."""
-    from terracone import cone as cone_mod
+    from terracone.physics import cone as cone_mod
 
     rm = r_min if model == "rm1" else None
     law = pressure_law(model, r_min=rm)
@@ -274,7 +274,7 @@ def profile(params, r_min, depth, model: str = "rm0", top: int = 14):
     print(f"    of which cone_index_basis       {t_basis * 1e6:8.1f} us")
     print(f"    wrapper (checks, units, kc*A..) {(t_all - t_basis) * 1e6:8.1f} us")
     print(f"    plain closed form, whole call   {t_plain * 1e6:8.1f} us")
-    # every function defined in terracone.cone (cone_index_basis and its helpers)
+    # every function defined in terracone.physics.cone (cone_index_basis and its helpers)
     funcs = [
         f
         for f in vars(cone_mod).values()
@@ -286,7 +286,9 @@ def profile(params, r_min, depth, model: str = "rm0", top: int = 14):
         calls=30,
     )
     total = sum(t for name, _, t, _ in rows if name == "cone_index_basis")
-    print(f"    lines of terracone.cone under cone_index_basis (traced total {total * 1e6:.0f} us;")
+    print(
+        f"    lines of terracone.physics.cone under cone_index_basis (traced total {total * 1e6:.0f} us;"
+    )
     print("    inclusive: a line that calls a helper also counts the helper's lines):")
     for name, lineno, t, src in rows[:top]:
         print(f"    {t * 1e6:7.1f} us  {name}:{lineno:<4d} {src[:70]}")
@@ -305,7 +307,7 @@ def kernel_vs_numpy(params, r_min, depth) -> None:
     if not jit.enabled():
         print("\n[compiled basis kernel] numba is off (TERRACONE_NUMBA=0): skipped")
         return
-    from terracone.inverse.kernels import basis_columns
+    from terracone.inverse.solver.kernels import basis_columns
 
     ns = params["n"][:, 0].copy()
     print("\n[compiled basis kernel vs numpy cone_index_basis, RM0 and RM1]")

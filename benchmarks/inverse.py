@@ -55,9 +55,9 @@ from scipy.optimize import differential_evolution  # noqa: E402
 
 from terracone import CIProfile, cone_index, jit  # noqa: E402
 from terracone.inverse import Bounds, predict  # noqa: E402
-from terracone.inverse.exact import solve_exact  # noqa: E402
 from terracone.inverse.predict import rmsd_objective  # noqa: E402
-from terracone.plate import pressure_law  # noqa: E402
+from terracone.inverse.solver.exact import solve_exact  # noqa: E402
+from terracone.physics.plate import pressure_law  # noqa: E402
 
 # kc [kN/m^(n+1)], kphi [kN/m^(n+2)], n, cc [kPa], phic [deg]
 TERRAINS = {
@@ -199,9 +199,9 @@ def _refine_ratio(profs, bounds, repeats: int) -> None:
     """The refinement of n alone, compiled: Brent's method (what solve_exact_many runs) against
     the golden section it replaced, on the same brackets (two grid steps around each profile's
     best grid cell), in this process."""
-    from terracone.inverse import kernels
-    from terracone.inverse.many import bounds_params, grid
-    from terracone.plate import pressure_law as _pl
+    from terracone.inverse.solver import kernels
+    from terracone.inverse.solver.many import bounds_params, grid
+    from terracone.physics.plate import pressure_law as _pl
 
     cone, law = profs[0].cone, _pl("rm0")
     geom = (cone.height, cone.radius, False, *(float(c) for c in law.coefficients()))
@@ -320,8 +320,8 @@ def summarise(rows: list) -> tuple[list[float], list[float]]:
 def vectorised(cases: list, rows: list, bounds: Bounds, repeats: int) -> list:
     """The same exact fits vectorised over all the cases at once (how batch runs them)."""
     # the same exact fits vectorised over all the cases at once (how batch runs them)
-    from terracone.inverse.many import solve_exact_many
-    from terracone.plate import pressure_law as _pl
+    from terracone.inverse.solver.many import solve_exact_many
+    from terracone.physics.plate import pressure_law as _pl
 
     profs = [prof for _, prof, _ in cases]
 

@@ -29,7 +29,7 @@ from scipy.optimize import differential_evolution
 
 from terracone import CIProfile, PlateTest, cone_index, plate_pressure
 from terracone.inverse import Bounds
-from terracone.inverse.learn import learn
+from terracone.inverse.learning.learn import learn
 
 # run as a script, benchmarks/ heads sys.path: keep it off, so no script here can shadow an
 # installed package (a benchmark named coverage.py once hid the one numba probes, silently

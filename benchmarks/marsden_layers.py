@@ -4,7 +4,7 @@ Usage: python benchmarks/marsden_layers.py [OUT_DIR] [--limit N]
 
 Fits every profile of ../shared/data/marsden-penetrometer/ci_profiles.csv
 (FieldScout SC900, small 0.2 in^2 cone, base depths as recorded) with the
-homogeneous model (exact solver) and with two layers (terracone.layers),
+homogeneous model (exact solver) and with two layers (terracone.physics.layers),
 then prints the distribution of R^2, the fraction flagged for lack of fit,
 how often two layers win by BIC, and draws a typical profile with both fits.
 """
@@ -23,8 +23,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from terracone.inverse import predict
+from terracone.inverse.layered import fit_layered
 from terracone.io import read_ci_profiles
-from terracone.layers import fit_layered
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data" / "marsden-penetrometer" / "ci_profiles.csv"

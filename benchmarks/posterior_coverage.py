@@ -1,4 +1,4 @@
-"""Coverage of the 90% intervals of :func:`terracone.uncertainty.posterior`.
+"""Coverage of the 90% intervals of :func:`terracone.inverse.uncertainty.posterior.posterior`.
 
 Usage::
 
@@ -48,10 +48,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terracone.cone import improved
 from terracone.data import CIProfile
-from terracone.inverse.learn import Calibration
-from terracone.uncertainty import CalibrationPrior, ar1_noise, posterior
+from terracone.inverse.learning.learn import Calibration
+from terracone.inverse.uncertainty.noise import ar1_noise
+from terracone.inverse.uncertainty.posterior import posterior
+from terracone.inverse.uncertainty.priors import CalibrationPrior
+from terracone.physics.cone import cone_index_huang
 
 DEPTH = np.round(np.arange(0.0, 0.3001, 0.01), 6)
 PLATE_RADIUS = 0.05  # m
@@ -100,7 +102,9 @@ def make_profile(
     truth: Truth, rng: np.random.Generator, *, correlated: bool, depth: np.ndarray = DEPTH
 ) -> tuple[CIProfile, float, float]:
     """Noisy synthetic profile; returns (profile, noise level s, rho)."""
-    m = improved(depth, kc=truth.kc, kphi=truth.kphi, n=truth.n, cc=truth.cc, phic=truth.phic)
+    m = cone_index_huang(
+        depth, kc=truth.kc, kphi=truth.kphi, n=truth.n, cc=truth.cc, phic=truth.phic
+    )
     s = rng.uniform(0.03, 0.05)
     rho = rng.uniform(0.6, 0.8) if correlated else 0.0
     e = ar1_noise(depth, rho, rng) if correlated else rng.standard_normal(depth.size)

@@ -26,7 +26,7 @@ import argparse
 import json
 import sys
 
-from terracone.sensitivity import sobol_ci
+from terracone.apps.sensitivity import sobol_ci
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -21,7 +21,7 @@ the shortest of ``--repeats`` runs except for ``before``, run once):
 
 * ``pyswarms``: one GlobalBestPSO fit;
 * ``posterior``: what ``--uncertainty`` adds, i.e.
-  :func:`terracone.uncertainty.posterior_for_result` on a fitted profile
+  :func:`terracone.inverse.uncertainty.posterior.posterior_for_result` on a fitted profile
   with the default sampler settings;
 * ``predict+posterior``: the same including the exact fit itself;
 * ``before``: the sampler settings and likelihood before issue 14 (64
@@ -31,7 +31,7 @@ the shortest of ``--repeats`` runs except for ``before``, run once):
 Printed: the median times and the ratios posterior / pyswarms (target
 <= 3) and before / pyswarms, the first call of the compiled kernel (the
 numba cache load, or the compilation when the cache is cold) and the
-time of ``import terracone.uncertainty`` in a fresh interpreter.
+time of ``import terracone.inverse.uncertainty.posterior`` in a fresh interpreter.
 """
 
 from __future__ import annotations
@@ -48,13 +48,15 @@ import time
 
 import numpy as np
 
-import terracone.uncertainty as unc
-from terracone.cone import improved
 from terracone.data import CIProfile
 from terracone.inverse import Bounds, predict
-from terracone.inverse.learn import Calibration
+from terracone.inverse.learning.learn import Calibration
 from terracone.inverse.predict import rmsd_objective
-from terracone.plate import pressure_law
+from terracone.inverse.uncertainty import likelihood
+from terracone.inverse.uncertainty.noise import ar1_noise
+from terracone.inverse.uncertainty.posterior import posterior, posterior_for_result
+from terracone.physics.cone import cone_index_huang
+from terracone.physics.plate import pressure_law
 
 DEPTH = np.round(np.arange(0.0, 0.3001, 0.01), 6)
 LETE = Calibration("LETE sand (synthetic)", "rm0", None, None, 11.0, 1.0, 102.0, 5301.0, 0.79)
@@ -73,10 +75,10 @@ def make_profiles(count: int, seed: int) -> list[CIProfile]:
             cc=rng.uniform(0, 2),
             phic=rng.uniform(8, 14),
         )
-        m = improved(DEPTH, **t)
+        m = cone_index_huang(DEPTH, **t)
         s = rng.uniform(0.03, 0.05)
         if i % 2:
-            e = unc.ar1_noise(DEPTH, rng.uniform(0.6, 0.8), rng)
+            e = ar1_noise(DEPTH, rng.uniform(0.6, 0.8), rng)
         else:
             e = rng.standard_normal(DEPTH.size)
         out.append(CIProfile(f"p{i}", DEPTH, m * (1.0 + s * e)))
@@ -125,7 +127,7 @@ def timed(fn, *args, repeats: int = 1, **kwargs):
 
 
 def import_time() -> float:
-    code = "import time; t = time.perf_counter(); import terracone.uncertainty; "
+    code = "import time; t = time.perf_counter(); import terracone.inverse.uncertainty.posterior; "
     code += "print(time.perf_counter() - t)"
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return float(res.stdout.strip())
@@ -134,7 +136,7 @@ def import_time() -> float:
 def first_call() -> float:
     """The first call of the compiled kernel in a fresh interpreter (cache load or compile)."""
     code = (
-        "import time, numpy as np; from terracone.uncertainty import spline_sse_compiled as f; "
+        "import time, numpy as np; from terracone.inverse.uncertainty.likelihood import spline_sse_compiled as f; "
         "c = np.zeros((4, 2, 3, 3)); t = time.perf_counter(); "
         "f(c, 0.0, 1.0, np.zeros(3), np.ones((2, 5)), 0.27, np.zeros(0), np.ones(2)); "
         "print(time.perf_counter() - t)"
@@ -152,11 +154,13 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     bounds = Bounds()
     profiles = make_profiles(args.profiles, args.seed)
-    print(f"numba kernels: {'on' if unc.JIT_ENABLED else 'off (TERRACONE_NUMBA=0)'}")
-    print(f"import terracone.uncertainty (fresh interpreter): {import_time():.2f} s")
+    print(f"numba kernels: {'on' if likelihood.JIT_ENABLED else 'off (TERRACONE_NUMBA=0)'}")
+    print(
+        f"import terracone.inverse.uncertainty.posterior (fresh interpreter): {import_time():.2f} s"
+    )
     print(f"first call of the compiled log-likelihood (fresh interpreter): {first_call():.3f} s")
     # warm up: imports, the kernel, pyswarms
-    unc.posterior(profiles[0], draws=100, seed=0)
+    posterior(profiles[0], draws=100, seed=0)
     run_pyswarms(profiles[0], bounds, 0)
     rows = []
     for i, prof in enumerate(profiles):
@@ -165,12 +169,12 @@ def main(argv: list[str] | None = None) -> int:
         cal = None if prior == "bounds" else LETE
         fit, t_fit = timed(predict, prof, calibration=cal, repeats=args.repeats)
         kw = dict(prior=prior, draws=args.draws, seed=i)
-        _, t_post = timed(unc.posterior_for_result, prof, fit, repeats=args.repeats, **kw)
-        unc.JIT_ENABLED, jit = False, unc.JIT_ENABLED
+        _, t_post = timed(posterior_for_result, prof, fit, repeats=args.repeats, **kw)
+        likelihood.JIT_ENABLED, jit = False, likelihood.JIT_ENABLED
         try:
-            _, t_before = timed(unc.posterior_for_result, prof, fit, **kw, **BEFORE)
+            _, t_before = timed(posterior_for_result, prof, fit, **kw, **BEFORE)
         finally:
-            unc.JIT_ENABLED = jit
+            likelihood.JIT_ENABLED = jit
         rows.append((t_pso, t_post, t_fit + t_post, t_before))
         print(
             f"{prof.id:4s} prior {'bounds' if prior == 'bounds' else 'LETE':6s} "

@@ -2,14 +2,13 @@
 
 The method is that of Huang, Wong, Preston-Thomas and Jayakumar, "Predicting
 terrain parameters for physics-based vehicle mobility models from cone index
-data".  Forward models live in :mod:`terracone.cone` and
-:mod:`terracone.plate`, the inversion in :mod:`terracone.inverse`.
+data".  Forward models live in :mod:`terracone.physics.cone` and
+:mod:`terracone.physics.plate`, the inversion in :mod:`terracone.inverse`.
 """
 
 from importlib.metadata import PackageNotFoundError, version
 
-from .cone import CONES, Cone, cone_index, get_cone
-from .data import (
+from terracone.data import (
     CIProfile,
     InputError,
     PlateTest,
@@ -18,8 +17,9 @@ from .data import (
     TerrainParameters,
     TerrainShear,
 )
-from .metrics import agreement
-from .plate import plate_pressure
+from terracone.physics.cone import CONES, Cone, cone_index, get_cone
+from terracone.physics.metrics import agreement
+from terracone.physics.plate import plate_pressure
 
 try:
     __version__ = version("terracone")

@@ -19,12 +19,12 @@ from typing import Any
 import click
 import numpy as np
 
-from . import __version__
-from . import units as u
-from .cone import CONES, cone_index
-from .data import InputError, TerrainParameters
-from .plate import plate_pressure
-from .text import (
+from terracone import __version__
+from terracone.data import InputError, TerrainParameters
+from terracone.physics import units as u
+from terracone.physics.cone import CONES, cone_index
+from terracone.physics.plate import plate_pressure
+from terracone.report.text import (
     curve_text,
     design_text,
     evaluate_text,
@@ -35,8 +35,8 @@ from .text import (
     shear_fit_text,
     sites_text,
 )
-from .text import layered_text as _layered_text  # the names predict_cmd prints with
-from .text import posterior_text as _posterior_text
+from terracone.report.text import layered_text as _layered_text  # the names predict_cmd prints with
+from terracone.report.text import posterior_text as _posterior_text
 
 _UNITS = click.Choice(["si", "us"])
 _LEN_RE = re.compile(r"^\s*([-+0-9.eE]+)\s*(m|cm|mm|in)?\s*$")
@@ -132,7 +132,7 @@ def _windowed(items, rng: tuple[float | None, float | None], units: str):
 
 def _emit_json(obj: Any, out: str | None = None) -> None:
     """Print a JSON document, or write it to ``out`` (terracone.result's one JSON writer)."""
-    from .result import dumps
+    from terracone.result import dumps
 
     text = dumps(obj)
     if out:
@@ -412,7 +412,7 @@ _fit_options = _shared(
 def _read_profiles(
     path, cone, fmt, depth_ref, collect=True, units=None, depth_unit=None, ci_unit=None
 ):
-    from .io import read_ci_profiles
+    from terracone.io import read_ci_profiles
 
     return read_ci_profiles(
         path,
@@ -471,7 +471,7 @@ class _FitArgs:
 
 def _fit_args(opts: dict[str, Any]) -> _FitArgs:
     """Parse the ``_fit_options`` given to a command as ``**opts``."""
-    from .inverse import Bounds
+    from terracone.inverse import Bounds
 
     units = opts["units"]
     return _FitArgs(
@@ -487,14 +487,14 @@ def _fit_args(opts: dict[str, Any]) -> _FitArgs:
 
 
 def _load_calibration(calibration: str | None, terrain: str | None, library: str | None):
-    from .inverse.learn import Calibration
+    from terracone.inverse.learning.learn import Calibration
 
     if calibration and terrain:
         raise click.UsageError("give at most one of --calibration and --terrain")
     if calibration:
         return Calibration.load(calibration)
     if terrain:
-        from .library import Library
+        from terracone.apps.library import Library
 
         rec = Library(library).get(terrain)
         return Calibration.from_library_record(rec)
@@ -503,8 +503,8 @@ def _load_calibration(calibration: str | None, terrain: str | None, library: str
 
 def _prior(prior: str, library: str | None):
     """--prior: "bounds", or the calibration stored in the library as terrain:NAME."""
-    from .inverse.learn import Calibration
-    from .library import Library
+    from terracone.apps.library import Library
+    from terracone.inverse.learning.learn import Calibration
 
     if prior == "bounds":
         return "bounds"
@@ -581,8 +581,8 @@ def predict_cmd(
     ci_unit,
 ):
     """Predict kc, kphi, n, cc, phic from CI profiles (section 3.3.2)."""
-    from .inverse import Bounds
-    from .workflow import predict_profiles, sinkage_grid
+    from terracone.apps.workflow import predict_profiles, sinkage_grid
+    from terracone.inverse import Bounds
 
     b = Bounds.parse(bounds, units)
     rm = _length_si(r_min, units, "--r-min") if r_min else None
@@ -614,7 +614,7 @@ def predict_cmd(
     if out:
         _emit_json(doc, out)
     if parquet_path:
-        from .result import write_parquet
+        from terracone.result import write_parquet
 
         write_parquet(parquet_path, results, units)
     if as_json:
@@ -703,9 +703,9 @@ def learn_cmd(
     ci_unit,
 ):
     """Learn r_min, cc, phic and the P-S parameters from CI and plate tests (section 3.3.1)."""
-    from .inverse import Bounds
-    from .inverse.learn import learn
-    from .io import read_plate_tests
+    from terracone.inverse import Bounds
+    from terracone.inverse.learning.learn import learn
+    from terracone.io import read_plate_tests
 
     profiles = _read_profiles(
         ci_file, cone, fmt, depth_ref, collect=False, depth_unit=depth_unit, ci_unit=ci_unit
@@ -723,7 +723,7 @@ def learn_cmd(
     if save:
         cal.save(save)
     if save_as:
-        from .library import Library
+        from terracone.apps.library import Library
 
         with Library(library) as lib:
             lib.add(save_as, "calibration", cal.library_params(), cal.provenance, replace=True)
@@ -759,8 +759,8 @@ def learn_cmd(
 @click.option("--json", "as_json", is_flag=True)
 def evaluate_cmd(plates_file, kc, kphi, n, params_file, units, as_json):
     """R, R2, RMSD and CV of predicted against measured plate P-S curves (Tables 4-2, 4-4)."""
-    from .inverse.evaluate import cross_table, parameters_from_json
-    from .io import read_plate_tests
+    from terracone.inverse.evaluate import cross_table, parameters_from_json
+    from terracone.io import read_plate_tests
 
     if params_file and any(v is not None for v in (kc, kphi, n)):
         raise click.UsageError("give either --kc/--kphi/--n or --params, not both")
@@ -790,7 +790,7 @@ def evaluate_cmd(plates_file, kc, kphi, n, params_file, units, as_json):
 )
 def demo_cmd(units, out):
     """Learn, predict and evaluate on the bundled synthetic LETE-sand example."""
-    from .example import run_demo
+    from terracone.apps.example import run_demo
 
     click.echo(run_demo(units=units, out=out))
 
@@ -801,7 +801,7 @@ def demo_cmd(units, out):
 
 
 def _store(library: str | None, name: str, kind: str, params: dict, provenance: dict) -> None:
-    from .library import Library
+    from terracone.apps.library import Library
 
     with Library(library) as lib:
         lib.add(name, kind, params, provenance, replace=True)
@@ -823,12 +823,12 @@ def _store(library: str | None, name: str, kind: str, params: dict, provenance: 
 @click.option("--json", "as_json", is_flag=True)
 def fit_plates_cmd(plates_file, method, units, save_as, library, as_json):
     """Fit p = k z^n per plate test, and kc, kphi from k = kc/b + kphi (two or more sizes)."""
-    from .inverse.plates import fit_plates
-    from .io import read_plate_tests
+    from terracone.inverse.bevameter.plates import fit_plates
+    from terracone.io import read_plate_tests
 
     fit = fit_plates(read_plate_tests(plates_file), method=method)
     if save_as:
-        from .library import make_provenance
+        from terracone.apps.library import make_provenance
 
         _store(
             library,
@@ -855,12 +855,12 @@ def fit_plates_cmd(plates_file, method, units, save_as, library, as_json):
 @click.option("--json", "as_json", is_flag=True)
 def fit_shear_cmd(shear_file, units, save_as, library, as_json):
     """Fit Janosi-Hanamoto tau = (c + sigma tan phi)(1 - exp(-j/K)) to shear tests."""
-    from .inverse.shear import fit_shear
-    from .io import read_shear_tests
+    from terracone.inverse.bevameter.shear import fit_shear
+    from terracone.io import read_shear_tests
 
     fit = fit_shear(read_shear_tests(shear_file))
     if save_as:
-        from .library import make_provenance
+        from terracone.apps.library import make_provenance
 
         _store(
             library,
@@ -898,7 +898,7 @@ def library_grp(ctx, library_path):
 @click.pass_context
 def library_list(ctx, kind, as_json):
     """List the stored terrains."""
-    from .library import Library
+    from terracone.apps.library import Library
 
     with Library(ctx.obj["library"]) as lib:
         recs = lib.list(kind)
@@ -913,7 +913,7 @@ def library_list(ctx, kind, as_json):
 @click.pass_context
 def library_show(ctx, name):
     """Show one terrain (JSON, SI)."""
-    from .library import Library
+    from terracone.apps.library import Library
 
     with Library(ctx.obj["library"]) as lib:
         _emit_json(lib.get(name).to_dict())
@@ -939,7 +939,7 @@ def library_show(ctx, name):
 @click.pass_context
 def library_add(ctx, name, kind, params, from_json, source, replace):
     """Add a terrain."""
-    from .library import Library, make_provenance
+    from terracone.apps.library import Library, make_provenance
 
     p: dict[str, Any] = {}
     if from_json:
@@ -970,7 +970,7 @@ def library_add(ctx, name, kind, params, from_json, source, replace):
 @click.pass_context
 def library_remove(ctx, name):
     """Remove a terrain (reference terrains cannot be removed)."""
-    from .library import Library
+    from terracone.apps.library import Library
 
     with Library(ctx.obj["library"]) as lib:
         lib.remove(name)
@@ -983,7 +983,7 @@ def library_remove(ctx, name):
 @click.pass_context
 def library_import(ctx, path, replace):
     """Import terrains from a JSON file written by `library export`."""
-    from .library import Library
+    from terracone.apps.library import Library
 
     with Library(ctx.obj["library"]) as lib:
         rep = lib.import_(path, replace=replace)
@@ -998,7 +998,7 @@ def library_import(ctx, path, replace):
 @click.pass_context
 def library_export(ctx, path, include_builtin):
     """Export terrains to a JSON file."""
-    from .library import Library
+    from terracone.apps.library import Library
 
     with Library(ctx.obj["library"]) as lib:
         k = lib.export(path, include_builtin=include_builtin)
@@ -1093,18 +1093,18 @@ def export_cmd(
         "janosi_m": None if janosi is None else _length_si(janosi, units, "--janosi"),
     }
     if terrain is not None:
-        from .library import Library
+        from terracone.apps.library import Library
 
         with Library(library) as lib:
             rec = lib.get(terrain)
         name, params = terrain, rec
     else:
-        from .export import load_results, pick_profile
+        from terracone.apps.export import load_results, pick_profile
 
         res = pick_profile(load_results(results_path), profile, str(results_path))
         name, params = res.id, res.params
     if fmt != "chrono-scm":
-        from .export import export_terrain
+        from terracone.apps.export import export_terrain
 
         missing = export_terrain(params, fmt, out, units=units, name=name)
         if missing:
@@ -1116,7 +1116,7 @@ def export_cmd(
     scm = {"elastic_k": elastic_k, "damping_r": damping, **shear}
     if samples is not None:
         return _export_samples(res, samples, seed, out, scm)
-    from .export import chrono_scm
+    from terracone.apps.export import chrono_scm
 
     doc = chrono_scm(params, name, **scm)
     doc.write(out)
@@ -1127,7 +1127,7 @@ def export_cmd(
 
 
 def _export_geojson(results_path: str | None, out: str) -> None:
-    from .export import load_results, write_geojson
+    from terracone.apps.export import load_results, write_geojson
 
     if results_path is None:
         raise click.UsageError("--format geojson needs --results (predict JSON or batch directory)")
@@ -1144,7 +1144,7 @@ def _export_geojson(results_path: str | None, out: str) -> None:
 
 def _export_samples(res, count: int, seed: int | None, out: str, scm: dict) -> None:
     """N Chrono SCM files from N posterior draws of one profile, and an index CSV."""
-    from .export import write_scm_samples
+    from terracone.apps.export import write_scm_samples
 
     written = write_scm_samples(res, count, out, seed=seed, **scm)
     if written and written[-1].provenance_text():
@@ -1222,8 +1222,8 @@ def batch_cmd(
     ci_unit,
 ):
     """Fit every profile of a CSV/Parquet file or directory on Dask; Parquet results per chunk."""
-    from .batch import run_batch
-    from .inverse import Bounds
+    from terracone.apps.batch import run_batch
+    from terracone.inverse import Bounds
 
     cal = _load_calibration(calibration, terrain, library)
     if prior == "calibration" and cal is None:
@@ -1289,7 +1289,7 @@ def report_cmd(results, out, map_by):
     Many profiles (predict JSON, a batch directory) get a summary of the field first, a map when
     they carry coordinates, a sortable table and a panel per profile.
     """
-    from .report import build_report
+    from terracone.report import build_report
 
     click.echo(f"wrote {build_report(results, out, map_by=map_by)}")
 
@@ -1302,7 +1302,7 @@ def report_cmd(results, out, map_by):
 @click.option("--workers", type=int, default=None, help="Processes (default 2).")
 def reproduce_cmd(out, quick, workers):
     """Re-create the paper's LETE sand and KRC case studies (synthetic data), with figures, tables and a report."""
-    from .reproduce import reproduce
+    from terracone.apps.reproduce import reproduce
 
     s = reproduce(out, quick=quick, workers=workers)
     click.echo(f"report: {s.report}")
@@ -1380,7 +1380,7 @@ def sites_cmd(
     ci_file, by, radius, plates, target_cv, bootstrap, seed, file_units, out, as_json, **opts
 ):
     """Site statistics: pushes pooled per site (median terrain, push-to-push CV, pushes needed)."""
-    from .inverse.sites import default_sinkages, site_statistics
+    from terracone.inverse.sites.statistics import default_sinkages, site_statistics
 
     if by is None and radius is None:
         raise click.UsageError("give --by COLUMN or --radius L to group the profiles into sites")
@@ -1451,7 +1451,7 @@ def sites_cmd(
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def design_cmd(ci_file, prior, plates, candidates, plate_noise, as_json, **opts):
     """Value of information: which one extra test narrows the predicted plate pressure most."""
-    from .inverse.design import parse_candidates, plan_test
+    from terracone.inverse.sites.design import parse_candidates, plan_test
 
     if opts["layers"] > 1:
         raise click.UsageError("design works on one-layer fits; --layers is not supported here")

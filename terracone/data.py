@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from . import units as u
-from .cone import Cone, get_cone
-from .vocabulary import alias
+from terracone.physics import units as u
+from terracone.physics.cone import Cone, get_cone
+from terracone.vocabulary import alias
 
 __all__ = [
     "CIProfile",
@@ -181,7 +181,7 @@ class ProfileSet:
     """Many CI profiles as flat columns: the package's one profile data model.
 
     Every reader of :mod:`terracone.io` produces it, the solvers of
-    :mod:`terracone.inverse` consume it and :func:`terracone.batch.run_batch`
+    :mod:`terracone.inverse` consume it and :func:`terracone.apps.batch.run_batch`
     streams it chunk by chunk.  Profile ``i`` holds the points
     ``offsets[i]:offsets[i+1]`` of ``depth``, ``ci`` and ``rows``; a
     :class:`CIProfile` is one element (``profiles[i]``).
@@ -700,7 +700,7 @@ class TerrainParameters:
 
     def _repr_html_(self) -> str:
         """A table with SI and US columns, for Jupyter."""
-        from .report.notebook import parameters_html
+        from terracone.notebook import parameters_html
 
         return parameters_html(self)
 
@@ -746,9 +746,9 @@ class TerrainShear:
     modulus, tau = (c + sigma tan(phi)) (1 - exp(-j/K)) ([2]_; the same form
     as eq. (2-4) of [1]_, which applies it to the cone-metal interface with
     cc, phic, Kc: :class:`TerrainParameters`).  Measured with shear rings or
-    plates (:func:`terracone.shear.fit_shear`), tabulated for reference
-    terrains (:mod:`terracone.library`), exported as Chrono's Mohr and
-    Janosi parameters (:mod:`terracone.export`).
+    plates (:func:`terracone.physics.shear.fit_shear`), tabulated for reference
+    terrains (:mod:`terracone.apps.library`), exported as Chrono's Mohr and
+    Janosi parameters (:mod:`terracone.apps.export`).
 
     Attributes
     ----------

@@ -13,7 +13,7 @@ Many results (:class:`PredictionResults`) are written by one JSON writer
 writer (:func:`to_table`, :func:`write_parquet`), both following the schema
 :data:`SCHEMA` (``"terracone.prediction/1"``), documented field by field in
 ``docs/results.md``.  ``terracone predict --json`` and ``--parquet``,
-:func:`terracone.reproduce.reproduce`, ``terracone demo --out`` and
+:func:`terracone.apps.reproduce.reproduce`, ``terracone demo --out`` and
 ``terracone batch`` write through them, and ``terracone report`` tells a
 prediction document by its ``schema`` key (:func:`check_schema`).
 
@@ -43,8 +43,8 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from . import units as u
-from .data import InputError, TerrainParameters
+from terracone.data import InputError, TerrainParameters
+from terracone.physics import units as u
 
 __all__ = [
     "SCHEMA",
@@ -234,7 +234,7 @@ class PredictionResult:
         Largest number of consecutive residuals of one sign.
     lack_of_fit : str or None
         None, or why the model does not follow the data
-        (:func:`terracone.metrics.check_fit`): then the parameters must not
+        (:func:`terracone.physics.metrics.check_fit`): then the parameters must not
         be taken as the terrain's.
     depth, ci, ci_model : ndarray
         Base depths [m], measured and model CI [kPa].
@@ -254,9 +254,9 @@ class PredictionResult:
         The profile's cone, its metadata, notes of the readers and the fit,
         its file, and further keys of the JSON document.
     posterior : PosteriorResult or None
-        Posterior of the fit (:func:`terracone.inverse.uncertainty.posterior_for_result`).
+        Posterior of the fit (:func:`terracone.inverse.uncertainty.posterior.posterior_for_result`).
     layered : LayeredResult or None
-        Layered fit of the profile (:func:`terracone.layers.fit_layered`).
+        Layered fit of the profile (:func:`terracone.physics.layers.fit_layered`).
     layered_posterior : LayeredPosterior or None
         Posterior of the layered fit.
     plate_curves : list of PlateCurve
@@ -334,7 +334,7 @@ class PredictionResult:
 
     def _repr_html_(self) -> str:
         """A table of the parameters (SI and US) and the fit, for Jupyter."""
-        from .report.notebook import prediction_html
+        from terracone.notebook import prediction_html
 
         return prediction_html(self)
 
@@ -404,7 +404,7 @@ class PredictionResults(list):
     """A list of :class:`PredictionResult` that shows as one table in Jupyter."""
 
     def _repr_html_(self) -> str:
-        from .report.notebook import predictions_html
+        from terracone.notebook import predictions_html
 
         return predictions_html(self)
 
@@ -506,7 +506,7 @@ def to_document(
     extra
         Further top-level keys (e.g. ``synthetic``, ``note``), recorded as given.
     """
-    from . import __version__
+    from terracone import __version__
 
     units = u.check_system(units)
     doc: dict[str, Any] = {
@@ -526,7 +526,7 @@ def to_document(
 
 def dumps(obj: Any, indent: int | None = 2) -> str:
     """JSON text of a terracone document (numpy values, tuples and paths allowed)."""
-    from .io import json_default
+    from terracone.io import json_default
 
     return json.dumps(obj, indent=indent, default=json_default)
 
@@ -558,7 +558,7 @@ def check_schema(doc: Any, source: str | None = None) -> int:
         When ``doc`` names another schema or a version this terracone cannot
         read (the message names ``source``).
     """
-    from . import __version__
+    from terracone import __version__
 
     where = f"{source}: " if source else ""
     if not isinstance(doc, Mapping):

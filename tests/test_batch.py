@@ -1,4 +1,4 @@
-"""Tests of terracone.batch: streaming, Dask execution, errors, resume.
+"""Tests of terracone.apps.batch: streaming, Dask execution, errors, resume.
 
 A real dask.distributed cluster (a scheduler and two worker processes on
 127.0.0.1) is started once for the module; most runs use it through
@@ -26,12 +26,12 @@ import pyarrow.parquet as pq
 import pytest
 
 from terracone import cone_index, get_cone
-from terracone import units as u
-from terracone.batch import OUTPUT_COLUMNS, _fit_chunk, _FitSettings, run_batch
+from terracone.apps.batch import OUTPUT_COLUMNS, _fit_chunk, _FitSettings, run_batch
 from terracone.data import CIProfile, ProfileSet, SourceFile
 from terracone.inverse.bounds import Bounds
 from terracone.io import write_ci_profiles
 from terracone.io.stream import CsvLines
+from terracone.physics import units as u
 
 H = get_cone("asabe-large").height
 #: Columns that legitimately differ between two runs of the same input.
@@ -231,7 +231,7 @@ def test_any_pool_gives_the_output_of_the_dask_run(cluster, data, reference, tmp
 
 
 def test_a_failing_chunk_on_a_map_pool_becomes_error_rows(data, tmp_path, monkeypatch):
-    import terracone.batch as batch
+    import terracone.apps.batch as batch
 
     second = {p.id for p in data["profiles"][16:32]}  # chunk 1 at 16 profiles a chunk
 
@@ -447,7 +447,7 @@ def test_non_contiguous_ids_reported(cluster, tmp_path):
 
 def test_fit_chunk_isolates_a_solver_failure(monkeypatch):
     """One profile that breaks the vectorised solver does not take its chunk down."""
-    import terracone.batch as batch
+    import terracone.apps.batch as batch
 
     profiles = make_profiles(9, seed=7)
     real = batch.solve_exact_many
@@ -490,7 +490,7 @@ def test_kill_and_resume_equals_uninterrupted(cluster, data, tmp_path):
     script = textwrap.dedent(
         f"""
         import time
-        from terracone.batch import run_batch
+        from terracone.apps.batch import run_batch
 
         def slow(done, total):
             time.sleep(0.4)  # give the test time to kill us between chunks
@@ -628,7 +628,7 @@ def test_bad_settings_and_inputs_are_refused(tmp_path, data):
 
 def test_calibration_and_rm1_match_predict(cluster, tmp_path):
     """With a calibration batch equals the single-profile predict (same solver path)."""
-    from terracone.inverse.learn import Calibration
+    from terracone.inverse.learning.learn import Calibration
     from terracone.inverse.predict import predict
 
     profiles = make_profiles(5, seed=13)
@@ -785,7 +785,7 @@ def test_depth_reference_and_window(tmp_path):
 def test_layers_columns(tmp_path):
     """--layers 2 in batch: a generated tillage-pan profile prefers two layers."""
     from terracone.data import TerrainParameters
-    from terracone.layers import layered_cone_index
+    from terracone.physics.layers import layered_cone_index
 
     z = np.linspace(0.0, 0.45, 19)
     top = TerrainParameters(50.0, 8000.0, 0.4, 5.0, 12.0)

@@ -8,10 +8,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from terracone import units as u
-from terracone.bevameter import METHODS, PlateFit, PlatesFit, fit_plate_test, fit_plates
 from terracone.data import InputError, PlateTest
-from terracone.plate import plate_pressure
+from terracone.inverse.bevameter.plates import (
+    METHODS,
+    PlateFit,
+    PlatesFit,
+    fit_plate_test,
+    fit_plates,
+)
+from terracone.physics import units as u
+from terracone.physics.plate import plate_pressure
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 CULLINAN = SHARED / "data" / "cullinan-sand"

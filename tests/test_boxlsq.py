@@ -15,8 +15,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import lsq_linear
 
-from terracone.cone import cone_index_basis
-from terracone.inverse.boxlsq import box_lsq3, gram
+from terracone.inverse.solver.boxlsq import box_lsq3, gram
+from terracone.physics.cone import cone_index_basis
 
 # ---------------------------------------------------------------------------
 # independent reference

@@ -21,7 +21,7 @@ from conftest import require_shared
 
 from terracone import __version__
 from terracone.cli import cli
-from terracone.cone import CONES, cone_index
+from terracone.physics.cone import CONES, cone_index
 
 INCH = 0.0254  # m, exact
 LBF = 4.4482216152605  # N, exact
@@ -305,7 +305,7 @@ def test_predict_us_units_by_hand(tmp_path: Path):
 def test_predict_layers_option(tmp_path: Path):
     # a strong top over a weak subsoil (interface 10 cm): --layers 2 prefers two layers
     from terracone.data import TerrainParameters
-    from terracone.layers import layered_cone_index
+    from terracone.physics.layers import layered_cone_index
 
     z = np.arange(0.0, 0.305, 0.02)
     top = TerrainParameters(kc=50.0, kphi=8000.0, n=0.5, cc=2.0, phic_deg=20.0)
@@ -595,7 +595,7 @@ def test_fit_plates_save_as_then_export(tmp_path: Path, monkeypatch):
 
 def test_demo_recovers_the_example_truth(tmp_path: Path):
     """The README's main job, against the tolerances docs/learn.md states for it."""
-    from terracone.example import TRUTH as T
+    from terracone.apps.example import TRUTH as T
 
     out = tmp_path / "demo"
     r = run("demo", "--out", str(out))
@@ -631,7 +631,7 @@ def test_demo_recovers_the_example_truth(tmp_path: Path):
     for x in plates:
         assert x["R2"] >= 0.99 and x["CV"] <= 0.06, x
     # the same learned parameters through `terracone evaluate`, and a report of every part
-    from terracone.example import PLATES_FILE, example_dir
+    from terracone.apps.example import PLATES_FILE, example_dir
 
     ev = ok_json(
         "evaluate",

@@ -20,7 +20,7 @@ import pytest
 from click.testing import CliRunner
 
 from terracone.cli import cli
-from terracone.cone import cone_index
+from terracone.physics.cone import cone_index
 
 Z_CM = np.arange(0.0, 31.0, 2.0)  # 16 readings a profile
 TRUTH = {  # noise-free profiles: n is recovered to the solver's precision

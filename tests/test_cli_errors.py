@@ -19,7 +19,7 @@ import pytest
 from click.testing import CliRunner
 
 from terracone.cli import cli
-from terracone.cone import cone_index
+from terracone.physics.cone import cone_index
 
 
 def run(*args: str):

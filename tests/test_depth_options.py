@@ -16,10 +16,10 @@ import pytest
 from click.testing import CliRunner
 
 from terracone.cli import cli
-from terracone.cone import CONES, cone_index
 from terracone.data import CIProfile
 from terracone.inverse.predict import predict
 from terracone.io import read_ci_profiles
+from terracone.physics.cone import CONES, cone_index
 
 CONE = CONES["asabe-large"]
 H = CONE.height

@@ -9,10 +9,10 @@ import pytest
 from click.testing import CliRunner
 
 from terracone.cli import cli
-from terracone.cone import cone_index, cone_index_basis, get_cone
 from terracone.data import CIProfile
 from terracone.inverse import Bounds
-from terracone.inverse.design import parse_candidates, plan_test
+from terracone.inverse.sites.design import parse_candidates, plan_test
+from terracone.physics.cone import cone_index, cone_index_basis, get_cone
 
 CONE = get_cone("asabe-large")
 Z = np.arange(0.0, 0.451, 0.025)
@@ -123,7 +123,7 @@ def test_cli_design_ci_only_profile_ranks_plate_above_ci(tmp_path):
 
 
 def test_cli_design_with_calibration(tmp_path):
-    from terracone.inverse.learn import Calibration
+    from terracone.inverse.learning.learn import Calibration
 
     cal = Calibration("sand", "rm0", None, None, 11.0, 5.0, 50.0, 1500.0, 0.9)
     cf = tmp_path / "cal.json"

@@ -25,8 +25,8 @@ from scipy.optimize import differential_evolution
 from terracone import CIProfile, cone_index
 from terracone.inverse import Bounds, predict
 from terracone.inverse.predict import rmsd_objective
-from terracone.plate import pressure_law
-from terracone.units import kc_from_si, kphi_from_si
+from terracone.physics.plate import pressure_law
+from terracone.physics.units import kc_from_si, kphi_from_si
 
 TAN15 = math.tan(math.radians(15.0))
 

@@ -1,4 +1,4 @@
-"""Export of terrains (terracone.export)."""
+"""Export of terrains (terracone.apps.export)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from terracone.data import TerrainParameters
-from terracone.export import (
+from terracone.apps.export import (
     CHRONO_KEYS,
     PLAIN_FIELDS,
     export_terrain,
@@ -18,7 +17,8 @@ from terracone.export import (
     to_plain,
     write_plain_csv,
 )
-from terracone.library import Library, TerrainRecord, reference_records
+from terracone.apps.library import Library, TerrainRecord, reference_records
+from terracone.data import TerrainParameters
 
 
 @pytest.fixture
@@ -186,7 +186,7 @@ CHRONO_FORMAT = """{
 
 
 def test_complete_chrono_file_matches_chronos_format(tmp_path, lete):
-    from terracone.export import DEFAULT_DAMPING_R, DEFAULT_ELASTIC_K, chrono_scm
+    from terracone.apps.export import DEFAULT_DAMPING_R, DEFAULT_ELASTIC_K, chrono_scm
 
     ref = json.loads(CHRONO_FORMAT)
     scm = chrono_scm(lete)
@@ -213,7 +213,7 @@ def test_complete_chrono_file_matches_chronos_format(tmp_path, lete):
 
 
 def test_chrono_options_and_elastic_k_check():
-    from terracone.export import chrono_scm
+    from terracone.apps.export import chrono_scm
 
     cone = {"kc": 20.0, "kphi": 900.0, "n": 0.8, "cc": 2.5, "phic_deg": 24.0}
     scm = chrono_scm(cone, "cone", cohesion_kpa=1.5, friction_deg=30.0, janosi_m=0.01)
@@ -265,8 +265,8 @@ def _predict_doc(units: str = "si") -> dict:
 
 
 def test_load_results_pick_and_draw(tmp_path):
-    from terracone.export import draw_samples, load_results, pick_profile
-    from terracone.units import INCH, LBF
+    from terracone.apps.export import draw_samples, load_results, pick_profile
+    from terracone.physics.units import INCH, LBF
 
     path = tmp_path / "p.json"
     path.write_text(json.dumps(_predict_doc("us")))
@@ -298,7 +298,7 @@ def test_load_results_pick_and_draw(tmp_path):
 
 
 def test_geojson_features(tmp_path):
-    from terracone.export import geojson, load_results
+    from terracone.apps.export import geojson, load_results
 
     (tmp_path / "p.json").write_text(json.dumps(_predict_doc()))
     doc, unlocated = geojson(load_results(tmp_path / "p.json"))
@@ -315,7 +315,7 @@ def test_geojson_features(tmp_path):
 def test_write_scm_samples_and_geojson_files(tmp_path):
     import csv
 
-    from terracone.export import load_results, write_geojson, write_scm_samples
+    from terracone.apps.export import load_results, write_geojson, write_scm_samples
 
     (tmp_path / "p.json").write_text(json.dumps(_predict_doc()))
     res = load_results(tmp_path / "p.json")

@@ -1,4 +1,4 @@
-"""Lack-of-fit diagnostics (terracone.metrics.check_fit) on hand-built cases.
+"""Lack-of-fit diagnostics (terracone.physics.metrics.check_fit) on hand-built cases.
 
 Every expected value below is counted or computed by hand in the comments:
 run lengths, the Wald-Wolfowitz runs statistic, 3-point running medians and
@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from terracone.metrics import FitCheck, check_fit
+from terracone.physics.metrics import FitCheck, check_fit
 
 
 def _rising(n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -1,4 +1,4 @@
-"""Compiled kernels (terracone.inverse.kernels) against their numpy references.
+"""Compiled kernels (terracone.inverse.solver.kernels) against their numpy references.
 
 Each kernel is compared with the numpy implementation it replaces, which
 stays the reference (itself tested against closed forms, quadrature and
@@ -26,13 +26,13 @@ import numpy as np
 import pytest
 
 from terracone import cone_index, jit
-from terracone.cone import cone_index_basis, get_cone
 from terracone.data import CIProfile
 from terracone.inverse import Bounds, predict
-from terracone.inverse.boxlsq import box_lsq3, box_lsq3_reference, gram
-from terracone.inverse.exact import identify_extents, identify_scans, scan_extents
-from terracone.inverse.many import first_min, parabola_vertices, solve_exact_many
-from terracone.plate import pressure_law
+from terracone.inverse.solver.boxlsq import box_lsq3, box_lsq3_reference, gram
+from terracone.inverse.solver.exact import identify_extents, identify_scans, scan_extents
+from terracone.inverse.solver.many import first_min, parabola_vertices, solve_exact_many
+from terracone.physics.cone import cone_index_basis, get_cone
+from terracone.physics.plate import pressure_law
 
 CONE = get_cone("asabe-large")
 LAWS = {"rm0": pressure_law("rm0"), "rm1": pressure_law("rm1", r_min=0.004)}
@@ -48,7 +48,7 @@ def both_paths():
 def test_basis_point_equals_cone_index_basis(law):
     """Kernel columns A, B, C equal the numpy closed forms to 1e-12 (tip entering, shallow,
     deep below the surface where the binomial series takes over)."""
-    from terracone.inverse.kernels import basis_point
+    from terracone.inverse.solver.kernels import basis_point
 
     H = CONE.height
     z = np.concatenate([[-H + 1e-6, -H / 2, 0.0, 1e-4], np.linspace(0.005, 0.6, 25), [3.0, 8.0]])
@@ -64,7 +64,7 @@ def test_basis_point_equals_cone_index_basis(law):
 def test_columns_from_the_depth_table_equal_cone_index_basis(law):
     """The cells' columns (n-free parts from a per-profile table, closed form or series per
     depth, powers u1^(n+1) given or computed) equal the numpy closed forms to 1e-12."""
-    from terracone.inverse.kernels import basis_columns, basis_rows, columns_at, depth_table
+    from terracone.inverse.solver.kernels import basis_columns, basis_rows, columns_at, depth_table
 
     H, R = CONE.height, CONE.radius
     z = np.concatenate([[-H + 1e-6, -H / 2, 0.0, 1e-4], np.linspace(0.005, 0.6, 25), [3.0, 8.0]])
@@ -186,7 +186,7 @@ def test_identify_extents_equal_the_full_scan(law):
 def test_parabola_vertex_twins():
     """The vertex of a parabola through three of its points (hand-made bracket), NaN without a
     bracket; compiled and numpy alike."""
-    from terracone.inverse.kernels import parabola_vertex
+    from terracone.inverse.solver.kernels import parabola_vertex
 
     q = lambda x: 3.0 * (x - 0.37) ** 2 + 2.0  # noqa: E731
     xl, xm, xr = np.array([0.1, 0.2, 0.0]), np.array([0.35, 0.4, 0.2]), np.array([0.6, 0.9, 0.3])
@@ -304,12 +304,12 @@ KERNEL_RUN = """
     {pre}
     import numpy as np
     from terracone import jit
-    from terracone.inverse.boxlsq import box_lsq3
+    from terracone.inverse.solver.boxlsq import box_lsq3
     if not jit.enabled():
         print("disabled"); raise SystemExit(0)
     G = np.eye(3)[None] * 2.0
     box_lsq3(G, np.ones((1, 3)), np.ones(1), np.zeros((1, 3)), np.ones((1, 3)))
-    from terracone.inverse import kernels
+    from terracone.inverse.solver import kernels
     d = kernels.box_lsq3_flat
     print(os.environ.get("NUMBA_CACHE_DIR"), sum(d.stats.cache_hits.values()),
           sum(d.stats.cache_misses.values()))
@@ -358,8 +358,8 @@ def test_check_fits_equal_check_fit():
     """batch's check_fits (compiled screen + check_fit for the flagged) gives check_fit's
     longest run and lack-of-fit reason for every profile: clean, noisy, clustered residuals,
     a low R2 and a layered (falling) profile."""
-    from terracone.batch import check_fits
-    from terracone.metrics import check_fit
+    from terracone.apps.batch import check_fits
+    from terracone.physics.metrics import check_fit
 
     rng = np.random.default_rng(11)
     Z = 40

@@ -10,10 +10,11 @@ from click.testing import CliRunner
 
 from terracone import CIProfile, TerrainParameters
 from terracone.cli import cli
-from terracone.cone import get_cone
+from terracone.inverse.layered import fit_layered, layered_posterior
+from terracone.inverse.uncertainty.posterior import LABELS
 from terracone.io import write_ci_profiles
-from terracone.layers import fit_layered, layered_cone_index
-from terracone.uncertainty import LABELS, layered_posterior
+from terracone.physics.cone import get_cone
+from terracone.physics.layers import layered_cone_index
 
 TOP = TerrainParameters(50.0, 8000.0, 0.4, 5.0, 12.0)  # a strong top (a tillage pan)
 BELOW = TerrainParameters(20.0, 1500.0, 1.0, 0.0, 12.0)

@@ -1,4 +1,4 @@
-"""Layered terrain (terracone.layers) against independent references.
+"""Layered terrain (terracone.physics.layers) against independent references.
 
 References: the homogeneous model (a stack of identical layers must be one
 layer), a closed form of the two-layer integral for n = 1, and generated
@@ -10,10 +10,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terracone.cone import CONES, cone_index
 from terracone.data import CIProfile, TerrainParameters
-from terracone.layers import LayeredResult, fit_layered, layered_basis, layered_cone_index
-from terracone.plate import pressure_law
+from terracone.inverse.layered import LayeredResult, fit_layered
+from terracone.physics.cone import CONES, cone_index
+from terracone.physics.layers import layered_basis, layered_cone_index
+from terracone.physics.plate import pressure_law
 
 CONE = CONES["asabe-large"]
 H = CONE.height  # 37.8 mm

@@ -18,7 +18,7 @@ import pytest
 
 from terracone import CIProfile, PlateTest, cone_index, plate_pressure
 from terracone.inverse import predict
-from terracone.inverse.learn import Calibration, LearnResult, learn
+from terracone.inverse.learning.learn import Calibration, LearnResult, learn
 
 TRUTH = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.5, phic=12.0)
 PAIR = (0.0375, 0.05)
@@ -405,8 +405,8 @@ def test_lower_bound_of_the_global_minimum_against_a_dense_brute_force_grid(mode
     (learn's target is 4%).
     """
     from terracone.inverse import Bounds
-    from terracone.inverse.learn import learn_problem
-    from terracone.inverse.learnsearch import branch_points
+    from terracone.inverse.learning.learn import learn_problem
+    from terracone.inverse.learning.search import branch_points
 
     profiles, plates = noisy_site(model, r_min, seed)
     b = Bounds(n=(0.4, 1.2), phic=(0.0, 30.0))
@@ -475,7 +475,7 @@ def test_same_parameters_without_avx_and_on_a_nehalem_blas():
         "import json, sys\n"
         "sys.path.insert(0, 'tests')\n"
         "from test_learn import noisy_site\n"
-        "from terracone.inverse.learn import learn\n"
+        "from terracone.inverse.learning.learn import learn\n"
         "pr, pl = noisy_site('rm1', 0.02, 11)\n"
         "p = learn(pr, pl, model='rm1').params\n"
         "print(json.dumps([p.kc, p.kphi, p.n, p.cc, p.phic_deg, p.r_min]))\n"

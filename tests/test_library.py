@@ -1,4 +1,4 @@
-"""Terrain library (terracone.library)."""
+"""Terrain library (terracone.apps.library)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from terracone.library import (
+from terracone.apps.library import (
     REFERENCE_CITATION,
     Library,
     TerrainRecord,

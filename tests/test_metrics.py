@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from terracone import agreement
-from terracone.metrics import cv, pearson_r, rmsd
+from terracone.physics.metrics import cv, pearson_r, rmsd
 
 
 def test_hand_example():

@@ -17,9 +17,9 @@ import pytest
 from conftest import shared_dir
 
 from terracone import CIProfile, InputError, TerrainParameters, cone_index
-from terracone import units as tu
 from terracone.inverse import Bounds, PredictionResult, predict, predict_many
-from terracone.inverse.learn import Calibration
+from terracone.inverse.learning.learn import Calibration
+from terracone.physics import units as tu
 
 INCH = 0.0254  # m, exact
 LBF = 4.4482216152605  # N, exact
@@ -175,7 +175,7 @@ def test_us_units_by_hand():
     np.testing.assert_allclose(us["depth"], prof.depth / INCH, rtol=1e-12)
     np.testing.assert_allclose(us["ci"], prof.ci / PSI, rtol=1e-12)
     np.testing.assert_allclose(us["ci_model"], res.ci_model / PSI, rtol=1e-12)
-    # and the constants agree with terracone.units
+    # and the constants agree with terracone.physics.units
     assert tu.INCH == INCH and tu.LBF == LBF
     assert PSI == pytest.approx(6.894757293168361, rel=1e-15)
     # recovered values in US units are the paper's US columns (4 significant figures)

@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 from scipy.optimize import lsq_linear
 
-from terracone.cone import cone_index, get_cone
 from terracone.data import CIProfile, InputError, ProfileSet
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.many import solve_exact_many
 from terracone.inverse.predict import mgs_lstsq, polish_many, predict, predict_many
+from terracone.inverse.solver.many import solve_exact_many
 from terracone.jit import enabled
+from terracone.physics.cone import cone_index, get_cone
 
 LARGE, SMALL = get_cone("asabe-large"), get_cone("asabe-small")
 #: The compiled kernels treat each profile alone whatever the set around it (a set's
@@ -286,7 +286,7 @@ def test_polish_compiled_equals_its_numpy_twin(seed):
 
     from terracone.jit import enabled
 
-    pol = importlib.import_module("terracone.inverse.polish")
+    pol = importlib.import_module("terracone.inverse.solver.polish")
     if not enabled():
         pytest.skip("kernels switched off (TERRACONE_NUMBA=0): nothing compiled to compare")
     rng = np.random.default_rng(seed)

@@ -8,7 +8,7 @@ interval covers half of its search range or more is "undetermined".
 
 The reference here computes that definition by brute force, independently
 of terracone's solver: with phic held fixed the forward model
-(terracone.cone.cone_index) is linear in kc, kphi and cc at each n, so its
+(terracone.physics.cone.cone_index) is linear in kc, kphi and cc at each n, so its
 three columns are evaluated by calling the forward model with unit
 parameters; n is scanned on a fine grid, each n's bounded least squares is
 solved by scipy.optimize.lsq_linear, and for kc, kphi and cc each pinned
@@ -27,9 +27,9 @@ import numpy as np
 import pytest
 from scipy.optimize import lsq_linear
 
-from terracone.cone import cone_index
 from terracone.data import CIProfile
 from terracone.inverse import Bounds, predict
+from terracone.physics.cone import cone_index
 
 CHI2_1_95 = 3.841458820694124  # scipy.stats.chi2.ppf(0.95, 1)
 PHIC = 20.0  # held fixed (bounds phic=20:20), as a calibration does

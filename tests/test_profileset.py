@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from terracone.cone import get_cone
 from terracone.data import CIProfile, InputError, ProfileSet, depth_window
+from terracone.physics.cone import get_cone
 
 
 def _profiles():

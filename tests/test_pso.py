@@ -1,4 +1,4 @@
-"""The particle swarm of the paper's processes (terracone.inverse.pso).
+"""The particle swarm of the paper's processes (terracone.inverse.solver.pso).
 
 References are closed forms: the minimiser of a shifted sphere and of
 Rosenbrock's function, the corner minimiser of a linear function on a box,
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terracone.inverse.pso import PSOResult, pso
+from terracone.inverse.solver.pso import PSOResult, pso
 
 
 def sphere(center):

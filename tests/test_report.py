@@ -21,13 +21,14 @@ import pytest
 from click.testing import CliRunner
 
 import terracone
-from terracone import units as u
+from terracone.apps.example import CI_FILE, PLATES_FILE, example_dir
 from terracone.cli import cli
 from terracone.data import TerrainParameters
-from terracone.example import CI_FILE, PLATES_FILE, example_dir
 from terracone.inverse.evaluate import cross_table
-from terracone.inverse.learn import LearnResult
+from terracone.inverse.learning.learn import LearnResult
+from terracone.inverse.solver.ridge import ridge_profile
 from terracone.io import read_plate_tests
+from terracone.physics import units as u
 from terracone.report import build_report, result_kind
 from terracone.report import figures as F
 from terracone.report.browser import browser_check, find_chromium, screenshot
@@ -302,7 +303,7 @@ def test_figures_write_png_and_svg_with_units(tmp_path):
 def test_ridge_is_flat_in_phic_and_fixes_n():
     z = np.linspace(0, 0.3, 31)
     ci = terracone.cone_index(z, kc=80.14, kphi=4727.2, n=0.74, phic=12.5)
-    r = F.ridge_data(z, ci)
+    r = ridge_profile(z, ci)
     prof_phic = r["rmsd"].min(axis=0)
     assert np.ptp(prof_phic) <= 1e-6 * max(1.0, prof_phic.max())  # exact ridge
     assert abs(r["best"]["n"] - 0.74) < 0.02

@@ -21,17 +21,17 @@ import pytest
 from click.testing import CliRunner
 
 import terracone
-from terracone.batch import BatchSummary
+from terracone.apps.batch import BatchSummary
 from terracone.cli import cli
 from terracone.data import TerrainParameters
 from terracone.inverse import PredictionResults, predict_many
-from terracone.inverse.learn import LearnResult
-from terracone.layers import LayeredResult
+from terracone.inverse.layered import LayeredResult
+from terracone.inverse.learning.learn import LearnResult
+from terracone.notebook import fmt_value
 from terracone.report import build_report
 from terracone.report import fields as FL
 from terracone.report import figures as F
 from terracone.report.browser import BrowserSession, find_chromium
-from terracone.report.tables import fmt_value
 
 REAL = (
     Path(__file__).resolve().parents[1]
@@ -269,7 +269,7 @@ def test_coordinates_from_metadata(meta, expected):
 
 
 def test_batch_directory_report_of_the_real_field(real_json, tmp_path):
-    from terracone.batch import run_batch
+    from terracone.apps.batch import run_batch
 
     s = run_batch(_need_real(), tmp_path / "b", workers=1, quiet=True)
     assert s.profiles == N_REAL

@@ -14,13 +14,13 @@ import pytest
 from click.testing import CliRunner
 from PIL import Image
 
-from terracone import units as u
+from terracone.apps.reproduce import KRC_FORCE_LIMIT, WONG_LETE, reproduce
 from terracone.cli import cli
 from terracone.io import read_ci_profiles, read_plate_tests
+from terracone.physics import units as u
 from terracone.report import build_report
 from terracone.report.browser import browser_check, find_chromium
 from terracone.report.paper import published_agreement, published_parameters
-from terracone.reproduce import KRC_FORCE_LIMIT, WONG_LETE, reproduce
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +35,7 @@ def pool():
             return super().map(fn, tasks, **kwargs)
 
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr("terracone.reproduce.ProcessPoolExecutor", Executor)
+        mp.setattr("terracone.apps.reproduce.ProcessPoolExecutor", Executor)
         yield recorder
 
 

@@ -11,7 +11,6 @@ import pytest
 from click.testing import CliRunner
 
 from terracone.cli import cli
-from terracone.cone import cone_index
 from terracone.data import CIProfile, InputError, TerrainParameters
 from terracone.inverse import predict
 from terracone.io import (
@@ -21,6 +20,7 @@ from terracone.io import (
     write_results_json,
     write_results_parquet,
 )
+from terracone.physics.cone import cone_index
 from terracone.report import build_report, result_kind
 from terracone.result import (
     PARQUET_COLUMNS,
@@ -210,7 +210,7 @@ def test_report_reads_a_document_by_its_schema_key(tmp_path):
 
 
 def test_table_has_batch_columns_and_the_results_values(tmp_path):
-    from terracone.batch import OUTPUT_COLUMNS
+    from terracone.apps.batch import OUTPUT_COLUMNS
 
     results = [_result(0), _result(1), _error_result()]
     path = write_results_parquet(tmp_path / "p.parquet", results, "us")
@@ -313,7 +313,7 @@ def test_predict_json_and_parquet_agree_with_python(ci_file, tmp_path, units):
 
 
 def test_batch_part_files_have_the_predict_table_schema(ci_file, tmp_path):
-    from terracone.batch import run_batch
+    from terracone.apps.batch import run_batch
 
     pq_path = tmp_path / "p.parquet"
     r = CliRunner().invoke(cli, ["predict", str(ci_file), "--parquet", str(pq_path)])

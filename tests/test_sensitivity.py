@@ -1,4 +1,4 @@
-"""terracone.sensitivity: Sobol indices of the cone index.
+"""terracone.apps.sensitivity: Sobol indices of the cone index.
 
 Section 3.3 of Huang et al. remarks that the cone-terrain shear deformation
 parameter Kc has little effect and leaves it out of the search.  Over the
@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terracone.sensitivity import BOXES, SOBOL_NAMES, sobol_ci
+from terracone.apps.sensitivity import BOXES, SOBOL_NAMES, sobol_ci
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""Janosi-Hanamoto shear fits (terracone.shear)."""
+"""Janosi-Hanamoto shear fits (terracone.physics.shear)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from terracone.data import InputError, ShearTest
-from terracone.shear import ShearFit, fit_shear, fit_shear_test, janosi_hanamoto
+from terracone.inverse.bevameter.shear import ShearFit, fit_shear, fit_shear_test
+from terracone.physics.shear import shear_stress_janosi_hanamoto
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 CULLINAN = SHARED / "data" / "cullinan-sand"
@@ -26,7 +27,7 @@ def jh_test(sigma: float, j=None, tid=None, c=C, phi=PHI, K=K) -> ShearTest:
 
 def test_janosi_hanamoto_shape():
     j = np.array([0.0, K, 3 * K])
-    tau = janosi_hanamoto(j, 10.0, K)
+    tau = shear_stress_janosi_hanamoto(j, 10.0, K)
     assert tau[0] == 0.0
     assert tau[1] == pytest.approx(10.0 * (1 - math.exp(-1)))
     assert tau[2] == pytest.approx(9.502129316, rel=1e-9)  # 95 % at j = 3K

@@ -11,11 +11,10 @@ import pytest
 from click.testing import CliRunner
 
 from terracone.cli import cli
-from terracone.cone import cone_index
 from terracone.data import CIProfile
-from terracone.inverse.learn import Calibration
-from terracone.inverse.randeff import random_effects
-from terracone.inverse.sites import (
+from terracone.inverse.learning.learn import Calibration
+from terracone.inverse.sites.randeff import random_effects
+from terracone.inverse.sites.statistics import (
     UNCALIBRATED_NOTE,
     Grouping,
     default_sinkages,
@@ -23,7 +22,8 @@ from terracone.inverse.sites import (
     group_profiles,
     pushes_needed,
 )
-from terracone.plate import plate_pressure
+from terracone.physics.cone import cone_index
+from terracone.physics.plate import plate_pressure
 
 MARSDEN = (
     Path(__file__).resolve().parents[1] / "../shared/data/marsden-penetrometer/ci_profiles.csv"

@@ -1,4 +1,4 @@
-"""terracone.text: the plain-text tables the CLI and the demo share."""
+"""terracone.report.text: the plain-text tables the CLI and the demo share."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 
 from terracone.data import PlateTest, TerrainParameters
 from terracone.inverse.evaluate import cross_table
-from terracone.text import (
+from terracone.report.text import (
     curve_text,
     evaluate_text,
     format_value,
@@ -48,7 +48,7 @@ def test_table_layout_by_hand():
 
 def test_evaluate_text_converts_units_at_the_edge():
     # a plate generated from the very parameters evaluated: R = R2 = 1, RMSD = 0
-    from terracone.plate import plate_pressure
+    from terracone.physics.plate import plate_pressure
 
     s = np.linspace(0.01, 0.1, 10)
     p = TerrainParameters(102.0, 5301.0, 0.79)

@@ -18,27 +18,23 @@ import numpy as np
 import pytest
 from scipy.stats import binom
 
-from terracone import units as u
-from terracone.cone import improved
 from terracone.data import CIProfile
 from terracone.inverse import Bounds, predict
-from terracone.inverse.learn import Calibration
-from terracone.uncertainty import (
+from terracone.inverse.learning.learn import Calibration
+from terracone.inverse.uncertainty.likelihood import spline_sse, spline_sse_compiled
+from terracone.inverse.uncertainty.noise import ar1_coefficients, ar1_noise, estimate_correlation
+from terracone.inverse.uncertainty.posterior import (
     DETERMINED_BELOW,
     LABELS,
-    PARAM_NAMES,
     WEAKLY_BELOW,
-    CalibrationPrior,
-    ar1_coefficients,
-    ar1_noise,
-    estimate_correlation,
     identifiability_label,
-    integrated_time,
     posterior,
     posterior_for_result,
-    spline_sse,
-    spline_sse_compiled,
 )
+from terracone.inverse.uncertainty.priors import PARAM_NAMES, CalibrationPrior
+from terracone.inverse.uncertainty.sampler import integrated_time
+from terracone.physics import units as u
+from terracone.physics.cone import cone_index_huang
 
 TRUTH = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.0, phic=11.0)
 DEPTH = np.round(np.arange(0.0, 0.3001, 0.01), 6)
@@ -47,7 +43,7 @@ FAST = dict(draws=600, nwalkers=32, burn=200, thin=10)
 
 
 def profile(noise=0.03, rho=0.0, seed=1, truth=TRUTH, depth=DEPTH, pid="p"):
-    m = improved(depth, **truth)
+    m = cone_index_huang(depth, **truth)
     rng = np.random.default_rng(seed)
     e = ar1_noise(depth, rho, rng) if rho > 0 else rng.standard_normal(depth.size)
     return CIProfile(pid, depth, m * (1.0 + noise * e))
@@ -236,7 +232,7 @@ def test_correlation_estimate_recovers_rho():
 
 def test_given_noise_and_correlation():
     p = profile(seed=4)
-    sigma_true = 0.03 * float(np.sqrt(np.mean(improved(DEPTH, **TRUTH) ** 2)))
+    sigma_true = 0.03 * float(np.sqrt(np.mean(cone_index_huang(DEPTH, **TRUTH) ** 2)))
     res = posterior(p, noise=sigma_true, correlation="none", seed=1, **FAST)
     assert res.noise.sigma == sigma_true and not res.noise.sigma_estimated
     assert res.noise.rho == 0.0 and not res.noise.rho_estimated
@@ -283,7 +279,7 @@ def test_posterior_for_result_and_diagnostics():
 
 def test_rm1_us_bounds_fixed_parameters_and_finite_Kc():
     truth = dict(TRUTH)
-    m = improved(DEPTH, **truth, law=None)
+    m = cone_index_huang(DEPTH, **truth, law=None)
     p = CIProfile("p", DEPTH, m * (1 + 0.03 * np.random.default_rng(2).standard_normal(DEPTH.size)))
     # US bounds: kc/kphi prior density depends on n
     b = Bounds.parse("kc=0:100,kphi=0:200", "us")
@@ -300,7 +296,9 @@ def test_rm1_us_bounds_fixed_parameters_and_finite_Kc():
     res3 = posterior(p, model="rm1", r_min=0.008, seed=1, **FAST)
     assert res3.model == "rm1" and res3.r_min == 0.008
     # finite Kc (shear part tabulated separately)
-    pk = CIProfile("k", DEPTH, improved(DEPTH, **truth, Kc=0.01) * (1 + 0.03 * np.sin(DEPTH * 50)))
+    pk = CIProfile(
+        "k", DEPTH, cone_index_huang(DEPTH, **truth, Kc=0.01) * (1 + 0.03 * np.sin(DEPTH * 50))
+    )
     res4 = posterior(pk, Kc=0.01, seed=1, start=predict(pk).params, **FAST)
     assert res4.Kc == 0.01 and res4.diagnostics.coordinates == "plain"
     assert np.isfinite(res4.samples).all()
@@ -429,7 +427,7 @@ def test_coverage_of_n_with_the_bounds_prior():
 
 def test_reference_weight_is_the_gram_determinant_of_the_forward_model():
     """gram_half_logdet == 0.5 log det of the Gram matrix of directly whitened eq. (2-7) columns."""
-    from terracone.cone import cone_index_basis
+    from terracone.physics.cone import cone_index_basis
 
     phi = np.full(DEPTH.size - 1, 0.6)
     lik, z, y, w = _likelihood(None, phi)
@@ -470,11 +468,11 @@ def test_reference_weight_only_under_the_bounds_prior():
 
 
 def _likelihood(Kc, phi):
-    from terracone.plate import pressure_law
-    from terracone.uncertainty import Likelihood
+    from terracone.inverse.uncertainty.likelihood import Likelihood
+    from terracone.physics.plate import pressure_law
 
     z = DEPTH
-    y = improved(z, **TRUTH, Kc=Kc) * (1 + 0.03 * np.sin(40 * z))
+    y = cone_index_huang(z, **TRUTH, Kc=Kc) * (1 + 0.03 * np.sin(40 * z))
     w = np.sqrt(y * y + (0.05 * y.max()) ** 2)
     w = w / np.sqrt(np.mean(w * w))
     lik = Likelihood(
@@ -517,7 +515,7 @@ def test_compiled_log_likelihood_equals_numpy_and_the_forward_model(Kc, sampled_
     # independent reference: the closed-form model, weighted and whitened by hand
     for k in range(P):
         kc, kphi, n, cc, phic = params[k]
-        e = (improved(z, kc=kc, kphi=kphi, n=n, cc=cc, phic=phic, Kc=Kc) - y) / w
+        e = (cone_index_huang(z, kc=kc, kphi=kphi, n=n, cc=cc, phic=phic, Kc=Kc) - y) / w
         ph = ar1_coefficients(z, rho[k]) if sampled_rho else phi
         u = np.concatenate([e[:1], (e[1:] - ph * e[:-1]) / np.sqrt(1 - ph * ph)])
         assert ref[k] == pytest.approx(u @ u, rel=1e-6)
@@ -532,3 +530,15 @@ def test_integrated_time_matches_emcee():
         x += rng.standard_normal((T, 16, 3))
         ref = emcee.autocorr.integrated_time(x, tol=0, quiet=True)
         np.testing.assert_allclose(integrated_time(x), ref, rtol=1e-10)
+
+
+def test_whiten_ar1_is_the_inverse_cholesky_factor():
+    """whiten_ar1 maps AR(1) noise to white noise: W S W^T = I (S_ij = rho^|i-j| / phi)."""
+    from terracone.inverse.uncertainty.noise import ar1_coefficients, whiten_ar1
+
+    z = np.array([0.0, 0.01, 0.02, 0.035, 0.05, 0.06, 0.08])  # irregular spacing
+    rho, dz0 = 0.6, 0.01
+    phi = ar1_coefficients(z, rho, dz0)
+    S = rho ** (np.abs(z[:, None] - z[None, :]) / dz0)
+    W = whiten_ar1(np.eye(z.size), phi).T  # row k of the call whitens the unit vector e_k
+    np.testing.assert_allclose(W @ S @ W.T, np.eye(z.size), atol=1e-12)

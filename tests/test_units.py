@@ -18,9 +18,9 @@ from conftest import require_shared
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from terracone import units as u
+from terracone.physics import units as u
 
-# exact definitions, typed independently of terracone.units
+# exact definitions, typed independently of terracone.physics.units
 INCH_M = 0.0254
 LBF_N = 4.4482216152605
 PSI_KPA = 6.894757293168361  # 1 lbf/in^2 in kPa (4.4482216152605 N / 0.0254^2 m^2 / 1000)

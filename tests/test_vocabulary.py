@@ -16,13 +16,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from terracone import cone, plate, shear
+from terracone.apps.library import Library, record_params, reference_records
+from terracone.apps.sensitivity import BOXES, SobolBox
 from terracone.data import TerrainParameters, TerrainShear
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.learn import Calibration, learn
-from terracone.library import Library, record_params, reference_records
+from terracone.inverse.learning.learn import Calibration, learn
+from terracone.physics import cone, plate, shear
 from terracone.report.tables import parameters_table, shear_table
-from terracone.sensitivity import BOXES, SobolBox
 from terracone.vocabulary import ALIASES, NAMES, alias, markdown_table
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -32,20 +32,7 @@ PSI_KPA = LBF_KN / INCH**2  # 1 psi in kPa = 6.894757293168361
 
 
 # ---------------------------------------------------------------------------
-# model names: the old names are the same objects
-
-
-@pytest.mark.parametrize(
-    ("old", "new"),
-    [
-        (cone.improved, cone.cone_index_huang),
-        (cone.janosi, cone.cone_index_janosi),
-        (plate.bekker, plate.pressure_bekker),
-        (shear.janosi_hanamoto, shear.shear_stress_janosi_hanamoto),
-    ],
-)
-def test_old_model_names_are_the_same_functions(old, new):
-    assert old is new
+# model functions by hand
 
 
 def test_pressure_bekker_by_hand():
@@ -363,7 +350,10 @@ def test_docs_show_the_table_of_names():
 
 @pytest.mark.parametrize(
     ("path", "name"),
-    [("terracone/inverse/learn.py", "learn"), ("terracone/sensitivity.py", "sobol_ci")],
+    [
+        ("terracone/inverse/learning/learn.py", "learn"),
+        ("terracone/apps/sensitivity.py", "sobol_ci"),
+    ],
 )
 def test_split_functions_are_under_100_lines(path, name):
     tree = ast.parse((ROOT / path).read_text())
@@ -372,7 +362,7 @@ def test_split_functions_are_under_100_lines(path, name):
 
 
 def test_shear_fit_gives_its_terrain_shear():
-    from terracone.inverse.shear import ShearFit
+    from terracone.inverse.bevameter.shear import ShearFit
 
     fit = ShearFit.__new__(ShearFit)
     object.__setattr__(fit, "c", 1.5)

@@ -19,9 +19,9 @@ from click.testing import CliRunner
 from conftest import require_shared
 
 from terracone.cli import cli
-from terracone.cone import CONES, get_cone
 from terracone.data import CIProfile, InputError
 from terracone.io import detect_format, parse_coordinate, read_ci_profiles, read_wide_ci
+from terracone.physics.cone import CONES, get_cone
 
 PSI = 6.894757293168361  # kPa, = 4.4482216152605 N / 0.0254^2 m^2 / 1000
 
@@ -280,7 +280,7 @@ def test_real_sc900_export_as_a_wide_table(tmp_path: Path, sep: str, comma: bool
 
 
 def test_cli_learn_reads_a_wide_table(tmp_path: Path):
-    from terracone.cone import cone_index
+    from terracone.physics.cone import cone_index
 
     z_cm = np.arange(0.0, 31.0, 2.5)
     truth = dict(kc=100.0, kphi=5000.0, n=0.8, cc=2.0, phic=20.0)

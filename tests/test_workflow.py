@@ -1,4 +1,4 @@
-"""terracone.workflow: what `terracone predict` prints, as one library call."""
+"""terracone.apps.workflow: what `terracone predict` prints, as one library call."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from terracone.apps.workflow import predict_profiles, sinkage_grid
 from terracone.cli import cli
 from terracone.io import read_ci_profiles
-from terracone.workflow import predict_profiles, sinkage_grid
 
 EXAMPLE = (
     Path(__file__).parents[1] / "terracone" / "data" / "example" / "lete_sand_synthetic_ci.csv"

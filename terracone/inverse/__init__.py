@@ -9,7 +9,7 @@
   (:mod:`.uncertainty`, with :mod:`.noise`, :mod:`.priors`, :mod:`.likelihood`,
   :mod:`.sampler`);
 * :func:`fit_layered` and :func:`layered_posterior` fit a layered terrain
-  (:mod:`.layered`; the forward model is :mod:`terracone.layers`);
+  (:mod:`.layered`; the forward model is :mod:`terracone.physics.layers`);
 * :func:`fit_plates` / :func:`fit_plate_test` fit bevameter plate tests
   (:mod:`.plates`) and :func:`fit_shear` / :func:`fit_shear_test` shear tests
   (:mod:`.shear`).
@@ -23,24 +23,35 @@ from __future__ import annotations
 from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
-from .bounds import Bounds
-from .predict import PredictionResult, PredictionResults, predict, predict_many
-from .pso import PSOResult, pso
+from terracone.inverse.bounds import Bounds
+from terracone.inverse.predict import PredictionResult, PredictionResults, predict, predict_many
+from terracone.inverse.solver.pso import PSOResult, pso
 
 if TYPE_CHECKING:  # loaded on first use, see __getattr__
-    from .layered import LayeredPosterior, LayeredResult, fit_layered, layered_posterior
-    from .plates import PlateFit, PlatesFit, fit_plate_test, fit_plates
-    from .shear import ShearFit, ShearTestFit, fit_shear, fit_shear_test
-    from .uncertainty import PosteriorResult, posterior, posterior_for_result
+    from terracone.inverse.bevameter.plates import PlateFit, PlatesFit, fit_plate_test, fit_plates
+    from terracone.inverse.bevameter.shear import ShearFit, ShearTestFit, fit_shear, fit_shear_test
+    from terracone.inverse.layered import (
+        LayeredPosterior,
+        LayeredResult,
+        fit_layered,
+        layered_posterior,
+    )
+    from terracone.inverse.uncertainty.posterior import (
+        PosteriorResult,
+        posterior,
+        posterior_for_result,
+    )
 
 #: Names exported from submodules loaded on first use, and their submodule.
 LAZY = {
     **dict.fromkeys(
         ["LayeredPosterior", "LayeredResult", "fit_layered", "layered_posterior"], "layered"
     ),
-    **dict.fromkeys(["PlateFit", "PlatesFit", "fit_plate_test", "fit_plates"], "plates"),
-    **dict.fromkeys(["ShearFit", "ShearTestFit", "fit_shear", "fit_shear_test"], "shear"),
-    **dict.fromkeys(["PosteriorResult", "posterior", "posterior_for_result"], "uncertainty"),
+    **dict.fromkeys(["PlateFit", "PlatesFit", "fit_plate_test", "fit_plates"], "bevameter.plates"),
+    **dict.fromkeys(["ShearFit", "ShearTestFit", "fit_shear", "fit_shear_test"], "bevameter.shear"),
+    **dict.fromkeys(
+        ["PosteriorResult", "posterior", "posterior_for_result"], "uncertainty.posterior"
+    ),
 }
 
 __all__ = [

@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .. import units as u
+from terracone.physics import units as u
 
 __all__ = ["Bounds", "PARAMS", "DEFAULT_BOUNDS_SI"]
 

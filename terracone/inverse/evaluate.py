@@ -23,10 +23,10 @@ from typing import Any
 
 import numpy as np
 
-from .. import units as u
-from ..data import PlateTest, TerrainParameters
-from ..metrics import Agreement, agreement
-from ..plate import plate_basis, pressure_law
+from terracone.data import PlateTest, TerrainParameters
+from terracone.physics import units as u
+from terracone.physics.metrics import Agreement, agreement
+from terracone.physics.plate import plate_basis, pressure_law
 
 __all__ = [
     "PlateEvaluation",

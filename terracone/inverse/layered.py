@@ -1,7 +1,7 @@
 """Layered terrain, inverse side: fit a stack of layers to one CI profile.
 
-The forward model (:func:`terracone.layers.layered_basis`,
-:func:`terracone.layers.layered_cone_index`) extends eqs. (2-5) and (2-6) of
+The forward model (:func:`terracone.physics.layers.layered_basis`,
+:func:`terracone.physics.layers.layered_cone_index`) extends eqs. (2-5) and (2-6) of
 [1]_ to a stack of layers with their own kc_j, kphi_j, n_j, cc_j and a common
 phic.  This module fits it: :func:`fit_layered` searches the layers' n and
 the interface depths (the linear parameters by bounded least squares), and
@@ -12,7 +12,7 @@ information criterion BIC = N ln(SSE/N) + k ln N, with k = 4 per layer (kc,
 kphi, n, cc) plus one per interface (phic is not counted: it trades exactly
 with the scale of the k's).
 
-These names were in :mod:`terracone.layers` and :mod:`terracone.uncertainty`
+These names were in :mod:`terracone.physics.layers` and :mod:`terracone.uncertainty`
 before the forward and inverse modules were put apart (issue 13); both still
 re-export them.
 
@@ -36,15 +36,15 @@ import emcee
 import numpy as np
 from scipy.optimize import lsq_linear, minimize, nnls
 
-from .. import units as u
-from ..cone import normal_integrals
-from ..data import CIProfile, InputError, TerrainParameters
-from ..layers import layered_basis
-from ..metrics import check_fit
-from ..plate import PressureLaw, pressure_law
-from .bounds import Bounds
-from .exact import design, solve_exact
-from .uncertainty import LABELS, identifiability_label
+from terracone.data import CIProfile, InputError, TerrainParameters
+from terracone.inverse.bounds import Bounds
+from terracone.inverse.solver.exact import design, solve_exact
+from terracone.inverse.uncertainty.posterior import LABELS, identifiability_label
+from terracone.physics import units as u
+from terracone.physics.cone import normal_integrals
+from terracone.physics.layers import layered_basis
+from terracone.physics.metrics import check_fit
+from terracone.physics.plate import PressureLaw, pressure_law
 
 __all__ = ["LayeredPosterior", "LayeredResult", "fit_layered", "layered_posterior"]
 
@@ -100,7 +100,7 @@ class LayeredResult:
 
     def _repr_html_(self) -> str:
         """A table of the layers (SI) and the BIC comparison, for Jupyter."""
-        from ..report.notebook import layered_html
+        from terracone.notebook import layered_html
 
         return layered_html(self)
 
@@ -294,7 +294,7 @@ def _phic_ridge_layers(
     """The interval of phic that fits equally well over all layers, and its middle.
 
     The fit is made at phic's upper bound; every layer's scaled kc and kphi must stay in
-    its box (the nested-box argument of :mod:`terracone.inverse.many`).  Returns
+    its box (the nested-box argument of :mod:`terracone.inverse.solver.many`).  Returns
     (phic_lo, phic_mid, s_hi, s_mid), s = 1 + tan(phic)/tan(alpha) (eqs. (2-6), (2-7)).
     """
     phi = bounds.phic[1]
@@ -350,7 +350,7 @@ def fit_layered(
     over the n's and interfaces from the best cell.  With more layers,
     Nelder-Mead from several starts.  phic is put at the upper bound and
     its equally good interval reported (the nested-box argument of
-    :mod:`terracone.inverse.many`, which needs zero lower bounds of kc and
+    :mod:`terracone.inverse.solver.many`, which needs zero lower bounds of kc and
     kphi).
     """
     t0 = time.perf_counter()
@@ -534,7 +534,7 @@ def layered_posterior(
     the interface depths (ordered, within the profile); the common phic is
     held at the fit's value.  Residuals are independent Gaussian with an
     unknown sigma integrated out (1/sigma prior), so the log-likelihood is
-    -N/2 log(SSE).  The forward model is :func:`terracone.layers.layered_basis`
+    -N/2 log(SSE).  The forward model is :func:`terracone.physics.layers.layered_basis`
     evaluated for all walkers at once.
 
     Parameters
@@ -629,7 +629,7 @@ class _LayeredLogPosterior:
 
     Uniform prior inside ``lo <= theta <= hi``; sigma marginalised (1/sigma
     prior): ``-N/2 log SSE``.  The model CI is eq. (2-7) with eq. (2-6) fully
-    mobilised, layer by layer (:func:`terracone.layers.layered_basis`).
+    mobilised, layer by layer (:func:`terracone.physics.layers.layered_basis`).
     """
 
     def __init__(self, z, y, cone, law, L, phic, lo, hi) -> None:

@@ -3,8 +3,8 @@
 Two solvers behind :func:`predict`:
 
 * ``"exact"`` (default): global optimum from the linear structure of the
-  model (:mod:`terracone.inverse.exact`);
-* ``"pso"``: the paper's particle swarm (:mod:`terracone.inverse.pso`) on the
+  model (:mod:`terracone.inverse.solver.exact`);
+* ``"pso"``: the paper's particle swarm (:mod:`terracone.inverse.solver.pso`) on the
   same objective and bounds.
 
 The objective is the RMSD between measured CI and model CI at the measured
@@ -27,18 +27,18 @@ from typing import Any, TypedDict, Unpack
 
 import numpy as np
 
-from .. import units as u
-from ..cone import Cone, improved
-from ..data import CIProfile, InputError, ProfileSet, TerrainParameters
-from ..metrics import check_fit_fast
-from ..plate import PressureLaw, pressure_law
-from ..result import PredictionResult, PredictionResults
-from .bounds import Bounds
-from .exact import design, solve_exact
-from .intervals import identification, linear_intervals, n_intervals
-from .many import ManySolution, bounds_params, solve_exact_many
-from .polish import mgs_lstsq, polish_many
-from .pso import pso
+from terracone.data import CIProfile, InputError, ProfileSet, TerrainParameters
+from terracone.inverse.bounds import Bounds
+from terracone.inverse.solver.exact import design, solve_exact
+from terracone.inverse.solver.intervals import identification, linear_intervals, n_intervals
+from terracone.inverse.solver.many import ManySolution, bounds_params, solve_exact_many
+from terracone.inverse.solver.polish import mgs_lstsq, polish_many
+from terracone.inverse.solver.pso import pso
+from terracone.physics import units as u
+from terracone.physics.cone import Cone, cone_index_huang
+from terracone.physics.metrics import check_fit_fast
+from terracone.physics.plate import PressureLaw, pressure_law
+from terracone.result import PredictionResult, PredictionResults
 
 __all__ = [
     "PredictionResult",
@@ -81,7 +81,7 @@ def rmsd_objective(profile: CIProfile, law: PressureLaw, bounds: Bounds, Kc: flo
         kc = u.kc_to_si(x[:, 0:1], n, bounds.kc_units)
         kphi = u.kphi_to_si(x[:, 1:2], n, bounds.kphi_units)
         K = x[:, 5:6] if x.shape[1] > 5 else Kc
-        ci = improved(
+        ci = cone_index_huang(
             z, kc=kc, kphi=kphi, n=n, cc=x[:, 3:4], phic=x[:, 4:5], Kc=K, law=law, cone=profile.cone
         )
         r = ci - y
@@ -255,7 +255,7 @@ def predict_many(
     Every profile is validated (a bad one becomes an error result naming
     its file, profile, row and column; reader errors likewise), the valid
     ones are grouped by cone and each group's optima are found by one
-    :func:`terracone.inverse.many.solve_exact_many` call, re-solved on the
+    :func:`terracone.inverse.solver.many.solve_exact_many` call, re-solved on the
     design matrix itself (:func:`polish_many`), and given the statistics
     :func:`predict` reports.  The particle swarm and the fits with finite
     Kc run profile by profile inside the same function.
@@ -293,7 +293,7 @@ def predict_many(
     noise_floor : float
         Smallest relative noise assumed when judging identifiability.
     pso_options : dict, optional
-        Keywords of :func:`terracone.inverse.pso.pso`.
+        Keywords of :func:`terracone.inverse.solver.pso.pso`.
     fix_ratio : bool
         With a calibration, hold kc/kphi at the calibrated terrain's value:
         the cone barely separates kc from kphi (their columns are nearly
@@ -481,7 +481,7 @@ class SetFit:
 
     ``x`` holds (kc, kphi, cc); ``model`` the model CI on the padded depths
     (P, Z); ``intervals`` the profile intervals per profile; ``checks`` the
-    :class:`terracone.metrics.FitCheck` of each profile.
+    :class:`terracone.physics.metrics.FitCheck` of each profile.
     """
 
     x: np.ndarray
@@ -507,7 +507,7 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
     (:func:`polish_many`), then the n interval, the phic ridge and, with
     ``detail="full"``, the profile scans of kc, kphi and cc.
     """
-    from .kernels import box_grid
+    from terracone.inverse.solver.kernels import box_grid
 
     s, b = settings, settings.bounds
     cone = group.cones[int(group.cone_idx[0])]
@@ -540,7 +540,9 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
     # the reported model CI from the model itself (eq. (2-7)), as rmsd_objective evaluates it
     n_, p_ = ms.n[:, None], ms.phic_deg[:, None]
     kc, kphi, cc = x[:, 0:1], x[:, 1:2], x[:, 2:3]
-    model = improved(zz, kc=kc, kphi=kphi, n=n_, cc=cc, phic=p_, Kc=None, law=s.law, cone=cone)
+    model = cone_index_huang(
+        zz, kc=kc, kphi=kphi, n=n_, cc=cc, phic=p_, Kc=None, law=s.law, cone=cone
+    )
     r = np.where(mask, model - yy, 0.0)
     sse = np.einsum("pz,pz->p", r, r)
     sigma, thr, n_lo, n_hi = n_intervals(ms, sse, yy, mask, b, s.noise_floor)
@@ -668,7 +670,7 @@ def _fit_one(settings: PredictSettings, pset: ProfileSet, j: int) -> PredictionR
             fit = _exact_one if settings.solver == "exact" else _pso_one
             params, extra = fit(settings, z, y, cone)
             # eq. (2-7), with eq. (2-6) at the fitted Kc
-            m = improved(
+            m = cone_index_huang(
                 z,
                 kc=params.kc,
                 kphi=params.kphi,

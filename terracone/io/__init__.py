@@ -10,15 +10,15 @@ CSV conventions
 * The unit is part of every column name: ``depth_cm``, ``ci_kpa``,
   ``sinkage_mm``, ``pressure_psi``, ...  Headers are case-insensitive.
   Length units: ``m``, ``cm``, ``mm``, ``in``; pressure units: ``kpa``,
-  ``mpa``, ``psi`` (and ``pa``), see :data:`terracone.units.LENGTH_UNITS`
-  and :data:`terracone.units.PRESSURE_UNITS`.
+  ``mpa``, ``psi`` (and ``pa``), see :data:`terracone.physics.units.LENGTH_UNITS`
+  and :data:`terracone.physics.units.PRESSURE_UNITS`.
 * Lines starting with ``#`` are comments and may appear anywhere (before
   the header too); blank lines are ignored.  Both still count in the line
   numbers reported in errors and stored in ``rows``.
 * CI profiles: ``depth_<u>``, ``ci_<u>``, optional ``profile`` (the id;
   several profiles per file; without it the whole file is one profile
   whose id is the file stem) and optional ``cone`` (a name accepted by
-  :func:`terracone.cone.get_cone`; it overrides the ``cone`` argument).
+  :func:`terracone.physics.cone.get_cone`; it overrides the ``cone`` argument).
 * Plate tests: optional ``test``, exactly one of ``plate_radius_<u>``,
   ``plate_diameter_<u>`` (circular plate, b = radius) or
   ``plate_width_<u>`` (rectangular plate, b = width), ``sinkage_<u>`` and
@@ -50,7 +50,7 @@ Profile sets and streaming
 wide table) into one :class:`~terracone.data.ProfileSet`;
 :func:`iter_profile_sets` streams long CSV and Parquet files (or a directory
 of them) chunk by chunk through pyarrow's readers, for inputs larger than
-memory.  :func:`terracone.batch.run_batch` reads through the same stream.
+memory.  :func:`terracone.apps.batch.run_batch` reads through the same stream.
 
 Modules
 -------
@@ -62,10 +62,10 @@ Modules
 :mod:`~terracone.io.writers` (CSV writers).
 """
 
-from .bevameter import read_plate_tests, read_shear_tests
-from .profiles import detect_format, read_ci_profiles, read_profile_set
-from .sc900 import SC900_CONES, read_sc900
-from .tables import (
+from terracone.io.bevameter import read_plate_tests, read_shear_tests
+from terracone.io.profiles import detect_format, read_ci_profiles, read_profile_set
+from terracone.io.sc900 import SC900_CONES, read_sc900
+from terracone.io.tables import (
     CI_SCHEMA,
     DECIMAL,
     SPECIAL_FLOAT,
@@ -75,7 +75,7 @@ from .tables import (
     column_layout,
     to_numbers,
 )
-from .wide import (
+from terracone.io.wide import (
     WIDE_CI_UNITS,
     WIDE_ID_COLUMNS,
     WIDE_LAT_COLUMNS,
@@ -84,7 +84,12 @@ from .wide import (
     read_wide_ci,
     wide_depth_header,
 )
-from .writers import json_default, write_ci_profiles, write_plate_tests, write_shear_tests
+from terracone.io.writers import (
+    json_default,
+    write_ci_profiles,
+    write_plate_tests,
+    write_shear_tests,
+)
 
 __all__ = [
     "detect_format",
@@ -132,11 +137,11 @@ def __getattr__(name: str) -> object:
     # the streaming reader needs pyarrow and pandas: imported on first use, so that
     # importing terracone.io (the CLI's start-up) stays light
     if name == "iter_profile_sets":
-        from .stream import iter_profile_sets
+        from terracone.io.stream import iter_profile_sets
 
         return iter_profile_sets
     if name in _RESULTS:  # pyarrow too: on first use
-        from .. import result
+        from terracone import result
 
         return getattr(result, _RESULTS[name])
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

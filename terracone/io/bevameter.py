@@ -6,8 +6,8 @@ import os
 
 import numpy as np
 
-from ..data import InputError, PlateTest, ShearTest
-from .tables import (
+from terracone.data import InputError, PlateTest, ShearTest
+from terracone.io.tables import (
     PLATE_SCHEMA,
     SHEAR_SCHEMA,
     Layout,

@@ -18,10 +18,9 @@ from typing import Literal
 
 import numpy as np
 
-from ..cone import Cone, get_cone
-from ..data import CIProfile, InputError, ProfileSet
-from .sc900 import read_sc900
-from .tables import (
+from terracone.data import CIProfile, InputError, ProfileSet
+from terracone.io.sc900 import read_sc900
+from terracone.io.tables import (
     CI_SCHEMA,
     OnError,
     PathLike,
@@ -36,7 +35,8 @@ from .tables import (
     to_numbers,
     validated,
 )
-from .wide import read_wide_ci, wide_depth_header
+from terracone.io.wide import read_wide_ci, wide_depth_header
+from terracone.physics.cone import Cone, get_cone
 
 
 def _sniff_format(path: str) -> str:
@@ -318,7 +318,7 @@ def read_profile_set(
     if format is None:
         format = "parquet" if is_parquet(source) else detect_format(source)
     if format == "parquet":
-        from .stream import iter_profile_sets
+        from terracone.io.stream import iter_profile_sets
 
         check_options(on_error, depth_ref, units)
         sets = list(

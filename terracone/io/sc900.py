@@ -16,10 +16,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import units as u
-from ..cone import CONES
-from ..data import CIProfile, InputError
-from .tables import (
+from terracone.data import CIProfile, InputError
+from terracone.io.tables import (
     OnError,
     PathLike,
     cell_problem,
@@ -30,6 +28,8 @@ from .tables import (
     to_numbers,
     validated,
 )
+from terracone.physics import units as u
+from terracone.physics.cone import CONES
 
 #: Cone sizes of the SC900 export (normalised to lower case) and their cones.
 SC900_CONES: dict[str, str] = {"1/2 inch": "asabe-small", "3/4 inch": "asabe-large"}

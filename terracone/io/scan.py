@@ -31,16 +31,9 @@ import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
-from ..cone import Cone
-from ..data import CIProfile, InputError
-from .tables import (
-    CI_SCHEMA,
-    DECIMAL,
-    SPECIAL_FLOAT,
-    PathLike,
-    Table,
-    column_layout,
-)
+from terracone.data import CIProfile, InputError
+from terracone.io.tables import CI_SCHEMA, DECIMAL, SPECIAL_FLOAT, PathLike, Table, column_layout
+from terracone.physics.cone import Cone
 
 #: Rows read per block (CSV / Parquet); memory per block, not per profile.
 CSV_BLOCK_BYTES = 1 << 22
@@ -97,7 +90,7 @@ def instrument_to_parquet(path: Path, out: Path, cone: Cone, **reader: Any) -> P
     ``reader`` are keywords of :func:`terracone.io.read_ci_profiles` (format
     "sc900" by default; "wide" with its depth_unit and ci_unit).
     """
-    from .profiles import read_ci_profiles
+    from terracone.io.profiles import read_ci_profiles
 
     target = out / "_input" / (path.stem + ".parquet")
     if target.exists():

@@ -7,7 +7,7 @@ and yields :class:`~terracone.data.ProfileSet` chunks of a fixed number of
 profiles.  The rows of a profile must be contiguous; the last profile of a
 block is carried over to the next block, so a profile is never split.
 
-:func:`terracone.batch.run_batch` uses the same stream one level down: a
+:func:`terracone.apps.batch.run_batch` uses the same stream one level down: a
 first, cheap pass (:func:`scan_inputs`) checks every header, counts the
 profiles and fixes the type of every metadata column; then
 :func:`iter_chunks` cuts the input into :class:`Chunk` objects, which hold
@@ -37,10 +37,9 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.compute as pc
 
-from ..cone import Cone, get_cone
-from ..data import InputError, ProfileSet, SourceFile
-from . import scan as io_scan
-from .scan import (
+from terracone.data import InputError, ProfileSet, SourceFile
+from terracone.io import scan as io_scan
+from terracone.io.scan import (
     CsvLines,
     FileInfo,
     ScanPlan,
@@ -54,12 +53,8 @@ from .scan import (
     scan_inputs,
     strip_text,
 )
-from .tables import (
-    OnError,
-    PathLike,
-    check_options,
-    to_numbers,
-)
+from terracone.io.tables import OnError, PathLike, check_options, to_numbers
+from terracone.physics.cone import Cone, get_cone
 
 __all__ = [
     "iter_profile_sets",
@@ -605,7 +600,7 @@ def validate_set(profiles: ProfileSet) -> ProfileSet:
     """The profiles of a set that :meth:`CIProfile.validate` accepts.
 
     The others move to ``errors``, located in their file (row and column of
-    the point, as :func:`terracone.batch.run_batch` reports them).
+    the point, as :func:`terracone.apps.batch.run_batch` reports them).
     """
     bad = profiles.screen()
     if not bad:
@@ -709,7 +704,7 @@ def iter_profile_sets(
     default = get_cone(cone)
     for group, kind in _file_groups(paths, format):
         if kind in ("sc900", "wide"):
-            from .profiles import read_profile_set
+            from terracone.io.profiles import read_profile_set
 
             one = read_profile_set(
                 group[0][0],
@@ -742,7 +737,7 @@ def _file_groups(
         for path, kind in input_files(item):
             fmt = format
             if fmt is None and kind == "csv":
-                from .profiles import detect_format
+                from terracone.io.profiles import detect_format
 
                 fmt = detect_format(path)
             if fmt in ("sc900", "wide"):

@@ -26,9 +26,9 @@ from typing import Any, Literal, TextIO
 
 import numpy as np
 
-from .. import units as u
-from ..cone import Cone
-from ..data import CIProfile, InputError
+from terracone.data import CIProfile, InputError
+from terracone.physics import units as u
+from terracone.physics.cone import Cone
 
 PathLike = str | os.PathLike[str]
 OnError = Literal["raise", "collect"]

@@ -16,10 +16,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import units as u
-from ..cone import Cone, get_cone
-from ..data import CIProfile, InputError
-from .tables import (
+from terracone.data import CIProfile, InputError
+from terracone.io.tables import (
     DECIMAL,
     OnError,
     PathLike,
@@ -30,6 +28,8 @@ from .tables import (
     to_numbers,
     validated,
 )
+from terracone.physics import units as u
+from terracone.physics.cone import Cone, get_cone
 
 # ---------------------------------------------------------------------------
 # wide tables: one row per push, one column per depth
@@ -247,7 +247,7 @@ def read_wide_ci(
         Required otherwise; a value that contradicts the file is an error.
     cone : str or Cone
         Cone of the pushes without a ``cone`` column (a name of
-        :func:`terracone.cone.get_cone`, e.g. ``"penetrologger-1cm2"``).
+        :func:`terracone.physics.cone.get_cone`, e.g. ``"penetrologger-1cm2"``).
     depth_ref : {"base", "tip"}
         As in :func:`read_ci_profiles`.
     on_error : {"raise", "collect"}

@@ -9,9 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from ..cone import Cone, get_cone
-from ..data import CIProfile, PlateTest, ShearTest
-from .tables import (
+from terracone.data import CIProfile, PlateTest, ShearTest
+from terracone.io.tables import (
     CI_SCHEMA,
     LENGTH,
     PLATE_SCHEMA,
@@ -22,6 +21,7 @@ from .tables import (
     Schema,
     match_field,
 )
+from terracone.physics.cone import Cone, get_cone
 
 # ---------------------------------------------------------------------------
 # writers

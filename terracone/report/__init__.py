@@ -8,7 +8,7 @@
   ``terracone learn --json`` or ``terracone evaluate --json``;
 * the output directory of ``terracone batch`` (``part-*.parquet`` and
   ``_summary.json``);
-* the output directory of :func:`terracone.reproduce.reproduce`
+* the output directory of :func:`terracone.apps.reproduce.reproduce`
   (``reproduce.json``);
 * a directory holding several of the JSON documents above (e.g. the output
   of ``terracone demo --out``): one report with a part per document.
@@ -23,14 +23,14 @@ import json
 from pathlib import Path
 from typing import Any
 
-from ..result import check_schema, check_table_schema
-from .html import (
+from terracone.report.html import (
     batch_document,
     evaluate_document,
     learn_document,
     predict_document,
     render_document,
 )
+from terracone.result import check_schema, check_table_schema
 
 __all__ = ["build_report", "load_document", "result_kind"]
 
@@ -141,7 +141,7 @@ def _document(kind: str, doc: dict[str, Any], source: str, map_by: str = "n") ->
     if kind == "evaluate":
         return evaluate_document(doc, source=source)
     if kind == "sites":
-        from .sites import sites_document
+        from terracone.report.sites import sites_document
 
         return sites_document(doc, source=source)
     raise ValueError(f"unknown result kind {kind!r}")  # pragma: no cover

@@ -34,10 +34,11 @@ from typing import Any
 
 import numpy as np
 
-from .. import units as u
-from ..data import TerrainParameters
-from . import figures as F
-from .tables import Table, fmt_value
+from terracone.data import TerrainParameters
+from terracone.notebook import fmt_value
+from terracone.physics import units as u
+from terracone.report import figures as F
+from terracone.report.tables import Table
 
 __all__ = [
     "MAX_MULTIPLES",
@@ -187,7 +188,7 @@ def _curves_from_source(source: str, ids: set[str], units: str) -> dict[str, tup
     """Measured (depth [m], CI [kPa], cone) of the given profiles in a batch input file."""
     import pandas as pd
 
-    from ..io import read_ci_profiles
+    from terracone.io import read_ci_profiles
 
     path = Path(source)
     if not path.exists():
@@ -222,7 +223,7 @@ def _curves_from_source(source: str, ids: set[str], units: str) -> dict[str, tup
 
 def _batch_curves(recs: list[dict[str, Any]], df: Any, summary: Mapping[str, Any]) -> int:
     """Attach measured points and the one-layer model CI to batch records; profiles drawn."""
-    from ..cone import cone_index, get_cone
+    from terracone.physics.cone import cone_index, get_cone
 
     units = summary.get("units") or "si"
     settings = summary.get("settings") or {}
@@ -362,7 +363,7 @@ def _distribution_table(recs: Sequence[Mapping[str, Any]]) -> Table:
 
 def summary_section(recs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """Section ``summary``: counts, lack of fit, layers, and each parameter's distribution."""
-    from .html import figure_part, kv_part, table_part, text_part
+    from terracone.report.html import figure_part, kv_part, table_part, text_part
 
     n = len(recs)
     ok = [r for r in recs if r.get("status") == "ok" and r.get("n") is not None]
@@ -427,7 +428,7 @@ def summary_section(recs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
 
 def map_section(recs: Sequence[Mapping[str, Any]], *, colour_by: str = "n") -> dict | None:
     """Section ``map`` (None when no profile is located): profiles at lon/lat by a parameter."""
-    from .html import figure_part, text_part
+    from terracone.report.html import figure_part, text_part
 
     loc = [r for r in recs if r.get("lon") is not None and r.get("lat") is not None]
     if not loc:
@@ -481,7 +482,7 @@ def panel_of(r: Mapping[str, Any]) -> dict[str, Any]:
 
 def multiples_section(recs: Sequence[Mapping[str, Any]], *, units: str = "si") -> dict | None:
     """Section ``multiples``: a compact panel per profile, several PNGs of 30 panels."""
-    from .html import figure_part, text_part
+    from terracone.report.html import figure_part, text_part
 
     drawable = [r for r in recs if r.get("depth") is not None and len(r["depth"])]
     if not drawable:
@@ -613,7 +614,7 @@ def reasons_html(recs: Sequence[Mapping[str, Any]]) -> str:
 
 def profiles_section(recs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """Section ``profiles``: the sortable table of every profile, and the reasons."""
-    from .html import table_part
+    from terracone.report.html import table_part
 
     parts: list[dict[str, Any]] = [
         table_part(profiles_table(recs), sortable=True, tall=True, max_rows=MAX_TABLE_ROWS)

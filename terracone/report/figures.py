@@ -37,10 +37,10 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .. import units as u
-from ..cone import cone_index
-from ..inverse.bounds import Bounds
-from ..inverse.ridge import ridge_profile
+from terracone.inverse.bounds import Bounds
+from terracone.inverse.solver.ridge import ridge_profile
+from terracone.physics import units as u
+from terracone.physics.cone import cone_index
 
 __all__ = [
     "SYNTHETIC_NOTE",
@@ -53,7 +53,6 @@ __all__ = [
     "fig_histograms",
     "fig_ci_multiples",
     "fig_map",
-    "ridge_data",
     "save_figure",
     "png_bytes",
     "svg_text",
@@ -440,10 +439,6 @@ def fig_site(
 # ---------------------------------------------------------------------------
 # The ridge of equally good fits (not in the paper)
 # ---------------------------------------------------------------------------
-
-#: Deprecated alias: the computation lives next to the solver,
-#: :func:`terracone.inverse.ridge.ridge_profile`; this module only draws it.
-ridge_data = ridge_profile
 
 
 def fig_ridge(

@@ -10,7 +10,7 @@ A report is a *document*: a title, metadata and sections, each a list of
 parts (``text``, ``list``, ``kv``, ``figure``, ``table``, ``html``).  The
 renderers here turn the JSON documents of ``terracone predict``, ``learn``
 and ``evaluate``, and the output directory of ``terracone batch``, into such
-documents; :mod:`terracone.reproduce` stores its own in ``reproduce.json``.
+documents; :mod:`terracone.apps.reproduce` stores its own in ``reproduce.json``.
 """
 
 from __future__ import annotations
@@ -26,12 +26,12 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
-from .. import units as u
-from ..data import TerrainParameters
-from . import fields as FL
-from . import figures as F
-from .tables import (
+from terracone import __version__
+from terracone.data import TerrainParameters
+from terracone.physics import units as u
+from terracone.report import fields as FL
+from terracone.report import figures as F
+from terracone.report.tables import (
     Table,
     flat_agreement_table,
     fmt_value,
@@ -423,7 +423,7 @@ def _synthetic(doc: Mapping[str, Any]) -> dict[str, Any]:
 
 def _mark_settings_bounds(tab, rows, settings: Mapping[str, Any], units: str) -> None:
     """Highlight parameters on the bounds recorded in the settings (defaults otherwise)."""
-    from ..inverse.bounds import Bounds
+    from terracone.inverse.bounds import Bounds
 
     b = settings.get("bounds") or {}
     d = Bounds()
@@ -892,7 +892,7 @@ def _learn_figures(doc: Mapping[str, Any], sp: dict[str, Any], units: str) -> li
     if sp.get("n") is not None:
         pair = doc.get("plate_pair")
         radii = [float(v) for v in u.length_to_si(pair, units)] if pair else [0.0375, 0.05]
-        from ..inverse.evaluate import predicted_plate_pressure
+        from terracone.inverse.evaluate import predicted_plate_pressure
 
         params = TerrainParameters(
             sp["kc"], sp["kphi"], sp["n"], sp["cc"], sp["phic_deg"], None, sp["model"], sp["r_min"]

@@ -2,7 +2,7 @@
 
 ``terracone/data/paper/table_4_*.csv`` hold the values as printed in [1]_
 (typed in, with the citation in a header comment).  They are used by
-:mod:`terracone.reproduce` to generate synthetic data (Tables 4-1 and 4-3)
+:mod:`terracone.apps.reproduce` to generate synthetic data (Tables 4-1 and 4-3)
 and to set our results beside the paper's (Tables 4-2 and 4-4).
 
 References
@@ -19,7 +19,7 @@ from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
-from .. import units as u
+from terracone.physics import units as u
 
 __all__ = [
     "CITATION",
@@ -105,7 +105,7 @@ def us_column_check(tolerance: float = 0.02) -> list[dict[str, Any]]:
     """Do the printed US columns of Tables 4-1 and 4-3 follow from the SI ones?
 
     For each row, the US values of kc, kphi (which depend on n) and cc are
-    recomputed from the SI values with :mod:`terracone.units` and compared
+    recomputed from the SI values with :mod:`terracone.physics.units` and compared
     with the printed ones.  Returns one dict per mismatch larger than
     ``tolerance`` (relative; zero values must match exactly).
     """

@@ -5,7 +5,7 @@ One table of the sites (median plate pressure at the middle sinkage with its
 sample CV and the CV of the CI itself, the pushes needed for the target CV
 and the lack of fit), one figure of the site P-S curves with their 90%
 bands, and every site's notes.  The statistics are those of
-:mod:`terracone.inverse.sites`.
+:mod:`terracone.inverse.sites.statistics`.
 
 References
 ----------
@@ -22,9 +22,9 @@ from typing import Any
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .. import units as u
-from .html import figure_part, kv_part, list_part, table_part, text_part
-from .tables import Table
+from terracone.physics import units as u
+from terracone.report.html import figure_part, kv_part, list_part, table_part, text_part
+from terracone.report.tables import Table
 
 __all__ = ["sites_document"]
 

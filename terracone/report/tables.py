@@ -11,7 +11,7 @@ Builders:
 
 * :func:`parameters_table`: kc, kphi, n, cc, phic in SI and US columns
   (Tables 4-1 and 4-3).  The US values of kc and kphi depend on n
-  (:mod:`terracone.units`).
+  (:mod:`terracone.physics.units`).
 * :func:`shear_table`: the terrain's internal c, phi, K
   (:class:`~terracone.data.TerrainShear`) in SI and US columns.
 * :func:`agreement_table`: R, R2, RMSD (kPa and psi) and CV per prediction
@@ -37,8 +37,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .. import units as u
-from ..data import TerrainParameters, TerrainShear
+from terracone.data import TerrainParameters, TerrainShear
+from terracone.notebook import fmt_value
+from terracone.physics import units as u
 
 __all__ = [
     "Table",
@@ -58,29 +59,6 @@ __all__ = [
 
 #: Parameters of the prediction process, in the order of the paper's tables.
 PARAM_NAMES = ("kc", "kphi", "n", "cc", "phic")
-
-
-def fmt_value(v: Any, digits: int = 5) -> str:
-    """Human formatting: 5 significant digits (the paper prints up to 5), "-" for none."""
-    if v is None:
-        return "-"
-    if isinstance(v, bool):
-        return "yes" if v else "no"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if not math.isfinite(v):
-            return "-"
-        if v == 0:
-            return "0"
-        a = abs(v)
-        if 1e-3 <= a < 1e6:
-            s = f"{v:.{digits}g}"
-            if "e" in s:  # e.g. 1.235e+05 -> plain
-                s = f"{v:.0f}"
-            return s
-        return f"{v:.{digits - 1}e}"
-    return str(v)
 
 
 def _csv_value(v: Any) -> str:

@@ -1,0 +1,1404 @@
+"""Batch prediction: many CI profiles -> one Parquet data set, computed with Dask.
+
+:func:`run_batch` streams cone index profiles from a CSV or Parquet file (or
+a directory of them), fits the improved cone model to every profile with the
+vectorised exact solver (:func:`terracone.inverse.solver.many.solve_exact_many`) on
+a Dask cluster, and writes one row per profile to Parquet part files.
+
+Design
+------
+* **One execution path, any pool.**  By default work runs on
+  ``dask.distributed``: a :class:`~distributed.LocalCluster` of ``workers``
+  processes (one thread each) started and stopped by :func:`run_batch`, or
+  an existing scheduler (``scheduler="tcp://HOST:PORT"``).  ``pool=`` takes
+  any pool instead (emcee's pattern): a Dask client, a ``concurrent.futures``
+  executor, or anything with ``map`` (a ``multiprocessing`` pool, ``map``
+  itself); :func:`_run_on` is the one place that tells them apart.
+* **Chunks, not profiles.**  The input stream is cut into chunks of
+  ``chunk_size`` profiles: chunk *i* holds profiles ``i*chunk_size`` to
+  ``(i+1)*chunk_size - 1`` in input order (files in name order).  One Dask
+  task fits one chunk, with one ``solve_exact_many`` call per cone.  At most
+  ``2 x worker threads`` chunks are in flight (a ``map`` pool gets windows of
+  that many), and the reader only reads ahead when a slot is free, so memory
+  stays flat whatever the input size.
+* **Streaming input.**  CSV is read in blocks with ``pandas.read_csv``
+  (every cell as text, converted like :func:`terracone.io.read_ci_profiles`
+  does), Parquet with ``ParquetFile.iter_batches``.  The last, possibly
+  incomplete, profile of a block is carried over to the next block.  The
+  rows of a profile must be contiguous.  A first, cheap pass over the input
+  (the *scan*) counts the profiles, checks every file's header and fixes the
+  type of every metadata column before anything is computed.
+* **Atomic output.**  The client writes ``part-000000.parquet``,
+  ``part-000001.parquet``, ... (one per chunk) to a temporary name in
+  ``out_dir`` and renames it (``os.replace``) when complete, so a part file
+  is either absent or whole.  ``_run.json`` records the settings and the
+  input fingerprint, ``_summary.json`` the counts and timings.
+* **Nothing lost.**  Every input profile gives exactly one output row;
+  problems with a profile make *its* row ``status="error"`` with a located
+  reason.  At the end the output is checked against the scan: the number of
+  rows, a checksum of the profile ids and duplicate ids.
+
+With the default (local) cluster, call :func:`run_batch` from a script under
+``if __name__ == "__main__":``: the worker processes are started with the
+``spawn`` method, which imports the main module.
+
+See ``docs/batch.md`` for the user guide.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import functools
+import hashlib
+import itertools
+import json
+import logging
+import os
+import re
+import sys
+import time
+import uuid
+from collections import Counter
+from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from terracone import __version__
+from terracone.data import CIProfile, InputError, ProfileSet
+from terracone.inverse.bounds import Bounds
+from terracone.inverse.learning.learn import Calibration
+from terracone.inverse.predict import predict_many, predict_settings, screen
+from terracone.inverse.solver.many import solve_exact_many
+from terracone.io import detect_format
+from terracone.io.scan import (
+    ScanPlan,
+    fingerprint,
+    hash_ids,
+    input_files,
+    instrument_to_parquet,
+    scan_inputs,
+)
+from terracone.io.stream import Chunk, ConeCache, iter_chunks
+from terracone.jit import enabled
+from terracone.physics import units as u
+from terracone.physics.cone import Cone, get_cone
+from terracone.physics.metrics import check_fit_fast
+from terracone.physics.plate import pressure_law
+from terracone.result import (
+    FLOAT_COLUMNS,
+    PARQUET_COLUMNS,
+    RESULT_COLUMNS,
+    TEXT_COLUMNS,
+    UQ_PARAMS,
+    arrow_table,
+    dumps,
+    empty_columns,
+)
+
+__all__ = ["BatchSummary", "run_batch", "OUTPUT_COLUMNS"]
+
+PathLike = str | os.PathLike[str]
+
+#: Seconds to wait for a worker to join an external scheduler.
+_WAIT_WORKERS_S = 60.0
+#: Grid over n of solve_exact_many (its default) and the noise floor of predict.
+_N_GRID = 41
+_NOISE_FLOOR = 0.01
+#: glibc malloc settings of the local cluster's worker processes.  Dask's
+#: default (MALLOC_TRIM_THRESHOLD_=65536) switches off glibc's dynamic mmap
+#: threshold, so every large numpy temporary of the solver is mmapped and
+#: page-faulted afresh: the fit runs at half speed.  Serving everything from
+#: the heap and keeping freed memory for the next chunk restores it.
+WORKER_MALLOC_ENV = {"MALLOC_MMAP_MAX_": "0", "MALLOC_TRIM_THRESHOLD_": str(1 << 30)}
+
+_PART = re.compile(r"^part-(\d{6,})\.parquet$")
+_TMP_PREFIX = ".part-"
+_PART_META_KEY = b"terracone_batch"
+
+#: The part-file columns and the per-profile results: one definition, in terracone.result
+#: (the prediction schema, docs/results.md); the old names stay as aliases.
+_UQ_PARAMS = UQ_PARAMS
+#: Output columns before the metadata columns, with their Arrow types.
+OUTPUT_COLUMNS = PARQUET_COLUMNS
+_FLOAT_RESULTS = FLOAT_COLUMNS
+_TEXT_RESULTS = TEXT_COLUMNS
+#: every per-profile result: the floats and the texts (None or text)
+_RESULT_KEYS = RESULT_COLUMNS
+_empty_results = empty_columns
+
+
+# ---------------------------------------------------------------------------
+# summary
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class BatchSummary:
+    """What :func:`run_batch` did (also written to ``OUT_DIR/_summary.json``).
+
+    Attributes
+    ----------
+    out_dir : str
+    profiles, profiles_ok, profiles_error : int
+        Rows in the output (one per input profile) and their status counts,
+        over all part files (including chunks done by an earlier run).
+    chunks : int
+        Part files of the complete output.
+    chunks_run : int
+        Chunks computed by this call.
+    chunks_skipped : int
+        Chunks found complete in ``out_dir`` (``resume=True``) and not recomputed.
+    chunks_failed : int
+        Chunks whose task failed on the cluster; their profiles are written
+        with status "error" and a later ``resume=True`` run recomputes them.
+    duplicate_ids : dict
+        Profile ids that occur more than once in the output -> count (at
+        most 100 listed); ``n_duplicate_ids`` counts them all.
+    problems : list of str
+        Run-level problems (duplicate ids, failed chunks, a changed input,
+        output that does not match the input).  Empty when all is well.
+    workers : int
+        Worker threads of the cluster.
+    scheduler : str or None
+        Address of the external scheduler; None for the local cluster.
+    scan_s, startup_s, read_s, fit_s, fit_cpu_s, write_s, verify_s, wall_s : float
+        Seconds: first pass over the input; cluster start or connection;
+        reading and parsing chunks (client); fitting (sum over chunks of
+        the time in the worker task, i.e. worker-seconds, and of its CPU
+        time: they differ when the machine is busy); writing part files
+        (client); final check of the output; whole call.
+    profiles_per_s : float
+        Profiles of the chunks computed by this call per second of wall time.
+    """
+
+    out_dir: str
+    profiles: int = 0
+    profiles_ok: int = 0
+    profiles_error: int = 0
+    chunks: int = 0
+    chunks_run: int = 0
+    chunks_skipped: int = 0
+    chunks_failed: int = 0
+    duplicate_ids: dict[str, int] = field(default_factory=dict)
+    n_duplicate_ids: int = 0
+    problems: list[str] = field(default_factory=list)
+    workers: int = 0
+    scheduler: str | None = None
+    scan_s: float = 0.0
+    startup_s: float = 0.0
+    read_s: float = 0.0
+    fit_s: float = 0.0
+    fit_cpu_s: float = 0.0
+    write_s: float = 0.0
+    verify_s: float = 0.0
+    wall_s: float = 0.0
+    profiles_per_s: float = 0.0
+
+    @property
+    def success(self) -> bool:
+        """True when the run has no run-level problem (error profiles are normal)."""
+        return not self.problems
+
+    def _repr_html_(self) -> str:
+        """A table of the run's counts, for Jupyter."""
+        from terracone.notebook import batch_html
+
+        return batch_html(self)
+
+    def as_dict(self) -> dict[str, Any]:
+        d = dataclasses.asdict(self)
+        d["success"] = self.success
+        return d
+
+
+# ---------------------------------------------------------------------------
+# input: terracone.io.stream reads, scans and chunks (the names below are the
+# ones the other sections of this module use)
+# ---------------------------------------------------------------------------
+
+_Plan = ScanPlan
+_Chunk = Chunk
+_Task = ProfileSet  # what a worker fits: the fittable profiles of one chunk
+_hash_ids = hash_ids
+_input_files = input_files
+_fingerprint = fingerprint
+_sc900_to_parquet = instrument_to_parquet
+_ConeCache = ConeCache
+_chunks = iter_chunks
+
+
+def _scan(files: list[tuple[Path, str]]) -> ScanPlan:
+    """The scan, with the output columns ahead of the metadata columns."""
+    return scan_inputs(files, leading=OUTPUT_COLUMNS)
+
+
+# ---------------------------------------------------------------------------
+# fitting: worker side
+# ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _FitSettings:
+    model: str
+    r_min: float | None
+    plate_pair: tuple[float, float] | None
+    bounds: Bounds
+    ratio: float | None  # kc/kphi held fixed (calibration), else None
+    units: str
+    noise_floor: float = _NOISE_FLOOR
+    n_grid: int = _N_GRID
+    uncertainty: bool = False
+    draws: int = 1000
+    prior: Any = "bounds"  # "bounds" or a Calibration
+    seed: int = 0
+    layers: int = 1  # > 1: also fit a layered terrain per profile (terracone.physics.layers)
+    depth_ref: str = "base"  # "tip": file depths are tip depths, base = tip - H
+    depth_range: tuple[float | None, float | None] = (None, None)  # base-depth window [m]
+
+
+def check_fits(
+    zz: np.ndarray, yy: np.ndarray, model: np.ndarray, npts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`terracone.physics.metrics.check_fit` of each padded profile: (longest run, lack of fit).
+
+    Through :func:`terracone.physics.metrics.check_fit_fast` (a compiled screen,
+    check_fit itself only for the profiles it may flag).
+    """
+    P = zz.shape[0]
+    runs = np.empty(P)
+    lof = np.full(P, None, dtype=object)
+    for i in range(P):
+        k = int(npts[i])
+        chk = check_fit_fast(zz[i, :k], yy[i, :k], model[i, :k])
+        runs[i] = chk.longest_run
+        lof[i] = chk.lack_of_fit
+    return runs, lof
+
+
+def _layered_columns(out, pset: ProfileSet, results, fit: _FitSettings) -> None:
+    """A layered fit per fitted profile (terracone.physics.layers): BIC against one layer, interfaces, n's."""
+    from terracone.inverse.layered import fit_layered
+
+    for j, res in enumerate(results):
+        if not res.ok:
+            continue
+        prof = CIProfile(res.id, res.depth, res.ci, cone=pset.cones[int(pset.cone_idx[j])])
+        try:
+            lr = fit_layered(
+                prof, layers=fit.layers, model=fit.model, r_min=fit.r_min, bounds=fit.bounds
+            )
+        except Exception as exc:  # noqa: BLE001 - recorded per profile, the rest goes on
+            out["lack_of_fit_layered"][j] = f"layered fit failed: {exc}"
+            continue
+        if not lr.ok:
+            out["lack_of_fit_layered"][j] = f"layered fit not possible: {lr.error}"
+            continue
+        out["bic_single"][j] = lr.bic_single
+        out["bic_layered"][j] = lr.bic
+        out["preferred_layers"][j] = lr.preferred_layers
+        out["r2_layered"][j] = lr.r2_ci
+        out["interfaces"][j] = ",".join(
+            f"{float(u.length_from_si(d, fit.units)):.6g}" for d in lr.interfaces
+        )
+        out["n_layers"][j] = ",".join(f"{p.n:.6g}" for p in lr.layers)
+        out["lack_of_fit_layered"][j] = lr.lack_of_fit
+
+
+def _posterior_columns(out, pset: ProfileSet, results, fit: _FitSettings) -> None:
+    """Posterior 90% intervals and identifiability labels, profile by profile (emcee)."""
+    from terracone.inverse.uncertainty.posterior import posterior_for_result
+
+    for j, res in enumerate(results):
+        if not res.ok:
+            continue
+        prof = CIProfile(res.id, res.depth, res.ci, cone=pset.cones[int(pset.cone_idx[j])])
+        try:
+            post = posterior_for_result(
+                prof,
+                res,
+                prior=fit.prior,
+                draws=fit.draws,
+                seed=fit.seed,
+                bounds=fit.bounds,
+                plate_pair=fit.plate_pair,
+            )
+        except Exception as exc:  # noqa: BLE001 - recorded per profile, the rest goes on
+            prev = out["lack_of_fit"][j]
+            out["lack_of_fit"][j] = (prev + "; " if prev else "") + f"posterior failed: {exc}"
+            continue
+        d = post.as_dict(fit.units)
+        for p in _UQ_PARAMS:
+            lo, hi = d["intervals"][p]
+            out[f"{p}_q05"][j] = lo
+            out[f"{p}_q95"][j] = hi
+            out[f"ident_{p}"][j] = d["identifiability"].get(p)
+
+
+def _base_depths(pset: ProfileSet, fit: _FitSettings) -> ProfileSet:
+    """--depth-ref tip (base = tip - H of each profile's cone), then --depth-range."""
+    if fit.depth_ref == "tip":
+        pset = dataclasses.replace(pset, depth=pset.depth - np.repeat(pset.heights(), pset.counts))
+    lo, hi = fit.depth_range
+    return pset if lo is None and hi is None else pset.window(lo, hi)
+
+
+def _result_columns(results: list, fit: _FitSettings) -> dict[str, Any]:
+    """The per-profile results of predict_many as batch's columns, in the output units."""
+    P = len(results)
+    out: dict[str, Any] = _empty_results(P)
+    ok = np.array([r.ok for r in results], dtype=bool)
+    good = [r for r in results if r.ok]
+    n = np.array([r.params.n for r in good])
+    cols = {
+        "kc": u.kc_from_si(np.array([r.params.kc for r in good]), n, fit.units),
+        "kphi": u.kphi_from_si(np.array([r.params.kphi for r in good]), n, fit.units),
+        "n": n,
+        "cc": u.pressure_from_si(np.array([r.params.cc for r in good]), fit.units),
+        "phic_deg": np.array([r.params.phic_deg for r in good]),
+        "phic_lo": np.array([r.phic_range[0] for r in good]),
+        "phic_hi": np.array([r.phic_range[1] for r in good]),
+        "n_lo": np.array([r.profile_intervals["n"][0] for r in good]),
+        "n_hi": np.array([r.profile_intervals["n"][1] for r in good]),
+        "rmsd": u.pressure_from_si(np.array([r.rmsd for r in good]), fit.units),
+        "r2_ci": np.array([r.r2_ci for r in good]),
+        "longest_run": np.array([r.longest_run for r in good], dtype=float),
+        "lack_of_fit": np.array([r.lack_of_fit for r in good] + [None], dtype=object)[:-1],
+    }
+    for k, v in cols.items():
+        out[k][ok] = v
+    out["status"] = np.array([r.status for r in results] + [None], dtype=object)[:-1]
+    out["error"] = np.array([r.error for r in results] + [None], dtype=object)[:-1]
+    und = [";".join(r.undetermined) if r.ok else None for r in results]
+    out["undetermined"] = np.array(und + [None], dtype=object)[:-1]
+    return out
+
+
+def _fit_chunk(task: ProfileSet, fit: _FitSettings) -> dict[str, Any]:
+    """Validate and fit the profiles of a chunk (runs on a Dask worker): predict_many.
+
+    Returns per-profile arrays in the output units: status, error,
+    error_row (-1 = none), error_column, the parameters, rmsd, r2_ci,
+    undetermined; and fit_time_s for the chunk.
+    """
+    t0 = time.perf_counter()
+    c0 = time.process_time()
+    pset = _base_depths(task, fit)
+    results = predict_many(
+        pset,
+        detail="summary",
+        model=fit.model,
+        r_min=fit.r_min,
+        plate_pair=fit.plate_pair,
+        bounds=fit.bounds,
+        kc_over_kphi=fit.ratio,
+        noise_floor=fit.noise_floor,
+        n_grid=fit.n_grid,
+        solve_many=solve_exact_many,  # looked up here: tests replace it
+        chunk_size=max(len(pset), 1),
+    )
+    out = _result_columns(results, fit)
+    error_row = np.full(len(pset), -1, dtype=np.int64)
+    error_column = np.full(len(pset), None, dtype=object)
+    for j, exc in screen(pset).items():  # where predict_many's invalid profiles are wrong
+        error_row[j] = -1 if exc.row is None else exc.row
+        error_column[j] = exc.column
+    with np.errstate(all="ignore"):
+        if fit.uncertainty:
+            _posterior_columns(out, pset, results, fit)
+        if fit.layers > 1:
+            _layered_columns(out, pset, results, fit)
+    lo, hi = fit.depth_range
+    for j in np.flatnonzero(pset.counts == 0):  # emptied by the depth window
+        out["error"][j] = str(
+            InputError(
+                f"no points in the depth window {lo}:{hi} m",
+                file=pset.source(j).path,
+                profile=pset.ids[j],
+            )  # noqa: E501
+        )
+        error_row[j], error_column[j] = -1, None
+    out.update(
+        error_row=error_row,
+        error_column=error_column,
+        fit_time_s=time.perf_counter() - t0,
+        fit_cpu_s=time.process_time() - c0,
+    )
+    return out
+
+
+# ---------------------------------------------------------------------------
+# output
+# ---------------------------------------------------------------------------
+
+
+def _part_name(i: int) -> str:
+    return f"part-{i:06d}.parquet"
+
+
+def _table(
+    chunk: _Chunk,
+    res: dict[str, Any] | None,
+    failure: str | None,
+    run_key: str,
+    plan: _Plan,
+    fit: _FitSettings,
+) -> pa.Table:
+    """The output rows of a chunk (``res``: worker results of its fitted profiles)."""
+    P = int(chunk.ids.size)
+    status = np.where(np.equal(chunk.error, None), "ok", "error").astype(object)
+    error = chunk.error.copy()
+    error_row = chunk.error_row.copy()
+    error_column = chunk.error_column.copy()
+    floats = _empty_results(P)
+    undetermined = np.full(P, None, dtype=object)
+    fit_time = 0.0
+    idx = np.flatnonzero(chunk.fit)
+    if failure is not None:
+        for i in idx:
+            status[i] = "error"
+            error[i] = str(
+                InputError(
+                    f"chunk {chunk.index} failed on the cluster ({failure}); "
+                    "rerun with resume to recompute it",
+                    file=chunk.source[i],
+                    profile=str(chunk.ids[i]),
+                )
+            )
+    elif res is not None and idx.size:
+        status[idx] = res["status"]
+        error[idx] = res["error"]
+        error_row[idx] = res["error_row"]
+        error_column[idx] = res["error_column"]
+        undetermined[idx] = res["undetermined"]
+        for k in _RESULT_KEYS:
+            floats[k][idx] = res[k]
+        fit_time = float(res["fit_time_s"])
+    r_min = fit.r_min
+    r_min_out = None if r_min is None else float(u.length_from_si(r_min, fit.units))
+    cols: dict[str, Any] = {
+        "profile": pa.array(chunk.ids.tolist(), pa.string()),
+        "status": status,
+        "error": error,
+        "error_row": pa.array(error_row, pa.int64(), mask=error_row < 0),
+        "error_column": error_column,
+        "n_points": pa.array(chunk.counts, pa.int64()),
+        "undetermined": undetermined,
+        "model": [fit.model] * P,
+        "r_min": [r_min_out] * P,
+        "units": [fit.units] * P,
+        "cone": chunk.cone,
+        "source": chunk.source,
+        "source_row": pa.array(chunk.first_row, pa.int64()),
+        "chunk": np.full(P, chunk.index, dtype=np.int64),
+        "fit_time_s": np.full(P, fit_time),
+        **floats,
+    }
+    meta = {
+        "chunk": chunk.index,
+        "profiles": P,
+        "failed": failure is not None,
+        "run_key": run_key,
+    }
+    return arrow_table(
+        cols,
+        [(o, chunk.meta[o]) for o, _, _ in plan.meta],
+        schema=plan.schema,
+        metadata={_PART_META_KEY: json.dumps(meta).encode()},
+    )
+
+
+def _write_atomic(out_dir: Path, name: str, write: Callable[[Any], None]) -> None:
+    tmp = out_dir / f"{_TMP_PREFIX}{name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
+    try:
+        with open(tmp, "wb") as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, out_dir / name)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+
+
+def _write_json(out_dir: Path, name: str, obj: Any) -> None:
+    data = (dumps(obj) + "\n").encode()
+    _write_atomic(out_dir, name, lambda f: f.write(data))
+
+
+def _part_meta(path: Path) -> dict[str, Any] | None:
+    """The terracone metadata of a part file, or None if it is not a whole Parquet file."""
+    try:
+        md = pq.read_metadata(path)
+        raw = (md.metadata or {}).get(_PART_META_KEY)
+        if raw is None:
+            return None
+        meta = json.loads(raw)
+        meta["num_rows"] = md.num_rows
+        return meta
+    except Exception:  # noqa: BLE001 - anything unreadable is "not done"
+        return None
+
+
+# ---------------------------------------------------------------------------
+# settings, output directory, resume
+# ---------------------------------------------------------------------------
+
+
+def _settings(
+    *,
+    model: str,
+    r_min: float | None,
+    calibration: Calibration | None,
+    bounds: Bounds | str | None,
+    units: str,
+    cone: Cone,
+    chunk_size: int,
+    wide: dict[str, str | None] | None = None,
+    uncertainty: bool = False,
+    draws: int = 1000,
+    prior: Any = "bounds",
+    depth_ref: str = "base",
+    depth_range: tuple[float | None, float | None] = (None, None),
+    layers: int = 1,
+) -> tuple[dict[str, Any], _FitSettings]:
+    """The run's settings (recorded in ``_run.json``) and what the workers need to fit."""
+    bounds = Bounds.parse(bounds, units) if isinstance(bounds, str) else bounds or Bounds()
+    # the calibration applied as predict applies it (model, r_min, plates, phic, cc, kc/kphi);
+    # raises on bad settings
+    ps = predict_settings(model=model, r_min=r_min, calibration=calibration, bounds=bounds)
+    model, r_min, plate_pair, bounds, ratio = ps.model, ps.r_min, ps.plate_pair, ps.bounds, ps.ratio
+    prior_cal = None
+    if uncertainty and prior not in (None, "bounds"):
+        prior_cal = prior if isinstance(prior, Calibration) else calibration
+        if prior_cal is None:
+            raise ValueError("prior: give 'bounds' or a Calibration")
+    fit = _FitSettings(
+        model,
+        r_min,
+        plate_pair,
+        bounds,
+        ratio,
+        units,
+        uncertainty=uncertainty,
+        draws=int(draws),
+        prior=prior_cal if prior_cal is not None else "bounds",
+        depth_ref=depth_ref,
+        depth_range=tuple(depth_range),
+        layers=int(layers),
+    )
+    settings = {
+        "model": model,
+        "r_min_m": r_min,
+        "plate_pair_m": None if plate_pair is None else list(plate_pair),
+        "bounds": json.loads(json.dumps(dataclasses.asdict(bounds))),
+        "calibration": None if calibration is None else calibration.to_json(),
+        "kc_over_kphi": ratio,
+        "units": units,
+        "cone": {"name": cone.name, "base_area_m2": cone.base_area, "angle_deg": cone.angle_deg},
+        "chunk_size": chunk_size,
+        "solver": "exact_many" + (" (kc/kphi ratio fixed)" if ratio else ""),
+        "uncertainty": {
+            "draws": draws,
+            "prior": "calibration" if prior_cal is not None else "bounds",
+        }
+        if uncertainty
+        else None,
+        "n_grid": fit.n_grid,
+        "noise_floor": fit.noise_floor,
+        "terracone_version": __version__,
+    }
+    # recorded only when set, so that runs written before these keys existed still resume
+    if wide and any(v is not None for v in wide.values()):
+        settings["wide_units"] = dict(wide)
+    if depth_ref != "base":
+        settings["depth_ref"] = depth_ref
+    if any(v is not None for v in depth_range):
+        settings["depth_range_m"] = list(depth_range)
+    if int(layers) > 1:
+        settings["layers"] = int(layers)
+    return json.loads(json.dumps(settings)), fit
+
+
+def _diff(old: Any, new: Any, where: str = "") -> list[str]:
+    if isinstance(old, dict) and isinstance(new, dict):
+        out = []
+        for k in sorted(set(old) | set(new), key=str):
+            out += _diff(old.get(k), new.get(k), f"{where}.{k}" if where else str(k))
+        return out
+    if isinstance(old, list) and isinstance(new, list) and len(old) == len(new):
+        out = []
+        for k, (a, b) in enumerate(zip(old, new)):
+            out += _diff(a, b, f"{where}[{k}]")
+        return out
+    if old != new:
+        return [f"{where}: {old!r} -> {new!r}"]
+    return []
+
+
+@contextlib.contextmanager
+def _lock(out_dir: Path) -> Iterator[None]:
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    path = out_dir / "_lock"
+    with open(path, "a+") as f:
+        try:
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise ValueError(
+                f"another terracone batch is writing to {out_dir} (it holds {path})"
+            ) from None
+        try:
+            yield
+        finally:
+            with contextlib.suppress(FileNotFoundError):
+                path.unlink()
+            fcntl.flock(f.fileno(), fcntl.LOCK_UN)
+
+
+def _is_leftover(entry: Path) -> bool:
+    """A stale lock or temporary file of an interrupted run."""
+    name = entry.name
+    return name == "_lock" or (name.startswith(_TMP_PREFIX) and name.endswith(".tmp"))
+
+
+def _prepare_out_dir(
+    out_dir: Path, resume: bool, run: dict[str, Any], input_dir: Path | None
+) -> bool:
+    """Check OUT_DIR; returns True when resuming an earlier run."""
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ValueError(f"output {out_dir} exists and is not a directory")
+    if input_dir is not None and out_dir.resolve() == input_dir.resolve():
+        raise ValueError("the output directory cannot be the input directory")
+    entries = list(out_dir.iterdir()) if out_dir.exists() else []
+    if all(_is_leftover(e) for e in entries):  # empty, or only what a killed run leaves
+        out_dir.mkdir(parents=True, exist_ok=True)
+        return False
+    run_file = out_dir / "_run.json"
+    if not resume:
+        hint = (
+            "pass --resume (resume=True) to continue the run it holds"
+            if run_file.exists()
+            else "choose an empty or new directory"
+        )
+        raise ValueError(f"output directory {out_dir} is not empty; {hint}")
+    if not run_file.exists():
+        raise ValueError(
+            f"cannot resume into {out_dir}: it is not empty and has no _run.json "
+            "(not the output of terracone batch); choose an empty or new directory"
+        )
+    try:
+        old = json.loads(run_file.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ValueError(f"cannot resume: {run_file} is unreadable ({exc})") from exc
+    problems = _diff(old.get("settings"), run["settings"], "settings")
+    problems += _diff(old.get("input"), run["input"], "input")
+    if problems:
+        shown = "; ".join(problems[:8]) + ("; ..." if len(problems) > 8 else "")
+        raise ValueError(
+            f"cannot resume into {out_dir}: it holds a run with different settings or "
+            f"input ({shown}); use the original settings and input, or a new directory"
+        )
+    return True
+
+
+def _done_chunks(out_dir: Path, run_key: str, expected: dict[int, int]) -> set[int]:
+    """Chunks whose part file is whole and belongs to this run; clean the rest."""
+    done: set[int] = set()
+    for f in out_dir.iterdir():
+        if f.name.startswith(_TMP_PREFIX) and f.name.endswith(".tmp"):
+            with contextlib.suppress(FileNotFoundError):
+                f.unlink()  # an interrupted write
+            continue
+        m = _PART.match(f.name)
+        if not m:
+            continue
+        i = int(m.group(1))
+        meta = _part_meta(f)
+        ok = (
+            meta is not None
+            and i in expected
+            and meta.get("chunk") == i
+            and meta.get("run_key") == run_key
+            and meta.get("num_rows") == expected[i]
+            and meta.get("profiles") == expected[i]
+            and not meta.get("failed")
+        )
+        if ok:
+            done.add(i)
+        elif i not in expected:
+            raise ValueError(
+                f"cannot resume: {f} is not a chunk of this run (it has "
+                f"{len(expected)} chunks); remove it or use a new directory"
+            )
+    return done
+
+
+# ---------------------------------------------------------------------------
+# the final check
+# ---------------------------------------------------------------------------
+
+
+def _verify(out_dir: Path, plan: _Plan, n_chunks: int, summary: BatchSummary) -> None:
+    hashes = np.empty(plan.profiles, dtype=np.uint64)
+    filled = 0
+    ok = err = 0
+    failed: list[int] = []
+    missing: list[int] = []
+    overflow = False
+    for i in range(n_chunks):
+        path = out_dir / _part_name(i)
+        meta = _part_meta(path)
+        if meta is None:
+            missing.append(i)
+            continue
+        if meta.get("failed"):
+            failed.append(i)
+        t = pq.read_table(path, columns=["profile", "status"])
+        ids = t.column("profile").to_numpy(zero_copy_only=False)
+        st = t.column("status").to_numpy(zero_copy_only=False)
+        ok += int(np.count_nonzero(st == "ok"))
+        err += int(np.count_nonzero(st != "ok"))
+        h = _hash_ids(ids)
+        if filled + h.size > hashes.size:
+            overflow = True
+            h = h[: max(hashes.size - filled, 0)]
+        hashes[filled : filled + h.size] = h
+        filled += h.size
+    summary.profiles_ok, summary.profiles_error = ok, err
+    summary.profiles = ok + err
+    summary.chunks = n_chunks
+    summary.chunks_failed = len(failed)
+    if missing:
+        summary.problems.append(
+            f"{len(missing)} chunk(s) missing from the output (first: {missing[:5]}); "
+            "rerun with resume"
+        )
+    if failed:
+        summary.problems.append(
+            f"{len(failed)} chunk(s) failed on the cluster (first: {failed[:5]}); their "
+            "profiles have status error; rerun with resume to recompute them"
+        )
+    if overflow or summary.profiles != plan.profiles:
+        summary.problems.append(
+            f"the output has {summary.profiles} rows but the input has {plan.profiles} profiles"
+        )
+    h = hashes[:filled]
+    with np.errstate(over="ignore"):
+        hsum = int(h.sum(dtype=np.uint64))
+    if not missing and not overflow and hsum != plan.id_hash:
+        summary.problems.append("the profile ids of the output differ from those of the input")
+    srt = np.sort(h)
+    dup_h = np.unique(srt[1:][srt[1:] == srt[:-1]])
+    if dup_h.size:
+        counter: Counter[str] = Counter()
+        for i in range(n_chunks):
+            path = out_dir / _part_name(i)
+            if i in missing:
+                continue
+            ids = pq.read_table(path, columns=["profile"]).column(0).to_numpy(zero_copy_only=False)
+            sel = np.isin(_hash_ids(ids), dup_h)
+            counter.update(str(v) for v in ids[sel])
+        dups = {k: c for k, c in counter.items() if c > 1}
+        if dups:
+            summary.n_duplicate_ids = len(dups)
+            summary.duplicate_ids = dict(sorted(dups.items())[:100])
+            shown = ", ".join(repr(k) for k in list(summary.duplicate_ids)[:5])
+            summary.problems.append(
+                f"{len(dups)} profile id(s) occur more than once in the output ({shown}"
+                f"{', ...' if len(dups) > 5 else ''}): the rows of a profile must be "
+                "contiguous and ids unique across files"
+            )
+
+
+# ---------------------------------------------------------------------------
+# Dask
+# ---------------------------------------------------------------------------
+
+
+def _cpu_count() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def warm_kernels() -> bool:
+    """Load the compiled kernels of the batch solver in this process (a Dask worker).
+
+    Fits two tiny generated profiles, once as a small and once as a large
+    group (the two refinements of :func:`~terracone.inverse.solver.many.solve_exact_many`),
+    so that numba loads the kernels from its cache (or compiles them, once
+    per worker, when the cache is cold) before the first chunk.  Returns
+    whether compiled kernels are in use.
+    """
+
+    if not enabled():
+        return False
+    from terracone.physics.cone import cone_index
+
+    z = np.linspace(0.0, 0.3, 7)
+    y = cone_index(z, kc=10.0, kphi=1000.0, n=0.8)
+    cone, law = get_cone("asabe-large"), pressure_law("rm0")
+    for P in (1, 32):
+        solve_exact_many([z] * P, [y] * P, cone=cone, law=law, bounds=Bounds())
+    check_fits(z[None], y[None], y[None], np.array([z.size]))
+    return True
+
+
+def _worker_version() -> str:
+    import terracone
+
+    return terracone.__version__
+
+
+@contextlib.contextmanager
+def _worker_environ(env: dict[str, str]) -> Iterator[None]:
+    """Spawn local workers with ``env``: the nanny's pre-spawn environment, where
+    variables already in ``os.environ`` win over the Dask configuration; the
+    client's own environment is restored afterwards."""
+    import dask
+
+    saved = {k: os.environ.get(k) for k in env}
+    pre = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}) or {})
+    pre.update(env)
+    try:
+        os.environ.update(env)
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": pre}):
+            yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def _check_workers(client: Any, where: str) -> None:
+    """Wait for a worker of ``client`` and check that all run this terracone version."""
+    try:
+        client.wait_for_workers(1, timeout=_WAIT_WORKERS_S)
+    except TimeoutError:
+        raise RuntimeError(
+            f"no Dask worker joined the scheduler {where} within {_WAIT_WORKERS_S:g} s"
+        ) from None
+    versions = client.run(_worker_version)
+    wrong = {w: v for w, v in versions.items() if v != __version__}
+    if wrong:
+        raise RuntimeError(
+            f"Dask workers run another terracone version than this client ({__version__}): {wrong}"
+        )
+
+
+@contextlib.contextmanager
+def _dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
+    """A client of the scheduler at ``scheduler``, or of a local cluster of ``workers``."""
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="20s", set_as_default=False)
+        except (OSError, TimeoutError) as exc:
+            raise RuntimeError(f"cannot connect to the Dask scheduler {scheduler}: {exc}") from exc
+        try:
+            _check_workers(client, scheduler)
+            yield client
+        finally:
+            client.close()
+        return
+    with _worker_environ(WORKER_MALLOC_ENV):
+        cluster = LocalCluster(
+            n_workers=workers or _cpu_count(),
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},  # no warning if 8787 is taken
+            silence_logs=logging.ERROR,
+        )
+    try:
+        client = Client(cluster, set_as_default=False)
+        try:
+            yield client
+        finally:
+            client.close()
+    finally:
+        cluster.close()
+
+
+# ---------------------------------------------------------------------------
+# pools: a Dask client, a concurrent.futures executor, or anything with map
+# ---------------------------------------------------------------------------
+
+
+def _is_dask_client(pool: Any) -> bool:
+    try:
+        from distributed import Client
+    except ImportError:  # pragma: no cover - a required dependency
+        return False
+    return isinstance(pool, Client)
+
+
+def _pool_size(pool: Any) -> int:
+    """Workers of a pool: an executor's or multiprocessing pool's size, else 1."""
+    for name in ("_max_workers", "_processes"):  # concurrent.futures, multiprocessing
+        n = getattr(pool, name, None)
+        if isinstance(n, int) and n > 0:
+            return n
+    return 1
+
+
+def _fit_chunk_or_failure(task: Any, fit: Any) -> tuple[dict[str, Any] | None, str | None]:
+    """Fit one chunk on a worker: ``(results, None)``, or ``(None, reason)`` when it fails.
+
+    The task function of executor and ``map`` pools: a failure stays with its
+    chunk (its profiles become error rows) instead of ending the whole map.
+    """
+    try:
+        return _fit_chunk(task, fit), None
+    except Exception as exc:  # noqa: BLE001 - reported in the chunk's rows
+        return None, f"{type(exc).__name__}: {exc}"
+
+
+@dataclass
+class _Sink:
+    """Writes the part file of each finished chunk and keeps the counts and the progress."""
+
+    out: Path
+    plan: _Plan
+    fit: _FitSettings
+    run_key: str
+    summary: BatchSummary
+    profiles_done: int
+    bar: Any = None
+    callback: Callable[[int, int], None] | None = None
+
+    def write(self, chunk: _Chunk, res: dict[str, Any] | None, failure: str | None) -> None:
+        t = time.perf_counter()
+        table = _table(chunk, res, failure, self.run_key, self.plan, self.fit)
+        _write_atomic(self.out, _part_name(chunk.index), lambda f: pq.write_table(table, f))
+        s = self.summary
+        s.write_s += time.perf_counter() - t
+        s.chunks_run += 1
+        if res is not None:
+            s.fit_s += float(res["fit_time_s"])
+            s.fit_cpu_s += float(res["fit_cpu_s"])
+        self.profiles_done += int(chunk.ids.size)
+        if self.bar is not None:
+            self.bar.update(int(chunk.ids.size))
+        if self.callback is not None:
+            self.callback(self.profiles_done, self.plan.profiles)
+
+
+def _to_fit(chunks: Iterator[tuple[int, _Chunk | None, int]], sink: _Sink) -> Iterator[_Chunk]:
+    """The chunks to fit, read lazily; chunks with nothing to fit are written at once."""
+    while True:
+        t = time.perf_counter()
+        item = next(chunks, None)
+        sink.summary.read_s += time.perf_counter() - t
+        if item is None:
+            return
+        chunk = item[1]
+        if chunk is None:  # done by an earlier run
+            continue
+        if chunk.task is None:  # nothing to fit: every profile failed reading
+            sink.write(chunk, None, None)
+            continue
+        yield chunk
+
+
+def _on_dask(client: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
+    """Submit the chunks to a Dask client, at most 2 per worker thread in flight."""
+    from distributed import as_completed
+
+    t0 = time.perf_counter()
+    # each worker loads (or, with a cold cache, compiles) the solver's kernels once,
+    # here, counted as start-up rather than in its first chunk
+    client.run(warm_kernels)
+    sink.summary.startup_s += time.perf_counter() - t0
+    sink.summary.workers = sum(client.nthreads().values())
+    limit = max(2, 2 * sink.summary.workers)
+    token = uuid.uuid4().hex[:8]
+    inflight: dict[Any, _Chunk] = {}
+    ac = as_completed(loop=client.loop)
+
+    def collect(fut: Any) -> None:
+        chunk = inflight.pop(fut)
+        if fut.status == "finished":
+            res, failure = fut.result(), None
+        elif fut.status == "error":
+            exc = fut.exception()
+            res, failure = None, f"{type(exc).__name__}: {exc}"
+        else:
+            raise RuntimeError(
+                f"lost the Dask cluster (chunk {chunk.index} is {fut.status}); "
+                "rerun with resume to finish"
+            )
+        fut.release()
+        sink.write(chunk, res, failure)
+
+    for chunk in chunks:
+        while len(inflight) >= limit:
+            collect(next(ac))
+        key = f"terracone-batch-{token}-{chunk.index:06d}"
+        fut = client.submit(_fit_chunk, chunk.task, sink.fit, key=key, pure=False, retries=1)
+        chunk.task = None  # the worker has it; keep only what the output needs
+        inflight[fut] = chunk
+        ac.add(fut)
+    while inflight:
+        collect(next(ac))
+
+
+def _on_executor(executor: Executor, chunks: Iterator[_Chunk], sink: _Sink) -> None:
+    """Submit the chunks to a concurrent.futures executor, 2 per worker in flight."""
+    sink.summary.workers = _pool_size(executor)
+    limit = max(2, 2 * sink.summary.workers)
+    inflight: dict[Future, _Chunk] = {}
+
+    def drain(keep: int) -> None:
+        while len(inflight) > keep:
+            finished, _ = wait(inflight, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                sink.write(inflight.pop(fut), *fut.result())
+
+    for chunk in chunks:
+        drain(limit - 1)
+        inflight[executor.submit(_fit_chunk_or_failure, chunk.task, sink.fit)] = chunk
+        chunk.task = None
+    drain(0)
+
+
+def _on_map(pool: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
+    """Map the chunks with ``pool.map`` (or ``pool`` itself, e.g. the built-in ``map``)
+    in windows of 2 per worker, so only a window of chunks is in memory."""
+    mapper = pool.map if hasattr(pool, "map") else pool
+    sink.summary.workers = _pool_size(pool)
+    task = functools.partial(_fit_chunk_or_failure, fit=sink.fit)
+    size = max(2, 2 * sink.summary.workers)
+    while window := list(itertools.islice(chunks, size)):
+        tasks = [c.task for c in window]
+        for c in window:
+            c.task = None
+        for chunk, (res, failure) in zip(window, mapper(task, tasks), strict=True):
+            sink.write(chunk, res, failure)
+
+
+def _run_on(pool: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
+    """Fit the chunks on the pool: the one place that knows the kinds of pool."""
+    if _is_dask_client(pool):
+        sink.summary.scheduler = sink.summary.scheduler or getattr(pool.scheduler, "address", None)
+        _check_workers(pool, str(sink.summary.scheduler))
+        _on_dask(pool, chunks, sink)
+    elif isinstance(pool, Executor):
+        _on_executor(pool, chunks, sink)
+    else:
+        _on_map(pool, chunks, sink)
+
+
+# ---------------------------------------------------------------------------
+# run_batch
+# ---------------------------------------------------------------------------
+
+
+def _resolve_calibration(calibration: Any) -> Calibration | None:
+    if calibration is None or isinstance(calibration, Calibration):
+        return calibration
+    return Calibration.load(calibration)
+
+
+def _check_args(chunk_size: int, workers: int | None, scheduler: str | None, pool: Any) -> None:
+    if chunk_size < 1:
+        raise ValueError(f"chunk_size must be >= 1 (got {chunk_size})")
+    if workers is not None and scheduler:
+        raise ValueError("workers applies to the local cluster; not allowed with scheduler")
+    if workers is not None and workers < 1:
+        raise ValueError(f"workers must be >= 1 (got {workers})")
+    if pool is not None and (workers is not None or scheduler):
+        raise ValueError("give a pool, or workers / scheduler for run_batch's Dask cluster")
+    if pool is not None and not (hasattr(pool, "map") or callable(pool)):
+        raise ValueError(f"pool must have a map method (got {type(pool).__name__})")
+
+
+def run_batch(
+    input: PathLike,
+    out_dir: PathLike,
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    resume: bool = False,
+    quiet: bool = False,
+    model: str = "rm0",
+    r_min: float | None = None,
+    calibration: Calibration | PathLike | None = None,
+    bounds: Bounds | str | None = None,
+    units: str = "si",
+    cone: str | Cone = "asabe-large",
+    chunk_size: int = 2000,
+    progress: bool | Callable[[int, int], None] | None = None,
+    uncertainty: bool = False,
+    draws: int = 1000,
+    prior: str | Calibration | None = "bounds",
+    depth_ref: str = "base",
+    depth_range: tuple[float | None, float | None] = (None, None),
+    layers: int = 1,
+    format: str | None = None,
+    depth_unit: str | None = None,
+    ci_unit: str | None = None,
+    pool: Any = None,
+) -> BatchSummary:
+    """Fit every CI profile of a file or directory; write Parquet results.
+
+    Parameters
+    ----------
+    input : path
+        A CSV (``.csv``, ``.csv.gz``) or Parquet file, or a directory of them (name
+        order; ``.``/``_`` names ignored); columns as :func:`terracone.io.read_ci_profiles`
+        reads them (others are metadata); a profile's rows contiguous.
+    out_dir : path
+        New or empty, or (``resume``) written by an earlier run of the same settings.
+    workers, scheduler : optional
+        Processes of the local Dask cluster (default: all cores), or a running
+        scheduler's address (``"tcp://HOST:PORT"``); not both.
+    pool : optional
+        Fit the chunks there instead (emcee's pattern): a Dask ``Client``, an executor,
+        a ``multiprocessing`` pool or anything with ``map`` (or ``map``); two chunks
+        per worker in flight; the caller closes it; not with ``workers``/``scheduler``.
+    resume, quiet : bool
+        Keep the chunks whose part file is whole and compute the others; no progress bar.
+    model, r_min, calibration, bounds
+        As :func:`terracone.inverse.predict_many` (r_min [m]); or a calibration's
+        path, a bounds string (:meth:`Bounds.parse`, in ``units``).
+    units, cone, chunk_size
+        Units of the output (and of a bounds string); the cone of files without a
+        ``cone`` column; profiles per chunk (one task, one part file).
+    progress : bool or callable, optional
+        None: a tqdm bar on a terminal; True/False: force it; a callable gets
+        ``progress(profiles_done, profiles_total)`` per chunk.
+    uncertainty, draws, prior
+        Also sample each posterior (:mod:`terracone.inverse.uncertainty.posterior`; prior
+        "bounds" or the calibration): columns ``<p>_q05``, ``<p>_q95`` (90%) and
+        ``ident_<p>`` for p in kc, kphi, n, cc, phic_deg.
+    depth_ref, depth_range
+        "tip": input depths are tip depths (base = tip - H); fit only base depths
+        in [lo, hi] [m] (either may be None).
+    layers : int
+        With 2 or more, also a layered fit per profile (:mod:`terracone.inverse.layered`):
+        columns ``bic_single``, ``bic_layered``, ``preferred_layers``, ``r2_layered``,
+        ``interfaces``, ``n_layers``, ``lack_of_fit_layered``.
+    format, depth_unit, ci_unit : optional
+        A single file's format ("csv", "sc900", "wide"; None detects it) and a wide
+        table's units; instrument files become ``OUT_DIR/_input/<stem>.parquet``.
+
+    Returns
+    -------
+    BatchSummary
+
+    Raises
+    ------
+    InputError
+        A file-level problem, found by the scan before anything is computed.
+    ValueError, RuntimeError
+        Bad settings or an unusable output directory; a lost Dask cluster (resume).
+    """
+    t_start = time.perf_counter()
+    _check_args(chunk_size, workers, scheduler, pool)
+    units = u.check_system(units)
+    default_cone = get_cone(cone)
+    wide = {"depth_unit": depth_unit, "ci_unit": ci_unit}
+    settings, fit = _settings(
+        model=model,
+        r_min=r_min,
+        calibration=_resolve_calibration(calibration),
+        bounds=bounds,
+        units=units,
+        cone=default_cone,
+        chunk_size=chunk_size,
+        wide=wide,
+        uncertainty=uncertainty,
+        draws=draws,
+        prior=prior,
+        depth_ref=depth_ref,
+        depth_range=depth_range,
+        layers=layers,
+    )
+    files = _input_files(input)
+    fingerprint = _fingerprint(input, files)
+    run = _run_record(settings, fingerprint)
+    out = Path(out_dir)
+    in_dir = Path(input) if Path(input).is_dir() else None
+    resuming = _prepare_out_dir(out, resume, run, in_dir)
+    readable = files if in_dir else _readable(files, out, format, default_cone, wide)
+    summary = BatchSummary(out_dir=str(out), scheduler=scheduler)
+    with _lock(out):
+        _remove_leftovers(out)
+        plan, expected, done = _begin(out, readable, run, resuming, chunk_size, summary)
+        sink = _Sink(out, plan, fit, run["run_key"], summary, sum(expected[i] for i in done))
+        chunks = _chunks(plan, chunk_size, _ConeCache(default_cone), done)
+        where = {"pool": pool, "workers": workers, "scheduler": scheduler}
+        _process(sink, chunks, len(done) < len(expected), where, quiet, progress)
+        changed = _fingerprint(input, files) != fingerprint
+        _finish(sink, expected, done, run, units, t_start, changed)
+    return summary
+
+
+def _readable(
+    files: list[tuple[Path, str]], out: Path, format: str | None, cone: Cone, wide: dict
+) -> list[tuple[Path, str]]:
+    """The files to read: a single SC900 export or wide table becomes Parquet once."""
+    kind = format
+    if format is None and files[0][1] == "csv":
+        kind = detect_format(files[0][0])
+    if kind not in ("sc900", "wide"):
+        return files
+    reader: dict[str, Any] = {"format": kind}
+    if kind == "wide":
+        reader.update(wide, depth_ref="base")
+    return [(_sc900_to_parquet(files[0][0], out, cone, **reader), "parquet")]
+
+
+def _begin(
+    out: Path,
+    files: list[tuple[Path, str]],
+    run: dict[str, Any],
+    resuming: bool,
+    chunk_size: int,
+    summary: BatchSummary,
+) -> tuple[_Plan, dict[int, int], set[int]]:
+    """Scan the input; write ``_run.json``, or find the chunks an earlier run finished.
+
+    Returns the plan, the profiles expected per chunk and the chunks already done.
+    """
+    t0 = time.perf_counter()
+    plan = _scan(files)
+    summary.scan_s = time.perf_counter() - t0
+    n_chunks = -(-plan.profiles // chunk_size)
+    expected = {i: min(chunk_size, plan.profiles - i * chunk_size) for i in range(n_chunks)}
+    run.update(profiles=plan.profiles, chunks=n_chunks)
+    run["output_columns"] = plan.schema.names
+    done: set[int] = set()
+    if resuming:
+        done = _done_chunks(out, run["run_key"], expected)
+        with contextlib.suppress(FileNotFoundError):
+            (out / "_summary.json").unlink()
+    else:
+        run["created"] = datetime.now(UTC).isoformat(timespec="seconds")
+        _write_json(out, "_run.json", run)
+    summary.chunks_skipped = len(done)
+    return plan, expected, done
+
+
+def _finish(
+    sink: _Sink,
+    expected: dict[int, int],
+    done: set[int],
+    run: dict[str, Any],
+    units: str,
+    t_start: float,
+    input_changed: bool,
+) -> None:
+    """Check the output against the scan, time the run and write ``_summary.json``."""
+    summary = sink.summary
+    t0 = time.perf_counter()
+    _verify(sink.out, sink.plan, len(expected), summary)
+    if input_changed:
+        summary.problems.append("the input files changed during the run")
+    summary.verify_s = time.perf_counter() - t0
+    summary.wall_s = time.perf_counter() - t_start
+    computed = sum(n for i, n in expected.items() if i not in done)
+    summary.profiles_per_s = computed / summary.wall_s if summary.wall_s > 0 else 0.0
+    _write_summary(sink.out, summary, run, units)
+
+
+def _run_record(settings: dict[str, Any], fingerprint: dict[str, Any]) -> dict[str, Any]:
+    """The run's identity (``_run.json``): settings and input, keyed by their hash."""
+    run_key = hashlib.sha256(
+        json.dumps({"settings": settings, "input": fingerprint}, sort_keys=True).encode()
+    ).hexdigest()[:16]
+    return {
+        "terracone_batch": 1,
+        "terracone_version": __version__,
+        "run_key": run_key,
+        "settings": settings,
+        "input": fingerprint,
+    }
+
+
+def _remove_leftovers(out: Path) -> None:
+    """Remove the temporary files of an interrupted write."""
+    for e in out.iterdir():
+        if e.name != "_lock" and _is_leftover(e):
+            with contextlib.suppress(FileNotFoundError):
+                e.unlink()
+
+
+def _write_summary(out: Path, summary: BatchSummary, run: dict[str, Any], units: str) -> None:
+    """``_summary.json``: the summary, the run's key, units and settings (read by report)."""
+    doc = summary.as_dict()
+    doc["finished"] = datetime.now(UTC).isoformat(timespec="seconds")
+    doc["run_key"] = run["run_key"]
+    doc["units"] = units  # read by terracone report
+    doc["settings"] = run["settings"]
+    doc["input"] = run["input"]["path"]
+    _write_json(out, "_summary.json", doc)
+
+
+def _make_bar(
+    progress: bool | Callable[[int, int], None] | None, quiet: bool, total: int, initial: int
+) -> tuple[Any, Callable[[int, int], None] | None]:
+    if callable(progress):
+        return None, progress
+    show = (not quiet) and (progress if progress is not None else sys.stderr.isatty())
+    if not show:
+        return None, None
+    from tqdm.auto import tqdm
+
+    bar = tqdm(
+        total=total,
+        initial=initial,
+        unit="profile",
+        unit_scale=True,
+        smoothing=0.1,
+        dynamic_ncols=True,
+        file=sys.stderr,
+        desc="terracone batch",
+    )
+    return bar, None
+
+
+def _process(
+    sink: _Sink,
+    chunks: Iterator[tuple[int, _Chunk | None, int]],
+    todo: bool,
+    where: dict[str, Any],
+    quiet: bool,
+    progress: bool | Callable[[int, int], None] | None,
+) -> None:
+    """Stream the chunks through the pool (``where["pool"]``, or a Dask cluster of
+    ``where["workers"]`` or at ``where["scheduler"]``) and write the part files."""
+    total = sink.plan.profiles
+    sink.bar, sink.callback = _make_bar(progress, quiet, total, sink.profiles_done)
+    if sink.callback is not None:
+        sink.callback(sink.profiles_done, total)
+    try:
+        if not todo:
+            return
+        if where["pool"] is not None:
+            _run_on(where["pool"], _to_fit(chunks, sink), sink)
+            return
+        t0 = time.perf_counter()
+        with _dask_client(where["workers"], where["scheduler"]) as client:
+            sink.summary.startup_s = time.perf_counter() - t0
+            _on_dask(client, _to_fit(chunks, sink), sink)
+    finally:
+        if sink.bar is not None:
+            sink.bar.close()

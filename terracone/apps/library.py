@@ -1,0 +1,803 @@
+"""A library of named terrains in SQLite.
+
+Every terrain is a record with a unique name, a kind (``"reference"``,
+``"calibration"``, ``"bevameter-fit"`` or any other word), its parameters in
+SI, where they came from (provenance) and free notes.
+
+Parameter keys (all SI; any subset may be present):
+
+==============  ===============  ===============================================
+key             unit             meaning
+==============  ===============  ===============================================
+kc              kN/m^(n+1)       Bekker cohesive modulus (plates)
+kphi            kN/m^(n+2)       Bekker frictional modulus (plates)
+n               -                sinkage exponent
+k               kN/m^(n+2)       kc/b + kphi of one plate size b_m (when kc and
+                                 kphi are undetermined)
+b_m             m                plate size of ``k``
+c_kpa           kPa              terrain internal cohesion c
+phi_deg         deg              terrain internal friction angle phi
+K_m             m                terrain shear deformation modulus K
+cc              kPa              cone (metal)-terrain adhesion
+phic_deg        deg              cone (metal)-terrain friction angle
+Kc              m                cone-terrain shear deformation parameter
+model           -                pressure law, "rm0" or "rm1"
+r_min           m                RM1 transition radius
+plate_pair      m                [r1, r2], plate radii of an RM1 calibration
+cone            -                cone name of a calibration (e.g. "asabe-large")
+moisture_pct    %                moisture content
+density_kg_m3   kg/m^3           (dry) density
+==============  ===============  ===============================================
+
+The internal shear of the terrain (c_kpa, phi_deg, K_m; Janosi-Hanamoto) and
+the cone-metal shear (cc, phic_deg, Kc) of [1]_ are different quantities and
+are kept under different keys; ambiguous keys such as ``c`` or ``phi`` are
+refused.
+
+Records and the parameter types.  A record's parameters are built from, and
+read back as, the package's two parameter types:
+:class:`~terracone.data.TerrainParameters` (kc, kphi, n, cc, phic_deg,
+K_cone stored as ``Kc``, model, r_min) and
+:class:`~terracone.data.TerrainShear` (c, phi_deg, K stored as ``c_kpa``,
+``phi_deg``, ``K_m``): :func:`record_params` writes the stored keys from
+them, :attr:`TerrainRecord.terrain_parameters` and
+:attr:`TerrainRecord.terrain_shear` read them.  The stored keys are those
+of the table above, as they always were.
+
+Reference terrains.  The values tabulated by Wong [2]_ ship with the package
+(``terracone/data/wong_terrain_values.csv``) and are a *read-only overlay*:
+every library shows them (kind ``"reference"``, ``builtin=True``) without
+storing them in its file, so they cannot be removed or overwritten, and a
+new package version updates them everywhere.  Names are those of the table;
+a name that appears more than once (one terrain at several moistures) gets
+the moisture appended, e.g. ``"Sandy loam (Michigan) 11%"``.
+
+Location.  ``Library()`` opens ``$TERRACONE_LIBRARY`` if set, else
+``$XDG_DATA_HOME/terracone/library.sqlite`` (``~/.local/share/...`` when
+XDG_DATA_HOME is unset).
+
+Concurrency.  The database runs in WAL mode with a busy timeout; every write
+is one ``BEGIN IMMEDIATE`` transaction, so several processes can add records
+at once without losing any.
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data.
+.. [2] Wong, J.Y. Theory of Ground Vehicles. Wiley (values widely reproduced).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import difflib
+import functools
+import io
+import json
+import math
+import os
+import sqlite3
+import time
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from importlib import metadata, resources
+from pathlib import Path
+from typing import Any
+
+from terracone.data import TerrainParameters, TerrainShear
+
+__all__ = [
+    "PARAM_UNITS",
+    "REFERENCE_CITATION",
+    "ImportReport",
+    "Library",
+    "TerrainRecord",
+    "check_params",
+    "record_params",
+    "default_library_path",
+    "make_provenance",
+    "reference_records",
+]
+
+#: Parameter keys a record may carry, with their SI unit.
+PARAM_UNITS: dict[str, str] = {
+    "kc": "kN/m^(n+1)",
+    "kphi": "kN/m^(n+2)",
+    "n": "-",
+    "k": "kN/m^(n+2)",
+    "b_m": "m",
+    "c_kpa": "kPa",
+    "phi_deg": "deg",
+    "K_m": "m",
+    "cc": "kPa",
+    "phic_deg": "deg",
+    "Kc": "m",
+    "model": "-",
+    "r_min": "m",
+    "plate_pair": "m",
+    "cone": "-",
+    "moisture_pct": "%",
+    "density_kg_m3": "kg/m^3",
+}
+
+_AMBIGUOUS = {
+    "c": "'c_kpa' (terrain internal cohesion) or 'cc' (cone-metal adhesion)",
+    "phi": "'phi_deg' (internal friction) or 'phic_deg' (cone-metal friction)",
+    "phi_deg_c": "'phic_deg'",
+    "K": "'K_m' (terrain shear deformation) or 'Kc' (cone-metal)",
+    "kc_si": "'kc'",
+    "kphi_si": "'kphi'",
+    "K_cm": "'K_m' (in metres)",
+}
+
+REFERENCE_CITATION = "J.Y. Wong, Theory of Ground Vehicles (widely reproduced); values as tabulated"
+_REFERENCE_FILE = "wong_terrain_values.csv"
+_SCHEMA_VERSION = 1
+
+
+def _now() -> str:
+    return datetime.now(UTC).isoformat(timespec="seconds")
+
+
+def _version() -> str:
+    try:
+        return metadata.version("terracone")
+    except metadata.PackageNotFoundError:  # pragma: no cover - source tree
+        return "0.0.0+unknown"
+
+
+def default_library_path() -> Path:
+    """Path of the default library file.
+
+    ``$TERRACONE_LIBRARY`` if set, else ``$XDG_DATA_HOME/terracone/library.sqlite``,
+    else ``~/.local/share/terracone/library.sqlite``.
+    """
+    env = os.environ.get("TERRACONE_LIBRARY")
+    if env:
+        return Path(env).expanduser()
+    xdg = os.environ.get("XDG_DATA_HOME")
+    base = Path(xdg).expanduser() if xdg else Path.home() / ".local" / "share"
+    return base / "terracone" / "library.sqlite"
+
+
+def make_provenance(
+    source: str | os.PathLike | None = None,
+    method: str | None = None,
+    citation: str | None = None,
+    date: str | None = None,
+    **extra: Any,
+) -> dict[str, Any]:
+    """Provenance dict: source file, ISO date (now), method, terracone version, citation."""
+    out: dict[str, Any] = {
+        "source": None if source is None else str(source),
+        "date": date or _now(),
+        "method": method,
+        "terracone_version": _version(),
+        "citation": citation,
+    }
+    out.update(extra)
+    return {k: v for k, v in out.items() if v is not None}
+
+
+def check_params(params: Mapping[str, Any]) -> dict[str, Any]:
+    """Validated copy of a parameter dict (SI keys of :data:`PARAM_UNITS`).
+
+    ``None`` values are dropped; numbers must be finite; ``model`` must be
+    ``"rm0"`` or ``"rm1"``, ``plate_pair`` two radii > 0, ``cone`` a name.  Unknown or ambiguous keys raise ValueError.
+    """
+    if not isinstance(params, Mapping):
+        raise TypeError("params must be a mapping of parameter names to values")
+    out: dict[str, Any] = {}
+    for key, val in params.items():
+        if val is None:
+            continue
+        if key in _AMBIGUOUS:
+            raise ValueError(f"ambiguous parameter {key!r}: use {_AMBIGUOUS[key]}")
+        if key not in PARAM_UNITS:
+            raise ValueError(f"unknown parameter {key!r}; known: {', '.join(PARAM_UNITS)} (all SI)")
+        if key == "model":
+            if val not in ("rm0", "rm1"):
+                raise ValueError(f"model must be 'rm0' or 'rm1' (got {val!r})")
+            out[key] = val
+            continue
+        if key == "cone":
+            if not isinstance(val, str) or not val.strip():
+                raise ValueError(f"cone must be a cone name (got {val!r})")
+            out[key] = val.strip()
+            continue
+        if key == "plate_pair":
+            try:
+                pair = [float(v) for v in val]
+            except (TypeError, ValueError):
+                raise ValueError(f"plate_pair must be two radii [m] (got {val!r})") from None
+            if len(pair) != 2 or not all(math.isfinite(v) and v > 0 for v in pair):
+                raise ValueError(f"plate_pair must be two radii > 0 [m] (got {val!r})")
+            out[key] = pair
+            continue
+        if isinstance(val, bool):
+            raise ValueError(f"parameter {key!r} must be a number (got {val!r})")
+        try:
+            x = float(val)
+        except (TypeError, ValueError):
+            raise ValueError(f"parameter {key!r} must be a number (got {val!r})") from None
+        if not math.isfinite(x):
+            raise ValueError(f"parameter {key!r} must be finite (got {val!r})")
+        out[key] = x
+    if "n" in out and not out["n"] > 0:
+        raise ValueError(f"n must be > 0 (got {out['n']:g})")
+    for key in ("K_m", "Kc", "r_min", "b_m"):
+        if key in out and not out[key] > 0:
+            raise ValueError(f"{key} must be > 0 (got {out[key]:g})")
+    for key in ("phi_deg", "phic_deg"):
+        if key in out and not 0 <= out[key] < 90:
+            raise ValueError(f"{key} must be in [0, 90) degrees (got {out[key]:g})")
+    return out
+
+
+def record_params(
+    *parts: TerrainParameters | TerrainShear | Mapping[str, Any], **extra: Any
+) -> dict[str, Any]:
+    """The stored (SI) parameter dict of a record, from the parameter types.
+
+    Parameters
+    ----------
+    *parts : TerrainParameters, TerrainShear or mapping
+        A :class:`~terracone.data.TerrainParameters` gives kc, kphi, n, cc,
+        phic_deg, Kc (its K_cone, when set), model and r_min (when set); a
+        :class:`~terracone.data.TerrainShear` gives c_kpa, phi_deg and K_m
+        (those it has); a mapping gives its keys as they are.
+    **extra
+        Further keys (``plate_pair``, ``cone``, ``moisture_pct``, ...).
+
+    Returns
+    -------
+    dict
+        Checked by :func:`check_params` (None values dropped).
+    """
+    d: dict[str, Any] = {}
+    for part in parts:
+        if isinstance(part, TerrainParameters):
+            d.update(
+                kc=part.kc,
+                kphi=part.kphi,
+                n=part.n,
+                cc=part.cc,
+                phic_deg=part.phic_deg,
+                Kc=part.K_cone,
+                model=part.model,
+                r_min=part.r_min,
+            )
+        elif isinstance(part, TerrainShear):
+            d.update(part.library_params())
+        elif isinstance(part, Mapping):
+            d.update(part)
+        else:
+            raise TypeError(
+                f"expected TerrainParameters, TerrainShear or a mapping (got {type(part).__name__})"
+            )
+    d.update(extra)
+    return check_params(d)
+
+
+@dataclass(frozen=True)
+class TerrainRecord:
+    """One named terrain.
+
+    Attributes
+    ----------
+    name : str
+        Unique name.
+    kind : str
+        "reference", "calibration", "bevameter-fit" or another word.
+    params : dict
+        Parameters in SI (keys of :data:`PARAM_UNITS`).
+    provenance : dict
+        source, date (ISO), method, terracone_version, citation, ...
+    notes : str
+    created, modified : str or None
+        ISO timestamps (UTC) of the library record.
+    builtin : bool
+        True for the read-only reference terrains shipped with the package.
+    """
+
+    name: str
+    kind: str
+    params: dict[str, Any]
+    provenance: dict[str, Any] = field(default_factory=dict)
+    notes: str = ""
+    created: str | None = None
+    modified: str | None = None
+    builtin: bool = False
+
+    @property
+    def terrain_parameters(self) -> TerrainParameters | None:
+        """kc, kphi, n (and cc, phic_deg, Kc, model, r_min where stored), SI.
+
+        None when the record lacks kc, kphi or n.  cc and phic_deg read 0 and
+        model "rm0" when the record has none (a plate-only terrain).
+        """
+        p = self.params
+        if any(p.get(k) is None for k in ("kc", "kphi", "n")):
+            return None
+        return TerrainParameters(
+            kc=float(p["kc"]),
+            kphi=float(p["kphi"]),
+            n=float(p["n"]),
+            cc=float(p.get("cc", 0.0)),
+            phic_deg=float(p.get("phic_deg", 0.0)),
+            K_cone=None if p.get("Kc") is None else float(p["Kc"]),
+            model=str(p.get("model", "rm0")),
+            r_min=None if p.get("r_min") is None else float(p["r_min"]),
+        )
+
+    @property
+    def terrain_shear(self) -> TerrainShear | None:
+        """The terrain's internal c, phi_deg, K (stored c_kpa, phi_deg, K_m); None if none."""
+        return TerrainShear.from_library_params(self.params)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (the format of :meth:`Library.export`)."""
+        return {
+            "name": self.name,
+            "kind": self.kind,
+            "params": dict(self.params),
+            "provenance": dict(self.provenance),
+            "notes": self.notes,
+            "created": self.created,
+            "modified": self.modified,
+            "builtin": self.builtin,
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> TerrainRecord:
+        """Record from :meth:`to_dict` output (parameters validated)."""
+        try:
+            name, kind = d["name"], d["kind"]
+        except KeyError as e:
+            raise ValueError(f"terrain record without {e.args[0]!r}") from None
+        return cls(
+            name=_check_name(name),
+            kind=_check_kind(kind),
+            params=check_params(d.get("params") or {}),
+            provenance=dict(d.get("provenance") or {}),
+            notes=str(d.get("notes") or ""),
+            created=d.get("created"),
+            modified=d.get("modified"),
+            builtin=False,
+        )
+
+
+@dataclass(frozen=True)
+class ImportReport:
+    """What :meth:`Library.import_` did: names imported and skipped (with why)."""
+
+    imported: list[str]
+    skipped: list[tuple[str, str]]
+
+
+def _check_name(name: Any) -> str:
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError("a terrain name must be a non-empty string")
+    return name.strip()
+
+
+def _check_kind(kind: Any) -> str:
+    if not isinstance(kind, str) or not kind.strip():
+        raise ValueError("kind must be a non-empty string (e.g. 'calibration')")
+    return kind.strip()
+
+
+# --------------------------------------------------------------------------
+# reference overlay
+
+
+def _fmt_number(x: float) -> str:
+    return f"{x:g}"
+
+
+@functools.cache
+def _reference_records() -> tuple[TerrainRecord, ...]:
+    text = resources.files("terracone").joinpath("data", _REFERENCE_FILE).read_text("utf-8")
+    reader = csv.DictReader(line for line in io.StringIO(text) if not line.startswith("#"))
+    rows = list(reader)
+    for r in rows:
+        if None in r or any(v is None for v in r.values()):  # pragma: no cover - data check
+            raise RuntimeError(f"{_REFERENCE_FILE}: malformed row {r} (quote names with commas)")
+    counts: dict[str, int] = {}
+    for r in rows:
+        counts[r["terrain"]] = counts.get(r["terrain"], 0) + 1
+
+    def num(v: str) -> float | None:
+        v = (v or "").strip()
+        return float(v) if v else None
+
+    out = []
+    seen: set[str] = set()
+    for i, r in enumerate(rows, 1):
+        base = r["terrain"].strip()
+        moist = num(r["moisture_pct"])
+        name = base
+        if counts[r["terrain"]] > 1:  # repeated name: append the moisture
+            name = f"{base} {_fmt_number(moist)}%" if moist is not None else f"{base} #{i}"
+        if name in seen:  # pragma: no cover - the table has no such rows
+            name = f"{name} #{i}"
+        seen.add(name)
+        K_cm = num(r["K_cm"])
+        # plate values (kc, kphi, n; no cone-metal cc, phic) and the terrain's internal shear
+        shear = TerrainShear(
+            c=num(r["c_kpa"]),
+            phi_deg=num(r["phi_deg"]),
+            K=None if K_cm is None else K_cm / 100.0,  # cm -> m
+        )
+        plates = {"kc": num(r["kc_si"]), "kphi": num(r["kphi_si"]), "n": num(r["n"])}
+        out.append(
+            TerrainRecord(
+                name=name,
+                kind="reference",
+                params=record_params(plates, shear, moisture_pct=moist),
+                provenance={
+                    "source": f"terracone/data/{_REFERENCE_FILE}",
+                    "method": "tabulated",
+                    "citation": REFERENCE_CITATION,
+                    "table_name": base,
+                },
+                notes="plate (bevameter) and internal shear values; not cone-metal values",
+                builtin=True,
+            )
+        )
+    return tuple(out)
+
+
+def reference_records() -> list[TerrainRecord]:
+    """The reference terrains shipped with the package (read-only), in table order."""
+    return list(_reference_records())
+
+
+def _reference_map() -> dict[str, TerrainRecord]:
+    return {r.name: r for r in _reference_records()}
+
+
+# --------------------------------------------------------------------------
+# the library
+
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS terrains (
+    name TEXT PRIMARY KEY NOT NULL,
+    kind TEXT NOT NULL,
+    params TEXT NOT NULL,
+    provenance TEXT NOT NULL,
+    notes TEXT NOT NULL DEFAULT '',
+    created TEXT NOT NULL,
+    modified TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY NOT NULL, value TEXT NOT NULL);
+"""
+
+
+class Library:
+    """A terrain library in an SQLite file.
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        Library file; default :func:`default_library_path`.  Parent folders
+        are created.
+    timeout : float
+        How long a writer waits for another process's lock [s].
+
+    Examples
+    --------
+    >>> lib = Library("/tmp/terrains.sqlite")           # doctest: +SKIP
+    >>> lib.add("site 3", "bevameter-fit", {"kc": 5.1, "kphi": 812.0, "n": 0.9},
+    ...         make_provenance("plates.csv", method="wong"))   # doctest: +SKIP
+    >>> lib.get("LETE sand").params["kphi"]             # doctest: +SKIP
+    5301.0
+    """
+
+    def __init__(self, path: str | os.PathLike | None = None, *, timeout: float = 30.0) -> None:
+        self.path = Path(path).expanduser() if path is not None else default_library_path()
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._timeout = float(timeout)
+        self._conn = sqlite3.connect(
+            str(self.path), timeout=self._timeout, isolation_level=None, check_same_thread=False
+        )
+        try:
+            self._conn.execute(f"PRAGMA busy_timeout = {int(self._timeout * 1000)}")
+            self._retry(self._setup)
+        except BaseException:
+            self._conn.close()
+            raise
+
+    # -- plumbing ---------------------------------------------------------
+
+    def _retry(self, fn, *args):
+        # the busy handler covers ordinary lock waits; a few operations (the
+        # switch to WAL on a brand-new file) can still report "locked" at once
+        deadline = time.monotonic() + self._timeout
+        delay = 0.005
+        while True:
+            try:
+                return fn(*args)
+            except sqlite3.OperationalError as e:
+                msg = str(e).lower()
+                if ("locked" not in msg and "busy" not in msg) or time.monotonic() > deadline:
+                    raise
+                time.sleep(delay)
+                delay = min(delay * 2, 0.2)
+
+    def _setup(self) -> None:
+        mode = self._conn.execute("PRAGMA journal_mode = WAL").fetchone()[0]
+        if str(mode).lower() != "wal":  # pragma: no cover - e.g. unsupported filesystem
+            raise sqlite3.OperationalError(f"could not switch {self.path} to WAL (got {mode})")
+        # in WAL mode NORMAL cannot corrupt the file; a power cut may lose the
+        # last commits, an application crash loses nothing
+        self._conn.execute("PRAGMA synchronous = NORMAL")
+        with self._transaction() as c:
+            for stmt in _SCHEMA.split(";"):
+                if stmt.strip():
+                    c.execute(stmt)
+            c.execute(
+                "INSERT OR IGNORE INTO meta (key, value) VALUES ('schema_version', ?)",
+                (str(_SCHEMA_VERSION),),
+            )
+
+    @contextlib.contextmanager
+    def _transaction(self) -> Iterator[sqlite3.Connection]:
+        """One write transaction (BEGIN IMMEDIATE ... COMMIT, ROLLBACK on error)."""
+        c = self._conn
+        c.execute("BEGIN IMMEDIATE")
+        try:
+            yield c
+        except BaseException:
+            c.execute("ROLLBACK")
+            raise
+        c.execute("COMMIT")
+
+    def close(self) -> None:
+        """Close the database connection."""
+        self._conn.close()
+
+    def __enter__(self) -> Library:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"Library({str(self.path)!r})"
+
+    @staticmethod
+    def _row(row: tuple) -> TerrainRecord:
+        name, kind, params, prov, notes, created, modified = row
+        return TerrainRecord(
+            name=name,
+            kind=kind,
+            params=json.loads(params),
+            provenance=json.loads(prov),
+            notes=notes,
+            created=created,
+            modified=modified,
+        )
+
+    # -- public API -------------------------------------------------------
+
+    def add(
+        self,
+        name: str,
+        kind: str,
+        params: Mapping[str, Any],
+        provenance: Mapping[str, Any] | None = None,
+        replace: bool = False,
+        notes: str = "",
+    ) -> TerrainRecord:
+        """Add a terrain (or replace one with ``replace=True``).
+
+        Parameters
+        ----------
+        name : str
+            Unique name; the names of the packaged reference terrains are
+            taken.
+        kind : str
+            "reference", "calibration", "bevameter-fit" or another word.
+        params : dict
+            Parameters in SI (keys of :data:`PARAM_UNITS`; None values
+            dropped).
+        provenance : dict, optional
+            source, method, citation, ...; ``date`` (now, ISO) and
+            ``terracone_version`` are filled in when missing.
+        replace : bool
+            Overwrite an existing record of that name instead of raising.
+        notes : str
+
+        Returns
+        -------
+        TerrainRecord
+            The stored record.
+
+        Raises
+        ------
+        ValueError
+            Bad parameters, a taken name (without ``replace``) or a
+            reference name.
+        """
+        name = _check_name(name)
+        kind = _check_kind(kind)
+        p = check_params(params)
+        if name in _reference_map():
+            raise ValueError(
+                f"{name!r} is a packaged reference terrain (read-only); choose another name"
+            )
+        prov = dict(provenance or {})
+        prov.setdefault("date", _now())
+        prov.setdefault("terracone_version", _version())
+        now = _now()
+        self._retry(self._write, name, kind, p, prov, str(notes or ""), now, replace)
+        return self.get(name)
+
+    def _write(self, name, kind, params, prov, notes, now, replace) -> None:
+        with self._transaction() as c:
+            row = c.execute("SELECT created FROM terrains WHERE name = ?", (name,)).fetchone()
+            if row is not None and not replace:
+                raise ValueError(f"terrain {name!r} exists (use replace=True to overwrite)")
+            created = row[0] if row is not None else now
+            c.execute(
+                "INSERT OR REPLACE INTO terrains "
+                "(name, kind, params, provenance, notes, created, modified) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                (
+                    name,
+                    kind,
+                    json.dumps(params, sort_keys=True),
+                    json.dumps(prov, sort_keys=True, default=str),
+                    notes,
+                    created,
+                    now,
+                ),
+            )
+
+    def get(self, name: str) -> TerrainRecord:
+        """The terrain called ``name`` (reference or stored); KeyError if none."""
+        ref = _reference_map().get(name)
+        if ref is not None:
+            return ref
+        row = self._retry(
+            lambda: self._conn.execute(
+                "SELECT name, kind, params, provenance, notes, created, modified "
+                "FROM terrains WHERE name = ?",
+                (name,),
+            ).fetchone()
+        )
+        if row is None:
+            close = difflib.get_close_matches(name, self.names(), n=3)
+            hint = f"; did you mean {', '.join(map(repr, close))}?" if close else ""
+            raise KeyError(f"no terrain {name!r} in {self.path}{hint}")
+        return self._row(row)
+
+    def __contains__(self, name: object) -> bool:
+        if not isinstance(name, str):
+            return False
+        if name in _reference_map():
+            return True
+        row = self._conn.execute("SELECT 1 FROM terrains WHERE name = ?", (name,)).fetchone()
+        return row is not None
+
+    def list(self, kind: str | None = None, *, include_builtin: bool = True) -> list[TerrainRecord]:
+        """All terrains: the reference terrains (table order), then stored ones by name."""
+        rows = self._retry(
+            lambda: self._conn.execute(
+                "SELECT name, kind, params, provenance, notes, created, modified "
+                "FROM terrains ORDER BY name"
+            ).fetchall()
+        )
+        out = (reference_records() if include_builtin else []) + [self._row(r) for r in rows]
+        return [r for r in out if kind is None or r.kind == kind]
+
+    def names(self) -> list[str]:
+        """Names of all terrains."""
+        return [r.name for r in self.list()]
+
+    def remove(self, name: str) -> None:
+        """Remove a stored terrain; KeyError if none, ValueError for a reference terrain."""
+        if name in _reference_map():
+            raise ValueError(f"{name!r} is a packaged reference terrain and cannot be removed")
+
+        def _rm():
+            with self._transaction() as c:
+                return c.execute("DELETE FROM terrains WHERE name = ?", (name,)).rowcount
+
+        if not self._retry(_rm):
+            raise KeyError(f"no terrain {name!r} in {self.path}")
+
+    def export(self, path: str | os.PathLike, *, include_builtin: bool = False) -> int:
+        """Write the stored terrains (and the reference ones if asked) as a JSON list.
+
+        Returns the number of records written.
+        """
+        recs = [r.to_dict() for r in self.list(include_builtin=include_builtin)]
+        path = Path(path)
+        tmp = path.with_name(path.name + f".tmp{os.getpid()}")
+        tmp.write_text(json.dumps(recs, indent=2, sort_keys=False) + "\n", encoding="utf-8")
+        os.replace(tmp, path)
+        return len(recs)
+
+    def import_(self, path: str | os.PathLike, *, replace: bool = False) -> ImportReport:
+        """Add the records of a JSON file written by :meth:`export`, all or none.
+
+        Records named like a packaged reference terrain, and records identical
+        to the stored one of that name, are skipped; another record of a taken
+        name raises ValueError (nothing is imported) unless ``replace=True``.
+        """
+        try:
+            data = json.loads(Path(path).read_text(encoding="utf-8"))
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{path}: cannot read JSON ({exc})") from None
+        if isinstance(data, Mapping):
+            data = [data]
+        if not isinstance(data, list):
+            raise ValueError(f"{path}: expected a JSON list of terrain records")
+        recs = []
+        for i, d in enumerate(data):
+            if not isinstance(d, Mapping):
+                raise ValueError(f"{path}: item {i} is not a terrain record")
+            try:
+                recs.append(TerrainRecord.from_dict(d))
+            except ValueError as e:
+                raise ValueError(f"{path}: item {i}: {e}") from None
+        names = [r.name for r in recs]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ValueError(f"{path}: repeated names {sorted(dup)}")
+        refs = _reference_map()
+        now = _now()
+
+        def _imp() -> ImportReport:
+            imported: list[str] = []
+            skipped: list[tuple[str, str]] = []
+            with self._transaction() as c:
+                for r in recs:
+                    if r.name in refs:
+                        skipped.append((r.name, "packaged reference terrain"))
+                        continue
+                    row = c.execute(
+                        "SELECT name, kind, params, provenance, notes, created, modified "
+                        "FROM terrains WHERE name = ?",
+                        (r.name,),
+                    ).fetchone()
+                    if row is not None:
+                        old = self._row(row)
+                        same = (old.kind, old.params, old.provenance, old.notes) == (
+                            r.kind,
+                            r.params,
+                            r.provenance,
+                            r.notes,
+                        )
+                        if same:
+                            skipped.append((r.name, "identical record exists"))
+                            continue
+                        if not replace:
+                            raise ValueError(
+                                f"terrain {r.name!r} exists with other values "
+                                "(use replace=True); nothing imported"
+                            )
+                    c.execute(
+                        "INSERT OR REPLACE INTO terrains "
+                        "(name, kind, params, provenance, notes, created, modified) "
+                        "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                        (
+                            r.name,
+                            r.kind,
+                            json.dumps(r.params, sort_keys=True),
+                            json.dumps(r.provenance, sort_keys=True, default=str),
+                            r.notes,
+                            r.created or now,
+                            now,
+                        ),
+                    )
+                    imported.append(r.name)
+            return ImportReport(imported, skipped)
+
+        return self._retry(_imp)

@@ -1,0 +1,529 @@
+"""Bevameter plate tests: pressure-sinkage fits and the Bekker parameters.
+
+A plate of size b pressed into the terrain follows Bekker's equation
+(eq. (2-2) in [1]_)
+
+.. math:: p = (k_c / b + k_\\phi) z^n = k z^n, \\qquad k = k_c / b + k_\\phi
+
+with b the radius of a circular plate or the smaller side of a rectangular
+one.  This module fits ``p = k z^n`` to the loading branch of each test and,
+when the tests cover two or more plate sizes, splits ``k`` into ``kc`` and
+``kphi``.  It is the inverse side of the plate model: the forward pressure of
+eq. (2-2) is :mod:`terracone.physics.plate`.  (Before the split of forward and inverse
+modules it was ``terracone.bevameter``, which remains as an alias.)
+
+Fitting methods (all on the loading branch only, see
+:meth:`terracone.data.PlateTest.loading_branch`):
+
+``"loglog"``
+    Ordinary linear regression of ``ln p`` on ``ln z``: minimises
+    ``sum (ln p_i - ln k - n ln z_i)^2``.  Every point has the same weight in
+    log space, so the many low-pressure points at the start of a test (where
+    a small error in p is a large error in ln p) dominate.
+``"wong"``
+    Wong's weighted least squares [2]_: minimises
+    ``sum p_i^2 (ln p_i - ln k - n ln z_i)^2``.  Since
+    ``p_i - p_hat_i ~ p_i (ln p_i - ln p_hat_i)`` for small residuals, the
+    weights ``p_i^2`` make this a linearised least squares on the pressure
+    itself: the high-pressure end of the curve carries the fit.  Closed form
+    (normal equations of the weighted regression, [2]_).
+``"nonlinear"``
+    :func:`scipy.optimize.least_squares` on the pressure,
+    ``sum (p_i - k z_i^n)^2``, started from the ``"loglog"`` fit.
+
+Splitting k into kc and kphi (:func:`fit_plates`), done here in two stages:
+
+1. a *common-n* fit of all tests together with the chosen method: one n
+   shared by every test, one k per test (for ``"loglog"``/``"wong"`` a
+   (weighted) linear regression of ``ln p`` on ``ln z`` with one intercept per
+   test; for ``"nonlinear"`` a joint least squares on p started from the
+   common-n ``"loglog"`` fit).  Each k then has the unit kN/m^(n+2) of the
+   same n, which the split needs;
+2. an ordinary linear regression over the tests of ``k_i = kc (1/b_i) + kphi``
+   (exact with one test at each of two sizes; with two sizes and several
+   tests per size the line through the two mean k's).
+
+Confidence intervals (95 %) are those of the regression in stage 2, so they
+reflect the scatter between tests, not the (strongly autocorrelated) scatter
+of the points within a test; they need at least 3 tests over at least 2 plate
+sizes.  The interval of n is ``n +- t(0.975, m-1) s_n / sqrt(m)`` with
+``s_n`` the standard deviation of the m per-test exponents (needs m >= 3).
+
+With one plate size kc and kphi cannot be separated: they are ``None`` and
+listed in ``undetermined`` (not an error); n and the per-test k are still
+reported.
+
+Units: SI throughout: sinkage and b [m], pressure [kPa], kc [kN/m^(n+1)],
+kphi and k [kN/m^(n+2)].
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Eq. (2-2).
+.. [2] Wong, J.Y. (1980). Data processing methodology in the characterization
+   of the mechanical properties of terrain. Journal of Terramechanics 17(1),
+   13-41.
+.. [3] Bekker, M.G. (1969). Introduction to Terrain-Vehicle Systems.
+   University of Michigan Press.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import optimize, stats
+
+from terracone.data import InputError, PlateTest
+from terracone.physics import units as u
+
+__all__ = ["METHODS", "PlateFit", "PlatesFit", "fit_plate_test", "fit_plates"]
+
+#: Fitting methods of :func:`fit_plate_test` and :func:`fit_plates`.
+METHODS = ("wong", "loglog", "nonlinear")
+
+_CI_NOTE = "confidence intervals need at least 3 tests over at least 2 plate sizes"
+
+
+@dataclass(frozen=True)
+class PlateFit:
+    """Fit of ``p = k z^n`` to the loading branch of one plate test.
+
+    Attributes
+    ----------
+    test : str
+        Test id.
+    b : float
+        Bekker plate size [m] (radius of a circular plate, smaller side of a
+        rectangular one).
+    shape : {"circular", "rectangular"}
+    radius : float or None
+        Plate radius [m] for circular plates, else None.
+    k : float
+        Sinkage modulus ``kc/b + kphi`` [kN/m^(n+2)].
+    n : float
+        Sinkage exponent [-].
+    points_used : int
+        Loading-branch points fitted.
+    r2 : float
+        Coefficient of determination of the fit on p,
+        ``1 - sum (p - k z^n)^2 / sum (p - mean p)^2`` [-].
+    rmsd : float
+        Root mean square deviation of ``k z^n`` from p [kPa].
+    method : str
+        Fitting method (one of :data:`METHODS`).
+    """
+
+    test: str
+    b: float
+    shape: str
+    radius: float | None
+    k: float
+    n: float
+    points_used: int
+    r2: float
+    rmsd: float
+    method: str
+
+    def pressure(self, sinkage: Any) -> np.ndarray:
+        """Fitted pressure ``k z^n`` [kPa] at sinkage z [m] (z >= 0)."""
+        z = np.asarray(sinkage, dtype=float)
+        return self.k * np.where(z > 0, z, 0.0) ** self.n
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        """The fit in a unit system (k converted with the fit's own n)."""
+        units = u.check_system(units)
+        return {
+            "test": self.test,
+            "b": float(u.length_from_si(self.b, units)),
+            "shape": self.shape,
+            "radius": None if self.radius is None else float(u.length_from_si(self.radius, units)),
+            "plate_radius": None
+            if self.radius is None
+            else float(u.length_from_si(self.radius, units)),
+            "k": float(u.kphi_from_si(self.k, self.n, units)),
+            "n": float(self.n),
+            "points_used": int(self.points_used),
+            "r2": float(self.r2),
+            "rmsd": float(u.pressure_from_si(self.rmsd, units)),
+            "method": self.method,
+            "units": units,
+        }
+
+
+@dataclass(frozen=True)
+class PlatesFit:
+    """Bekker parameters from a set of plate tests (:func:`fit_plates`).
+
+    Attributes
+    ----------
+    kc : float or None
+        Cohesive modulus [kN/m^(n+1)]; None with a single plate size.
+    kphi : float or None
+        Frictional modulus [kN/m^(n+2)]; None with a single plate size.
+    n : float
+        Common sinkage exponent [-] (common-n fit of all tests).
+    kc_ci, kphi_ci, n_ci : (float, float) or None
+        95 % confidence intervals [same units]; None when not available
+        (see ``ci_note``).
+    tests : list of PlateFit
+        Independent fit of each test (its own k and n).
+    undetermined : list of str
+        Parameters the data cannot determine (``["kc", "kphi"]`` with one
+        plate size), else empty.
+    method : str
+        Fitting method (one of :data:`METHODS`).
+    k_common : list of float
+        k of each test at the common n [kN/m^(n+2)], in the order of
+        ``tests``; these are the values regressed on 1/b.
+    ci_note : str or None
+        Why some intervals are missing, if they are.
+    notes : list of str
+        Anything worth a warning (e.g. a negative kc).
+    """
+
+    kc: float | None
+    kphi: float | None
+    n: float
+    kc_ci: tuple[float, float] | None
+    kphi_ci: tuple[float, float] | None
+    n_ci: tuple[float, float] | None
+    tests: list[PlateFit]
+    undetermined: list[str]
+    method: str
+    k_common: list[float] = field(default_factory=list)
+    ci_note: str | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def sizes(self) -> list[float]:
+        """Distinct plate sizes b [m], ascending."""
+        return sorted({t.b for t in self.tests})
+
+    def params(self) -> dict[str, float]:
+        """Determined parameters as library/export keys (SI): kc, kphi, n."""
+        out = {"kc": self.kc, "kphi": self.kphi, "n": self.n}
+        return {k: float(v) for k, v in out.items() if v is not None}
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        """The result in a unit system, JSON-ready (kc, kphi converted with the common n)."""
+        units = u.check_system(units)
+
+        def conv(v, f):
+            return None if v is None else float(f(v, self.n, units))
+
+        def conv_ci(ci, f):
+            return None if ci is None else [conv(ci[0], f), conv(ci[1], f)]
+
+        tests = []
+        for t, kcom in zip(self.tests, self.k_common):
+            d = t.as_dict(units)
+            d["k_common"] = conv(kcom, u.kphi_from_si)
+            tests.append(d)
+        return {
+            "kc": conv(self.kc, u.kc_from_si),
+            "kphi": conv(self.kphi, u.kphi_from_si),
+            "n": float(self.n),
+            "kc_ci": conv_ci(self.kc_ci, u.kc_from_si),
+            "kphi_ci": conv_ci(self.kphi_ci, u.kphi_from_si),
+            "n_ci": None if self.n_ci is None else [float(v) for v in self.n_ci],
+            "undetermined": list(self.undetermined),
+            "method": self.method,
+            "ci_note": self.ci_note,
+            "notes": list(self.notes),
+            "tests": tests,
+            "units": units,
+            "unit_labels": {
+                "kc": u.kc_unit(units),
+                "kphi": u.kphi_unit(units),
+                "k": u.kphi_unit(units),
+                "b": u.length_unit(units),
+                "rmsd": u.pressure_unit(units),
+            },
+        }
+
+
+# --------------------------------------------------------------------------
+# fitting kernels: p = k_g z^n with one k per group g and a common n
+
+
+def _check_method(method: str) -> str:
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)} (got {method!r})")
+    return method
+
+
+def _linear_common_n(
+    z: np.ndarray, p: np.ndarray, g: np.ndarray, m: int, weighted: bool
+) -> tuple[float, np.ndarray]:
+    """(n, k_g) minimising sum w (ln p - ln k_g - n ln z)^2.
+
+    ``w = 1`` ("loglog") or ``w = p^2`` (Wong's weights [2]_); solved as a
+    linear least squares problem with rows scaled by sqrt(w).  With one group
+    this is exactly Wong's closed form:
+    n = [S(w) S(w lnp lnz) - S(w lnp) S(w lnz)] / [S(w) S(w lnz^2) - S(w lnz)^2],
+    ln k = [S(w lnp) - n S(w lnz)] / S(w).
+    """
+    X = np.zeros((z.size, m + 1))
+    X[:, 0] = np.log(z)  # slope n
+    X[np.arange(z.size), 1 + g] = 1.0  # one intercept ln k_g per group
+    y = np.log(p)
+    if weighted:
+        sw = p / p.max()  # sqrt of the weights p^2 (scale is irrelevant)
+        X, y = X * sw[:, None], y * sw
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    return float(coef[0]), np.exp(coef[1:])
+
+
+def _nonlinear_common_n(
+    z: np.ndarray, p: np.ndarray, g: np.ndarray, m: int, n0: float, k0: np.ndarray
+) -> tuple[float, np.ndarray]:
+    """(n, k_g) minimising sum (p - k_g z^n)^2, started from (n0, k0)."""
+    lnz = np.log(z)
+
+    def fun(x):
+        return np.exp(x[1 + g]) * z ** x[0] - p
+
+    def jac(x):
+        q = np.exp(x[1 + g]) * z ** x[0]
+        J = np.zeros((z.size, m + 1))
+        J[:, 0] = q * lnz  # d/dn of k z^n
+        J[np.arange(z.size), 1 + g] = q  # d/d(ln k) of k z^n
+        return J
+
+    x0 = np.concatenate([[n0], np.log(k0)])
+    res = optimize.least_squares(fun, x0, jac=jac, method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14)
+    if not np.all(np.isfinite(res.x)):  # pragma: no cover - defensive
+        raise RuntimeError("nonlinear pressure-sinkage fit did not converge")
+    return float(res.x[0]), np.exp(res.x[1:])
+
+
+def _fit_groups(
+    z: np.ndarray, p: np.ndarray, g: np.ndarray, m: int, method: str
+) -> tuple[float, np.ndarray]:
+    if method == "loglog":
+        return _linear_common_n(z, p, g, m, weighted=False)
+    if method == "wong":
+        return _linear_common_n(z, p, g, m, weighted=True)
+    n0, k0 = _linear_common_n(z, p, g, m, weighted=False)
+    return _nonlinear_common_n(z, p, g, m, n0, k0)
+
+
+def _branch(test: PlateTest) -> tuple[np.ndarray, np.ndarray]:
+    if not isinstance(test, PlateTest):
+        if isinstance(test, InputError):
+            raise test
+        raise TypeError(f"expected a PlateTest (got {type(test).__name__})")
+    br = test.loading_branch()
+    z, p = br.sinkage, br.pressure
+    ok = np.isfinite(z) & np.isfinite(p)
+    z, p = z[ok], p[ok]
+    if z.size < 2 or np.ptp(z) <= 0:
+        raise InputError(
+            f"{z.size} usable loading-branch point(s) with distinct sinkage > 0 and "
+            f"pressure > 0; at least 2 are needed{test.lines_note()}",
+            file=test.source,
+            profile=test.id,
+            item="test",
+            row=test.first_row(),
+        )
+    return z, p
+
+
+def _goodness(z: np.ndarray, p: np.ndarray, k: float, n: float) -> tuple[float, float]:
+    """(R^2 on p, RMSD [kPa]) of p_hat = k z^n."""
+    res = p - k * z**n
+    ss_res = float(np.sum(res * res))
+    ss_tot = float(np.sum((p - p.mean()) ** 2))
+    r2 = 1.0 - ss_res / ss_tot if ss_tot > 0 else float("nan")
+    return r2, math.sqrt(ss_res / p.size)
+
+
+def fit_plate_test(test: PlateTest, method: str = "wong") -> PlateFit:
+    """Fit ``p = k z^n`` to the loading branch of one plate test.
+
+    Parameters
+    ----------
+    test : PlateTest
+        Sinkage [m] and pressure [kPa]; only the loading branch is used:
+        points up to the maximum sinkage with sinkage > 0 and pressure > 0
+        (:meth:`PlateTest.loading_branch`).
+    method : {"wong", "loglog", "nonlinear"}
+        ``"wong"``: weighted least squares on ln p with weights p^2 [2]_;
+        ``"loglog"``: unweighted regression of ln p on ln z;
+        ``"nonlinear"``: least squares on p, started from ``"loglog"``.
+
+    Returns
+    -------
+    PlateFit
+        k [kN/m^(n+2)], n [-], points used, R^2 on p and RMSD [kPa].
+
+    Raises
+    ------
+    InputError
+        Fewer than 2 usable loading-branch points.
+
+    References
+    ----------
+    .. [2] Wong, J.Y. (1980). Data processing methodology in the
+       characterization of the mechanical properties of terrain. Journal of
+       Terramechanics 17(1), 13-41.
+    """
+    _check_method(method)
+    z, p = _branch(test)
+    n, k = _fit_groups(z, p, np.zeros(z.size, dtype=int), 1, method)
+    r2, rmsd = _goodness(z, p, float(k[0]), n)
+    return PlateFit(
+        test=test.id,
+        b=float(test.b),
+        shape=test.shape,
+        radius=test.radius,
+        k=float(k[0]),
+        n=n,
+        points_used=int(z.size),
+        r2=r2,
+        rmsd=rmsd,
+        method=method,
+    )
+
+
+def _distinct_sizes(b: np.ndarray) -> np.ndarray:
+    # plate sizes equal to 1e-9 relative are one size (values read from files)
+    key = np.round(np.log(b) * 1e9)
+    return np.unique(key)
+
+
+def fit_plates(tests: Iterable[PlateTest], method: str = "wong") -> PlatesFit:
+    """Bekker kc, kphi and n from plate tests of one terrain.
+
+    Parameters
+    ----------
+    tests : iterable of PlateTest
+        Plate tests, SI (sinkage [m], pressure [kPa], b [m]).  An
+        :class:`InputError` in the iterable (from a reader that collects
+        errors) is raised.
+    method : {"wong", "loglog", "nonlinear"}
+        Fitting method for the per-test fits and for the common-n fit (see
+        the module docstring).
+
+    Returns
+    -------
+    PlatesFit
+        With two or more plate sizes: kc [kN/m^(n+1)], kphi [kN/m^(n+2)] from
+        ``k_i = kc/b_i + kphi`` (eq. (2-2) in [1]_) at a common n, with 95 %
+        confidence intervals when there are at least 3 tests.  With one plate
+        size: kc and kphi None and listed in ``undetermined``.
+
+    Notes
+    -----
+    Stage 1 fits one n shared by all tests (one k per test) with the chosen
+    method; stage 2 regresses the per-test k on 1/b (ordinary least squares,
+    one point per test).  The intervals come from stage 2 (scatter between
+    tests) and, for n, from the spread of the per-test exponents.
+
+    References
+    ----------
+    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P.
+       Predicting terrain parameters for physics-based vehicle mobility
+       models from cone index data. Eq. (2-2).
+    .. [2] Wong, J.Y. (1980). Data processing methodology in the
+       characterization of the mechanical properties of terrain. Journal of
+       Terramechanics 17(1), 13-41.
+    """
+    _check_method(method)
+    tests = list(tests)
+    if not tests:
+        raise ValueError("no plate tests to fit")
+    branches = [_branch(t) for t in tests]
+    per_test = [fit_plate_test(t, method) for t in tests]
+    m = len(tests)
+
+    # Stage 1: common n, one k per test (p_ij = k_i z_ij^n).
+    z = np.concatenate([br[0] for br in branches])
+    p = np.concatenate([br[1] for br in branches])
+    g = np.concatenate([np.full(br[0].size, i) for i, br in enumerate(branches)])
+    n, k = _fit_groups(z, p, g, m, method)
+
+    b = np.array([t.b for t in tests], dtype=float)
+    n_ci = _n_interval(n, per_test)
+    if _distinct_sizes(b).size < 2:
+        split = _SizeSplit(
+            undetermined=["kc", "kphi"],
+            notes=[
+                "one plate size: kc and kphi cannot be separated (k = kc/b + kphi); "
+                "k and n are given per test"
+            ],
+            ci_note="the interval of n needs at least 3 tests" if m < 3 else None,
+        )
+    else:
+        split = _split_k(k, b)
+
+    return PlatesFit(
+        kc=split.kc,
+        kphi=split.kphi,
+        n=n,
+        kc_ci=split.kc_ci,
+        kphi_ci=split.kphi_ci,
+        n_ci=n_ci,
+        tests=per_test,
+        undetermined=split.undetermined,
+        method=method,
+        k_common=[float(v) for v in k],
+        ci_note=split.ci_note,
+        notes=split.notes,
+    )
+
+
+def _n_interval(n: float, per_test: list[PlateFit]) -> tuple[float, float] | None:
+    """95 % interval of n from the spread of the per-test exponents (t, m-1 dof; m >= 3)."""
+    m = len(per_test)
+    if m < 3:
+        return None
+    n_i = np.array([f.n for f in per_test])
+    half = stats.t.ppf(0.975, m - 1) * n_i.std(ddof=1) / math.sqrt(m)
+    return (n - half, n + half)
+
+
+@dataclass
+class _SizeSplit:
+    """Stage 2 of :func:`fit_plates`: kc, kphi and their intervals (None when undetermined)."""
+
+    kc: float | None = None
+    kphi: float | None = None
+    kc_ci: tuple[float, float] | None = None
+    kphi_ci: tuple[float, float] | None = None
+    undetermined: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    ci_note: str | None = None
+
+
+def _split_k(k: np.ndarray, b: np.ndarray) -> _SizeSplit:
+    """Stage 2: k_i = kc (1/b_i) + kphi (Bekker, eq. (2-2)), OLS over the tests.
+
+    95 % intervals from the regression's covariance (t, m-2 dof) with at
+    least 3 tests; negative moduli are noted.
+    """
+    m = k.size
+    X = np.column_stack([1.0 / b, np.ones(m)])
+    coef, *_ = np.linalg.lstsq(X, k, rcond=None)
+    out = _SizeSplit(kc=float(coef[0]), kphi=float(coef[1]))
+    if m >= 3:
+        dof = m - 2
+        resid = k - X @ coef
+        s2 = float(resid @ resid) / dof
+        cov = s2 * np.linalg.inv(X.T @ X)
+        t = stats.t.ppf(0.975, dof)
+        hk, hp = t * math.sqrt(cov[0, 0]), t * math.sqrt(cov[1, 1])
+        out.kc_ci = (out.kc - hk, out.kc + hk)
+        out.kphi_ci = (out.kphi - hp, out.kphi + hp)
+    else:
+        out.ci_note = _CI_NOTE
+    if out.kc < 0:
+        out.notes.append(f"kc = {out.kc:.4g} < 0: k grows with plate size in these tests")
+    if out.kphi < 0:
+        out.notes.append(f"kphi = {out.kphi:.4g} < 0")
+    return out

@@ -1,0 +1,390 @@
+"""Terrain internal shear: Janosi-Hanamoto fits of shear tests (the inverse side).
+
+The terrain's internal shear follows the Janosi-Hanamoto curve [1]_
+``tau = (c + sigma tan(phi)) (1 - exp(-j/K))`` (:func:`terracone.physics.shear.shear_stress_janosi_hanamoto`,
+the forward model; the form of eq. (2-4) of [2]_, but for the terrain's own
+shear measured with a shear ring or plate, not the cone-metal cc, phic).
+
+:func:`fit_shear` works in two stages:
+
+1. each test: least squares on tau(j) of ``tau = tau_max (1 - exp(-j/K))``
+   (:func:`scipy.optimize.least_squares`), which gives tau_max and K of the
+   test;
+2. the Mohr-Coulomb line ``tau_max = c + sigma tan(phi)`` through the
+   per-test tau_max: ordinary linear regression over the tests (exact with
+   one test at each of two normal pressures); and a common K from a joint
+   least squares of all tests with one tau_max per test and one shared K.
+
+Points used (the "peak stress region" choice): the points with j >= 0 from
+the start of the test up to the *last* point whose stress is within
+``peak_tolerance`` (default 2 %) of the highest stress of the test, and with
+j <= ``j_max`` if given.  The Janosi-Hanamoto curve rises monotonically to
+tau_max, so a post-peak drop (dense soils) is left out, while a noisy
+plateau is kept whole.  Tests whose stress keeps rising to the end of the
+stroke (strain hardening, bulldozing) have their peak at the end and are used
+whole; give ``j_max`` to fit only the first part of such curves.
+
+With a single normal pressure c and phi cannot be separated: they are None
+and listed in ``undetermined``; tau_max and K per test and the common K are
+still given.
+
+:mod:`terracone.physics.shear` re-exports these fits under their old import path.
+
+References
+----------
+.. [1] Janosi, Z., Hanamoto, B. (1961). The analytical determination of
+   drawbar pull as a function of slip for tracked vehicles in deformable
+   soils. Proc. 1st Int. Conf. on Terrain-Vehicle Systems, Turin.
+.. [2] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Eq. (2-4).
+.. [3] Wong, J.Y. (1980). Data processing methodology in the characterization
+   of the mechanical properties of terrain. Journal of Terramechanics 17(1),
+   13-41.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import optimize, stats
+
+from terracone.data import InputError, ShearTest, TerrainShear
+from terracone.physics import units as u
+from terracone.physics.shear import shear_stress_janosi_hanamoto
+
+__all__ = ["ShearTestFit", "ShearFit", "fit_shear", "fit_shear_test"]
+
+
+@dataclass(frozen=True)
+class ShearTestFit:
+    """Janosi-Hanamoto fit of one shear test.
+
+    Attributes
+    ----------
+    test : str
+        Test id.
+    normal_pressure : float
+        sigma [kPa].
+    tau_max : float
+        Asymptotic shear stress c + sigma tan(phi) [kPa].
+    K : float
+        Shear deformation modulus [m].
+    points_used : int
+    rmsd : float
+        Root mean square deviation of the fitted from the measured stress [kPa].
+    r2 : float
+        Coefficient of determination on tau [-].
+    j_end : float
+        Largest displacement among the points used [m].
+    """
+
+    test: str
+    normal_pressure: float
+    tau_max: float
+    K: float
+    points_used: int
+    rmsd: float
+    r2: float
+    j_end: float
+
+    def stress(self, displacement: Any) -> np.ndarray:
+        """Fitted shear stress [kPa] at displacement j [m]."""
+        return shear_stress_janosi_hanamoto(displacement, self.tau_max, self.K)
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        units = u.check_system(units)
+        return {
+            "test": self.test,
+            "normal_pressure": float(u.pressure_from_si(self.normal_pressure, units)),
+            "tau_max": float(u.pressure_from_si(self.tau_max, units)),
+            "K": float(u.length_from_si(self.K, units)),
+            "points_used": int(self.points_used),
+            "rmsd": float(u.pressure_from_si(self.rmsd, units)),
+            "r2": float(self.r2),
+            "j_end": float(u.length_from_si(self.j_end, units)),
+            "units": units,
+        }
+
+
+@dataclass(frozen=True)
+class ShearFit:
+    """Terrain internal shear parameters from shear tests (:func:`fit_shear`).
+
+    Attributes
+    ----------
+    c : float or None
+        Cohesion [kPa]; None with a single normal pressure.
+    phi_deg : float or None
+        Angle of internal friction [deg]; None with a single normal pressure.
+    K : float
+        Common shear deformation modulus [m] (joint fit of all tests).
+    tests : list of ShearTestFit
+        Per-test tau_max and K.
+    undetermined : list of str
+        ``["c", "phi_deg"]`` with a single normal pressure, else empty.
+    c_ci, phi_deg_ci : (float, float) or None
+        95 % confidence intervals from the regression (at least 3 tests over
+        at least 2 normal pressures), else None.
+    notes : list of str
+    """
+
+    c: float | None
+    phi_deg: float | None
+    K: float
+    tests: list[ShearTestFit]
+    undetermined: list[str]
+    c_ci: tuple[float, float] | None = None
+    phi_deg_ci: tuple[float, float] | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def terrain_shear(self) -> TerrainShear:
+        """The fitted c, phi and K as a :class:`terracone.data.TerrainShear`."""
+        return TerrainShear(c=self.c, phi_deg=self.phi_deg, K=self.K)
+
+    def params(self) -> dict[str, float]:
+        """Determined parameters as library/export keys (SI): c_kpa, phi_deg, K_m."""
+        out = {"c_kpa": self.c, "phi_deg": self.phi_deg, "K_m": self.K}
+        return {k: float(v) for k, v in out.items() if v is not None}
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        """JSON-ready result in a unit system (c in kPa or psi, K in m or in)."""
+        units = u.check_system(units)
+
+        def p(v):
+            return None if v is None else float(u.pressure_from_si(v, units))
+
+        return {
+            "c": p(self.c),
+            "phi_deg": None if self.phi_deg is None else float(self.phi_deg),
+            "K": float(u.length_from_si(self.K, units)),
+            "c_ci": None if self.c_ci is None else [p(v) for v in self.c_ci],
+            "phi_deg_ci": None if self.phi_deg_ci is None else [float(v) for v in self.phi_deg_ci],
+            "undetermined": list(self.undetermined),
+            "notes": list(self.notes),
+            "tests": [t.as_dict(units) for t in self.tests],
+            "units": units,
+            "unit_labels": {
+                "c": u.pressure_unit(units),
+                "K": u.length_unit(units),
+                "tau_max": u.pressure_unit(units),
+            },
+        }
+
+
+def _points(test: ShearTest, peak_tolerance: float, j_max: float | None):
+    if not isinstance(test, ShearTest):
+        if isinstance(test, InputError):
+            raise test
+        raise TypeError(f"expected a ShearTest (got {type(test).__name__})")
+    j, tau = test.displacement, test.stress
+    ok = np.isfinite(j) & np.isfinite(tau) & (j >= 0)
+    if j_max is not None:
+        ok &= j <= j_max
+    idx = np.flatnonzero(ok)
+    if idx.size:
+        # last point within peak_tolerance of the peak stress: the end of the
+        # "peak stress region"; a post-peak drop beyond it is not fitted
+        t_ok = tau[idx]
+        peak = t_ok.max()
+        last = idx[np.flatnonzero(t_ok >= peak - peak_tolerance * abs(peak))[-1]]
+        idx = idx[idx <= last]
+    j, tau = j[idx], tau[idx]
+    if j.size < 3 or np.ptp(j) <= 0 or tau.max() <= 0:
+        raise InputError(
+            f"{j.size} usable point(s) with j >= 0 up to the peak stress; at least 3 with "
+            f"distinct displacements and a positive peak are needed{test.lines_note()}",
+            file=test.source,
+            profile=test.id,
+            item="test",
+            row=test.first_row(),
+        )
+    return j, tau
+
+
+def _start_K(j: np.ndarray, tau: np.ndarray, tau0: float) -> float:
+    # displacement where tau first reaches (1 - 1/e) tau_max: j = K on the curve
+    hit = np.flatnonzero(tau >= (1.0 - math.exp(-1.0)) * tau0)
+    K0 = float(j[hit[0]]) if hit.size else 0.0
+    return K0 if K0 > 0 else float(np.max(j)) / 10.0
+
+
+def _fit_one(j: np.ndarray, tau: np.ndarray) -> tuple[float, float]:
+    """(tau_max, K) minimising sum (tau - tau_max (1 - exp(-j/K)))^2."""
+    tau0 = float(tau.max())
+    x0 = np.array([tau0, _start_K(j, tau, tau0)])
+
+    def fun(x):
+        return shear_stress_janosi_hanamoto(j, x[0], x[1]) - tau
+
+    def jac(x):
+        e = np.exp(-j / x[1])
+        return np.column_stack([1.0 - e, -x[0] * e * j / x[1] ** 2])
+
+    res = optimize.least_squares(
+        fun, x0, jac=jac, bounds=([0.0, 1e-12], [np.inf, np.inf]), x_scale=x0, xtol=1e-14
+    )
+    return float(res.x[0]), float(res.x[1])
+
+
+def _fit_common_K(
+    data: list[tuple[np.ndarray, np.ndarray]], tau0: np.ndarray, K0: float
+) -> tuple[np.ndarray, float]:
+    """One tau_max per test and one shared K, least squares on all stresses."""
+    m = len(data)
+    j = np.concatenate([d[0] for d in data])
+    tau = np.concatenate([d[1] for d in data])
+    g = np.concatenate([np.full(d[0].size, i) for i, d in enumerate(data)])
+
+    def fun(x):
+        return shear_stress_janosi_hanamoto(j, x[g], x[m]) - tau
+
+    def jac(x):
+        e = np.exp(-j / x[m])
+        J = np.zeros((j.size, m + 1))
+        J[np.arange(j.size), g] = 1.0 - e
+        J[:, m] = -x[g] * e * j / x[m] ** 2
+        return J
+
+    x0 = np.concatenate([tau0, [K0]])
+    lo = np.concatenate([np.zeros(m), [1e-12]])
+    res = optimize.least_squares(
+        fun,
+        x0,
+        jac=jac,
+        bounds=(lo, np.full(m + 1, np.inf)),
+        x_scale=np.maximum(x0, 1e-9),
+        xtol=1e-14,
+    )
+    return res.x[:m], float(res.x[m])
+
+
+def fit_shear_test(
+    test: ShearTest, *, peak_tolerance: float = 0.02, j_max: float | None = None
+) -> ShearTestFit:
+    """Fit ``tau = tau_max (1 - exp(-j/K))`` to one shear test.
+
+    Parameters
+    ----------
+    test : ShearTest
+        Displacement j [m], stress tau [kPa], normal pressure [kPa].
+    peak_tolerance : float
+        Relative drop from the peak stress that ends the fitted range [-]
+        (see the module docstring).
+    j_max : float, optional
+        Largest displacement fitted [m].
+
+    Returns
+    -------
+    ShearTestFit
+        tau_max [kPa], K [m], points used, RMSD [kPa].
+
+    References
+    ----------
+    .. [1] Janosi, Z., Hanamoto, B. (1961). The analytical determination of
+       drawbar pull as a function of slip for tracked vehicles in deformable
+       soils. Proc. 1st Int. Conf. on Terrain-Vehicle Systems, Turin.
+    """
+    if not 0 <= peak_tolerance < 1:
+        raise ValueError("peak_tolerance must be in [0, 1)")
+    j, tau = _points(test, peak_tolerance, j_max)
+    tau_max, K = _fit_one(j, tau)
+    res = tau - shear_stress_janosi_hanamoto(j, tau_max, K)
+    ss_tot = float(np.sum((tau - tau.mean()) ** 2))
+    return ShearTestFit(
+        test=test.id,
+        normal_pressure=float(test.normal_pressure),
+        tau_max=tau_max,
+        K=K,
+        points_used=int(j.size),
+        rmsd=float(np.sqrt(np.mean(res * res))),
+        r2=1.0 - float(res @ res) / ss_tot if ss_tot > 0 else float("nan"),
+        j_end=float(j.max()),
+    )
+
+
+def fit_shear(
+    tests: Iterable[ShearTest], *, peak_tolerance: float = 0.02, j_max: float | None = None
+) -> ShearFit:
+    """c, phi and K of the terrain from shear tests.
+
+    Parameters
+    ----------
+    tests : iterable of ShearTest
+        Shear tests of one terrain, SI (j [m], tau and sigma [kPa]).  An
+        :class:`InputError` in the iterable is raised.
+    peak_tolerance, j_max
+        Fitted range of each test, see :func:`fit_shear_test`.
+
+    Returns
+    -------
+    ShearFit
+        c [kPa] and phi [deg] from ``tau_max = c + sigma tan(phi)`` when the
+        tests cover two or more normal pressures (else None, listed in
+        ``undetermined``), the common K [m] and the per-test fits.
+
+    References
+    ----------
+    .. [1] Janosi, Z., Hanamoto, B. (1961). The analytical determination of
+       drawbar pull as a function of slip for tracked vehicles in deformable
+       soils. Proc. 1st Int. Conf. on Terrain-Vehicle Systems, Turin.
+    .. [3] Wong, J.Y. (1980). Data processing methodology in the
+       characterization of the mechanical properties of terrain. Journal of
+       Terramechanics 17(1), 13-41.
+    """
+    tests = list(tests)
+    if not tests:
+        raise ValueError("no shear tests to fit")
+    data = [_points(t, peak_tolerance, j_max) for t in tests]
+    fits = [fit_shear_test(t, peak_tolerance=peak_tolerance, j_max=j_max) for t in tests]
+    m = len(fits)
+
+    # common K: tau_ij = tau_max_i (1 - exp(-j_ij / K)), one K for all tests
+    tau0 = np.array([f.tau_max for f in fits])
+    _, K = _fit_common_K(data, tau0, float(np.median([f.K for f in fits])))
+
+    sigma = np.array([f.normal_pressure for f in fits])
+    notes: list[str] = []
+    c = phi = None
+    c_ci = phi_ci = None
+    undetermined: list[str] = []
+    if np.unique(np.round(sigma, 9)).size < 2:
+        undetermined = ["c", "phi_deg"]
+        notes.append(
+            f"one normal pressure ({sigma[0]:g} kPa): c and phi cannot be separated "
+            "(tau_max = c + sigma tan(phi)); tau_max and K are given per test"
+        )
+    else:
+        # Mohr-Coulomb: tau_max_i = c + sigma_i tan(phi), OLS over the tests
+        X = np.column_stack([np.ones(m), sigma])
+        coef, *_ = np.linalg.lstsq(X, tau0, rcond=None)
+        c, slope = float(coef[0]), float(coef[1])
+        phi = math.degrees(math.atan(slope))
+        if m >= 3:
+            dof = m - 2
+            r = tau0 - X @ coef
+            cov = float(r @ r) / dof * np.linalg.inv(X.T @ X)
+            t = stats.t.ppf(0.975, dof)
+            hc, hs = t * math.sqrt(cov[0, 0]), t * math.sqrt(cov[1, 1])
+            c_ci = (c - hc, c + hc)
+            # arctan is monotonic: the slope interval maps to a phi interval
+            phi_ci = (math.degrees(math.atan(slope - hs)), math.degrees(math.atan(slope + hs)))
+        else:
+            notes.append("confidence intervals need at least 3 tests over 2 normal pressures")
+        if c < 0:
+            notes.append(f"c = {c:.4g} kPa < 0 (regression intercept)")
+    return ShearFit(
+        c=c,
+        phi_deg=phi,
+        K=K,
+        tests=fits,
+        undetermined=undetermined,
+        c_ci=c_ci,
+        phi_deg_ci=phi_ci,
+        notes=notes,
+    )

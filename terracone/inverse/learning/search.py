@@ -1,0 +1,639 @@
+"""Global search of the learning objective (section 3.3.1 of [1]_).
+
+J(kc, kphi, n, cc, phic, r_min) = sum_d RMSD_d / mean_d over data sets d
+(each CI profile and each plate test).  For fixed theta = (n, phic, r_min)
+J is convex in x = (kc, kphi, cc) and is minimised with a certificate by
+:func:`terracone.inverse.learning.sumnorm.sum_norm_box`.  theta is searched on a
+vectorised grid (n, phic, log r_min); the best grid points that are local
+minima start a joint Gauss-Newton refinement of all six parameters
+(reweighted least squares, so that it minimises J itself and reaches J = 0
+on noise-free data), and the grid gives a bound on how far the answer can
+be from the global minimum.
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Eqs. (2-2) to (2-7), sections 3.2 and 3.3.1.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import minimum_filter
+from scipy.optimize import least_squares
+
+from terracone.data import CIProfile, PlateTest
+from terracone.inverse.bounds import Bounds
+from terracone.inverse.learning.sumnorm import SumNormResult, sum_norm_box
+from terracone.inverse.solver.boxlsq import gram
+from terracone.inverse.solver.exact import design
+from terracone.physics.plate import plate_basis, pressure_law
+
+__all__ = [
+    "branch_points",
+    "certify",
+    "Cells",
+    "jacobians",
+    "polish",
+    "LearnProblem",
+    "GridStage",
+    "Refined",
+    "grid_stage",
+    "grid_starts",
+    "refine",
+]
+
+
+@dataclass
+class LearnProblem:
+    """The data and search space of one learning run (SI).
+
+    theta = (n, phic [deg], log r_min [log m]); for RM0 r_min is absent and
+    the third coordinate is ignored.
+    """
+
+    profiles: list[CIProfile]
+    plates: list[PlateTest]
+    model: str
+    bounds: Bounds
+    r_min_bounds: tuple[float, float] | None
+    Kc: float | None
+    pair: tuple[float, float] | None
+
+    def __post_init__(self) -> None:
+        self.ys = [p.ci for p in self.profiles] + [b.pressure for b in self.plates]
+        self.means = np.array([float(np.mean(y)) for y in self.ys])
+        # J = sum_d a_d ||r_d||, a_d = 1 / (mean_d sqrt(N_d))
+        self.a = np.array([1.0 / (m * math.sqrt(y.size)) for m, y in zip(self.means, self.ys)])
+        lo = [self.bounds.n[0], self.bounds.phic[0]]
+        hi = [self.bounds.n[1], self.bounds.phic[1]]
+        rb = self.r_min_bounds or (1.0, 1.0)
+        self.theta_lo = np.array(lo + [math.log(rb[0])])
+        self.theta_hi = np.array(hi + [math.log(rb[1])])
+
+    def law(self, log_rm):
+        if self.model == "rm0":
+            return pressure_law("rm0")
+        return pressure_law("rm1", r_min=np.exp(log_rm), plate_pair=self.pair)
+
+    def designs(self, n, phi, log_rm) -> list[np.ndarray]:
+        """Design matrices X_d (S..., N_d, 3) with model_d = X_d @ (kc, kphi, cc)."""
+        n, phi, log_rm = np.broadcast_arrays(*(np.asarray(v, float) for v in (n, phi, log_rm)))
+        law = self.law(log_rm[..., None])
+        out = []
+        for p in self.profiles:
+            X = design(p.depth, n[..., None], phi[..., None], cone=p.cone, law=law, Kc=self.Kc)
+            out.append(np.broadcast_to(X, n.shape + X.shape[-2:]))
+        for b in self.plates:
+            A, B = plate_basis(b.sinkage, n=n[..., None], b=b.b, law=law)
+            A, B = np.broadcast_arrays(A, B)
+            out.append(np.stack([A, B, np.zeros_like(A)], axis=-1))
+        return out
+
+    def grams(self, n, phi, log_rm):
+        Gs, gs, yys = [], [], []
+        for X, y in zip(self.designs(n, phi, log_rm), self.ys):
+            G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
+            Gs.append(G)
+            gs.append(g)
+            yys.append(yy)
+        return np.stack(Gs), np.stack(gs), np.stack(yys)
+
+    def box(self, n, cc_pin=None):
+        """Bounds (lo, hi) of x = (kc, kphi, cc) at exponent n, shape (S..., 3)."""
+        n = np.asarray(n, float)
+        kl, kh = self.bounds.kc_si(n)
+        pl, ph = self.bounds.kphi_si(n)
+        pin = np.full(n.shape, np.nan) if cc_pin is None else cc_pin + 0 * n  # NaN: free
+        cl = np.where(np.isnan(pin), self.bounds.cc[0], pin)
+        ch = np.where(np.isnan(pin), self.bounds.cc[1], pin)
+        return np.stack([kl, pl, cl], axis=-1), np.stack([kh, ph, ch], axis=-1)
+
+    def solve_cells(self, n, phi, log_rm, cc_pin=None, rtol=1e-7, max_iter=200) -> SumNormResult:
+        """Certified inner minimum over x for each theta (arrays of one shape)."""
+        G, g, yy = self.grams(n, phi, log_rm)
+        lo, hi = self.box(np.broadcast_to(n, yy.shape[1:]), cc_pin)
+        return sum_norm_box(G, g, yy, self.a, lo, hi, rtol=rtol, max_iter=max_iter)
+
+    def residuals(self, x, theta) -> list[np.ndarray]:
+        Xs = self.designs(theta[0], theta[1], theta[2])
+        return [X @ x - y for X, y in zip(Xs, self.ys)]
+
+    def objective(self, x, theta) -> float:
+        """J from the residuals themselves (not the Gram form)."""
+        return float(sum(a * np.linalg.norm(r) for a, r in zip(self.a, self.residuals(x, theta))))
+
+
+@dataclass
+class GridStage:
+    """The vectorised grid over theta and its certified inner solutions."""
+
+    axes: list[np.ndarray]  # n, phic, log r_min values
+    cells: SumNormResult
+
+
+def _axis(lo: float, hi: float, k: int) -> np.ndarray:
+    return np.array([lo]) if lo == hi or k <= 1 else np.linspace(lo, hi, k)
+
+
+def grid_stage(prob: LearnProblem, grid: tuple[int, int, int]) -> GridStage:
+    """Certified inner minima on the (n, phic, log r_min) grid."""
+    axes = [
+        _axis(prob.theta_lo[k], prob.theta_hi[k], grid[k] if (k < 2 or prob.model == "rm1") else 1)
+        for k in range(3)
+    ]
+    N, P, R = np.meshgrid(*axes, indexing="ij")
+    return GridStage(axes, prob.solve_cells(N, P, R))
+
+
+def grid_starts(stage: GridStage, count: int) -> list[tuple[int, ...]]:
+    """Grid points that are local minima of J, best first, ties by position."""
+    U = stage.cells.J
+    loc = U <= minimum_filter(U, size=3, mode="nearest")
+    idx = np.flatnonzero(loc)
+    # by J quantised to 1e-9 of the scale (last-bit differences between machines do not
+    # reorder), then by position
+    q = np.floor(U.reshape(-1)[idx] / (1e-9 * max(float(U.max()), 1e-300)))
+    order = np.lexsort((idx, q))
+    return [np.unravel_index(i, U.shape) for i in idx[order][:count]]
+
+
+@dataclass
+class Refined:
+    """A locally refined point: x = (kc, kphi, cc), theta, J and Jacobian data."""
+
+    x: np.ndarray
+    theta: np.ndarray
+    J: float
+    nfev: int
+
+
+def _pack(prob, x, theta, free_x, free_t):
+    return np.concatenate([x[free_x], theta[free_t]])
+
+
+def _irls_weights(prob: LearnProblem, x, theta) -> np.ndarray:
+    """sqrt(a_d / ||r_d||): sum_d w_d ||r_d||^2 majorises J at (x, theta)."""
+    norms = np.array([np.linalg.norm(r) for r in prob.residuals(x, theta)])
+    floor = 1e-14 * np.array([np.linalg.norm(y) for y in prob.ys])
+    return np.sqrt(prob.a / np.maximum(norms, floor))
+
+
+class _Space:
+    """The free variables of :func:`refine` packed in one vector p, with residuals and Jacobian."""
+
+    def __init__(self, prob: LearnProblem, theta0: np.ndarray) -> None:
+        self.prob = prob
+        self.theta0 = np.asarray(theta0, float)
+        self.lo_x, hi_x = prob.box(np.asarray(theta0[0]))
+        self.free_x = hi_x > self.lo_x
+        self.free_t = prob.theta_hi > prob.theta_lo
+        if prob.model == "rm0":
+            self.free_t[2] = False
+        self.lo = np.concatenate([self.lo_x[self.free_x], prob.theta_lo[self.free_t]])
+        self.hi = np.concatenate([hi_x[self.free_x], prob.theta_hi[self.free_t]])
+        self.nx = int(self.free_x.sum())
+        self.nfev = 0
+
+    def unpack(self, p):
+        x = self.lo_x.copy()
+        x[self.free_x] = p[: self.nx]
+        th = self.theta0.copy()
+        th[self.free_t] = p[self.nx :]
+        return x, th
+
+    def fun(self, p, sw):
+        self.nfev += 1
+        x, th = self.unpack(p)
+        return np.concatenate([s * r for s, r in zip(sw, self.prob.residuals(x, th))])
+
+    def jac(self, p, sw):
+        prob = self.prob
+        x, th = self.unpack(p)
+        ks = np.flatnonzero(self.free_t)
+        T = np.repeat(th[None, :], 1 + 2 * ks.size, axis=0)
+        for j, k in enumerate(ks):  # central differences, all points in one vectorised call
+            h = 1e-6 * max(1.0, abs(th[k]))
+            T[1 + 2 * j, k] = min(th[k] + h, prob.theta_hi[k])
+            T[2 + 2 * j, k] = max(th[k] - h, prob.theta_lo[k])
+        Xs = prob.designs(T[:, 0], T[:, 1], T[:, 2])  # (T, N_d, 3) each
+        cols = [np.concatenate([s * X[0][:, self.free_x] for s, X in zip(sw, Xs)])]
+        for j, k in enumerate(ks):
+            dt = T[1 + 2 * j, k] - T[2 + 2 * j, k]
+            cols.append(
+                np.concatenate(
+                    [s * ((X[1 + 2 * j] - X[2 + 2 * j]) @ x) / dt for s, X in zip(sw, Xs)]
+                )[:, None]
+            )
+        return np.hstack(cols)
+
+    def snap(self, p, J, zero):
+        """Values within 1e-9 of their range from a bound go onto it when J does not rise: the
+        trust region stays strictly inside, the answer should not depend on how far."""
+        lo, hi = self.lo, self.hi
+        q = p.copy()
+        near_lo, near_hi = q - lo <= 1e-9 * (hi - lo), hi - q <= 1e-9 * (hi - lo)
+        q[near_lo], q[near_hi] = lo[near_lo], hi[near_hi]
+        Jq = self.prob.objective(*self.unpack(q))
+        return (q, Jq) if Jq <= J * (1 + 1e-12) + zero * 1e-3 else (p, J)
+
+
+def refine(
+    prob: LearnProblem,
+    x0: np.ndarray,
+    theta0: np.ndarray,
+    *,
+    rounds: int = 12,
+    reweight_first: bool = False,
+) -> Refined:
+    """Minimise J jointly over (kc, kphi, cc, n, phic, log r_min) from a start.
+
+    Reweighted Gauss-Newton (trust-region reflective, bounded): each round
+    minimises sum_d w_d ||r_d||^2 with w_d = a_d / ||r_d|| at the current
+    point (a majoriser of J), the first round with w_d = a_d^2 (unless
+    ``reweight_first``, to continue an earlier refinement) so that
+    zero-residual data are reached quadratically.  Stops when J no longer
+    falls by 1e-12 relative.
+    """
+    sp = _Space(prob, theta0)
+    lo, hi = sp.lo, sp.hi
+    p = np.clip(_pack(prob, x0, sp.theta0, sp.free_x, sp.free_t), lo, hi)
+    J = prob.objective(*sp.unpack(p))
+    sw = prob.a.copy()
+    if reweight_first:
+        sw = _irls_weights(prob, *sp.unpack(p))
+    zero = 1e-13 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
+    for _ in range(rounds):
+        if J <= zero:  # zero residual: nothing left to gain
+            break
+        res = least_squares(
+            sp.fun,
+            p,
+            jac=sp.jac,
+            bounds=(lo, hi),
+            args=(sw,),
+            method="trf",
+            x_scale="jac",
+            xtol=1e-12,
+            ftol=1e-12,
+            gtol=1e-12,
+            max_nfev=40,
+        )
+        J_new = prob.objective(*sp.unpack(res.x))
+        if J_new < J:
+            improved = J - J_new > 1e-12 * J
+            p, J = res.x, J_new
+            if not improved:
+                break
+        else:
+            break
+        sw = _irls_weights(prob, *sp.unpack(p))
+    p, J = sp.snap(p, J, zero)
+    x, th = sp.unpack(p)
+    return Refined(x, th, J, sp.nfev)
+
+
+def jacobians(prob: LearnProblem, x, theta) -> list[np.ndarray]:
+    """Per data set d/dp of the residuals, p = (kc, kphi, cc, n, phic, log r_min).
+
+    The first three columns are the design matrix itself (exactly linear);
+    the last three are central differences of X(theta) @ x.
+    """
+    T = np.repeat(np.asarray(theta, float)[None, :], 7, axis=0)
+    hs = [1e-6 * max(1.0, abs(float(t))) for t in theta]
+    up = [hs[0], hs[1], hs[2]]
+    if prob.model == "rm1" and any(abs(theta[2] - k) <= 1e-9 for k in branch_points(prob)):
+        up[2] = 0.0  # on a branch point: the tangent side (r_min <= r) is the continuous one
+    for k in range(3):
+        T[1 + 2 * k, k] += up[k]
+        T[2 + 2 * k, k] -= hs[k]
+    Xs = prob.designs(T[:, 0], T[:, 1], T[:, 2])
+    out = []
+    for X in Xs:
+        cols = [X[0]] + [
+            ((X[1 + 2 * k] - X[2 + 2 * k]) @ x / (up[k] + hs[k]))[:, None] for k in range(3)
+        ]
+        out.append(np.hstack(cols))
+    return out
+
+
+def polish(prob: LearnProblem, x: np.ndarray, theta: np.ndarray, *, steps: int = 12) -> Refined:
+    """Newton steps on J itself from a refined point, to pin the minimiser down.
+
+    Reweighting converges linearly, so a tolerance on J leaves the
+    parameters known to only about the square root of it.  Here the
+    gradient sum_d a_d D_d' r_d / ||r_d|| is driven to zero with the
+    Gauss-Newton Hessian of J (sum_d w_d (D_d'D_d - g_d g_d')), over the
+    parameters not held at a bound, with step halving so that J never rises.
+
+    RM1 changes branch where r_min equals a plate or cone radius (section
+    3.2); J jumps there (r_min = r2 is still the tangent, above it the
+    secant), so an optimum may sit on the branch point itself.  When r_min
+    is within 1e-5 (relative) of one, the point with r_min exactly on it is
+    polished too and kept unless J is lower elsewhere by more than 1e-12
+    relative.
+    """
+    p = np.concatenate([x, theta])
+    best = _newton(prob, p, steps, fix_rm=False)
+    if prob.model == "rm1":
+        for k in branch_points(prob):
+            if abs(theta[2] - k) <= 1e-5 and prob.theta_lo[2] <= k <= prob.theta_hi[2]:
+                q = p.copy()
+                q[5] = k
+                cand = _newton(prob, q, steps, fix_rm=True)
+                if cand.J <= best.J * (1 + 1e-12):
+                    best = cand
+    return best
+
+
+def branch_points(prob: LearnProblem) -> list[float]:
+    """log radii where the RM1 law changes branch: cone radii and the plate pair."""
+    radii = {p.cone.radius for p in prob.profiles} | set(prob.pair or ())
+    return [math.log(r) for r in sorted(radii)]
+
+
+def _newton(prob: LearnProblem, p: np.ndarray, steps: int, fix_rm: bool) -> Refined:
+    lo_x, hi_x = prob.box(np.asarray(p[3]))
+    lo = np.concatenate([lo_x, prob.theta_lo])
+    hi = np.concatenate([hi_x, prob.theta_hi])
+    fixed = hi <= lo
+    fixed[5] |= prob.model == "rm0" or fix_rm
+    J = prob.objective(p[:3], p[3:])
+    scale = np.maximum(np.abs(p), np.where(hi > lo, hi - lo, 1.0) * 1e-3)
+    for _ in range(steps):
+        rs = prob.residuals(p[:3], p[3:])
+        norms = np.array([np.linalg.norm(r) for r in rs])
+        if np.any(norms <= 1e-12 * np.array([np.linalg.norm(y) for y in prob.ys])):
+            break  # a data set fitted exactly: J is not smooth there
+        Ds = jacobians(prob, p[:3], p[3:])
+        grad = np.zeros(6)
+        H = np.zeros((6, 6))
+        for D, r, a, nr in zip(Ds, rs, prob.a, norms):
+            gd = D.T @ (r / nr)
+            grad += a * gd
+            H += (a / nr) * (D.T @ D - np.outer(gd, gd))
+        # parameters on a bound whose gradient pushes them outward stay there
+        f = ~(fixed | ((p <= lo) & (grad > 0)) | ((p >= hi) & (grad < 0)))
+        if not f.any():
+            break
+        Hs = H[np.ix_(f, f)] * np.outer(scale[f], scale[f])
+        step = np.zeros(6)
+        step[f] = -scale[f] * (np.linalg.pinv(Hs, rcond=1e-13) @ (grad[f] * scale[f]))
+        moved = False
+        for t in (1.0, 0.5, 0.25, 0.125):
+            q = np.clip(p + t * step, lo, hi)
+            Jq = prob.objective(q[:3], q[3:])
+            if Jq <= J:
+                moved = bool(np.any(np.abs(q - p) > 1e-12 * scale))
+                p, J = q, Jq
+                break
+        if not moved:
+            break
+    return Refined(p[:3].copy(), p[3:].copy(), J, 0)
+
+
+#: the curvature inside a cell is taken as at most this many times the largest
+#: second difference of J seen on the cell's own sample points (the bound's assumption)
+CURVATURE_SAFETY = 2.0
+
+
+def _curvature(U: np.ndarray, t: np.ndarray, axis: int, cut: np.ndarray) -> np.ndarray:
+    """|d2J/dt2| estimated at every node along an axis (NaN where undefined).
+
+    The second divided difference over each node and its two neighbours
+    (spacing may vary); NaN at the ends and where either neighbouring
+    interval holds an RM1 branch point (``cut``, bool per interval).
+    """
+    out = np.full(U.shape, np.nan)
+    if U.shape[axis] < 3:
+        return out
+    Um = np.moveaxis(U, axis, 0)
+    h = np.diff(t)
+    d1 = np.diff(Um, axis=0) / h.reshape((-1,) + (1,) * (Um.ndim - 1))
+    hh = (h[:-1] + h[1:]).reshape((-1,) + (1,) * (Um.ndim - 1))
+    d2 = np.abs(2.0 * np.diff(d1, axis=0) / hh)
+    bad = (cut[:-1] | cut[1:]).reshape((-1,) + (1,) * (Um.ndim - 1))
+    om = np.moveaxis(out, axis, 0)
+    om[1:-1] = np.where(bad, np.nan, d2)
+    return out
+
+
+def _cell_bound(L: np.ndarray, M: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Lower bound of J per cell: smallest corner bound less the interpolation allowance.
+
+    Tensor-product linear interpolation of f with |d2f/dt_k^2| <= M_k in a
+    cell of sides h_k misses f by at most sum_k M_k h_k^2 / 8, and its
+    minimum is at a corner.  L: corner bounds (K, ...); M, h: (K, 3), M_k
+    already multiplied by ``CURVATURE_SAFETY`` (inf: no estimate).
+    """
+    with np.errstate(invalid="ignore"):
+        err = np.where(h > 0, M * h**2 / 8.0, 0.0).sum(axis=1)
+    return L.reshape(L.shape[0], int(np.prod(L.shape[1:]))).min(axis=1, initial=np.inf) - err
+
+
+def _block_max(m: np.ndarray) -> np.ndarray:
+    """Largest finite value per leading index of a block (K, ...), inf when none."""
+    m = np.where(np.isnan(m), -np.inf, m)
+    mk = np.max(m.reshape(m.shape[0], int(np.prod(m.shape[1:]))), axis=1, initial=-np.inf)
+    return np.where(np.isfinite(mk), mk, np.inf)
+
+
+def _kink_cut(prob: LearnProblem, ax: np.ndarray) -> np.ndarray:
+    """Per interval [a, b) of the log r_min axis: does it hold an RM1 branch point?
+
+    At a branch point the law is still the lower branch (tangent for the
+    plates), so a cell ending on one is continuous; one starting on it is not.
+    """
+    cut = np.zeros(max(ax.size - 1, 0), bool)
+    if prob.model != "rm1" or ax.size < 2:
+        return cut
+    ks = np.array(branch_points(prob))
+    return np.array([bool(np.any((ks >= a) & (ks < b))) for a, b in zip(ax[:-1], ax[1:])])
+
+
+def _augmented(prob: LearnProblem, stage: GridStage, rtol: float):
+    """The grid with log r_min nodes added a hair (1e-9) either side of each RM1
+    branch point inside the range, solved with certificates: (axes, J, lower, new solves).
+    """
+    ax = list(stage.axes)
+    U, L = stage.cells.J, stage.cells.lower
+    if prob.model != "rm1" or ax[2].size < 2:
+        return ax, U, L, 0
+    ks = np.array(branch_points(prob))
+    extra = np.concatenate([ks - 1e-9, ks + 1e-9])
+    extra = extra[(extra > ax[2][0]) & (extra < ax[2][-1])]
+    extra = np.setdiff1d(extra, ax[2])
+    # a stretch between branch points with no node inside gets its midpoint (for a curvature)
+    r = np.union1d(ax[2], extra)
+    cut = _kink_cut(prob, r)
+    run = np.concatenate([[True], cut, [True]])
+    lone = np.flatnonzero(~cut & run[:-2] & run[2:])
+    extra = np.union1d(extra, 0.5 * (r[lone] + r[lone + 1]))
+    if extra.size == 0:
+        return ax, U, L, 0
+    N, P, R = np.meshgrid(ax[0], ax[1], extra, indexing="ij")
+    sol = prob.solve_cells(N, P, R, rtol=rtol)
+    r = np.concatenate([ax[2], extra])
+    order = np.argsort(r, kind="stable")
+    U = np.concatenate([U, sol.J], axis=2)[:, :, order]
+    L = np.concatenate([L, sol.lower], axis=2)[:, :, order]
+    ax[2] = r[order]
+    return ax, U, L, int(sol.J.size)
+
+
+@dataclass
+class Cells:
+    """Cells of the outer search box: corners, curvatures and corner values.
+
+    lo, hi : (C, 3) lower and upper corners in (n, phic, log r_min);
+    M : (C, 3) curvature allowance per axis (already times the safety factor);
+    U, L : (C, 2, 2, 2) J and its certified lower bound at the cell's corners.
+    """
+
+    lo: np.ndarray
+    hi: np.ndarray
+    M: np.ndarray
+    U: np.ndarray
+    L: np.ndarray
+
+    def bound(self) -> np.ndarray:
+        return _cell_bound(self.L, self.M, self.hi - self.lo)
+
+    def take(self, sel) -> Cells:
+        return Cells(self.lo[sel], self.hi[sel], self.M[sel], self.U[sel], self.L[sel])
+
+    @staticmethod
+    def join(parts: list[Cells]) -> Cells:
+        return Cells(
+            *(np.concatenate([getattr(c, f) for c in parts]) for f in ("lo", "hi", "M", "U", "L"))
+        )
+
+
+def _base_cells(prob: LearnProblem, stage: GridStage, rtol: float):
+    """The (augmented) grid's cells: corners (C, 3), curvatures (C, 3), bounds, cut flags, solves.
+
+    A cut cell holds an RM1 branch point and is 2e-9 wide in log r_min: J
+    there is within that of its corner values on either side, so its bound
+    is its smallest corner bound (no allowance) and it is never halved.
+    """
+    ax, U, L, n_new = _augmented(prob, stage, rtol)
+    free = [k for k in range(3) if ax[k].size > 1]
+    cuts = [np.zeros(max(a.size - 1, 0), bool) for a in ax[:2]] + [_kink_cut(prob, ax[2])]
+    M = [_curvature(U, ax[k], k, cuts[k]) for k in range(3)]
+    ranges = [np.arange(ax[k].size - 1) if k in free else np.zeros(1, int) for k in range(3)]
+    base = np.stack([g.reshape(-1) for g in np.meshgrid(*ranges, indexing="ij")], axis=-1)
+    off = [np.arange(2) if k in free else np.zeros(1, int) for k in range(3)]
+    idx = tuple(
+        base[:, k][:, None, None, None] + off[k].reshape([-1 if j == k else 1 for j in range(3)])
+        for k in range(3)
+    )
+    lo = np.stack([ax[k][base[:, k]] for k in range(3)], axis=-1)
+    hi = np.stack([ax[k][base[:, k] + (1 if k in free else 0)] for k in range(3)], axis=-1)
+    cut = cuts[2][base[:, 2]] if 2 in free else np.zeros(base.shape[0], bool)
+    Mc = np.zeros(lo.shape)
+    for k in free:
+        Mc[:, k] = CURVATURE_SAFETY * _block_max(M[k][idx])
+    Mc[cut] = 0.0
+    full = (base.shape[0], 2, 2, 2)
+    cells = Cells(
+        lo, hi, Mc, np.broadcast_to(U[idx], full).copy(), np.broadcast_to(L[idx], full).copy()
+    )
+    return cells, cut, n_new
+
+
+def certify(
+    prob: LearnProblem,
+    stage: GridStage,
+    J_best: float,
+    *,
+    levels: int = 3,
+    cap: int = 96,
+    target: float = 0.0,
+    rtol: float = 1e-7,
+) -> tuple[float, int, int]:
+    """Branch and bound on the grid's cells: a lower bound of J over the search box.
+
+    Each cell's bound is its smallest certified corner bound (the inner
+    problem's dual value) less an interpolation allowance
+    (:func:`_cell_bound`) from a curvature M_k per axis, taken as
+    ``CURVATURE_SAFETY`` times the largest second divided difference of J
+    on the cell's sample points.  Cells whose bound is below J_best are
+    halved, ``levels`` rounds of at most ``cap`` cells (lowest bound first),
+    along the axis with the largest allowance: the three points along it
+    (and the cell's corners across) are solved with certificates, the
+    children take the new curvature along it and their parent's across.
+    Cells not refined keep their bound; cells whose bound is within
+    ``target`` (relative) of J_best are not refined either (the bound then
+    aims at a gap of ``target`` J_best, not at excluding every cell).  The
+    inner solves stop at a duality gap of ``rtol`` times the data's scale
+    (their dual value is a valid bound at any rtol).  The RM1 branch points,
+    where J jumps, are never inside a cell (:func:`_base_cells`).  Assumption: J's
+    curvature inside a cell is at most ``CURVATURE_SAFETY`` times what the
+    cell's samples show.  Returns (lower bound, cells still open, points
+    solved).
+    """
+    free = [k for k in range(3) if stage.axes[k].size > 1]
+    cells, cut, evals = _base_cells(prob, stage, rtol)
+    tol = max(1e-6, target) * max(J_best, 1e-300)
+    parked: list[float] = []
+    kept = cells.take(cut).bound()  # cut cells are never halved: their bound is final
+    cells = cells.take(~cut)
+    lb = cells.bound()
+    for _ in range(levels):
+        open_ = np.flatnonzero(lb < J_best - tol)
+        if open_.size == 0:
+            break
+        order = open_[np.lexsort((open_, lb[open_]))]
+        if order.size > cap:
+            parked.append(float(lb[order[cap:]].min()))
+            order = order[:cap]
+        done = np.ones(lb.size, bool)
+        done[order] = False
+        out = [cells.take(done)]
+        h = cells.hi - cells.lo
+        with np.errstate(invalid="ignore"):
+            share = np.where(h > 0, cells.M * h**2, -1.0)[order]
+        axis = np.argmax(np.where(np.isnan(share), np.inf, share), axis=1)  # ties: lowest axis
+        for k in free:
+            sel = order[axis == k]
+            if sel.size:
+                kids, n_solved = _halve(prob, cells.take(sel), k, rtol)
+                out.append(kids)
+                evals += n_solved
+        cells = Cells.join(out)
+        lb = cells.bound()
+    lb = np.concatenate([lb, kept])
+    remaining = int(np.sum(lb < J_best * (1 - 1e-6)))
+    lower = min([J_best, float(lb.min()) if lb.size else J_best] + parked)
+    return max(lower, 0.0), remaining + (1 if parked else 0), evals
+
+
+def _halve(prob: LearnProblem, c: Cells, k: int, rtol: float) -> tuple[Cells, int]:
+    """Halve cells along axis k: solve the 4 midpoints of the edges along k (the
+    corners are known), the new curvature along k from the 3 points of each edge."""
+    mid = 0.5 * (c.lo[:, k] + c.hi[:, k])
+    corner = [np.stack([c.lo[:, j], c.hi[:, j]], axis=-1) for j in range(3)]  # (K, 2)
+    corner[k] = np.stack([mid, mid], axis=-1)
+    G = np.broadcast_arrays(
+        *[corner[j].reshape([-1] + [2 if i == j else 1 for i in range(3)]) for j in range(3)]
+    )
+    sol = prob.solve_cells(G[0], G[1], G[2], rtol=rtol)
+    Um = np.take(sol.J, [0], axis=1 + k)  # the midpoints (equal along k)
+    Lm = np.take(sol.lower, [0], axis=1 + k)
+    half = 0.5 * (c.hi[:, k] - c.lo[:, k])
+    U0, U1 = np.take(c.U, [0], axis=1 + k), np.take(c.U, [1], axis=1 + k)
+    L0, L1 = np.take(c.L, [0], axis=1 + k), np.take(c.L, [1], axis=1 + k)
+    d2 = np.abs(U0 - 2.0 * Um + U1) / np.maximum(half, 1e-300).reshape(-1, 1, 1, 1) ** 2
+    M = c.M.copy()
+    M[:, k] = CURVATURE_SAFETY * _block_max(d2)
+    lo_mid, hi_mid = c.lo.copy(), c.hi.copy()
+    lo_mid[:, k], hi_mid[:, k] = mid, mid
+    first = Cells(c.lo, hi_mid, M, np.concatenate([U0, Um], 1 + k), np.concatenate([L0, Lm], 1 + k))
+    second = Cells(
+        lo_mid, c.hi, M, np.concatenate([Um, U1], 1 + k), np.concatenate([Lm, L1], 1 + k)
+    )
+    return Cells.join([first, second]), int(sol.J.size) // 2

@@ -1,0 +1,426 @@
+"""Test planning: which one extra test narrows the predicted plate pressure most?
+
+A linearised (Fisher) preposterior analysis [1]_.  Around the best fit of
+the CI profile, the posterior of ``theta = (kc, kphi, n, cc, phic)`` (the
+free ones) is approximated by a normal distribution with precision
+
+    I_0 = P + J^T S^-1 J,
+
+``P`` the prior precision and ``J`` the Jacobian of the CI model (eq. (2-7))
+with the CI error covariance ``S`` (relative noise weights with a 5% floor,
+AR(1) along depth, sigma from the residuals, as in
+:mod:`terracone.inverse.sites.statistics`; or a given independent noise).  A candidate
+test with Jacobian ``H`` and noise covariance ``R`` adds ``H^T R^-1 H``; in
+the linear-Gaussian approximation the posterior covariance after the test
+does not depend on its outcome, so the *expected* 90% width of the
+predicted plate pressure ``p`` (eq. (2-2)) after the test is
+
+    2 z_0.95 sqrt(g^T (I_0 + H^T R^-1 H)^-1 g),   g = dp/dtheta.
+
+Candidates:
+
+* ``plate:R`` - a plate sinkage test of radius R: pressure at 10 sinkages
+  to 5 cm (2 in), independent relative error ``plate_noise`` (5%);
+* ``ci`` - one more CI push of the same terrain at the same depths, with the
+  same noise as the profile's;
+* ``shear`` - a shear ring/plate test measures the terrain's *internal*
+  shear (c, phi, K, :mod:`terracone.physics.shear`), which enters neither the
+  plate equation (2-2) nor the cone model (2-7) (whose cc, phic are
+  cone-metal values): it carries no information on the plate prediction,
+  and the analysis says so (expected width = current width).
+
+Priors: ``"bounds"`` - uniform over the search box, approximated by its
+variance ``(hi - lo)^2 / 12`` per parameter; a calibration - phic and cc
+normal around the calibrated values and ln(kc/kphi) normal with the widths
+of :class:`terracone.inverse.uncertainty.priors.CalibrationPrior` (kphi and n keep their
+uniform bounds).  Under the bounds prior the CI leaves a whole direction
+free (phic against a common scale of kc and kphi, section 2 of [2]_), so a
+plate test, which measures that scale, beats another CI push; the ranking
+is checked against a brute-force preposterior simulation in
+tests/test_design.py.
+
+References
+----------
+.. [1] Raiffa, H., Schlaifer, R. (1961). Applied Statistical Decision
+   Theory. Harvard University (preposterior analysis).
+.. [2] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Eqs. (2-2), (2-6), (2-7), section 2.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from terracone.data import CIProfile
+from terracone.inverse.bounds import Bounds
+from terracone.inverse.evaluate import predicted_plate_pressure
+from terracone.inverse.predict import predict
+from terracone.inverse.sites.statistics import NOISE_FLOOR, default_sinkages
+from terracone.inverse.uncertainty.noise import estimate_correlation
+from terracone.inverse.uncertainty.priors import CalibrationPrior
+from terracone.physics import units as u
+from terracone.physics.cone import cone_index_huang
+from terracone.physics.plate import pressure_law
+
+__all__ = ["CandidateResult", "DesignResult", "parse_candidates", "plan_test"]
+
+_NAMES = ("kc", "kphi", "n", "cc", "phic_deg")
+_LEN = re.compile(r"^\s*([0-9.eE+-]+)\s*(m|cm|mm|in)?\s*$")
+
+
+@dataclass
+class CandidateResult:
+    """One candidate test.
+
+    Attributes
+    ----------
+    test : str
+        As given (``plate:5cm``, ``ci``, ``shear``).
+    kind : {"plate", "ci", "shear"}
+    radius : float or None
+        Plate radius [m].
+    expected_width : ndarray
+        Expected 90% width of the predicted plate pressure after the test,
+        per target plate [kPa].
+    width_ratio : float
+        Mean over the target plates of expected / current width [-].
+    rank : int
+        1 = narrows the prediction most.
+    note : str
+    """
+
+    test: str
+    kind: str
+    radius: float | None
+    expected_width: np.ndarray
+    width_ratio: float
+    rank: int = 0
+    note: str = ""
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        return {
+            "test": self.test,
+            "kind": self.kind,
+            "radius": None if self.radius is None else float(u.length_from_si(self.radius, units)),
+            "expected_width": [float(v) for v in u.pressure_from_si(self.expected_width, units)],
+            "width_ratio": self.width_ratio,
+            "rank": self.rank,
+            "note": self.note,
+        }
+
+
+@dataclass
+class DesignResult:
+    """Preposterior analysis of one profile (SI inside).
+
+    Attributes
+    ----------
+    id : str
+    status : {"ok", "error"}
+    error : str or None
+    prior : str
+    plates : list of float
+        Target plate radii [m].
+    sinkage : float
+        Sinkage at which the widths are taken [m].
+    median : ndarray
+        Predicted plate pressure per target plate [kPa].
+    current_width : ndarray
+        90% width before any extra test [kPa].
+    candidates : list of CandidateResult
+        Ranked, best first.
+    lack_of_fit : str or None
+    notes : list of str
+    """
+
+    id: str
+    status: str
+    error: str | None = None
+    prior: str = "bounds"
+    plates: list[float] = field(default_factory=list)
+    sinkage: float = float("nan")
+    median: np.ndarray | None = None
+    current_width: np.ndarray | None = None
+    candidates: list[CandidateResult] = field(default_factory=list)
+    lack_of_fit: str | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        def p(a):
+            return None if a is None else [float(v) for v in u.pressure_from_si(a, units)]
+
+        return {
+            "id": self.id,
+            "status": self.status,
+            "error": self.error,
+            "prior": self.prior,
+            "plates": [float(u.length_from_si(r, units)) for r in self.plates],
+            "sinkage": float(u.length_from_si(self.sinkage, units)),
+            "median": p(self.median),
+            "current_width": p(self.current_width),
+            "candidates": [c.as_dict(units) for c in self.candidates],
+            "best": self.candidates[0].test if self.candidates else None,
+            "lack_of_fit": self.lack_of_fit,
+            "notes": list(self.notes),
+            "units": units,
+        }
+
+
+def parse_candidates(text: str, units: str = "si") -> list[tuple[str, str, float | None]]:
+    """``"plate:5cm,plate:10cm,ci,shear"`` -> [(label, kind, radius [m] or None)]."""
+    out = []
+    for part in (s.strip() for s in text.split(",")):
+        if not part:
+            continue
+        if part in ("ci", "shear"):
+            out.append((part, part, None))
+            continue
+        kind, _, size = part.partition(":")
+        m = _LEN.match(size)
+        if kind != "plate" or not m or float(m.group(1)) <= 0:
+            raise ValueError(
+                f"candidates: expected plate:RADIUS (e.g. plate:5cm), ci or shear, got {part!r}"
+            )
+        v = float(m.group(1))
+        r = v * u.LENGTH_UNITS[m.group(2)] if m.group(2) else float(u.length_to_si(v, units))
+        out.append((part, "plate", r))
+    if not out:
+        raise ValueError("candidates: none given")
+    return out
+
+
+def _prior_precision(theta, free, bounds: Bounds, cal: CalibrationPrior | None) -> np.ndarray:
+    """Prior precision over the free parameters (normal approximation)."""
+    kc, kphi, n = theta[0], theta[1], theta[2]
+    rng = [
+        np.subtract(*bounds.kc_si(n)[::-1]),
+        np.subtract(*bounds.kphi_si(n)[::-1]),
+        bounds.n[1] - bounds.n[0],
+        bounds.cc[1] - bounds.cc[0],
+        bounds.phic[1] - bounds.phic[0],
+    ]
+    P = np.diag([12.0 / max(float(r), 1e-9) ** 2 for r in rng])  # variance of a uniform
+    if cal is not None:
+        c = cal.calibration
+        P[3, 3] = 1.0 / max(cal.cc_width, 1e-6) ** 2
+        P[4, 4] = 1.0 / max(cal.phic_sd, 1e-6) ** 2
+        if kc > 0 and kphi > 0 and c.kc > 0:
+            P[0, 0] = 0.0  # kc follows kphi through the ratio prior
+            a = np.array([1.0 / kc, -1.0 / kphi, 0, 0, 0])
+            P += np.outer(a, a) / cal.ratio_log_sd**2
+    return P[np.ix_(free, free)]
+
+
+def _jacobian(f, theta: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """Central differences of f (returning a vector) with respect to the free parameters."""
+    cols = []
+    for i in np.flatnonzero(free):
+        h = 1e-4 * max(abs(theta[i]), 1.0 if i >= 2 else 1e-2)
+        tp, tm = theta.copy(), theta.copy()
+        tp[i] += h
+        tm[i] = max(tm[i] - h, 0.0) if i != 2 else tm[i] - h
+        cols.append((f(tp) - f(tm)) / (tp[i] - tm[i]))
+    return np.column_stack(cols)
+
+
+def _ci_precision(profile: CIProfile, model_ci, J, ci_noise: float | None) -> np.ndarray:
+    """J^T S^-1 J for the CI noise: given (independent) or estimated as in the site model."""
+    z, y = profile.depth, profile.ci
+    if ci_noise is not None:
+        return J.T @ J / ci_noise**2
+    m = model_ci
+    w = np.sqrt(m * m + (NOISE_FLOOR * np.max(np.abs(m))) ** 2)
+    w = w / math.sqrt(np.mean(w * w))
+    e = (y - m) / w
+    N, k = J.shape
+    sigma2 = max(float(e @ e) / max(N - k, 1), 1e-12)
+    rho = estimate_correlation(e, z, design=J / w[:, None])[0]
+    dz0 = float(np.median(np.diff(z)))
+    R = rho ** (np.abs(z[:, None] - z[None, :]) / dz0) if rho > 0 else np.eye(N)
+    S = sigma2 * w[:, None] * R * w[None, :]
+    return J.T @ np.linalg.solve(S, J)
+
+
+def _plate(t: np.ndarray, law, r: float, s) -> np.ndarray:
+    """Plate pressure [kPa] of theta = (kc, kphi, n, cc, phic) at sinkages s [m] (eq. (2-2))."""
+    t = np.maximum(t, [0, 0, 1e-3, 0, 0])
+    return (t[0] * law.kc_factor(r) + t[1]) * np.asarray(s, float) ** t[2]
+
+
+def _candidate(cand, widths, I0, I_ci, current, theta, free, law, plate_noise, s_test):
+    """Expected widths after one candidate test (Fisher information added to I0)."""
+    label, kind, r = cand
+    if kind == "plate":
+        H = _jacobian(lambda t: _plate(t, law, r, s_test), theta, free)
+        sd = plate_noise * np.maximum(_plate(theta, law, r, s_test), 1e-6)
+        w = widths(I0 + H.T @ (H / sd[:, None] ** 2))
+        note = (
+            f"{s_test.size} readings to {s_test.max() * 100:.3g} cm, {plate_noise:.0%} error each"
+        )
+    elif kind == "ci":
+        w = widths(I0 + I_ci)
+        note = "another push of the same terrain, same noise"
+    else:
+        w = current.copy()
+        note = "internal shear (c, phi, K) enters neither eq. (2-2) nor eq. (2-7): no information"
+    ratio = float(np.mean(w / np.maximum(current, 1e-300)))
+    return CandidateResult(label, kind, r, w, ratio, note=note)
+
+
+def _as_prior(prior: Any) -> CalibrationPrior | None:
+    """None for the bounds prior, else a CalibrationPrior."""
+    from terracone.inverse.learning.learn import Calibration
+
+    cal = CalibrationPrior(prior) if isinstance(prior, Calibration) else prior
+    cal = None if isinstance(cal, str) and cal == "bounds" else cal
+    if cal is not None and not isinstance(cal, CalibrationPrior):
+        raise ValueError(f"prior must be 'bounds' or a calibration (got {prior!r})")
+    return cal
+
+
+def _information(
+    profile: CIProfile,
+    res: Any,
+    law: Any,
+    bounds: Bounds,
+    cal: CalibrationPrior | None,
+    ci_noise: float | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The fitted parameters, which of them are free, and the Fisher information of
+    the CI data alone and of the CI data with the prior (free parameters only)."""
+    c = cal.calibration if cal is not None else None
+    prm = res.params
+    theta = np.array([prm.kc, prm.kphi, prm.n, prm.cc, prm.phic_deg])
+    fixed = [bounds.kc, bounds.kphi, bounds.n, bounds.cc, bounds.phic]
+    free = np.array([lo < hi for lo, hi in fixed])
+    if c is not None and c.kc <= 0:
+        free[0] = False
+
+    def ci_of(t):  # eq. (2-7)
+        c = dict(kc=t[0], kphi=t[1], n=t[2], cc=t[3], phic=t[4])
+        return cone_index_huang(profile.depth, **c, Kc=None, law=law, cone=profile.cone)
+
+    J = _jacobian(ci_of, theta, free)
+    I_ci = _ci_precision(profile, res.ci_model, J, ci_noise)
+    return theta, free, I_ci, _prior_precision(theta, free, bounds, cal) + I_ci
+
+
+def _ranked(candidates: list[CandidateResult]) -> list[CandidateResult]:
+    """The candidates by expected width ratio, best first, with their ranks set."""
+    out = sorted(candidates, key=lambda cnd: cnd.width_ratio)
+    for i, cnd in enumerate(out):
+        cnd.rank = i + 1
+    return out
+
+
+def plan_test(
+    profile: CIProfile,
+    *,
+    candidates: Sequence[tuple[str, str, float | None]] | str = "plate:5cm,plate:10cm,ci,shear",
+    plates: Sequence[float] = (0.05,),
+    prior: Any = "bounds",
+    bounds: Bounds | None = None,
+    model: str = "rm0",
+    r_min: float | None = None,
+    plate_noise: float = 0.05,
+    ci_noise: float | None = None,
+    sinkage: float | None = None,
+    plate_sinkages: Sequence[float] | None = None,
+    level: float = 0.9,
+) -> DesignResult:
+    """Expected 90% width of the predicted plate pressure after each candidate test.
+
+    Parameters
+    ----------
+    profile : CIProfile
+        The CI data in hand.
+    candidates : str or list of (label, kind, radius)
+        See :func:`parse_candidates`.
+    plates : sequence of float
+        Target plate radii [m] of the prediction.
+    prior : "bounds", Calibration or CalibrationPrior
+    bounds : Bounds, optional
+    model, r_min
+        Pressure law without a calibration.
+    plate_noise : float
+        Relative standard error of a plate reading [-].
+    ci_noise : float, optional
+        Independent CI noise [kPa]; by default estimated from the fit.
+    sinkage : float, optional
+        Sinkage of the prediction [m]; the middle of the site sinkages
+        (2.6 cm) by default.
+    plate_sinkages : sequence of float, optional
+        Sinkages read in a candidate plate test [m] (10 to 5 cm by default).
+    level : float
+
+    Returns
+    -------
+    DesignResult
+        Candidates ranked by expected width (mean ratio over the plates).
+
+    References
+    ----------
+    Raiffa and Schlaifer (1961); eqs. (2-2), (2-7) of Huang et al.
+    """
+    if isinstance(candidates, str):
+        candidates = parse_candidates(candidates)
+    if not plates:
+        raise ValueError("give at least one target plate radius")
+    bounds = bounds or Bounds()
+    cal = _as_prior(prior)
+    c = cal.calibration if cal is not None else None
+    res = predict(profile, model=model, r_min=r_min, bounds=bounds, calibration=c)
+    label = "bounds" if c is None else f"calibration:{c.terrain}"
+    if not res.ok:
+        return DesignResult(profile.id, "error", res.error, label)
+    prm = res.params
+    law = pressure_law(prm.model, r_min=prm.r_min, plate_pair=c.plate_pair if c else None)
+    theta, free, I_ci, I0 = _information(profile, res, law, bounds, cal, ci_noise)
+    s_mid = default_sinkages()[12] if sinkage is None else float(sinkage)
+    G = np.stack([_jacobian(lambda t, r=r: np.atleast_1d(_plate(t, law, r, s_mid)), theta, free)[0]
+                  for r in plates])  # fmt: skip
+    zq = stats.norm.ppf(0.5 + level / 2)
+
+    def widths(info):
+        cov = np.linalg.pinv(info, rcond=1e-14, hermitian=True)
+        return 2 * zq * np.sqrt(np.maximum(np.einsum("ri,ij,rj->r", G, cov, G), 0.0))
+
+    current = widths(I0)
+    median = np.array(
+        [float(predicted_plate_pressure(prm, s_mid, r, law.plate_pair)) for r in plates]
+    )
+    s_test = np.linspace(0.005, 0.05, 10) if plate_sinkages is None else np.asarray(plate_sinkages)
+    out = _ranked(
+        [
+            _candidate(c, widths, I0, I_ci, current, theta, free, law, plate_noise, s_test)
+            for c in candidates
+        ]
+    )
+    notes = list(res.notes)
+    if res.undetermined:
+        notes.append("left free by the CI: " + ", ".join(res.undetermined))
+    return DesignResult(
+        profile.id,
+        "ok",
+        None,
+        label,
+        list(plates),
+        s_mid,
+        median,
+        current,
+        out,
+        res.lack_of_fit,
+        notes,
+    )

@@ -1,0 +1,630 @@
+"""The ``exact`` solver of the prediction process.
+
+For fixed n and phic the improved model (eq. (2-7) in [1]_) is linear in kc,
+kphi and cc, so the inner problem is bounded linear least squares, solved to
+its global optimum by :func:`terracone.inverse.solver.boxlsq.box_lsq3`.  The
+remaining nonlinear parameters are searched globally: a dense grid over n
+and phic (and Kc when it is fitted), then a bounded scalar refinement of n
+around the best grid cell.
+
+With fully mobilised shear, phic enters only through the factor
+(1 + tan(phic)/tan(a)) that multiplies both kc and kphi, so phic trades
+exactly against their common scale.  The solver reports the whole interval
+of phic that attains the optimum and picks its middle, never one arbitrary
+point of the ridge.
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Eqs. (2-2) to (2-7), section 3.3.2.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from terracone.inverse.bounds import Bounds
+from terracone.inverse.solver.boxlsq import box_lsq3, gram
+from terracone.jit import enabled
+from terracone.physics.cone import Cone, cone_index_basis
+from terracone.physics.plate import PressureLaw
+
+__all__ = [
+    "ExactSolution",
+    "solve_exact",
+    "design",
+    "identify_scans",
+    "identify_extents",
+    "scan_extents",
+]
+
+CHI2_1_95 = 3.841458820694124  # 95% quantile of chi-square with 1 dof
+
+
+@dataclass
+class ExactSolution:
+    """Raw output of :func:`solve_exact` (SI)."""
+
+    kc: float
+    kphi: float
+    n: float
+    cc: float
+    phic_deg: float
+    Kc: float | None
+    sse: float
+    nfev: int
+    nit: int
+    phic_range: tuple[float, float]
+    profile_intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
+    undetermined: list[str] = field(default_factory=list)
+    sigma: float = float("nan")
+
+
+def design(
+    z: np.ndarray,
+    n: np.ndarray,
+    phic: np.ndarray,
+    *,
+    cone: Cone,
+    law: PressureLaw,
+    Kc: np.ndarray | float | None,
+    ratio: float | None = None,
+) -> np.ndarray:
+    """Design matrix X (..., Z, 3) with CI = X @ (kc, kphi, cc); n, phic broadcast.
+
+    With ``ratio`` (kc/kphi [m] held fixed) the kc column is folded into the
+    kphi column, CI = X @ (0, kphi, cc), and kc = ratio * kphi.
+    """
+    if Kc is None:
+        # eq. (2-6) fully mobilised: phic only scales the kc and kphi columns
+        A, B, C = _basis(z, n, law, cone)
+        s = 1.0 + np.tan(np.radians(phic)) / math.tan(cone.half_angle)
+        A, B = s * A, s * B
+    else:
+        A, B, C = cone_index_basis(z, n=n, phic=phic, Kc=Kc, law=law, cone=cone)
+    A, B, C = np.broadcast_arrays(A, B, C)
+    if ratio is not None:
+        return np.stack([np.zeros_like(A), ratio * A + B, C], axis=-1)
+    return np.stack([A, B, C], axis=-1)
+
+
+def _basis(z, n, law: PressureLaw, cone: Cone):
+    """cone_index_basis at phic = 0.
+
+    Compiled (:func:`terracone.inverse.solver.kernels.basis_columns`, equal to it to
+    1e-12) for one profile and one n, and :func:`~terracone.inverse.solver.kernels.basis_rows`
+    for profiles (P, Z) with one n each (P, 1), as predict_many's polish asks;
+    else the numpy basis.
+    """
+    n = np.asarray(n, dtype=float)
+    z = np.asarray(z, dtype=float)
+    one = n.ndim == 0 and z.ndim == 1
+    rows = z.ndim == 2 and n.shape == (z.shape[0], 1)
+    if (one or rows) and enabled():
+        coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
+        if all(c.size == 1 for c in coef):
+            from terracone.inverse.solver.kernels import basis_columns, basis_rows
+
+            args = (cone.height, cone.radius, not law.is_rm0, *(float(c.item()) for c in coef))
+            if one:
+                A, B, C = basis_columns(np.ascontiguousarray(z), n.reshape(1), *args)
+                return A[0], B[0], C[0]
+            return basis_rows(np.ascontiguousarray(z), np.ascontiguousarray(n[:, 0]), *args)
+    return cone_index_basis(z, n=n, phic=0.0, law=law, cone=cone)
+
+
+def _bounds_arrays(bounds: Bounds, n: np.ndarray, ratio: float | None = None):
+    kc_lo, kc_hi = bounds.kc_si(n)
+    kp_lo, kp_hi = bounds.kphi_si(n)
+    if ratio is not None:
+        # kc = ratio * kphi: both bounds apply to kphi, kc is pinned at 0 in the solve
+        kp_lo = np.maximum(kp_lo, kc_lo / ratio) if ratio > 0 else kp_lo
+        kp_hi = np.minimum(kp_hi, kc_hi / ratio) if ratio > 0 else kp_hi
+        kp_hi = np.maximum(kp_hi, kp_lo)
+        kc_lo = kc_hi = np.zeros(np.shape(n))
+    lo = np.stack([kc_lo, kp_lo, np.full(np.shape(n), bounds.cc[0])], axis=-1)
+    hi = np.stack([kc_hi, kp_hi, np.full(np.shape(n), bounds.cc[1])], axis=-1)
+    return lo, hi
+
+
+def _grid(lo: float, hi: float, k: int) -> np.ndarray:
+    return np.array([lo]) if lo == hi else np.linspace(lo, hi, k)
+
+
+def solve_exact(
+    z: np.ndarray,
+    y: np.ndarray,
+    *,
+    cone: Cone,
+    law: PressureLaw,
+    bounds: Bounds,
+    Kc: float | None = None,
+    fit_Kc: bool = False,
+    n_grid: int = 97,
+    phic_grid: int = 19,
+    noise_floor: float = 0.01,
+    profiles: bool = True,
+    kc_over_kphi: float | None = None,
+) -> ExactSolution:
+    """Global least-squares fit of the improved model to one CI profile.
+
+    Parameters
+    ----------
+    z : (Z,) ndarray
+        Base depths [m].
+    y : (Z,) ndarray
+        Measured CI [kPa].
+    cone, law, bounds
+        Cone, pressure law (RM0/RM1) and search bounds.
+    Kc : float or None
+        Fixed shear deformation parameter [m]; None for fully mobilised.
+    fit_Kc : bool
+        Search Kc (log grid within ``bounds.Kc``) as a sixth parameter.
+    n_grid, phic_grid : int
+        Grid sizes of the global stage.
+    noise_floor : float
+        Smallest noise standard deviation assumed, as a fraction of the mean
+        CI, when judging which parameters the data leave free.
+    profiles : bool
+        Compute profile intervals and the ``undetermined`` list.
+    kc_over_kphi : float, optional
+        Hold the ratio kc/kphi [m] fixed (from a calibration): the cone
+        alone barely separates kc from kphi, plates of two sizes do.
+    """
+    ratio = kc_over_kphi
+    z = np.asarray(z, float)
+    y = np.asarray(y, float)
+    if Kc is None and not fit_Kc:
+        return _solve_mobilised(z, y, cone, law, bounds, n_grid, noise_floor, profiles, ratio)
+    fp = _Finite(z, y, cone, law, bounds, Kc, fit_Kc, ratio)
+    return _solve_finite(fp, n_grid, phic_grid, noise_floor, profiles)
+
+
+@dataclass
+class _Finite:
+    """One profile with finite Kc (fixed or fitted): cells and the scaled outer variables."""
+
+    z: np.ndarray
+    y: np.ndarray
+    cone: Cone
+    law: PressureLaw
+    bounds: Bounds
+    Kc: float | None
+    fit_Kc: bool
+    ratio: float | None
+
+    def __post_init__(self) -> None:
+        b = self.bounds
+        lo_v = [b.n[0], b.phic[0]] + ([math.log(b.Kc[0])] if self.fit_Kc else [])
+        hi_v = [b.n[1], b.phic[1]] + ([math.log(b.Kc[1])] if self.fit_Kc else [])
+        self.lo_v, self.hi_v = np.array(lo_v), np.array(hi_v)
+        self.span = np.where(self.hi_v > self.lo_v, self.hi_v - self.lo_v, 1.0)
+
+    def design(self, n, phi, K):
+        return design(self.z, n, phi, cone=self.cone, law=self.law, Kc=K, ratio=self.ratio)
+
+    def cell_sse(self, n, phi, kc_val):
+        """Box-LS over (kc, kphi, cc) for arrays of n, phi, Kc (broadcast)."""
+        K = kc_val[..., None] if self.fit_Kc else self.Kc
+        X = self.design(n[..., None], phi[..., None], K)
+        G, g, yy = gram(X, np.broadcast_to(self.y, X.shape[:-1]))
+        lo, hi = _bounds_arrays(self.bounds, np.broadcast_to(n, G.shape[:-2]), self.ratio)
+        return box_lsq3(G, g, yy, lo, hi)
+
+    def unpack(self, v):
+        """(n, phic [deg], Kc [m] or NaN) of the scaled outer point v."""
+        w = np.clip(self.lo_v + v * self.span, self.lo_v, self.hi_v)
+        K = math.exp(w[2]) if self.fit_Kc else np.nan
+        return float(w[0]), float(w[1]), K
+
+    def scaled(self, n, phi, K):
+        """The scaled outer point of (n, phic, Kc)."""
+        v0 = [n, phi] + ([math.log(K)] if self.fit_Kc else [])
+        return (np.array(v0) - self.lo_v) / self.span
+
+    def resid_v(self, v):
+        nv, pv, Kv = self.unpack(v)
+        x_, _ = self.cell_sse(np.array([nv]), np.array([pv]), np.array([Kv]))
+        Xv = self.design(np.array(nv), np.array(pv), Kv if self.fit_Kc else self.Kc)
+        return Xv @ x_[0] - self.y
+
+    def f_res(self, v):
+        r = self.resid_v(v)
+        return float(r @ r)
+
+
+def _grid_starts(sse_grid: np.ndarray) -> np.ndarray:
+    """Starts of the joint refinement: flat indices of the grid's local minima and the best
+    cell of every Kc slice (a valley between phic and Kc need not show as a local minimum on
+    a coarse Kc grid), the ten best by SSE, ties by position."""
+    from scipy.ndimage import minimum_filter  # only for finite Kc (scipy.ndimage: 0.2 s import)
+
+    local = sse_grid <= minimum_filter(sse_grid, size=3, mode="nearest")
+    for kk in range(sse_grid.shape[2]):
+        sl = sse_grid[..., kk]
+        local[np.unravel_index(np.argmin(sl), sl.shape) + (kk,)] = True
+    idx = np.flatnonzero(local)
+    return idx[np.lexsort((idx, sse_grid.reshape(-1)[idx]))][:10]
+
+
+def _solve_finite(
+    fp: _Finite, n_grid: int, phic_grid: int, noise_floor: float, profiles: bool
+) -> ExactSolution:
+    """Finite Kc: grid over n, phic (and Kc), then a joint refinement from the best minima."""
+    z, y, bounds, ratio = fp.z, fp.y, fp.bounds, fp.ratio
+    ns = _grid(*bounds.n, n_grid)
+    phis = _grid(*bounds.phic, phic_grid)
+    if fp.fit_Kc:
+        Kcs = (
+            np.exp(np.linspace(*np.log(bounds.Kc), 7))
+            if bounds.Kc[0] != bounds.Kc[1]
+            else np.array([bounds.Kc[0]])
+        )
+    else:
+        Kcs = np.array([np.nan])
+    N, P, K = np.meshgrid(ns, phis, Kcs, indexing="ij")
+    x_grid, sse_grid = fp.cell_sse(N, P, K)
+    nfev = sse_grid.size
+
+    # joint refinement of all parameters (Gauss-Newton, bounded) from the grid's best
+    # local minima: with finite Kc phic is no longer a pure scale, and n, phic and Kc
+    # form curved valleys that a simplex search can stop in
+    best_v, best_f = None, np.inf
+    nit = 0
+    zero = 1e-24 * float(y @ y)
+    for flat_i in _grid_starts(sse_grid):
+        ii, jj, kk = np.unravel_index(flat_i, sse_grid.shape)
+        v0 = fp.scaled(ns[ii], phis[jj], Kcs[kk])
+        v, fv, ne = _joint_refine(v0, fp.resid_v, fp.f_res)
+        nfev += ne
+        nit += 1
+        if fv < best_f * (1 - 1e-12):
+            best_v, best_f = v, fv
+        if best_f <= zero:  # an exact fit: the global minimum
+            break
+    n_best, phi_best, best_K = fp.unpack(best_v)
+
+    x, sse = fp.cell_sse(np.array([n_best]), np.array([phi_best]), np.array([best_K]))
+    x = x[0].copy()
+    Kc_out = float(best_K) if fp.fit_Kc else fp.Kc
+    # report the SSE from the residuals themselves
+    X = fp.design(np.array(n_best), np.array(phi_best), Kc_out)
+    # the normal equations lose digits near an exact fit: re-solve on X itself
+    lo_b, hi_b = (a[0] for a in _bounds_arrays(bounds, np.array([n_best]), ratio))
+    x = _polish(X, y, lo_b, hi_b, x)
+    resid = X @ x - y
+    if ratio is not None:
+        x[0] = ratio * x[1]
+    sol = ExactSolution(
+        kc=float(x[0]),
+        kphi=float(x[1]),
+        n=float(n_best),
+        cc=float(x[2]),
+        phic_deg=float(phi_best),
+        Kc=Kc_out,
+        sse=float(resid @ resid),
+        nfev=nfev,
+        nit=nit,
+        phic_range=(phi_best, phi_best),
+    )
+    if profiles:
+        _identify(
+            sol, z, y, ns, sse_grid.min(axis=(1, 2)), bounds, fp.cone, fp.law, noise_floor, ratio
+        )
+    return sol
+
+
+def _joint_refine(v0, resid_v, f_res):
+    """Bounded Gauss-Newton on the scaled (n, phic[, log Kc]), variable projection.
+
+    The residual at each outer point has the linear parameters (kc, kphi,
+    cc) solved exactly within their bounds, so the long valley where phic
+    trades against the scale of kc and kphi is not walked.  Returns the
+    scaled outer point, its SSE and the function evaluations.
+    """
+    from scipy.optimize import least_squares  # on first use (0.3 s import)
+
+    res = least_squares(
+        resid_v,
+        v0,
+        bounds=(np.zeros(v0.size), np.ones(v0.size)),
+        method="trf",
+        diff_step=1e-7,
+        xtol=1e-14,
+        ftol=1e-14,
+        gtol=1e-14,
+        max_nfev=200,
+    )
+    f0, f1 = f_res(v0), f_res(res.x)
+    return (res.x, f1, int(res.nfev)) if f1 <= f0 else (v0, f0, int(res.nfev))
+
+
+def _polish(
+    X: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray
+) -> np.ndarray:
+    """Re-solve the bounded linear least squares on the design matrix itself (BVLS).
+
+    The normal equations lose about cond(X) digits near a perfect fit; a
+    QR-based solve does not.  Kept only if it lowers the sum of squares.
+    """
+    free = hi > lo
+    if not free.any():
+        return x0
+    x = _polish_on_face(X, y, lo, hi, x0)
+    if x is not None:
+        r0, r1 = X @ x0 - y, X @ x - y
+        return x if r1 @ r1 < r0 @ r0 else x0
+    xf = np.where(free, 0.0, lo)
+    rhs = y - X @ xf
+    Xf = X[:, free]
+    scale = np.sqrt(np.sum(Xf * Xf, axis=0))
+    scale = np.where(scale > 0, scale, 1.0)
+    try:
+        from scipy.optimize import lsq_linear  # on first use (0.3 s import)
+
+        res = lsq_linear(
+            Xf / scale, rhs, bounds=(lo[free] * scale, hi[free] * scale), method="bvls", tol=1e-15
+        )
+    except (ValueError, np.linalg.LinAlgError):
+        return x0
+    x = xf.copy()
+    x[free] = np.clip(res.x / scale, lo[free], hi[free])
+    r0, r1 = X @ x0 - y, X @ x - y
+    return x if r1 @ r1 < r0 @ r0 else x0
+
+
+def _polish_on_face(X, y, lo, hi, x0) -> np.ndarray | None:
+    """The least-squares solution on x0's face of the box (QR), if it is the box optimum.
+
+    The variables strictly inside their bounds at x0 are re-solved by
+    ``numpy.linalg.lstsq`` with the others held; the result is returned
+    when it stays inside the box and satisfies the optimality (KKT) signs
+    at the held bounds, else None (then BVLS decides).  One small QR
+    instead of scipy's BVLS, which gives the same optimum on that face.
+    """
+    act = (hi > lo) & (x0 > lo) & (x0 < hi)
+    x = x0.copy()
+    if act.any():
+        Xa = X[:, act]
+        scale = np.sqrt(np.sum(Xa * Xa, axis=0))
+        if not np.all(scale > 0):
+            return None
+        rhs = y - X[:, ~act] @ x0[~act]
+        sol = np.linalg.lstsq(Xa / scale, rhs, rcond=None)[0] / scale
+        if not (np.all(sol > lo[act]) and np.all(sol < hi[act])):
+            return None
+        x[act] = sol
+    r = X @ x - y
+    grad = X.T @ r  # half the gradient of the SSE
+    tol = 1e-8 * np.sqrt(np.sum(X * X, axis=0)) * math.sqrt(float(r @ r) + 1e-300)
+    held_lo = (hi > lo) & ~act & (x0 <= lo)
+    held_hi = (hi > lo) & ~act & (x0 >= hi)
+    if np.any(held_lo & (grad < -tol)) or np.any(held_hi & (grad > tol)):
+        return None
+    return x
+
+
+def _solve_mobilised(
+    z, y, cone, law, bounds, n_grid, noise_floor, profiles, ratio
+) -> ExactSolution:
+    """Fully mobilised shear: the vectorised solver of :mod:`many` on one profile."""
+    from terracone.inverse.solver.many import solve_exact_many
+
+    ms = solve_exact_many(
+        [z],
+        [y],
+        cone=cone,
+        law=law,
+        bounds=bounds,
+        n_grid=n_grid,
+        noise_floor=noise_floor,
+        kc_over_kphi=ratio,
+    )
+    x = np.array([ms.kc[0], ms.kphi[0], ms.cc[0]])
+    X = design(z, np.array(ms.n[0]), np.array(ms.phic_deg[0]), cone=cone, law=law, Kc=None)
+    lo, hi = _bounds_arrays(bounds, np.array(ms.n[0]))
+    if ratio is not None:
+        # kc = ratio * kphi: one column, and both bounds on kphi
+        Xr = design(
+            z, np.array(ms.n[0]), np.array(ms.phic_deg[0]), cone=cone, law=law, Kc=None, ratio=ratio
+        )
+        lor, hir = _bounds_arrays(bounds, np.array(ms.n[0]), ratio)
+        xr = _polish(Xr, y, lor, hir, np.array([0.0, x[1], x[2]]))
+        x = np.array([ratio * xr[1], xr[1], xr[2]])
+    else:
+        x = _polish(X, y, lo, hi, x)
+    resid = X @ x - y
+    sol = ExactSolution(
+        kc=float(x[0]),
+        kphi=float(x[1]),
+        n=float(ms.n[0]),
+        cc=float(x[2]),
+        phic_deg=float(ms.phic_deg[0]),
+        Kc=None,
+        sse=float(resid @ resid),
+        nfev=int(ms.nfev),
+        nit=1,
+        phic_range=(float(ms.phic_lo[0]), float(ms.phic_hi[0])),
+    )
+    if profiles:
+        _identify(sol, z, y, ms.n_grid, ms.sse_n[0], bounds, cone, law, noise_floor, ratio)
+    return sol
+
+
+def _pinned_scan(G, g, yy, lo, hi, idx: int, vals: np.ndarray) -> np.ndarray:
+    """SSE (Nn, V) of the box LSQ with variable idx pinned at lo + v (hi - lo), v in vals."""
+    lo_s, hi_s = lo[..., idx], hi[..., idx]
+    v = lo_s[:, None] + vals[None, :] * (hi_s - lo_s)[:, None]  # (Nn, V)
+    lo2 = np.repeat(lo[:, None, :], vals.size, axis=1).copy()
+    hi2 = np.repeat(hi[:, None, :], vals.size, axis=1).copy()
+    lo2[..., idx] = v
+    hi2[..., idx] = v
+    return box_lsq3(G[:, None], g[:, None], yy[:, None], lo2, hi2)[1]
+
+
+def identify_scans(
+    z: np.ndarray,
+    y: np.ndarray,
+    n_loc: np.ndarray,
+    phic_deg: float,
+    Kc: float | None,
+    bounds: Bounds,
+    cone: Cone,
+    law: PressureLaw,
+    vals: np.ndarray,
+    ratio: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Profile scans of the identifiability analysis.
+
+    For each n of ``n_loc`` and each of kc, kphi, cc: the SSE [kPa^2] of the
+    best fit with that variable pinned at lo + v (hi - lo) for v in ``vals``
+    (fractions of its box at that n), the other two re-fitted in their box
+    (eq. (2-7) with phic and Kc held).  Compiled
+    (:func:`terracone.inverse.solver.kernels.identify_scan`) for fully mobilised
+    shear when numba is enabled, else numpy.
+
+    Returns
+    -------
+    sse : (3, Nn, V) ndarray
+        NaN for a variable fixed at every n.
+    lo, hi : (Nn, 3) ndarray
+        The box of (kc, kphi, cc) [SI] at each n.
+    """
+    coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
+    if Kc is None and enabled() and all(c.size == 1 for c in coef):
+        from terracone.inverse.solver.kernels import identify_scan
+        from terracone.inverse.solver.many import bounds_params
+
+        s = 1.0 + math.tan(math.radians(phic_deg)) / math.tan(cone.half_angle)
+        return identify_scan(
+            np.ascontiguousarray(z, dtype=float),
+            np.ascontiguousarray(y, dtype=float),
+            np.ascontiguousarray(n_loc, dtype=float),
+            s,
+            bounds_params(bounds, ratio),
+            np.ascontiguousarray(vals, dtype=float),
+            cone.height,
+            cone.radius,
+            not law.is_rm0,
+            *(float(c.item()) for c in coef),
+        )
+    X = design(z, n_loc[:, None], np.array(phic_deg), cone=cone, law=law, Kc=Kc, ratio=ratio)
+    G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
+    lo, hi = _bounds_arrays(bounds, n_loc, ratio)
+    sse = np.full((3, n_loc.size, vals.size), np.nan)
+    for idx in range(3):
+        if not np.all(lo[:, idx] == hi[:, idx]):
+            sse[idx] = _pinned_scan(G, g, yy, lo, hi, idx, vals)
+    return sse, lo, hi
+
+
+def scan_extents(sse: np.ndarray, thr: float) -> tuple[np.ndarray, np.ndarray]:
+    """First and last index v of the scans ``sse`` (3, Nn, V) with SSE <= thr at some n.
+
+    -1 where no value is within thr, -2 for a variable fixed at every n (NaN rows).
+    """
+    jlo = np.full(3, -1, dtype=np.int64)
+    jhi = np.full(3, -1, dtype=np.int64)
+    for idx in range(3):
+        if np.all(np.isnan(sse[idx])):
+            jlo[idx] = jhi[idx] = -2
+            continue
+        ok = np.flatnonzero((sse[idx] <= thr).any(axis=0))
+        if ok.size:
+            jlo[idx], jhi[idx] = ok[0], ok[-1]
+    return jlo, jhi
+
+
+def identify_extents(
+    z: np.ndarray,
+    y: np.ndarray,
+    n_loc: np.ndarray,
+    phic_deg: float,
+    Kc: float | None,
+    bounds: Bounds,
+    cone: Cone,
+    law: PressureLaw,
+    vals: np.ndarray,
+    thr: float,
+    ratio: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`scan_extents` of :func:`identify_scans` (same arguments, and thr [kPa^2]).
+
+    Compiled (:func:`terracone.inverse.solver.kernels.identify_extent`, which
+    bisects each n's convex scan instead of evaluating all of it) for fully
+    mobilised shear when numba is enabled; else from the full numpy scans.
+
+    Returns
+    -------
+    jlo, jhi : (3,) int ndarray
+        Per kc, kphi, cc: first and last index of ``vals`` within thr (-1:
+        none; -2: the variable is fixed at every n).
+    lo, hi : (Nn, 3) ndarray
+        The box of (kc, kphi, cc) [SI] at each n.
+    """
+    coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
+    if Kc is None and enabled() and all(c.size == 1 for c in coef):
+        from terracone.inverse.solver.kernels import identify_extent
+        from terracone.inverse.solver.many import bounds_params
+
+        s = 1.0 + math.tan(math.radians(phic_deg)) / math.tan(cone.half_angle)
+        return identify_extent(
+            np.ascontiguousarray(z, dtype=float),
+            np.ascontiguousarray(y, dtype=float),
+            np.ascontiguousarray(n_loc, dtype=float),
+            s,
+            bounds_params(bounds, ratio),
+            np.ascontiguousarray(vals, dtype=float),
+            float(thr),
+            cone.height,
+            cone.radius,
+            not law.is_rm0,
+            *(float(c.item()) for c in coef),
+        )
+    sse, lo, hi = identify_scans(z, y, n_loc, phic_deg, Kc, bounds, cone, law, vals, ratio)
+    return (*scan_extents(sse, thr), lo, hi)
+
+
+def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> None:
+    """Approximate 95% profile-likelihood intervals and the undetermined list.
+
+    A parameter is called undetermined when its profile interval (the set of
+    values whose best fit raises the sum of squares by less than
+    3.84 sigma^2) covers half or more of its search range.  sigma is the
+    residual standard deviation, floored at ``noise_floor`` times the mean
+    CI because no penetrometer reads better than that.
+    """
+    N = y.size
+    dof = max(N - 5, 1)
+    sigma2 = max(sol.sse / dof, (noise_floor * float(np.mean(np.abs(y)))) ** 2)
+    sol.sigma = math.sqrt(sigma2)
+    thr = sol.sse + CHI2_1_95 * sigma2
+
+    # n: profile from the global grid (min over phic, Kc and the linear parameters)
+    ok = sse_n <= thr
+    if ok.any():
+        n_lo, n_hi = float(ns[ok].min()), float(ns[ok].max())
+        step = (ns[1] - ns[0]) if ns.size > 1 else 0.0
+        n_lo, n_hi = (
+            max(bounds.n[0], min(n_lo - step, sol.n)),
+            min(bounds.n[1], max(n_hi + step, sol.n)),
+        )
+    else:
+        n_lo = n_hi = sol.n
+
+    # kc, kphi, cc: pin one on a grid, re-fit the others and n (inverse/intervals.py,
+    # shared with the vectorised path of predict_many)
+    from terracone.inverse.solver.intervals import identification, linear_intervals
+
+    x = np.array([sol.kc, sol.kphi, sol.cc])
+    linear = linear_intervals(
+        z, y, x, sol.n, sol.phic_deg, thr, (n_lo, n_hi),
+        bounds=bounds, law=law, cone=cone, ratio=ratio, Kc=sol.Kc,
+    )  # fmt: skip
+    und, intervals = identification(bounds, (n_lo, n_hi), sol.phic_range, linear, Kc=sol.Kc)
+    sol.undetermined = und
+    sol.profile_intervals = intervals

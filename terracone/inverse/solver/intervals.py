@@ -1,0 +1,139 @@
+"""Intervals and identifiability of fitted profile sets (prediction process).
+
+What :func:`terracone.inverse.predict_many` reports beside each optimum:
+the interval of n whose best fit stays within the chi-square threshold, the
+profile intervals of kc, kphi and cc, and which parameters the data leave
+free (the phic ridge of eq. (2-6), the kc, kphi, cc trade).  Vectorised over
+the profiles of a set; the per-profile scans are those of
+:func:`terracone.inverse.solver.exact.identify_extents`.
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Eqs. (2-5) to (2-7), section 3.3.2.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from terracone.inverse.bounds import Bounds
+from terracone.inverse.solver.exact import CHI2_1_95, identify_extents
+from terracone.inverse.solver.kernels import box_grid
+from terracone.inverse.solver.many import ManySolution, bounds_params, grid
+from terracone.physics.cone import Cone
+from terracone.physics.plate import PressureLaw
+
+__all__ = ["n_intervals", "linear_intervals", "identification"]
+
+
+def n_intervals(
+    ms: ManySolution,
+    sse: np.ndarray,
+    yy: np.ndarray,
+    mask: np.ndarray,
+    bounds: Bounds,
+    noise_floor: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """sigma [kPa], the threshold [kPa^2] and the approximate 95% profile interval of n.
+
+    sigma is the residual standard deviation, floored at ``noise_floor``
+    times the mean CI (no penetrometer reads better).  The n interval holds
+    the grid values of n whose best fit (over phic and the linear
+    parameters) raises the sum of squares by less than 3.84 sigma^2, widened
+    by one grid step and always holding the optimum (one value per profile).
+    """
+    npts = mask.sum(axis=1)
+    mean_abs = np.where(mask, np.abs(yy), 0.0).sum(axis=1) / npts
+    sigma2 = np.maximum(sse / np.maximum(npts - 5, 1), (noise_floor * mean_abs) ** 2)
+    thr = sse + CHI2_1_95 * sigma2
+    ns, n = ms.n_grid, ms.n
+    ok = ms.sse_n <= thr[:, None]
+    has = ok.any(axis=1)
+    small = np.where(ok, ns[None, :], np.inf).min(axis=1)
+    big = np.where(ok, ns[None, :], -np.inf).max(axis=1)
+    step = (ns[1] - ns[0]) if ns.size > 1 else 0.0
+    n_lo = np.where(has, np.maximum(bounds.n[0], np.minimum(small - step, n)), n)
+    n_hi = np.where(has, np.minimum(bounds.n[1], np.maximum(big + step, n)), n)
+    return np.sqrt(sigma2), thr, n_lo, n_hi
+
+
+def linear_intervals(
+    z: np.ndarray,
+    y: np.ndarray,
+    x: np.ndarray,
+    n: float,
+    phic_deg: float,
+    thr: float,
+    n_range: tuple[float, float],
+    *,
+    bounds: Bounds,
+    law: PressureLaw,
+    cone: Cone,
+    ratio: float | None = None,
+    Kc: float | None = None,
+) -> tuple[list[str], dict[str, tuple[float, float]]]:
+    """Profile intervals of kc, kphi, cc [SI] of one profile, and which the data leave free.
+
+    Each is pinned on a grid of 61 fractions of its box, the other two
+    re-fitted with n inside its own interval ``n_range``
+    (:func:`terracone.inverse.solver.exact.identify_extents`, eq. (2-7) with phic
+    held); the interval is the pinned values whose best fit stays within
+    ``thr`` [kPa^2].  A parameter whose interval covers half its box or more
+    is undetermined.  ``ratio``: kc/kphi held fixed (a calibration); ``Kc``: a finite
+    cone-terrain shear deformation [m] (None: fully mobilised).
+    """
+    b = bounds
+    n_lo, n_hi = n_range
+    n_loc = np.unique(
+        np.concatenate([np.linspace(n_lo, n_hi, 17), np.clip(n + grid(-0.1, 0.1, 9), n_lo, n_hi)])
+    )
+    vals = grid(0.0, 1.0, 61)
+    jlo, jhi, _, _ = identify_extents(z, y, n_loc, phic_deg, Kc, b, cone, law, vals, thr, ratio)  # noqa: E501
+    lo_at, hi_at = (a[0, 0] for a in box_grid(np.full((1, 1), n), bounds_params(b, ratio)))
+    tokens: list[str] = []
+    intervals: dict[str, tuple[float, float]] = {}
+    for idx, name in enumerate(("kc", "kphi", "cc")):
+        if jlo[idx] == -2:  # fixed at every n
+            continue
+        if jlo[idx] < 0:
+            intervals[name] = (float(x[idx]), float(x[idx]))
+            continue
+        f_lo, f_hi = vals[jlo[idx]], vals[jhi[idx]]
+        lo_n, hi_n = float(lo_at[idx]), float(hi_at[idx])  # in SI at the optimum's n
+        a = min(lo_n + max(f_lo - 1 / 60, 0) * (hi_n - lo_n), float(x[idx]))
+        c = max(lo_n + min(f_hi + 1 / 60, 1) * (hi_n - lo_n), float(x[idx]))
+        intervals[name] = (a, c)
+        if f_hi - f_lo >= 0.5:
+            tokens.append(name)
+    if ratio is not None and "kphi" in intervals:
+        intervals["kc"] = (ratio * intervals["kphi"][0], ratio * intervals["kphi"][1])
+    return tokens, intervals
+
+
+def identification(
+    bounds: Bounds,
+    n_range: tuple[float, float],
+    phic_range: tuple[float, float],
+    linear: tuple[list[str], dict[str, tuple[float, float]]] = ([], {}),
+    Kc: float | None = None,
+) -> tuple[list[str], dict[str, tuple[float, float]]]:
+    """The undetermined list and profile intervals of one fully mobilised fit.
+
+    n is undetermined when its interval covers half its range or more;
+    phic always is when its bounds are open and shear is fully mobilised
+    (``Kc`` None), since it then trades exactly against the scale of kc and
+    kphi (eq. (2-6)); with a finite Kc only when its fitted range is open.
+    ``linear`` adds the tokens and intervals of :func:`linear_intervals`.
+    """
+    und: list[str] = []
+    intervals = {"n": (float(n_range[0]), float(n_range[1]))}
+    if bounds.n[0] != bounds.n[1] and n_range[1] - n_range[0] >= 0.5 * (bounds.n[1] - bounds.n[0]):
+        und.append("n")
+    und += linear[0]
+    intervals.update(linear[1])
+    if phic_range[1] - phic_range[0] > 1e-9 or (Kc is None and bounds.phic[0] != bounds.phic[1]):
+        und = ["phic", *und, "phic~scale(kc,kphi)"]
+        intervals["phic_deg"] = (float(phic_range[0]), float(phic_range[1]))
+    return und, intervals

@@ -1,0 +1,472 @@
+"""The CI error model of the posterior: noise weights and AR(1) correlation along depth.
+
+The CI error at depth z_i is Gaussian with standard deviation
+``sigma * w_i`` and an AR(1) correlation along depth:
+
+* ``noise_model="relative"`` (default): ``w_i`` is proportional to
+  ``sqrt(m_i^2 + (floor * max m)^2)`` with ``m`` the best-fit model CI and
+  ``floor = noise_floor`` (5% by default; an additive part that stands for
+  the instrument resolution and keeps the surface readings from getting
+  infinite weight); ``"absolute"``: ``w_i = 1``.  The weights are normalised
+  to a root mean square of 1, so ``sigma`` [kPa] is the RMS noise standard
+  deviation over the profile.  They are computed once from the best fit
+  (plug-in weights), which keeps the likelihood a weighted least-squares
+  form.
+* Correlation: readings Delta apart correlate with ``rho**(Delta / dz0)``,
+  ``dz0`` the median spacing (a discretely sampled Ornstein-Uhlenbeck
+  process: AR(1) with lag-1 coefficient ``rho`` at the median spacing, and
+  exact for irregular spacing too).  Its inverse covariance is tridiagonal,
+  so the exact likelihood costs O(N): the residuals are whitened by
+  ``u_1 = e_1``, ``u_i = (e_i - phi_i e_{i-1}) / sqrt(1 - phi_i^2)``.
+  Unless given, ``rho`` is estimated from the best-fit residuals: their
+  lag-1 autocorrelation, corrected for what the fit absorbs of a correlated
+  error, at the actual depths (see :func:`estimate_correlation`), clipped to
+  [0, 0.95] and plugged in.  ``correlation="sample"`` samples rho instead
+  (uniform prior on [0, 0.95]; exact AR(1) likelihood including its
+  log-determinant), which carries its uncertainty into the intervals.
+* ``sigma`` is marginalised analytically under the scale-invariant prior
+  p(sigma) ~ 1/sigma: the marginal likelihood is ``Q(theta)^(-N/2)`` with
+  ``Q`` the whitened sum of squares (a multivariate Student t); a given
+  ``noise`` fixes it.  Draws of sigma are reported from its conditional
+  posterior ``sigma^2 | theta ~ Q / chi^2_N``.
+
+A part of :mod:`terracone.inverse.uncertainty.posterior` (until issue 13, of ``terracone.uncertainty``).
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Sections 2 and 3.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from terracone.data import CIProfile, TerrainParameters
+from terracone.inverse.bounds import Bounds
+from terracone.inverse.learning.learn import Calibration
+from terracone.physics import units as u
+from terracone.physics.cone import Cone, cone_index_basis
+from terracone.physics.plate import PressureLaw
+
+__all__ = [
+    "RHO_MAX",
+    "NoiseModel",
+    "NoiseSetup",
+    "ar1_coefficients",
+    "ar1_noise",
+    "estimate_correlation",
+    "noise_setup",
+    "whiten_ar1",
+]
+
+#: Largest AR(1) coefficient used.
+RHO_MAX = 0.95
+
+
+@dataclass
+class NoiseModel:
+    """The CI error model used (see the module docstring).
+
+    Attributes
+    ----------
+    kind : {"relative", "absolute"}
+    sigma : float
+        RMS noise standard deviation over the profile [kPa]: the given value,
+        or the posterior median when estimated.
+    sigma_interval : (float, float) or None
+        90% interval of sigma [kPa] when estimated.
+    sigma_rel : float or None
+        With relative noise, sigma relative to the model CI where the floor
+        does not matter [-].
+    rho : float
+        AR(1) coefficient at the reference spacing [-] (the posterior median
+        when sampled).
+    spacing : float
+        Reference (median) spacing dz0 [m].
+    floor : float
+        Additive floor of the relative model, as a fraction of the largest
+        model CI [-].
+    sigma_estimated, rho_estimated : bool
+    rho_raw : float or None
+        Lag-1 autocorrelation of the best-fit residuals before the
+        small-sample correction [-].
+    weights : ndarray
+        w_i, RMS 1 [-].
+    rho_interval : (float, float) or None
+        90% interval of rho when sampled.
+    rho_sampled : bool
+        Whether rho was a sampled parameter (``correlation="sample"``).
+    """
+
+    kind: str
+    sigma: float
+    sigma_interval: tuple[float, float] | None
+    sigma_rel: float | None
+    rho: float
+    spacing: float
+    floor: float
+    sigma_estimated: bool
+    rho_estimated: bool
+    rho_raw: float | None = None
+    weights: np.ndarray | None = None
+    rho_interval: tuple[float, float] | None = None
+    rho_sampled: bool = False
+
+    @property
+    def correlation_length(self) -> float:
+        """Depth over which the correlation falls by 1/e, -dz0 / ln(rho) [m] (0 if rho = 0)."""
+        if self.rho <= 0:
+            return 0.0
+        return -self.spacing / math.log(self.rho)
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        units = u.check_system(units)
+
+        def p(v):
+            return float(u.pressure_from_si(v, units))
+
+        return {
+            "model": self.kind,
+            "sigma": p(self.sigma),
+            "sigma_interval": None
+            if self.sigma_interval is None
+            else [p(v) for v in self.sigma_interval],
+            "sigma_rel": self.sigma_rel,
+            "sigma_estimated": self.sigma_estimated,
+            "rho": self.rho,
+            "rho_estimated": self.rho_estimated,
+            "rho_sampled": self.rho_sampled,
+            "rho_interval": None if self.rho_interval is None else list(self.rho_interval),
+            "rho_raw": self.rho_raw,
+            "spacing": float(u.length_from_si(self.spacing, units)),
+            "correlation_length": float(u.length_from_si(self.correlation_length, units)),
+            "floor": self.floor,
+        }
+
+
+def ar1_coefficients(depth: ArrayLike, rho: float, spacing: float | None = None) -> np.ndarray:
+    """Lag-1 coefficients phi_i = rho**(Delta_i / dz0) between neighbouring readings.
+
+    Parameters
+    ----------
+    depth : array_like
+        Increasing depths [m].
+    rho : float
+        Correlation at the reference spacing [-], 0 <= rho < 1.
+    spacing : float, optional
+        Reference spacing dz0 [m]; the median spacing by default.
+
+    Returns
+    -------
+    ndarray, shape (N - 1,)
+    """
+    z = np.asarray(depth, dtype=float)
+    dz = np.diff(z)
+    if dz.size == 0:
+        return dz
+    dz0 = float(np.median(dz)) if spacing is None else float(spacing)
+    if not 0 <= rho < 1:
+        raise ValueError(f"rho must satisfy 0 <= rho < 1 (got {rho})")
+    if rho == 0:
+        return np.zeros_like(dz)
+    return rho ** (dz / dz0)
+
+
+def ar1_noise(
+    depth: ArrayLike,
+    rho: float,
+    rng: np.random.Generator,
+    *,
+    spacing: float | None = None,
+    size: int | None = None,
+) -> np.ndarray:
+    """Standard-normal AR(1) noise along depth, the correlation model of the posterior.
+
+    Parameters
+    ----------
+    depth : array_like
+        Increasing depths [m].
+    rho : float
+        Correlation of neighbours at the reference spacing [-].
+    rng : numpy.random.Generator
+    spacing : float, optional
+        Reference spacing [m]; the median spacing by default.
+    size : int, optional
+        Number of independent series (rows); one 1-D series when None.
+
+    Returns
+    -------
+    ndarray
+        Unit-variance series with corr(e_i, e_j) = rho**(|z_i - z_j| / dz0).
+    """
+    z = np.asarray(depth, dtype=float)
+    phi = ar1_coefficients(z, rho, spacing)
+    m = 1 if size is None else int(size)
+    w = rng.standard_normal((m, z.size))
+    e = np.empty_like(w)
+    e[:, 0] = w[:, 0]
+    c = np.sqrt(1.0 - phi * phi)
+    for i in range(1, z.size):
+        e[:, i] = phi[i - 1] * e[:, i - 1] + c[i - 1] * w[:, i]
+    return e[0] if size is None else e
+
+
+def whiten_ar1(v: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """Whiten AR(1) series along the last axis (the inverse of its Cholesky factor).
+
+    ``u_1 = v_1``, ``u_i = (v_i - phi_i v_(i-1)) / sqrt(1 - phi_i^2)``: AR(1)
+    noise of unit variance with lag-1 coefficients ``phi`` becomes white noise
+    of unit variance.
+
+    Parameters
+    ----------
+    v : ndarray, shape (..., N)
+        Series along the last axis (residuals, or basis columns).
+    phi : ndarray, shape (N - 1,)
+        Lag-1 coefficients between neighbours (:func:`ar1_coefficients`) [-].
+
+    Returns
+    -------
+    ndarray, shape (..., N)
+        A new array (also when ``phi`` is all zero).
+    """
+    if not np.any(phi):
+        return np.array(v, dtype=float, copy=True)
+    out = np.empty(np.shape(v))
+    out[..., 0] = v[..., 0]
+    out[..., 1:] = (v[..., 1:] - phi * v[..., :-1]) / np.sqrt(1.0 - phi * phi)
+    return out
+
+
+def estimate_correlation(
+    residuals: ArrayLike,
+    depth: ArrayLike,
+    *,
+    design: np.ndarray | None = None,
+    n_params: int = 4,
+) -> tuple[float, float]:
+    """AR(1) coefficient of the CI error from best-fit (weighted) residuals.
+
+    The lag-1 autocorrelation of the (mean-removed) residuals,
+    ``r1 = sum e_i e_(i-1) / sum e_i^2``, underestimates the correlation of
+    the errors: the fit absorbs the smooth part of a correlated error (a
+    correlated error looks like a slightly different terrain).  The
+    correction inverts the expected r1 of the fitted residuals,
+
+        f(rho) = tr(D M S(rho) M) / tr(M S(rho) M),
+
+    with ``S(rho)_ij = rho**(|z_i - z_j| / dz0)`` the AR(1) correlation at the
+    actual depths (so irregular spacing is accounted for), ``M = I - P`` the
+    residual maker of the linearised fit (``P`` the projector on the columns
+    of ``design`` and a constant) and ``D`` the lag-1 neighbour matrix
+    (1/2 on both off-diagonals): ``rho = f^-1(r1)``, clipped to [0, 0.95].
+    Without ``design`` the fallback ``r1 + (1 + (3 + 2 n_params) r1+) / N``
+    (small-sample bias plus absorption, calibrated on 31-61 point profiles)
+    is used.
+
+    Parameters
+    ----------
+    residuals : array_like
+        Residuals divided by their noise weights, in depth order [-].
+    depth : array_like
+        Depths of the readings [m].
+    design : ndarray, shape (N, p), optional
+        Weighted Jacobian of the model at the fit with respect to the
+        parameters that are free there (not at a bound).
+    n_params : int
+        Number of fitted parameters for the fallback.
+
+    Returns
+    -------
+    rho, r1 : float
+        The estimate at the median spacing dz0 and the raw lag-1
+        autocorrelation.
+    """
+    e = np.asarray(residuals, dtype=float)
+    z = np.asarray(depth, dtype=float)
+    N = e.size
+    if N < 6:
+        return 0.0, float("nan")
+    e = e - e.mean()
+    den = float(e @ e)
+    if den <= 0:
+        return 0.0, float("nan")
+    r1 = float(e[1:] @ e[:-1]) / den
+    dz0 = float(np.median(np.diff(z)))
+    if design is None or dz0 <= 0:
+        rho = r1 + (1.0 + (3.0 + 2.0 * n_params) * max(r1, 0.0)) / N
+        return float(np.clip(rho, 0.0, RHO_MAX)), r1
+    X = np.column_stack([np.ones(N), np.asarray(design, dtype=float).reshape(N, -1)])
+    X = X / np.maximum(np.linalg.norm(X, axis=0), 1e-300)
+    U, sv, _ = np.linalg.svd(X, full_matrices=False)
+    Uq = U[:, sv > 1e-8 * sv[0]]
+    M = np.eye(N) - Uq @ Uq.T
+    grid = np.linspace(0.0, RHO_MAX, 96)
+    lag = np.abs(z[:, None] - z[None, :]) / dz0
+    f = np.empty(grid.size)
+    for k, rho in enumerate(grid):
+        S = rho**lag if rho > 0 else np.eye(N)
+        MSM = M @ S @ M
+        f[k] = np.trace(MSM, offset=1) / np.trace(MSM)
+    f = np.maximum.accumulate(f)  # monotone (it is, up to rounding)
+    if r1 <= f[0]:
+        return 0.0, r1
+    if r1 >= f[-1]:
+        return RHO_MAX, r1
+    return float(np.interp(r1, f, grid)), r1
+
+
+def _fit_design(
+    z: np.ndarray,
+    p0: TerrainParameters,
+    bounds: Bounds,
+    cal: Calibration | None,
+    law: PressureLaw,
+    Kc: float | None,
+    cone: Cone,
+) -> np.ndarray:
+    """Jacobian (N, p) of the model CI at the best fit w.r.t. the parameters the fit moved.
+
+    Linear parameters at a bound, and those a calibration fixes, are left
+    out; with a calibration kc and kphi move together (fixed ratio).
+    """
+    kw = dict(phic=p0.phic_deg, Kc=Kc, law=law, cone=cone)
+    A, B, C = (np.broadcast_to(c, z.shape) for c in cone_index_basis(z, n=p0.n, **kw))
+    cols = []
+
+    def inside(v, lo, hi):
+        tol = 1e-9 * max(abs(lo), abs(hi), 1.0)
+        return lo + tol < v < hi - tol
+
+    kc_lo, kc_hi = (float(v) for v in bounds.kc_si(p0.n))
+    kp_lo, kp_hi = (float(v) for v in bounds.kphi_si(p0.n))
+    if cal is not None and cal.kphi > 0 and cal.kc > 0:
+        if inside(p0.kphi, kp_lo, kp_hi):
+            cols.append((cal.kc / cal.kphi) * A + B)
+    else:
+        if inside(p0.kc, kc_lo, kc_hi):
+            cols.append(A)
+        if inside(p0.kphi, kp_lo, kp_hi):
+            cols.append(B)
+        if cal is None and inside(p0.cc, *bounds.cc):
+            cols.append(C)
+    if inside(p0.n, *bounds.n):
+        h = 1e-5
+        mm = [
+            p0.kc * a + p0.kphi * b + p0.cc * c
+            for a, b, c in (cone_index_basis(z, n=p0.n + d, **kw) for d in (h, -h))
+        ]
+        cols.append((mm[0] - mm[1]) / (2 * h))
+    return np.column_stack(cols) if cols else np.zeros((z.size, 0))
+
+
+@dataclass
+class NoiseSetup:
+    """Weights and AR(1) coefficient of the CI error, from the best fit (:func:`noise_setup`).
+
+    Attributes
+    ----------
+    w : ndarray
+        Noise weights, RMS 1 [-]; ``w_rms`` the RMS of the raw weights [kPa].
+    rho, rho_raw : float
+        AR(1) coefficient used and the raw lag-1 autocorrelation [-].
+    rho_est, rho_sampled : bool
+    phi : ndarray
+        Lag-1 coefficients between neighbouring readings [-].
+    dz0 : float
+        Median spacing [m].
+    notes : list of str
+    """
+
+    w: np.ndarray
+    w_rms: float
+    rho: float
+    rho_raw: float | None
+    rho_est: bool
+    rho_sampled: bool
+    phi: np.ndarray
+    dz0: float
+    notes: list[str]
+
+
+def noise_setup(
+    profile: CIProfile,
+    p0: TerrainParameters,
+    law: PressureLaw,
+    Kc: float | None,
+    bounds: Bounds,
+    cal: Calibration | None,
+    noise_model: str,
+    noise_floor: float,
+    correlation: str | float,
+) -> NoiseSetup:
+    """Plug-in noise weights and the AR(1) coefficient of the CI error (module docstring).
+
+    Parameters
+    ----------
+    profile : CIProfile
+    p0 : TerrainParameters
+        The best fit: its model CI of eq. (2-7) sets the relative weights and
+        its residuals the AR(1) estimate.
+    law : PressureLaw
+    Kc : float or None
+        [m]; None: fully mobilised shear.
+    bounds : Bounds
+        Parameters at a bound are left out of the fit's design (:func:`estimate_correlation`).
+    cal : Calibration or None
+        With a calibration kc and kphi move together (fixed ratio).
+    noise_model : {"relative", "absolute"}
+    noise_floor : float
+        [-]
+    correlation : "estimate", "sample", "none" or float
+
+    Returns
+    -------
+    NoiseSetup
+    """
+    z, y = profile.depth, profile.ci
+    N = y.size
+    notes = []
+    A, B, C = cone_index_basis(z, n=p0.n, phic=p0.phic_deg, Kc=Kc, law=law, cone=profile.cone)
+    m0 = p0.kc * A + p0.kphi * B + p0.cc * C  # eq. (2-7)
+    w_raw = np.ones(N)
+    if noise_model == "relative":
+        scale_ci = float(np.max(np.abs(m0))) or float(np.max(np.abs(y))) or 1.0
+        w_raw = np.sqrt(m0 * m0 + (noise_floor * scale_ci) ** 2)
+        if not np.all(w_raw > 0):
+            w_raw = np.ones(N)
+            notes.append("relative noise weights degenerate (zero CI): constant weights used")
+    w_rms = float(np.sqrt(np.mean(w_raw * w_raw)))
+    w = w_raw / w_rms
+    dz = np.diff(z)
+    dz0 = float(np.median(dz)) if dz.size else 0.0
+    rho_raw, rho_sampled = None, False
+    if isinstance(correlation, str):
+        if correlation in ("estimate", "sample"):
+            X = _fit_design(z, p0, bounds, cal, law, Kc, profile.cone) / w[:, None]
+            rho, rho_raw = estimate_correlation((y - m0) / w, z, design=X)
+            rho_est = True
+            rho_sampled = correlation == "sample" and N > 2
+        elif correlation == "none":
+            rho, rho_est = 0.0, False
+        else:
+            raise ValueError(
+                "correlation must be 'estimate', 'sample', 'none' or a number "
+                f"(got {correlation!r})"
+            )
+    else:
+        rho = float(correlation)
+        if not 0 <= rho <= RHO_MAX:
+            raise ValueError(f"correlation must lie in [0, {RHO_MAX}] (got {rho})")
+        rho_est = False
+    phi = ar1_coefficients(z, rho, dz0) if N > 1 else np.zeros(0)
+    if rho_raw is not None and not math.isfinite(rho_raw):
+        rho_raw = None
+    return NoiseSetup(w, w_rms, float(rho), rho_raw, rho_est, rho_sampled, phi, dz0, notes)

@@ -1,0 +1,852 @@
+"""Posterior uncertainty of the prediction process: how well does one CI profile fix the parameters?
+
+:func:`terracone.inverse.predict` returns one best fit.  Many parameter sets
+fit a CI profile almost equally well (section 2 of [1]_: phic trades exactly
+against a common scale of kc and kphi under fully mobilised shear, and the
+kc, kphi and cc columns of eq. (2-7) are nearly collinear), and they predict
+quite different plate pressures.  :func:`posterior` samples the Bayesian
+posterior of (kc, kphi, n, cc, phic) given one profile and reports
+
+* 90% credible intervals of the parameters,
+* an identifiability label per parameter, from the ratio of its posterior to
+  its prior 90% width,
+* 90% bands of the predicted plate pressure against sinkage.
+
+The model of the CI error (noise weights, AR(1) correlation) is in
+:mod:`terracone.inverse.uncertainty.noise`, the priors in :mod:`terracone.inverse.uncertainty.priors`,
+the tabulated likelihood in :mod:`terracone.inverse.uncertainty.likelihood` and the
+emcee set-up in :mod:`terracone.inverse.uncertainty.sampler`; their docstrings give the
+details.  (Before issue 13 all of it was ``terracone.uncertainty``, which
+remains as an alias re-exporting every public name.)
+
+Identifiability
+---------------
+``ratio = (posterior 90% width) / (prior 90% width)`` per parameter (the
+prior's width from 8000 prior draws, so it is exact for the n-dependent US
+bounds and the calibration prior too): ``< 0.25`` "determined", ``< 0.75``
+"weakly determined", otherwise "set by prior".  A parameter held fixed
+(bounds LO = HI, or kc = 0 from a calibration) is "set by prior".  The
+labels are relative to the prior: with the default bounds "determined" kc
+may still span a factor of ten.  Under fully mobilised shear with the bounds prior, phic's
+posterior is its prior reweighted by ``s^-2`` (the prior volume of the
+(kc, kphi) pairs on the ridge), whose 90% width is 0.86 of the prior's: "set
+by prior", as it must be.
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Sections 2 and 3.
+.. [2] Foreman-Mackey, D., Hogg, D.W., Lang, D., Goodman, J. (2013). emcee:
+   the MCMC hammer. PASP 125, 306-312.
+.. [3] Goodman, J., Weare, J. (2010). Ensemble samplers with affine
+   invariance. Comm. App. Math. Comp. Sci. 5(1), 65-80.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from terracone.data import CIProfile, TerrainParameters
+from terracone.inverse.bounds import Bounds
+from terracone.inverse.learning.learn import Calibration
+from terracone.inverse.predict import PredictionResult, predict
+from terracone.inverse.uncertainty.likelihood import Likelihood
+from terracone.inverse.uncertainty.noise import NoiseModel, NoiseSetup, noise_setup
+from terracone.inverse.uncertainty.priors import (
+    PARAM_NAMES,
+    CalibrationPrior,
+    Prior,
+    as_calibration_prior,
+)
+from terracone.inverse.uncertainty.sampler import (
+    LogPosterior,
+    SamplerCoordinates,
+    chain_diagnostics,
+    run_chain,
+    start_walkers,
+)
+from terracone.physics import units as u
+from terracone.physics.plate import PressureLaw, plate_basis, pressure_law
+
+__all__ = [
+    "PARAM_NAMES",
+    "LABELS",
+    "DETERMINED_BELOW",
+    "WEAKLY_BELOW",
+    "DEFAULT_PLATES",
+    "DEFAULT_SINKAGES",
+    "PlateBand",
+    "SamplerDiagnostics",
+    "PosteriorResult",
+    "identifiability_label",
+    "plate_bands",
+    "posterior",
+    "posterior_for_result",
+]
+
+#: Identifiability labels, from best to worst determined.
+LABELS = ("determined", "weakly determined", "set by prior")
+
+
+#: Width ratio (posterior / prior 90% width) below which a parameter is "determined".
+DETERMINED_BELOW = 0.25
+
+
+#: Width ratio below which a parameter is "weakly determined" (else "set by prior").
+WEAKLY_BELOW = 0.75
+
+
+#: Default plate radii of the bands [m]: the LETE pair of the paper (1.5 in, 2 in nominal).
+DEFAULT_PLATES = (0.0375, 0.05)
+
+
+#: Default sinkages of the bands [m]: 0 to 10 cm every 5 mm.
+DEFAULT_SINKAGES = tuple(np.round(np.linspace(0.0, 0.10, 21), 6))
+
+
+_N_PRIOR_DRAWS = 8000
+
+
+def identifiability_label(ratio: float) -> str:
+    """Label of a posterior/prior 90% width ratio (thresholds 0.25 and 0.75)."""
+    if not math.isfinite(ratio) or ratio >= WEAKLY_BELOW:
+        return LABELS[2]
+    return LABELS[0] if ratio < DETERMINED_BELOW else LABELS[1]
+
+
+@dataclass
+class PlateBand:
+    """Band of predicted plate pressure against sinkage.
+
+    Attributes
+    ----------
+    radius : float
+        Plate radius (Bekker size b) [m].
+    sinkage : ndarray
+        [m]
+    median, lo, hi : ndarray
+        Posterior median and the equal-tailed interval (90% by default) of
+        the pressure at each sinkage [kPa].
+    """
+
+    radius: float
+    sinkage: np.ndarray
+    median: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        """JSON-ready dict (lengths in m or in, pressures in kPa or psi)."""
+        units = u.check_system(units)
+
+        def p(a):
+            return [float(v) for v in u.pressure_from_si(a, units)]
+
+        return {
+            "radius": float(u.length_from_si(self.radius, units)),
+            "sinkage": [float(v) for v in u.length_from_si(self.sinkage, units)],
+            "median": p(self.median),
+            "lo": p(self.lo),
+            "hi": p(self.hi),
+        }
+
+
+@dataclass
+class SamplerDiagnostics:
+    """Diagnostics of the MCMC run.
+
+    Attributes
+    ----------
+    nwalkers, burn, steps, thin : int
+        Walkers, discarded burn-in steps, kept steps (after burn-in, before
+        thinning) and the thinning factor.
+    draws : int
+        Number of posterior samples returned.
+    acceptance : float
+        Mean acceptance fraction of the walkers [-] (0.2-0.5 is healthy).
+    acceptance_min : float
+    autocorr_time : dict or None
+        Integrated autocorrelation time per sampled coordinate [steps].
+    autocorr_reliable : bool
+        Whether the kept chain is longer than 50 autocorrelation times (the
+        estimate of tau itself is then reliable).
+    effective_samples : float
+        nwalkers * steps / max(tau).
+    log_prob_evals : int
+    time_s : float
+        Wall time of :func:`posterior` [s].
+    cpu_s : float
+        CPU time of the calling process during :func:`posterior` [s].
+    coordinates : str
+        "scaled" ((s kc, s kphi, n, cc, phic), fully mobilised) or "plain".
+    """
+
+    nwalkers: int
+    burn: int
+    steps: int
+    thin: int
+    draws: int
+    acceptance: float
+    acceptance_min: float
+    autocorr_time: dict[str, float] | None
+    autocorr_reliable: bool
+    effective_samples: float
+    log_prob_evals: int
+    time_s: float
+    coordinates: str
+    cpu_s: float = float("nan")
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "nwalkers": self.nwalkers,
+            "burn": self.burn,
+            "steps": self.steps,
+            "thin": self.thin,
+            "draws": self.draws,
+            "acceptance": self.acceptance,
+            "acceptance_min": self.acceptance_min,
+            "autocorr_time": None
+            if self.autocorr_time is None
+            else {k: _num(v) for k, v in self.autocorr_time.items()},
+            "autocorr_reliable": self.autocorr_reliable,
+            "effective_samples": _num(self.effective_samples),
+            "log_prob_evals": self.log_prob_evals,
+            "time_s": self.time_s,
+            "cpu_s": _num(self.cpu_s),
+            "coordinates": self.coordinates,
+        }
+
+
+@dataclass
+class PosteriorResult:
+    """Posterior of (kc, kphi, n, cc, phic) given one CI profile (SI inside).
+
+    Attributes
+    ----------
+    id : str
+        Profile id.
+    samples : ndarray, shape (draws, 5)
+        Posterior draws of kc [kN/m^(n+1)], kphi [kN/m^(n+2)], n [-],
+        cc [kPa], phic [deg] (:data:`PARAM_NAMES`).
+    medians : dict
+        Posterior median per parameter (SI).
+    intervals : dict
+        Equal-tailed credible interval (lo, hi) per parameter (SI), at
+        ``level``.
+    prior_intervals : dict
+        The same interval of the prior (SI).
+    prior_widths, posterior_widths : dict
+        hi - lo of the prior and posterior intervals (SI).
+    width_ratio : dict
+        posterior / prior width [-] (1 for parameters held fixed).
+    identifiability : dict
+        "determined" (ratio < 0.25), "weakly determined" (< 0.75) or "set
+        by prior".
+    plate_bands : list of PlateBand
+    noise : NoiseModel
+    diagnostics : SamplerDiagnostics
+    prior : str
+        "bounds" or "calibration:<terrain>".
+    model : {"rm0", "rm1"}
+    r_min : float or None
+        [m]
+    Kc : float or None
+        [m]
+    level : float
+        Credibility level of the intervals and bands [-].
+    best_fit : TerrainParameters
+        The exact solver's optimum the walkers started from.
+    notes : list of str
+        Warnings of the run (low acceptance, few effective samples, ...).
+    prior_samples : ndarray, shape (2000, 5)
+        Prior draws (SI), for the prior intervals in US units.
+    """
+
+    id: str
+    samples: np.ndarray
+    medians: dict[str, float]
+    intervals: dict[str, tuple[float, float]]
+    prior_intervals: dict[str, tuple[float, float]]
+    prior_widths: dict[str, float]
+    posterior_widths: dict[str, float]
+    width_ratio: dict[str, float]
+    identifiability: dict[str, str]
+    plate_bands: list[PlateBand]
+    noise: NoiseModel
+    diagnostics: SamplerDiagnostics
+    prior: str
+    model: str
+    r_min: float | None
+    Kc: float | None
+    level: float
+    best_fit: TerrainParameters
+    notes: list[str] = field(default_factory=list)
+    prior_samples: np.ndarray | None = field(default=None, repr=False)
+
+    def _quantiles(self, samples: np.ndarray, units: str) -> dict[str, tuple[float, float, float]]:
+        """(lo, median, hi) per parameter, each sample converted with its own n."""
+        conv = _convert_samples(samples, units)
+        q = [(1 - self.level) / 2, 0.5, (1 + self.level) / 2]
+        out = {}
+        for j, name in enumerate(PARAM_NAMES):
+            lo, med, hi = np.quantile(conv[:, j], q)
+            out[name] = (float(lo), float(med), float(hi))
+        return out
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        """JSON-ready dict in a unit system.
+
+        Keys: ``intervals`` ({name: [lo, hi]}), ``medians``,
+        ``identifiability``, ``plate_bands`` (list of {radius, sinkage,
+        median, lo, hi}) and ``posterior`` (level, prior, width ratios,
+        prior intervals, noise, sampler diagnostics, notes).  kc and kphi
+        are converted sample by sample with each sample's own n before the
+        quantiles are taken, so US intervals are quantiles of US values.
+        """
+        units = u.check_system(units)
+        q = self._quantiles(self.samples, units)
+        d: dict[str, Any] = {
+            "intervals": {k: [v[0], v[2]] for k, v in q.items()},
+            "medians": {k: v[1] for k, v in q.items()},
+            "identifiability": dict(self.identifiability),
+            "plate_bands": [b.as_dict(units) for b in self.plate_bands],
+        }
+        if units == "si":
+            prior_iv = {k: [float(v[0]), float(v[1])] for k, v in self.prior_intervals.items()}
+        elif self.prior_samples is not None:
+            qp = self._quantiles(self.prior_samples, units)
+            prior_iv = {k: [v[0], v[2]] for k, v in qp.items()}
+        else:
+            prior_iv = None
+        d["posterior"] = {
+            "level": self.level,
+            "prior": self.prior,
+            "model": self.model,
+            "r_min": None if self.r_min is None else float(u.length_from_si(self.r_min, units)),
+            "Kc": None if self.Kc is None else float(u.length_from_si(self.Kc, units)),
+            "width_ratio": {k: _num(v) for k, v in self.width_ratio.items()},
+            "thresholds": {"determined": DETERMINED_BELOW, "weakly determined": WEAKLY_BELOW},
+            "prior_intervals": prior_iv,
+            "noise": self.noise.as_dict(units),
+            "sampler": self.diagnostics.as_dict(),
+            "notes": list(self.notes),
+            "units": units,
+        }
+        return d
+
+    def samples_dict(self, units: str = "si") -> dict[str, Any]:
+        """The posterior draws for JSON: ``{"names", "units", "values"}``.
+
+        ``values`` is a list of rows (kc, kphi, n, cc, phic_deg), each draw
+        converted with its own n; the key ``samples`` of ``predict
+        --uncertainty --json``, read back by :func:`terracone.apps.export.load_results`.
+        """
+        units = u.check_system(units)
+        return {
+            "names": list(PARAM_NAMES),
+            "units": units,
+            "values": _convert_samples(self.samples, units).tolist(),
+        }
+
+    def params_at(self, index: int) -> TerrainParameters:
+        """One posterior draw as :class:`TerrainParameters`."""
+        kc, kphi, n, cc, phic = (float(v) for v in self.samples[index])
+        return TerrainParameters(kc, kphi, n, cc, phic, self.Kc, self.model, self.r_min)
+
+
+def _num(v: float) -> float | None:
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def _convert_samples(samples: np.ndarray, units: str) -> np.ndarray:
+    units = u.check_system(units)
+    out = np.array(samples, dtype=float, copy=True)
+    if units == "si":
+        return out
+    n = out[:, 2]
+    out[:, 0] = u.kc_from_si(out[:, 0], n, units)
+    out[:, 1] = u.kphi_from_si(out[:, 1], n, units)
+    out[:, 3] = u.pressure_from_si(out[:, 3], units)
+    return out
+
+
+def _start_params(start: Any) -> TerrainParameters:
+    if isinstance(start, PredictionResult):
+        if not start.ok or start.params is None:
+            raise ValueError(f"profile {start.id}: prediction failed: {start.error}")
+        return start.params
+    if isinstance(start, TerrainParameters):
+        return start
+    raise TypeError("start must be a PredictionResult or TerrainParameters")
+
+
+def posterior(
+    profile: CIProfile,
+    *,
+    model: str = "rm0",
+    r_min: float | None = None,
+    plate_pair: tuple[float, float] | None = None,
+    bounds: Bounds | None = None,
+    prior: str | Calibration | CalibrationPrior = "bounds",
+    noise: float | None = None,
+    correlation: str | float = "estimate",
+    noise_model: str = "relative",
+    noise_floor: float = 0.05,
+    Kc: float | None = None,
+    draws: int = 2000,
+    seed: int | None = None,
+    plates: Sequence[float] | None = None,
+    plate_sinkages: ArrayLike | None = None,
+    start: PredictionResult | TerrainParameters | None = None,
+    nwalkers: int = 128,
+    burn: int = 80,
+    thin: int = 6,
+    level: float = 0.9,
+    n_prior: str = "uniform",
+) -> PosteriorResult:
+    """Sample the posterior of (kc, kphi, n, cc, phic) given one CI profile.
+
+    Parameters
+    ----------
+    profile : CIProfile
+        Depths [m] and cone index [kPa].
+    model, r_min, plate_pair
+        Pressure law (section 3.2 of [1]_): "rm0" or "rm1", the RM1 transition
+        radius [m] and the plate radii [m] of its secant; a calibration prior
+        sets all three.
+    bounds : Bounds, optional
+        Support of the prior (default :class:`Bounds`).
+    prior : "bounds", Calibration or CalibrationPrior
+        Uniform over the bounds, or centred on a calibration
+        (:mod:`terracone.inverse.uncertainty.priors`).
+    noise : float, optional
+        Noise standard deviation [kPa] (RMS over the profile); marginalised when None.
+    correlation : "estimate", "sample", "none" or float
+        AR(1) coefficient of the noise at the median spacing [-]: plug-in
+        estimate, sampled (uniform on [0, 0.95]), 0, or the value given.
+    noise_model, noise_floor
+        "relative" or "absolute"; floor of the relative model, a fraction of
+        the largest model CI [-] (:mod:`terracone.inverse.uncertainty.noise`).
+    Kc : float, optional
+        Cone-terrain shear deformation parameter [m]; None: fully mobilised.
+    draws : int
+        Number of posterior samples returned.
+    seed : int, optional
+        The same seed gives the same samples bit for bit.
+    plates, plate_sinkages : optional
+        Plate radii [m] (default: the calibration's pair, else ``plate_pair``,
+        else 3.75 and 5 cm) and sinkages [m] (0 to 10 cm every 5 mm) of the bands.
+    start : PredictionResult or TerrainParameters, optional
+        Best fit to start from; :func:`terracone.inverse.predict` runs when None.
+    nwalkers, burn, thin : int
+        Walkers, burn-in steps discarded and thinning of the kept chain.
+    level : float
+        Credibility of the intervals and bands [-].
+    n_prior : {"uniform", "reference"}
+        Under the bounds prior, "reference" weights the box by sqrt(det G(n))
+        (:meth:`Prior.set_reference`; not the default, docs/uncertainty.md).
+
+    Returns
+    -------
+    PosteriorResult
+
+    Raises
+    ------
+    ValueError
+        Bad input or a profile that cannot be fitted.
+
+    References
+    ----------
+    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P.
+       Predicting terrain parameters for physics-based vehicle mobility
+       models from cone index data. Sections 2, 3.2, 3.3.2.
+    """
+    t0, c0 = time.perf_counter(), time.process_time()
+    _check_options(level, draws, nwalkers, burn, thin, noise_model, noise, noise_floor)
+    law_args = dict(model=model, r_min=r_min, plate_pair=plate_pair, Kc=Kc, bounds=bounds)
+    noise_args = dict(noise=noise, correlation=correlation, model=noise_model, floor=noise_floor)
+    st = _prepare(profile, law_args, noise_args, prior, start, seed, n_prior)
+    samples, rho_draws, diag = _draw(st, draws, nwalkers, burn, thin)
+    noise_out = _noise_summary(
+        st.noise, st.lik, samples, rho_draws, noise, noise_model, noise_floor, level, st.rng
+    )
+    summary = _summaries(samples, st.prior_draws, st.prior, level)
+    radii = DEFAULT_PLATES if st.plate_pair is None else tuple(st.plate_pair)
+    radii = radii if plates is None else tuple(plates)
+    sink = np.asarray(DEFAULT_SINKAGES if plate_sinkages is None else plate_sinkages, float)
+    bands = plate_bands(samples, radii, sink, law=st.law, level=level)
+    diag.time_s, diag.cpu_s = time.perf_counter() - t0, time.process_time() - c0
+    return _result(profile, st, samples, summary, bands, noise_out, diag, level)
+
+
+@dataclass
+class _Setup:
+    """Everything :func:`posterior` samples with: law, start, noise, prior, likelihood, target."""
+
+    model: str
+    r_min: float | None
+    plate_pair: tuple[float, float] | None
+    Kc: float | None
+    law: PressureLaw
+    start: TerrainParameters
+    noise: NoiseSetup
+    prior: Prior
+    lik: Likelihood
+    x0: np.ndarray
+    coords: SamplerCoordinates
+    target: LogPosterior
+    prior_draws: np.ndarray
+    rng: np.random.Generator
+    notes: list[str]
+
+
+def _result(
+    profile: CIProfile,
+    st: _Setup,
+    samples: np.ndarray,
+    summary: dict[str, dict],
+    bands: list[PlateBand],
+    noise_out: NoiseModel,
+    diag: SamplerDiagnostics,
+    level: float,
+) -> PosteriorResult:
+    """The :class:`PosteriorResult` of a run of :func:`posterior`."""
+    return PosteriorResult(
+        id=profile.id,
+        samples=samples,
+        **summary,
+        plate_bands=bands,
+        noise=noise_out,
+        diagnostics=diag,
+        prior=st.prior.describe(),
+        model=st.model,
+        r_min=st.r_min,
+        Kc=st.Kc,
+        level=level,
+        best_fit=st.start,
+        notes=st.notes,
+        prior_samples=st.prior_draws[:2000],
+    )
+
+
+def _prepare(
+    profile: CIProfile,
+    law_args: dict[str, Any],
+    noise_args: dict[str, Any],
+    prior: Any,
+    start: Any,
+    seed: int | None,
+    n_prior: str,
+) -> _Setup:
+    """The best fit, noise model, prior, likelihood and target of :func:`posterior`."""
+    model, r_min, plate_pair = law_args["model"], law_args["r_min"], law_args["plate_pair"]
+    Kc, bounds = law_args["Kc"], law_args["bounds"] or Bounds()
+    cal_prior = as_calibration_prior(prior)
+    cal = cal_prior.calibration if cal_prior is not None else None
+    if cal is not None:
+        model, r_min, plate_pair = cal.model, cal.r_min, cal.plate_pair
+    law = pressure_law(model, r_min=r_min, plate_pair=plate_pair)
+    profile.validate()
+    rng = np.random.default_rng(seed)
+    if start is None:
+        start = predict(
+            profile,
+            model=model,
+            r_min=r_min,
+            plate_pair=plate_pair,
+            calibration=cal,
+            bounds=bounds,
+            Kc=Kc,
+        )
+    p0 = _start_params(start)
+    na = noise_args
+    ns = noise_setup(profile, p0, law, Kc, bounds, cal, na["model"], na["floor"], na["correlation"])
+    pri = Prior(bounds, cal_prior)
+    lik = Likelihood(
+        profile.depth,
+        profile.ci,
+        cone=profile.cone,
+        law=law,
+        Kc=Kc,
+        n_range=bounds.n,
+        weights=ns.w,
+        phi=None if ns.rho_sampled else ns.phi,
+        spacing=ns.dz0 or None,
+    )
+    if n_prior not in ("reference", "uniform"):
+        raise ValueError(f"n_prior must be 'reference' or 'uniform' (got {n_prior!r})")
+    if n_prior == "reference":
+        free = (not pri.kc_fixed, not pri.kphi_fixed, not pri.cc_fixed)
+        pri.set_reference(lik.grid, lik.gram_half_logdet(free, p0.phic_deg))
+    x0, coords = _start_and_coordinates(p0, bounds, pri, profile.cone, Kc)
+    if coords.ndim == 0:
+        raise ValueError("all parameters are fixed: nothing to sample")
+    target = LogPosterior(coords, pri, lik, na["noise"], ns.rho_sampled, ns.rho)
+    prior_draws = pri.sample(rng, _N_PRIOR_DRAWS)
+    return _Setup(
+        model=model,
+        r_min=r_min,
+        plate_pair=plate_pair,
+        Kc=Kc,
+        law=law,
+        start=p0,
+        noise=ns,
+        prior=pri,
+        lik=lik,
+        x0=x0,
+        coords=coords,
+        target=target,
+        prior_draws=prior_draws,
+        rng=rng,
+        notes=list(ns.notes),
+    )
+
+
+def _draw(
+    st: _Setup, draws: int, nwalkers: int, burn: int, thin: int
+) -> tuple[np.ndarray, np.ndarray | None, SamplerDiagnostics]:
+    """Run the sampler: parameter draws (SI), rho draws (or None) and the diagnostics.
+
+    The diagnostics' ``time_s`` and ``cpu_s`` are left for the caller to fill in.
+    """
+    coords = st.coords
+    walkers, names = start_walkers(
+        st.x0, st.prior, coords, st.target, st.lik, st.prior_draws, nwalkers, st.rng, st.notes
+    )
+    steps = int(math.ceil(draws * thin / nwalkers))
+    chain, acc = run_chain(st.target, walkers, burn, steps, st.rng)
+    flat = chain[::-1][::thin][::-1].reshape(-1, chain.shape[2])[-draws:]
+    samples, _ = coords.to_params(flat[:, : coords.ndim])
+    rho_draws = flat[:, coords.ndim] if st.noise.rho_sampled else None
+    tau_d, reliable, neff = chain_diagnostics(chain, names, acc, draws, st.notes)
+    diag = SamplerDiagnostics(
+        nwalkers=nwalkers,
+        burn=burn,
+        steps=steps,
+        thin=thin,
+        draws=int(samples.shape[0]),
+        acceptance=float(np.mean(acc)),
+        acceptance_min=float(np.min(acc)),
+        autocorr_time=tau_d,
+        autocorr_reliable=reliable,
+        effective_samples=neff,
+        log_prob_evals=st.target.evals,
+        time_s=float("nan"),
+        coordinates="scaled" if coords.scaled else "plain",
+    )
+    return samples, rho_draws, diag
+
+
+def _start_and_coordinates(p0, bounds, pri, cone, Kc):
+    """The best fit clipped to the bounds (5,) and the sampler's coordinates."""
+    x0 = np.array([p0.kc, p0.kphi, p0.n, p0.cc, p0.phic_deg], dtype=float)
+    for j, (lo, hi) in ((2, bounds.n), (3, bounds.cc), (4, bounds.phic)):
+        x0[j] = np.clip(x0[j], lo, hi)
+    fixed_vals = x0.copy()
+    if pri.n_fixed:
+        fixed_vals[2] = bounds.n[0]
+    if pri.cc_fixed:
+        fixed_vals[3] = pri.cc_value
+    if pri.phic_fixed:
+        fixed_vals[4] = pri.phic_value
+    return x0, SamplerCoordinates(pri, cone, Kc, fixed_vals)
+
+
+def _check_options(level, draws, nwalkers, burn, thin, noise_model, noise, noise_floor) -> None:
+    if not 0 < level < 1:
+        raise ValueError(f"level must be in (0, 1) (got {level})")
+    if draws < 10:
+        raise ValueError(f"draws must be >= 10 (got {draws})")
+    if nwalkers < 8 or nwalkers % 2:
+        raise ValueError(f"nwalkers must be even and >= 8 (got {nwalkers})")
+    if burn < 0 or thin < 1:
+        raise ValueError("burn must be >= 0 and thin >= 1")
+    if noise_model not in ("relative", "absolute"):
+        raise ValueError(f"noise_model must be 'relative' or 'absolute' (got {noise_model!r})")
+    if noise is not None and not (noise > 0 and math.isfinite(noise)):
+        raise ValueError(f"noise must be > 0 [kPa] (got {noise})")
+    if not 0 <= noise_floor < 10:
+        raise ValueError(f"noise_floor must be >= 0 (got {noise_floor})")
+
+
+def _noise_summary(ns, lik, samples, rho_draws, sigma_fixed, noise_model, floor, level, rng):
+    """The :class:`NoiseModel` reported: sigma from sigma^2 | theta ~ Q / chi^2_N."""
+    q = [(1 - level) / 2, 0.5, (1 + level) / 2]
+    if sigma_fixed is None:
+        Q = lik.sse(samples, rho=rho_draws)
+        sig = np.sqrt(Q / rng.chisquare(lik.N, size=Q.size))
+        s_lo, s_med, s_hi = np.quantile(sig, q)
+        sigma, sigma_iv = float(s_med), (float(s_lo), float(s_hi))
+    else:
+        sigma, sigma_iv = float(sigma_fixed), None
+    rho, rho_iv = ns.rho, None
+    if rho_draws is not None:
+        r_lo, r_med, r_hi = np.quantile(rho_draws, q)
+        rho, rho_iv = float(r_med), (float(r_lo), float(r_hi))
+    return NoiseModel(
+        kind=noise_model,
+        sigma=sigma,
+        sigma_interval=sigma_iv,
+        sigma_rel=(sigma / ns.w_rms) if noise_model == "relative" else None,
+        rho=float(rho),
+        spacing=ns.dz0,
+        floor=float(floor) if noise_model == "relative" else 0.0,
+        sigma_estimated=sigma_fixed is None,
+        rho_estimated=ns.rho_est,
+        rho_raw=ns.rho_raw,
+        weights=ns.w,
+        rho_interval=rho_iv,
+        rho_sampled=rho_draws is not None,
+    )
+
+
+def _summaries(samples, prior_draws, pri, level) -> dict[str, dict]:
+    """Medians, intervals, prior intervals, widths, width ratios and labels per parameter."""
+    qs = [(1 - level) / 2, 0.5, (1 + level) / 2]
+    post_q = np.quantile(samples, qs, axis=0)
+    prior_q = np.quantile(prior_draws, qs, axis=0)
+    free = [not pri.kc_fixed, not pri.kphi_fixed, not pri.n_fixed, not pri.cc_fixed]
+    free.append(not pri.phic_fixed)
+    out: dict[str, dict] = {
+        k: {}
+        for k in (
+            "medians",
+            "intervals",
+            "prior_intervals",
+            "prior_widths",
+            "posterior_widths",
+            "width_ratio",
+            "identifiability",
+        )
+    }
+    for j, name in enumerate(PARAM_NAMES):
+        out["medians"][name] = float(post_q[1, j])
+        iv = (float(post_q[0, j]), float(post_q[2, j]))
+        piv = (float(prior_q[0, j]), float(prior_q[2, j]))
+        out["intervals"][name], out["prior_intervals"][name] = iv, piv
+        qw, pw = iv[1] - iv[0], piv[1] - piv[0]
+        out["posterior_widths"][name], out["prior_widths"][name] = qw, pw
+        ratio = qw / pw if free[j] and pw > 0 else 1.0
+        out["width_ratio"][name] = ratio
+        out["identifiability"][name] = identifiability_label(ratio)
+    return out
+
+
+def plate_bands(
+    samples: np.ndarray,
+    radii: Sequence[float],
+    sinkage: ArrayLike,
+    *,
+    law: PressureLaw | None = None,
+    level: float = 0.9,
+) -> list[PlateBand]:
+    """Bands of plate pressure from posterior samples.
+
+    Parameters
+    ----------
+    samples : ndarray, shape (S, 5)
+        kc, kphi, n, cc, phic (SI).
+    radii : sequence of float
+        Plate radii [m].
+    sinkage : array_like
+        Sinkages [m], >= 0.
+    law : PressureLaw, optional
+        RM0 (default) or RM1 (the plate's own pressure law).
+    level : float
+        Credibility [-].
+
+    Returns
+    -------
+    list of PlateBand
+        Pointwise quantiles; every sample's curve increases with sinkage, so
+        the median and the band ends do too.
+    """
+    law = law or pressure_law("rm0")
+    sink = np.asarray(sinkage, dtype=float)
+    if np.any(sink < 0) or not np.all(np.isfinite(sink)):
+        raise ValueError("plate sinkages must be finite and >= 0")
+    out = []
+    qs = [(1 - level) / 2, 0.5, (1 + level) / 2]
+    for r in radii:
+        r = float(r)
+        if not r > 0:
+            raise ValueError(f"plate radius must be > 0 (got {r})")
+        A, B = plate_basis(sink[None, :], n=samples[:, 2:3], b=r, law=law)
+        p = samples[:, 0:1] * A + samples[:, 1:2] * B
+        lo, med, hi = np.quantile(p, qs, axis=0)
+        out.append(PlateBand(r, sink.copy(), med, lo, hi))
+    return out
+
+
+def posterior_for_result(
+    profile: CIProfile,
+    result: PredictionResult,
+    *,
+    prior: str | Calibration | CalibrationPrior = "bounds",
+    draws: int = 2000,
+    seed: int | None = None,
+    plates: Sequence[float] | None = None,
+    bounds: Bounds | None = None,
+    plate_pair: tuple[float, float] | None = None,
+    **kwargs: Any,
+) -> PosteriorResult:
+    """:func:`posterior` for a profile already fitted by :func:`~terracone.inverse.predict`.
+
+    The CLI calls this once per profile: model, r_min and Kc are taken from
+    ``result.params`` (or from the calibration when ``prior`` is one), and
+    the walkers start at the result's optimum.  When the prior is a
+    calibration and the result was not fitted with it (its phic lies more
+    than 3 prior standard deviations from the calibration's), the profile is
+    re-fitted with the calibration first.
+
+    Parameters
+    ----------
+    profile : CIProfile
+        The profile ``result`` was fitted to.
+    result : PredictionResult
+        Must be ``ok``.
+    prior : "bounds", Calibration or CalibrationPrior
+    draws : int
+    seed : int, optional
+    plates : sequence of float, optional
+        Plate radii of the bands [m].
+    bounds : Bounds, optional
+        The bounds the prediction used.
+    plate_pair : (float, float), optional
+        RM1 plate pair [m] (without a calibration).
+    **kwargs
+        Passed to :func:`posterior` (noise, correlation, noise_model, ...).
+    """
+    if not result.ok or result.params is None:
+        raise ValueError(f"profile {result.id}: prediction failed: {result.error}")
+    p = result.params
+    cal_prior = as_calibration_prior(prior)
+    start: PredictionResult | None = result
+    if cal_prior is not None:
+        c = cal_prior.calibration
+        tol = 3.0 * max(cal_prior.phic_sd, 1e-9)
+        if abs(p.phic_deg - c.phic_deg) > tol or p.model != c.model:
+            start = None
+    return posterior(
+        profile,
+        model=p.model,
+        r_min=p.r_min,
+        plate_pair=plate_pair,
+        bounds=bounds,
+        prior=cal_prior if cal_prior is not None else "bounds",
+        Kc=p.Kc,
+        draws=draws,
+        seed=seed,
+        plates=plates,
+        start=start,
+        **kwargs,
+    )

@@ -1,0 +1,272 @@
+"""Priors of the posterior over (kc, kphi, n, cc, phic): the bounds box or a calibration.
+
+* ``"bounds"``: uniform over the search box of :class:`Bounds` (in the units
+  the bounds were given in, so with US bounds the SI density of kc and kphi
+  depends on n).
+* a :class:`~terracone.inverse.learning.learn.Calibration` (or a
+  :class:`CalibrationPrior` to change the widths): model, r_min and the plate
+  pair are fixed to the calibration's; phic ~ Normal(phic_cal, 2 deg) and
+  cc ~ Normal(cc_cal, max(2 kPa, 0.25 cc_cal)), truncated to the bounds;
+  ln(kc/kphi) ~ Normal(ln(kc_cal/kphi_cal), 0.25) (a factor 1.5 either side
+  at 90%), with kphi uniform within its bounds and kc within its bounds; n
+  uniform within its bounds (the profile, not the calibration, sets n).
+  A calibration with kc = 0 fixes kc = 0.
+
+Used by :func:`terracone.inverse.uncertainty.posterior.posterior`; ``terracone.uncertainty`` re-exports it.
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Section 3.3.1 and Table 4-1.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from terracone.inverse.bounds import Bounds
+from terracone.inverse.learning.learn import Calibration
+
+__all__ = [
+    "PARAM_NAMES",
+    "CalibrationPrior",
+    "Prior",
+    "as_calibration_prior",
+]
+
+#: Order of the columns of :attr:`PosteriorResult.samples` (SI).
+PARAM_NAMES = ("kc", "kphi", "n", "cc", "phic_deg")
+
+
+@dataclass(frozen=True)
+class CalibrationPrior:
+    """Prior centred on a learned calibration (section 3.3.1 of [1]_).
+
+    Attributes
+    ----------
+    calibration : Calibration
+        Fixes model, r_min and the plate pair.
+    phic_sd : float
+        Standard deviation of the normal prior of phic around the
+        calibration's value [deg] (Table 4-1 of [1]_ spreads 10-12.5 deg
+        over four LETE profiles).
+    cc_sd : float or None
+        Standard deviation of the normal prior of cc [kPa]; None:
+        max(2 kPa, 0.25 * cc_cal).
+    ratio_log_sd : float
+        Standard deviation of ln(kc/kphi) around the calibration's ratio
+        [-] (0.25: a factor 1.5 either way at 90%; the LETE profiles of
+        Table 4-1 span 0.017-0.026 m).
+    """
+
+    calibration: Calibration
+    phic_sd: float = 2.0
+    cc_sd: float | None = None
+    ratio_log_sd: float = 0.25
+
+    def __post_init__(self) -> None:
+        if not (self.phic_sd >= 0 and self.ratio_log_sd > 0):
+            raise ValueError("phic_sd must be >= 0 and ratio_log_sd > 0")
+        if self.cc_sd is not None and self.cc_sd < 0:
+            raise ValueError("cc_sd must be >= 0")
+
+    @property
+    def cc_width(self) -> float:
+        """The standard deviation of cc actually used [kPa]."""
+        if self.cc_sd is not None:
+            return float(self.cc_sd)
+        return max(2.0, 0.25 * float(self.calibration.cc))
+
+
+class Prior:
+    """Prior density and sampler over (kc, kphi, n, cc, phic), SI."""
+
+    def __init__(self, bounds: Bounds, cal: CalibrationPrior | None) -> None:
+        self.b = bounds
+        self.cal = cal
+        self._si = bounds.kc_units == "si" and bounds.kphi_units == "si"
+        c = cal.calibration if cal is not None else None
+        self.kc_fixed = bounds.kc[0] == bounds.kc[1] or (c is not None and c.kc <= 0)
+        self.kphi_fixed = bounds.kphi[0] == bounds.kphi[1] or (c is not None and c.kphi <= 0)
+        self.n_fixed = bounds.n[0] == bounds.n[1]
+        self.cc_fixed = bounds.cc[0] == bounds.cc[1] or (cal is not None and cal.cc_width == 0)
+        self.phic_fixed = bounds.phic[0] == bounds.phic[1] or (cal is not None and cal.phic_sd == 0)
+        self.ratio = (
+            c is not None and not self.kc_fixed and not self.kphi_fixed and c.kc > 0 and c.kphi > 0
+        )
+        if self.ratio:
+            self.log_q0 = math.log(c.kc / c.kphi)
+        if c is not None:
+            if self.cc_fixed and bounds.cc[0] != bounds.cc[1]:
+                self.cc_value = float(np.clip(c.cc, *bounds.cc))
+            else:
+                self.cc_value = float(bounds.cc[0])
+            if self.phic_fixed and bounds.phic[0] != bounds.phic[1]:
+                self.phic_value = float(np.clip(c.phic_deg, *bounds.phic))
+            else:
+                self.phic_value = float(bounds.phic[0])
+        else:
+            self.cc_value = float(bounds.cc[0])
+            self.phic_value = float(bounds.phic[0])
+        self.n_grid: np.ndarray | None = None
+        self.n_logw: np.ndarray | None = None
+        if c is not None and c.kc <= 0 and bounds.kc[0] > 0:
+            raise ValueError("the calibration has kc = 0 but the kc bounds exclude 0")
+        if c is not None and c.kphi <= 0 and bounds.kphi[0] > 0:
+            raise ValueError("the calibration has kphi = 0 but the kphi bounds exclude 0")
+
+    def describe(self) -> str:
+        if self.cal is None:
+            return "bounds"
+        return f"calibration:{self.cal.calibration.terrain}"
+
+    def set_reference(self, grid: np.ndarray, logw: np.ndarray) -> None:
+        """Weight the bounds prior by sqrt(det G(n)) (``logw`` on ``grid``; module docstring).
+
+        The joint density becomes sqrt(det G(n)) in SI (kc, kphi) inside the
+        box (no longer normalised per n), which does not depend on the
+        units the bounds were given in.
+        """
+        if self.cal is not None or self.n_fixed:
+            return
+        ok = np.isfinite(logw)
+        if not ok.any():
+            return
+        self.n_grid = np.asarray(grid, float)
+        self.n_logw = np.where(ok, logw, np.min(logw[ok]) - 50.0) - np.max(logw[ok])
+
+    def n_log_weight(self, n: np.ndarray) -> np.ndarray:
+        """log sqrt(det G(n)) up to a constant (0 without the reference weight)."""
+        if self.n_logw is None:
+            return np.zeros(np.shape(n))
+        return np.interp(n, self.n_grid, self.n_logw)
+
+    def _sample_n(self, rng: np.random.Generator, m: int) -> np.ndarray:
+        b = self.b
+        if self.n_logw is None:
+            return rng.uniform(*b.n, m)
+        g = np.linspace(b.n[0], b.n[1], 2001)
+        d = np.exp(self.n_log_weight(g))
+        if not self.kc_fixed:
+            lo, hi = b.kc_si(g)
+            d = d * (hi - lo)
+        if not self.kphi_fixed:
+            lo, hi = b.kphi_si(g)
+            d = d * (hi - lo)
+        cdf = np.concatenate([[0.0], np.cumsum(0.5 * (d[1:] + d[:-1]) * np.diff(g))])
+        return np.interp(rng.uniform(0, cdf[-1], m), cdf, g)
+
+    def kc_fixed_value(self, n: np.ndarray) -> np.ndarray:
+        if self.cal is not None and self.cal.calibration.kc <= 0:
+            return np.zeros_like(n)
+        return self.b.kc_si(n)[0]
+
+    def kphi_fixed_value(self, n: np.ndarray) -> np.ndarray:
+        if self.cal is not None and self.cal.calibration.kphi <= 0:
+            return np.zeros_like(n)
+        return self.b.kphi_si(n)[0]
+
+    def logpdf(self, kc, kphi, n, cc, phic) -> np.ndarray:
+        """Log prior density (up to a constant) of arrays of parameters."""
+        b = self.b
+        lp = np.zeros(np.shape(n))
+        inside = np.ones(np.shape(n), bool)
+        if not self.n_fixed:
+            inside &= (n >= b.n[0]) & (n <= b.n[1])
+        if self._si:
+            kc_lo, kc_hi = b.kc
+            kp_lo, kp_hi = b.kphi
+        else:
+            nn = np.clip(n, b.n[0], b.n[1])
+            kc_lo, kc_hi = b.kc_si(nn)
+            kp_lo, kp_hi = b.kphi_si(nn)
+        if not self.kc_fixed:
+            inside &= (kc >= kc_lo) & (kc <= kc_hi)
+        ref = self.n_logw is not None
+        if ref:
+            lp = lp + self.n_log_weight(n)
+        if not self.kphi_fixed:
+            inside &= (kphi >= kp_lo) & (kphi <= kp_hi)
+            if not ref:
+                lp = lp - np.log(kp_hi - kp_lo)
+        if not self.cc_fixed:
+            inside &= (cc >= b.cc[0]) & (cc <= b.cc[1])
+        if not self.phic_fixed:
+            inside &= (phic >= b.phic[0]) & (phic <= b.phic[1])
+        if self.cal is None:
+            if not self.kc_fixed and not ref:
+                lp = lp - np.log(kc_hi - kc_lo)
+        else:
+            c = self.cal
+            if self.ratio:
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    z = (np.log(kc) - np.log(kphi) - self.log_q0) / c.ratio_log_sd
+                    lp += -0.5 * z * z - np.log(kc)
+                inside &= (kc > 0) & (kphi > 0)
+            elif not self.kc_fixed:
+                lp = lp - np.log(kc_hi - kc_lo)
+            if not self.cc_fixed:
+                z = (cc - c.calibration.cc) / c.cc_width
+                lp += -0.5 * z * z
+            if not self.phic_fixed:
+                z = (phic - c.calibration.phic_deg) / c.phic_sd
+                lp += -0.5 * z * z
+        lp = np.where(inside & np.isfinite(lp), lp, -np.inf)
+        return lp
+
+    def sample(self, rng: np.random.Generator, size: int) -> np.ndarray:
+        """Draws (size, 5) from the prior, SI."""
+        b = self.b
+        out = np.empty((0, 5))
+        for _ in range(200):
+            m = 2 * size
+            n = np.full(m, b.n[0]) if self.n_fixed else self._sample_n(rng, m)
+            kp_lo, kp_hi = b.kphi_si(n)
+            kc_lo, kc_hi = b.kc_si(n)
+            kphi = self.kphi_fixed_value(n) if self.kphi_fixed else rng.uniform(kp_lo, kp_hi)
+            if self.ratio:
+                q = np.exp(self.log_q0 + self.cal.ratio_log_sd * rng.standard_normal(m))
+                kc = q * kphi
+            elif self.kc_fixed:
+                kc = self.kc_fixed_value(n)
+            else:
+                kc = rng.uniform(kc_lo, kc_hi)
+            if self.cc_fixed:
+                cc = np.full(m, self.cc_value)
+            elif self.cal is None:
+                cc = rng.uniform(*b.cc, m)
+            else:
+                cc = self.cal.calibration.cc + self.cal.cc_width * rng.standard_normal(m)
+            if self.phic_fixed:
+                phic = np.full(m, self.phic_value)
+            elif self.cal is None:
+                phic = rng.uniform(*b.phic, m)
+            else:
+                phic = self.cal.calibration.phic_deg + self.cal.phic_sd * rng.standard_normal(m)
+            x = np.stack([kc, kphi, n, cc, phic], axis=1)
+            ok = np.isfinite(self.logpdf(kc, kphi, n, cc, phic))
+            out = np.concatenate([out, x[ok]])
+            if out.shape[0] >= size:
+                return out[:size]
+        raise ValueError("the prior has (almost) no mass inside the bounds")
+
+
+def as_calibration_prior(prior: Any) -> CalibrationPrior | None:
+    if isinstance(prior, str):
+        if prior != "bounds":
+            raise ValueError(
+                f"prior must be 'bounds', a Calibration or a CalibrationPrior (got {prior!r})"
+            )
+        return None
+    if prior is None:
+        return None
+    if isinstance(prior, CalibrationPrior):
+        return prior
+    if isinstance(prior, Calibration):
+        return CalibrationPrior(prior)
+    raise TypeError(f"prior must be 'bounds', a Calibration or a CalibrationPrior (got {prior!r})")

@@ -1,0 +1,250 @@
+"""HTML tables of result objects, for Jupyter (``_repr_html_``).
+
+A notebook shows an object by calling its ``_repr_html_``; the result
+classes of terracone delegate to the functions here, so a prediction, a
+list of predictions, a learned calibration, a layered fit or a batch run
+shows as a small table with the parameters in SI and US customary units
+(kc and kphi convert with n, :mod:`terracone.physics.units`).
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Tables 4-1 and 4-3 (the layout of the parameters).
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+from terracone.physics import units as u
+
+__all__ = [
+    "parameters_html",
+    "prediction_html",
+    "predictions_html",
+    "learn_html",
+    "layered_html",
+    "batch_html",
+    "fmt_value",
+]
+
+
+def fmt_value(v: Any, digits: int = 5) -> str:
+    """Human formatting: 5 significant digits (the paper prints up to 5), "-" for none."""
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return "-"
+        if v == 0:
+            return "0"
+        a = abs(v)
+        if 1e-3 <= a < 1e6:
+            s = f"{v:.{digits}g}"
+            if "e" in s:  # e.g. 1.235e+05 -> plain
+                s = f"{v:.0f}"
+            return s
+        return f"{v:.{digits - 1}e}"
+    return str(v)
+
+
+_STYLE = (
+    "border-collapse:collapse;font-variant-numeric:tabular-nums;"
+    "font-family:system-ui,sans-serif;font-size:0.9em"
+)
+_CELL = "border:1px solid #ccc;padding:2px 8px;"
+
+
+def _table(caption: str, header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
+    e = html.escape
+    th = "".join(f'<th style="{_CELL}background:#e9eef5">{e(h)}</th>' for h in header)
+    body = []
+    for r in rows:
+        cells = []
+        for j, v in enumerate(r):
+            align = "left" if j == 0 or isinstance(v, str) else "right"
+            tag = "th" if j == 0 else "td"
+            cells.append(f'<{tag} style="{_CELL}text-align:{align}">{e(fmt_value(v))}</{tag}>')
+        body.append("<tr>" + "".join(cells) + "</tr>")
+    return (
+        f'<table class="terracone" style="{_STYLE}"><caption style="text-align:left;'
+        f'font-weight:600;padding:2px 0">{e(caption)}</caption><thead><tr>{th}</tr></thead>'
+        f"<tbody>{''.join(body)}</tbody></table>"
+    )
+
+
+def _f(v: Any) -> float | None:
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
+
+
+def _param_rows(p: Any) -> list[list[Any]]:
+    """kc, kphi, n, cc, phic (and r_min) rows: name, SI value, SI unit, US value, US unit."""
+    n = p.n
+    rows = [
+        ["kc", p.kc, u.kc_unit("si"), float(u.kc_from_si(p.kc, n, "us")), u.kc_unit("us")],
+        [
+            "kphi",
+            p.kphi,
+            u.kphi_unit("si"),
+            float(u.kphi_from_si(p.kphi, n, "us")),
+            u.kphi_unit("us"),
+        ],
+        ["n", n, "-", n, "-"],
+        ["cc", p.cc, "kPa", float(u.pressure_from_si(p.cc, "us")), "psi"],
+        ["phic", p.phic_deg, "deg", p.phic_deg, "deg"],
+    ]
+    if getattr(p, "r_min", None) is not None:
+        rows.append(["r_min", p.r_min * 1000.0, "mm", p.r_min / u.INCH, "in"])
+    return rows
+
+
+_HEAD = ["Parameter", "SI", "unit", "US", "unit"]
+
+
+def parameters_html(params: Any, caption: str = "Terrain parameters") -> str:
+    """Table of a :class:`terracone.TerrainParameters` (SI and US columns)."""
+    return _table(f"{caption} (model {params.model})", _HEAD, _param_rows(params))
+
+
+def _fit_rows(rmsd: float, r2: float, lack: str | None) -> list[list[Any]]:
+    return [
+        ["RMSD of CI", _f(rmsd), "kPa", _f(u.pressure_from_si(rmsd, "us")), "psi"],
+        ["R2 of CI", _f(r2), "-", _f(r2), "-"],
+        ["lack of fit", lack or "none found", "", "", ""],
+    ]
+
+
+def prediction_html(res: Any) -> str:
+    """Table of a :class:`terracone.inverse.PredictionResult`."""
+    if not res.ok or res.params is None:
+        return _table(
+            f"Prediction {res.id}: not fitted", ["Profile", "error"], [[res.id, res.error]]
+        )
+    rows = _param_rows(res.params) + _fit_rows(res.rmsd, res.r2_ci, res.lack_of_fit)
+    if res.undetermined:
+        rows.append(["undetermined", ", ".join(res.undetermined), "", "", ""])
+    return _table(f"Prediction {res.id} (cone {res.cone})", _HEAD, rows)
+
+
+def predictions_html(results: Sequence[Any]) -> str:
+    """One row per profile of a list of :class:`PredictionResult` (SI)."""
+    header = [
+        "Profile",
+        "status",
+        "kc [kN/m^(n+1)]",
+        "kphi [kN/m^(n+2)]",
+        "n [-]",
+        "cc [kPa]",
+        "phic [deg]",
+        "RMSD [kPa]",
+        "R2 [-]",
+        "lack of fit",
+    ]
+    rows = []
+    for r in results:
+        p = r.params if r.ok else None
+        rows.append(
+            [
+                r.id,
+                r.status,
+                None if p is None else p.kc,
+                None if p is None else p.kphi,
+                None if p is None else p.n,
+                None if p is None else p.cc,
+                None if p is None else p.phic_deg,
+                _f(r.rmsd) if r.ok else None,
+                _f(r.r2_ci) if r.ok else None,
+                ("yes" if r.lack_of_fit else "no") if r.ok else r.error,
+            ]
+        )
+    n_ok = sum(1 for r in results if r.ok)
+    return _table(f"{len(rows)} predictions ({n_ok} fitted)", header, rows)
+
+
+def learn_html(res: Any) -> str:
+    """Table of a :class:`terracone.inverse.LearnResult`."""
+    rows = _param_rows(res.params)
+    rows.append(
+        ["RMSD of CI", res.rmsd_ci, "kPa", float(u.pressure_from_si(res.rmsd_ci, "us")), "psi"]
+    )
+    rows.append(
+        [
+            "RMSD of plates",
+            res.rmsd_plates,
+            "kPa",
+            float(u.pressure_from_si(res.rmsd_plates, "us")),
+            "psi",
+        ]
+    )
+    if res.plate_pair:
+        rows.append(
+            [
+                "plate radii",
+                ", ".join(fmt_value(r * 100.0, 4) for r in res.plate_pair),
+                "cm",
+                ", ".join(fmt_value(r / u.INCH, 4) for r in res.plate_pair),
+                "in",
+            ]
+        )
+    if res.undetermined:
+        rows.append(["undetermined", ", ".join(res.undetermined), "", "", ""])
+    crit: Mapping[str, Any] = res.criteria or {}
+    if crit:
+        ok = "satisfied" if crit.get("satisfied") else "NOT satisfied"
+        rows.append(["fit criterion", f"CV <= {crit.get('max_cv')}: {ok}", "", "", ""])
+    return _table(f"Learned parameters (model {res.params.model})", _HEAD, rows)
+
+
+def layered_html(res: Any) -> str:
+    """Table of a :class:`terracone.physics.layers.LayeredResult`: one row per layer (SI)."""
+    if not res.ok:
+        return _table(
+            f"Layered fit {res.id}: not fitted", ["Profile", "error"], [[res.id, res.error]]
+        )
+    header = [
+        "Layer",
+        "top [cm]",
+        "kc [kN/m^(n+1)]",
+        "kphi [kN/m^(n+2)]",
+        "n [-]",
+        "cc [kPa]",
+        "phic [deg]",
+    ]
+    tops = [0.0, *res.interfaces]
+    rows = [
+        [str(k + 1), tops[k] * 100.0, p.kc, p.kphi, p.n, p.cc, p.phic_deg]
+        for k, p in enumerate(res.layers)
+    ]
+    cap = (
+        f"Layered fit {res.id}: {len(res.layers)} layers, RMSD {fmt_value(res.rmsd, 4)} kPa, "
+        f"BIC {fmt_value(res.bic, 5)} against {fmt_value(res.bic_single, 5)} for one layer: "
+        f"{res.preferred_layers} preferred"
+    )
+    return _table(cap, header, rows)
+
+
+def batch_html(summary: Any) -> str:
+    """Table of a :class:`terracone.apps.batch.BatchSummary`."""
+    rows = [
+        ["output directory", summary.out_dir],
+        ["profiles", summary.profiles],
+        ["fitted", summary.profiles_ok],
+        ["not fitted", summary.profiles_error],
+        ["part files", summary.chunks],
+        ["wall time [s]", summary.wall_s],
+        ["profiles per second", summary.profiles_per_s],
+        ["problems", "; ".join(summary.problems) or "none"],
+    ]
+    return _table("Batch run (see terracone report OUT_DIR)", ["", ""], rows)

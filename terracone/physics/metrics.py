@@ -1,0 +1,203 @@
+"""Agreement between measured and predicted curves (Tables 4-2 and 4-4 of [1]_).
+
+References
+----------
+.. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
+   terrain parameters for physics-based vehicle mobility models from cone
+   index data. Section 4, Tables 4-2 and 4-4.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+__all__ = ["Agreement", "agreement", "pearson_r", "rmsd", "cv"]
+
+
+def pearson_r(measured: ArrayLike, predicted: ArrayLike) -> float:
+    """Coefficient of correlation R (Pearson) [-]; NaN if either is constant."""
+    m = np.asarray(measured, dtype=float)
+    p = np.asarray(predicted, dtype=float)
+    dm, dp = m - m.mean(), p - p.mean()
+    den = np.sqrt(np.sum(dm * dm) * np.sum(dp * dp))
+    return float(np.sum(dm * dp) / den) if den > 0 else float("nan")
+
+
+def rmsd(measured: ArrayLike, predicted: ArrayLike) -> float:
+    """Root mean square deviation, in the unit of the data."""
+    d = np.asarray(predicted, dtype=float) - np.asarray(measured, dtype=float)
+    return float(np.sqrt(np.mean(d * d)))
+
+
+def cv(measured: ArrayLike, predicted: ArrayLike) -> float:
+    """Coefficient of variation CV = RMSD / mean(measured) [-]."""
+    return rmsd(measured, predicted) / float(np.mean(np.asarray(measured, dtype=float)))
+
+
+@dataclass(frozen=True)
+class Agreement:
+    """R, R^2, RMSD and CV of Tables 4-2 and 4-4 (RMSD in the data's unit)."""
+
+    R: float
+    R2: float
+    RMSD: float
+    CV: float
+    n_points: int
+
+    def as_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+
+def agreement(measured: ArrayLike, predicted: ArrayLike) -> Agreement:
+    """R, R^2 = R*R, RMSD and CV between measured and predicted values."""
+    m = np.asarray(measured, dtype=float)
+    p = np.asarray(predicted, dtype=float)
+    if m.shape != p.shape or m.size < 2:
+        raise ValueError("measured and predicted must have one shape and >= 2 points")
+    r = pearson_r(m, p)
+    return Agreement(R=r, R2=r * r, RMSD=rmsd(m, p), CV=cv(m, p), n_points=int(m.size))
+
+
+@dataclass(frozen=True)
+class FitCheck:
+    """Whether a homogeneous-terrain fit follows its data.
+
+    Attributes
+    ----------
+    r2 : float
+        Coefficient of determination of the fit [-].
+    longest_run : int
+        Largest number of consecutive residuals of one sign.
+    runs_z : float
+        z-score of the Wald-Wolfowitz runs test of the residual signs
+        (strongly negative: residuals in long same-sign stretches).
+    lack_of_fit : str or None
+        None, or why the fit must not be taken for parameters.
+    """
+
+    r2: float
+    longest_run: int
+    runs_z: float
+    lack_of_fit: str | None
+
+
+def check_fit(
+    depth: ArrayLike,
+    measured: ArrayLike,
+    model: ArrayLike,
+    *,
+    min_r2: float = 0.8,
+    max_runs_z: float = -3.0,
+    max_drop: float = 0.15,
+    min_cv: float = 0.05,
+    monotone_model: bool = True,
+) -> FitCheck:
+    """Lack-of-fit diagnostics of a CI fit.
+
+    Three independent reasons flag a fit:
+
+    * R^2 below ``min_r2`` while the RMSD exceeds ``min_cv`` of the mean
+      (a flat profile fitted to its noise level has a low R^2 and no lack
+      of fit);
+    * residual signs that cluster (runs test z below ``max_runs_z``, with
+      10 or more points): the model's shape does not follow the data;
+    * measured CI that falls with depth by more than ``max_drop`` of its
+      running peak (after a 3-point running median): the homogeneous
+      model, assumption (a) of section 2 of [1]_, only rises with depth,
+      so such a profile is layered.
+
+    Parameters
+    ----------
+    depth : array_like
+        Base depths [m].
+    measured, model : array_like
+        Measured and model CI (same unit).
+    monotone_model : bool
+        The model's CI can only rise with depth (one homogeneous layer), so
+        falling measured CI is a lack of fit; False for layered models.
+    """
+    z = np.asarray(depth, float)
+    y = np.asarray(measured, float)
+    m = np.asarray(model, float)
+    r = m - y
+    ss_tot = float(np.sum((y - y.mean()) ** 2))
+    r2 = 1.0 - float(r @ r) / ss_tot if ss_tot > 0 else float("nan")
+    # residuals at rounding level carry no sign: an exact fit is not a lack of fit
+    tiny = 1e-9 * float(np.sqrt(np.mean(y * y))) if y.size else 0.0
+    s = np.where(np.abs(r) > tiny, np.sign(r), 0.0)
+    s = s[s != 0]
+    best = run = 0
+    prev = 0.0
+    for v in s:
+        run = run + 1 if v == prev else 1
+        prev = v
+        best = max(best, run)
+    n_pos, n_neg = int(np.sum(s > 0)), int(np.sum(s < 0))
+    N = n_pos + n_neg
+    runs = 1 + int(np.sum(s[1:] != s[:-1])) if N else 0
+    z_runs = float("nan")
+    if N >= 2 and n_pos and n_neg:
+        mu = 2.0 * n_pos * n_neg / N + 1.0
+        var = (mu - 1.0) * (mu - 2.0) / (N - 1.0)
+        if var > 0:
+            z_runs = (runs - mu) / np.sqrt(var)
+    reasons = []
+    cv_fit = float(np.sqrt(np.mean(r * r)) / np.mean(np.abs(y))) if np.any(y) else 0.0
+    if np.isfinite(r2) and r2 < min_r2 and cv_fit > min_cv:
+        reasons.append(
+            f"R2 of the CI fit is {r2:.2f} (below {min_r2:g}) with RMSD {cv_fit * 100:.0f}% of the mean CI"
+        )
+    if N >= 10 and np.isfinite(z_runs) and z_runs < max_runs_z:
+        reasons.append(
+            f"residuals keep one sign over long stretches (longest run {best} of {y.size} points, "
+            f"runs test z = {z_runs:.1f}): the model's shape does not follow the data"
+        )
+    if monotone_model and y.size >= 4:
+        sm = y.copy()
+        sm[1:-1] = np.median(np.stack([y[:-2], y[1:-1], y[2:]]), axis=0)
+        peak = np.maximum.accumulate(sm)
+        drop = (peak - sm) / np.where(peak > 0, peak, np.inf)
+        k = int(np.argmax(drop))
+        if drop[k] > max_drop:
+            i_peak = int(np.argmax(sm[: k + 1]))
+            reasons.append(
+                f"CI falls with depth between {z[i_peak] * 100:.3g} and {z[k] * 100:.3g} cm "
+                f"({drop[k] * 100:.0f}% below its peak): layered soil, which the homogeneous "
+                "model (assumption (a), section 2) cannot follow"
+            )
+    return FitCheck(r2, int(best), z_runs, "; ".join(reasons) if reasons else None)
+
+
+def check_fit_fast(depth: ArrayLike, measured: ArrayLike, model: ArrayLike) -> FitCheck:
+    """:func:`check_fit` with its default limits, the numbers from a compiled kernel.
+
+    :func:`terracone.inverse.solver.kernels.fit_stats` computes R^2, the longest
+    run and the runs-test z; check_fit itself runs only when a reason may
+    apply (within 1e-9 of a limit), and then decides and words it.  Plain
+    check_fit when compiled kernels are off (:func:`terracone.jit.enabled`).
+    """
+    from terracone.jit import enabled
+
+    if not enabled():
+        return check_fit(depth, measured, model)
+    from terracone.inverse.solver.kernels import fit_stats
+
+    y = np.ascontiguousarray(measured, dtype=float)
+    m = np.ascontiguousarray(model, dtype=float)
+    r2, best, z_runs, flagged = fit_stats(y, m, *_FIT_LIMITS)
+    if flagged:
+        return check_fit(depth, y, m)
+    return FitCheck(float(r2), int(best), float(z_runs), None)
+
+
+def _fit_limits() -> tuple:
+    import inspect
+
+    d = {k: v.default for k, v in inspect.signature(check_fit).parameters.items()}
+    return (d["min_r2"], d["max_runs_z"], d["max_drop"], d["min_cv"], d["monotone_model"])
+
+
+_FIT_LIMITS = _fit_limits()
