@@ -4,7 +4,7 @@ The contract (README, terracone.cli): bad input ends with one message naming
 the file, profile (or test), row and column, and a non-zero exit; never a
 traceback.  Every test here builds a file with one known defect on a known
 file line and asserts the whole error line expected for it.  An internal
-crash (``cli._Group`` turns it into "Error: internal error (...)") fails every
+crash (``terracone.cli.common.Group`` turns it into "Error: internal error (...)") fails every
 test, since its text is not the expected one.
 """
 

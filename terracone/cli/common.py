@@ -1,0 +1,380 @@
+"""Shared pieces of the command line: option groups, argument parsing in units, errors."""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from terracone.data import InputError
+from terracone.physics import units as u
+from terracone.report.text import (
+    curve_text,
+)
+
+UNITS = click.Choice(["si", "us"])
+
+
+LEN_RE = re.compile(r"^\s*([-+0-9.eE]+)\s*(m|cm|mm|in)?\s*$")
+
+
+def parse_floats(text: str, what: str) -> np.ndarray:
+    try:
+        vals = [float(s) for s in text.split(",") if s.strip()]
+    except ValueError as exc:
+        raise click.BadParameter(f"{what}: expected comma-separated numbers, got {text!r}") from exc
+    if not vals:
+        raise click.BadParameter(f"{what}: no values given")
+    return np.array(vals)
+
+
+def parse_length(text: str, units: str, what: str) -> float:
+    """'1.5in' or '3.75cm' or a bare number in the unit system's length unit -> m."""
+    m = LEN_RE.match(text)
+    if not m:
+        raise click.BadParameter(
+            f"{what}: expected a length such as 0.05, 5cm or 2in, got {text!r}"
+        )
+    v = float(m.group(1))
+    if m.group(2):
+        return v * u.LENGTH_UNITS[m.group(2)]
+    return float(u.length_to_si(v, units))
+
+
+def parse_lengths(text: str | None, units: str, what: str) -> list[float]:
+    if not text:
+        return []
+    return [parse_length(s, units, what) for s in text.split(",") if s.strip()]
+
+
+def parse_depth_range(text: str | None, units: str) -> tuple[float | None, float | None]:
+    """'LO:HI' (either side may be empty; numbers with a unit suffix or in --units) -> m."""
+    if not text:
+        return None, None
+    if ":" not in text:
+        raise click.BadParameter(f"--depth-range: expected LO:HI, got {text!r}")
+    lo_s, hi_s = text.split(":", 1)
+    lo = parse_length(lo_s, units, "--depth-range") if lo_s.strip() else None
+    hi = parse_length(hi_s, units, "--depth-range") if hi_s.strip() else None
+    if lo is not None and hi is not None and lo >= hi:
+        raise click.BadParameter(f"--depth-range: LO must be below HI, got {text!r}")
+    return lo, hi
+
+
+def parse_r_min_range(text: str | None, units: str) -> tuple[float, float] | None:
+    """'LO:HI' of r_min (numbers with a unit suffix or in --units) -> m."""
+    if not text:
+        return None
+    if ":" not in text:
+        raise click.BadParameter(f"--r-min-range: expected LO:HI, got {text!r}")
+    lo_s, hi_s = text.split(":", 1)
+    if not lo_s.strip() or not hi_s.strip():
+        raise click.BadParameter(f"--r-min-range: give both LO and HI, got {text!r}")
+    lo = parse_length(lo_s, units, "--r-min-range")
+    hi = parse_length(hi_s, units, "--r-min-range")
+    if not (0 < lo <= hi):
+        raise click.BadParameter(f"--r-min-range: need 0 < LO <= HI, got {text!r}")
+    return lo, hi
+
+
+def windowed(items, rng: tuple[float | None, float | None], units: str):
+    """Restrict profiles to a depth window, with a note; reader errors pass through.
+
+    The window is the package's one depth window,
+    :func:`terracone.data.depth_window` (through :meth:`CIProfile.window`,
+    as :meth:`ProfileSet.window` and ``terracone batch`` apply it).
+    """
+    lo, hi = rng
+    if lo is None and hi is None:
+        return items
+    a = "-" if lo is None else f"{float(u.length_from_si(lo, units)):g}"
+    b = "-" if hi is None else f"{float(u.length_from_si(hi, units)):g}"
+    span = f"depth window {a}:{b} {u.length_unit(units)}"
+    out = []
+    for it in items:
+        if isinstance(it, InputError):
+            out.append(it)
+            continue
+        w = it.window(lo, hi)
+        w.notes = list(it.notes) + [f"{span}: {len(w)} of {len(it)} points"]
+        out.append(w)
+    return out
+
+
+def emit_json(obj: Any, out: str | None = None) -> None:
+    """Print a JSON document, or write it to ``out`` (terracone.result's one JSON writer)."""
+    from terracone.result import dumps
+
+    text = dumps(obj)
+    if out:
+        Path(out).write_text(text + "\n")
+    else:
+        click.echo(text)
+
+
+def echo_curve(xkey, x, ykey, y, units: str, as_json: bool) -> None:
+    """A length-pressure curve as JSON ``{x, y, "units"}`` or as a two-column table."""
+    if as_json:
+        emit_json(
+            {xkey[0]: np.asarray(x).tolist(), ykey[0]: np.asarray(y).tolist(), "units": units}
+        )
+        return
+    heads = [f"{xkey[1]} [{u.length_unit(units)}]", f"{ykey[1]} [{u.pressure_unit(units)}]"]
+    click.echo(curve_text(heads, x, y))
+
+
+def os_error_text(exc: OSError) -> str:
+    """A file system error in words: what could not be done to which file, and why.
+
+    ``[Errno 2] No such file or directory: 'out/x.json'`` becomes
+    ``cannot use out/x.json: no such file or directory (folder out does not exist)``.
+    """
+    name = exc.filename
+    if name is None:
+        return str(exc)
+    why = (exc.strerror or str(exc)).lower()
+    parent = Path(os.fspath(name)).parent
+    if isinstance(exc, FileNotFoundError) and str(parent) not in ("", ".") and not parent.exists():
+        why += f" (folder {parent} does not exist)"
+    return f"cannot use {os.fspath(name)}: {why}"
+
+
+class Group(click.Group):
+    """Turns every error into one message and a non-zero exit."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort):
+            raise
+        except InputError as exc:
+            raise click.ClickException(str(exc)) from None
+        except KeyError as exc:
+            raise click.ClickException(str(exc.args[0]) if exc.args else repr(exc)) from None
+        except OSError as exc:
+            raise click.ClickException(os_error_text(exc)) from None
+        except ValueError as exc:
+            raise click.ClickException(str(exc)) from None
+        except Exception as exc:  # pragma: no cover - a bug, but no traceback for users
+            if os.environ.get("TERRACONE_DEBUG"):
+                raise
+            raise click.ClickException(
+                f"internal error ({type(exc).__name__}: {exc}); set TERRACONE_DEBUG=1 for a traceback"
+            ) from None
+
+
+def shared(*decorators):
+    """Apply several click decorators as one (options common to predict and batch)."""
+
+    def apply(f):
+        for d in reversed(decorators):
+            f = d(f)
+        return f
+
+    return apply
+
+
+wide_options = (
+    click.option(
+        "--depth-unit",
+        type=click.Choice(list(u.LENGTH_UNITS)),
+        default=None,
+        help="Wide tables: unit of depth headers written as bare numbers.",
+    ),
+    click.option(
+        "--ci-unit",
+        type=click.Choice(["kpa", "mpa", "psi"]),
+        default=None,
+        help="Wide tables: unit of the readings, unless the file states it.",
+    ),
+)
+
+
+#: --out and --json of a command that writes one JSON document.
+json_options = (
+    click.option(
+        "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
+    ),
+    click.option("--json", "as_json", is_flag=True, help="Print JSON."),
+)
+
+
+fit_options = shared(
+    click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True),
+    click.option(
+        "--r-min",
+        default=None,
+        help="RM1 transition radius (e.g. 0.01, 1cm, 0.4in; bare numbers in --units).",
+    ),
+    click.option(
+        "--calibration",
+        type=click.Path(dir_okay=False),
+        default=None,
+        help="Calibration JSON from `terracone learn --save`.",
+    ),
+    click.option(
+        "--terrain", default=None, help="Use a calibration stored in the terrain library."
+    ),
+    click.option(
+        "--library",
+        default=None,
+        help="Terrain library path (default: $TERRACONE_LIBRARY or the user data dir).",
+    ),
+    click.option(
+        "--bounds", default=None, help="kc=LO:HI,kphi=LO:HI,n=LO:HI,cc=LO:HI,phic=LO:HI in --units."
+    ),
+    click.option("--units", type=UNITS, default="si", show_default=True),
+    click.option(
+        "--cone",
+        default="asabe-large",
+        show_default=True,
+        help="Cone when the input does not name one: a name (asabe-large, asabe-small, "
+        "penetrologger-1cm2|2cm2|3.33cm2|5cm2), DIAMETER:ANGLE (20.27mm:30) or AREA:ANGLE (5cm2:60).",
+    ),
+    click.option(
+        "--format",
+        "fmt",
+        type=click.Choice(["csv", "sc900", "wide"]),
+        default=None,
+        help="Input format (detected by default); wide: one row per push, one column per depth.",
+    ),
+    *wide_options,
+    click.option(
+        "--depth-ref",
+        type=click.Choice(["base", "tip"]),
+        default="base",
+        show_default=True,
+        help="Whether input depths are those of the cone base or tip.",
+    ),
+    click.option(
+        "--depth-range",
+        default=None,
+        help="Fit only LO:HI of base depth (e.g. 0.05:0.30, 5cm:30cm; bare numbers in --units).",
+    ),
+    click.option(
+        "--layers",
+        type=click.IntRange(1, 4),
+        default=1,
+        show_default=True,
+        help="Also fit a terrain of this many layers (interfaces fitted) and compare by BIC.",
+    ),
+)
+
+
+def read_profiles(
+    path, cone, fmt, depth_ref, collect=True, units=None, depth_unit=None, ci_unit=None
+):
+    from terracone.io import read_ci_profiles
+
+    return read_ci_profiles(
+        path,
+        cone=cone,
+        depth_ref=depth_ref,
+        format=fmt,
+        on_error="collect" if collect else "raise",
+        units=units,
+        depth_unit=depth_unit,
+        ci_unit=ci_unit,
+    )
+
+
+def fit_items(ci_file, cone, fmt, depth_ref, depth_range, units, file_units, depth_unit, ci_unit):
+    """CI profiles of a fit command, read and cut to --depth-range (bad ones as InputError)."""
+    return windowed(
+        read_profiles(
+            ci_file,
+            cone,
+            fmt,
+            depth_ref,
+            units=file_units,
+            depth_unit=depth_unit,
+            ci_unit=ci_unit,
+        ),
+        parse_depth_range(depth_range, units),
+        units,
+    )
+
+
+@dataclass
+class FitArgs:
+    """The parsed ``fit_options`` of a command (lengths in m)."""
+
+    model: str
+    r_min: float | None
+    calibration: Any
+    bounds: Any
+    units: str
+    layers: int
+    depth_range: str | None
+    reading: dict[str, Any]
+
+    def items(self, ci_file: str, file_units: str | None = None) -> list[Any]:
+        """The command's CI profiles, cut to --depth-range (bad ones as InputError)."""
+        r = self.reading
+        return fit_items(
+            ci_file, r["cone"], r["fmt"], r["depth_ref"], self.depth_range, self.units,
+            file_units, r["depth_unit"], r["ci_unit"],
+        )  # fmt: skip
+
+    def check_r_min(self, calibration: Any) -> None:
+        if self.model == "rm1" and self.r_min is None and calibration is None:
+            raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
+
+
+def fit_args(opts: dict[str, Any]) -> FitArgs:
+    """Parse the ``fit_options`` given to a command as ``**opts``."""
+    from terracone.inverse import Bounds
+
+    units = opts["units"]
+    return FitArgs(
+        model=opts["model"],
+        bounds=Bounds.parse(opts["bounds"], units),
+        r_min=parse_length(opts["r_min"], units, "--r-min") if opts["r_min"] else None,
+        calibration=load_calibration(opts["calibration"], opts["terrain"], opts["library"]),
+        units=units,
+        layers=opts["layers"],
+        depth_range=opts["depth_range"],
+        reading={k: opts[k] for k in ("cone", "fmt", "depth_ref", "depth_unit", "ci_unit")},
+    )
+
+
+def load_calibration(calibration: str | None, terrain: str | None, library: str | None):
+    from terracone.inverse.learning.learn import Calibration
+
+    if calibration and terrain:
+        raise click.UsageError("give at most one of --calibration and --terrain")
+    if calibration:
+        return Calibration.load(calibration)
+    if terrain:
+        from terracone.apps.library import Library
+
+        rec = Library(library).get(terrain)
+        return Calibration.from_library_record(rec)
+    return None
+
+
+def load_prior(prior: str, library: str | None):
+    """--prior: "bounds", or the calibration stored in the library as terrain:NAME."""
+    from terracone.apps.library import Library
+    from terracone.inverse.learning.learn import Calibration
+
+    if prior == "bounds":
+        return "bounds"
+    if prior.startswith("terrain:"):
+        with Library(library) as lib:
+            return Calibration.from_library_record(lib.get(prior.split(":", 1)[1]))
+    raise click.BadParameter(f"--prior: expected bounds or terrain:NAME, got {prior!r}")
+
+
+def store_in_library(
+    library: str | None, name: str, kind: str, params: dict, provenance: dict
+) -> None:
+    from terracone.apps.library import Library
+
+    with Library(library) as lib:
+        lib.add(name, kind, params, provenance, replace=True)

@@ -1,0 +1,495 @@
+"""Fitting cone index profiles: ``predict``, ``learn``, ``evaluate``, ``sites`` and ``design``."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from terracone import __version__
+from terracone.cli.common import (
+    UNITS,
+    emit_json,
+    fit_args,
+    fit_items,
+    fit_options,
+    json_options,
+    load_calibration,
+    load_prior,
+    parse_depth_range,
+    parse_length,
+    parse_lengths,
+    parse_r_min_range,
+    read_profiles,
+    shared,
+    wide_options,
+    windowed,
+)
+from terracone.data import InputError, TerrainParameters
+from terracone.physics import units as u
+from terracone.report.text import (
+    design_text,
+    evaluate_text,
+    learn_text,
+    predict_text,
+    sites_text,
+)
+from terracone.report.text import layered_text as _layered_text  # the names predict_cmd prints with
+from terracone.report.text import posterior_text as _posterior_text
+
+
+@click.command("predict")
+@click.argument("ci_file", type=click.Path(dir_okay=False))
+@fit_options
+@click.option("--solver", type=click.Choice(["exact", "pso"]), default="exact", show_default=True)
+@click.option("--seed", type=int, default=None, help="Seed of the particle swarm.")
+@click.option(
+    "--plates", default=None, help="Plate radii for predicted P-S curves, e.g. 1.5in,2.5in."
+)
+@click.option(
+    "--file-units",
+    type=UNITS,
+    default=None,
+    help="Unit system of an input that does not state its units (an SC900 export without its unit line).",
+)
+@click.option(
+    "--uncertainty",
+    is_flag=True,
+    help="Posterior 90% intervals, identifiability labels and plate bands (emcee).",
+)
+@click.option(
+    "--draws", type=int, default=2000, show_default=True, help="Posterior draws with --uncertainty."
+)
+@click.option(
+    "--prior",
+    default="bounds",
+    show_default=True,
+    help="Prior with --uncertainty: bounds (uniform) or terrain:NAME (a stored calibration).",
+)
+@click.option(
+    "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
+)
+@click.option(
+    "--parquet",
+    "parquet_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Also write the results as a Parquet table, with batch's columns (docs/results.md).",
+)
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def predict_cmd(
+    ci_file,
+    model,
+    r_min,
+    calibration,
+    terrain,
+    library,
+    solver,
+    seed,
+    bounds,
+    units,
+    plates,
+    cone,
+    fmt,
+    depth_ref,
+    depth_range,
+    file_units,
+    uncertainty,
+    draws,
+    prior,
+    layers,
+    out,
+    parquet_path,
+    as_json,
+    depth_unit,
+    ci_unit,
+):
+    """Predict kc, kphi, n, cc, phic from CI profiles (section 3.3.2)."""
+    from terracone.apps.workflow import predict_profiles, sinkage_grid
+    from terracone.inverse import Bounds
+
+    b = Bounds.parse(bounds, units)
+    rm = parse_length(r_min, units, "--r-min") if r_min else None
+    if model == "rm1" and rm is None and not (calibration or terrain):
+        raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
+    cal = load_calibration(calibration, terrain, library)
+    radii = parse_lengths(plates, units, "--plates")
+    items = fit_items(
+        ci_file, cone, fmt, depth_ref, depth_range, units, file_units, depth_unit, ci_unit
+    )
+    run = predict_profiles(
+        items,
+        model=model,
+        r_min=rm,
+        calibration=cal,
+        solver=solver,
+        bounds=b,
+        seed=seed,
+        plates=radii,
+        sinkage=sinkage_grid(units),
+        uncertainty=uncertainty,
+        prior=load_prior(prior, library) if uncertainty else "bounds",
+        draws=draws,
+        band_sinkage=sinkage_grid(units, 21),
+        layers=layers,
+    )
+    results = run.results
+    doc = run.as_dict(units, input=str(ci_file), depth_ref=depth_ref, depth_range=depth_range)
+    if out:
+        emit_json(doc, out)
+    if parquet_path:
+        from terracone.result import write_parquet
+
+        write_parquet(parquet_path, results, units)
+    if as_json:
+        emit_json(doc)
+    else:
+        click.echo(predict_text(results, units))
+        if run.posteriors:
+            click.echo(_posterior_text(run.posteriors, units))
+        if run.layered:
+            click.echo(_layered_text(run.layered, units))
+    if not any(r.ok for r in results):
+        sys.exit(1)
+
+
+@click.command("learn")
+@click.option(
+    "--ci",
+    "ci_file",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="CI profiles of the terrain.",
+)
+@click.option(
+    "--plates",
+    "plates_file",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Plate tests of the terrain.",
+)
+@click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm1", show_default=True)
+@click.option("--bounds", default=None, help="kc=LO:HI,... as for predict, in --units.")
+@click.option("--units", type=UNITS, default="si", show_default=True)
+@click.option(
+    "--cone",
+    default="asabe-large",
+    show_default=True,
+    help="Cone when the input does not name one (as predict --cone).",
+)
+@click.option("--format", "fmt", type=click.Choice(["csv", "sc900", "wide"]), default=None)
+@shared(*wide_options)
+@click.option("--depth-ref", type=click.Choice(["base", "tip"]), default="base", show_default=True)
+@click.option(
+    "--depth-range", default=None, help="Fit only LO:HI of the CI profiles (as for predict)."
+)
+@click.option(
+    "--r-min-range",
+    default=None,
+    help="Search range LO:HI of the RM1 transition radius r_min, in --units or with a unit "
+    "suffix (default: 0.5 mm to 3 times the larger plate).",
+)
+@click.option(
+    "--terrain-name", default=None, help="Label of the calibration (default: the CI file's stem)."
+)
+@click.option(
+    "--save",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Save the calibration (JSON) here.",
+)
+@click.option(
+    "--save-as", default=None, help="Store the calibration in the terrain library under this name."
+)
+@click.option(
+    "--library",
+    default=None,
+    help="Terrain library path (default: $TERRACONE_LIBRARY or the user data dir).",
+)
+@click.option("--json", "as_json", is_flag=True)
+def learn_cmd(
+    ci_file,
+    plates_file,
+    model,
+    bounds,
+    units,
+    cone,
+    fmt,
+    depth_ref,
+    depth_range,
+    r_min_range,
+    terrain_name,
+    save,
+    save_as,
+    library,
+    as_json,
+    depth_unit,
+    ci_unit,
+):
+    """Learn r_min, cc, phic and the P-S parameters from CI and plate tests (section 3.3.1)."""
+    from terracone.inverse import Bounds
+    from terracone.inverse.learning.learn import learn
+    from terracone.io import read_plate_tests
+
+    profiles = read_profiles(
+        ci_file, cone, fmt, depth_ref, collect=False, depth_unit=depth_unit, ci_unit=ci_unit
+    )
+    profiles = windowed(profiles, parse_depth_range(depth_range, units), units)
+    plates = read_plate_tests(plates_file)
+    rb = parse_r_min_range(r_min_range, units)
+    if rb is not None and model != "rm1":
+        raise click.BadParameter("--r-min-range: only with --model rm1")
+    res = learn(profiles, plates, model=model, bounds=Bounds.parse(bounds, units), r_min_bounds=rb)
+    label = save_as or terrain_name or Path(ci_file).stem
+    cal = res.calibration(
+        label, cone=profiles[0].cone.name, ci_file=str(ci_file), plates_file=str(plates_file)
+    )
+    if save:
+        cal.save(save)
+    if save_as:
+        from terracone.apps.library import Library
+
+        with Library(library) as lib:
+            lib.add(save_as, "calibration", cal.library_params(), cal.provenance, replace=True)
+    d = res.as_dict(units)
+    d.update(
+        {
+            "terrain": label,
+            "terracone": __version__,
+            "command": "learn",
+            "saved": save,
+            "saved_as": save_as,
+        }
+    )
+    if as_json:
+        emit_json(d)
+        return
+    click.echo(learn_text(d, units))
+
+
+@click.command("evaluate")
+@click.option("--plates", "plates_file", required=True, type=click.Path(dir_okay=False))
+@click.option("--kc", type=float, default=None)
+@click.option("--kphi", type=float, default=None)
+@click.option("--n", "n", type=float, default=None)
+@click.option(
+    "--params",
+    "params_file",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="JSON of predict or learn.",
+)
+@click.option("--units", type=UNITS, default="si", show_default=True)
+@click.option("--json", "as_json", is_flag=True)
+def evaluate_cmd(plates_file, kc, kphi, n, params_file, units, as_json):
+    """R, R2, RMSD and CV of predicted against measured plate P-S curves (Tables 4-2, 4-4)."""
+    from terracone.inverse.evaluate import cross_table, parameters_from_json
+    from terracone.io import read_plate_tests
+
+    if params_file and any(v is not None for v in (kc, kphi, n)):
+        raise click.UsageError("give either --kc/--kphi/--n or --params, not both")
+    if params_file:
+        preds = parameters_from_json(params_file)
+    else:
+        if kc is None or kphi is None or n is None:
+            raise click.UsageError("give --kc, --kphi and --n, or --params")
+        preds = [
+            ("given", TerrainParameters.from_dict({"kc": kc, "kphi": kphi, "n": n, "units": units}))
+        ]
+    plates = read_plate_tests(plates_file)
+    rows = cross_table(preds, plates)
+    if as_json:
+        emit_json({"plates": [r.as_dict(units) for r in rows], "units": units})
+        return
+    click.echo(evaluate_text(rows, units))
+
+
+def _sites_doc(ci_file, by, L, cal, model, b, depth_range, target_cv, bootstrap, seed, units):
+    """The head of the ``terracone sites --json`` document (command, input, settings)."""
+    return {
+        "terracone": __version__,
+        "command": "sites",
+        "input": str(ci_file),
+        "settings": {
+            "by": by,
+            "radius": None if L is None else float(u.length_from_si(L, units)),
+            "model": cal.model if cal else model,
+            "calibration": cal.terrain if cal else None,
+            "bounds": b.as_dict(units),
+            "depth_range": depth_range,
+            "target_cv": target_cv,
+            "bootstrap": bootstrap if bootstrap is not None else (0 if cal else 40),
+            "seed": seed,
+            "units": units,
+        },
+    }
+
+
+@click.command("sites")
+@click.argument("ci_file", type=click.Path(dir_okay=False))
+@fit_options
+@click.option(
+    "--by",
+    "by",
+    default=None,
+    help="Metadata column(s) naming each profile's site, e.g. plot or plot,date.",
+)
+@click.option(
+    "--radius",
+    default=None,
+    help="Group by distance: profiles with latitude/longitude within this radius (e.g. 10m).",
+)
+@click.option(
+    "--plates",
+    default=None,
+    help="Plate radii of the site P-S curves, e.g. 1.5in,2in (default 3.75cm,5cm).",
+)
+@click.option(
+    "--target-cv",
+    type=float,
+    default=0.1,
+    show_default=True,
+    help="Target CV of the site-mean plate pressure for profiles_needed.",
+)
+@click.option(
+    "--bootstrap",
+    type=click.IntRange(0, 1000),
+    default=None,
+    help="Bootstrap replicates of each push's estimation noise (0: linearised; "
+    "default 40 without a calibration, 0 with one).",
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the bootstrap.")
+@click.option(
+    "--file-units",
+    type=UNITS,
+    default=None,
+    help="Unit system of an input that does not state its units.",
+)
+@shared(*json_options)
+def sites_cmd(
+    ci_file, by, radius, plates, target_cv, bootstrap, seed, file_units, out, as_json, **opts
+):
+    """Site statistics: pushes pooled per site (median terrain, push-to-push CV, pushes needed)."""
+    from terracone.inverse.sites.statistics import default_sinkages, site_statistics
+
+    if by is None and radius is None:
+        raise click.UsageError("give --by COLUMN or --radius L to group the profiles into sites")
+    if opts["layers"] > 1:
+        raise click.UsageError("sites pools one-layer fits; --layers is not supported here")
+    if not target_cv > 0:
+        raise click.BadParameter(f"--target-cv: must be > 0, got {target_cv}")
+    a = fit_args(opts)
+    a.check_r_min(a.calibration)
+    units, cal = a.units, a.calibration
+    L = parse_length(radius, units, "--radius") if radius else None
+    run = site_statistics(
+        a.items(ci_file, file_units),
+        by=by,
+        radius=L,
+        source=str(ci_file),
+        model=a.model,
+        r_min=a.r_min,
+        calibration=cal,
+        bounds=a.bounds,
+        plates=parse_lengths(plates, units, "--plates") or [0.0375, 0.05],
+        sinkage=default_sinkages(units),
+        target_cv=target_cv,
+        bootstrap=bootstrap,
+        seed=seed,
+    )
+    doc = _sites_doc(
+        ci_file, by, L, cal, a.model, a.bounds, a.depth_range, target_cv, bootstrap, seed, units
+    )
+    doc.update(run.as_dict(units))
+    if out:
+        emit_json(doc, out)
+    if as_json:
+        emit_json(doc)
+    else:
+        click.echo(sites_text(doc["sites"], units))
+        for d in doc["unassigned"]:
+            click.echo(f"not in a site: {d['id']}: {d['reason']}")
+        for e in doc["errors"]:
+            click.echo(f"not read: {e}")
+    if not run.fitted_any:
+        sys.exit(1)
+
+
+@click.command("design")
+@click.argument("ci_file", type=click.Path(dir_okay=False))
+@fit_options
+@click.option(
+    "--prior",
+    default="bounds",
+    show_default=True,
+    help="bounds (uniform) or terrain:NAME (a stored calibration); --calibration also sets it.",
+)
+@click.option("--plates", required=True, help="Plate radii of the prediction, e.g. 5cm or 2in.")
+@click.option(
+    "--candidates",
+    default="plate:5cm,plate:10cm,ci,shear",
+    show_default=True,
+    help="Candidate extra tests: plate:RADIUS, ci, shear.",
+)
+@click.option(
+    "--plate-noise",
+    type=float,
+    default=0.05,
+    show_default=True,
+    help="Relative error of one plate reading.",
+)
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def design_cmd(ci_file, prior, plates, candidates, plate_noise, as_json, **opts):
+    """Value of information: which one extra test narrows the predicted plate pressure most."""
+    from terracone.inverse.sites.design import parse_candidates, plan_test
+
+    if opts["layers"] > 1:
+        raise click.UsageError("design works on one-layer fits; --layers is not supported here")
+    if not plate_noise > 0:
+        raise click.BadParameter(f"--plate-noise: must be > 0, got {plate_noise}")
+    a = fit_args(opts)
+    units, cal = a.units, a.calibration
+    if prior.startswith("terrain:"):
+        if cal is not None:
+            raise click.UsageError(
+                "give the calibration once: --prior terrain:NAME or --calibration"
+            )
+        cal = load_prior(prior, opts["library"])
+    elif prior != "bounds":
+        raise click.BadParameter(f"--prior: expected bounds or terrain:NAME, got {prior!r}")
+    a.check_r_min(cal)
+    radii = parse_lengths(plates, units, "--plates")
+    try:
+        cands = parse_candidates(candidates, units)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
+    designs = []
+    for it in a.items(ci_file):
+        if isinstance(it, InputError):
+            designs.append({"id": str(it.profile), "status": "error", "error": str(it)})
+            continue
+        r = plan_test(
+            it,
+            candidates=cands,
+            plates=radii,
+            prior=cal if cal is not None else "bounds",
+            bounds=a.bounds,
+            model=a.model,
+            r_min=a.r_min,
+            plate_noise=plate_noise,
+        )
+        designs.append(r.as_dict(units))
+    doc = {
+        "terracone": __version__,
+        "command": "design",
+        "input": str(ci_file),
+        "settings": {"candidates": candidates, "plate_noise": plate_noise, "units": units},
+        "designs": designs,
+    }
+    if as_json:
+        emit_json(doc)
+    else:
+        click.echo(design_text(designs, units))
+    if not any(d["status"] == "ok" for d in designs):
+        sys.exit(1)

@@ -1,0 +1,145 @@
+"""The terrain library: ``terracone library list|show|add|remove|import|export``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import click
+
+from terracone.cli.common import (
+    Group,
+    emit_json,
+)
+from terracone.report.text import (
+    library_text,
+)
+
+
+@click.group("library", cls=Group)
+@click.option(
+    "--library",
+    "library_path",
+    default=None,
+    help="Library path (default: $TERRACONE_LIBRARY or the user data dir).",
+)
+@click.pass_context
+def library_grp(ctx, library_path):
+    """The terrain library: reference terrains, calibrations, bevameter fits."""
+    ctx.obj = {"library": library_path}
+
+
+@library_grp.command("list")
+@click.option(
+    "--kind", default=None, help="Only this kind (reference, calibration, bevameter-fit)."
+)
+@click.option("--json", "as_json", is_flag=True)
+@click.pass_context
+def library_list(ctx, kind, as_json):
+    """List the stored terrains."""
+    from terracone.apps.library import Library
+
+    with Library(ctx.obj["library"]) as lib:
+        recs = lib.list(kind)
+    if as_json:
+        emit_json([r.to_dict() for r in recs])
+        return
+    click.echo(library_text(recs))
+
+
+@library_grp.command("show")
+@click.argument("name")
+@click.pass_context
+def library_show(ctx, name):
+    """Show one terrain (JSON, SI)."""
+    from terracone.apps.library import Library
+
+    with Library(ctx.obj["library"]) as lib:
+        emit_json(lib.get(name).to_dict())
+
+
+@library_grp.command("add")
+@click.argument("name")
+@click.option("--kind", default="user", show_default=True)
+@click.option(
+    "--param",
+    "params",
+    multiple=True,
+    help="KEY=VALUE in SI (kc, kphi, n, c_kpa, phi_deg, K_m, cc, phic_deg, r_min, ...).",
+)
+@click.option(
+    "--from-json",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Parameters from a JSON object (SI).",
+)
+@click.option("--source", default=None, help="Provenance: where the values come from.")
+@click.option("--replace", is_flag=True)
+@click.pass_context
+def library_add(ctx, name, kind, params, from_json, source, replace):
+    """Add a terrain."""
+    from terracone.apps.library import Library, make_provenance
+
+    p: dict[str, Any] = {}
+    if from_json:
+        try:
+            doc = json.loads(Path(from_json).read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ValueError(f"file {from_json}: cannot read JSON ({exc})") from None
+        if not isinstance(doc, dict):
+            raise ValueError(f"file {from_json}: expected a JSON object of parameters")
+        p.update(doc)
+    for kv in params:
+        if "=" not in kv:
+            raise click.BadParameter(f"--param: expected KEY=VALUE, got {kv!r}")
+        k, v = kv.split("=", 1)
+        try:
+            p[k.strip()] = float(v)
+        except ValueError:
+            p[k.strip()] = v.strip()
+    with Library(ctx.obj["library"]) as lib:
+        rec = lib.add(
+            name, kind, p, make_provenance(source=source, method="library add"), replace=replace
+        )
+    click.echo(f"added {rec.name!r} ({rec.kind})")
+
+
+@library_grp.command("remove")
+@click.argument("name")
+@click.pass_context
+def library_remove(ctx, name):
+    """Remove a terrain (reference terrains cannot be removed)."""
+    from terracone.apps.library import Library
+
+    with Library(ctx.obj["library"]) as lib:
+        lib.remove(name)
+    click.echo(f"removed {name!r}")
+
+
+@library_grp.command("import")
+@click.argument("path", type=click.Path(dir_okay=False))
+@click.option("--replace", is_flag=True)
+@click.pass_context
+def library_import(ctx, path, replace):
+    """Import terrains from a JSON file written by `library export`."""
+    from terracone.apps.library import Library
+
+    with Library(ctx.obj["library"]) as lib:
+        rep = lib.import_(path, replace=replace)
+    click.echo(f"imported {len(rep.imported)}, skipped {len(rep.skipped)}")
+    for name, why in rep.skipped:
+        click.echo(f"  skipped {name!r}: {why}", err=True)
+
+
+@library_grp.command("export")
+@click.argument("path", type=click.Path(dir_okay=False))
+@click.option("--include-builtin", is_flag=True, help="Also the packaged reference terrains.")
+@click.pass_context
+def library_export(ctx, path, include_builtin):
+    """Export terrains to a JSON file."""
+    from terracone.apps.library import Library
+
+    with Library(ctx.obj["library"]) as lib:
+        k = lib.export(path, include_builtin=include_builtin)
+    click.echo(f"exported {k} terrains to {path}")
