@@ -64,7 +64,10 @@ __all__ = [
     "dumps",
     "empty_columns",
     "from_document",
+    "from_table",
     "read_json",
+    "read_results",
+    "PosteriorSummary",
     "result_columns",
     "settings_dict",
     "to_document",
@@ -202,6 +205,64 @@ class PlateCurve:
             "sinkage": [float(v) for v in u.length_from_si(self.sinkage, units)],
             "pressure": [float(v) for v in u.pressure_from_si(self.pressure, units)],
         }
+
+
+@dataclass
+class PosteriorSummary:
+    """A posterior as a result file keeps it: intervals, labels and, from JSON, the draws (SI).
+
+    :func:`read_results` attaches one to :attr:`PredictionResult.posterior`
+    where a fitted :class:`~terracone.inverse.uncertainty.posterior.PosteriorResult`
+    would be; both have ``intervals``, ``identifiability``, ``samples``,
+    ``prior`` and ``level``, so readers of results need not tell them apart.
+
+    Attributes
+    ----------
+    intervals : dict
+        Equal-tailed credible interval (lo, hi) per parameter (SI): kc
+        [kN/m^(n+1)], kphi [kN/m^(n+2)], n [-], cc [kPa], phic_deg [deg].
+    identifiability : dict
+        "determined", "weakly determined" or "set by prior" per parameter.
+    samples : ndarray or None, shape (draws, 5)
+        Posterior draws of kc, kphi, n, cc, phic_deg (SI); only JSON written
+        with the draws (``predict --uncertainty --json``) has them.
+    prior : str or None
+        "bounds" or "calibration:<terrain>", when the file records it.
+    level : float
+        Credibility level of the intervals [-].
+    """
+
+    intervals: dict[str, tuple[float, float]]
+    identifiability: dict[str, str] = field(default_factory=dict)
+    samples: np.ndarray | None = None
+    prior: str | None = None
+    level: float = 0.9
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        """``intervals`` and ``identifiability`` of a profile in a prediction document.
+
+        kc and kphi are converted with the middle of n's interval (the draws,
+        which a US document converts one by one, are not always kept).
+        """
+        units = u.check_system(units)
+        n = self.intervals.get("n", (1.0, 1.0))
+        mid = 0.5 * (n[0] + n[1])
+        return {
+            "intervals": _intervals_from_si(self.intervals, mid, units),
+            "identifiability": dict(self.identifiability),
+        }
+
+    def samples_dict(self, units: str = "si") -> dict[str, Any] | None:
+        """The draws as ``{"names", "units", "values"}`` (each converted with its own n)."""
+        if self.samples is None:
+            return None
+        s = np.array(self.samples, dtype=float)
+        if units != "si":
+            n = s[:, 2]
+            s[:, 0] = u.kc_from_si(s[:, 0], n, units)
+            s[:, 1] = u.kphi_from_si(s[:, 1], n, units)
+            s[:, 3] = u.pressure_from_si(s[:, 3], units)
+        return {"names": list(UQ_PARAMS), "units": units, "values": s.tolist()}
 
 
 @dataclass
@@ -357,8 +418,9 @@ class PredictionResult:
             d["plates"] = [c.as_dict(units) for c in self.plate_curves]
         if self.posterior is not None:
             d.update(self.posterior.as_dict(units))
-            if samples:
-                d["samples"] = self.posterior.samples_dict(units)
+            draws = self.posterior.samples_dict(units) if samples else None
+            if draws is not None:
+                d["samples"] = draws
         if self.layered is not None:
             d["layered"] = self.layered.as_dict(units)
             if self.layered_posterior is not None:
@@ -401,7 +463,18 @@ class PredictionResult:
 
 
 class PredictionResults(list):
-    """A list of :class:`PredictionResult` that shows as one table in Jupyter."""
+    """A list of :class:`PredictionResult` that shows as one table in Jupyter.
+
+    ``settings`` holds the settings of the run that wrote them, as the file
+    records them (the ``settings`` of a JSON document, of a batch's
+    ``_run.json``), e.g. ``settings.get("calibration")``; empty otherwise.
+    """
+
+    settings: dict[str, Any]
+
+    def __init__(self, results: Iterable[PredictionResult] = (), settings: Any = None) -> None:
+        super().__init__(results)
+        self.settings = dict(settings or {})
 
     def _repr_html_(self) -> str:
         from terracone.notebook import predictions_html
@@ -591,6 +664,47 @@ _FIT_KEYS = {
 }
 
 
+_POSTERIOR_KEYS = {"intervals", "identifiability", "samples"}
+
+
+def _samples_to_si(block: Mapping[str, Any]) -> np.ndarray:
+    names = list(block.get("names", []))
+    if names != list(UQ_PARAMS):
+        raise ValueError(f"samples: expected columns {list(UQ_PARAMS)} (got {names})")
+    s = np.array(block["values"], dtype=float).reshape(-1, len(UQ_PARAMS))
+    units = u.check_system(block.get("units", "si"))
+    if units != "si":
+        n = s[:, 2]
+        s[:, 0] = u.kc_to_si(s[:, 0], n, units)
+        s[:, 1] = u.kphi_to_si(s[:, 1], n, units)
+        s[:, 3] = u.pressure_to_si(s[:, 3], units)
+    return s
+
+
+def _posterior_from_dict(
+    p: Mapping[str, Any], units: str, params: TerrainParameters | None
+) -> PosteriorSummary | None:
+    """The posterior of one profile of a document, or None when it has none."""
+    if not isinstance(p.get("intervals"), Mapping):
+        return None
+    post = p.get("posterior") if isinstance(p.get("posterior"), Mapping) else {}
+    level = float(post.get("level", 0.9))
+    samples = _samples_to_si(p["samples"]) if p.get("samples") else None
+    if samples is not None:
+        q = np.quantile(samples, [(1 - level) / 2, (1 + level) / 2], axis=0)
+        iv = {k: (float(q[0, i]), float(q[1, i])) for i, k in enumerate(UQ_PARAMS)}
+    else:
+        n = params.n if params is not None else 1.0
+        iv = _intervals_to_si(p["intervals"], n, units)
+    return PosteriorSummary(
+        intervals=iv,
+        identifiability=dict(p.get("identifiability") or {}),
+        samples=samples,
+        prior=post.get("prior"),
+        level=level,
+    )
+
+
 def _result_from_dict(p: Mapping[str, Any], units: str) -> PredictionResult:
     """One profile of a document back to SI (keys outside the fit kept in ``extra``)."""
     units = u.check_system(p.get("units") or units)
@@ -601,6 +715,7 @@ def _result_from_dict(p: Mapping[str, Any], units: str) -> PredictionResult:
         return None if p.get(key) is None else np.asarray(to_si(p[key], units), dtype=float)
 
     rng = p.get("phic_range_deg")
+    posterior = _posterior_from_dict(p, units, params)
     return PredictionResult(
         id=str(p["id"]),
         status=str(p["status"]),
@@ -630,8 +745,9 @@ def _result_from_dict(p: Mapping[str, Any], units: str) -> PredictionResult:
         metadata=dict(p.get("metadata") or {}),
         notes=list(p.get("notes") or []),
         source=p.get("source"),
-        extra={k: v for k, v in p.items() if k not in _FIT_KEYS},
+        extra={k: v for k, v in p.items() if k not in _FIT_KEYS | _POSTERIOR_KEYS},
         error_row=p.get("error_row"),
+        posterior=posterior,
         error_column=p.get("error_column"),
         plate_curves=[
             PlateCurve(
@@ -657,7 +773,7 @@ def from_document(doc: Mapping[str, Any], source: str | None = None) -> Predicti
         where = f"{source}: " if source else ""
         raise ValueError(f"{where}not a prediction document: no list 'profiles'")
     units = doc.get("units") or (doc.get("settings") or {}).get("units") or "si"
-    return PredictionResults(_result_from_dict(p, units) for p in profiles)
+    return PredictionResults((_result_from_dict(p, units) for p in profiles), doc.get("settings"))
 
 
 def read_json(path: PathLike) -> PredictionResults:
@@ -844,3 +960,134 @@ def check_table_schema(path: PathLike) -> int:
     if raw is None:
         return 0
     return check_schema({"schema": raw.decode(errors="replace")}, f"file {path}")
+
+
+# ---------------------------------------------------------------------------
+# reading results back: JSON, Parquet, a batch directory
+# ---------------------------------------------------------------------------
+
+
+def _cell(row: Mapping[str, Any], key: str) -> Any:
+    v = row.get(key)
+    return None if (isinstance(v, float) and v != v) else v
+
+
+def _row_params(row: Mapping[str, Any], units: str) -> TerrainParameters | None:
+    if any(_cell(row, k) is None for k in ("kc", "kphi", "n", "cc", "phic_deg")):
+        return None
+    keys = ("kc", "kphi", "n", "cc", "phic_deg", "model", "r_min")
+    return TerrainParameters.from_dict({k: _cell(row, k) for k in keys}, units)
+
+
+def _row_posterior(row: Mapping[str, Any], units: str, n: float) -> PosteriorSummary | None:
+    if all(_cell(row, f"{p}_q05") is None for p in UQ_PARAMS):
+        return None
+    iv = {
+        p: [_cell(row, f"{p}_q05"), _cell(row, f"{p}_q95")]
+        for p in UQ_PARAMS
+        if _cell(row, f"{p}_q05") is not None
+    }
+    ident = {p: _cell(row, f"ident_{p}") for p in UQ_PARAMS if _cell(row, f"ident_{p}")}
+    return PosteriorSummary(_intervals_to_si(iv, n, units), ident)
+
+
+def _result_from_row(row: Mapping[str, Any], meta_names: Mapping[str, str]) -> PredictionResult:
+    """One row of a prediction table back to SI (the reverse of :func:`to_table`)."""
+    units = u.check_system(_cell(row, "units") or "si")
+    params = _row_params(row, units)
+    lo, hi = _cell(row, "phic_lo"), _cell(row, "phic_hi")
+    iv = {}
+    if _cell(row, "n_lo") is not None:
+        iv["n"] = (float(row["n_lo"]), float(row["n_hi"]))
+    rmsd = _cell(row, "rmsd")
+    layered_keys = [
+        k for k, _ in PARQUET_COLUMNS[PARQUET_COLUMNS.index(("bic_single", pa.float64())) :]
+    ]
+    layered = {k: _cell(row, k) for k in layered_keys[:7] if _cell(row, k) is not None}
+    return PredictionResult(
+        id=str(row["profile"]),
+        status=str(_cell(row, "status")),
+        error=_cell(row, "error"),
+        error_row=_cell(row, "error_row"),
+        error_column=_cell(row, "error_column"),
+        params=params,
+        rmsd=math.nan if rmsd is None else float(u.pressure_to_si(rmsd, units)),
+        r2_ci=math.nan if _cell(row, "r2_ci") is None else float(row["r2_ci"]),
+        longest_run=int(_cell(row, "longest_run") or 0),
+        lack_of_fit=_cell(row, "lack_of_fit"),
+        undetermined=[t for t in (_cell(row, "undetermined") or "").split(";") if t],
+        phic_range=None if lo is None else (float(lo), float(hi)),
+        profile_intervals=iv,
+        time_s=float(_cell(row, "fit_time_s") or 0.0),
+        cone=_cell(row, "cone") or "asabe-large",
+        source=_cell(row, "source"),
+        metadata={m: row[c] for c, m in meta_names.items() if _cell(row, c) is not None},
+        extra={"layered": layered} if layered else {},
+        posterior=None if params is None else _row_posterior(row, units, params.n),
+    )
+
+
+def from_table(table: pa.Table, settings: Mapping[str, Any] | None = None) -> PredictionResults:
+    """The results (SI) of a prediction table (:func:`to_table`, batch part files).
+
+    Columns other than :data:`PARQUET_COLUMNS` are the profiles' metadata
+    (a ``meta_`` prefix that :func:`to_table` added to avoid a clash is
+    removed).  A batch's layered columns stay, in the table's units, in
+    ``extra["layered"]``.
+    """
+    known = {k for k, _ in PARQUET_COLUMNS} | {"reader_error"}
+    meta_names = {}
+    for c in table.column_names:
+        if c in known:
+            continue
+        name = c
+        while name.startswith("meta_") and name[5:].lower() in known | set(meta_names.values()):
+            name = name[5:]
+        meta_names[c] = name
+    rows = table.to_pylist()
+    return PredictionResults((_result_from_row(r, meta_names) for r in rows), settings)
+
+
+def read_results(path: PathLike) -> PredictionResults:
+    """The results (SI) of ``predict --json``, ``predict --parquet`` or a ``batch`` directory.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A prediction JSON document, a prediction Parquet file, or the
+        output directory of ``terracone batch`` (``part-*.parquet`` and
+        ``_run.json``).
+
+    Returns
+    -------
+    PredictionResults
+        One result per profile, in file order (batch: chunk order), with
+        ``settings`` as the file records them.
+
+    Raises
+    ------
+    ValueError
+        The path holds no terracone prediction results; the message names it.
+    """
+    p = Path(path)
+    if p.is_dir():
+        parts = sorted(p.glob("part-*.parquet"))
+        if not parts:
+            raise ValueError(f"{p}: no part-*.parquet files (not a terracone batch directory)")
+        run = p / "_run.json"
+        settings = {}
+        if run.is_file():
+            try:
+                settings = json.loads(run.read_text()).get("settings") or {}
+            except (OSError, ValueError, AttributeError):
+                settings = {}
+        for f in parts:
+            check_table_schema(f)
+        table = pa.concat_tables([pq.read_table(f) for f in parts], promote_options="permissive")
+        return from_table(table, settings)
+    if not p.exists():
+        raise ValueError(f"{p}: file not found")
+    if p.suffix.lower() in (".parquet", ".pq"):
+        check_table_schema(p)
+        return from_table(pq.read_table(p))
+    return read_json(p)

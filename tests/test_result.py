@@ -30,7 +30,9 @@ from terracone.result import (
     PredictionResults,
     check_schema,
     check_table_schema,
+    PosteriorSummary,
     from_document,
+    read_results,
     to_document,
     to_table,
 )
@@ -365,3 +367,62 @@ def test_posterior_and_layered_fit_reach_json_and_table_alike(tmp_path):
     assert row["preferred_layers"] == lay["preferred_layers"]
     assert row["interfaces"] == ",".join(f"{v:.6g}" for v in lay["interfaces"])  # in inches
     assert row["n_layers"] == ",".join(f"{q['n']:.6g}" for q in lay["layers"])
+
+
+# ---------------------------------------------------------------------------
+# reading results back: one reader for JSON, Parquet and a batch directory
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("units", ["si", "us"])
+@pytest.mark.parametrize("kind", ["json", "parquet", "batch"])
+def test_read_results_gives_back_the_si_values_written(tmp_path, units, kind):
+    """The hand-made results come back in SI from every file kind, in either unit system."""
+    results = PredictionResults([_result(0), _result(1), _error_result()])
+    post = PosteriorSummary(
+        intervals={"kc": (90.0, 110.0), "kphi": (4000.0, 6000.0), "n": (0.8, 0.8),
+                   "cc": (1.0, 3.0), "phic_deg": (5.0, 15.0)},
+        identifiability={"n": "determined"},
+    )  # fmt: skip
+    results[0].posterior = post  # n's interval is a point: kc, kphi convert exactly
+    if kind == "json":
+        path = tmp_path / "r.json"
+        path.write_text(json.dumps(to_document(results, units, settings={"calibration": "X"})))
+    elif kind == "parquet":
+        path = tmp_path / "r.parquet"
+        pq.write_table(to_table(results, units), path)
+    else:
+        path = tmp_path / "batch"
+        path.mkdir()
+        pq.write_table(to_table(results, units), path / "part-000000.parquet")
+        (path / "_run.json").write_text(json.dumps({"settings": {"calibration": "X"}}))
+    back = read_results(path)
+    assert [r.id for r in back] == ["P0", "P1", "B"]
+    assert [r.status for r in back] == ["ok", "ok", "error"]
+    assert back[2].error == "file f.csv, profile B, row 7, column ci_kpa: CI must be >= 0"
+    assert back[2].params is None and back[2].posterior is None
+    for i in (0, 1):
+        p = back[i].params
+        assert (p.kc, p.kphi, p.n, p.cc, p.phic_deg) == pytest.approx(
+            (100.0 + i, 5000.0, 0.8, 2.0, 10.0), rel=1e-12
+        )
+        assert back[i].rmsd == pytest.approx(50.0, rel=1e-12)
+        assert back[i].metadata == {"site": "north", "n": 7}
+        assert back[i].undetermined == ["phic", "phic~scale(kc,kphi)"]
+    iv = back[0].posterior.intervals
+    assert iv["kc"] == pytest.approx((90.0, 110.0), rel=1e-12)
+    assert iv["kphi"] == pytest.approx((4000.0, 6000.0), rel=1e-12)
+    assert iv["cc"] == pytest.approx((1.0, 3.0), rel=1e-12)
+    assert back[0].posterior.identifiability["n"] == "determined"
+    assert back[1].posterior is None
+    if kind != "parquet":
+        assert back.settings["calibration"] == "X"
+
+
+def test_read_results_names_what_it_cannot_read(tmp_path):
+    with pytest.raises(ValueError, match=r"nothing.json: file not found"):
+        read_results(tmp_path / "nothing.json")
+    with pytest.raises(
+        ValueError, match=r"no part-\*.parquet files \(not a terracone batch directory\)"
+    ):
+        read_results(tmp_path)
