@@ -76,7 +76,7 @@ def generate(path: Path, n_profiles: int, seed: int = 0) -> None:
                 kphi=rng.uniform(200, 3000, B)[:, None],
                 n=rng.uniform(0.3, 1.3, B)[:, None],
                 cc=rng.uniform(0, 10, B)[:, None],
-                phic=rng.uniform(0, 30, B)[:, None],
+                phic_deg=rng.uniform(0, 30, B)[:, None],
             )
             keep = np.arange(Z)[None, :] < nz[:, None]
             ids = np.array([f"p{start + i:08d}" for i in range(B)], dtype=object)

@@ -63,7 +63,7 @@ def make_batch(seed: int = 20201):
         kphi=rng.uniform(300.0, 6000.0, (P, 1)),
         n=rng.uniform(0.3, 1.4, (P, 1)),
         cc=rng.uniform(0.0, 5.0, (P, 1)),
-        phic=rng.uniform(5.0, 25.0, (P, 1)),
+        phic_deg=rng.uniform(5.0, 25.0, (P, 1)),
     )
     r_min = rng.uniform(0.001, 0.02, (P, 1))  # some below R = 8 mm, some above
     depth = np.linspace(0.0, 0.6, Z)  # 0 to 600 mm every 10 mm
@@ -75,8 +75,8 @@ def make_batch(seed: int = 20201):
 # ---------------------------------------------------------------------------
 
 
-def ci_quad(z, kc, kphi, n, cc, phic, r_min=None):
-    tan_phic = math.tan(math.radians(phic))
+def ci_quad(z, kc, kphi, n, cc, phic_deg, r_min=None):
+    tan_phic = math.tan(math.radians(phic_deg))
 
     def integrand(h):
         u = z + h
@@ -99,7 +99,7 @@ def ci_quad(z, kc, kphi, n, cc, phic, r_min=None):
 # ---------------------------------------------------------------------------
 
 
-def ci_plain_rm0(z, kc, kphi, n, cc, phic):
+def ci_plain_rm0(z, kc, kphi, n, cc, phic_deg):
     """eqs. (2-5)-(2-7) integrated by hand: u = z + h, r = R (z + H - u) / H."""
     zH = z + H
     i0 = (zH ** (n + 1) - z ** (n + 1)) / (n + 1)  # int (z+h)^n dh
@@ -107,10 +107,10 @@ def ci_plain_rm0(z, kc, kphi, n, cc, phic):
     # int (kc + kphi r)(z+h)^n dh, r = R/H (z + H - u)
     ipr = kc * i0 + kphi * (R / H) * (zH * i0 - i1)
     icc = 0.5 * R * H  # int r dh
-    return 2.0 * ((TAN15 + np.tan(np.radians(phic))) * ipr + cc * icc) / (R * R)
+    return 2.0 * ((TAN15 + np.tan(np.radians(phic_deg))) * ipr + cc * icc) / (R * R)
 
 
-def ci_plain_rm1(z, kc, kphi, n, cc, phic, r_min):
+def ci_plain_rm1(z, kc, kphi, n, cc, phic_deg, r_min):
     """RM1 tangent: Bekker for u < ub = z + H - r_min H / R, the tangent line below."""
     t = R / H
     zH = z + H
@@ -127,7 +127,7 @@ def ci_plain_rm1(z, kc, kphi, n, cc, phic, r_min):
     c2 = -kc * b * t * t
     lin = c0 * m(0, ub, zH) + c1 * m(1, ub, zH) + c2 * m(2, ub, zH)
     icc = 0.5 * R * H
-    return 2.0 * ((TAN15 + np.tan(np.radians(phic))) * (bek + lin) + cc * icc) / (R * R)
+    return 2.0 * ((TAN15 + np.tan(np.radians(phic_deg))) * (bek + lin) + cc * icc) / (R * R)
 
 
 # ---------------------------------------------------------------------------
@@ -261,7 +261,7 @@ def profile(params, r_min, depth, model: str = "rm0", top: int = 14):
     kw = dict(params, model=model, r_min=rm)
     t_all = best_of(lambda: terracone.cone_index(depth, **kw), 15, 20)
     t_basis = best_of(
-        lambda: cone_index_basis(depth, n=params["n"], phic=params["phic"], law=law), 15, 20
+        lambda: cone_index_basis(depth, n=params["n"], phic_deg=params["phic_deg"], law=law), 15, 20
     )
     t_plain = best_of(
         (lambda: ci_plain_rm0(depth, **params))
@@ -281,7 +281,7 @@ def profile(params, r_min, depth, model: str = "rm0", top: int = 14):
         if inspect.isfunction(f) and f.__module__ == cone_mod.__name__
     ]
     rows = line_times(
-        lambda: cone_index_basis(depth, n=params["n"], phic=params["phic"], law=law),
+        lambda: cone_index_basis(depth, n=params["n"], phic_deg=params["phic_deg"], law=law),
         funcs,
         calls=30,
     )

@@ -91,7 +91,7 @@ def make_cases(quick: bool):
                 seed = 1000 * i + int(round(dz * 1000)) * 10 + int(round(noise * 100))
                 kc, kphi, n, cc, phic = TERRAINS[name]
                 z = np.round(np.arange(0.0, 0.3 + dz / 2, dz), 10)
-                ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=cc, phic=phic)
+                ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=cc, phic_deg=phic)
                 if noise:
                     rng = np.random.default_rng(seed)
                     ci = ci * (1.0 + noise * rng.standard_normal(ci.size))
@@ -161,8 +161,8 @@ def params_vec(p) -> np.ndarray:
 def bench_case(prof: CIProfile, seed: int, repeats: int, bounds: Bounds):
     law = pressure_law("rm0")
     f = rmsd_objective(prof, law, bounds)
-    lo = np.array([bounds.kc[0], bounds.kphi[0], bounds.n[0], bounds.cc[0], bounds.phic[0]])
-    hi = np.array([bounds.kc[1], bounds.kphi[1], bounds.n[1], bounds.cc[1], bounds.phic[1]])
+    lo = np.array([bounds.kc[0], bounds.kphi[0], bounds.n[0], bounds.cc[0], bounds.phic_deg[0]])
+    hi = np.array([bounds.kc[1], bounds.kphi[1], bounds.n[1], bounds.cc[1], bounds.phic_deg[1]])
     out = {}
     r, t = timed(lambda: predict(prof, solver="exact", bounds=bounds), repeats)
     out["exact"] = (t, params_vec(r.params))
@@ -212,7 +212,9 @@ def _refine_ratio(profs, bounds, repeats: int) -> None:
     w = np.array([np.arange(Z) < p.depth.size for p in profs], dtype=float)
     ns = grid(*bounds.n, 41)
     N = np.ascontiguousarray(np.broadcast_to(ns, (len(profs), ns.size)))
-    s = np.full((1, 1), 1.0 + math.tan(math.radians(bounds.phic[1])) / math.tan(cone.half_angle))
+    s = np.full(
+        (1, 1), 1.0 + math.tan(math.radians(bounds.phic_deg[1])) / math.tan(cone.half_angle)
+    )
     lo, hi = kernels.box_grid(N, bp)
     sse = kernels.cells_kernel(zz, yy, w, N, s, lo, hi, bp[10], *geom)[1][:, :, 0]
     i = np.argmin(sse, axis=1)

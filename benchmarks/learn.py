@@ -42,7 +42,7 @@ PAIR = (0.0375, 0.05)
 
 
 def site(rng, model: str, r_min: float | None, noisy: bool):
-    t = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.5, phic=12.0)
+    t = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.5, phic_deg=12.0)
     pair = PAIR if model == "rm1" else None
     ci = cone_index(Z, **t, model=model, r_min=r_min, plate_pair=pair)
     if noisy:
@@ -83,7 +83,7 @@ def objective(profiles, plates, model: str):
                 kphi=kphi,
                 n=n,
                 cc=cc,
-                phic=phic,
+                phic_deg=phic,
                 model=model,
                 r_min=rm,
                 plate_pair=pair,
@@ -108,7 +108,7 @@ def objective(profiles, plates, model: str):
 
 def de_bounds(model: str, b: Bounds):
     rb = (math.log(5e-4), math.log(3 * PAIR[1])) if model == "rm1" else (0.0, 0.0)
-    return [b.kc, b.kphi, b.n, b.cc, b.phic, rb]
+    return [b.kc, b.kphi, b.n, b.cc, b.phic_deg, rb]
 
 
 def main() -> None:

@@ -103,7 +103,7 @@ def make_profile(
 ) -> tuple[CIProfile, float, float]:
     """Noisy synthetic profile; returns (profile, noise level s, rho)."""
     m = cone_index_huang(
-        depth, kc=truth.kc, kphi=truth.kphi, n=truth.n, cc=truth.cc, phic=truth.phic
+        depth, kc=truth.kc, kphi=truth.kphi, n=truth.n, cc=truth.cc, phic_deg=truth.phic
     )
     s = rng.uniform(0.03, 0.05)
     rho = rng.uniform(0.6, 0.8) if correlated else 0.0

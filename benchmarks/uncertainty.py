@@ -73,7 +73,7 @@ def make_profiles(count: int, seed: int) -> list[CIProfile]:
             kphi=rng.uniform(2500, 5500),
             n=rng.uniform(0.5, 1.1),
             cc=rng.uniform(0, 2),
-            phic=rng.uniform(8, 14),
+            phic_deg=rng.uniform(8, 14),
         )
         m = cone_index_huang(DEPTH, **t)
         s = rng.uniform(0.03, 0.05)
@@ -99,8 +99,8 @@ def _in_tempdir():
 
 def run_pyswarms(profile: CIProfile, bounds: Bounds, seed: int) -> np.ndarray:
     f = rmsd_objective(profile, pressure_law("rm0"), bounds)
-    lo = np.array([bounds.kc[0], bounds.kphi[0], bounds.n[0], bounds.cc[0], bounds.phic[0]])
-    hi = np.array([bounds.kc[1], bounds.kphi[1], bounds.n[1], bounds.cc[1], bounds.phic[1]])
+    lo = np.array([bounds.kc[0], bounds.kphi[0], bounds.n[0], bounds.cc[0], bounds.phic_deg[0]])
+    hi = np.array([bounds.kc[1], bounds.kphi[1], bounds.n[1], bounds.cc[1], bounds.phic_deg[1]])
     with _in_tempdir():
         import pyswarms as ps
 

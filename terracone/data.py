@@ -16,7 +16,6 @@ import numpy as np
 
 from terracone.physics import units as u
 from terracone.physics.cone import Cone, get_cone
-from terracone.vocabulary import alias
 
 __all__ = [
     "CIProfile",
@@ -616,13 +615,13 @@ class ShearTest(_FileRows):
         self.stress = np.asarray(self.stress, dtype=float)
 
 
-@dataclass(init=False)
+@dataclass
 class TerrainParameters:
     """Bekker-Wong pressure-sinkage and cone-terrain shear parameters, SI.
 
     The cone-terrain interaction of eqs. (2-2) to (2-7) in [1]_: the Bekker
     parameters kc, kphi, n (eq. (2-2)) and the cone (metal)-terrain shear
-    parameters cc, phic, Kc (eq. (2-4)).  The terrain's *internal* shear
+    parameters cc, phic_deg, K_cone (eq. (2-4)).  The terrain's *internal* shear
     strength is a different quantity: :class:`TerrainShear`.
 
     Attributes
@@ -638,8 +637,8 @@ class TerrainParameters:
     phic_deg : float
         Cone (metal)-terrain friction angle [deg].
     K_cone : float or None
-        Cone-terrain shear deformation parameter Kc [m]; None: fully
-        mobilised.  ``Kc`` is its alias (attribute and keyword; JSON key).
+        Cone-terrain shear deformation parameter [m] (JSON key ``Kc``);
+        None: fully mobilised.
     model : {"rm0", "rm1"}
     r_min : float or None
         RM1 transition radius [m].
@@ -659,39 +658,6 @@ class TerrainParameters:
     K_cone: float | None = None
     model: str = "rm0"
     r_min: float | None = None
-
-    def __init__(
-        self,
-        kc: float,
-        kphi: float,
-        n: float,
-        cc: float = 0.0,
-        phic_deg: float | None = None,
-        K_cone: float | None = None,
-        model: str = "rm0",
-        r_min: float | None = None,
-        *,
-        Kc: float | None = None,
-        phic: float | None = None,
-    ) -> None:
-        self.kc = kc
-        self.kphi = kphi
-        self.n = n
-        self.cc = cc
-        phic_deg = alias("phic_deg", phic_deg, "phic", phic)
-        self.phic_deg = 0.0 if phic_deg is None else phic_deg
-        self.K_cone = alias("K_cone", K_cone, "Kc", Kc)
-        self.model = model
-        self.r_min = r_min
-
-    @property
-    def Kc(self) -> float | None:
-        """Alias of :attr:`K_cone` [m] (the JSON key and the paper's symbol)."""
-        return self.K_cone
-
-    @Kc.setter
-    def Kc(self, value: float | None) -> None:
-        self.K_cone = value
 
     @property
     def kc_over_kphi(self) -> float | None:
@@ -725,14 +691,14 @@ class TerrainParameters:
         units = u.check_system(units or d.get("units", "si"))
         n = float(d["n"])
         r_min = d.get("r_min")
-        Kc = d.get("Kc")
+        K_cone = d.get("Kc")
         return cls(
             kc=float(u.kc_to_si(d.get("kc", 0.0) or 0.0, n, units)),
             kphi=float(u.kphi_to_si(d.get("kphi", 0.0) or 0.0, n, units)),
             n=n,
             cc=float(u.pressure_to_si(d.get("cc", 0.0) or 0.0, units)),
             phic_deg=float(d.get("phic_deg", 0.0) or 0.0),
-            K_cone=None if Kc is None else float(u.length_to_si(Kc, units)),
+            K_cone=None if K_cone is None else float(u.length_to_si(K_cone, units)),
             model=d.get("model", "rm0") or "rm0",
             r_min=None if r_min is None else float(u.length_to_si(r_min, units)),
         )
@@ -745,7 +711,7 @@ class TerrainShear:
     Mohr-Coulomb strength and the Janosi-Hanamoto shear deformation
     modulus, tau = (c + sigma tan(phi)) (1 - exp(-j/K)) ([2]_; the same form
     as eq. (2-4) of [1]_, which applies it to the cone-metal interface with
-    cc, phic, Kc: :class:`TerrainParameters`).  Measured with shear rings or
+    cc, phic_deg, K_cone: :class:`TerrainParameters`).  Measured with shear rings or
     plates (:func:`terracone.physics.shear.fit_shear`), tabulated for reference
     terrains (:mod:`terracone.apps.library`), exported as Chrono's Mohr and
     Janosi parameters (:mod:`terracone.apps.export`).

@@ -3,8 +3,7 @@
 Every terrain parameter has one name in the Python API, and the JSON keys,
 CLI flags and terrain-library keys that earlier releases fixed (contracts,
 kept as they are).  :data:`NAMES` is that table; ``docs/physics.md`` shows
-it.  Older Python names stay accepted as documented aliases; they resolve
-through :func:`alias`.
+it.
 
 Rules of the Python names:
 
@@ -13,7 +12,6 @@ Rules of the Python names:
 * the cone (metal)-terrain shear parameters carry ``c`` or ``_cone``
   (``cc``, ``phic_deg``, ``K_cone``), the terrain's internal shear none
   (``c``, ``phi_deg``, ``K`` of :class:`terracone.data.TerrainShear`);
-  ``Kc`` (one letter's case away from ``kc``) is the alias of ``K_cone``;
 * the held ratio kc/kphi [m] is ``kc_over_kphi``.
 
 References
@@ -26,9 +24,8 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
-__all__ = ["Name", "NAMES", "ALIASES", "alias", "markdown_table"]
+__all__ = ["Name", "NAMES", "markdown_table"]
 
 
 @dataclass(frozen=True)
@@ -42,8 +39,6 @@ class Name:
         Symbol in the paper's nomenclature ([1]_ of the module).
     python : str
         The Python name (keyword argument and attribute).
-    aliases : tuple of str
-        Older Python names still accepted.
     json : str
         Key in JSON results and calibration files ("" for none).
     cli : str
@@ -57,7 +52,6 @@ class Name:
     concept: str
     symbol: str
     python: str
-    aliases: tuple[str, ...]
     json: str
     cli: str
     library: str
@@ -70,7 +64,6 @@ NAMES: tuple[Name, ...] = (
         "Bekker cohesive modulus",
         "k_c",
         "kc",
-        (),
         "kc",
         "--kc; --bounds kc=LO:HI",
         "kc",
@@ -80,18 +73,16 @@ NAMES: tuple[Name, ...] = (
         "Bekker frictional modulus",
         "k_phi",
         "kphi",
-        (),
         "kphi",
         "--kphi; --bounds kphi=LO:HI",
         "kphi",
         "kN/m^(n+2) (lb/in^(n+2))",
     ),
-    Name("sinkage exponent", "n", "n", (), "n", "--n; --bounds n=LO:HI", "n", "-"),
+    Name("sinkage exponent", "n", "n", "n", "--n; --bounds n=LO:HI", "n", "-"),
     Name(
         "cone (metal)-terrain adhesion",
         "c_c",
         "cc",
-        (),
         "cc",
         "--cc; --bounds cc=LO:HI",
         "cc",
@@ -101,7 +92,6 @@ NAMES: tuple[Name, ...] = (
         "cone (metal)-terrain friction angle",
         "phi_c",
         "phic_deg",
-        ("phic",),
         "phic_deg",
         "--phic; --bounds phic=LO:HI",
         "phic_deg",
@@ -111,57 +101,34 @@ NAMES: tuple[Name, ...] = (
         "cone (metal)-terrain shear deformation parameter",
         "K_c",
         "K_cone",
-        ("Kc",),
         "Kc",
         "--Kc; --bounds Kc=LO:HI",
         "Kc",
         "m (in)",
     ),
-    Name("terrain cohesion", "c", "c", (), "c", "--cohesion", "c_kpa", "kPa (psi)"),
-    Name("terrain internal friction angle", "phi", "phi_deg", (), "phi_deg", "", "phi_deg", "deg"),
-    Name("terrain shear deformation modulus", "K", "K", (), "K", "--janosi", "K_m", "m (in)"),
+    Name("terrain cohesion", "c", "c", "c", "--cohesion", "c_kpa", "kPa (psi)"),
+    Name("terrain internal friction angle", "phi", "phi_deg", "phi_deg", "", "phi_deg", "deg"),
+    Name("terrain shear deformation modulus", "K", "K", "K", "--janosi", "K_m", "m (in)"),
     Name(
         "ratio kc/kphi held from a calibration",
         "k_c/k_phi",
         "kc_over_kphi",
-        (),
         "",
         "",
         "",
         "m",
     ),
-    Name("pressure law", "RM0, RM1", "model", (), "model", "--model", "model", "-"),
+    Name("pressure law", "RM0, RM1", "model", "model", "--model", "model", "-"),
     Name(
         "RM1 transition radius",
         "r_min",
         "r_min",
-        (),
         "r_min",
         "--r-min",
         "r_min",
         "m (in)",
     ),
 )
-
-#: Old Python name -> the name now used.
-ALIASES: dict[str, str] = {a: nm.python for nm in NAMES for a in nm.aliases}
-
-
-def alias(name: str, value: Any, old: str, old_value: Any) -> Any:
-    """The value of keyword ``name``, given either as itself or as its alias ``old``.
-
-    ``None`` means "not given" for both.  Giving both is an error.
-
-    Examples
-    --------
-    >>> alias("K_cone", None, "Kc", 0.01)
-    0.01
-    """
-    if old_value is None:
-        return value
-    if value is not None:
-        raise TypeError(f"give {name} or its alias {old}, not both")
-    return old_value
 
 
 def markdown_table() -> str:
@@ -171,14 +138,13 @@ def markdown_table() -> str:
         return f"`{x}`" if x else "-"
 
     rows = [
-        "| concept | paper | Python | alias (old Python) | JSON key | CLI | library key | unit |",
-        "|---|---|---|---|---|---|---|---|",
+        "| concept | paper | Python | JSON key | CLI | library key | unit |",
+        "|---|---|---|---|---|---|---|",
     ]
     for nm in NAMES:
         cli = "; ".join(code(p.strip()) for p in nm.cli.split(";")) if nm.cli else "-"
-        old = ", ".join(code(a) for a in nm.aliases) or "-"
         rows.append(
-            f"| {nm.concept} | {nm.symbol} | {code(nm.python)} | {old} | {code(nm.json)} "
+            f"| {nm.concept} | {nm.symbol} | {code(nm.python)} | {code(nm.json)} "
             f"| {cli} | {code(nm.library)} | {nm.unit} |"
         )
     return "\n".join(rows)

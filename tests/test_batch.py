@@ -55,7 +55,7 @@ def make_profiles(n: int, seed: int = 0, prefix: str = "p") -> list[CIProfile]:
             kphi=float(rng.uniform(200, 3000)),
             n=float(rng.uniform(0.3, 1.3)),
             cc=float(rng.uniform(0, 10)),
-            phic=float(rng.uniform(0, 30)),
+            phic_deg=float(rng.uniform(0, 30)),
         )
         ci = cone_index(z, **truth)
         meta = {
@@ -753,7 +753,7 @@ def test_depth_reference_and_window(tmp_path):
     """--depth-ref tip and --depth-range act in batch as in predict (known truth)."""
     H = get_cone("asabe-large").height
     z = np.linspace(0.0, 0.4, 41)
-    ci = cone_index(z, kc=30.0, kphi=3000.0, n=0.8, cc=1.0, phic=12.0)
+    ci = cone_index(z, kc=30.0, kphi=3000.0, n=0.8, cc=1.0, phic_deg=12.0)
     loose = np.where(z < 0.1, 0.3 * ci, ci)  # a loose top above 10 cm
     rows = [
         pd.DataFrame({"profile": "tip", "depth_m": z + H, "ci_kpa": ci}),

@@ -255,7 +255,7 @@ def test_cone_design_matrix(n):
     affine function of z), so that case is rank deficient.
     """
     z = np.arange(0.0, 0.3001, 0.01)
-    A, B, C = cone_index_basis(z, n=n, phic=10.0)
+    A, B, C = cone_index_basis(z, n=n, phic_deg=10.0)
     X = np.stack(np.broadcast_arrays(A, B, C), axis=-1)
     rng = np.random.default_rng(int(n * 100))
     y = X @ np.array([50.0, 3000.0, 2.0]) * (1 + 0.03 * rng.normal(size=z.size))

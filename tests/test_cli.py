@@ -179,7 +179,7 @@ CONTRACT = {
     "r_min", "units", "undetermined", "r2_ci", "lack_of_fit",
 }  # fmt: skip
 
-TRUTH = dict(kc=30.0, kphi=4000.0, n=0.8, cc=2.0, phic=20.0)
+TRUTH = dict(kc=30.0, kphi=4000.0, n=0.8, cc=2.0, phic_deg=20.0)
 Z_CM = np.arange(0.0, 31.0, 2.0)  # 16 depths
 
 
@@ -437,7 +437,7 @@ def test_evaluate_against_a_hand_computation(tmp_path: Path):
 def test_learn_save_then_predict_calibration(tmp_path: Path):
     rng = np.random.default_rng(5)
     z = np.arange(0.0, 31.0, 2.0)
-    truth = dict(kc=100.0, kphi=5000.0, n=0.8, cc=1.0, phic=12.0)
+    truth = dict(kc=100.0, kphi=5000.0, n=0.8, cc=1.0, phic_deg=12.0)
     ci = cone_index(z * 0.01, **truth) * (1.0 + 0.02 * rng.standard_normal(z.size))
     ci_path = _write(tmp_path / "site.csv", "depth_cm,ci_kpa", zip(z, ci))
     pl_path = _plates(tmp_path / "plates.csv", noise=0.02, seed=6)

@@ -24,11 +24,11 @@ from terracone.physics.cone import cone_index
 
 Z_CM = np.arange(0.0, 31.0, 2.0)  # 16 readings a profile
 TRUTH = {  # noise-free profiles: n is recovered to the solver's precision
-    "P0": dict(kc=20.0, kphi=3000.0, n=0.6, cc=2.0, phic=15.0),
-    "P1": dict(kc=40.0, kphi=1500.0, n=0.9, cc=1.0, phic=20.0),
-    "P2": dict(kc=10.0, kphi=5000.0, n=0.7, cc=3.0, phic=10.0),
-    "P3": dict(kc=60.0, kphi=2500.0, n=1.1, cc=0.5, phic=25.0),
-    "P4": dict(kc=30.0, kphi=4000.0, n=0.8, cc=2.0, phic=18.0),
+    "P0": dict(kc=20.0, kphi=3000.0, n=0.6, cc=2.0, phic_deg=15.0),
+    "P1": dict(kc=40.0, kphi=1500.0, n=0.9, cc=1.0, phic_deg=20.0),
+    "P2": dict(kc=10.0, kphi=5000.0, n=0.7, cc=3.0, phic_deg=10.0),
+    "P3": dict(kc=60.0, kphi=2500.0, n=1.1, cc=0.5, phic_deg=25.0),
+    "P4": dict(kc=30.0, kphi=4000.0, n=0.8, cc=2.0, phic_deg=18.0),
 }
 
 

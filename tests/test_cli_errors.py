@@ -47,7 +47,7 @@ SHEAR_HEAD = "test,normal_pressure_kpa,shear_displacement_mm,shear_stress_kpa"
 
 
 def ci_lines() -> list[str]:
-    ci = cone_index(Z_CM * 0.01, kc=30.0, kphi=4000.0, n=0.8, cc=2.0, phic=20.0)
+    ci = cone_index(Z_CM * 0.01, kc=30.0, kphi=4000.0, n=0.8, cc=2.0, phic_deg=20.0)
     return [CI_HEAD] + [f"A,{z:g},{c:.3f}" for z, c in zip(Z_CM, ci)]
 
 

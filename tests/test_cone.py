@@ -49,8 +49,8 @@ def ci_quad(
     kphi: float,
     n: float,
     cc: float = 0.0,
-    phic: float = 0.0,
-    Kc: float | None = None,
+    phic_deg: float = 0.0,
+    K_cone: float | None = None,
     r_min: float | None = None,
     pair: tuple[float, float] | None = None,
     cone: str = "asabe-large",
@@ -62,7 +62,7 @@ def ci_quad(
     (r1, p1) and (r2, p2) instead.
     """
     R, H = geometry(cone)
-    tan_phic = math.tan(math.radians(phic))
+    tan_phic = math.tan(math.radians(phic_deg))
     h0 = max(0.0, -z)  # the tip is entering: only h >= -z is in the soil
 
     def pressure(h: float) -> float:
@@ -85,7 +85,7 @@ def ci_quad(
             pr = kc * max(z + h, 0.0) ** n if r_min is None else 0.0
         else:
             pr = pressure(h) * r
-        mob = 1.0 if Kc is None else -math.expm1(-(z + h) / (COS15 * Kc))  # eq. (2-4)
+        mob = 1.0 if K_cone is None else -math.expm1(-(z + h) / (COS15 * K_cone))  # eq. (2-4)
         # eq. (2-5): tan15 * p * r ; eq. (2-6): (cc r + p r tan phic) (1 - e^(-j/K))
         return TAN15 * pr + (cc * r + pr * tan_phic) * mob
 
@@ -107,7 +107,7 @@ def ci_quad(
     return 2.0 * math.pi * val / (math.pi * R * R)
 
 
-def closed_form(z, *, kc, kphi, n, cc=0.0, phic=0.0, cone="asabe-large"):
+def closed_form(z, *, kc, kphi, n, cc=0.0, phic_deg=0.0, cone="asabe-large"):
     """RM0, fully mobilised shear, z >= 0: eqs. (2-5) to (2-7) integrated by hand.
 
     int_0^H (z+h)^n dh = [(z+H)^(n+1) - z^(n+1)] / (n+1)
@@ -122,7 +122,7 @@ def closed_form(z, *, kc, kphi, n, cc=0.0, phic=0.0, cone="asabe-large"):
     i1 = i1 + z ** (n + 2) / (n + 2) / H
     A = 2.0 * TAN15 * i0 / R**2
     B = 2.0 * TAN15 * R * i1 / R**2
-    return (1.0 + math.tan(math.radians(phic)) / TAN15) * (kc * A + kphi * B) + cc * H / R
+    return (1.0 + math.tan(math.radians(phic_deg)) / TAN15) * (kc * A + kphi * B) + cc * H / R
 
 
 def rel_err(got: float, ref: float, floor: float = 1e-300) -> float:
@@ -168,8 +168,8 @@ def cases(draw):
         kphi=draw(_param(1e-6, 30000.0)),
         n=draw(st.floats(0.0, 3.0, exclude_min=True)),
         cc=draw(_param(1e-6, 100.0)),
-        phic=draw(st.floats(0.0, 89.0, exclude_max=True)),
-        Kc=draw(st.one_of(st.none(), st.floats(1e-4, 1.0))),
+        phic_deg=draw(st.floats(0.0, 89.0, exclude_max=True)),
+        K_cone=draw(st.one_of(st.none(), st.floats(1e-4, 1.0))),
         r_min=None if model == "rm0" else draw(st.floats(1e-4, 0.2)),
     )
 
@@ -191,15 +191,15 @@ def test_cone_index_matches_quadrature(case):
 CORNERS = [
     dict(z=0.0, kc=100.0, kphi=5000.0, n=0.8),
     dict(z=1e-9, kc=100.0, kphi=5000.0, n=0.3),
-    dict(z=2.0, kc=2000.0, kphi=30000.0, n=3.0, cc=100.0, phic=88.9),
-    dict(z=0.5, kc=50.0, kphi=3000.0, n=0.05, cc=2.0, phic=12.0, Kc=1e-4),
-    dict(z=0.0, kc=50.0, kphi=3000.0, n=0.05, cc=2.0, phic=12.0, Kc=1e-4),
-    dict(z=1e-3, kc=50.0, kphi=3000.0, n=1.5, cc=2.0, phic=20.0, Kc=1e-4),
-    dict(z=0.1, kc=0.0, kphi=3000.0, n=0.7, phic=10.0, r_min=0.002),
-    dict(z=0.1, kc=80.0, kphi=4700.0, n=0.74, phic=12.5, r_min=0.002),
-    dict(z=0.1, kc=80.0, kphi=4700.0, n=0.74, phic=12.5, r_min=0.2),
-    dict(z=0.1, kc=80.0, kphi=4700.0, n=0.74, phic=12.5, r_min=1e-4, Kc=0.01),
-    dict(z=0.3, kc=80.0, kphi=4700.0, n=0.74, cc=1.0, phic=12.5, r_min=0.004, Kc=0.02),
+    dict(z=2.0, kc=2000.0, kphi=30000.0, n=3.0, cc=100.0, phic_deg=88.9),
+    dict(z=0.5, kc=50.0, kphi=3000.0, n=0.05, cc=2.0, phic_deg=12.0, K_cone=1e-4),
+    dict(z=0.0, kc=50.0, kphi=3000.0, n=0.05, cc=2.0, phic_deg=12.0, K_cone=1e-4),
+    dict(z=1e-3, kc=50.0, kphi=3000.0, n=1.5, cc=2.0, phic_deg=20.0, K_cone=1e-4),
+    dict(z=0.1, kc=0.0, kphi=3000.0, n=0.7, phic_deg=10.0, r_min=0.002),
+    dict(z=0.1, kc=80.0, kphi=4700.0, n=0.74, phic_deg=12.5, r_min=0.002),
+    dict(z=0.1, kc=80.0, kphi=4700.0, n=0.74, phic_deg=12.5, r_min=0.2),
+    dict(z=0.1, kc=80.0, kphi=4700.0, n=0.74, phic_deg=12.5, r_min=1e-4, K_cone=0.01),
+    dict(z=0.3, kc=80.0, kphi=4700.0, n=0.74, cc=1.0, phic_deg=12.5, r_min=0.004, K_cone=0.02),
     dict(z=0.3, kc=80.0, kphi=4700.0, n=2.2, cc=1.0, r_min=0.003, cone="asabe-small"),
 ]
 
@@ -216,8 +216,8 @@ def test_cone_index_corners(case):
 
 @pytest.mark.parametrize("cone", ["asabe-large", "asabe-small"])
 @pytest.mark.parametrize("model", ["rm0", "rm1"])
-@pytest.mark.parametrize("Kc", [None, 0.01])
-def test_tip_at_surface_gives_zero(cone, model, Kc):
+@pytest.mark.parametrize("K_cone", [None, 0.01])
+def test_tip_at_surface_gives_zero(cone, model, K_cone):
     R, H = geometry(cone)
     ci = cone_index(
         -H,
@@ -225,8 +225,8 @@ def test_tip_at_surface_gives_zero(cone, model, Kc):
         kphi=4000.0,
         n=0.7,
         cc=3.0,
-        phic=15.0,
-        Kc=Kc,
+        phic_deg=15.0,
+        K_cone=K_cone,
         model=model,
         r_min=0.003 if model == "rm1" else None,
         cone=cone,
@@ -235,17 +235,17 @@ def test_tip_at_surface_gives_zero(cone, model, Kc):
 
 
 @pytest.mark.parametrize("frac", [1e-6, 0.01, 0.25, 0.5, 0.9, 0.999999])
-@pytest.mark.parametrize("Kc", [None, 0.005])
-def test_partial_penetration(frac, Kc):
+@pytest.mark.parametrize("K_cone", [None, 0.005])
+def test_partial_penetration(frac, K_cone):
     """-H < z < 0: only the part of the cone below the surface carries load."""
     R, H = geometry("asabe-large")
     z = -H * (1.0 - frac)  # the tip is frac*H deep
-    kw = dict(kc=90.0, kphi=4000.0, n=0.7, cc=3.0, phic=15.0, Kc=Kc)
+    kw = dict(kc=90.0, kphi=4000.0, n=0.7, cc=3.0, phic_deg=15.0, K_cone=K_cone)
     for r_min in (None, 0.002, 0.05):
         ref = ci_quad(z, r_min=r_min, **kw)
         got = cone_index(z, model="rm0" if r_min is None else "rm1", r_min=r_min, **kw)
         assert rel_err(float(got), ref) <= 1e-9
-    if Kc is None:
+    if K_cone is None:
         # closed form of the embedded tip: u1 = z + H, L = u1
         u1 = z + H
         n = 0.7
@@ -258,10 +258,10 @@ def test_partial_penetration(frac, Kc):
 
 
 @pytest.mark.parametrize("r_min", [0.002, 0.006, 0.007, 0.0375, 0.08])
-@pytest.mark.parametrize("Kc", [None, 0.01])
-def test_rm1_secant_variant(r_min, Kc):
+@pytest.mark.parametrize("K_cone", [None, 0.01])
+def test_rm1_secant_variant(r_min, K_cone):
     """plate_pair (r1, r2) and r_min > r2: p on the line through (r1, p1), (r2, p2)."""
-    kw = dict(kc=80.0, kphi=4700.0, n=0.74, cc=1.0, phic=12.5, Kc=Kc)
+    kw = dict(kc=80.0, kphi=4700.0, n=0.74, cc=1.0, phic_deg=12.5, K_cone=K_cone)
     # LETE plates (the whole cone is on the line); plates smaller than the cone
     # (r1 < r2 < r_min = 0.007 < R: the break at r_min lies on the cone)
     for pair in ((0.0375, 0.05), (0.003, 0.006)):
@@ -278,8 +278,8 @@ def test_rm1_secant_variant(r_min, Kc):
         kphi=kw["kphi"] * INCH ** (0.74 + 2) / (LBF / 1000),
         n=0.74,
         cc=1.0 / PSI,
-        phic=12.5,
-        Kc=None if Kc is None else Kc / INCH,
+        phic_deg=12.5,
+        K_cone=None if K_cone is None else K_cone / INCH,
         model="rm1",
         r_min=r_min / INCH,
         plate_pair=(pair[0] / INCH, pair[1] / INCH),
@@ -310,7 +310,7 @@ Z_GRID = np.array([0.0, 1e-6, 1e-3, 0.01, 0.05, 0.1, 0.3, 0.6, 1.0, 2.0])
 @pytest.mark.parametrize("n", [0.05, 0.391, 0.74, 1.0, 2.0, 3.0])
 @pytest.mark.parametrize("cone", ["asabe-large", "asabe-small"])
 def test_closed_form(n, cone):
-    kw = dict(kc=80.14, kphi=4727.2, n=n, cc=1.0, phic=12.5, cone=cone)
+    kw = dict(kc=80.14, kphi=4727.2, n=n, cc=1.0, phic_deg=12.5, cone=cone)
     ref = closed_form(Z_GRID, **kw)
     got = cone_index(Z_GRID, **kw)
     np.testing.assert_allclose(got, ref, rtol=1e-9, atol=0)
@@ -325,11 +325,13 @@ def test_exact_tradeoff_between_k_and_phic(s, n):
     phic2 = math.degrees(math.atan(TAN15 * (factor / s - 1.0)))
     assert 0.0 <= phic2 < 90.0
     z = np.linspace(-0.02, 1.0, 41)
-    a = cone_index(z, kc=60.0, kphi=3000.0, n=n, cc=2.0, phic=phic)
-    b = cone_index(z, kc=60.0 * s, kphi=3000.0 * s, n=n, cc=2.0, phic=phic2)
+    a = cone_index(z, kc=60.0, kphi=3000.0, n=n, cc=2.0, phic_deg=phic)
+    b = cone_index(z, kc=60.0 * s, kphi=3000.0 * s, n=n, cc=2.0, phic_deg=phic2)
     np.testing.assert_allclose(b, a, rtol=1e-12, atol=0)
     np.testing.assert_allclose(
-        a[z >= 0], closed_form(z[z >= 0], kc=60.0, kphi=3000.0, n=n, cc=2.0, phic=phic), rtol=1e-9
+        a[z >= 0],
+        closed_form(z[z >= 0], kc=60.0, kphi=3000.0, n=n, cc=2.0, phic_deg=phic),
+        rtol=1e-9,
     )
 
 
@@ -338,10 +340,10 @@ def test_adhesion_contribution_is_cc_H_over_R(cone):
     R, H = geometry(cone)
     z = np.array([0.0, 1e-8, 0.01, 0.5, 2.0])
     for cc in (1.0, 0.15 * PSI, 37.5, 100.0):
-        only = cone_index(z, kc=0.0, kphi=0.0, n=0.7, cc=cc, phic=17.0, cone=cone)
+        only = cone_index(z, kc=0.0, kphi=0.0, n=0.7, cc=cc, phic_deg=17.0, cone=cone)
         np.testing.assert_allclose(only, cc * H / R, rtol=1e-14, atol=0)
-        with_k = cone_index(z, kc=40.0, kphi=900.0, n=0.7, cc=cc, phic=17.0, cone=cone)
-        without = cone_index(z, kc=40.0, kphi=900.0, n=0.7, cc=0.0, phic=17.0, cone=cone)
+        with_k = cone_index(z, kc=40.0, kphi=900.0, n=0.7, cc=cc, phic_deg=17.0, cone=cone)
+        without = cone_index(z, kc=40.0, kphi=900.0, n=0.7, cc=0.0, phic_deg=17.0, cone=cone)
         np.testing.assert_allclose(with_k - without, cc * H / R, rtol=1e-9 * with_k.max() / cc)
     # H/R = 1/tan 15 for a 30 deg cone
     assert math.isclose(H / R, 1.0 / math.tan(math.radians(15.0)), rel_tol=1e-15)
@@ -353,9 +355,9 @@ def test_adhesion_contribution_is_cc_H_over_R(cone):
 def test_kc_zero_rm1_equals_rm0():
     """Section 3.2: with kc = 0 RM1 is RM0 whatever r_min."""
     z = np.linspace(-0.02, 1.0, 21)
-    a = cone_index(z, kc=0.0, kphi=2000.0, n=0.6, phic=14.0)
+    a = cone_index(z, kc=0.0, kphi=2000.0, n=0.6, phic_deg=14.0)
     for r_min in (1e-4, 0.004, 0.2):
-        b = cone_index(z, kc=0.0, kphi=2000.0, n=0.6, phic=14.0, model="rm1", r_min=r_min)
+        b = cone_index(z, kc=0.0, kphi=2000.0, n=0.6, phic_deg=14.0, model="rm1", r_min=r_min)
         np.testing.assert_allclose(b, a, rtol=1e-13, atol=0)
 
 
@@ -429,7 +431,7 @@ def test_janosi_small_cone_rejected():
 # invalid input
 # ---------------------------------------------------------------------------
 
-GOOD = dict(kc=80.0, kphi=4700.0, n=0.74, cc=1.0, phic=12.5)
+GOOD = dict(kc=80.0, kphi=4700.0, n=0.74, cc=1.0, phic_deg=12.5)
 
 
 @pytest.mark.parametrize(
@@ -442,13 +444,13 @@ GOOD = dict(kc=80.0, kphi=4700.0, n=0.74, cc=1.0, phic=12.5)
         (dict(kc=-1.0), r"\bkc\b"),
         (dict(kphi=-1e-9), r"\bkphi\b"),
         (dict(cc=-0.1), r"\bcc\b"),
-        (dict(phic=90.0), r"\bphic\b"),
-        (dict(phic=-1.0), r"\bphic\b"),
+        (dict(phic_deg=90.0), r"\bphic\b"),
+        (dict(phic_deg=-1.0), r"\bphic\b"),
         (dict(model="rm1", r_min=0.0), r"\br_min\b"),
         (dict(model="rm1", r_min=-0.01), r"\br_min\b"),
         (dict(model="rm1"), r"\br_min\b"),
-        (dict(Kc=0.0), r"\bKc\b"),
-        (dict(Kc=-0.01), r"\bKc\b"),
+        (dict(K_cone=0.0), r"\bKc\b"),
+        (dict(K_cone=-0.01), r"\bKc\b"),
         (dict(model="rm2"), r"\bmodel\b"),
         (dict(units="metric"), r"\bunits\b"),
         (dict(cone="asabe-huge"), r"\bcone\b"),
@@ -486,25 +488,25 @@ def test_broadcasting_params_by_depths():
     r_min = np.array([[1e-4], [0.004], [0.2]])
     for extra in (
         dict(),
-        dict(Kc=0.01),
+        dict(K_cone=0.01),
         dict(model="rm1", r_min=r_min),
-        dict(model="rm1", r_min=r_min, Kc=np.array([[1e-4], [0.01], [1.0]])),
+        dict(model="rm1", r_min=r_min, K_cone=np.array([[1e-4], [0.01], [1.0]])),
     ):
-        ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=cc, phic=phic, **extra)
+        ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=cc, phic_deg=phic, **extra)
         assert ci.shape == (3, z.size)
         assert np.all(np.isfinite(ci))
         assert np.all(ci[:, 0] == 0.0)
         for i in range(3):
             row = {k: (v[i, 0] if isinstance(v, np.ndarray) else v) for k, v in extra.items()}
             one = cone_index(
-                z, kc=kc[i, 0], kphi=kphi[i, 0], n=n[i, 0], cc=cc[i, 0], phic=phic[i, 0], **row
+                z, kc=kc[i, 0], kphi=kphi[i, 0], n=n[i, 0], cc=cc[i, 0], phic_deg=phic[i, 0], **row
             )
             np.testing.assert_allclose(ci[i], one, rtol=1e-13, atol=0)
 
 
 @pytest.mark.parametrize("model", ["rm0", "rm1"])
-@pytest.mark.parametrize("Kc", [None, 1e-4, 1.0])
-def test_finite_over_grid(model, Kc):
+@pytest.mark.parametrize("K_cone", [None, 1e-4, 1.0])
+def test_finite_over_grid(model, K_cone):
     for cone in ("asabe-large", "asabe-small"):
         R, H = geometry(cone)
         z = np.array([-H, -H * (1 - 1e-12), -0.5 * H, -1e-12, 0.0, 1e-12, 0.5, 2.0])
@@ -515,8 +517,8 @@ def test_finite_over_grid(model, Kc):
             kphi=30000.0,
             n=n,
             cc=100.0,
-            phic=88.0,
-            Kc=Kc,
+            phic_deg=88.0,
+            K_cone=K_cone,
             model=model,
             r_min=1e-4 if model == "rm1" else None,
             cone=cone,

@@ -23,7 +23,7 @@ from terracone.physics.cone import CONES, cone_index
 
 CONE = CONES["asabe-large"]
 H = CONE.height
-TRUTH = dict(kc=30.0, kphi=4000.0, n=0.8, cc=2.0, phic=20.0)
+TRUTH = dict(kc=30.0, kphi=4000.0, n=0.8, cc=2.0, phic_deg=20.0)
 DATA = Path(__file__).parent / "data"
 
 

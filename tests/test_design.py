@@ -24,7 +24,7 @@ BOUNDS = Bounds.parse("kc=0:0,n=1:1,cc=5:5")  # free: kphi and phic (the ridge o
 
 def _profile(seed: int = 3) -> CIProfile:
     rng = np.random.default_rng(seed)
-    ci = cone_index(Z, kc=0.0, kphi=1500.0, n=N, cc=CC, phic=11.0, cone=CONE)
+    ci = cone_index(Z, kc=0.0, kphi=1500.0, n=N, cc=CC, phic_deg=11.0, cone=CONE)
     return CIProfile("one", Z, np.abs(ci + SIGMA * rng.standard_normal(Z.size)), cone=CONE)
 
 
@@ -34,7 +34,7 @@ def _brute_force(profile: CIProfile, seed: int = 0, outcomes: int = 40) -> dict[
     kphi = np.linspace(0.0, 20000.0, 500)[:, None]
     phic = np.linspace(0.0, 45.0, 301)[None, :]
     s = 1.0 + np.tan(np.radians(phic)) / np.tan(CONE.half_angle)  # eq. (2-6)
-    _, B, C = cone_index_basis(Z, n=N, phic=0.0, cone=CONE)
+    _, B, C = cone_index_basis(Z, n=N, phic_deg=0.0, cone=CONE)
     K = (kphi * s).ravel()  # CI = K B + cc C
     ci = K[:, None] * B[None, :] + CC * C[None, :]
     loglik = -0.5 * ((ci - profile.ci) ** 2).sum(1) / SIGMA**2
@@ -129,7 +129,7 @@ def test_cli_design_with_calibration(tmp_path):
     cf = tmp_path / "cal.json"
     cal.save(cf)
     rng = np.random.default_rng(2)
-    ci = cone_index(Z, kc=50.0, kphi=1500.0, n=0.9, cc=5.0, phic=11.0)
+    ci = cone_index(Z, kc=50.0, kphi=1500.0, n=0.9, cc=5.0, phic_deg=11.0)
     ci *= 1 + 0.05 * rng.standard_normal(Z.size)
     f = tmp_path / "ci.csv"
     f.write_text("depth_m,ci_kpa\n" + "".join(f"{z:.4f},{c:.3f}\n" for z, c in zip(Z, ci)))

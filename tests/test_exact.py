@@ -82,7 +82,7 @@ def depths(dz: float, top: float = 0.0, bottom: float = 0.3) -> np.ndarray:
 def make_profile(name: str, dz: float, noise: float = 0.0, seed: int = 0) -> CIProfile:
     kc, kphi, n, cc, phic = terrain(name)
     z = depths(dz)
-    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=cc, phic=phic)
+    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=cc, phic_deg=phic)
     if noise:
         rng = np.random.default_rng(seed)
         ci = ci * (1.0 + noise * rng.standard_normal(ci.size))
@@ -106,7 +106,7 @@ def phic_of_S(s: float) -> float:
 def ridge_interval(kc, kphi, phic, bounds: Bounds) -> tuple[float, float]:
     """Closed form: the phic' for which kc*S(phic)/S(phic') and kphi*S(phic)/S(phic')
     stay within the (SI) bounds."""
-    lo, hi = bounds.phic
+    lo, hi = bounds.phic_deg
     for v, (b_lo, b_hi) in ((kc, bounds.kc), (kphi, bounds.kphi)):
         if v == 0:
             continue
@@ -133,7 +133,7 @@ def vec(p, bounds: Bounds) -> np.ndarray:
 
 def de_minimum(profile: CIProfile, bounds: Bounds, *, seed: int = 1, maxiter: int = 200):
     f = rmsd_objective(profile, pressure_law("rm0"), bounds)
-    box = [bounds.kc, bounds.kphi, bounds.n, bounds.cc, bounds.phic]
+    box = [bounds.kc, bounds.kphi, bounds.n, bounds.cc, bounds.phic_deg]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = differential_evolution(
@@ -184,7 +184,7 @@ def test_recovers_n_and_the_curve(name, dz):
 def test_fixed_phic_and_cc_recover_kc_kphi(name, dz):
     kc, kphi, n, cc, phic = terrain(name)
     prof = make_profile(name, dz)
-    res = predict(prof, solver="exact", bounds=Bounds().fixed(phic=phic, cc=cc))
+    res = predict(prof, solver="exact", bounds=Bounds().fixed(phic_deg=phic, cc=cc))
     assert res.ok, res.error
     p = res.params
     assert p.phic_deg == phic and p.cc == cc
@@ -202,7 +202,7 @@ def test_kc_zero_terrains(name):
     kc, kphi, n, cc, phic = terrain(name)
     assert kc == 0.0
     prof = make_profile(name, 0.01)
-    res = predict(prof, bounds=Bounds().fixed(phic=phic, cc=cc))
+    res = predict(prof, bounds=Bounds().fixed(phic_deg=phic, cc=cc))
     assert 0.0 <= res.params.kc <= 1e-3
     assert res.params.kphi == pytest.approx(kphi, rel=1e-5)
     assert abs(res.params.n - n) < 1e-5
@@ -212,9 +212,9 @@ def test_recovery_with_points_above_the_surface_and_us_bounds():
     """Depths from -H (tip entering) and bounds given in US units."""
     kc, kphi, n, cc, phic = terrain("LS_3")
     z = np.round(np.arange(-0.03, 0.3001, 0.01), 10)
-    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=cc, phic=phic)
+    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=cc, phic_deg=phic)
     prof = CIProfile("neg", z, ci)
-    b = Bounds.parse("kc=0:100,kphi=0:100,n=0.2:1.5", "us").fixed(phic=phic, cc=cc)
+    b = Bounds.parse("kc=0:100,kphi=0:100,n=0.2:1.5", "us").fixed(phic_deg=phic, cc=cc)
     res = predict(prof, bounds=b)
     p = res.params
     assert abs(p.n - n) < 1e-4
@@ -264,12 +264,12 @@ def test_ridge_is_real(name, noise):
     p = res.params
     lo, hi = res.phic_range
     assert hi - lo > 10.0
-    base = cone_index(prof.depth, kc=p.kc, kphi=p.kphi, n=p.n, cc=p.cc, phic=p.phic_deg)
+    base = cone_index(prof.depth, kc=p.kc, kphi=p.kphi, n=p.n, cc=p.cc, phic_deg=p.phic_deg)
     np.testing.assert_allclose(base, res.ci_model, rtol=1e-12)
     f = rmsd_objective(prof, pressure_law("rm0"), Bounds())
     for phic2 in np.linspace(lo, hi, 7):
         s = S(p.phic_deg) / S(phic2)
-        other = cone_index(prof.depth, kc=p.kc * s, kphi=p.kphi * s, n=p.n, cc=p.cc, phic=phic2)
+        other = cone_index(prof.depth, kc=p.kc * s, kphi=p.kphi * s, n=p.n, cc=p.cc, phic_deg=phic2)
         np.testing.assert_allclose(other, base, rtol=1e-12, atol=1e-9)
         x2 = np.array([p.kc * s, p.kphi * s, p.n, p.cc, phic2])
         assert f(x2)[0] == pytest.approx(res.rmsd, rel=1e-9, abs=1e-9 * rms(prof.ci))
@@ -315,8 +315,8 @@ def test_exact_never_worse_than_de_with_us_bounds():
     b = Bounds.parse("kc=0:20,kphi=0:30,n=0.3:1.2", "us")
     ex = predict(prof, bounds=b)
     x = vec(ex.params, b)
-    lo = np.array([b.kc[0], b.kphi[0], b.n[0], b.cc[0], b.phic[0]])
-    hi = np.array([b.kc[1], b.kphi[1], b.n[1], b.cc[1], b.phic[1]])
+    lo = np.array([b.kc[0], b.kphi[0], b.n[0], b.cc[0], b.phic_deg[0]])
+    hi = np.array([b.kc[1], b.kphi[1], b.n[1], b.cc[1], b.phic_deg[1]])
     assert np.all(x >= lo - 1e-9 * (1 + np.abs(lo))) and np.all(x <= hi + 1e-9 * (1 + hi))
     f = rmsd_objective(prof, pressure_law("rm0"), b)
     f_ex = float(f(x)[0])
@@ -329,15 +329,15 @@ def test_exact_never_worse_than_de_with_us_bounds():
 # ---------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("Kc", [0.002, 0.005])
-def test_fixed_finite_Kc_reaches_the_truth(Kc):
+@pytest.mark.parametrize("K_cone", [0.002, 0.005])
+def test_fixed_finite_Kc_reaches_the_truth(K_cone):
     kc, kphi, n, _, phic = TABLE_TYPED["LS_1"]
     z = depths(0.025)
-    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=1.0, phic=phic, Kc=Kc)
-    res = predict(CIProfile("Kc", z, ci), Kc=Kc)
+    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=1.0, phic_deg=phic, K_cone=K_cone)
+    res = predict(CIProfile("Kc", z, ci), K_cone=K_cone)
     p = res.params
     assert res.rmsd <= 1e-6 * rms(ci)
-    assert p.Kc == Kc
+    assert p.K_cone == K_cone
     assert abs(p.n - n) < 1e-4
     assert abs(p.phic_deg - phic) < 0.01
     assert p.kc == pytest.approx(kc, rel=1e-3)
@@ -349,16 +349,16 @@ def test_fixed_finite_Kc_reaches_the_truth(Kc):
 def test_fit_Kc_reaches_the_truth():
     kc, kphi, n, _, phic = TABLE_TYPED["LS_1"]
     z = depths(0.025)
-    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=1.0, phic=phic, Kc=0.02)
-    res = predict(CIProfile("fitKc", z, ci), fit_Kc=True, bounds=Bounds(n=(0.5, 1.0)))
+    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=1.0, phic_deg=phic, K_cone=0.02)
+    res = predict(CIProfile("fitKc", z, ci), fit_K_cone=True, bounds=Bounds(n=(0.5, 1.0)))
     assert res.rmsd <= 1e-6 * rms(ci)
-    assert res.params.Kc == pytest.approx(0.02, rel=1e-3)
+    assert res.params.K_cone == pytest.approx(0.02, rel=1e-3)
     assert abs(res.params.n - n) < 1e-4
 
 
 def test_fit_Kc_reaches_the_truth_dense_profile():
     kc, kphi, n, _, phic = TABLE_TYPED["LS_1"]
     z = depths(0.01)
-    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=1.0, phic=phic, Kc=0.005)
-    res = predict(CIProfile("fitKc-dense", z, ci), fit_Kc=True, bounds=Bounds(n=(0.5, 1.0)))
+    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=1.0, phic_deg=phic, K_cone=0.005)
+    res = predict(CIProfile("fitKc-dense", z, ci), fit_K_cone=True, bounds=Bounds(n=(0.5, 1.0)))
     assert res.rmsd <= 1e-6 * rms(ci)

@@ -77,7 +77,7 @@ def test_cone_metal_values_never_become_mohr_parameters():
     assert {"Mohr Cohesion", "Mohr Friction", "Janosi Shear"} <= set(missing)
     assert 2500.0 not in soil.values() and 24.0 not in soil.values()
     # the same through TerrainParameters and through a library record
-    tp = TerrainParameters(kc=20.0, kphi=900.0, n=0.8, cc=2.5, phic_deg=24.0, Kc=0.01)
+    tp = TerrainParameters(kc=20.0, kphi=900.0, n=0.8, cc=2.5, phic_deg=24.0, K_cone=0.01)
     doc2, missing2 = to_chrono_scm(tp, "from cone")
     assert doc2 == doc and missing2 == missing
     doc3, _ = to_chrono_scm(TerrainParameters(kc=1.0, kphi=2.0, n=1.0).as_dict(), "as_dict")

@@ -132,7 +132,7 @@ def test_box_lsq3_broadcasts_like_the_reference():
 def noisy_profile(seed, terrain=(102.0, 5301.0, 0.79, 1.5, 12.0), noise=0.03, dz=0.01):
     kc, kphi, n, cc, phic = terrain
     z = np.round(np.arange(0.0, 0.3 + dz / 2, dz), 10)
-    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=cc, phic=phic)
+    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=cc, phic_deg=phic)
     rng = np.random.default_rng(seed)
     return z, ci * (1.0 + noise * rng.standard_normal(z.size))
 
@@ -402,7 +402,7 @@ def test_check_fits_equal_check_fit():
 def brute_force_n(z, y, bounds, law, n_vals, phis):
     """Best (SSE, n) over a grid of n x phic, each cell solved exactly: the columns of
     cone_index_basis, the 27-face box solve of box_lsq3_reference, the SSE from the residuals."""
-    A, B, C = cone_index_basis(z[None, :], n=n_vals[:, None], phic=0.0, law=law, cone=CONE)
+    A, B, C = cone_index_basis(z[None, :], n=n_vals[:, None], phic_deg=0.0, law=law, cone=CONE)
     s = 1.0 + np.tan(np.radians(phis)) / np.tan(CONE.half_angle)  # eq. (2-6) fully mobilised
     X = np.stack(
         np.broadcast_arrays(A[:, None] * s[:, None], B[:, None] * s[:, None], C[:, None]), -1
@@ -422,7 +422,7 @@ def dense_optimum(z, y, bounds, law):
     """Brute force: n on a grid of step 1e-3 over the bounds, then twice 2001 points within two
     steps of the best (steps 2e-6, 4e-9), phic on ten values each time."""
     lo, hi = bounds.n
-    phis = np.linspace(*bounds.phic, 10)
+    phis = np.linspace(*bounds.phic_deg, 10)
     sse, n = brute_force_n(
         z, y, bounds, law, np.linspace(lo, hi, int(round((hi - lo) / 1e-3)) + 1), phis
     )

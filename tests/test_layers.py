@@ -25,7 +25,7 @@ Z = np.concatenate([[-H, -0.7 * H, -0.2 * H, 0.0], np.linspace(0.005, 0.5, 34)])
 
 
 def _homogeneous(z, p: TerrainParameters, **kw):
-    return cone_index(z, kc=p.kc, kphi=p.kphi, n=p.n, cc=p.cc, phic=p.phic_deg, cone=CONE, **kw)
+    return cone_index(z, kc=p.kc, kphi=p.kphi, n=p.n, cc=p.cc, phic_deg=p.phic_deg, cone=CONE, **kw)
 
 
 @pytest.mark.parametrize(
@@ -44,7 +44,7 @@ def _homogeneous(z, p: TerrainParameters, **kw):
 def test_identical_layers_are_one_homogeneous_layer(interfaces):
     p = TerrainParameters(kc=40.0, kphi=3000.0, n=0.7, cc=3.0, phic_deg=12.0)
     L = len(interfaces) + 1
-    X = layered_basis(Z, n=[p.n] * L, interfaces=interfaces, phic=p.phic_deg, cone=CONE)
+    X = layered_basis(Z, n=[p.n] * L, interfaces=interfaces, phic_deg=p.phic_deg, cone=CONE)
     assert X.shape == (Z.size, 3 * L)
     ci = X @ np.tile([p.kc, p.kphi, p.cc], L)
     ref = _homogeneous(Z, p)
@@ -70,7 +70,7 @@ BOT = TerrainParameters(kc=10.0, kphi=1500.0, n=1.0, cc=2.0, phic_deg=20.0)
 
 def test_interface_below_every_tip_gives_exactly_the_top_layer():
     d = Z.max() + H + 0.001
-    X = layered_basis(Z, n=[TOP.n, BOT.n], interfaces=[d], phic=TOP.phic_deg, cone=CONE)
+    X = layered_basis(Z, n=[TOP.n, BOT.n], interfaces=[d], phic_deg=TOP.phic_deg, cone=CONE)
     assert np.all(X[:, 3:] == 0.0)  # the lower layer carries nothing
     ci = layered_cone_index(Z, [TOP, BOT], [d], cone=CONE)
     np.testing.assert_allclose(ci, _homogeneous(Z, TOP), rtol=1e-12, atol=1e-12)
@@ -78,7 +78,7 @@ def test_interface_below_every_tip_gives_exactly_the_top_layer():
 
 @pytest.mark.parametrize("d", [-0.05, -0.001, 0.0])
 def test_interface_at_or_above_the_surface_gives_exactly_the_bottom_layer(d):
-    X = layered_basis(Z, n=[TOP.n, BOT.n], interfaces=[d], phic=TOP.phic_deg, cone=CONE)
+    X = layered_basis(Z, n=[TOP.n, BOT.n], interfaces=[d], phic_deg=TOP.phic_deg, cone=CONE)
     assert np.all(X[:, :3] == 0.0)  # the upper layer carries nothing
     ci = layered_cone_index(Z, [TOP, BOT], [d], cone=CONE)
     np.testing.assert_allclose(ci, _homogeneous(Z, BOT), rtol=1e-12, atol=1e-12)

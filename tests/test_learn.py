@@ -20,7 +20,7 @@ from terracone import CIProfile, PlateTest, cone_index, plate_pressure
 from terracone.inverse import predict
 from terracone.inverse.learning.learn import Calibration, LearnResult, learn
 
-TRUTH = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.5, phic=12.0)
+TRUTH = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.5, phic_deg=12.0)
 PAIR = (0.0375, 0.05)
 Z = np.round(np.arange(0.0, 0.3001, 0.01), 10)
 SINKAGE = np.linspace(0.005, 0.1, 20)
@@ -34,7 +34,7 @@ def dataset(model: str, r_min: float | None):
         kphi=TRUTH["kphi"],
         n=TRUTH["n"],
         cc=TRUTH["cc"],
-        phic=TRUTH["phic"],
+        phic_deg=TRUTH["phic_deg"],
         model=model,
         r_min=r_min,
         plate_pair=pair,
@@ -96,7 +96,7 @@ def assert_bekker_and_shear(res: LearnResult):
     assert p.kc == pytest.approx(TRUTH["kc"], rel=1e-3)
     assert p.kphi == pytest.approx(TRUTH["kphi"], rel=1e-3)
     assert p.n == pytest.approx(TRUTH["n"], rel=1e-3)
-    assert p.phic_deg == pytest.approx(TRUTH["phic"], rel=1e-2)
+    assert p.phic_deg == pytest.approx(TRUTH["phic_deg"], rel=1e-2)
     assert abs(p.cc - TRUTH["cc"]) <= 0.2
 
 
@@ -136,7 +136,7 @@ def test_rm1_learned_model_reproduces_the_data(rm1_small):
         kphi=p.kphi,
         n=p.n,
         cc=p.cc,
-        phic=p.phic_deg,
+        phic_deg=p.phic_deg,
         model="rm1",
         r_min=p.r_min,
         plate_pair=PAIR,
@@ -173,7 +173,7 @@ def test_calibration_from_learning_round_trip_and_use(rm1_small, tmp_path):
         kphi=TRUTH["kphi"],
         n=TRUTH["n"],
         cc=TRUTH["cc"],
-        phic=TRUTH["phic"],
+        phic_deg=TRUTH["phic_deg"],
         model="rm1",
         r_min=0.006,
         plate_pair=PAIR,
@@ -198,7 +198,7 @@ def test_rm1_secant_above_the_larger_plate(rm1_secant):
         kphi=p.kphi,
         n=p.n,
         cc=p.cc,
-        phic=p.phic_deg,
+        phic_deg=p.phic_deg,
         model="rm1",
         r_min=p.r_min,
         plate_pair=PAIR,
@@ -209,7 +209,7 @@ def test_rm1_secant_above_the_larger_plate(rm1_secant):
         kphi=p.kphi,
         n=p.n,
         cc=p.cc,
-        phic=p.phic_deg,
+        phic_deg=p.phic_deg,
         model="rm1",
         r_min=0.08,
         plate_pair=PAIR,
@@ -276,7 +276,15 @@ def forward_J(profiles, plates, model, kc, kphi, n, cc, phic, r_min):
     tot = 0.0
     for p in profiles:
         m = cone_index(
-            p.depth, kc=kc, kphi=kphi, n=n, cc=cc, phic=phic, model=model, r_min=rm, plate_pair=pair
+            p.depth,
+            kc=kc,
+            kphi=kphi,
+            n=n,
+            cc=cc,
+            phic_deg=phic,
+            model=model,
+            r_min=rm,
+            plate_pair=pair,
         )
         tot = tot + np.sqrt(np.mean((m - p.ci) ** 2, axis=-1)) / float(np.mean(p.ci))
     for b in plates:
@@ -304,7 +312,7 @@ def test_noise_free_sites_recover_every_determined_parameter(name, r_min, determ
         ("kphi", TRUTH["kphi"]),
         ("n", TRUTH["n"]),
         ("cc", TRUTH["cc"]),
-        ("phic_deg", TRUTH["phic"]),
+        ("phic_deg", TRUTH["phic_deg"]),
     ):
         assert getattr(p, key) == pytest.approx(truth, rel=2e-3), key
     if "r_min" in determined:
@@ -333,7 +341,7 @@ def noisy_site(model, r_min, seed, truth=TRUTH, ci_noise=0.03, plate_noise=0.02)
         kphi=t["kphi"],
         n=t["n"],
         cc=t["cc"],
-        phic=t["phic"],
+        phic_deg=t["phic_deg"],
         model=model,
         r_min=r_min,
         plate_pair=pair,
@@ -409,7 +417,7 @@ def test_lower_bound_of_the_global_minimum_against_a_dense_brute_force_grid(mode
     from terracone.inverse.learning.search import branch_points
 
     profiles, plates = noisy_site(model, r_min, seed)
-    b = Bounds(n=(0.4, 1.2), phic=(0.0, 30.0))
+    b = Bounds(n=(0.4, 1.2), phic_deg=(0.0, 30.0))
     rr = (0.003, 0.08) if model == "rm1" else None
     res = learn(profiles, plates, model=model, bounds=b, r_min_bounds=rr)
     c = res.certificate
@@ -447,12 +455,12 @@ def test_intervals_cover_the_truth_at_their_stated_rate():
             kphi=rng.uniform(2000, 8000),
             n=rng.uniform(0.6, 1.1),
             cc=rng.uniform(0.5, 5),
-            phic=rng.uniform(5, 25),
+            phic_deg=rng.uniform(5, 25),
         )
         profiles, plates = noisy_site("rm0", None, 1000 + i, truth=t)
         res = learn(profiles, plates, model="rm0", certify_levels=0)
         assert res.as_dict()["interval_level"] == 0.95
-        truth = (t["kc"], t["kphi"], t["n"], t["phic"])
+        truth = (t["kc"], t["kphi"], t["n"], t["phic_deg"])
         for k, (key, v) in enumerate(zip(keys, truth)):
             lo, hi = res.intervals[key]
             hits[i, k] = lo <= v <= hi

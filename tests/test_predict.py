@@ -69,7 +69,7 @@ Z = np.round(np.arange(0.0, 0.3001, 0.01), 10)
 
 def generated(name="LS_1", **kw) -> CIProfile:
     kc, _, kphi, _, n, cc, phic = TABLE[name]
-    ci = cone_index(Z, kc=kc, kphi=kphi, n=n, cc=cc, phic=phic, **kw)
+    ci = cone_index(Z, kc=kc, kphi=kphi, n=n, cc=cc, phic_deg=phic, **kw)
     return CIProfile(name, Z.copy(), ci)
 
 
@@ -159,7 +159,11 @@ def test_us_units_by_hand():
     kc, _, kphi, _, n, cc, phic = TABLE["KRC_1"]
     prof = generated("KRC_1", model="rm1", r_min=0.004)
     res = predict(
-        prof, model="rm1", r_min=0.004, bounds=Bounds().fixed(phic=phic, cc=cc), noise_floor=0.01
+        prof,
+        model="rm1",
+        r_min=0.004,
+        bounds=Bounds().fixed(phic_deg=phic, cc=cc),
+        noise_floor=0.01,
     )
     si, us = res.as_dict("si"), res.as_dict("us")
     p = res.params
@@ -218,7 +222,7 @@ def test_pso_through_predict_is_seeded():
         kphi=a.params.kphi,
         n=a.params.n,
         cc=a.params.cc,
-        phic=a.params.phic_deg,
+        phic_deg=a.params.phic_deg,
     )
     assert a.rmsd == pytest.approx(float(np.sqrt(np.mean((m - prof.ci) ** 2))), rel=1e-12)
 
@@ -232,7 +236,7 @@ def test_rm1_prediction_with_known_r_min():
         model="rm1",
         r_min=0.006,
         plate_pair=pair,
-        bounds=Bounds().fixed(phic=phic, cc=cc),
+        bounds=Bounds().fixed(phic_deg=phic, cc=cc),
     )
     p = res.params
     assert p.model == "rm1" and p.r_min == 0.006
@@ -245,7 +249,9 @@ def test_rm1_prediction_with_known_r_min():
 # calibrations
 # ---------------------------------------------------------------------------
 
-TRUTH = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.5, phic=12.0)  # Wong's LETE sand + chosen shear
+TRUTH = dict(
+    kc=102.0, kphi=5301.0, n=0.79, cc=1.5, phic_deg=12.0
+)  # Wong's LETE sand + chosen shear
 PAIR = (0.0375, 0.05)
 
 
@@ -255,7 +261,7 @@ def lete_calibration(**over) -> Calibration:
         model="rm1",
         r_min=0.006,
         plate_pair=PAIR,
-        phic_deg=TRUTH["phic"],
+        phic_deg=TRUTH["phic_deg"],
         cc=TRUTH["cc"],
         kc=TRUTH["kc"],
         kphi=TRUTH["kphi"],
@@ -301,7 +307,7 @@ def test_predict_with_calibration_fixes_model_rmin_phic_cc(tmp_path):
         kphi=TRUTH["kphi"],
         n=TRUTH["n"],
         cc=TRUTH["cc"],
-        phic=TRUTH["phic"],
+        phic_deg=TRUTH["phic_deg"],
         model="rm1",
         r_min=0.006,
         plate_pair=PAIR,
@@ -310,7 +316,7 @@ def test_predict_with_calibration_fixes_model_rmin_phic_cc(tmp_path):
     res = predict(prof, calibration=cal)  # model defaults to rm0: the calibration overrides it
     p = res.params
     assert p.model == "rm1" and p.r_min == 0.006
-    assert p.phic_deg == TRUTH["phic"] and p.cc == TRUTH["cc"]
+    assert p.phic_deg == TRUTH["phic_deg"] and p.cc == TRUTH["cc"]
     assert "phic" not in res.undetermined
     assert p.kc == pytest.approx(TRUTH["kc"], rel=1e-3)
     assert p.kphi == pytest.approx(TRUTH["kphi"], rel=1e-3)
@@ -328,7 +334,7 @@ def test_calibration_pso_respects_fixed_parameters():
     cal = lete_calibration(model="rm0", r_min=None)
     ci = cone_index(Z, **{k: v for k, v in TRUTH.items()})
     res = predict(CIProfile("p", Z, ci), calibration=cal, solver="pso", seed=3)
-    assert res.params.phic_deg == TRUTH["phic"] and res.params.cc == TRUTH["cc"]
+    assert res.params.phic_deg == TRUTH["phic_deg"] and res.params.cc == TRUTH["cc"]
     assert res.params.model == "rm0"
     assert "phic" not in res.undetermined
     assert math.isfinite(res.rmsd)

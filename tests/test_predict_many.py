@@ -47,7 +47,7 @@ def synthetic(
             kphi=float(rng.uniform(300, 3000)),
             n=float(rng.uniform(0.4, 1.2)),
             cc=float(rng.uniform(0, 10)),
-            phic=float(rng.uniform(5, 30)),
+            phic_deg=float(rng.uniform(5, 30)),
         )
         ci = cone_index(z, cone=cone, **truth)
         if noise:
@@ -179,15 +179,15 @@ def test_known_truth_recovered():
         # fully mobilised shear: phic trades against the scale of kc, kphi (eq. (2-6)) and
         # the true phic lies on the reported ridge, where it gives back the true kc, kphi
         lo, hi = r.phic_range
-        assert lo - 1e-6 <= t["phic"] <= hi + 1e-6
+        assert lo - 1e-6 <= t["phic_deg"] <= hi + 1e-6
         t_a = math.tan(p.cone.half_angle)
         s_rep = 1 + math.tan(math.radians(q.phic_deg)) / t_a
-        s_true = 1 + math.tan(math.radians(t["phic"])) / t_a
+        s_true = 1 + math.tan(math.radians(t["phic_deg"])) / t_a
         assert q.kphi * s_rep / s_true == pytest.approx(t["kphi"], rel=1e-4)
         assert "phic" in r.undetermined
     # with phic held at the truth the scale is fixed and kc, kphi come back themselves
     t = truths[0]
-    fixed = predict_many(profiles[:1], bounds=Bounds().fixed(phic=t["phic"]))[0]
+    fixed = predict_many(profiles[:1], bounds=Bounds().fixed(phic_deg=t["phic_deg"]))[0]
     assert fixed.params.kc == pytest.approx(t["kc"], rel=1e-4, abs=1e-4)
     assert fixed.params.kphi == pytest.approx(t["kphi"], rel=1e-5)
     assert "phic" not in fixed.undetermined

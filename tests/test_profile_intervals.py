@@ -40,9 +40,9 @@ def columns(z: np.ndarray, n: float) -> np.ndarray:
     """(Z, 3) model columns of kc, kphi and cc at n, from the forward model itself."""
     return np.stack(
         [
-            cone_index(z, kc=1.0, kphi=0.0, n=n, cc=0.0, phic=PHIC),
-            cone_index(z, kc=0.0, kphi=1.0, n=n, cc=0.0, phic=PHIC),
-            cone_index(z, kc=0.0, kphi=0.0, n=n, cc=1.0, phic=PHIC),
+            cone_index(z, kc=1.0, kphi=0.0, n=n, cc=0.0, phic_deg=PHIC),
+            cone_index(z, kc=0.0, kphi=1.0, n=n, cc=0.0, phic_deg=PHIC),
+            cone_index(z, kc=0.0, kphi=0.0, n=n, cc=1.0, phic_deg=PHIC),
         ],
         axis=1,
     )
@@ -124,7 +124,7 @@ def brute_force(z: np.ndarray, y: np.ndarray, b: Bounds) -> dict:
 
 def generated(kc, kphi, n, noise, z, seed):
     rng = np.random.default_rng(seed)
-    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=2.0, phic=PHIC)
+    ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=2.0, phic_deg=PHIC)
     return CIProfile("gen", z, ci * (1.0 + noise * rng.standard_normal(z.size)))
 
 

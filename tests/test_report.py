@@ -275,7 +275,7 @@ def test_build_report_rejects_what_it_cannot_read(tmp_path):
 
 def test_figures_write_png_and_svg_with_units(tmp_path):
     z = np.linspace(0, 0.3, 31)
-    ci = terracone.cone_index(z, kc=80, kphi=4700, n=0.74, phic=12.5)
+    ci = terracone.cone_index(z, kc=80, kphi=4700, n=0.74, phic_deg=12.5)
     prof = {"id": "P", "depth": z, "ci": ci * 1.01, "ci_model": ci}
     fig = F.fig_ci_fit([prof], units="us", synthetic=True)
     ax = fig.axes[0]
@@ -302,7 +302,7 @@ def test_figures_write_png_and_svg_with_units(tmp_path):
 
 def test_ridge_is_flat_in_phic_and_fixes_n():
     z = np.linspace(0, 0.3, 31)
-    ci = terracone.cone_index(z, kc=80.14, kphi=4727.2, n=0.74, phic=12.5)
+    ci = terracone.cone_index(z, kc=80.14, kphi=4727.2, n=0.74, phic_deg=12.5)
     r = ridge_profile(z, ci)
     prof_phic = r["rmsd"].min(axis=0)
     assert np.ptp(prof_phic) <= 1e-6 * max(1.0, prof_phic.max())  # exact ridge

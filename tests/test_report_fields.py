@@ -102,7 +102,7 @@ def located_json(tmp_path_factory) -> tuple[Path, list[dict]]:
     truth, rows = [], ["profile,depth_cm,ci_kpa,lat,lon"]
     for k in range(6):
         lat, lon, n = 42.0100 + 0.0004 * (k % 3), -93.7900 + 0.0006 * (k // 3), 0.4 + 0.08 * k
-        ci = terracone.cone_index(z, kc=20.0, kphi=1500.0, n=n, phic=15.0)
+        ci = terracone.cone_index(z, kc=20.0, kphi=1500.0, n=n, phic_deg=15.0)
         truth.append({"id": f"G{k}", "lat": lat, "lon": lon, "n": n})
         rows += [f"G{k},{zi * 100:.2f},{c:.4f},{lat},{lon}" for zi, c in zip(z, ci, strict=True)]
     (d / "located.csv").write_text("\n".join(rows) + "\n")
@@ -478,7 +478,7 @@ def test_repr_html_of_prediction_and_predictions():
     z = np.arange(0.0, 0.301, 0.02)
     profiles = [
         terracone.CIProfile(
-            f"P{k}", z, terracone.cone_index(z, kc=30.0, kphi=2000.0, n=n, phic=10.0)
+            f"P{k}", z, terracone.cone_index(z, kc=30.0, kphi=2000.0, n=n, phic_deg=10.0)
         )
         for k, n in enumerate((0.6, 0.9))
     ]

@@ -259,8 +259,8 @@ def test_an_old_parquet_without_schema_reads_and_a_future_one_is_refused(tmp_pat
 # ---------------------------------------------------------------------------
 
 TRUTH = [  # noise-free profiles of known parameters
-    dict(kc=20.0, kphi=1500.0, n=0.6, cc=3.0, phic=15.0),
-    dict(kc=5.0, kphi=800.0, n=1.0, cc=1.0, phic=25.0),
+    dict(kc=20.0, kphi=1500.0, n=0.6, cc=3.0, phic_deg=15.0),
+    dict(kc=5.0, kphi=800.0, n=1.0, cc=1.0, phic_deg=25.0),
 ]
 
 

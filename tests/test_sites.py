@@ -99,7 +99,7 @@ def generated(request):
         kc = kphi * CAL.kc / CAL.kphi
         J = int(rng.integers(3, 9))
         m = np.exp(tau * rng.standard_normal((J, 1)))
-        ci = cone_index(z, kc=m * kc, kphi=m * kphi, n=n, cc=CAL.cc, phic=CAL.phic_deg)
+        ci = cone_index(z, kc=m * kc, kphi=m * kphi, n=n, cc=CAL.cc, phic_deg=CAL.phic_deg)
         e = rng.standard_normal(ci.shape)
         for i in range(1, z.size):  # AR(1) along depth
             e[:, i] = rho * e[:, i - 1] + math.sqrt(1 - rho * rho) * e[:, i]
@@ -232,7 +232,7 @@ def test_cli_sites_table_json_and_report(tmp_path):
     for site, kphi in (("A", 800.0), ("B", 2000.0)):
         for j in range(3):
             ci = cone_index(
-                z, kc=kphi / 30, kphi=kphi * rng.lognormal(0, 0.2), n=0.9, cc=5, phic=11
+                z, kc=kphi / 30, kphi=kphi * rng.lognormal(0, 0.2), n=0.9, cc=5, phic_deg=11
             )
             ci *= 1 + 0.05 * rng.standard_normal(z.size)
             lines += [f"{site}{j},{site},{d:.3f},{c:.2f}" for d, c in zip(z, ci)]
@@ -267,7 +267,7 @@ def _uncalibrated_sites(n_sites: int, cv: float, seed: int):
         n, kphi = rng.uniform(0.6, 1.2), rng.uniform(500.0, 3000.0)
         J = int(rng.integers(3, 9))
         m = np.exp(tau * rng.standard_normal((J, 1)))
-        ci = cone_index(z, kc=m * kphi / 30, kphi=m * kphi, n=n, cc=5.0, phic=11.0)
+        ci = cone_index(z, kc=m * kphi / 30, kphi=m * kphi, n=n, cc=5.0, phic_deg=11.0)
         y = np.maximum(ci * (1 + 0.1 * rng.standard_normal(ci.shape)), 0.0)
         groups[f"s{s}"] = list(range(len(profiles), len(profiles) + J))
         profiles += [CIProfile(f"s{s}-{j}", z, y[j]) for j in range(J)]
@@ -319,7 +319,9 @@ def test_cli_sites_by_radius(tmp_path):
     d = 1.0 / 111195.0  # about 1 m of latitude [deg]
     for site, lat0 in (("A", 42.0), ("B", 42.0 + 500 * d)):
         for j in range(3):
-            ci = cone_index(z, kc=30.0, kphi=1200.0 * rng.lognormal(0, 0.2), n=0.9, cc=5, phic=11)
+            ci = cone_index(
+                z, kc=30.0, kphi=1200.0 * rng.lognormal(0, 0.2), n=0.9, cc=5, phic_deg=11
+            )
             lat = lat0 + 2 * j * d
             lines += [f"{site}{j},{lat:.8f},-93.0,{a:.3f},{c:.2f}" for a, c in zip(z, ci)]
     f = tmp_path / "ci.csv"
@@ -339,7 +341,7 @@ def test_shape_pushes_noise_free_strengths_give_their_own_cv():
     z = np.arange(0.0, 0.451, 0.025)
     g = np.array([0.8, 1.0, 1.2, 1.5])
     gg = g[:, None]
-    ci = cone_index(z, kc=gg * 40.0, kphi=gg * 1200.0, n=0.9, cc=gg * 5.0, phic=11.0)
+    ci = cone_index(z, kc=gg * 40.0, kphi=gg * 1200.0, n=0.9, cc=gg * 5.0, phic_deg=11.0)
     profiles = [CIProfile(f"p{j}", z, ci[j]) for j in range(g.size)]
     (res,) = fit_sites(profiles, Grouping({"a": [0, 1, 2, 3]}), plates=[0.05])
     want = math.sqrt(math.expm1(np.var(np.log(g), ddof=1)))

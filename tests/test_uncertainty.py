@@ -36,7 +36,7 @@ from terracone.inverse.uncertainty.sampler import integrated_time
 from terracone.physics import units as u
 from terracone.physics.cone import cone_index_huang
 
-TRUTH = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.0, phic=11.0)
+TRUTH = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.0, phic_deg=11.0)
 DEPTH = np.round(np.arange(0.0, 0.3001, 0.01), 6)
 LETE = Calibration("LETE sand", "rm0", None, None, 11.0, 1.0, 102.0, 5301.0, 0.79)
 FAST = dict(draws=600, nwalkers=32, burn=200, thin=10)
@@ -88,7 +88,7 @@ def test_n_determined_on_clean_profile(clean):
 
 
 def test_intervals_contain_truth(clean):
-    for name, key in zip(PARAM_NAMES, ("kc", "kphi", "n", "cc", "phic")):
+    for name, key in zip(PARAM_NAMES, ("kc", "kphi", "n", "cc", "phic_deg")):
         lo, hi = clean.intervals[name]
         assert lo <= clean.medians[name] <= hi
         if name == "cc":
@@ -287,7 +287,7 @@ def test_rm1_us_bounds_fixed_parameters_and_finite_Kc():
     n = res.samples[:, 2]
     assert np.all(res.samples[:, 0] <= u.kc_to_si(100.0, n, "us") * (1 + 1e-9))
     # phic fixed: plain coordinates, phic reported as fixed ("set by prior", ratio 1)
-    res2 = posterior(p, bounds=Bounds().fixed(phic=11.0), seed=1, **FAST)
+    res2 = posterior(p, bounds=Bounds().fixed(phic_deg=11.0), seed=1, **FAST)
     assert res2.diagnostics.coordinates == "plain"
     assert np.all(res2.samples[:, 4] == 11.0)
     assert res2.identifiability["phic_deg"] == "set by prior"
@@ -297,10 +297,10 @@ def test_rm1_us_bounds_fixed_parameters_and_finite_Kc():
     assert res3.model == "rm1" and res3.r_min == 0.008
     # finite Kc (shear part tabulated separately)
     pk = CIProfile(
-        "k", DEPTH, cone_index_huang(DEPTH, **truth, Kc=0.01) * (1 + 0.03 * np.sin(DEPTH * 50))
+        "k", DEPTH, cone_index_huang(DEPTH, **truth, K_cone=0.01) * (1 + 0.03 * np.sin(DEPTH * 50))
     )
-    res4 = posterior(pk, Kc=0.01, seed=1, start=predict(pk).params, **FAST)
-    assert res4.Kc == 0.01 and res4.diagnostics.coordinates == "plain"
+    res4 = posterior(pk, K_cone=0.01, seed=1, start=predict(pk).params, **FAST)
+    assert res4.K_cone == 0.01 and res4.diagnostics.coordinates == "plain"
     assert np.isfinite(res4.samples).all()
 
 
@@ -349,7 +349,7 @@ def _truth_calibration(rng, cal):
     while not 0 <= cc <= 100:  # the prior is truncated to the bounds
         cc = LETE.cc + cal.cc_width * rng.standard_normal()
     phic = float(np.clip(LETE.phic_deg + cal.phic_sd * rng.standard_normal(), 0, 45))
-    return dict(kc=q * kphi, kphi=kphi, n=rng.uniform(0.5, 1.1), cc=cc, phic=phic)
+    return dict(kc=q * kphi, kphi=kphi, n=rng.uniform(0.5, 1.1), cc=cc, phic_deg=phic)
 
 
 def _coverage_cases(n_cases: int, *, prior: str, correlated: bool, seed: int):
@@ -364,7 +364,7 @@ def _coverage_cases(n_cases: int, *, prior: str, correlated: bool, seed: int):
                 kphi=rng.uniform(2500, 5500),
                 n=rng.uniform(0.5, 1.1),
                 cc=rng.uniform(0, 2),
-                phic=rng.uniform(8, 14),
+                phic_deg=rng.uniform(8, 14),
             )
         else:  # truths drawn from the calibration prior
             t = _truth_calibration(rng, cal)
@@ -434,7 +434,7 @@ def test_reference_weight_is_the_gram_determinant_of_the_forward_model():
     half = lik.gram_half_logdet([True, True, True])
     for k in (0, 7, 40, lik.grid.size - 1):
         n = float(lik.grid[k])
-        A, B, C = cone_index_basis(z, n=n, phic=0.0, law=lik.law, cone=lik.cone)
+        A, B, C = cone_index_basis(z, n=n, phic_deg=0.0, law=lik.law, cone=lik.cone)
         X = np.stack([A, B, C], 1) / w[:, None]
         U = X.copy()  # whitening by hand: u_i = (x_i - phi x_(i-1)) / sqrt(1 - phi^2)
         U[1:] = (X[1:] - 0.6 * X[:-1]) / math.sqrt(1 - 0.36)
@@ -467,12 +467,12 @@ def test_reference_weight_only_under_the_bounds_prior():
 # ---------------------------------------------------------------------------
 
 
-def _likelihood(Kc, phi):
+def _likelihood(K_cone, phi):
     from terracone.inverse.uncertainty.likelihood import Likelihood
     from terracone.physics.plate import pressure_law
 
     z = DEPTH
-    y = cone_index_huang(z, **TRUTH, Kc=Kc) * (1 + 0.03 * np.sin(40 * z))
+    y = cone_index_huang(z, **TRUTH, K_cone=K_cone) * (1 + 0.03 * np.sin(40 * z))
     w = np.sqrt(y * y + (0.05 * y.max()) ** 2)
     w = w / np.sqrt(np.mean(w * w))
     lik = Likelihood(
@@ -480,7 +480,7 @@ def _likelihood(Kc, phi):
         y,
         cone=CIProfile("x", z, y).cone,
         law=pressure_law("rm0"),
-        Kc=Kc,
+        K_cone=K_cone,
         n_range=(0.05, 2.0),
         weights=w,
         phi=phi,
@@ -488,9 +488,9 @@ def _likelihood(Kc, phi):
     return lik, z, y, w
 
 
-@pytest.mark.parametrize("Kc", [None, 0.01])
+@pytest.mark.parametrize("K_cone", [None, 0.01])
 @pytest.mark.parametrize("sampled_rho", [False, True])
-def test_compiled_log_likelihood_equals_numpy_and_the_forward_model(Kc, sampled_rho):
+def test_compiled_log_likelihood_equals_numpy_and_the_forward_model(K_cone, sampled_rho):
     """spline_sse_compiled == spline_sse to 1e-12; both == the direct model to 1e-6."""
     rng = np.random.default_rng(3)
     P = 40
@@ -506,7 +506,7 @@ def test_compiled_log_likelihood_equals_numpy_and_the_forward_model(Kc, sampled_
     params[0, 2], params[1, 2] = 0.05, 2.0  # both ends of the n grid
     rho = rng.uniform(0, 0.95, P) if sampled_rho else None
     phi = None if sampled_rho else ar1_coefficients(DEPTH, 0.6)
-    lik, z, y, w = _likelihood(Kc, phi)
+    lik, z, y, w = _likelihood(K_cone, phi)
     r = np.zeros(0) if rho is None else rho
     args = (lik.coef, lik.n0, lik.h, lik.wy, params, lik.t, r, lik.dzr)
     ref = spline_sse(*args)
@@ -515,7 +515,9 @@ def test_compiled_log_likelihood_equals_numpy_and_the_forward_model(Kc, sampled_
     # independent reference: the closed-form model, weighted and whitened by hand
     for k in range(P):
         kc, kphi, n, cc, phic = params[k]
-        e = (cone_index_huang(z, kc=kc, kphi=kphi, n=n, cc=cc, phic=phic, Kc=Kc) - y) / w
+        e = (
+            cone_index_huang(z, kc=kc, kphi=kphi, n=n, cc=cc, phic_deg=phic, K_cone=K_cone) - y
+        ) / w
         ph = ar1_coefficients(z, rho[k]) if sampled_rho else phi
         u = np.concatenate([e[:1], (e[1:] - ph * e[:-1]) / np.sqrt(1 - ph * ph)])
         assert ref[k] == pytest.approx(u @ u, rel=1e-6)

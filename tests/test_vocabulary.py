@@ -1,4 +1,4 @@
-"""One parameter vocabulary: model names, keyword aliases and the two parameter types.
+"""One parameter vocabulary: model names, the table of names and the two parameter types.
 
 References are hand computations (exact unit factors: 1 in = 0.0254 m,
 1 lbf = 4.4482216152605 N), the published reference table shipped with the
@@ -20,10 +20,10 @@ from terracone.apps.library import Library, record_params, reference_records
 from terracone.apps.sensitivity import BOXES, SobolBox
 from terracone.data import TerrainParameters, TerrainShear
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.learning.learn import Calibration, learn
+from terracone.inverse.learning.learn import Calibration
 from terracone.physics import cone, plate, shear
 from terracone.report.tables import parameters_table, shear_table
-from terracone.vocabulary import ALIASES, NAMES, alias, markdown_table
+from terracone.vocabulary import NAMES, markdown_table
 
 ROOT = Path(__file__).resolve().parents[1]
 INCH = 0.0254
@@ -54,54 +54,15 @@ def test_cone_index_janosi_by_hand():
 
 
 # ---------------------------------------------------------------------------
-# keyword aliases give identical output
-
-Z = np.linspace(-0.03, 0.3, 23)
-KW = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.0)
-
-
-@pytest.mark.parametrize("fn", [cone.cone_index_huang, cone.cone_index])
-def test_phic_and_Kc_aliases_identical(fn):
-    new = fn(Z, **KW, phic_deg=11.0, K_cone=0.01)
-    old = fn(Z, **KW, phic=11.0, Kc=0.01)
-    np.testing.assert_array_equal(new, old)
-    # and the alias really reaches the model: phic and Kc change the CI
-    assert not np.allclose(fn(Z, **KW), new)
-
-
-def test_cone_index_basis_aliases_identical():
-    new = cone.cone_index_basis(Z, n=0.79, phic_deg=11.0, K_cone=0.01)
-    old = cone.cone_index_basis(Z, n=0.79, phic=11.0, Kc=0.01)
-    for a, b in zip(new, old):
-        np.testing.assert_array_equal(a, b)
-
-
-def test_giving_a_name_and_its_alias_is_an_error():
-    with pytest.raises(TypeError, match="give K_cone or its alias Kc, not both"):
-        cone.cone_index(Z, **KW, K_cone=0.01, Kc=0.01)
-    with pytest.raises(TypeError, match="give phic_deg or its alias phic, not both"):
-        cone.cone_index_huang(Z, **KW, phic_deg=5.0, phic=5.0)
-    with pytest.raises(TypeError, match="give K_cone or its alias Kc, not both"):
-        learn([], [], K_cone=0.01, Kc=0.01)
-
-
-def test_alias_helper():
-    assert alias("K_cone", None, "Kc", 0.02) == 0.02
-    assert alias("K_cone", 0.03, "Kc", None) == 0.03
-    assert alias("K_cone", None, "Kc", None) is None
-    assert ALIASES == {"phic": "phic_deg", "Kc": "K_cone"}
-
-
-# ---------------------------------------------------------------------------
 # TerrainParameters and TerrainShear
 
 
-def test_terrain_parameters_K_cone_and_its_alias():
+def test_terrain_parameters_by_hand():
     a = TerrainParameters(102.0, 5301.0, 0.79, 1.0, 11.0, 0.01, "rm1", 0.008)
-    b = TerrainParameters(kc=102.0, kphi=5301.0, n=0.79, cc=1.0, phic=11.0, Kc=0.01,
+    b = TerrainParameters(kc=102.0, kphi=5301.0, n=0.79, cc=1.0, phic_deg=11.0, K_cone=0.01,
                           model="rm1", r_min=0.008)  # fmt: skip
     assert a == b
-    assert a.K_cone == a.Kc == 0.01 and a.phic_deg == 11.0
+    assert a.K_cone == 0.01 and a.phic_deg == 11.0
     assert a.kc_over_kphi == pytest.approx(102.0 / 5301.0, rel=1e-15)
     assert TerrainParameters(1.0, 0.0, 1.0).kc_over_kphi is None
     d = a.as_dict("us")
@@ -329,12 +290,16 @@ def test_sobol_boxes_read_like_the_old_dicts():
         SobolBox.from_ranges({k: v for k, v in b.items() if k != "Kc"})
 
 
-def test_bounds_python_names():
+def test_bounds_cli_keys_fill_the_python_fields():
     b = Bounds()
-    assert b.phic_deg == b.phic == (0.0, 45.0) and b.K_cone == b.Kc
-    assert b.fixed(phic_deg=11.0) == b.fixed(phic=11.0)
-    assert b.fixed(phic_deg=11.0).phic == (11.0, 11.0)
-    assert Bounds.parse("phic_deg=1:2,K_cone=0.001:0.01") == Bounds.parse("phic=1:2,Kc=0.001:0.01")
+    assert b.phic_deg == (0.0, 45.0) and b.K_cone == (1e-4, 0.1)
+    assert b.fixed(phic_deg=11.0).phic_deg == (11.0, 11.0)
+    # the CLI's --bounds keys (a contract) and the field names give the same bounds
+    parsed = Bounds.parse("phic=1:2,Kc=0.1:1", "us")
+    assert parsed == Bounds.parse("phic_deg=1:2,K_cone=0.1:1", "us")
+    assert parsed.phic_deg == (1.0, 2.0)
+    assert parsed.K_cone == pytest.approx((0.1 * INCH, INCH), rel=1e-15)
+    assert Bounds().as_dict()["phic_deg"] == [0.0, 45.0]  # the report's key
 
 
 # ---------------------------------------------------------------------------

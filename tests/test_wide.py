@@ -283,7 +283,7 @@ def test_cli_learn_reads_a_wide_table(tmp_path: Path):
     from terracone.physics.cone import cone_index
 
     z_cm = np.arange(0.0, 31.0, 2.5)
-    truth = dict(kc=100.0, kphi=5000.0, n=0.8, cc=2.0, phic=20.0)
+    truth = dict(kc=100.0, kphi=5000.0, n=0.8, cc=2.0, phic_deg=20.0)
     ci = cone_index(z_cm / 100, cone=CONES["asabe-large"], **truth)
     wide = _write(
         tmp_path / "w.tsv",

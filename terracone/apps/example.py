@@ -44,7 +44,7 @@ TRUTH = {
     "kphi": 5301.0,
     "n": 0.79,
     "cc": 1.0,
-    "phic": 11.0,
+    "phic_deg": 11.0,
     "model": "rm1",
     "r_min": 0.008,
     "plate_pair": (0.0375, 0.05),
@@ -78,7 +78,7 @@ def make_example() -> tuple[list[CIProfile], list[PlateTest]]:
         kphi=t["kphi"],
         n=t["n"],
         cc=t["cc"],
-        phic=t["phic"],
+        phic_deg=t["phic_deg"],
         model=t["model"],
         r_min=t["r_min"],
         plate_pair=t["plate_pair"],
@@ -139,7 +139,7 @@ def run_demo(units: str = "si", out: str | None = None) -> str:
     truth = TRUTH
     parts.append(
         f"   (truth: kc {truth['kc']:g}, kphi {truth['kphi']:g}, n {truth['n']:g}, cc {truth['cc']:g} kPa, "
-        f"phic {truth['phic']:g} deg, r_min {truth['r_min'] * 1000:g} mm, in SI)"
+        f"phic {truth['phic_deg']:g} deg, r_min {truth['r_min'] * 1000:g} mm, in SI)"
     )
     cal = res.calibration("LETE sand (synthetic)")
     parts += ["", "2. Prediction process (section 3.3.2) with that calibration, all profiles"]

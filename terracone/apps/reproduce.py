@@ -304,7 +304,7 @@ def _ci_profile(site: str, p: dict[str, Any], rng: np.random.Generator, case: st
         kphi=p["kphi"],
         n=p["n"],
         cc=p["cc"],
-        phic=p["phic_deg"],
+        phic_deg=p["phic_deg"],
         model=GENERATING_MODEL,
     )
     ci = ci * (1.0 + CI_NOISE * rng.standard_normal(CI_DEPTHS.size))
@@ -1590,7 +1590,7 @@ def _mark_bounds(
     """Highlight parameters on a bound of the default search (parameters_table layout)."""
     b = Bounds()
     return mark_bounds(
-        table, rows, cc=b.cc, phic=b.phic, n=b.n, rmin_col=rmin_col, rmin_range=rmin_range
+        table, rows, cc=b.cc, phic_deg=b.phic_deg, n=b.n, rmin_col=rmin_col, rmin_range=rmin_range
     )
 
 

@@ -1,6 +1,6 @@
 """Search bounds of the prediction and learning processes.
 
-cc and Kc bounds are stored in SI.  The SI value of a bound on kc or kphi
+cc and K_cone bounds are stored in SI.  The SI value of a bound on kc or kphi
 depends on n when it was given in US customary units (their units carry n),
 so those bounds keep the unit system they were given in and are converted
 for each n the solvers visit.
@@ -14,20 +14,20 @@ import numpy as np
 
 from terracone.physics import units as u
 
-__all__ = ["Bounds", "PARAMS", "DEFAULT_BOUNDS_SI"]
+__all__ = ["Bounds", "DEFAULT_BOUNDS_SI"]
 
-PARAMS = ("kc", "kphi", "n", "cc", "phic")
+#: Key of ``--bounds`` (a CLI contract) -> field of :class:`Bounds`; the
+#: Python names are accepted as keys too.
+KEYS = {"kc": "kc", "kphi": "kphi", "n": "n", "cc": "cc", "phic": "phic_deg", "Kc": "K_cone"}
+_KEY_OF = {f: k for k, f in KEYS.items()}
 
-# Python names (terracone.vocabulary) of the fields named like the CLI's --bounds keys
-_FIELD_OF = {"phic_deg": "phic", "K_cone": "Kc"}
-
-#: Default bounds in SI (kc kN/m^(n+1), kphi kN/m^(n+2), n, cc kPa, phic deg).
+#: Default bounds in SI (kc kN/m^(n+1), kphi kN/m^(n+2), n, cc kPa, phic_deg deg).
 DEFAULT_BOUNDS_SI = {
     "kc": (0.0, 1000.0),
     "kphi": (0.0, 20000.0),
     "n": (0.05, 2.0),
     "cc": (0.0, 100.0),
-    "phic": (0.0, 45.0),
+    "phic_deg": (0.0, 45.0),
 }
 
 
@@ -42,50 +42,43 @@ class Bounds:
     n : (float, float)
     cc : (float, float)
         [kPa]
-    phic : (float, float)
-        [deg]
-    Kc : (float, float)
-        [m], used only when Kc is fitted.
-
-    Notes
-    -----
-    The fields are named like the keys of the CLI's ``--bounds`` (a
-    contract): ``phic`` holds the bounds of ``phic_deg`` and ``Kc`` those of
-    ``K_cone`` (:mod:`terracone.vocabulary`).  The Python names work too:
-    the properties :attr:`phic_deg` and :attr:`K_cone`, and as keywords of
-    :meth:`fixed` and keys of :meth:`parse`.
+    phic_deg : (float, float)
+        [deg] (``--bounds`` key ``phic``)
+    K_cone : (float, float)
+        [m], used only when K_cone is fitted (``--bounds`` key ``Kc``).
     """
 
     kc: tuple[float, float] = DEFAULT_BOUNDS_SI["kc"]
     kphi: tuple[float, float] = DEFAULT_BOUNDS_SI["kphi"]
     n: tuple[float, float] = DEFAULT_BOUNDS_SI["n"]
     cc: tuple[float, float] = DEFAULT_BOUNDS_SI["cc"]
-    phic: tuple[float, float] = DEFAULT_BOUNDS_SI["phic"]
-    Kc: tuple[float, float] = (1e-4, 0.1)
+    phic_deg: tuple[float, float] = DEFAULT_BOUNDS_SI["phic_deg"]
+    K_cone: tuple[float, float] = (1e-4, 0.1)
     kc_units: str = "si"
     kphi_units: str = "si"
 
     def __post_init__(self) -> None:
         u.check_system(self.kc_units)
         u.check_system(self.kphi_units)
-        for name in PARAMS + ("Kc",):
+        for key, name in KEYS.items():
             lo, hi = getattr(self, name)
             if not (np.isfinite(lo) and np.isfinite(hi)) or lo > hi:
-                raise ValueError(f"bounds of {name}: need LO <= HI (got {lo}:{hi})")
+                raise ValueError(f"bounds of {key}: need LO <= HI (got {lo}:{hi})")
         if self.n[0] <= 0 or self.n[1] > 3:
             raise ValueError("bounds of n must lie in (0, 3]")
         if min(self.kc[0], self.kphi[0], self.cc[0]) < 0:
             raise ValueError("bounds of kc, kphi and cc must be >= 0")
-        if self.phic[0] < 0 or self.phic[1] >= 90:
+        if self.phic_deg[0] < 0 or self.phic_deg[1] >= 90:
             raise ValueError("bounds of phic must lie in [0, 90) deg")
-        if self.Kc[0] <= 0:
+        if self.K_cone[0] <= 0:
             raise ValueError("bounds of Kc must be > 0")
 
     @classmethod
     def parse(cls, text: str | None, units: str = "si") -> Bounds:
-        """Parse ``"kc=LO:HI,kphi=LO:HI,n=LO:HI,cc=LO:HI,phic=LO:HI"`` given in ``units``.
+        """Parse ``"kc=LO:HI,kphi=LO:HI,n=LO:HI,cc=LO:HI,phic=LO:HI,Kc=LO:HI"`` in ``units``.
 
-        Parameters not named keep their (SI-defined) defaults.
+        The keys are those of the CLI's ``--bounds`` (:data:`KEYS`) or the
+        field names.  Parameters not named keep their (SI-defined) defaults.
         """
         units = u.check_system(units)
         values: dict[str, object] = {}
@@ -95,12 +88,10 @@ class Bounds:
                 continue
             if "=" not in part or ":" not in part:
                 raise ValueError(f"bounds: expected NAME=LO:HI, got {part!r}")
-            name, rng = (s.strip() for s in part.split("=", 1))
-            name = _FIELD_OF.get(name, name)
-            if name not in PARAMS + ("Kc",):
-                raise ValueError(
-                    f"bounds: unknown parameter {name!r} (use {', '.join(PARAMS)}, Kc)"
-                )
+            key, rng = (s.strip() for s in part.split("=", 1))
+            name = KEYS.get(key, key)
+            if name not in _KEY_OF:
+                raise ValueError(f"bounds: unknown parameter {key!r} (use {', '.join(KEYS)})")
             lo_s, hi_s = rng.split(":", 1)
             try:
                 lo, hi = float(lo_s), float(hi_s)
@@ -108,7 +99,7 @@ class Bounds:
                 raise ValueError(f"bounds: {part!r} is not NAME=LO:HI with numbers") from exc
             if name == "cc":
                 lo, hi = (float(v) for v in u.pressure_to_si((lo, hi), units))
-            elif name == "Kc":
+            elif name == "K_cone":
                 lo, hi = (float(v) for v in u.length_to_si((lo, hi), units))
             elif name in ("kc", "kphi"):
                 values[f"{name}_units"] = units
@@ -129,21 +120,9 @@ class Bounds:
             self.kphi[1] + 0 * n, n, self.kphi_units
         )
 
-    @property
-    def phic_deg(self) -> tuple[float, float]:
-        """Bounds of phic_deg [deg] (the field ``phic``)."""
-        return self.phic
-
-    @property
-    def K_cone(self) -> tuple[float, float]:
-        """Bounds of K_cone [m] (the field ``Kc``)."""
-        return self.Kc
-
     def fixed(self, **values: float) -> Bounds:
-        """Copy with some of n, cc [kPa], phic (or phic_deg) [deg] pinned (LO = HI)."""
-        return replace(
-            self, **{_FIELD_OF.get(k, k): (float(v), float(v)) for k, v in values.items()}
-        )
+        """Copy with some of n, cc [kPa], phic_deg [deg] pinned (LO = HI)."""
+        return replace(self, **{k: (float(v), float(v)) for k, v in values.items()})
 
     def as_dict(self, units: str = "si") -> dict[str, object]:
         """Bounds for reports: cc in ``units``, kc/kphi in the units they were given in."""
@@ -154,5 +133,5 @@ class Bounds:
             "kphi_units": u.kphi_unit(self.kphi_units),
             "n": list(self.n),
             "cc": [float(v) for v in u.pressure_from_si(self.cc, units)],
-            "phic_deg": list(self.phic),
+            "phic_deg": list(self.phic_deg),
         }

@@ -248,7 +248,7 @@ def _search_layers(
         best = (np.inf, None)
         # columns of the layer above and below each candidate interface, per n
         cols = {
-            (i, k): layered_basis(z, n=[ni, ni], interfaces=[d], phic=phi, law=law, cone=cone)
+            (i, k): layered_basis(z, n=[ni, ni], interfaces=[d], phic_deg=phi, law=law, cone=cone)
             for i, ni in enumerate(ng)
             for k, d in enumerate(cands)
         }
@@ -297,11 +297,11 @@ def _phic_ridge_layers(
     its box (the nested-box argument of :mod:`terracone.inverse.solver.many`).  Returns
     (phic_lo, phic_mid, s_hi, s_mid), s = 1 + tan(phic)/tan(alpha) (eqs. (2-6), (2-7)).
     """
-    phi = bounds.phic[1]
+    phi = bounds.phic_deg[1]
     # phic ridge over all layers: the scaled k's must fit every layer's box
     tt = math.tan(cone.half_angle)
     s_hi = 1.0 + math.tan(math.radians(phi)) / tt
-    need = 1.0 + math.tan(math.radians(bounds.phic[0])) / tt
+    need = 1.0 + math.tan(math.radians(bounds.phic_deg[0])) / tt
     for j, nj in enumerate(ns_best):
         khi = float(bounds.kc_si(nj)[1])
         phi_hi = float(bounds.kphi_si(nj)[1])
@@ -310,8 +310,8 @@ def _phic_ridge_layers(
             need = max(need, kc_p / khi)
         if phi_hi > 0:
             need = max(need, kp_p / phi_hi)
-    ph_lo = float(np.clip(math.degrees(math.atan((need - 1.0) * tt)), bounds.phic[0], phi))
-    ph = 0.5 * (ph_lo + phi) if bounds.phic[0] != bounds.phic[1] else phi
+    ph_lo = float(np.clip(math.degrees(math.atan((need - 1.0) * tt)), bounds.phic_deg[0], phi))
+    ph = 0.5 * (ph_lo + phi) if bounds.phic_deg[0] != bounds.phic_deg[1] else phi
     s_mid = 1.0 + math.tan(math.radians(ph)) / tt
     return ph_lo, ph, s_hi, s_mid
 
@@ -362,12 +362,12 @@ def fit_layered(
     law = pressure_law(model, r_min=r_min)
     cone = profile.cone
     z, y = profile.depth, profile.ci
-    phi = bounds.phic[1]
+    phi = bounds.phic_deg[1]
     step = float(np.median(np.diff(z)))
     min_thick = min_thickness if min_thickness is not None else 2 * step
 
     def solve(ns, D):
-        X = layered_basis(z, n=ns, interfaces=D, phic=phi, law=law, cone=cone)
+        X = layered_basis(z, n=ns, interfaces=D, phic_deg=phi, law=law, cone=cone)
         lo, hi = _layer_box(bounds, ns)
         return _box_lsq(X, y, lo, hi)
 
@@ -406,7 +406,7 @@ def _layered_result(
     """
     z, y, cone = profile.depth, profile.ci, profile.cone
     N = y.size
-    phi = bounds.phic[1]
+    phi = bounds.phic_deg[1]
     ph_lo, ph, s_hi, s_mid = _phic_ridge_layers(x, ns_best, bounds, cone)
     params = [
         TerrainParameters(
@@ -420,12 +420,12 @@ def _layered_result(
         )
         for j in range(len(ns_best))
     ]
-    X = layered_basis(z, n=ns_best, interfaces=D_best, phic=phi, law=law, cone=cone)
+    X = layered_basis(z, n=ns_best, interfaces=D_best, phic_deg=phi, law=law, cone=cone)
     m = X @ x
     chk = check_fit(z, y, m, monotone_model=len(ns_best) == 1)
     bic = _bic(sse, N, 4 * len(ns_best) + len(D_best))
     bic1 = _bic(single.sse, N, 4)
-    kw = dict(cone=cone, law=law, Kc=None)
+    kw = dict(cone=cone, law=law, K_cone=None)
     m1 = design(z, np.array(single.n), np.array(single.phic_deg), **kw) @ np.array(
         [single.kc, single.kphi, single.cc]
     )

@@ -67,7 +67,9 @@ _EXACT_MESSAGE = "global optimum of the bounded linear least squares over the n,
 N_GRID = 97
 
 
-def rmsd_objective(profile: CIProfile, law: PressureLaw, bounds: Bounds, Kc: float | None = None):
+def rmsd_objective(
+    profile: CIProfile, law: PressureLaw, bounds: Bounds, K_cone: float | None = None
+):
     """RMSD [kPa] of positions (P, 5) = (kc, kphi, n, cc, phic) in the bounds' units.
 
     With ``bounds`` in US units the kc and kphi coordinates are in
@@ -80,9 +82,17 @@ def rmsd_objective(profile: CIProfile, law: PressureLaw, bounds: Bounds, Kc: flo
         n = x[:, 2:3]
         kc = u.kc_to_si(x[:, 0:1], n, bounds.kc_units)
         kphi = u.kphi_to_si(x[:, 1:2], n, bounds.kphi_units)
-        K = x[:, 5:6] if x.shape[1] > 5 else Kc
+        K = x[:, 5:6] if x.shape[1] > 5 else K_cone
         ci = cone_index_huang(
-            z, kc=kc, kphi=kphi, n=n, cc=x[:, 3:4], phic=x[:, 4:5], Kc=K, law=law, cone=profile.cone
+            z,
+            kc=kc,
+            kphi=kphi,
+            n=n,
+            cc=x[:, 3:4],
+            phic_deg=x[:, 4:5],
+            K_cone=K,
+            law=law,
+            cone=profile.cone,
         )
         r = ci - y
         return np.sqrt(np.mean(r * r, axis=-1))
@@ -109,8 +119,8 @@ class PredictSettings:
     law: PressureLaw
     solver: str
     bounds: Bounds
-    Kc: float | None
-    fit_Kc: bool
+    K_cone: float | None
+    fit_K_cone: bool
     seed: int | None
     noise_floor: float
     pso_options: dict[str, Any] | None
@@ -123,7 +133,7 @@ class PredictSettings:
     @property
     def vectorised(self) -> bool:
         """True when the fits go through :func:`solve_exact_many` (exact, fully mobilised)."""
-        return self.solver == "exact" and self.Kc is None and not self.fit_Kc
+        return self.solver == "exact" and self.K_cone is None and not self.fit_K_cone
 
 
 class PredictOptions(TypedDict, total=False):
@@ -139,8 +149,8 @@ class PredictOptions(TypedDict, total=False):
     calibration: Any
     solver: str
     bounds: Bounds | None
-    Kc: float | None
-    fit_Kc: bool
+    K_cone: float | None
+    fit_K_cone: bool
     seed: int | None
     noise_floor: float
     pso_options: dict[str, Any] | None
@@ -159,8 +169,8 @@ def predict_settings(
     calibration: Any = None,
     solver: str = "exact",
     bounds: Bounds | None = None,
-    Kc: float | None = None,
-    fit_Kc: bool = False,
+    K_cone: float | None = None,
+    fit_K_cone: bool = False,
     seed: int | None = None,
     noise_floor: float = 0.01,
     pso_options: dict[str, Any] | None = None,
@@ -184,7 +194,7 @@ def predict_settings(
     if calibration is not None:
         model, r_min = calibration.model, calibration.r_min
         plate_pair = calibration.plate_pair
-        bounds = bounds.fixed(phic=calibration.phic_deg, cc=calibration.cc)
+        bounds = bounds.fixed(phic_deg=calibration.phic_deg, cc=calibration.cc)
         if fix_ratio and calibration.kphi > 0:
             ratio = calibration.kc / calibration.kphi
         held = " and kc/kphi" if ratio is not None and solver == "exact" else ""
@@ -197,8 +207,8 @@ def predict_settings(
         law,
         solver,
         bounds,
-        Kc,
-        fit_Kc,
+        K_cone,
+        fit_K_cone,
         seed,
         noise_floor,
         pso_options,
@@ -226,7 +236,7 @@ def predict(profile: CIProfile, **options: Unpack[PredictOptions]) -> Prediction
     profile : CIProfile
     **options
         The keywords of :func:`predict_many` (:class:`PredictOptions`):
-        model, r_min, plate_pair, calibration, solver, bounds, Kc, fit_Kc,
+        model, r_min, plate_pair, calibration, solver, bounds, K_cone, fit_K_cone,
         seed, noise_floor, pso_options, fix_ratio, n_grid, detail,
         kc_over_kphi.
 
@@ -283,10 +293,10 @@ def predict_many(
     bounds : Bounds, optional
         Search bounds (defaults in SI: kc 0-1000, kphi 0-20000, n 0.05-2,
         cc 0-100 kPa, phic 0-45 deg).
-    Kc : float, optional
+    K_cone : float, optional
         Fixed cone-terrain shear deformation parameter [m]; None: fully
         mobilised shear.
-    fit_Kc : bool
+    fit_K_cone : bool
         Search Kc as a sixth parameter within ``bounds.Kc``.
     seed : int, optional
         Seed of the particle swarm.
@@ -526,7 +536,7 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
     )
     zz, yy, mask = group.padded()
     # eq. (2-7): CI = X (kc, kphi, cc) at the optimum's n and phic (eq. (2-6), fully mobilised)
-    X = design(zz, ms.n[:, None], ms.phic_deg[:, None], cone=cone, law=s.law, Kc=None)
+    X = design(zz, ms.n[:, None], ms.phic_deg[:, None], cone=cone, law=s.law, K_cone=None)
     X = X * mask[..., None]
     lo, hi = (
         a[:, 0] for a in box_grid(np.ascontiguousarray(ms.n[:, None]), bounds_params(b, s.ratio))
@@ -541,7 +551,7 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
     n_, p_ = ms.n[:, None], ms.phic_deg[:, None]
     kc, kphi, cc = x[:, 0:1], x[:, 1:2], x[:, 2:3]
     model = cone_index_huang(
-        zz, kc=kc, kphi=kphi, n=n_, cc=cc, phic=p_, Kc=None, law=s.law, cone=cone
+        zz, kc=kc, kphi=kphi, n=n_, cc=cc, phic_deg=p_, K_cone=None, law=s.law, cone=cone
     )
     r = np.where(mask, model - yy, 0.0)
     sse = np.einsum("pz,pz->p", r, r)
@@ -676,8 +686,8 @@ def _fit_one(settings: PredictSettings, pset: ProfileSet, j: int) -> PredictionR
                 kphi=params.kphi,
                 n=params.n,
                 cc=params.cc,
-                phic=params.phic_deg,
-                Kc=params.Kc,
+                phic_deg=params.phic_deg,
+                K_cone=params.K_cone,
                 law=settings.law,
                 cone=cone,
             )  # noqa: E501
@@ -698,14 +708,14 @@ def _exact_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainPara
         cone=cone,
         law=s.law,
         bounds=s.bounds,
-        Kc=s.Kc,
-        fit_Kc=s.fit_Kc,
+        K_cone=s.K_cone,
+        fit_K_cone=s.fit_K_cone,
         n_grid=s.n_grid,
         noise_floor=s.noise_floor,
         kc_over_kphi=s.ratio,
     )  # noqa: E501
     params = TerrainParameters(
-        sol.kc, sol.kphi, sol.n, sol.cc, sol.phic_deg, sol.Kc, s.model, s.r_min
+        sol.kc, sol.kphi, sol.n, sol.cc, sol.phic_deg, sol.K_cone, s.model, s.r_min
     )  # noqa: E501
     extra = dict(
         undetermined=sol.undetermined,
@@ -723,9 +733,13 @@ def _exact_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainPara
 def _pso_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainParameters, dict]:
     """The paper's particle swarm on the RMSD (section 3.3.2) for one profile."""
     s, b = settings, settings.bounds
-    f = rmsd_objective(CIProfile("", z, y, cone=cone), s.law, b, s.Kc)
-    lo = [b.kc[0], b.kphi[0], b.n[0], b.cc[0], b.phic[0]] + ([b.Kc[0]] if s.fit_Kc else [])
-    hi = [b.kc[1], b.kphi[1], b.n[1], b.cc[1], b.phic[1]] + ([b.Kc[1]] if s.fit_Kc else [])
+    f = rmsd_objective(CIProfile("", z, y, cone=cone), s.law, b, s.K_cone)
+    lo = [b.kc[0], b.kphi[0], b.n[0], b.cc[0], b.phic_deg[0]] + (
+        [b.K_cone[0]] if s.fit_K_cone else []
+    )
+    hi = [b.kc[1], b.kphi[1], b.n[1], b.cc[1], b.phic_deg[1]] + (
+        [b.K_cone[1]] if s.fit_K_cone else []
+    )
     res = pso(f, np.array(lo), np.array(hi), seed=s.seed, **(s.pso_options or {}))
     x = res.x
     n = float(x[2])
@@ -735,11 +749,11 @@ def _pso_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainParame
         n,
         float(x[3]),
         float(x[4]),
-        float(x[5]) if s.fit_Kc else s.Kc,
+        float(x[5]) if s.fit_K_cone else s.K_cone,
         s.model,
         s.r_min,
     )
-    free = not s.fit_Kc and s.Kc is None and b.phic[0] != b.phic[1]
+    free = not s.fit_K_cone and s.K_cone is None and b.phic_deg[0] != b.phic_deg[1]
     extra = dict(
         undetermined=["phic", "phic~scale(kc,kphi)"] if free else [],
         nfev=res.nfev,

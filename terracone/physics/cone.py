@@ -20,8 +20,7 @@ Models, named after who proposed them (as pvlib names its models):
 * :func:`cone_index_janosi`: Janosi's equation (2-1);
 * :func:`cone_index`: either, with unit conversion at the edges.
 
-Parameter names follow :mod:`terracone.vocabulary`: ``phic_deg`` (alias
-``phic``) and ``K_cone`` (alias ``Kc``).
+Parameter names follow :mod:`terracone.vocabulary` (``phic_deg``, ``K_cone``).
 
 References
 ----------
@@ -44,7 +43,6 @@ from numpy.typing import ArrayLike
 
 from terracone.physics import units as u
 from terracone.physics.plate import PressureLaw, pressure_law
-from terracone.vocabulary import alias
 
 __all__ = [
     "Cone",
@@ -255,10 +253,10 @@ def _check_phic(phic_deg: ArrayLike) -> np.ndarray:
     return a
 
 
-def _check_Kc(Kc: ArrayLike | None) -> np.ndarray | None:
-    if Kc is None:
+def _check_K_cone(K_cone: ArrayLike | None) -> np.ndarray | None:
+    if K_cone is None:
         return None
-    a = np.asarray(Kc, dtype=float)
+    a = np.asarray(K_cone, dtype=float)
     if a.size and not (a.min() > 0 and a.max() < np.inf):
         raise ValueError("Kc must be > 0 (or None for fully mobilised shear)")
     return a
@@ -290,12 +288,10 @@ def cone_index_basis(
     depth: ArrayLike,
     *,
     n: ArrayLike,
-    phic_deg: ArrayLike | None = None,
+    phic_deg: ArrayLike = 0.0,
     K_cone: ArrayLike | None = None,
     law: PressureLaw | None = None,
     cone: str | Cone = "asabe-large",
-    phic: ArrayLike | None = None,
-    Kc: ArrayLike | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Columns A, B, C with CI = kc*A + kphi*B + cc*C, all in SI.
 
@@ -309,10 +305,10 @@ def cone_index_basis(
     n : array_like
         Sinkage exponent [-].
     phic_deg : array_like
-        Cone-terrain friction angle [deg] (default 0); alias ``phic``.
+        Cone-terrain friction angle [deg].
     K_cone : array_like or None
-        Cone-terrain shear deformation parameter Kc [m]; None for fully
-        mobilised shear; alias ``Kc``.
+        Cone-terrain shear deformation parameter [m]; None for fully
+        mobilised shear.
     law : PressureLaw
         RM0 or RM1 pressure law (section 3.2); RM0 when None.
     cone : str or Cone
@@ -326,13 +322,11 @@ def cone_index_basis(
     ----------
     .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eqs. (2-5) to (2-7).
     """
-    phic_deg = alias("phic_deg", phic_deg, "phic", phic)
-    K_cone = alias("K_cone", K_cone, "Kc", Kc)
     cone = get_cone(cone)
     law = law or pressure_law("rm0")
     z = check_depth(depth, cone)
     n = _check_n(n)
-    phic_deg = _check_phic(0.0 if phic_deg is None else phic_deg)
+    phic_deg = _check_phic(phic_deg)
     return _basis(z, n, phic_deg, K_cone, law, cone)
 
 
@@ -531,12 +525,10 @@ def cone_index_huang(
     kphi: ArrayLike,
     n: ArrayLike,
     cc: ArrayLike = 0.0,
-    phic_deg: ArrayLike | None = None,
+    phic_deg: ArrayLike = 0.0,
     K_cone: ArrayLike | None = None,
     law: PressureLaw | None = None,
     cone: str | Cone = "asabe-large",
-    phic: ArrayLike | None = None,
-    Kc: ArrayLike | None = None,
 ) -> np.ndarray:
     """Cone index of the improved model of Huang et al., eqs. (2-2) to (2-7) in [1]_, in SI.
 
@@ -557,10 +549,10 @@ def cone_index_huang(
     cc : array_like
         Cone-terrain adhesion [kPa].
     phic_deg : array_like
-        Cone-terrain friction angle [deg] (default 0); alias ``phic``.
+        Cone-terrain friction angle [deg].
     K_cone : array_like or None
-        Cone-terrain shear deformation parameter Kc [m]; None: fully
-        mobilised shear; alias ``Kc``.
+        Cone-terrain shear deformation parameter [m]; None: fully
+        mobilised shear.
     law : PressureLaw
         RM0 (default) or RM1.
     cone : str or Cone
@@ -574,15 +566,15 @@ def cone_index_huang(
     ----------
     .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eqs. (2-2) to (2-7).
     """
-    phic_deg = alias("phic_deg", phic_deg, "phic", phic)
-    Kc = _check_Kc(alias("K_cone", K_cone, "Kc", Kc))
+    K_cone = _check_K_cone(K_cone)
     kc = _check_nonneg("kc", kc)
     kphi = _check_nonneg("kphi", kphi)
     cc = _check_nonneg("cc", cc)
     cone = get_cone(cone)
     z = check_depth(depth, cone)
-    phic_deg = _check_phic(0.0 if phic_deg is None else phic_deg)
-    return _improved(z, kc, kphi, _check_n(n), cc, phic_deg, Kc, law or pressure_law("rm0"), cone)
+    phic_deg = _check_phic(phic_deg)
+    law = law or pressure_law("rm0")
+    return _improved(z, kc, kphi, _check_n(n), cc, phic_deg, K_cone, law, cone)
 
 
 def cone_index_janosi(
@@ -634,15 +626,13 @@ def cone_index(
     kphi: ArrayLike,
     n: ArrayLike,
     cc: ArrayLike = 0.0,
-    phic_deg: ArrayLike | None = None,
+    phic_deg: ArrayLike = 0.0,
     K_cone: ArrayLike | None = None,
     model: str = "rm0",
     r_min: ArrayLike | None = None,
     cone: str | Cone = "asabe-large",
     units: str = "si",
     plate_pair: tuple[float, float] | None = None,
-    phic: ArrayLike | None = None,
-    Kc: ArrayLike | None = None,
 ) -> np.ndarray:
     """Cone index against depth for given terrain parameters.
 
@@ -657,11 +647,11 @@ def cone_index(
     cc : array_like
         Cone (metal)-terrain adhesion [kPa or psi].
     phic_deg : array_like
-        Cone-terrain friction angle [deg] (default 0); alias ``phic``.
+        Cone-terrain friction angle [deg].
     K_cone : array_like or None
-        Cone-terrain shear deformation parameter Kc [m or in]; None means
+        Cone-terrain shear deformation parameter [m or in]; None means
         fully mobilised shear (the paper's setting), a number uses eq.
-        (2-4); alias ``Kc``.
+        (2-4).
     model : {"rm0", "rm1", "janosi"}
         Pressure model of section 3.2, or eq. (2-1).
     r_min : array_like, optional
@@ -687,9 +677,6 @@ def cone_index(
     ----------
     .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eqs. (2-1) to (2-7), section 3.2.
     """
-    phic = alias("phic_deg", phic_deg, "phic", phic)
-    phic = 0.0 if phic is None else phic
-    Kc = alias("K_cone", K_cone, "Kc", Kc)
     units = u.check_system(units)
     n_arr = _check_n(n)
     if model == "janosi":
@@ -697,7 +684,7 @@ def cone_index(
             raise ValueError(
                 "cone: the Janosi equation (2-1) holds for the standard asabe-large cone"
             )
-        if Kc is not None or np.any(np.asarray(cc) != 0) or np.any(np.asarray(phic) != 0):
+        if K_cone is not None or np.any(np.asarray(cc) != 0) or np.any(np.asarray(phic_deg) != 0):
             raise ValueError("cc, phic and Kc are not parameters of the Janosi equation (2-1)")
         return _janosi_in(depth, kc, kphi, n_arr, units)
     pair = (
@@ -716,8 +703,8 @@ def cone_index(
         u.kphi_to_si(_check_nonneg("kphi", kphi), n_arr, units),
         n_arr,
         u.pressure_to_si(_check_nonneg("cc", cc), units),
-        _check_phic(phic),
-        _check_Kc(None if Kc is None else u.length_to_si(Kc, units)),
+        _check_phic(phic_deg),
+        _check_K_cone(None if K_cone is None else u.length_to_si(K_cone, units)),
         law,
         cone,
     )

@@ -46,7 +46,7 @@ def layered_basis(
     *,
     n: np.ndarray,
     interfaces: np.ndarray,
-    phic: float = 0.0,
+    phic_deg: float = 0.0,
     law: PressureLaw | None = None,
     cone: Cone,
 ) -> np.ndarray:
@@ -60,7 +60,7 @@ def layered_basis(
         Exponent of each layer.
     interfaces : (L-1,) array_like
         Depths of the layer boundaries [m], increasing.
-    phic : float
+    phic_deg : float
         Common cone-metal friction angle [deg] (fully mobilised shear).
     law : PressureLaw
         RM0 or RM1 (section 3.2).
@@ -78,7 +78,7 @@ def layered_basis(
         raise ValueError("need one n per layer (len(interfaces) + 1)")
     R, H = cone.radius, cone.height
     t = R / H
-    s = 1.0 + math.tan(math.radians(phic)) / t
+    s = 1.0 + math.tan(math.radians(phic_deg)) / t
     u1 = z + H
     L = np.where(z >= 0.0, H, u1)
     live = u1 > 0
@@ -136,7 +136,7 @@ def layered_cone_index(
         depth,
         n=[p.n for p in layers],
         interfaces=interfaces,
-        phic=layers[0].phic_deg,
+        phic_deg=layers[0].phic_deg,
         law=law,
         cone=cone,
     )

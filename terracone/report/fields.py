@@ -256,7 +256,7 @@ def _batch_curves(recs: list[dict[str, Any]], df: Any, summary: Mapping[str, Any
                     kphi=rec["kphi"],
                     n=rec["n"],
                     cc=rec["cc"],
-                    phic=rec["phic_deg"],
+                    phic_deg=rec["phic_deg"],
                     model=rec.get("model") or "rm0",
                     r_min=rec.get("r_min"),
                     cone=cone,

@@ -211,7 +211,7 @@ def fig_janosi(
             kphi=q["kphi"],
             n=q["n"],
             cc=q.get("cc", 0.0) or 0.0,
-            phic=q.get("phic_deg", 0.0) or 0.0,
+            phic_deg=q.get("phic_deg", 0.0) or 0.0,
             model=q.get("model", "rm0") or "rm0",
             r_min=q.get("r_min"),
             plate_pair=q.get("plate_pair"),

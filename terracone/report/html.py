@@ -429,11 +429,11 @@ def _mark_settings_bounds(tab, rows, settings: Mapping[str, Any], units: str) ->
     d = Bounds()
     cc = b.get("cc")
     cc_si = tuple(float(v) for v in u.pressure_to_si(cc, units)) if cc else d.cc
-    phic = tuple(b.get("phic_deg") or b.get("phic") or d.phic)
+    phic = tuple(b.get("phic_deg") or b.get("phic") or d.phic_deg)
     n = tuple(b.get("n") or d.n)
     if settings.get("calibration"):
         cc_si, phic = None, None  # fixed by the calibration
-    mark_bounds(tab, rows, cc=cc_si, phic=phic, n=n)
+    mark_bounds(tab, rows, cc=cc_si, phic_deg=phic, n=n)
 
 
 def _chunks(seq: Sequence[Any], k: int) -> list[Sequence[Any]]:

@@ -405,7 +405,7 @@ def mark_bounds(
     rows: Sequence[Mapping[str, Any]],
     *,
     cc: tuple[float, float] | None = (0.0, 100.0),
-    phic: tuple[float, float] | None = (0.0, 45.0),
+    phic_deg: tuple[float, float] | None = (0.0, 45.0),
     n: tuple[float, float] | None = (0.05, 2.0),
     rmin_col: int | None = None,
     rmin_range: tuple[float, float] | None = None,
@@ -432,7 +432,7 @@ def mark_bounds(
             continue
         if on(_f(r.get("cc")), cc, upper_only=True):
             hits += [(i, 6), (i, 7)]
-        if on(_f(r.get("phic_deg", r.get("phic"))), phic):
+        if on(_f(r.get("phic_deg", r.get("phic"))), phic_deg):
             hits.append((i, 8))
         if on(_f(r.get("n")), n):
             hits.append((i, 5))
@@ -446,8 +446,8 @@ def mark_bounds(
         rng = []
         if cc:
             rng.append(f"cc {cc[0]:g} to {cc[1]:g} kPa")
-        if phic:
-            rng.append(f"phic {phic[0]:g} to {phic[1]:g} deg")
+        if phic_deg:
+            rng.append(f"phic {phic_deg[0]:g} to {phic_deg[1]:g} deg")
         if n:
             rng.append(f"n {n[0]:g} to {n[1]:g}")
         if rmin_range:

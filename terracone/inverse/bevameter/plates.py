@@ -9,8 +9,7 @@ with b the radius of a circular plate or the smaller side of a rectangular
 one.  This module fits ``p = k z^n`` to the loading branch of each test and,
 when the tests cover two or more plate sizes, splits ``k`` into ``kc`` and
 ``kphi``.  It is the inverse side of the plate model: the forward pressure of
-eq. (2-2) is :mod:`terracone.physics.plate`.  (Before the split of forward and inverse
-modules it was ``terracone.bevameter``, which remains as an alias.)
+eq. (2-2) is :mod:`terracone.physics.plate`.
 
 Fitting methods (all on the loading branch only, see
 :meth:`terracone.data.PlateTest.loading_branch`):

@@ -52,7 +52,6 @@ from terracone.inverse.learning.search import (
     refine,
 )
 from terracone.physics import units as u
-from terracone.vocabulary import alias
 
 __all__ = ["Calibration", "LearnResult", "learn", "learn_problem", "jacobians", "sandwich_cov"]
 
@@ -331,7 +330,6 @@ def learn(
     starts: int = 3,
     certify_levels: int = 6,
     certify_target: float = 0.04,
-    Kc: float | None = None,
 ) -> LearnResult:
     """Fit kc, kphi, n, cc, phic (and r_min for RM1) to CI and plate data.
 
@@ -351,8 +349,8 @@ def learn(
     r_min_bounds : (float, float), optional
         Search range of r_min [m]; default 0.5 mm to 3 times the larger plate.
     K_cone : float, optional
-        Fixed cone-terrain shear deformation parameter Kc [m] (None: fully
-        mobilised); alias ``Kc``.
+        Fixed cone-terrain shear deformation parameter [m] (None: fully
+        mobilised).
     grid : (int, int, int)
         Grid sizes for n, phic and r_min.
     max_cv : float
@@ -381,7 +379,6 @@ def learn(
     .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Section 3.3.1.
     """
     t0 = time.perf_counter()
-    K_cone = alias("K_cone", K_cone, "Kc", Kc)
     prob = learn_problem(profiles, plates, model, bounds or Bounds(), r_min_bounds, K_cone)
     stage, best, nfev, lower, n_cells = _search(prob, grid, starts, certify_levels, certify_target)
     x, theta = best.x, best.theta
@@ -513,7 +510,7 @@ def _at_bounds(prob: LearnProblem, p: TerrainParameters) -> list[str]:
         ("kphi", p.kphi, float(kp_b[0]), float(kp_b[1])),
         ("n", p.n, *b.n),
         ("cc", p.cc, *b.cc),
-        ("phic_deg", p.phic_deg, *b.phic),
+        ("phic_deg", p.phic_deg, *b.phic_deg),
     ]
     if prob.r_min_bounds:
         checks.append(("r_min", p.r_min, *prob.r_min_bounds))

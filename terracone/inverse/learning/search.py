@@ -61,7 +61,7 @@ class LearnProblem:
     model: str
     bounds: Bounds
     r_min_bounds: tuple[float, float] | None
-    Kc: float | None
+    K_cone: float | None
     pair: tuple[float, float] | None
 
     def __post_init__(self) -> None:
@@ -69,8 +69,8 @@ class LearnProblem:
         self.means = np.array([float(np.mean(y)) for y in self.ys])
         # J = sum_d a_d ||r_d||, a_d = 1 / (mean_d sqrt(N_d))
         self.a = np.array([1.0 / (m * math.sqrt(y.size)) for m, y in zip(self.means, self.ys)])
-        lo = [self.bounds.n[0], self.bounds.phic[0]]
-        hi = [self.bounds.n[1], self.bounds.phic[1]]
+        lo = [self.bounds.n[0], self.bounds.phic_deg[0]]
+        hi = [self.bounds.n[1], self.bounds.phic_deg[1]]
         rb = self.r_min_bounds or (1.0, 1.0)
         self.theta_lo = np.array(lo + [math.log(rb[0])])
         self.theta_hi = np.array(hi + [math.log(rb[1])])
@@ -86,7 +86,9 @@ class LearnProblem:
         law = self.law(log_rm[..., None])
         out = []
         for p in self.profiles:
-            X = design(p.depth, n[..., None], phi[..., None], cone=p.cone, law=law, Kc=self.Kc)
+            X = design(
+                p.depth, n[..., None], phi[..., None], cone=p.cone, law=law, K_cone=self.K_cone
+            )
             out.append(np.broadcast_to(X, n.shape + X.shape[-2:]))
         for b in self.plates:
             A, B = plate_basis(b.sinkage, n=n[..., None], b=b.b, law=law)

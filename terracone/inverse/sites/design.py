@@ -209,7 +209,7 @@ def _prior_precision(theta, free, bounds: Bounds, cal: CalibrationPrior | None) 
         np.subtract(*bounds.kphi_si(n)[::-1]),
         bounds.n[1] - bounds.n[0],
         bounds.cc[1] - bounds.cc[0],
-        bounds.phic[1] - bounds.phic[0],
+        bounds.phic_deg[1] - bounds.phic_deg[0],
     ]
     P = np.diag([12.0 / max(float(r), 1e-9) ** 2 for r in rng])  # variance of a uniform
     if cal is not None:
@@ -303,14 +303,14 @@ def _information(
     c = cal.calibration if cal is not None else None
     prm = res.params
     theta = np.array([prm.kc, prm.kphi, prm.n, prm.cc, prm.phic_deg])
-    fixed = [bounds.kc, bounds.kphi, bounds.n, bounds.cc, bounds.phic]
+    fixed = [bounds.kc, bounds.kphi, bounds.n, bounds.cc, bounds.phic_deg]
     free = np.array([lo < hi for lo, hi in fixed])
     if c is not None and c.kc <= 0:
         free[0] = False
 
     def ci_of(t):  # eq. (2-7)
-        c = dict(kc=t[0], kphi=t[1], n=t[2], cc=t[3], phic=t[4])
-        return cone_index_huang(profile.depth, **c, Kc=None, law=law, cone=profile.cone)
+        c = dict(kc=t[0], kphi=t[1], n=t[2], cc=t[3], phic_deg=t[4])
+        return cone_index_huang(profile.depth, **c, K_cone=None, law=law, cone=profile.cone)
 
     J = _jacobian(ci_of, theta, free)
     I_ci = _ci_precision(profile, res.ci_model, J, ci_noise)

@@ -304,7 +304,7 @@ def _settings(model: str, r_min: float | None, calibration: Any, bounds: Bounds 
     ratio = None
     if calibration is not None:
         model, r_min, plate_pair = calibration.model, calibration.r_min, calibration.plate_pair
-        bounds = bounds.fixed(phic=calibration.phic_deg, cc=calibration.cc)
+        bounds = bounds.fixed(phic_deg=calibration.phic_deg, cc=calibration.cc)
         if calibration.kphi > 0:
             ratio = calibration.kc / calibration.kphi
     law = pressure_law(model, r_min=r_min, plate_pair=plate_pair)
@@ -316,7 +316,9 @@ def _push_covariance(p: CIProfile, theta, law, bounds: Bounds, ratio, kc, kphi, 
     z, y = p.depth, p.ci
     kcp, kpp, cc, n = theta
     h = 1e-4
-    cols = [cone_index_basis(z, n=nn, phic=0.0, law=law, cone=p.cone) for nn in (n, n - h, n + h)]
+    cols = [
+        cone_index_basis(z, n=nn, phic_deg=0.0, law=law, cone=p.cone) for nn in (n, n - h, n + h)
+    ]
     (A, B, C), lo, hi = cols
     m = kcp * A + kpp * B + cc * C  # eq. (2-7) with primed kc, kphi
     dn = sum(t * (c1 - c0) for t, c0, c1 in zip((kcp, kpp, cc), lo, hi)) / (2 * h)
@@ -702,7 +704,7 @@ def _ridge_log_s(fits: PushFits, idx: list[int], bounds: Bounds, tan_a: float, n
     """Equal-probability points of log s over the site's phic ridge, and its phic quantiles."""
     lo = float(np.max(fits.phic_lo[idx]))
     hi = float(np.min(fits.phic_hi[idx]))
-    if bounds.phic[0] == bounds.phic[1] or hi - lo < 1e-9:
+    if bounds.phic_deg[0] == bounds.phic_deg[1] or hi - lo < 1e-9:
         if lo > hi + 1e-9:
             notes.append("the pushes' phic ridges do not overlap; phic set from their union")
             lo, hi = float(np.min(fits.phic_lo[idx])), float(np.max(fits.phic_hi[idx]))
@@ -1038,7 +1040,7 @@ def site_centers(
     cone = profiles[idx[0]].cone
     out = []
     for i, gk in zip(idx, g):
-        A, B, C = cone_index_basis(profiles[i].depth, n=theta[3], phic=0.0, law=law, cone=cone)
+        A, B, C = cone_index_basis(profiles[i].depth, n=theta[3], phic_deg=0.0, law=law, cone=cone)
         out.append(gk * (theta[0] * A + theta[1] * B + theta[2] * C))  # eq. (2-7), primed
     return out
 
@@ -1107,7 +1109,7 @@ def shape_pushes(
     plate = np.stack([theta[0] * A + theta[1] * B for A, B in pb])  # (R, G, K), eq. (2-2)
     for j, i in enumerate(idx):
         z, ci = profiles[i].depth, profiles[i].ci
-        A, B, C = cone_index_basis(z, n=_SHAPE_N[:, None], phic=0.0, law=law, cone=cone)
+        A, B, C = cone_index_basis(z, n=_SHAPE_N[:, None], phic_deg=0.0, law=law, cone=cone)
         M = np.broadcast_to(theta[0] * A + theta[1] * B + theta[2] * C, (_SHAPE_N.size, z.size))
         w = fits.residuals[i][3]
         lg, n = _shape_fit(M, ci[None, :], w)

@@ -54,7 +54,7 @@ class ExactSolution:
     n: float
     cc: float
     phic_deg: float
-    Kc: float | None
+    K_cone: float | None
     sse: float
     nfev: int
     nit: int
@@ -67,11 +67,11 @@ class ExactSolution:
 def design(
     z: np.ndarray,
     n: np.ndarray,
-    phic: np.ndarray,
+    phic_deg: np.ndarray,
     *,
     cone: Cone,
     law: PressureLaw,
-    Kc: np.ndarray | float | None,
+    K_cone: np.ndarray | float | None,
     ratio: float | None = None,
 ) -> np.ndarray:
     """Design matrix X (..., Z, 3) with CI = X @ (kc, kphi, cc); n, phic broadcast.
@@ -79,13 +79,13 @@ def design(
     With ``ratio`` (kc/kphi [m] held fixed) the kc column is folded into the
     kphi column, CI = X @ (0, kphi, cc), and kc = ratio * kphi.
     """
-    if Kc is None:
+    if K_cone is None:
         # eq. (2-6) fully mobilised: phic only scales the kc and kphi columns
         A, B, C = _basis(z, n, law, cone)
-        s = 1.0 + np.tan(np.radians(phic)) / math.tan(cone.half_angle)
+        s = 1.0 + np.tan(np.radians(phic_deg)) / math.tan(cone.half_angle)
         A, B = s * A, s * B
     else:
-        A, B, C = cone_index_basis(z, n=n, phic=phic, Kc=Kc, law=law, cone=cone)
+        A, B, C = cone_index_basis(z, n=n, phic_deg=phic_deg, K_cone=K_cone, law=law, cone=cone)
     A, B, C = np.broadcast_arrays(A, B, C)
     if ratio is not None:
         return np.stack([np.zeros_like(A), ratio * A + B, C], axis=-1)
@@ -114,7 +114,7 @@ def _basis(z, n, law: PressureLaw, cone: Cone):
                 A, B, C = basis_columns(np.ascontiguousarray(z), n.reshape(1), *args)
                 return A[0], B[0], C[0]
             return basis_rows(np.ascontiguousarray(z), np.ascontiguousarray(n[:, 0]), *args)
-    return cone_index_basis(z, n=n, phic=0.0, law=law, cone=cone)
+    return cone_index_basis(z, n=n, phic_deg=0.0, law=law, cone=cone)
 
 
 def _bounds_arrays(bounds: Bounds, n: np.ndarray, ratio: float | None = None):
@@ -142,8 +142,8 @@ def solve_exact(
     cone: Cone,
     law: PressureLaw,
     bounds: Bounds,
-    Kc: float | None = None,
-    fit_Kc: bool = False,
+    K_cone: float | None = None,
+    fit_K_cone: bool = False,
     n_grid: int = 97,
     phic_grid: int = 19,
     noise_floor: float = 0.01,
@@ -160,9 +160,9 @@ def solve_exact(
         Measured CI [kPa].
     cone, law, bounds
         Cone, pressure law (RM0/RM1) and search bounds.
-    Kc : float or None
+    K_cone : float or None
         Fixed shear deformation parameter [m]; None for fully mobilised.
-    fit_Kc : bool
+    fit_K_cone : bool
         Search Kc (log grid within ``bounds.Kc``) as a sixth parameter.
     n_grid, phic_grid : int
         Grid sizes of the global stage.
@@ -178,9 +178,9 @@ def solve_exact(
     ratio = kc_over_kphi
     z = np.asarray(z, float)
     y = np.asarray(y, float)
-    if Kc is None and not fit_Kc:
+    if K_cone is None and not fit_K_cone:
         return _solve_mobilised(z, y, cone, law, bounds, n_grid, noise_floor, profiles, ratio)
-    fp = _Finite(z, y, cone, law, bounds, Kc, fit_Kc, ratio)
+    fp = _Finite(z, y, cone, law, bounds, K_cone, fit_K_cone, ratio)
     return _solve_finite(fp, n_grid, phic_grid, noise_floor, profiles)
 
 
@@ -193,23 +193,23 @@ class _Finite:
     cone: Cone
     law: PressureLaw
     bounds: Bounds
-    Kc: float | None
-    fit_Kc: bool
+    K_cone: float | None
+    fit_K_cone: bool
     ratio: float | None
 
     def __post_init__(self) -> None:
         b = self.bounds
-        lo_v = [b.n[0], b.phic[0]] + ([math.log(b.Kc[0])] if self.fit_Kc else [])
-        hi_v = [b.n[1], b.phic[1]] + ([math.log(b.Kc[1])] if self.fit_Kc else [])
+        lo_v = [b.n[0], b.phic_deg[0]] + ([math.log(b.K_cone[0])] if self.fit_K_cone else [])
+        hi_v = [b.n[1], b.phic_deg[1]] + ([math.log(b.K_cone[1])] if self.fit_K_cone else [])
         self.lo_v, self.hi_v = np.array(lo_v), np.array(hi_v)
         self.span = np.where(self.hi_v > self.lo_v, self.hi_v - self.lo_v, 1.0)
 
     def design(self, n, phi, K):
-        return design(self.z, n, phi, cone=self.cone, law=self.law, Kc=K, ratio=self.ratio)
+        return design(self.z, n, phi, cone=self.cone, law=self.law, K_cone=K, ratio=self.ratio)
 
     def cell_sse(self, n, phi, kc_val):
         """Box-LS over (kc, kphi, cc) for arrays of n, phi, Kc (broadcast)."""
-        K = kc_val[..., None] if self.fit_Kc else self.Kc
+        K = kc_val[..., None] if self.fit_K_cone else self.K_cone
         X = self.design(n[..., None], phi[..., None], K)
         G, g, yy = gram(X, np.broadcast_to(self.y, X.shape[:-1]))
         lo, hi = _bounds_arrays(self.bounds, np.broadcast_to(n, G.shape[:-2]), self.ratio)
@@ -218,18 +218,18 @@ class _Finite:
     def unpack(self, v):
         """(n, phic [deg], Kc [m] or NaN) of the scaled outer point v."""
         w = np.clip(self.lo_v + v * self.span, self.lo_v, self.hi_v)
-        K = math.exp(w[2]) if self.fit_Kc else np.nan
+        K = math.exp(w[2]) if self.fit_K_cone else np.nan
         return float(w[0]), float(w[1]), K
 
     def scaled(self, n, phi, K):
         """The scaled outer point of (n, phic, Kc)."""
-        v0 = [n, phi] + ([math.log(K)] if self.fit_Kc else [])
+        v0 = [n, phi] + ([math.log(K)] if self.fit_K_cone else [])
         return (np.array(v0) - self.lo_v) / self.span
 
     def resid_v(self, v):
         nv, pv, Kv = self.unpack(v)
         x_, _ = self.cell_sse(np.array([nv]), np.array([pv]), np.array([Kv]))
-        Xv = self.design(np.array(nv), np.array(pv), Kv if self.fit_Kc else self.Kc)
+        Xv = self.design(np.array(nv), np.array(pv), Kv if self.fit_K_cone else self.K_cone)
         return Xv @ x_[0] - self.y
 
     def f_res(self, v):
@@ -257,12 +257,12 @@ def _solve_finite(
     """Finite Kc: grid over n, phic (and Kc), then a joint refinement from the best minima."""
     z, y, bounds, ratio = fp.z, fp.y, fp.bounds, fp.ratio
     ns = _grid(*bounds.n, n_grid)
-    phis = _grid(*bounds.phic, phic_grid)
-    if fp.fit_Kc:
+    phis = _grid(*bounds.phic_deg, phic_grid)
+    if fp.fit_K_cone:
         Kcs = (
-            np.exp(np.linspace(*np.log(bounds.Kc), 7))
-            if bounds.Kc[0] != bounds.Kc[1]
-            else np.array([bounds.Kc[0]])
+            np.exp(np.linspace(*np.log(bounds.K_cone), 7))
+            if bounds.K_cone[0] != bounds.K_cone[1]
+            else np.array([bounds.K_cone[0]])
         )
     else:
         Kcs = np.array([np.nan])
@@ -290,7 +290,7 @@ def _solve_finite(
 
     x, sse = fp.cell_sse(np.array([n_best]), np.array([phi_best]), np.array([best_K]))
     x = x[0].copy()
-    Kc_out = float(best_K) if fp.fit_Kc else fp.Kc
+    Kc_out = float(best_K) if fp.fit_K_cone else fp.K_cone
     # report the SSE from the residuals themselves
     X = fp.design(np.array(n_best), np.array(phi_best), Kc_out)
     # the normal equations lose digits near an exact fit: re-solve on X itself
@@ -305,7 +305,7 @@ def _solve_finite(
         n=float(n_best),
         cc=float(x[2]),
         phic_deg=float(phi_best),
-        Kc=Kc_out,
+        K_cone=Kc_out,
         sse=float(resid @ resid),
         nfev=nfev,
         nit=nit,
@@ -425,12 +425,18 @@ def _solve_mobilised(
         kc_over_kphi=ratio,
     )
     x = np.array([ms.kc[0], ms.kphi[0], ms.cc[0]])
-    X = design(z, np.array(ms.n[0]), np.array(ms.phic_deg[0]), cone=cone, law=law, Kc=None)
+    X = design(z, np.array(ms.n[0]), np.array(ms.phic_deg[0]), cone=cone, law=law, K_cone=None)
     lo, hi = _bounds_arrays(bounds, np.array(ms.n[0]))
     if ratio is not None:
         # kc = ratio * kphi: one column, and both bounds on kphi
         Xr = design(
-            z, np.array(ms.n[0]), np.array(ms.phic_deg[0]), cone=cone, law=law, Kc=None, ratio=ratio
+            z,
+            np.array(ms.n[0]),
+            np.array(ms.phic_deg[0]),
+            cone=cone,
+            law=law,
+            K_cone=None,
+            ratio=ratio,
         )
         lor, hir = _bounds_arrays(bounds, np.array(ms.n[0]), ratio)
         xr = _polish(Xr, y, lor, hir, np.array([0.0, x[1], x[2]]))
@@ -444,7 +450,7 @@ def _solve_mobilised(
         n=float(ms.n[0]),
         cc=float(x[2]),
         phic_deg=float(ms.phic_deg[0]),
-        Kc=None,
+        K_cone=None,
         sse=float(resid @ resid),
         nfev=int(ms.nfev),
         nit=1,
@@ -471,7 +477,7 @@ def identify_scans(
     y: np.ndarray,
     n_loc: np.ndarray,
     phic_deg: float,
-    Kc: float | None,
+    K_cone: float | None,
     bounds: Bounds,
     cone: Cone,
     law: PressureLaw,
@@ -495,7 +501,7 @@ def identify_scans(
         The box of (kc, kphi, cc) [SI] at each n.
     """
     coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
-    if Kc is None and enabled() and all(c.size == 1 for c in coef):
+    if K_cone is None and enabled() and all(c.size == 1 for c in coef):
         from terracone.inverse.solver.kernels import identify_scan
         from terracone.inverse.solver.many import bounds_params
 
@@ -512,7 +518,9 @@ def identify_scans(
             not law.is_rm0,
             *(float(c.item()) for c in coef),
         )
-    X = design(z, n_loc[:, None], np.array(phic_deg), cone=cone, law=law, Kc=Kc, ratio=ratio)
+    X = design(
+        z, n_loc[:, None], np.array(phic_deg), cone=cone, law=law, K_cone=K_cone, ratio=ratio
+    )
     G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
     lo, hi = _bounds_arrays(bounds, n_loc, ratio)
     sse = np.full((3, n_loc.size, vals.size), np.nan)
@@ -544,7 +552,7 @@ def identify_extents(
     y: np.ndarray,
     n_loc: np.ndarray,
     phic_deg: float,
-    Kc: float | None,
+    K_cone: float | None,
     bounds: Bounds,
     cone: Cone,
     law: PressureLaw,
@@ -567,7 +575,7 @@ def identify_extents(
         The box of (kc, kphi, cc) [SI] at each n.
     """
     coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
-    if Kc is None and enabled() and all(c.size == 1 for c in coef):
+    if K_cone is None and enabled() and all(c.size == 1 for c in coef):
         from terracone.inverse.solver.kernels import identify_extent
         from terracone.inverse.solver.many import bounds_params
 
@@ -585,7 +593,7 @@ def identify_extents(
             not law.is_rm0,
             *(float(c.item()) for c in coef),
         )
-    sse, lo, hi = identify_scans(z, y, n_loc, phic_deg, Kc, bounds, cone, law, vals, ratio)
+    sse, lo, hi = identify_scans(z, y, n_loc, phic_deg, K_cone, bounds, cone, law, vals, ratio)
     return (*scan_extents(sse, thr), lo, hi)
 
 
@@ -623,8 +631,8 @@ def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> No
     x = np.array([sol.kc, sol.kphi, sol.cc])
     linear = linear_intervals(
         z, y, x, sol.n, sol.phic_deg, thr, (n_lo, n_hi),
-        bounds=bounds, law=law, cone=cone, ratio=ratio, Kc=sol.Kc,
+        bounds=bounds, law=law, cone=cone, ratio=ratio, K_cone=sol.K_cone,
     )  # fmt: skip
-    und, intervals = identification(bounds, (n_lo, n_hi), sol.phic_range, linear, Kc=sol.Kc)
+    und, intervals = identification(bounds, (n_lo, n_hi), sol.phic_range, linear, K_cone=sol.K_cone)
     sol.undetermined = und
     sol.profile_intervals = intervals

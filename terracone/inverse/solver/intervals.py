@@ -72,7 +72,7 @@ def linear_intervals(
     law: PressureLaw,
     cone: Cone,
     ratio: float | None = None,
-    Kc: float | None = None,
+    K_cone: float | None = None,
 ) -> tuple[list[str], dict[str, tuple[float, float]]]:
     """Profile intervals of kc, kphi, cc [SI] of one profile, and which the data leave free.
 
@@ -90,7 +90,7 @@ def linear_intervals(
         np.concatenate([np.linspace(n_lo, n_hi, 17), np.clip(n + grid(-0.1, 0.1, 9), n_lo, n_hi)])
     )
     vals = grid(0.0, 1.0, 61)
-    jlo, jhi, _, _ = identify_extents(z, y, n_loc, phic_deg, Kc, b, cone, law, vals, thr, ratio)  # noqa: E501
+    jlo, jhi, _, _ = identify_extents(z, y, n_loc, phic_deg, K_cone, b, cone, law, vals, thr, ratio)  # noqa: E501
     lo_at, hi_at = (a[0, 0] for a in box_grid(np.full((1, 1), n), bounds_params(b, ratio)))
     tokens: list[str] = []
     intervals: dict[str, tuple[float, float]] = {}
@@ -117,7 +117,7 @@ def identification(
     n_range: tuple[float, float],
     phic_range: tuple[float, float],
     linear: tuple[list[str], dict[str, tuple[float, float]]] = ([], {}),
-    Kc: float | None = None,
+    K_cone: float | None = None,
 ) -> tuple[list[str], dict[str, tuple[float, float]]]:
     """The undetermined list and profile intervals of one fully mobilised fit.
 
@@ -133,7 +133,9 @@ def identification(
         und.append("n")
     und += linear[0]
     intervals.update(linear[1])
-    if phic_range[1] - phic_range[0] > 1e-9 or (Kc is None and bounds.phic[0] != bounds.phic[1]):
+    if phic_range[1] - phic_range[0] > 1e-9 or (
+        K_cone is None and bounds.phic_deg[0] != bounds.phic_deg[1]
+    ):
         und = ["phic", *und, "phic~scale(kc,kphi)"]
         intervals["phic_deg"] = (float(phic_range[0]), float(phic_range[1]))
     return und, intervals

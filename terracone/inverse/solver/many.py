@@ -316,7 +316,9 @@ class _Problem:
 def numpy_cells(pb: _Problem, n: np.ndarray, sv: np.ndarray):
     """The numpy reference of the cells (:func:`terracone.inverse.solver.kernels.cells_kernel`)."""
     zz, yy, w = pb.zz, pb.yy, pb.w
-    A, B, C = cone_index_basis(zz[:, None, :], n=n[..., None], phic=0.0, law=pb.law, cone=pb.cone)
+    A, B, C = cone_index_basis(
+        zz[:, None, :], n=n[..., None], phic_deg=0.0, law=pb.law, cone=pb.cone
+    )
     if pb.ratio is not None:
         A, B = np.zeros_like(A), pb.ratio * A + B
     Aw, Bw = A * w[:, None, :], B * w[:, None, :]
@@ -399,7 +401,7 @@ def _refine_phi(pb: _Problem, n_best, i_f, refine_iter: int):
 def _phic_ridge(pb: _Problem, x, n_best, s_best):
     """phic (middle, low, high) [deg] of the ridge: every s whose box still holds the optimal
     primed (kc', kphi'), lo <= x'/s <= hi, fits equally well (eq. (2-6) fully mobilised)."""
-    phi_lo, phi_hi = pb.bounds.phic
+    phi_lo, phi_hi = pb.bounds.phic_deg
     P = x.shape[0]
     if phi_lo == phi_hi:
         ph = np.full(P, phi_lo)
@@ -439,7 +441,7 @@ def _n_interval(pb: _Problem, ns, sse_n, sse, n_best, noise_floor: float):
 
 def _problem(depths, cis, cone, law, bounds, ratio) -> _Problem:
     zz, yy, w = _pad(depths, cis)
-    phi_lo, phi_hi = bounds.phic
+    phi_lo, phi_hi = bounds.phic_deg
     nested = bounds.kc[0] == 0.0 and bounds.kphi[0] == 0.0
     if phi_lo == phi_hi or nested:
         phis = np.array([phi_hi])

@@ -80,9 +80,9 @@ def ridge_profile(
     cone_obj = get_cone(cone)
     bounds = bounds or Bounds()
     law = pressure_law(model, r_min=r_min, plate_pair=plate_pair)
-    phis = np.linspace(*bounds.phic, phic_points)
+    phis = np.linspace(*bounds.phic_deg, phic_points)
     ns = _n_window(z, y, cone_obj, law, bounds, phis, n_points, n_window)
-    X = design(z, ns[:, None, None], phis[None, :, None], cone=cone_obj, law=law, Kc=None)
+    X = design(z, ns[:, None, None], phis[None, :, None], cone=cone_obj, law=law, K_cone=None)
     G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
     lo, hi = _box(bounds, ns)
     x, sse = box_lsq3(G, g, yy, lo[:, None, :], hi[:, None, :])
@@ -104,7 +104,9 @@ def ridge_profile(
     }
     # (phic, scale) at the best n: kc, kphi = scale * best, cc held
     scales = np.exp(np.linspace(math.log(0.4), math.log(2.5), scale_points))
-    Xn = design(z, np.array(ns[i]), phis[:, None], cone=cone_obj, law=law, Kc=None)  # (Np, Z, 3)
+    Xn = design(
+        z, np.array(ns[i]), phis[:, None], cone=cone_obj, law=law, K_cone=None
+    )  # (Np, Z, 3)
     base = Xn[..., 0] * kc + Xn[..., 1] * kphi  # (Np, Z)
     model_ci = scales[:, None, None] * base[None] + (Xn[..., 2] * cc)[None]
     rmsd_scale = np.sqrt(np.mean((model_ci - y) ** 2, axis=-1))  # (Ns, Np)
@@ -134,7 +136,7 @@ def _box(bounds: Bounds, ns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _n_window(z, y, cone, law, bounds, phis, n_points, half) -> np.ndarray:
     """n grid around the best n of a coarse pass at the middle phic."""
     coarse = np.linspace(*bounds.n, 40)
-    X = design(z, coarse[:, None], np.array(phis[len(phis) // 2]), cone=cone, law=law, Kc=None)
+    X = design(z, coarse[:, None], np.array(phis[len(phis) // 2]), cone=cone, law=law, K_cone=None)
     G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
     lo, hi = _box(bounds, coarse)
     _, sse = box_lsq3(G, g, yy, lo, hi)

@@ -171,7 +171,7 @@ class Likelihood:
         Depths [m] and measured CI [kPa].
     cone : Cone
     law : PressureLaw
-    Kc : float or None
+    K_cone : float or None
         Cone-terrain shear deformation parameter [m]; None: fully mobilised.
     n_range : (float, float)
         Range of n tabulated [-] (one value: n fixed).
@@ -205,13 +205,13 @@ class Likelihood:
         *,
         cone: Cone,
         law: PressureLaw,
-        Kc: float | None,
+        K_cone: float | None,
         n_range: tuple[float, float],
         weights: np.ndarray,
         phi: np.ndarray | None,
         spacing: float | None = None,
     ) -> None:
-        self.z, self.y, self.cone, self.law, self.Kc = z, y, cone, law, Kc
+        self.z, self.y, self.cone, self.law, self.K_cone = z, y, cone, law, K_cone
         self.t = math.tan(cone.half_angle)
         self.w = weights
         self.N = y.size
@@ -246,13 +246,13 @@ class Likelihood:
 
     def _columns(self, n: np.ndarray) -> np.ndarray:
         nn = np.asarray(n, dtype=float)[:, None]
-        kw = dict(n=nn, Kc=self.Kc, law=self.law, cone=self.cone)
-        A0, B0, C0 = cone_index_basis(self.z, phic=0.0, **kw)
-        if self.Kc is None:
+        kw = dict(n=nn, K_cone=self.K_cone, law=self.law, cone=self.cone)
+        A0, B0, C0 = cone_index_basis(self.z, phic_deg=0.0, **kw)
+        if self.K_cone is None:
             # fully mobilised: the shear part is the normal part / tan(half angle), eq. (2-6)
             A0, B0, C0 = np.broadcast_arrays(A0, B0, C0)
             return np.stack([A0, B0, C0], axis=-1)
-        A1, B1, _ = cone_index_basis(self.z, phic=45.0, **kw)  # tan 45 deg = 1
+        A1, B1, _ = cone_index_basis(self.z, phic_deg=45.0, **kw)  # tan 45 deg = 1
         A0, B0, C0, A1, B1 = np.broadcast_arrays(A0, B0, C0, A1, B1)
         return np.stack([A0, A1 - A0, B0, B1 - B0, C0], axis=-1)
 
@@ -264,11 +264,11 @@ class Likelihood:
         c = self.coef[:, i]  # (4, P, Z, K)
         return ((c[0] * dx + c[1]) * dx + c[2]) * dx + c[3]
 
-    def residuals(self, kc, kphi, n, cc, phic, rho=None) -> np.ndarray:
+    def residuals(self, kc, kphi, n, cc, phic_deg, rho=None) -> np.ndarray:
         """Whitened residuals u (P, Z) of parameter arrays (P,) (and rho (P,) if sampled)."""
         c = self.columns(n)
-        tau = np.tan(np.radians(phic))[:, None]
-        if self.Kc is None:
+        tau = np.tan(np.radians(phic_deg))[:, None]
+        if self.K_cone is None:
             s = 1.0 + tau / self.t
             m = (s * kc[:, None]) * c[..., 0] + (s * kphi[:, None]) * c[..., 1]
             r = m + cc[:, None] * c[..., 2] - self.wy
@@ -303,7 +303,7 @@ class Likelihood:
         det G^(-1/2) of the Gaussian integral cancels).
         """
         c = self.wcols
-        if self.Kc is not None:
+        if self.K_cone is not None:
             tau = math.tan(math.radians(phic_deg))
             c = np.stack([c[..., 0] + tau * c[..., 1], c[..., 2] + tau * c[..., 3], c[..., 4]], -1)
         c = c[..., np.asarray(free, bool)]

@@ -329,7 +329,7 @@ def _fit_design(
     bounds: Bounds,
     cal: Calibration | None,
     law: PressureLaw,
-    Kc: float | None,
+    K_cone: float | None,
     cone: Cone,
 ) -> np.ndarray:
     """Jacobian (N, p) of the model CI at the best fit w.r.t. the parameters the fit moved.
@@ -337,7 +337,7 @@ def _fit_design(
     Linear parameters at a bound, and those a calibration fixes, are left
     out; with a calibration kc and kphi move together (fixed ratio).
     """
-    kw = dict(phic=p0.phic_deg, Kc=Kc, law=law, cone=cone)
+    kw = dict(phic_deg=p0.phic_deg, K_cone=K_cone, law=law, cone=cone)
     A, B, C = (np.broadcast_to(c, z.shape) for c in cone_index_basis(z, n=p0.n, **kw))
     cols = []
 
@@ -400,7 +400,7 @@ def noise_setup(
     profile: CIProfile,
     p0: TerrainParameters,
     law: PressureLaw,
-    Kc: float | None,
+    K_cone: float | None,
     bounds: Bounds,
     cal: Calibration | None,
     noise_model: str,
@@ -416,7 +416,7 @@ def noise_setup(
         The best fit: its model CI of eq. (2-7) sets the relative weights and
         its residuals the AR(1) estimate.
     law : PressureLaw
-    Kc : float or None
+    K_cone : float or None
         [m]; None: fully mobilised shear.
     bounds : Bounds
         Parameters at a bound are left out of the fit's design (:func:`estimate_correlation`).
@@ -434,7 +434,9 @@ def noise_setup(
     z, y = profile.depth, profile.ci
     N = y.size
     notes = []
-    A, B, C = cone_index_basis(z, n=p0.n, phic=p0.phic_deg, Kc=Kc, law=law, cone=profile.cone)
+    A, B, C = cone_index_basis(
+        z, n=p0.n, phic_deg=p0.phic_deg, K_cone=K_cone, law=law, cone=profile.cone
+    )
     m0 = p0.kc * A + p0.kphi * B + p0.cc * C  # eq. (2-7)
     w_raw = np.ones(N)
     if noise_model == "relative":
@@ -450,7 +452,7 @@ def noise_setup(
     rho_raw, rho_sampled = None, False
     if isinstance(correlation, str):
         if correlation in ("estimate", "sample"):
-            X = _fit_design(z, p0, bounds, cal, law, Kc, profile.cone) / w[:, None]
+            X = _fit_design(z, p0, bounds, cal, law, K_cone, profile.cone) / w[:, None]
             rho, rho_raw = estimate_correlation((y - m0) / w, z, design=X)
             rho_est = True
             rho_sampled = correlation == "sample" and N > 2

@@ -16,8 +16,7 @@ The model of the CI error (noise weights, AR(1) correlation) is in
 :mod:`terracone.inverse.uncertainty.noise`, the priors in :mod:`terracone.inverse.uncertainty.priors`,
 the tabulated likelihood in :mod:`terracone.inverse.uncertainty.likelihood` and the
 emcee set-up in :mod:`terracone.inverse.uncertainty.sampler`; their docstrings give the
-details.  (Before issue 13 all of it was ``terracone.uncertainty``, which
-remains as an alias re-exporting every public name.)
+details.
 
 Identifiability
 ---------------
@@ -258,7 +257,7 @@ class PosteriorResult:
     model : {"rm0", "rm1"}
     r_min : float or None
         [m]
-    Kc : float or None
+    K_cone : float or None
         [m]
     level : float
         Credibility level of the intervals and bands [-].
@@ -285,7 +284,7 @@ class PosteriorResult:
     prior: str
     model: str
     r_min: float | None
-    Kc: float | None
+    K_cone: float | None
     level: float
     best_fit: TerrainParameters
     notes: list[str] = field(default_factory=list)
@@ -331,7 +330,7 @@ class PosteriorResult:
             "prior": self.prior,
             "model": self.model,
             "r_min": None if self.r_min is None else float(u.length_from_si(self.r_min, units)),
-            "Kc": None if self.Kc is None else float(u.length_from_si(self.Kc, units)),
+            "Kc": None if self.K_cone is None else float(u.length_from_si(self.K_cone, units)),
             "width_ratio": {k: _num(v) for k, v in self.width_ratio.items()},
             "thresholds": {"determined": DETERMINED_BELOW, "weakly determined": WEAKLY_BELOW},
             "prior_intervals": prior_iv,
@@ -359,7 +358,7 @@ class PosteriorResult:
     def params_at(self, index: int) -> TerrainParameters:
         """One posterior draw as :class:`TerrainParameters`."""
         kc, kphi, n, cc, phic = (float(v) for v in self.samples[index])
-        return TerrainParameters(kc, kphi, n, cc, phic, self.Kc, self.model, self.r_min)
+        return TerrainParameters(kc, kphi, n, cc, phic, self.K_cone, self.model, self.r_min)
 
 
 def _num(v: float) -> float | None:
@@ -401,7 +400,7 @@ def posterior(
     correlation: str | float = "estimate",
     noise_model: str = "relative",
     noise_floor: float = 0.05,
-    Kc: float | None = None,
+    K_cone: float | None = None,
     draws: int = 2000,
     seed: int | None = None,
     plates: Sequence[float] | None = None,
@@ -436,7 +435,7 @@ def posterior(
     noise_model, noise_floor
         "relative" or "absolute"; floor of the relative model, a fraction of
         the largest model CI [-] (:mod:`terracone.inverse.uncertainty.noise`).
-    Kc : float, optional
+    K_cone : float, optional
         Cone-terrain shear deformation parameter [m]; None: fully mobilised.
     draws : int
         Number of posterior samples returned.
@@ -472,7 +471,7 @@ def posterior(
     """
     t0, c0 = time.perf_counter(), time.process_time()
     _check_options(level, draws, nwalkers, burn, thin, noise_model, noise, noise_floor)
-    law_args = dict(model=model, r_min=r_min, plate_pair=plate_pair, Kc=Kc, bounds=bounds)
+    law_args = dict(model=model, r_min=r_min, plate_pair=plate_pair, K_cone=K_cone, bounds=bounds)
     noise_args = dict(noise=noise, correlation=correlation, model=noise_model, floor=noise_floor)
     st = _prepare(profile, law_args, noise_args, prior, start, seed, n_prior)
     samples, rho_draws, diag = _draw(st, draws, nwalkers, burn, thin)
@@ -495,7 +494,7 @@ class _Setup:
     model: str
     r_min: float | None
     plate_pair: tuple[float, float] | None
-    Kc: float | None
+    K_cone: float | None
     law: PressureLaw
     start: TerrainParameters
     noise: NoiseSetup
@@ -530,7 +529,7 @@ def _result(
         prior=st.prior.describe(),
         model=st.model,
         r_min=st.r_min,
-        Kc=st.Kc,
+        K_cone=st.K_cone,
         level=level,
         best_fit=st.start,
         notes=st.notes,
@@ -549,7 +548,7 @@ def _prepare(
 ) -> _Setup:
     """The best fit, noise model, prior, likelihood and target of :func:`posterior`."""
     model, r_min, plate_pair = law_args["model"], law_args["r_min"], law_args["plate_pair"]
-    Kc, bounds = law_args["Kc"], law_args["bounds"] or Bounds()
+    K_cone, bounds = law_args["K_cone"], law_args["bounds"] or Bounds()
     cal_prior = as_calibration_prior(prior)
     cal = cal_prior.calibration if cal_prior is not None else None
     if cal is not None:
@@ -565,18 +564,20 @@ def _prepare(
             plate_pair=plate_pair,
             calibration=cal,
             bounds=bounds,
-            Kc=Kc,
+            K_cone=K_cone,
         )
     p0 = _start_params(start)
     na = noise_args
-    ns = noise_setup(profile, p0, law, Kc, bounds, cal, na["model"], na["floor"], na["correlation"])
+    ns = noise_setup(
+        profile, p0, law, K_cone, bounds, cal, na["model"], na["floor"], na["correlation"]
+    )
     pri = Prior(bounds, cal_prior)
     lik = Likelihood(
         profile.depth,
         profile.ci,
         cone=profile.cone,
         law=law,
-        Kc=Kc,
+        K_cone=K_cone,
         n_range=bounds.n,
         weights=ns.w,
         phi=None if ns.rho_sampled else ns.phi,
@@ -587,7 +588,7 @@ def _prepare(
     if n_prior == "reference":
         free = (not pri.kc_fixed, not pri.kphi_fixed, not pri.cc_fixed)
         pri.set_reference(lik.grid, lik.gram_half_logdet(free, p0.phic_deg))
-    x0, coords = _start_and_coordinates(p0, bounds, pri, profile.cone, Kc)
+    x0, coords = _start_and_coordinates(p0, bounds, pri, profile.cone, K_cone)
     if coords.ndim == 0:
         raise ValueError("all parameters are fixed: nothing to sample")
     target = LogPosterior(coords, pri, lik, na["noise"], ns.rho_sampled, ns.rho)
@@ -596,7 +597,7 @@ def _prepare(
         model=model,
         r_min=r_min,
         plate_pair=plate_pair,
-        Kc=Kc,
+        K_cone=K_cone,
         law=law,
         start=p0,
         noise=ns,
@@ -646,10 +647,10 @@ def _draw(
     return samples, rho_draws, diag
 
 
-def _start_and_coordinates(p0, bounds, pri, cone, Kc):
+def _start_and_coordinates(p0, bounds, pri, cone, K_cone):
     """The best fit clipped to the bounds (5,) and the sampler's coordinates."""
     x0 = np.array([p0.kc, p0.kphi, p0.n, p0.cc, p0.phic_deg], dtype=float)
-    for j, (lo, hi) in ((2, bounds.n), (3, bounds.cc), (4, bounds.phic)):
+    for j, (lo, hi) in ((2, bounds.n), (3, bounds.cc), (4, bounds.phic_deg)):
         x0[j] = np.clip(x0[j], lo, hi)
     fixed_vals = x0.copy()
     if pri.n_fixed:
@@ -658,7 +659,7 @@ def _start_and_coordinates(p0, bounds, pri, cone, Kc):
         fixed_vals[3] = pri.cc_value
     if pri.phic_fixed:
         fixed_vals[4] = pri.phic_value
-    return x0, SamplerCoordinates(pri, cone, Kc, fixed_vals)
+    return x0, SamplerCoordinates(pri, cone, K_cone, fixed_vals)
 
 
 def _check_options(level, draws, nwalkers, burn, thin, noise_model, noise, noise_floor) -> None:
@@ -843,7 +844,7 @@ def posterior_for_result(
         plate_pair=plate_pair,
         bounds=bounds,
         prior=cal_prior if cal_prior is not None else "bounds",
-        Kc=p.Kc,
+        K_cone=p.K_cone,
         draws=draws,
         seed=seed,
         plates=plates,

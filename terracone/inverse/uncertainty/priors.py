@@ -95,7 +95,9 @@ class Prior:
         self.kphi_fixed = bounds.kphi[0] == bounds.kphi[1] or (c is not None and c.kphi <= 0)
         self.n_fixed = bounds.n[0] == bounds.n[1]
         self.cc_fixed = bounds.cc[0] == bounds.cc[1] or (cal is not None and cal.cc_width == 0)
-        self.phic_fixed = bounds.phic[0] == bounds.phic[1] or (cal is not None and cal.phic_sd == 0)
+        self.phic_fixed = bounds.phic_deg[0] == bounds.phic_deg[1] or (
+            cal is not None and cal.phic_sd == 0
+        )
         self.ratio = (
             c is not None and not self.kc_fixed and not self.kphi_fixed and c.kc > 0 and c.kphi > 0
         )
@@ -106,13 +108,13 @@ class Prior:
                 self.cc_value = float(np.clip(c.cc, *bounds.cc))
             else:
                 self.cc_value = float(bounds.cc[0])
-            if self.phic_fixed and bounds.phic[0] != bounds.phic[1]:
-                self.phic_value = float(np.clip(c.phic_deg, *bounds.phic))
+            if self.phic_fixed and bounds.phic_deg[0] != bounds.phic_deg[1]:
+                self.phic_value = float(np.clip(c.phic_deg, *bounds.phic_deg))
             else:
-                self.phic_value = float(bounds.phic[0])
+                self.phic_value = float(bounds.phic_deg[0])
         else:
             self.cc_value = float(bounds.cc[0])
-            self.phic_value = float(bounds.phic[0])
+            self.phic_value = float(bounds.phic_deg[0])
         self.n_grid: np.ndarray | None = None
         self.n_logw: np.ndarray | None = None
         if c is not None and c.kc <= 0 and bounds.kc[0] > 0:
@@ -171,7 +173,7 @@ class Prior:
             return np.zeros_like(n)
         return self.b.kphi_si(n)[0]
 
-    def logpdf(self, kc, kphi, n, cc, phic) -> np.ndarray:
+    def logpdf(self, kc, kphi, n, cc, phic_deg) -> np.ndarray:
         """Log prior density (up to a constant) of arrays of parameters."""
         b = self.b
         lp = np.zeros(np.shape(n))
@@ -197,7 +199,7 @@ class Prior:
         if not self.cc_fixed:
             inside &= (cc >= b.cc[0]) & (cc <= b.cc[1])
         if not self.phic_fixed:
-            inside &= (phic >= b.phic[0]) & (phic <= b.phic[1])
+            inside &= (phic_deg >= b.phic_deg[0]) & (phic_deg <= b.phic_deg[1])
         if self.cal is None:
             if not self.kc_fixed and not ref:
                 lp = lp - np.log(kc_hi - kc_lo)
@@ -214,7 +216,7 @@ class Prior:
                 z = (cc - c.calibration.cc) / c.cc_width
                 lp += -0.5 * z * z
             if not self.phic_fixed:
-                z = (phic - c.calibration.phic_deg) / c.phic_sd
+                z = (phic_deg - c.calibration.phic_deg) / c.phic_sd
                 lp += -0.5 * z * z
         lp = np.where(inside & np.isfinite(lp), lp, -np.inf)
         return lp
@@ -245,7 +247,7 @@ class Prior:
             if self.phic_fixed:
                 phic = np.full(m, self.phic_value)
             elif self.cal is None:
-                phic = rng.uniform(*b.phic, m)
+                phic = rng.uniform(*b.phic_deg, m)
             else:
                 phic = self.cal.calibration.phic_deg + self.cal.phic_sd * rng.standard_normal(m)
             x = np.stack([kc, kphi, n, cc, phic], axis=1)

@@ -66,14 +66,17 @@ class SamplerCoordinates:
     prior box in the directions the data leave free.)
     """
 
-    def __init__(self, prior: Prior, cone: Cone, Kc: float | None, fixed_values: np.ndarray):
+    def __init__(self, prior: Prior, cone: Cone, K_cone: float | None, fixed_values: np.ndarray):
         self.prior = prior
         self.t = math.tan(cone.half_angle)
         nb = np.array(prior.b.n, dtype=float)
         kc_nonzero_fixed = prior.kc_fixed and not np.all(prior.kc_fixed_value(nb) == 0)
         kphi_nonzero_fixed = prior.kphi_fixed and not np.all(prior.kphi_fixed_value(nb) == 0)
         self.scaled = (
-            Kc is None and not prior.phic_fixed and not kc_nonzero_fixed and not kphi_nonzero_fixed
+            K_cone is None
+            and not prior.phic_fixed
+            and not kc_nonzero_fixed
+            and not kphi_nonzero_fixed
         )
         self.free = np.array(
             [
