@@ -17,9 +17,10 @@ import pytest
 from conftest import shared_dir
 
 from terracone import CIProfile, InputError, TerrainParameters, cone_index
-from terracone.inverse import Bounds, PredictionResult, predict, predict_many
+from terracone.inverse import Bounds, predict, predict_many
 from terracone.inverse.learning.learn import Calibration
 from terracone.physics import units as tu
+from terracone.result import PredictionResult
 
 INCH = 0.0254  # m, exact
 LBF = 4.4482216152605  # N, exact

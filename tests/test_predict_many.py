@@ -17,8 +17,9 @@ from scipy.optimize import lsq_linear
 
 from terracone.data import CIProfile, InputError, ProfileSet
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.predict import mgs_lstsq, polish_many, predict, predict_many
+from terracone.inverse.predict import predict, predict_many
 from terracone.inverse.solver.many import solve_exact_many
+from terracone.inverse.solver.polish import mgs_lstsq, polish_many
 from terracone.jit import enabled
 from terracone.physics.cone import cone_index, get_cone
 

@@ -24,7 +24,7 @@ import terracone
 from terracone.apps.batch import BatchSummary
 from terracone.cli import cli
 from terracone.data import TerrainParameters
-from terracone.inverse import PredictionResults, predict_many
+from terracone.inverse import predict_many
 from terracone.inverse.layered import LayeredResult
 from terracone.inverse.learning.learn import LearnResult
 from terracone.notebook import fmt_value
@@ -32,6 +32,7 @@ from terracone.report import build_report
 from terracone.report import fields as FL
 from terracone.report import figures as F
 from terracone.report.browser import BrowserSession, find_chromium
+from terracone.result import PredictionResults
 
 REAL = (
     Path(__file__).resolve().parents[1]

@@ -13,13 +13,7 @@ from click.testing import CliRunner
 from terracone.cli import cli
 from terracone.data import CIProfile, InputError, TerrainParameters
 from terracone.inverse import predict
-from terracone.io import (
-    read_ci_profiles,
-    read_results_json,
-    write_ci_profiles,
-    write_results_json,
-    write_results_parquet,
-)
+from terracone.io import read_ci_profiles, write_ci_profiles
 from terracone.physics.cone import cone_index
 from terracone.report import build_report, result_kind
 from terracone.result import (
@@ -32,9 +26,12 @@ from terracone.result import (
     check_schema,
     check_table_schema,
     from_document,
+    read_json,
     read_results,
     to_document,
     to_table,
+    write_json,
+    write_parquet,
 )
 
 # unit factors by hand (NIST SP 811): 1 lbf = 4.4482216152605 N, 1 in = 0.0254 m
@@ -100,13 +97,6 @@ def test_optimize_result_fields():
     assert np.isnan(e.x).all()
 
 
-def test_old_import_path_is_the_same_class():
-    from terracone.inverse.predict import PredictionResult as Old
-    from terracone.inverse.predict import PredictionResults as OldMany
-
-    assert Old is PredictionResult and OldMany is PredictionResults
-
-
 # ---------------------------------------------------------------------------
 # JSON
 # ---------------------------------------------------------------------------
@@ -144,8 +134,8 @@ def test_us_document_against_hand_conversions():
 @pytest.mark.parametrize("units", ["si", "us"])
 def test_json_round_trip(tmp_path, units):
     results = [_result(0), _result(1), _error_result()]
-    path = write_results_json(tmp_path / "p.json", results, units, input="x.csv")
-    back = read_results_json(path)
+    path = write_json(tmp_path / "p.json", results, units, input="x.csv")
+    back = read_json(path)
     assert [r.id for r in back] == ["P0", "P1", "B"]
     for a, b in zip(results[:2], back[:2]):
         for k in ("kc", "kphi", "n", "cc", "phic_deg", "r_min"):
@@ -177,7 +167,7 @@ def test_unknown_schema_version_is_refused(tmp_path):
     f = tmp_path / "future.json"
     f.write_text(json.dumps(doc))
     with pytest.raises(ValueError, match=rf"file {f}: schema_version 99"):
-        read_results_json(f)
+        read_json(f)
     with pytest.raises(ValueError, match="schema_version 99"):
         build_report(f, tmp_path / "r.html")
     r = CliRunner().invoke(cli, ["report", str(f), "--out", str(tmp_path / "r.html")])
@@ -215,7 +205,7 @@ def test_table_has_batch_columns_and_the_results_values(tmp_path):
     from terracone.apps.batch import OUTPUT_COLUMNS
 
     results = [_result(0), _result(1), _error_result()]
-    path = write_results_parquet(tmp_path / "p.parquet", results, "us")
+    path = write_parquet(tmp_path / "p.parquet", results, "us")
     t = pq.read_table(path)
     assert t.schema.metadata[b"terracone.schema"] == SCHEMA.encode()
     assert check_table_schema(path) == 1

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import ast
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -21,8 +19,6 @@ from terracone.report.text import (
     shear_fit_text,
     table,
 )
-
-PACKAGE = Path(__file__).resolve().parents[1] / "terracone"
 
 
 def test_format_value_by_hand():
@@ -62,24 +58,6 @@ def test_evaluate_text_converts_units_at_the_edge():
     assert si[2].split()[:3] == ["given", "A", "0.0508"]
     assert us[2].split()[:3] == ["given", "A", "2"]  # 0.0508 m = 2 in
     assert si[2].split()[3:5] == ["1", "1"]
-
-
-def test_no_library_module_imports_the_cli():
-    offenders = []
-    for path in PACKAGE.rglob("*.py"):
-        if path.name in ("cli.py", "__main__.py"):
-            continue
-        for node in ast.walk(ast.parse(path.read_text())):
-            if isinstance(node, ast.ImportFrom):
-                base = node.module or ""
-                names = [base] + [f"{base}.{a.name}".lstrip(".") for a in node.names]
-            elif isinstance(node, ast.Import):
-                names = [a.name for a in node.names]
-            else:
-                continue
-            if any(n == "cli" or n.endswith(".cli") for n in names):
-                offenders.append(str(path.relative_to(PACKAGE)))
-    assert offenders == []
 
 
 def test_curve_and_library_tables_by_hand():

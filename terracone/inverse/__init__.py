@@ -1,21 +1,22 @@
 """Inverse problems: the prediction and learning processes of the paper.
 
-* :func:`predict` fits kc, kphi, n, cc, phic to a CI profile (section 3.3.2);
+* :func:`predict` / :func:`predict_many` fit kc, kphi, n, cc, phic_deg to CI
+  profiles (section 3.3.2; :mod:`.predict`, solvers in :mod:`.solver`);
 * :func:`learn` fits them jointly to CI profiles and plate tests and finds
-  the RM1 transition radius r_min (section 3.3.1);
+  the RM1 transition radius r_min (section 3.3.1; :mod:`.learning`);
 * :func:`evaluate` compares predicted and measured plate pressure-sinkage
-  curves (Tables 4-2 and 4-4);
+  curves (Tables 4-2 and 4-4; :mod:`.evaluate`);
 * :func:`posterior` samples the posterior of one profile's parameters
-  (:mod:`.uncertainty`, with :mod:`.noise`, :mod:`.priors`, :mod:`.likelihood`,
-  :mod:`.sampler`);
+  (:mod:`.uncertainty`);
 * :func:`fit_layered` and :func:`layered_posterior` fit a layered terrain
   (:mod:`.layered`; the forward model is :mod:`terracone.physics.layers`);
-* :func:`fit_plates` / :func:`fit_plate_test` fit bevameter plate tests
-  (:mod:`.plates`) and :func:`fit_shear` / :func:`fit_shear_test` shear tests
-  (:mod:`.shear`).
+* :func:`fit_plates` / :func:`fit_plate_test` fit bevameter plate tests and
+  :func:`fit_shear` / :func:`fit_shear_test` shear tests (:mod:`.bevameter`);
+* site statistics and the value of a test are in :mod:`.sites`.
 
-The fits are loaded on first use of their name (emcee and scipy.stats are
-not needed to predict), so ``import terracone.inverse`` stays as light as it was.
+Everything but :class:`Bounds`, :func:`predict`, :func:`predict_many` and
+:func:`pso` is loaded on first use of its name (emcee and scipy.stats are not
+needed to predict).  The result types are in :mod:`terracone.result`.
 """
 
 from __future__ import annotations
@@ -24,18 +25,20 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.predict import PredictionResult, PredictionResults, predict, predict_many
+from terracone.inverse.predict import predict, predict_many
 from terracone.inverse.solver.pso import PSOResult, pso
 
 if TYPE_CHECKING:  # loaded on first use, see __getattr__
     from terracone.inverse.bevameter.plates import PlateFit, PlatesFit, fit_plate_test, fit_plates
     from terracone.inverse.bevameter.shear import ShearFit, ShearTestFit, fit_shear, fit_shear_test
+    from terracone.inverse.evaluate import PlateEvaluation, evaluate
     from terracone.inverse.layered import (
         LayeredPosterior,
         LayeredResult,
         fit_layered,
         layered_posterior,
     )
+    from terracone.inverse.learning.learn import Calibration, LearnResult, learn
     from terracone.inverse.uncertainty.posterior import (
         PosteriorResult,
         posterior,
@@ -44,11 +47,13 @@ if TYPE_CHECKING:  # loaded on first use, see __getattr__
 
 #: Names exported from submodules loaded on first use, and their submodule.
 LAZY = {
+    **dict.fromkeys(["PlateFit", "PlatesFit", "fit_plate_test", "fit_plates"], "bevameter.plates"),
+    **dict.fromkeys(["ShearFit", "ShearTestFit", "fit_shear", "fit_shear_test"], "bevameter.shear"),
+    **dict.fromkeys(["PlateEvaluation", "evaluate"], "evaluate"),
     **dict.fromkeys(
         ["LayeredPosterior", "LayeredResult", "fit_layered", "layered_posterior"], "layered"
     ),
-    **dict.fromkeys(["PlateFit", "PlatesFit", "fit_plate_test", "fit_plates"], "bevameter.plates"),
-    **dict.fromkeys(["ShearFit", "ShearTestFit", "fit_shear", "fit_shear_test"], "bevameter.shear"),
+    **dict.fromkeys(["Calibration", "LearnResult", "learn"], "learning.learn"),
     **dict.fromkeys(
         ["PosteriorResult", "posterior", "posterior_for_result"], "uncertainty.posterior"
     ),
@@ -57,32 +62,34 @@ LAZY = {
 __all__ = [
     "Bounds",
     "PSOResult",
-    "PredictionResult",
-    "PredictionResults",
     "predict",
     "predict_many",
     "pso",
-    # fits moved from layers, bevameter, shear and uncertainty (issue 13)
-    "LayeredPosterior",
-    "LayeredResult",
     "PlateFit",
     "PlatesFit",
-    "PosteriorResult",
-    "ShearFit",
-    "ShearTestFit",
-    "fit_layered",
     "fit_plate_test",
     "fit_plates",
+    "ShearFit",
+    "ShearTestFit",
     "fit_shear",
     "fit_shear_test",
+    "PlateEvaluation",
+    "evaluate",
+    "LayeredPosterior",
+    "LayeredResult",
+    "fit_layered",
     "layered_posterior",
+    "Calibration",
+    "LearnResult",
+    "learn",
+    "PosteriorResult",
     "posterior",
     "posterior_for_result",
 ]
 
 
 def __getattr__(name: str) -> Any:
-    """The fits of :data:`LAZY`, imported from their submodule on first use."""
+    """The names of :data:`LAZY`, imported from their submodule on first use."""
     if name in LAZY:
         value = getattr(import_module(f".{LAZY[name]}", __name__), name)
         globals()[name] = value

@@ -32,7 +32,7 @@ from terracone.inverse.bounds import Bounds
 from terracone.inverse.solver.exact import design, solve_exact
 from terracone.inverse.solver.intervals import identification, linear_intervals, n_intervals
 from terracone.inverse.solver.many import ManySolution, bounds_params, solve_exact_many
-from terracone.inverse.solver.polish import mgs_lstsq, polish_many
+from terracone.inverse.solver.polish import polish_many
 from terracone.inverse.solver.pso import pso
 from terracone.physics import units as u
 from terracone.physics.cone import Cone, cone_index_huang
@@ -41,8 +41,6 @@ from terracone.physics.plate import PressureLaw, pressure_law
 from terracone.result import PredictionResult, PredictionResults
 
 __all__ = [
-    "PredictionResult",
-    "PredictionResults",
     "PredictSettings",
     "PredictOptions",
     "SetFit",
@@ -53,11 +51,6 @@ __all__ = [
     "solve_set",
     "screen",
     "locate_error",
-    "n_intervals",
-    "linear_intervals",
-    "identification",
-    "polish_many",
-    "mgs_lstsq",
     "rmsd_objective",
 ]
 

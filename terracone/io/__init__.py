@@ -120,17 +120,7 @@ __all__ = [
     "to_numbers",
     "WIDE_CI_UNITS",
     "json_default",
-    # the writers and reader of prediction results (terracone.result)
-    "read_results_json",
-    "write_results_json",
-    "write_results_parquet",
 ]
-
-_RESULTS = {
-    "read_results_json": "read_json",
-    "write_results_json": "write_json",
-    "write_results_parquet": "write_parquet",
-}
 
 
 def __getattr__(name: str) -> object:
@@ -140,8 +130,4 @@ def __getattr__(name: str) -> object:
         from terracone.io.stream import iter_profile_sets
 
         return iter_profile_sets
-    if name in _RESULTS:  # pyarrow too: on first use
-        from terracone import result
-
-        return getattr(result, _RESULTS[name])
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -702,7 +702,8 @@ def summary_statistics(
 # identifiability
 # ---------------------------------------------------------------------------
 
-_ALIASES = {"phic_deg": "phic", "phi_c": "phic"}
+#: Names of phic in the "undetermined" lists of documents, old and new.
+_PHIC_NAMES = {"phic_deg": "phic", "phi_c": "phic"}
 
 
 def _status_of(
@@ -716,7 +717,7 @@ def _status_of(
         return str(ident[key])
     if name in fixed:
         return "fixed by calibration"
-    und = {_ALIASES.get(x, x) for x in (d.get("undetermined") or [])}
+    und = {_PHIC_NAMES.get(x, x) for x in (d.get("undetermined") or [])}
     if name in und:
         return "undetermined"
     if assessed is not None and name not in assessed:

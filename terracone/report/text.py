@@ -18,7 +18,7 @@ from terracone.physics import units as u
 
 if TYPE_CHECKING:  # pragma: no cover - annotations only
     from terracone.inverse.evaluate import PlateEvaluation
-    from terracone.inverse.predict import PredictionResult
+    from terracone.result import PredictionResult
 
 __all__ = [
     "curve_text",

@@ -8,8 +8,7 @@ squares of all walkers is one compiled kernel (:func:`spline_sse_compiled`,
 numba; its numpy twin :func:`spline_sse` is the tested reference and is used
 when TERRACONE_NUMBA=0).
 
-The likelihood of :func:`terracone.inverse.uncertainty.posterior.posterior` (formerly in
-``terracone.uncertainty``).
+The likelihood of :func:`terracone.inverse.uncertainty.posterior.posterior`.
 
 References
 ----------

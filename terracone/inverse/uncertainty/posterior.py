@@ -56,7 +56,7 @@ from numpy.typing import ArrayLike
 from terracone.data import CIProfile, TerrainParameters
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.learning.learn import Calibration
-from terracone.inverse.predict import PredictionResult, predict
+from terracone.inverse.predict import predict
 from terracone.inverse.uncertainty.likelihood import Likelihood
 from terracone.inverse.uncertainty.noise import NoiseModel, NoiseSetup, noise_setup
 from terracone.inverse.uncertainty.priors import (
@@ -74,6 +74,7 @@ from terracone.inverse.uncertainty.sampler import (
 )
 from terracone.physics import units as u
 from terracone.physics.plate import PressureLaw, plate_basis, pressure_law
+from terracone.result import PredictionResult
 
 __all__ = [
     "PARAM_NAMES",
