@@ -29,7 +29,7 @@ from terracone import cone_index, jit
 from terracone.data import CIProfile
 from terracone.inverse import Bounds, predict
 from terracone.inverse.solver.boxlsq import box_lsq3, box_lsq3_reference, gram
-from terracone.inverse.solver.exact import identify_extents, identify_scans, scan_extents
+from terracone.inverse.solver.intervals import identify_extents, identify_scans, scan_extents
 from terracone.inverse.solver.many import first_min, parabola_vertices, solve_exact_many
 from terracone.physics.cone import cone_index_basis, get_cone
 from terracone.physics.plate import pressure_law

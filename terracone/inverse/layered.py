@@ -38,7 +38,8 @@ from scipy.optimize import lsq_linear, minimize, nnls
 
 from terracone.data import CIProfile, InputError, TerrainParameters
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.solver.exact import design, solve_exact
+from terracone.inverse.solver.columns import design
+from terracone.inverse.solver.exact import solve_exact
 from terracone.inverse.uncertainty.posterior import LABELS, identifiability_label
 from terracone.physics import units as u
 from terracone.physics.cone import normal_integrals

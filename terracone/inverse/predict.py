@@ -29,7 +29,8 @@ import numpy as np
 
 from terracone.data import CIProfile, InputError, ProfileSet, TerrainParameters
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.solver.exact import design, solve_exact
+from terracone.inverse.solver.columns import design
+from terracone.inverse.solver.exact import solve_exact
 from terracone.inverse.solver.intervals import identification, linear_intervals, n_intervals
 from terracone.inverse.solver.many import ManySolution, bounds_params, solve_exact_many
 from terracone.inverse.solver.polish import polish_many

@@ -30,7 +30,7 @@ from terracone.data import CIProfile, PlateTest
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.learning.sumnorm import SumNormResult, sum_norm_box
 from terracone.inverse.solver.boxlsq import gram
-from terracone.inverse.solver.exact import design
+from terracone.inverse.solver.columns import design
 from terracone.physics.plate import plate_basis, pressure_law
 
 __all__ = [

@@ -29,20 +29,12 @@ import numpy as np
 
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.solver.boxlsq import box_lsq3, gram
-from terracone.jit import enabled
-from terracone.physics.cone import Cone, cone_index_basis
+from terracone.inverse.solver.columns import bounds_arrays, design
+from terracone.inverse.solver.intervals import CHI2_1_95, identification, linear_intervals
+from terracone.physics.cone import Cone
 from terracone.physics.plate import PressureLaw
 
-__all__ = [
-    "ExactSolution",
-    "solve_exact",
-    "design",
-    "identify_scans",
-    "identify_extents",
-    "scan_extents",
-]
-
-CHI2_1_95 = 3.841458820694124  # 95% quantile of chi-square with 1 dof
+__all__ = ["ExactSolution", "solve_exact"]
 
 
 @dataclass
@@ -62,73 +54,6 @@ class ExactSolution:
     profile_intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
     undetermined: list[str] = field(default_factory=list)
     sigma: float = float("nan")
-
-
-def design(
-    z: np.ndarray,
-    n: np.ndarray,
-    phic_deg: np.ndarray,
-    *,
-    cone: Cone,
-    law: PressureLaw,
-    K_cone: np.ndarray | float | None,
-    ratio: float | None = None,
-) -> np.ndarray:
-    """Design matrix X (..., Z, 3) with CI = X @ (kc, kphi, cc); n, phic broadcast.
-
-    With ``ratio`` (kc/kphi [m] held fixed) the kc column is folded into the
-    kphi column, CI = X @ (0, kphi, cc), and kc = ratio * kphi.
-    """
-    if K_cone is None:
-        # eq. (2-6) fully mobilised: phic only scales the kc and kphi columns
-        A, B, C = _basis(z, n, law, cone)
-        s = 1.0 + np.tan(np.radians(phic_deg)) / math.tan(cone.half_angle)
-        A, B = s * A, s * B
-    else:
-        A, B, C = cone_index_basis(z, n=n, phic_deg=phic_deg, K_cone=K_cone, law=law, cone=cone)
-    A, B, C = np.broadcast_arrays(A, B, C)
-    if ratio is not None:
-        return np.stack([np.zeros_like(A), ratio * A + B, C], axis=-1)
-    return np.stack([A, B, C], axis=-1)
-
-
-def _basis(z, n, law: PressureLaw, cone: Cone):
-    """cone_index_basis at phic = 0.
-
-    Compiled (:func:`terracone.inverse.solver.kernels.basis_columns`, equal to it to
-    1e-12) for one profile and one n, and :func:`~terracone.inverse.solver.kernels.basis_rows`
-    for profiles (P, Z) with one n each (P, 1), as predict_many's polish asks;
-    else the numpy basis.
-    """
-    n = np.asarray(n, dtype=float)
-    z = np.asarray(z, dtype=float)
-    one = n.ndim == 0 and z.ndim == 1
-    rows = z.ndim == 2 and n.shape == (z.shape[0], 1)
-    if (one or rows) and enabled():
-        coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
-        if all(c.size == 1 for c in coef):
-            from terracone.inverse.solver.kernels import basis_columns, basis_rows
-
-            args = (cone.height, cone.radius, not law.is_rm0, *(float(c.item()) for c in coef))
-            if one:
-                A, B, C = basis_columns(np.ascontiguousarray(z), n.reshape(1), *args)
-                return A[0], B[0], C[0]
-            return basis_rows(np.ascontiguousarray(z), np.ascontiguousarray(n[:, 0]), *args)
-    return cone_index_basis(z, n=n, phic_deg=0.0, law=law, cone=cone)
-
-
-def _bounds_arrays(bounds: Bounds, n: np.ndarray, ratio: float | None = None):
-    kc_lo, kc_hi = bounds.kc_si(n)
-    kp_lo, kp_hi = bounds.kphi_si(n)
-    if ratio is not None:
-        # kc = ratio * kphi: both bounds apply to kphi, kc is pinned at 0 in the solve
-        kp_lo = np.maximum(kp_lo, kc_lo / ratio) if ratio > 0 else kp_lo
-        kp_hi = np.minimum(kp_hi, kc_hi / ratio) if ratio > 0 else kp_hi
-        kp_hi = np.maximum(kp_hi, kp_lo)
-        kc_lo = kc_hi = np.zeros(np.shape(n))
-    lo = np.stack([kc_lo, kp_lo, np.full(np.shape(n), bounds.cc[0])], axis=-1)
-    hi = np.stack([kc_hi, kp_hi, np.full(np.shape(n), bounds.cc[1])], axis=-1)
-    return lo, hi
 
 
 def _grid(lo: float, hi: float, k: int) -> np.ndarray:
@@ -212,7 +137,7 @@ class _Finite:
         K = kc_val[..., None] if self.fit_K_cone else self.K_cone
         X = self.design(n[..., None], phi[..., None], K)
         G, g, yy = gram(X, np.broadcast_to(self.y, X.shape[:-1]))
-        lo, hi = _bounds_arrays(self.bounds, np.broadcast_to(n, G.shape[:-2]), self.ratio)
+        lo, hi = bounds_arrays(self.bounds, np.broadcast_to(n, G.shape[:-2]), self.ratio)
         return box_lsq3(G, g, yy, lo, hi)
 
     def unpack(self, v):
@@ -294,7 +219,7 @@ def _solve_finite(
     # report the SSE from the residuals themselves
     X = fp.design(np.array(n_best), np.array(phi_best), Kc_out)
     # the normal equations lose digits near an exact fit: re-solve on X itself
-    lo_b, hi_b = (a[0] for a in _bounds_arrays(bounds, np.array([n_best]), ratio))
+    lo_b, hi_b = (a[0] for a in bounds_arrays(bounds, np.array([n_best]), ratio))
     x = _polish(X, y, lo_b, hi_b, x)
     resid = X @ x - y
     if ratio is not None:
@@ -426,7 +351,7 @@ def _solve_mobilised(
     )
     x = np.array([ms.kc[0], ms.kphi[0], ms.cc[0]])
     X = design(z, np.array(ms.n[0]), np.array(ms.phic_deg[0]), cone=cone, law=law, K_cone=None)
-    lo, hi = _bounds_arrays(bounds, np.array(ms.n[0]))
+    lo, hi = bounds_arrays(bounds, np.array(ms.n[0]))
     if ratio is not None:
         # kc = ratio * kphi: one column, and both bounds on kphi
         Xr = design(
@@ -438,7 +363,7 @@ def _solve_mobilised(
             K_cone=None,
             ratio=ratio,
         )
-        lor, hir = _bounds_arrays(bounds, np.array(ms.n[0]), ratio)
+        lor, hir = bounds_arrays(bounds, np.array(ms.n[0]), ratio)
         xr = _polish(Xr, y, lor, hir, np.array([0.0, x[1], x[2]]))
         x = np.array([ratio * xr[1], xr[1], xr[2]])
     else:
@@ -459,142 +384,6 @@ def _solve_mobilised(
     if profiles:
         _identify(sol, z, y, ms.n_grid, ms.sse_n[0], bounds, cone, law, noise_floor, ratio)
     return sol
-
-
-def _pinned_scan(G, g, yy, lo, hi, idx: int, vals: np.ndarray) -> np.ndarray:
-    """SSE (Nn, V) of the box LSQ with variable idx pinned at lo + v (hi - lo), v in vals."""
-    lo_s, hi_s = lo[..., idx], hi[..., idx]
-    v = lo_s[:, None] + vals[None, :] * (hi_s - lo_s)[:, None]  # (Nn, V)
-    lo2 = np.repeat(lo[:, None, :], vals.size, axis=1).copy()
-    hi2 = np.repeat(hi[:, None, :], vals.size, axis=1).copy()
-    lo2[..., idx] = v
-    hi2[..., idx] = v
-    return box_lsq3(G[:, None], g[:, None], yy[:, None], lo2, hi2)[1]
-
-
-def identify_scans(
-    z: np.ndarray,
-    y: np.ndarray,
-    n_loc: np.ndarray,
-    phic_deg: float,
-    K_cone: float | None,
-    bounds: Bounds,
-    cone: Cone,
-    law: PressureLaw,
-    vals: np.ndarray,
-    ratio: float | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Profile scans of the identifiability analysis.
-
-    For each n of ``n_loc`` and each of kc, kphi, cc: the SSE [kPa^2] of the
-    best fit with that variable pinned at lo + v (hi - lo) for v in ``vals``
-    (fractions of its box at that n), the other two re-fitted in their box
-    (eq. (2-7) with phic and Kc held).  Compiled
-    (:func:`terracone.inverse.solver.kernels.identify_scan`) for fully mobilised
-    shear when numba is enabled, else numpy.
-
-    Returns
-    -------
-    sse : (3, Nn, V) ndarray
-        NaN for a variable fixed at every n.
-    lo, hi : (Nn, 3) ndarray
-        The box of (kc, kphi, cc) [SI] at each n.
-    """
-    coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
-    if K_cone is None and enabled() and all(c.size == 1 for c in coef):
-        from terracone.inverse.solver.kernels import identify_scan
-        from terracone.inverse.solver.many import bounds_params
-
-        s = 1.0 + math.tan(math.radians(phic_deg)) / math.tan(cone.half_angle)
-        return identify_scan(
-            np.ascontiguousarray(z, dtype=float),
-            np.ascontiguousarray(y, dtype=float),
-            np.ascontiguousarray(n_loc, dtype=float),
-            s,
-            bounds_params(bounds, ratio),
-            np.ascontiguousarray(vals, dtype=float),
-            cone.height,
-            cone.radius,
-            not law.is_rm0,
-            *(float(c.item()) for c in coef),
-        )
-    X = design(
-        z, n_loc[:, None], np.array(phic_deg), cone=cone, law=law, K_cone=K_cone, ratio=ratio
-    )
-    G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
-    lo, hi = _bounds_arrays(bounds, n_loc, ratio)
-    sse = np.full((3, n_loc.size, vals.size), np.nan)
-    for idx in range(3):
-        if not np.all(lo[:, idx] == hi[:, idx]):
-            sse[idx] = _pinned_scan(G, g, yy, lo, hi, idx, vals)
-    return sse, lo, hi
-
-
-def scan_extents(sse: np.ndarray, thr: float) -> tuple[np.ndarray, np.ndarray]:
-    """First and last index v of the scans ``sse`` (3, Nn, V) with SSE <= thr at some n.
-
-    -1 where no value is within thr, -2 for a variable fixed at every n (NaN rows).
-    """
-    jlo = np.full(3, -1, dtype=np.int64)
-    jhi = np.full(3, -1, dtype=np.int64)
-    for idx in range(3):
-        if np.all(np.isnan(sse[idx])):
-            jlo[idx] = jhi[idx] = -2
-            continue
-        ok = np.flatnonzero((sse[idx] <= thr).any(axis=0))
-        if ok.size:
-            jlo[idx], jhi[idx] = ok[0], ok[-1]
-    return jlo, jhi
-
-
-def identify_extents(
-    z: np.ndarray,
-    y: np.ndarray,
-    n_loc: np.ndarray,
-    phic_deg: float,
-    K_cone: float | None,
-    bounds: Bounds,
-    cone: Cone,
-    law: PressureLaw,
-    vals: np.ndarray,
-    thr: float,
-    ratio: float | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`scan_extents` of :func:`identify_scans` (same arguments, and thr [kPa^2]).
-
-    Compiled (:func:`terracone.inverse.solver.kernels.identify_extent`, which
-    bisects each n's convex scan instead of evaluating all of it) for fully
-    mobilised shear when numba is enabled; else from the full numpy scans.
-
-    Returns
-    -------
-    jlo, jhi : (3,) int ndarray
-        Per kc, kphi, cc: first and last index of ``vals`` within thr (-1:
-        none; -2: the variable is fixed at every n).
-    lo, hi : (Nn, 3) ndarray
-        The box of (kc, kphi, cc) [SI] at each n.
-    """
-    coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
-    if K_cone is None and enabled() and all(c.size == 1 for c in coef):
-        from terracone.inverse.solver.kernels import identify_extent
-        from terracone.inverse.solver.many import bounds_params
-
-        s = 1.0 + math.tan(math.radians(phic_deg)) / math.tan(cone.half_angle)
-        return identify_extent(
-            np.ascontiguousarray(z, dtype=float),
-            np.ascontiguousarray(y, dtype=float),
-            np.ascontiguousarray(n_loc, dtype=float),
-            s,
-            bounds_params(bounds, ratio),
-            np.ascontiguousarray(vals, dtype=float),
-            float(thr),
-            cone.height,
-            cone.radius,
-            not law.is_rm0,
-            *(float(c.item()) for c in coef),
-        )
-    sse, lo, hi = identify_scans(z, y, n_loc, phic_deg, K_cone, bounds, cone, law, vals, ratio)
-    return (*scan_extents(sse, thr), lo, hi)
 
 
 def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> None:
@@ -624,10 +413,8 @@ def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> No
     else:
         n_lo = n_hi = sol.n
 
-    # kc, kphi, cc: pin one on a grid, re-fit the others and n (inverse/intervals.py,
-    # shared with the vectorised path of predict_many)
-    from terracone.inverse.solver.intervals import identification, linear_intervals
-
+    # kc, kphi, cc: pin one on a grid, re-fit the others and n (shared with the
+    # vectorised path of predict_many)
     x = np.array([sol.kc, sol.kphi, sol.cc])
     linear = linear_intervals(
         z, y, x, sol.n, sol.phic_deg, thr, (n_lo, n_hi),

@@ -4,8 +4,8 @@ What :func:`terracone.inverse.predict_many` reports beside each optimum:
 the interval of n whose best fit stays within the chi-square threshold, the
 profile intervals of kc, kphi and cc, and which parameters the data leave
 free (the phic ridge of eq. (2-6), the kc, kphi, cc trade).  Vectorised over
-the profiles of a set; the per-profile scans are those of
-:func:`terracone.inverse.solver.exact.identify_extents`.
+the profiles of a set; the per-profile scans are
+:func:`identify_scans` and :func:`identify_extents`.
 
 References
 ----------
@@ -16,16 +16,30 @@ References
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.solver.exact import CHI2_1_95, identify_extents
-from terracone.inverse.solver.kernels import box_grid
+from terracone.inverse.solver.boxlsq import box_lsq3, gram
+from terracone.inverse.solver.columns import bounds_arrays, design
+from terracone.inverse.solver.kernels import box_grid, identify_extent, identify_scan
 from terracone.inverse.solver.many import ManySolution, bounds_params, grid
+from terracone.jit import enabled
 from terracone.physics.cone import Cone
 from terracone.physics.plate import PressureLaw
 
-__all__ = ["n_intervals", "linear_intervals", "identification"]
+__all__ = [
+    "CHI2_1_95",
+    "n_intervals",
+    "linear_intervals",
+    "identification",
+    "identify_scans",
+    "identify_extents",
+    "scan_extents",
+]
+
+CHI2_1_95 = 3.841458820694124  # 95% quantile of chi-square with 1 dof
 
 
 def n_intervals(
@@ -78,7 +92,7 @@ def linear_intervals(
 
     Each is pinned on a grid of 61 fractions of its box, the other two
     re-fitted with n inside its own interval ``n_range``
-    (:func:`terracone.inverse.solver.exact.identify_extents`, eq. (2-7) with phic
+    (:func:`identify_extents`, eq. (2-7) with phic
     held); the interval is the pinned values whose best fit stays within
     ``thr`` [kPa^2].  A parameter whose interval covers half its box or more
     is undetermined.  ``ratio``: kc/kphi held fixed (a calibration); ``Kc``: a finite
@@ -139,3 +153,133 @@ def identification(
         und = ["phic", *und, "phic~scale(kc,kphi)"]
         intervals["phic_deg"] = (float(phic_range[0]), float(phic_range[1]))
     return und, intervals
+
+
+def _pinned_scan(G, g, yy, lo, hi, idx: int, vals: np.ndarray) -> np.ndarray:
+    """SSE (Nn, V) of the box LSQ with variable idx pinned at lo + v (hi - lo), v in vals."""
+    lo_s, hi_s = lo[..., idx], hi[..., idx]
+    v = lo_s[:, None] + vals[None, :] * (hi_s - lo_s)[:, None]  # (Nn, V)
+    lo2 = np.repeat(lo[:, None, :], vals.size, axis=1).copy()
+    hi2 = np.repeat(hi[:, None, :], vals.size, axis=1).copy()
+    lo2[..., idx] = v
+    hi2[..., idx] = v
+    return box_lsq3(G[:, None], g[:, None], yy[:, None], lo2, hi2)[1]
+
+
+def identify_scans(
+    z: np.ndarray,
+    y: np.ndarray,
+    n_loc: np.ndarray,
+    phic_deg: float,
+    K_cone: float | None,
+    bounds: Bounds,
+    cone: Cone,
+    law: PressureLaw,
+    vals: np.ndarray,
+    ratio: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Profile scans of the identifiability analysis.
+
+    For each n of ``n_loc`` and each of kc, kphi, cc: the SSE [kPa^2] of the
+    best fit with that variable pinned at lo + v (hi - lo) for v in ``vals``
+    (fractions of its box at that n), the other two re-fitted in their box
+    (eq. (2-7) with phic and Kc held).  Compiled
+    (:func:`terracone.inverse.solver.kernels.identify_scan`) for fully mobilised
+    shear when numba is enabled, else numpy.
+
+    Returns
+    -------
+    sse : (3, Nn, V) ndarray
+        NaN for a variable fixed at every n.
+    lo, hi : (Nn, 3) ndarray
+        The box of (kc, kphi, cc) [SI] at each n.
+    """
+    coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
+    if K_cone is None and enabled() and all(c.size == 1 for c in coef):
+        s = 1.0 + math.tan(math.radians(phic_deg)) / math.tan(cone.half_angle)
+        return identify_scan(
+            np.ascontiguousarray(z, dtype=float),
+            np.ascontiguousarray(y, dtype=float),
+            np.ascontiguousarray(n_loc, dtype=float),
+            s,
+            bounds_params(bounds, ratio),
+            np.ascontiguousarray(vals, dtype=float),
+            cone.height,
+            cone.radius,
+            not law.is_rm0,
+            *(float(c.item()) for c in coef),
+        )
+    X = design(
+        z, n_loc[:, None], np.array(phic_deg), cone=cone, law=law, K_cone=K_cone, ratio=ratio
+    )
+    G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
+    lo, hi = bounds_arrays(bounds, n_loc, ratio)
+    sse = np.full((3, n_loc.size, vals.size), np.nan)
+    for idx in range(3):
+        if not np.all(lo[:, idx] == hi[:, idx]):
+            sse[idx] = _pinned_scan(G, g, yy, lo, hi, idx, vals)
+    return sse, lo, hi
+
+
+def scan_extents(sse: np.ndarray, thr: float) -> tuple[np.ndarray, np.ndarray]:
+    """First and last index v of the scans ``sse`` (3, Nn, V) with SSE <= thr at some n.
+
+    -1 where no value is within thr, -2 for a variable fixed at every n (NaN rows).
+    """
+    jlo = np.full(3, -1, dtype=np.int64)
+    jhi = np.full(3, -1, dtype=np.int64)
+    for idx in range(3):
+        if np.all(np.isnan(sse[idx])):
+            jlo[idx] = jhi[idx] = -2
+            continue
+        ok = np.flatnonzero((sse[idx] <= thr).any(axis=0))
+        if ok.size:
+            jlo[idx], jhi[idx] = ok[0], ok[-1]
+    return jlo, jhi
+
+
+def identify_extents(
+    z: np.ndarray,
+    y: np.ndarray,
+    n_loc: np.ndarray,
+    phic_deg: float,
+    K_cone: float | None,
+    bounds: Bounds,
+    cone: Cone,
+    law: PressureLaw,
+    vals: np.ndarray,
+    thr: float,
+    ratio: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`scan_extents` of :func:`identify_scans` (same arguments, and thr [kPa^2]).
+
+    Compiled (:func:`terracone.inverse.solver.kernels.identify_extent`, which
+    bisects each n's convex scan instead of evaluating all of it) for fully
+    mobilised shear when numba is enabled; else from the full numpy scans.
+
+    Returns
+    -------
+    jlo, jhi : (3,) int ndarray
+        Per kc, kphi, cc: first and last index of ``vals`` within thr (-1:
+        none; -2: the variable is fixed at every n).
+    lo, hi : (Nn, 3) ndarray
+        The box of (kc, kphi, cc) [SI] at each n.
+    """
+    coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
+    if K_cone is None and enabled() and all(c.size == 1 for c in coef):
+        s = 1.0 + math.tan(math.radians(phic_deg)) / math.tan(cone.half_angle)
+        return identify_extent(
+            np.ascontiguousarray(z, dtype=float),
+            np.ascontiguousarray(y, dtype=float),
+            np.ascontiguousarray(n_loc, dtype=float),
+            s,
+            bounds_params(bounds, ratio),
+            np.ascontiguousarray(vals, dtype=float),
+            float(thr),
+            cone.height,
+            cone.radius,
+            not law.is_rm0,
+            *(float(c.item()) for c in coef),
+        )
+    sse, lo, hi = identify_scans(z, y, n_loc, phic_deg, K_cone, bounds, cone, law, vals, ratio)
+    return (*scan_extents(sse, thr), lo, hi)

@@ -23,7 +23,8 @@ import numpy as np
 
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.solver.boxlsq import box_lsq3, gram
-from terracone.inverse.solver.exact import CHI2_1_95, design
+from terracone.inverse.solver.columns import design
+from terracone.inverse.solver.intervals import CHI2_1_95
 from terracone.physics.cone import get_cone
 from terracone.physics.plate import pressure_law
 
@@ -48,7 +49,7 @@ def ridge_profile(
     """RMSD of the best fit over a grid of (n, phic), and over (phic, scale).
 
     For fixed n and phic the improved model is linear in (kc, kphi, cc)
-    (:func:`terracone.inverse.solver.exact.design`), so the best RMSD at each grid
+    (:func:`terracone.inverse.solver.columns.design`), so the best RMSD at each grid
     point is an exact bounded least-squares solve
     (:func:`terracone.inverse.solver.boxlsq.box_lsq3`), all points in one call.
 
