@@ -30,7 +30,7 @@ from terracone.apps.batch import OUTPUT_COLUMNS, _fit_chunk, _FitSettings, run_b
 from terracone.data import CIProfile, ProfileSet, SourceFile
 from terracone.inverse.bounds import Bounds
 from terracone.io import write_ci_profiles
-from terracone.io.stream import CsvLines
+from terracone.io.scan import CsvLines
 from terracone.physics import units as u
 
 H = get_cone("asabe-large").height

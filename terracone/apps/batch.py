@@ -77,15 +77,8 @@ from terracone.inverse.bounds import Bounds
 from terracone.inverse.learning.learn import Calibration
 from terracone.inverse.predict import predict_many, predict_settings, screen
 from terracone.inverse.solver.many import solve_exact_many
-from terracone.io import detect_format
-from terracone.io.scan import (
-    ScanPlan,
-    fingerprint,
-    hash_ids,
-    input_files,
-    instrument_to_parquet,
-    scan_inputs,
-)
+from terracone.io import detect_format, instrument_to_parquet
+from terracone.io.scan import ScanPlan, fingerprint, hash_ids, input_files, scan_inputs
 from terracone.io.stream import Chunk, ConeCache, iter_chunks
 from terracone.jit import enabled
 from terracone.physics import units as u

@@ -63,7 +63,13 @@ Modules
 """
 
 from terracone.io.bevameter import read_plate_tests, read_shear_tests
-from terracone.io.profiles import detect_format, read_ci_profiles, read_profile_set
+from terracone.io.profiles import (
+    detect_format,
+    instrument_to_parquet,
+    iter_profile_sets,
+    read_ci_profiles,
+    read_profile_set,
+)
 from terracone.io.sc900 import SC900_CONES, read_sc900
 from terracone.io.tables import (
     CI_SCHEMA,
@@ -97,6 +103,7 @@ __all__ = [
     "read_ci_profiles",
     "read_profile_set",
     "iter_profile_sets",
+    "instrument_to_parquet",
     "read_sc900",
     "read_wide_ci",
     "wide_depth_header",
@@ -121,13 +128,3 @@ __all__ = [
     "WIDE_CI_UNITS",
     "json_default",
 ]
-
-
-def __getattr__(name: str) -> object:
-    # the streaming reader needs pyarrow and pandas: imported on first use, so that
-    # importing terracone.io (the CLI's start-up) stays light
-    if name == "iter_profile_sets":
-        from terracone.io.stream import iter_profile_sets
-
-        return iter_profile_sets
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

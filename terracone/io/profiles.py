@@ -3,8 +3,10 @@
 :func:`read_ci_profiles` reads one file (long CSV, FieldScout SC900 export or
 wide table, :func:`detect_format`) into a list of profiles;
 :func:`read_profile_set` reads any CI file, Parquet included, into one
-:class:`~terracone.data.ProfileSet`.  Streaming readers of large inputs are
-in :mod:`terracone.io.stream`.
+:class:`~terracone.data.ProfileSet`; :func:`iter_profile_sets` streams any
+of them in chunks (long CSV and Parquet through :mod:`terracone.io.stream`,
+whose pyarrow and pandas are imported on first use); :func:`instrument_to_parquet`
+writes an instrument file as Parquet for the batch.
 """
 
 from __future__ import annotations
@@ -12,9 +14,10 @@ from __future__ import annotations
 import csv
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import replace
-from typing import Literal
+from pathlib import Path
+from typing import Any, Literal
 
 import numpy as np
 
@@ -301,7 +304,7 @@ def read_profile_set(
     -----
     Text formats go through :func:`read_ci_profiles` (the profiles of a set
     equal its list one by one); Parquet through
-    :func:`terracone.io.stream.iter_profile_sets` in one chunk.  A metadata
+    :func:`iter_profile_sets` in one chunk.  A metadata
     column holding both numbers and text (CSV cells are typed cell by cell)
     becomes a text column.
 
@@ -318,8 +321,6 @@ def read_profile_set(
     if format is None:
         format = "parquet" if is_parquet(source) else detect_format(source)
     if format == "parquet":
-        from terracone.io.stream import iter_profile_sets
-
         check_options(on_error, depth_ref, units)
         sets = list(
             iter_profile_sets(
@@ -376,3 +377,200 @@ def gather_profiles(items: Sequence[CIProfile | InputError]) -> ProfileSet:
         except (pa.ArrowInvalid, pa.ArrowTypeError):
             columns[k] = pa.array([None if v is None else str(v) for v in vals], pa.string())
     return replace(ProfileSet.from_profiles(bare), metadata=pa.table(columns))
+
+
+def iter_profile_sets(
+    paths: PathLike | Sequence[PathLike],
+    *,
+    chunk_size: int | None = 10_000,
+    cone: str | Cone = "asabe-large",
+    depth_ref: Literal["base", "tip"] = "base",
+    units: str | None = None,
+    on_error: OnError = "collect",
+    format: Literal["csv", "sc900", "wide", "parquet"] | None = None,
+    depth_unit: str | None = None,
+    ci_unit: str | None = None,
+) -> Iterator[ProfileSet]:
+    """Stream cone index profiles as :class:`~terracone.data.ProfileSet` chunks.
+
+    Parameters
+    ----------
+    paths : path, directory or sequence of paths
+        Long CSV (``.csv``, ``.csv.gz``) and Parquet (``.parquet``, ``.pq``)
+        files, streamed block by block; a directory stands for its CSV and
+        Parquet files in name order (names starting with ``.`` or ``_`` are
+        ignored).  An SC900 export or a wide table (:func:`detect_format`) is
+        read whole (instrument files are small) and cut into chunks.
+    chunk_size : int or None
+        Profiles per chunk, counting the refused ones (a chunk holds
+        ``len(chunk) + len(chunk.errors) == chunk_size`` profiles, the last
+        one fewer); chunks do not span a file of another format.  None: one
+        chunk per group of files.
+    cone, depth_ref, units, format, depth_unit, ci_unit
+        As in :func:`terracone.io.read_ci_profiles` (``format`` for a single file).
+    on_error : {"collect", "raise"}
+        ``"collect"``: refused profiles go to each chunk's ``errors``, each a
+        located :class:`~terracone.data.InputError`; ``"raise"``: the first
+        one raises.
+
+    Yields
+    ------
+    ProfileSet
+        Profiles in input order: depths [m] of the cone base, CI [kPa],
+        ``rows`` the file line of every point (1-based record for Parquet),
+        ``metadata`` (one type per column, fixed by a first pass over the input).
+
+    Raises
+    ------
+    InputError
+        A file-level problem (missing file or column, unknown unit, bad CSV
+        structure), found by the first pass before any chunk is yielded.
+
+    Notes
+    -----
+    The rows of a profile must be contiguous (a profile id seen again later
+    is a second profile).  Errors name the file, profile, row and column;
+    a depth that does not increase is reported as ``"depth is not strictly
+    increasing (previous depth on line 7)"``.
+
+    References
+    ----------
+    Huang, Wong, Preston-Thomas, Jayakumar: the cone index profile, eq. (2-3).
+
+    Examples
+    --------
+    >>> for chunk in iter_profile_sets("big.csv", chunk_size=5000):  # doctest: +SKIP
+    ...     print(len(chunk), len(chunk.errors))
+    """
+    check_options(on_error, depth_ref, units)
+    if chunk_size is not None and chunk_size < 1:
+        raise ValueError(f"chunk_size must be >= 1 (got {chunk_size})")
+    from terracone.io.scan import scan_inputs  # pyarrow and pandas: on first use
+    from terracone.io.stream import ConeCache, chunk_set, iter_chunks
+
+    default = get_cone(cone)
+    for group, kind in _file_groups(paths, format):
+        if kind in ("sc900", "wide"):
+            one = read_profile_set(
+                group[0][0],
+                cone=default,
+                depth_ref=depth_ref,
+                units=units,
+                format=kind,  # type: ignore[arg-type]
+                depth_unit=depth_unit,
+                ci_unit=ci_unit,
+            )
+            sets: Iterable[ProfileSet] = _cut(one, chunk_size)
+        else:
+            plan = scan_inputs(group, units=units)
+            size = chunk_size or max(plan.profiles, 1)
+            chunks = iter_chunks(plan, size, ConeCache(default), set())
+            sets = (chunk_set(c, plan, depth_ref) for _, c, _ in chunks if c is not None)
+        for s in sets:
+            if on_error == "raise" and s.errors:
+                raise s.errors[0]
+            yield s
+
+
+def _file_groups(
+    paths: PathLike | Sequence[PathLike], format: str | None
+) -> Iterator[tuple[list[tuple[Path, str]], str]]:
+    """Runs of input files read together: (files, "stream") or ([file], instrument format)."""
+    from terracone.io.scan import input_files
+
+    items = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
+    run: list[tuple[Path, str]] = []
+    for item in items:
+        for path, kind in input_files(item):
+            fmt = format
+            if fmt is None and kind == "csv":
+                fmt = detect_format(path)
+            if fmt in ("sc900", "wide"):
+                if run:
+                    yield run, "stream"
+                    run = []
+                yield [(path, kind)], fmt
+            else:
+                run.append((path, "parquet" if fmt == "parquet" else kind))
+    if run:
+        yield run, "stream"
+
+
+def _cut(profiles: ProfileSet, chunk_size: int | None) -> Iterator[ProfileSet]:
+    """A whole-file set cut into chunks of ``chunk_size`` profiles (errors counted, in place)."""
+    errors = profiles.errors
+    # place each error by its row: refused profiles count where they stood in the file
+    order = sorted(
+        [
+            (int(profiles.rows[profiles.offsets[i]]) if profiles.counts[i] else -1, 0, i)
+            for i in range(len(profiles))
+        ]
+        + [(e.row if e.row is not None else -1, 1, k) for k, e in enumerate(errors)]
+    )
+    size = chunk_size or max(len(order), 1)
+    for a in range(0, max(len(order), 1), size):
+        part = order[a : a + size]
+        s = profiles.take([i for _, kind, i in part if kind == 0])
+        s.errors = [errors[k] for _, kind, k in part if kind == 1]
+        yield s
+
+
+def instrument_to_parquet(path: Path, out: Path, cone: Cone, **reader: Any) -> Path:
+    """An SC900 export or wide table as terracone Parquet in OUT_DIR/_input (kept for --resume).
+
+    ``reader`` are keywords of :func:`terracone.io.read_ci_profiles` (format
+    "sc900" by default; "wide" with its depth_unit and ci_unit).
+    """
+    import pyarrow as pa  # on first use: importing terracone.io stays light
+    import pyarrow.parquet as pq
+
+    target = out / "_input" / (path.stem + ".parquet")
+    if target.exists():
+        return target
+    reader.setdefault("format", "sc900")
+    items = read_ci_profiles(path, on_error="collect", cone=cone, **reader)
+    target.parent.mkdir(parents=True, exist_ok=True)  # after the file-level checks
+    rows: dict[str, list] = {
+        "profile": [],
+        "cone": [],
+        "reader_error": [],
+        "reader_error_row": [],
+        "reader_error_column": [],
+        "depth_m": [],
+        "ci_kpa": [],
+    }
+    meta_keys: list[str] = []
+    for it in items:
+        if isinstance(it, CIProfile):
+            for k in it.metadata:
+                if k not in meta_keys and k not in rows:
+                    meta_keys.append(k)
+    for k in meta_keys:
+        rows[k] = []
+    for it in items:
+        if isinstance(it, CIProfile):
+            k = len(it)
+            rows["profile"] += [it.id] * k
+            rows["cone"] += [it.cone.name] * k
+            rows["reader_error"] += [None] * k
+            rows["reader_error_row"] += [None] * k
+            rows["reader_error_column"] += [None] * k
+            rows["depth_m"] += list(it.depth)
+            rows["ci_kpa"] += list(it.ci)
+            for mk in meta_keys:
+                v = it.metadata.get(mk)
+                rows[mk] += [None if v is None else str(v)] * k
+        else:  # rejected by the reader: one row without a reading, the reason alongside
+            rows["profile"].append(str(it.profile))
+            rows["cone"].append(cone.name)
+            rows["reader_error"].append(str(it))
+            rows["reader_error_row"].append(it.row)
+            rows["reader_error_column"].append(it.column)
+            rows["depth_m"].append(float("nan"))
+            rows["ci_kpa"].append(float("nan"))
+            for mk in meta_keys:
+                rows[mk].append(None)
+    tmp = target.with_name("." + target.name + ".tmp")
+    pq.write_table(pa.table(rows), tmp)
+    os.replace(tmp, target)
+    return target

@@ -16,7 +16,6 @@ from __future__ import annotations
 import csv
 import gzip
 import io
-import os
 import re
 from array import array
 from collections.abc import Iterator, Sequence
@@ -31,9 +30,8 @@ import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
-from terracone.data import CIProfile, InputError
+from terracone.data import InputError
 from terracone.io.tables import CI_SCHEMA, DECIMAL, SPECIAL_FLOAT, PathLike, Table, column_layout
-from terracone.physics.cone import Cone
 
 #: Rows read per block (CSV / Parquet); memory per block, not per profile.
 CSV_BLOCK_BYTES = 1 << 22
@@ -82,66 +80,6 @@ def input_files(input: PathLike) -> list[tuple[Path, str]]:
     if p.is_file():
         return [(p.resolve(), kind_of(p, strict=False) or "csv")]
     raise InputError("file or directory not found", file=str(p))
-
-
-def instrument_to_parquet(path: Path, out: Path, cone: Cone, **reader: Any) -> Path:
-    """An SC900 export or wide table as terracone Parquet in OUT_DIR/_input (kept for --resume).
-
-    ``reader`` are keywords of :func:`terracone.io.read_ci_profiles` (format
-    "sc900" by default; "wide" with its depth_unit and ci_unit).
-    """
-    from terracone.io.profiles import read_ci_profiles
-
-    target = out / "_input" / (path.stem + ".parquet")
-    if target.exists():
-        return target
-    reader.setdefault("format", "sc900")
-    items = read_ci_profiles(path, on_error="collect", cone=cone, **reader)
-    target.parent.mkdir(parents=True, exist_ok=True)  # after the file-level checks
-    rows: dict[str, list] = {
-        "profile": [],
-        "cone": [],
-        "reader_error": [],
-        "reader_error_row": [],
-        "reader_error_column": [],
-        "depth_m": [],
-        "ci_kpa": [],
-    }
-    meta_keys: list[str] = []
-    for it in items:
-        if isinstance(it, CIProfile):
-            for k in it.metadata:
-                if k not in meta_keys and k not in rows:
-                    meta_keys.append(k)
-    for k in meta_keys:
-        rows[k] = []
-    for it in items:
-        if isinstance(it, CIProfile):
-            k = len(it)
-            rows["profile"] += [it.id] * k
-            rows["cone"] += [it.cone.name] * k
-            rows["reader_error"] += [None] * k
-            rows["reader_error_row"] += [None] * k
-            rows["reader_error_column"] += [None] * k
-            rows["depth_m"] += list(it.depth)
-            rows["ci_kpa"] += list(it.ci)
-            for mk in meta_keys:
-                v = it.metadata.get(mk)
-                rows[mk] += [None if v is None else str(v)] * k
-        else:  # rejected by the reader: one row without a reading, the reason alongside
-            rows["profile"].append(str(it.profile))
-            rows["cone"].append(cone.name)
-            rows["reader_error"].append(str(it))
-            rows["reader_error_row"].append(it.row)
-            rows["reader_error_column"].append(it.column)
-            rows["depth_m"].append(float("nan"))
-            rows["ci_kpa"].append(float("nan"))
-            for mk in meta_keys:
-                rows[mk].append(None)
-    tmp = target.with_name("." + target.name + ".tmp")
-    pq.write_table(pa.table(rows), tmp)
-    os.replace(tmp, target)
-    return target
 
 
 def fingerprint(input: PathLike, files: list[tuple[Path, str]]) -> dict[str, Any]:

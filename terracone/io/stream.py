@@ -1,21 +1,21 @@
 """Streaming profile sets: long CSV and Parquet inputs larger than memory.
 
-:func:`iter_profile_sets` reads CSV and Parquet files (or a directory of
-them) block by block through pyarrow's readers
+:func:`terracone.io.iter_profile_sets` reads CSV and Parquet files (or a
+directory of them) through this module, block by block through pyarrow's readers
 (:func:`pyarrow.csv.open_csv`, :meth:`pyarrow.parquet.ParquetFile.iter_batches`)
 and yields :class:`~terracone.data.ProfileSet` chunks of a fixed number of
 profiles.  The rows of a profile must be contiguous; the last profile of a
 block is carried over to the next block, so a profile is never split.
 
 :func:`terracone.apps.batch.run_batch` uses the same stream one level down: a
-first, cheap pass (:func:`scan_inputs`) checks every header, counts the
+first, cheap pass (:func:`terracone.io.scan.scan_inputs`) checks every header, counts the
 profiles and fixes the type of every metadata column; then
 :func:`iter_chunks` cuts the input into :class:`Chunk` objects, which hold
 the per-profile facts the output needs and a :class:`~terracone.data.ProfileSet`
 of the profiles that can be fitted.
 
 CSV files follow the conventions of :mod:`terracone.io`: ``#`` comment and
-blank lines are dropped by :class:`CsvLines` (a line filter that keeps the
+blank lines are dropped by :class:`terracone.io.scan.CsvLines` (a line filter that keeps the
 file line of every data row); pyarrow parses the rest.  A file whose rows do
 not all have the header's number of fields is read by the standard library's
 :mod:`csv` module instead (missing fields are empty, extra fields must be).
@@ -27,11 +27,9 @@ Huang, Wong, Preston-Thomas, Jayakumar: the cone index profile, eq. (2-3).
 
 from __future__ import annotations
 
-import os
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
-from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
@@ -46,27 +44,15 @@ from terracone.io.scan import (
     arrow_text,
     block_cells,
     csv_blocks,
-    input_files,
     parquet_file,
     plain_type,
     profile_starts,
-    scan_inputs,
     strip_text,
 )
-from terracone.io.tables import OnError, PathLike, check_options, to_numbers
+from terracone.io.tables import to_numbers
 from terracone.physics.cone import Cone, get_cone
 
-__all__ = [
-    "iter_profile_sets",
-    "validate_set",
-    "input_files",
-    "scan_inputs",
-    "iter_chunks",
-    "ScanPlan",
-    "Chunk",
-    "ConeCache",
-    "CsvLines",
-]
+__all__ = ["validate_set", "iter_chunks", "chunk_set", "Chunk", "ConeCache"]
 
 #: Same tolerance as CIProfile.validate for a base depth above -H.
 H_TOL = 1e-9
@@ -633,138 +619,3 @@ def chunk_set(chunk: Chunk, plan: ScanPlan, depth_ref: str = "base") -> ProfileS
     out = task.take([j for j in range(len(task)) if j not in bad]) if bad else task
     out.errors = [where[i] for i in sorted(where)]
     return out
-
-
-def iter_profile_sets(
-    paths: PathLike | Sequence[PathLike],
-    *,
-    chunk_size: int | None = 10_000,
-    cone: str | Cone = "asabe-large",
-    depth_ref: Literal["base", "tip"] = "base",
-    units: str | None = None,
-    on_error: OnError = "collect",
-    format: Literal["csv", "sc900", "wide", "parquet"] | None = None,
-    depth_unit: str | None = None,
-    ci_unit: str | None = None,
-) -> Iterator[ProfileSet]:
-    """Stream cone index profiles as :class:`~terracone.data.ProfileSet` chunks.
-
-    Parameters
-    ----------
-    paths : path, directory or sequence of paths
-        Long CSV (``.csv``, ``.csv.gz``) and Parquet (``.parquet``, ``.pq``)
-        files, streamed block by block; a directory stands for its CSV and
-        Parquet files in name order (names starting with ``.`` or ``_`` are
-        ignored).  An SC900 export or a wide table (:func:`detect_format`) is
-        read whole (instrument files are small) and cut into chunks.
-    chunk_size : int or None
-        Profiles per chunk, counting the refused ones (a chunk holds
-        ``len(chunk) + len(chunk.errors) == chunk_size`` profiles, the last
-        one fewer); chunks do not span a file of another format.  None: one
-        chunk per group of files.
-    cone, depth_ref, units, format, depth_unit, ci_unit
-        As in :func:`terracone.io.read_ci_profiles` (``format`` for a single file).
-    on_error : {"collect", "raise"}
-        ``"collect"``: refused profiles go to each chunk's ``errors``, each a
-        located :class:`~terracone.data.InputError`; ``"raise"``: the first
-        one raises.
-
-    Yields
-    ------
-    ProfileSet
-        Profiles in input order: depths [m] of the cone base, CI [kPa],
-        ``rows`` the file line of every point (1-based record for Parquet),
-        ``metadata`` (one type per column, fixed by a first pass over the input).
-
-    Raises
-    ------
-    InputError
-        A file-level problem (missing file or column, unknown unit, bad CSV
-        structure), found by the first pass before any chunk is yielded.
-
-    Notes
-    -----
-    The rows of a profile must be contiguous (a profile id seen again later
-    is a second profile).  Errors name the file, profile, row and column;
-    a depth that does not increase is reported as ``"depth is not strictly
-    increasing (previous depth on line 7)"``.
-
-    References
-    ----------
-    Huang, Wong, Preston-Thomas, Jayakumar: the cone index profile, eq. (2-3).
-
-    Examples
-    --------
-    >>> for chunk in iter_profile_sets("big.csv", chunk_size=5000):  # doctest: +SKIP
-    ...     print(len(chunk), len(chunk.errors))
-    """
-    check_options(on_error, depth_ref, units)
-    if chunk_size is not None and chunk_size < 1:
-        raise ValueError(f"chunk_size must be >= 1 (got {chunk_size})")
-    default = get_cone(cone)
-    for group, kind in _file_groups(paths, format):
-        if kind in ("sc900", "wide"):
-            from terracone.io.profiles import read_profile_set
-
-            one = read_profile_set(
-                group[0][0],
-                cone=default,
-                depth_ref=depth_ref,
-                units=units,
-                format=kind,  # type: ignore[arg-type]
-                depth_unit=depth_unit,
-                ci_unit=ci_unit,
-            )
-            sets: Iterable[ProfileSet] = _cut(one, chunk_size)
-        else:
-            plan = scan_inputs(group, units=units)
-            size = chunk_size or max(plan.profiles, 1)
-            chunks = iter_chunks(plan, size, ConeCache(default), set())
-            sets = (chunk_set(c, plan, depth_ref) for _, c, _ in chunks if c is not None)
-        for s in sets:
-            if on_error == "raise" and s.errors:
-                raise s.errors[0]
-            yield s
-
-
-def _file_groups(
-    paths: PathLike | Sequence[PathLike], format: str | None
-) -> Iterator[tuple[list[tuple[Path, str]], str]]:
-    """Runs of input files read together: (files, "stream") or ([file], instrument format)."""
-    items = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
-    run: list[tuple[Path, str]] = []
-    for item in items:
-        for path, kind in input_files(item):
-            fmt = format
-            if fmt is None and kind == "csv":
-                from terracone.io.profiles import detect_format
-
-                fmt = detect_format(path)
-            if fmt in ("sc900", "wide"):
-                if run:
-                    yield run, "stream"
-                    run = []
-                yield [(path, kind)], fmt
-            else:
-                run.append((path, "parquet" if fmt == "parquet" else kind))
-    if run:
-        yield run, "stream"
-
-
-def _cut(profiles: ProfileSet, chunk_size: int | None) -> Iterator[ProfileSet]:
-    """A whole-file set cut into chunks of ``chunk_size`` profiles (errors counted, in place)."""
-    errors = profiles.errors
-    # place each error by its row: refused profiles count where they stood in the file
-    order = sorted(
-        [
-            (int(profiles.rows[profiles.offsets[i]]) if profiles.counts[i] else -1, 0, i)
-            for i in range(len(profiles))
-        ]
-        + [(e.row if e.row is not None else -1, 1, k) for k, e in enumerate(errors)]
-    )
-    size = chunk_size or max(len(order), 1)
-    for a in range(0, max(len(order), 1), size):
-        part = order[a : a + size]
-        s = profiles.take([i for _, kind, i in part if kind == 0])
-        s.errors = [errors[k] for _, kind, k in part if kind == 1]
-        yield s

@@ -44,7 +44,6 @@ from terracone.physics import units as u
 __all__ = [
     "Table",
     "PARAM_NAMES",
-    "fmt_value",
     "parameters_table",
     "shear_table",
     "terrain_parameters_of",

@@ -53,7 +53,7 @@ from terracone.inverse.learning.search import (
 )
 from terracone.physics import units as u
 
-__all__ = ["Calibration", "LearnResult", "learn", "learn_problem", "jacobians", "sandwich_cov"]
+__all__ = ["Calibration", "LearnResult", "learn", "learn_problem", "sandwich_cov"]
 
 
 @dataclass(init=False)

@@ -77,7 +77,6 @@ from terracone.physics.plate import PressureLaw, plate_basis, pressure_law
 from terracone.result import PredictionResult
 
 __all__ = [
-    "PARAM_NAMES",
     "LABELS",
     "DETERMINED_BELOW",
     "WEAKLY_BELOW",
