@@ -38,6 +38,7 @@ from terracone.data import TerrainParameters
 from terracone.notebook import fmt_value
 from terracone.physics import units as u
 from terracone.report import figures as F
+from terracone.report.parts import figure_part, kv_part, table_part, text_part
 from terracone.report.tables import Table
 
 __all__ = [
@@ -363,8 +364,6 @@ def _distribution_table(recs: Sequence[Mapping[str, Any]]) -> Table:
 
 def summary_section(recs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """Section ``summary``: counts, lack of fit, layers, and each parameter's distribution."""
-    from terracone.report.html import figure_part, kv_part, table_part, text_part
-
     n = len(recs)
     ok = [r for r in recs if r.get("status") == "ok" and r.get("n") is not None]
     flagged = [r for r in ok if r.get("flagged")]
@@ -428,8 +427,6 @@ def summary_section(recs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
 
 def map_section(recs: Sequence[Mapping[str, Any]], *, colour_by: str = "n") -> dict | None:
     """Section ``map`` (None when no profile is located): profiles at lon/lat by a parameter."""
-    from terracone.report.html import figure_part, text_part
-
     loc = [r for r in recs if r.get("lon") is not None and r.get("lat") is not None]
     if not loc:
         return None
@@ -482,8 +479,6 @@ def panel_of(r: Mapping[str, Any]) -> dict[str, Any]:
 
 def multiples_section(recs: Sequence[Mapping[str, Any]], *, units: str = "si") -> dict | None:
     """Section ``multiples``: a compact panel per profile, several PNGs of 30 panels."""
-    from terracone.report.html import figure_part, text_part
-
     drawable = [r for r in recs if r.get("depth") is not None and len(r["depth"])]
     if not drawable:
         return None
@@ -614,8 +609,6 @@ def reasons_html(recs: Sequence[Mapping[str, Any]]) -> str:
 
 def profiles_section(recs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """Section ``profiles``: the sortable table of every profile, and the reasons."""
-    from terracone.report.html import table_part
-
     parts: list[dict[str, Any]] = [
         table_part(profiles_table(recs), sortable=True, tall=True, max_rows=MAX_TABLE_ROWS)
     ]

@@ -31,6 +31,7 @@ from terracone.data import TerrainParameters
 from terracone.physics import units as u
 from terracone.report import fields as FL
 from terracone.report import figures as F
+from terracone.report.parts import figure_part, kv_part, list_part, table_part, text_part
 from terracone.report.tables import (
     Table,
     flat_agreement_table,
@@ -46,9 +47,6 @@ __all__ = [
     "learn_document",
     "evaluate_document",
     "batch_document",
-    "figure_part",
-    "table_part",
-    "text_part",
     "MAX_FIGURE_PROFILES",
 ]
 
@@ -189,64 +187,6 @@ window.addEventListener('load', function () {
     (window.__tcErrors.length ? ' (' + window.__tcErrors.join('; ') + ')' : '') + '.';
 });
 """
-
-
-# ---------------------------------------------------------------------------
-# parts
-# ---------------------------------------------------------------------------
-
-
-def text_part(text: str) -> dict[str, Any]:
-    return {"type": "text", "text": text}
-
-
-def list_part(items: Sequence[str]) -> dict[str, Any]:
-    return {"type": "list", "items": list(items)}
-
-
-def kv_part(pairs: Mapping[str, Any]) -> dict[str, Any]:
-    return {"type": "kv", "pairs": {str(k): v for k, v in pairs.items()}}
-
-
-def figure_part(
-    fig: Any, caption: str, *, alt: str | None = None, wide: bool = False
-) -> dict[str, Any]:
-    """A figure part with its PNG in memory (``png_bytes``).
-
-    ``wide``: on narrow screens (below 640 px) the image keeps 720 px and
-    scrolls sideways inside its own box instead of shrinking (small
-    multiples stay legible on a phone; the page itself never scrolls
-    sideways).
-    """
-    return {
-        "type": "figure",
-        "png_bytes": F.png_bytes(fig),
-        "caption": caption,
-        "alt": alt or caption.split(".")[0],
-        "wide": wide,
-    }
-
-
-def table_part(
-    table: Table,
-    *,
-    max_rows: int | None = None,
-    sortable: bool | None = None,
-    tall: bool = False,
-) -> dict[str, Any]:
-    """A table part.
-
-    ``sortable``: column headings sort the rows (None: when it has 3 rows or
-    more); ``tall``: the table scrolls inside a box of at most 70% of the
-    window height, with its heading row kept in view.
-    """
-    return {
-        "type": "table",
-        "table": table,
-        "max_rows": max_rows,
-        "sortable": sortable,
-        "tall": tall,
-    }
 
 
 def _kv_value(v: Any) -> str:

@@ -23,7 +23,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from terracone.physics import units as u
-from terracone.report.html import figure_part, kv_part, list_part, table_part, text_part
+from terracone.report.parts import figure_part, kv_part, list_part, table_part, text_part
 from terracone.report.tables import Table
 
 __all__ = ["sites_document"]
