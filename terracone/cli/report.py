@@ -20,8 +20,9 @@ from terracone.cli.common import (
 def demo_cmd(units, out):
     """Learn, predict and evaluate on the bundled synthetic LETE-sand example."""
     from terracone.apps.example import run_demo
+    from terracone.report.text import demo_text
 
-    click.echo(run_demo(units=units, out=out))
+    click.echo(demo_text(run_demo(units=units, out=out)))
 
 
 @click.command("report")
