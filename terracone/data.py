@@ -703,6 +703,37 @@ class TerrainParameters:
             r_min=None if r_min is None else float(u.length_to_si(r_min, units)),
         )
 
+    def library_params(self) -> dict[str, Any]:
+        """The terrain-library keys (SI): kc, kphi, n, cc, phic_deg, Kc, model, r_min (None dropped)."""
+        d = {
+            "kc": self.kc,
+            "kphi": self.kphi,
+            "n": self.n,
+            "cc": self.cc,
+            "phic_deg": self.phic_deg,
+            "Kc": self.K_cone,
+            "model": self.model,
+            "r_min": self.r_min,
+        }
+        return {k: v for k, v in d.items() if v is not None}
+
+    @classmethod
+    def from_library_params(cls, params: dict[str, Any]) -> TerrainParameters | None:
+        """From terrain-library keys; None without kc, kphi or n (cc, phic_deg 0, model rm0)."""
+        p = params
+        if any(p.get(k) is None for k in ("kc", "kphi", "n")):
+            return None
+        return cls(
+            kc=float(p["kc"]),
+            kphi=float(p["kphi"]),
+            n=float(p["n"]),
+            cc=float(p.get("cc", 0.0)),
+            phic_deg=float(p.get("phic_deg", 0.0)),
+            K_cone=None if p.get("Kc") is None else float(p["Kc"]),
+            model=str(p.get("model", "rm0")),
+            r_min=None if p.get("r_min") is None else float(p["r_min"]),
+        )
+
 
 @dataclass(frozen=True)
 class TerrainShear:

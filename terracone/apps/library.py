@@ -259,18 +259,7 @@ def record_params(
     """
     d: dict[str, Any] = {}
     for part in parts:
-        if isinstance(part, TerrainParameters):
-            d.update(
-                kc=part.kc,
-                kphi=part.kphi,
-                n=part.n,
-                cc=part.cc,
-                phic_deg=part.phic_deg,
-                Kc=part.K_cone,
-                model=part.model,
-                r_min=part.r_min,
-            )
-        elif isinstance(part, TerrainShear):
+        if isinstance(part, TerrainParameters | TerrainShear):
             d.update(part.library_params())
         elif isinstance(part, Mapping):
             d.update(part)
@@ -319,19 +308,7 @@ class TerrainRecord:
         None when the record lacks kc, kphi or n.  cc and phic_deg read 0 and
         model "rm0" when the record has none (a plate-only terrain).
         """
-        p = self.params
-        if any(p.get(k) is None for k in ("kc", "kphi", "n")):
-            return None
-        return TerrainParameters(
-            kc=float(p["kc"]),
-            kphi=float(p["kphi"]),
-            n=float(p["n"]),
-            cc=float(p.get("cc", 0.0)),
-            phic_deg=float(p.get("phic_deg", 0.0)),
-            K_cone=None if p.get("Kc") is None else float(p["Kc"]),
-            model=str(p.get("model", "rm0")),
-            r_min=None if p.get("r_min") is None else float(p["r_min"]),
-        )
+        return TerrainParameters.from_library_params(self.params)
 
     @property
     def terrain_shear(self) -> TerrainShear | None:

@@ -169,11 +169,9 @@ class Calibration:
         )
 
     def library_params(self) -> dict[str, Any]:
-        """Parameters to store in the terrain library (SI keys, :func:`~terracone.apps.library.record_params`)."""
-        from terracone.apps.library import record_params
-
-        pair = list(self.plate_pair) if self.plate_pair else None
-        return record_params(self.params, plate_pair=pair, cone=self.cone)
+        """Parameters to store in the terrain library (SI keys, as :mod:`terracone.apps.library` keeps them)."""
+        pair = {"plate_pair": list(self.plate_pair)} if self.plate_pair else {}
+        return {**self.params.library_params(), **pair, "cone": self.cone}
 
     @classmethod
     def from_library_record(cls, rec: Any) -> Calibration:
