@@ -36,7 +36,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
-__all__ = ["njit", "cache_dir", "enabled", "disabled"]  # and ENABLED (module __getattr__)
+__all__ = ["njit", "cache_dir", "enabled", "disabled"]
 
 _state: dict[str, Any] = {"enabled": None, "forced_off": 0}
 _lazy: list[_LazyKernel] = []
@@ -101,12 +101,6 @@ def disabled() -> Iterator[None]:
         yield
     finally:
         _state["forced_off"] -= 1
-
-
-def __getattr__(name: str) -> Any:  # ENABLED, computed on first access
-    if name == "ENABLED":
-        return _numba_usable()
-    raise AttributeError(name)
 
 
 class _LazyKernel:

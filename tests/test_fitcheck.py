@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from terracone.physics.metrics import FitCheck, check_fit
+from terracone.physics.metrics import FitCheck, check_fit, check_fit_fast
 
 
 def _rising(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -164,3 +164,27 @@ def test_several_reasons_are_joined():
     assert "R2 of the CI fit" in fc.lack_of_fit
     assert "CI falls with depth between 12.5 and 20 cm" in fc.lack_of_fit
     assert "; " in fc.lack_of_fit
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_compiled_screen_equals_check_fit(seed):
+    """check_fit_fast (the compiled fit_stats, or check_fit itself with TERRACONE_NUMBA=0)
+    gives check_fit's numbers and verdict: good fits, noisy fits, layered and flat profiles."""
+    rng = np.random.default_rng(seed)
+    z = np.arange(30) * 0.01
+    truth = 50.0 + 400.0 * z**0.8
+    cases = {
+        "good": (truth * (1 + 0.01 * rng.standard_normal(z.size)), truth),
+        "runs": (truth + 40.0 * np.sin(z * 20), truth),  # residual signs in long runs
+        "layered": (np.where(z < 0.15, truth, 0.5 * truth), truth),  # CI falls by half
+        "flat": (np.full(z.size, 100.0) + rng.standard_normal(z.size), np.full(z.size, 100.0)),
+    }
+    for name, (y, m) in cases.items():
+        slow, fast = check_fit(z, y, m), check_fit_fast(z, y, m)
+        assert fast.lack_of_fit == slow.lack_of_fit, name
+        assert fast.longest_run == slow.longest_run, name
+        np.testing.assert_allclose(
+            [fast.r2, fast.runs_z], [slow.r2, slow.runs_z], rtol=1e-12, err_msg=name
+        )
+    assert check_fit(z, *cases["layered"]).lack_of_fit is not None  # the cases can fail
+    assert check_fit(z, *cases["good"]).lack_of_fit is None

@@ -9,10 +9,13 @@ References
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
+
+from terracone.jit import enabled, njit
 
 __all__ = ["Agreement", "agreement", "pearson_r", "rmsd", "cv"]
 
@@ -174,17 +177,13 @@ def check_fit(
 def check_fit_fast(depth: ArrayLike, measured: ArrayLike, model: ArrayLike) -> FitCheck:
     """:func:`check_fit` with its default limits, the numbers from a compiled kernel.
 
-    :func:`terracone.inverse.solver.kernels.fit_stats` computes R^2, the longest
-    run and the runs-test z; check_fit itself runs only when a reason may
+    :func:`fit_stats` (compiled) computes R^2, the longest run and the
+    runs-test z; check_fit itself runs only when a reason may
     apply (within 1e-9 of a limit), and then decides and words it.  Plain
     check_fit when compiled kernels are off (:func:`terracone.jit.enabled`).
     """
-    from terracone.jit import enabled
-
     if not enabled():
         return check_fit(depth, measured, model)
-    from terracone.inverse.solver.kernels import fit_stats
-
     y = np.ascontiguousarray(measured, dtype=float)
     m = np.ascontiguousarray(model, dtype=float)
     r2, best, z_runs, flagged = fit_stats(y, m, *_FIT_LIMITS)
@@ -201,3 +200,82 @@ def _fit_limits() -> tuple:
 
 
 _FIT_LIMITS = _fit_limits()
+
+
+@njit(error_model="numpy")
+def fit_stats(y, m, min_r2, max_runs_z, max_drop, min_cv, monotone):
+    """The numbers behind :func:`terracone.physics.metrics.check_fit` for one profile.
+
+    Returns (r2, longest_run, z_runs, flagged): flagged is True when any of
+    check_fit's three reasons applies or is within 1e-9 of its threshold
+    (then the caller asks check_fit, which decides and words the reason).  The same arithmetic as check_fit, with the 3-point running
+    median as the middle of three values.
+    """
+    N = y.shape[0]
+    mean = 0.0
+    for q in range(N):
+        mean += y[q]
+    mean /= N
+    ss_tot = 0.0
+    rr = 0.0
+    yy = 0.0
+    ay = 0.0
+    for q in range(N):
+        ss_tot += (y[q] - mean) ** 2
+        rq = m[q] - y[q]
+        rr += rq * rq
+        yy += y[q] * y[q]
+        ay += abs(y[q])
+    r2 = 1.0 - rr / ss_tot if ss_tot > 0 else np.nan
+    tiny = 1e-9 * math.sqrt(yy / N) if N else 0.0
+    best = 0
+    run = 0
+    prev = 0.0
+    n_pos = 0
+    n_neg = 0
+    runs = 0
+    for q in range(N):
+        rq = m[q] - y[q]
+        if abs(rq) > tiny:
+            v = 1.0 if rq > 0 else -1.0
+            if v == prev:
+                run += 1
+            else:
+                run = 1
+                runs += 1
+            prev = v
+            best = max(best, run)
+            if v > 0:
+                n_pos += 1
+            else:
+                n_neg += 1
+    M = n_pos + n_neg
+    z_runs = np.nan
+    if M >= 2 and n_pos > 0 and n_neg > 0:
+        mu = 2.0 * n_pos * n_neg / M + 1.0
+        var = (mu - 1.0) * (mu - 2.0) / (M - 1.0)
+        if var > 0:
+            z_runs = (runs - mu) / math.sqrt(var)
+    flagged = False
+    any_y = False
+    for q in range(N):
+        if y[q] != 0:
+            any_y = True
+    cv_fit = math.sqrt(rr / N) / (ay / N) if any_y else 0.0
+    if (not math.isnan(r2)) and r2 < min_r2 + 1e-9 and cv_fit > min_cv - 1e-9:
+        flagged = True
+    if M >= 10 and (not math.isnan(z_runs)) and z_runs < max_runs_z + 1e-9:
+        flagged = True
+    if monotone and N >= 4:
+        peak = -np.inf
+        for q in range(N):
+            if 0 < q < N - 1:
+                a, b, c = y[q - 1], y[q], y[q + 1]
+                sm = max(min(a, b), min(max(a, b), c))
+            else:
+                sm = y[q]
+            peak = max(peak, sm)
+            drop = (peak - sm) / peak if peak > 0 else 0.0
+            if drop > max_drop - 1e-9:
+                flagged = True
+    return r2, best, z_runs, flagged
