@@ -31,14 +31,25 @@ References
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 
-from terracone.data import TerrainParameters
 from terracone.physics.cone import Cone, check_depth, normal_integrals
 from terracone.physics.plate import PressureLaw, pressure_law
 
-__all__ = ["layered_basis", "layered_cone_index"]
+__all__ = ["Layer", "layered_basis", "layered_cone_index"]
+
+
+class Layer(Protocol):
+    """What a layer needs: :class:`terracone.data.TerrainParameters` is one (SI)."""
+
+    kc: float  # [kN/m^(n+1)]
+    kphi: float  # [kN/m^(n+2)]
+    n: float  # [-]
+    cc: float  # [kPa]
+    phic_deg: float  # [deg]
 
 
 def layered_basis(
@@ -100,8 +111,8 @@ def layered_basis(
 
 def layered_cone_index(
     depth: np.ndarray,
-    layers: list[TerrainParameters],
-    interfaces: list[float],
+    layers: Sequence[Layer],
+    interfaces: Sequence[float],
     *,
     cone: Cone,
     law: PressureLaw | None = None,
@@ -112,7 +123,7 @@ def layered_cone_index(
     ----------
     depth : (Z,) array_like
         Cone-base depths [m].
-    layers : list of TerrainParameters
+    layers : sequence of TerrainParameters (or any :class:`Layer`)
         Each layer's kc [kN/m^(n+1)], kphi [kN/m^(n+2)], n [-] and cc [kPa],
         top first; phic [deg] of the first layer is common to all.
     interfaces : list of float
