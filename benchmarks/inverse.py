@@ -56,7 +56,9 @@ from scipy.optimize import differential_evolution  # noqa: E402
 from terracone import CIProfile, cone_index, jit  # noqa: E402
 from terracone.inverse import Bounds, predict  # noqa: E402
 from terracone.inverse.predict import rmsd_objective  # noqa: E402
+from terracone.inverse.solver import kernels  # noqa: E402
 from terracone.inverse.solver.exact import solve_exact  # noqa: E402
+from terracone.jit import njit  # noqa: E402
 from terracone.physics.plate import pressure_law  # noqa: E402
 
 # kc [kN/m^(n+1)], kphi [kN/m^(n+2)], n, cc [kPa], phic [deg]
@@ -199,7 +201,6 @@ def _refine_ratio(profs, bounds, repeats: int) -> None:
     """The refinement of n alone, compiled: Brent's method (what solve_exact_many runs) against
     the golden section it replaced, on the same brackets (two grid steps around each profile's
     best grid cell), in this process."""
-    from terracone.inverse.solver import kernels
     from terracone.inverse.solver.many import bounds_params, grid
     from terracone.physics.plate import pressure_law as _pl
 
@@ -230,7 +231,7 @@ def _refine_ratio(profs, bounds, repeats: int) -> None:
         return kernels.brent_refine(zz, yy, w, a, b, ns[i], f0, fa, fb, sv, bp, xtol, 200, *geom)
 
     def golden():
-        return kernels.golden_refine(zz, yy, w, a, b, sv, bp, 40, *geom)
+        return golden_refine(zz, yy, w, a, b, sv, bp, 40, *geom)
 
     (nb, fb_, eb), t_b = timed(brent, repeats)
     (ng, fg, eg), t_g = timed(golden, repeats)
@@ -244,6 +245,95 @@ def _refine_ratio(profs, bounds, repeats: int) -> None:
         f"{eg / len(profs):.1f} and {t_g / len(profs) * 1e6:.0f} us; golden / Brent time "
         f"{t_g / t_b:.1f}x; Brent's RMSD above golden's at most {worse:.1e} of rms(CI)"
     )
+
+
+# the compiled golden-section refinement of n that Brent's replaced (the baseline above)
+
+
+@njit(error_model="numpy")
+def parabola_vertex(xl, fl, xm, fm, xr, fr) -> float:
+    """Vertex of the parabola through (xl, fl), (xm, fm), (xr, fr), xl < xm < xr, or NaN.
+
+    NaN unless fm <= min(fl, fr) (a bracket), the parabola opens upwards and
+    the vertex lies strictly between xl and xr.  Numpy twin: many.py's
+    ``parabola_vertices``.
+    """
+    if not (fm <= fl and fm <= fr) or not (math.isfinite(fl) and math.isfinite(fr)):
+        return math.nan
+    p = (xm - xl) * (fm - fr)
+    q = (xm - xr) * (fm - fl)
+    den = p - q
+    if not den < 0.0:  # opens upwards: (xm - xl)(fm - fr) < (xm - xr)(fm - fl)
+        return math.nan
+    x = xm - 0.5 * ((xm - xl) * p - (xm - xr) * q) / den
+    if not (xl < x < xr):
+        return math.nan
+    return x
+
+
+@njit(error_model="numpy")
+def golden_refine(zz, yy, w, a, b, s, bp, iters, H, R, rm1, r_t, alpha, beta):
+    """Golden-section minimisation of the SSE over n in [a_p, b_p] at scale s_p, per profile.
+
+    The golden branch of many.py's ``_minimise_1d``, compiled (the same points
+    and comparisons); the baseline Brent's refinement is measured against: ``iters`` golden steps, then one
+    parabolic step through the best point and its bracketing neighbours
+    (:func:`parabola_vertex`), kept if it lowers the SSE.  Returns (n, SSE,
+    evaluations).
+    """
+    P, Z = zz.shape
+    gr = (math.sqrt(5.0) - 1.0) / 2.0
+    bx = np.empty(P)
+    bf = np.empty(P)
+    A = np.empty(Z)
+    B = np.empty(Z)
+    C = np.empty(Z)
+    ws = np.empty((24, 3))
+    xp = np.empty(3)
+    lg = np.empty((3, Z))
+    used = 0
+    for p in range(P):
+        z, y, wp, sp = zz[p], yy[p], w[p], s[p]
+        kernels.profile_logs(z, H, R, r_t, lg)
+        lo, hi = a[p], b[p]
+        flo, fhi = math.inf, math.inf  # SSE at the bracket's ends, once evaluated
+        c = hi - gr * (hi - lo)
+        d = lo + gr * (hi - lo)
+        fc = kernels.cell_sse(z, y, wp, lg, c, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
+        fd = kernels.cell_sse(z, y, wp, lg, d, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
+        for _ in range(iters):
+            if fc < fd:
+                hi, fhi = d, fd
+                d = c
+                c = hi - gr * (hi - lo)
+                fd = fc
+                fc = kernels.cell_sse(
+                    z, y, wp, lg, c, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp
+                )
+            else:
+                lo, flo = c, fc
+                c = d
+                d = lo + gr * (hi - lo)
+                fc = fd
+                fd = kernels.cell_sse(
+                    z, y, wp, lg, d, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp
+                )
+        if fc < fd:
+            x, fx = c, fc
+            v = parabola_vertex(lo, flo, c, fc, d, fd)
+        else:
+            x, fx = d, fd
+            v = parabola_vertex(c, fc, d, fd, hi, fhi)
+        used += iters + 2
+        if not math.isnan(v):
+            fv = kernels.cell_sse(
+                z, y, wp, lg, v, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp
+            )
+            used += 1
+            if fv < fx:
+                x, fx = v, fv
+        bx[p], bf[p] = x, fx
+    return bx, bf, used
 
 
 def run_cases(cases: list, repeats: int, bounds: Bounds) -> list:

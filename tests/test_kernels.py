@@ -183,20 +183,15 @@ def test_identify_extents_equal_the_full_scan(law):
                 assert got[0][2] == got[1][2] == -2  # cc fixed at every n: not scanned
 
 
-def test_parabola_vertex_twins():
+def test_parabola_vertices_by_hand():
     """The vertex of a parabola through three of its points (hand-made bracket), NaN without a
-    bracket; compiled and numpy alike."""
-    from terracone.inverse.solver.kernels import parabola_vertex
-
+    bracket."""
     q = lambda x: 3.0 * (x - 0.37) ** 2 + 2.0  # noqa: E731
     xl, xm, xr = np.array([0.1, 0.2, 0.0]), np.array([0.35, 0.4, 0.2]), np.array([0.6, 0.9, 0.3])
     v = parabola_vertices(xl, q(xl), xm, q(xm), xr, q(xr))
     assert v[0] == pytest.approx(0.37, abs=1e-12)
     assert v[1] == pytest.approx(0.37, abs=1e-12)
     assert np.isnan(v[2])  # 0.37 is outside (0, 0.3): no bracket
-    for i in range(3):
-        c = parabola_vertex(xl[i], q(xl[i]), xm[i], q(xm[i]), xr[i], q(xr[i]))
-        assert (np.isnan(c) and np.isnan(v[i])) or c == pytest.approx(v[i], abs=1e-12)
 
 
 def fit_many(zs, ys, **kw):

@@ -45,7 +45,6 @@ __all__ = [
     "box_lsq3_one",
     "box_lsq3_flat",
     "cells_kernel",
-    "golden_refine",
     "brent_refine",
     "brent_step",
     "depth_table",
@@ -53,8 +52,6 @@ __all__ = [
     "normal_eq",
     "cell_fast",
     "profile_columns",
-    "parabola_vertex",
-    "zoom_refine",
     "kbounds",
     "box_grid",
     "identify_scan",
@@ -1045,151 +1042,6 @@ def identify_extent(z, y, n_loc, s, bp, vals, thr, H, R, rm1, r_t, alpha, beta):
         elif jhi[idx] < 0:
             jlo[idx] = -1
     return jlo, jhi, lo, hi
-
-
-@njit(error_model="numpy")
-def zoom_refine(zz, yy, w, a, b, s, bp, K, steps, H, R, rm1, r_t, alpha, beta):
-    """Zooming-grid minimisation of the SSE over n in [a_p, b_p] at scale s_p, per profile.
-
-    K points per step, at most ``steps`` steps, each zooming to +-1 grid step
-    around the best point so far (the small-P branch of many.py's
-    ``_minimise_1d``).  Returns (n, SSE, evaluations).
-    """
-    P, Z = zz.shape
-    bx = np.empty(P)
-    bf = np.empty(P)
-    A = np.empty(Z)
-    B = np.empty(Z)
-    C = np.empty(Z)
-    ws = np.empty((24, 3))
-    xp = np.empty(3)
-    used = 0
-    lg = np.empty((3, Z))
-    for p in range(P):
-        profile_logs(zz[p], H, R, r_t, lg)
-        lo, hi = a[p], b[p]
-        best_x = 0.5 * (lo + hi)
-        best_f = np.inf
-        it = 0
-        while it < steps:
-            kbest = -1
-            fbest = np.inf
-            xbest = 0.0
-            for k in range(K):
-                nv = lo + (hi - lo) * (k / (K - 1.0))
-                fv = cell_sse(
-                    zz[p],
-                    yy[p],
-                    w[p],
-                    lg,
-                    nv,
-                    s[p],
-                    bp,
-                    H,
-                    R,
-                    rm1,
-                    r_t,
-                    alpha,
-                    beta,
-                    A,
-                    B,
-                    C,
-                    ws,
-                    xp,
-                )
-                if fv < fbest:
-                    fbest, kbest, xbest = fv, k, nv
-            it += 1
-            if kbest >= 0 and fbest < best_f:
-                best_f, best_x = fbest, xbest
-            h = (hi - lo) / (K - 1)
-            lo = max(lo, best_x - h)
-            hi = min(hi, best_x + h)
-            if hi - lo < 1e-10:
-                break
-        used = max(used, it)
-        bx[p], bf[p] = best_x, best_f
-    return bx, bf, used * K * P
-
-
-@njit(error_model="numpy")
-def parabola_vertex(xl, fl, xm, fm, xr, fr) -> float:
-    """Vertex of the parabola through (xl, fl), (xm, fm), (xr, fr), xl < xm < xr, or NaN.
-
-    NaN unless fm <= min(fl, fr) (a bracket), the parabola opens upwards and
-    the vertex lies strictly between xl and xr.  Numpy twin: many.py's
-    ``parabola_vertices``.
-    """
-    if not (fm <= fl and fm <= fr) or not (math.isfinite(fl) and math.isfinite(fr)):
-        return math.nan
-    p = (xm - xl) * (fm - fr)
-    q = (xm - xr) * (fm - fl)
-    den = p - q
-    if not den < 0.0:  # opens upwards: (xm - xl)(fm - fr) < (xm - xr)(fm - fl)
-        return math.nan
-    x = xm - 0.5 * ((xm - xl) * p - (xm - xr) * q) / den
-    if not (xl < x < xr):
-        return math.nan
-    return x
-
-
-@njit(error_model="numpy")
-def golden_refine(zz, yy, w, a, b, s, bp, iters, H, R, rm1, r_t, alpha, beta):
-    """Golden-section minimisation of the SSE over n in [a_p, b_p] at scale s_p, per profile.
-
-    The compiled twin of the golden branch of many.py's ``_minimise_1d``
-    (the same points and comparisons): ``iters`` golden steps, then one
-    parabolic step through the best point and its bracketing neighbours
-    (:func:`parabola_vertex`), kept if it lowers the SSE.  Returns (n, SSE,
-    evaluations).
-    """
-    P, Z = zz.shape
-    gr = (math.sqrt(5.0) - 1.0) / 2.0
-    bx = np.empty(P)
-    bf = np.empty(P)
-    A = np.empty(Z)
-    B = np.empty(Z)
-    C = np.empty(Z)
-    ws = np.empty((24, 3))
-    xp = np.empty(3)
-    lg = np.empty((3, Z))
-    used = 0
-    for p in range(P):
-        z, y, wp, sp = zz[p], yy[p], w[p], s[p]
-        profile_logs(z, H, R, r_t, lg)
-        lo, hi = a[p], b[p]
-        flo, fhi = math.inf, math.inf  # SSE at the bracket's ends, once evaluated
-        c = hi - gr * (hi - lo)
-        d = lo + gr * (hi - lo)
-        fc = cell_sse(z, y, wp, lg, c, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
-        fd = cell_sse(z, y, wp, lg, d, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
-        for _ in range(iters):
-            if fc < fd:
-                hi, fhi = d, fd
-                d = c
-                c = hi - gr * (hi - lo)
-                fd = fc
-                fc = cell_sse(z, y, wp, lg, c, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
-            else:
-                lo, flo = c, fc
-                c = d
-                d = lo + gr * (hi - lo)
-                fc = fd
-                fd = cell_sse(z, y, wp, lg, d, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
-        if fc < fd:
-            x, fx = c, fc
-            v = parabola_vertex(lo, flo, c, fc, d, fd)
-        else:
-            x, fx = d, fd
-            v = parabola_vertex(c, fc, d, fd, hi, fhi)
-        used += iters + 2
-        if not math.isnan(v):
-            fv = cell_sse(z, y, wp, lg, v, sp, bp, H, R, rm1, r_t, alpha, beta, A, B, C, ws, xp)
-            used += 1
-            if fv < fx:
-                x, fx = v, fv
-        bx[p], bf[p] = x, fx
-    return bx, bf, used
 
 
 @njit(error_model="numpy")

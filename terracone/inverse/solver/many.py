@@ -144,8 +144,7 @@ def parabola_vertices(xl, fl, xm, fm, xr, fr) -> np.ndarray:
     """Vertex of the parabola through (xl, fl), (xm, fm), (xr, fr) per element, xl < xm < xr, or NaN.
 
     NaN unless fm <= min(fl, fr), the parabola opens upwards and the vertex
-    lies strictly between xl and xr (the numpy twin of
-    :func:`terracone.inverse.solver.kernels.parabola_vertex`).
+    lies strictly between xl and xr.
     """
     with np.errstate(all="ignore"):
         p = (xm - xl) * (fm - fr)
@@ -171,12 +170,6 @@ class _Kernels:
         n = np.ascontiguousarray(n, dtype=float)
         lo, hi = self.k.box_grid(n, self.bp)
         return self.k.cells_kernel(zz, yy, w, n, sv, lo, hi, self.bp[10], *self.geom)
-
-    def zoom(self, zz, yy, w, a, b, s):
-        return self.k.zoom_refine(zz, yy, w, a, b, s, self.bp, 17, 8, *self.geom)
-
-    def golden(self, zz, yy, w, a, b, s, iters):
-        return self.k.golden_refine(zz, yy, w, a, b, s, self.bp, iters, *self.geom)
 
     def brent(self, zz, yy, w, a, b, x0, f0, fa, fb, s, xtol, maxiter=200):
         return self.k.brent_refine(
