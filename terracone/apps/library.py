@@ -2,63 +2,18 @@
 
 Every terrain is a record with a unique name, a kind (``"reference"``,
 ``"calibration"``, ``"bevameter-fit"`` or any other word), its parameters in
-SI, where they came from (provenance) and free notes.
-
-Parameter keys (all SI; any subset may be present):
-
-==============  ===============  ===============================================
-key             unit             meaning
-==============  ===============  ===============================================
-kc              kN/m^(n+1)       Bekker cohesive modulus (plates)
-kphi            kN/m^(n+2)       Bekker frictional modulus (plates)
-n               -                sinkage exponent
-k               kN/m^(n+2)       kc/b + kphi of one plate size b_m (when kc and
-                                 kphi are undetermined)
-b_m             m                plate size of ``k``
-c_kpa           kPa              terrain internal cohesion c
-phi_deg         deg              terrain internal friction angle phi
-K_m             m                terrain shear deformation modulus K
-cc              kPa              cone (metal)-terrain adhesion
-phic_deg        deg              cone (metal)-terrain friction angle
-Kc              m                cone-terrain shear deformation parameter
-model           -                pressure law, "rm0" or "rm1"
-r_min           m                RM1 transition radius
-plate_pair      m                [r1, r2], plate radii of an RM1 calibration
-cone            -                cone name of a calibration (e.g. "asabe-large")
-moisture_pct    %                moisture content
-density_kg_m3   kg/m^3           (dry) density
-==============  ===============  ===============================================
-
-The internal shear of the terrain (c_kpa, phi_deg, K_m; Janosi-Hanamoto) and
-the cone-metal shear (cc, phic_deg, Kc) of [1]_ are different quantities and
-are kept under different keys; ambiguous keys such as ``c`` or ``phi`` are
-refused.
-
-Records and the parameter types.  A record's parameters are built from, and
-read back as, the package's two parameter types:
-:class:`~terracone.data.TerrainParameters` (kc, kphi, n, cc, phic_deg,
-K_cone stored as ``Kc``, model, r_min) and
-:class:`~terracone.data.TerrainShear` (c, phi_deg, K stored as ``c_kpa``,
-``phi_deg``, ``K_m``): :func:`record_params` writes the stored keys from
-them, :attr:`TerrainRecord.terrain_parameters` and
-:attr:`TerrainRecord.terrain_shear` read them.  The stored keys are those
-of the table above, as they always were.
-
-Reference terrains.  The values tabulated by Wong [2]_ ship with the package
-(``terracone/data/wong_terrain_values.csv``) and are a *read-only overlay*:
-every library shows them (kind ``"reference"``, ``builtin=True``) without
-storing them in its file, so they cannot be removed or overwritten, and a
-new package version updates them everywhere.  Names are those of the table;
-a name that appears more than once (one terrain at several moistures) gets
-the moisture appended, e.g. ``"Sandy loam (Michigan) 11%"``.
-
-Location.  ``Library()`` opens ``$TERRACONE_LIBRARY`` if set, else
-``$XDG_DATA_HOME/terracone/library.sqlite`` (``~/.local/share/...`` when
-XDG_DATA_HOME is unset).
-
-Concurrency.  The database runs in WAL mode with a busy timeout; every write
-is one ``BEGIN IMMEDIATE`` transaction, so several processes can add records
-at once without losing any.
+SI under the keys of :data:`PARAM_UNITS` (a file format: they never change),
+where they came from (provenance) and free notes.  The terrain's internal
+shear (``c_kpa``, ``phi_deg``, ``K_m``) and the cone-metal shear of [1]_
+(``cc``, ``phic_deg``, ``Kc``) are different quantities under different keys;
+ambiguous keys (``c``, ``phi``) are refused.  Records are built from and read
+back as :class:`~terracone.data.TerrainParameters` and
+:class:`~terracone.data.TerrainShear` (:func:`record_params`).  Wong's
+reference terrains [2]_ ship with the package as a read-only overlay.
+``Library()`` opens ``$TERRACONE_LIBRARY`` or
+``$XDG_DATA_HOME/terracone/library.sqlite``; writes are single ``BEGIN
+IMMEDIATE`` transactions in WAL mode, so processes can share a library.
+Keys, locations and formats: ``docs/library.md``.
 
 References
 ----------

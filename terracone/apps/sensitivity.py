@@ -1,26 +1,12 @@
 """Global sensitivity of the cone index to the terrain parameters (Sobol indices).
 
-Section 3.3 of [1]_ remarks that the cone-terrain shear deformation
-parameter Kc "has been found to have little effect" and fixes the swarm to
-five parameters.  :func:`sobol_ci` puts a number on that: variance-based
-(Sobol) first-order and total indices [2]_ of cone-index outputs with respect
-to kc, kphi, n, cc, phic and Kc, each drawn independently over a box (kc,
-kphi, n, cc, phic uniform; Kc log-uniform), estimated with Saltelli's scheme
-as implemented by SALib [3]_.
-
-* first-order index S1_i: the share of the output variance explained by
-  parameter i alone;
-* total index ST_i: the share that involves parameter i in any way
-  (including interactions); ST_i ~ 0 means i can be fixed anywhere in its
-  range without changing the output.
-
-Outputs: the mean CI over a depth range (0-30 cm by default) and the CI at a
-few depths.  Boxes: ``"bounds"`` (the search bounds of the prediction
-process: kc 0-1000 kN/m^(n+1), kphi 0-20000 kN/m^(n+2), n 0.05-2, cc 0-100
-kPa, phic 0-45 deg) and ``"lete"`` (LETE sand +-50%: kc 51-153, kphi
-2650-7950, n 0.5-1.1, cc 0-2 kPa, phic 5-20 deg); Kc log-uniform 0.1 mm to
-10 cm in both.  Outputs can be analysed in log space (``log=True``) so that
-the few huge CIs of large n and kphi do not dominate the variance.
+Section 3.3 of [1]_ remarks that the cone-terrain shear deformation parameter
+Kc "has been found to have little effect".  :func:`sobol_ci` puts a number on
+that: first-order and total Sobol indices [2]_ of cone-index outputs (the
+mean CI over a depth range, the CI at a few depths) with respect to kc, kphi,
+n, cc, phic (uniform) and Kc (log-uniform) over a box (:data:`BOXES`: the
+search bounds, or LETE sand +-50%), by Saltelli's scheme in SALib [3]_.
+Results: ``docs/uncertainty.md`` (Sensitivity: does Kc matter?).
 
 References
 ----------

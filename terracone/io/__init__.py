@@ -1,64 +1,21 @@
 """Read and write cone index, plate sinkage and shear files.
 
 Every reader returns the objects of :mod:`terracone.data` in SI (m, kPa)
-whatever the units of the file, and locates every problem it finds with an
+whatever the units of the file, and locates every problem with an
 :class:`~terracone.data.InputError` naming the file, the profile (or test),
-the row (1-based line number in the file) and the column.
+the row (1-based file line) and the column.  CSV columns carry their unit in
+their name (``depth_cm``, ``ci_kpa``, ``pressure_psi``); ``#`` lines are
+comments; any other column is metadata.  :func:`read_ci_profiles` reads long
+CSV, FieldScout SC900 exports and wide tables (:func:`detect_format`);
+:func:`read_profile_set` reads any of them, Parquet included, into one
+:class:`~terracone.data.ProfileSet`; :func:`iter_profile_sets` streams them in
+chunks.  The formats: ``docs/instruments.md``.
 
-CSV conventions
----------------
-* The unit is part of every column name: ``depth_cm``, ``ci_kpa``,
-  ``sinkage_mm``, ``pressure_psi``, ...  Headers are case-insensitive.
-  Length units: ``m``, ``cm``, ``mm``, ``in``; pressure units: ``kpa``,
-  ``mpa``, ``psi`` (and ``pa``), see :data:`terracone.physics.units.LENGTH_UNITS`
-  and :data:`terracone.physics.units.PRESSURE_UNITS`.
-* Lines starting with ``#`` are comments and may appear anywhere (before
-  the header too); blank lines are ignored.  Both still count in the line
-  numbers reported in errors and stored in ``rows``.
-* CI profiles: ``depth_<u>``, ``ci_<u>``, optional ``profile`` (the id;
-  several profiles per file; without it the whole file is one profile
-  whose id is the file stem) and optional ``cone`` (a name accepted by
-  :func:`terracone.physics.cone.get_cone`; it overrides the ``cone`` argument).
-* Plate tests: optional ``test``, exactly one of ``plate_radius_<u>``,
-  ``plate_diameter_<u>`` (circular plate, b = radius) or
-  ``plate_width_<u>`` (rectangular plate, b = width), ``sinkage_<u>`` and
-  ``pressure_<u>``.
-* Shear tests: optional ``test``, ``normal_pressure_<u>``,
-  ``shear_displacement_<u>`` and ``shear_stress_<u>``.
-* Any other column is metadata: each profile or test keeps the values of
-  its first row, in column order, as floats when they read as decimal
-  numbers and as strings otherwise.
-
-FieldScout SC900 exports
-------------------------
-The text export of the Spectrum FieldScout SC900 logger (a few header lines
-with the logger name, serial number, datum and the pressure unit, a column
-line ``Longitude,Latitude,Number,0.0 cm,2.5 cm,...,Cone Size``, "Logger
-Started" lines and one ``N= k , ...`` line per push) is read by
-:func:`read_ci_profiles` too; see there.
-
-Wide tables
------------
-One row per push and one column per depth (Penetrologger exports opened in
-a spreadsheet, published tables): :func:`read_wide_ci`, or
-:func:`read_ci_profiles` with ``format="wide"`` (detected by
-:func:`detect_format`).  Depth and cone index units are never guessed.
-
-Profile sets and streaming
---------------------------
-:func:`read_profile_set` reads any CI file (long CSV, Parquet, SC900 export,
-wide table) into one :class:`~terracone.data.ProfileSet`;
-:func:`iter_profile_sets` streams long CSV and Parquet files (or a directory
-of them) chunk by chunk through pyarrow's readers, for inputs larger than
-memory.  :func:`terracone.apps.batch.run_batch` reads through the same stream.
-
-Modules
--------
-:mod:`~terracone.io.tables` (CSV tables, schemas, cells),
-:mod:`~terracone.io.profiles` (CI files, format detection),
-:mod:`~terracone.io.sc900`, :mod:`~terracone.io.wide` (instrument files),
-:mod:`~terracone.io.stream` (streaming profile sets),
-:mod:`~terracone.io.bevameter` (plate and shear tests),
+Modules: :mod:`~terracone.io.tables` (CSV tables, schemas, cells),
+:mod:`~terracone.io.profiles` (CI files, format detection, the readers of
+every format), :mod:`~terracone.io.sc900`, :mod:`~terracone.io.wide`
+(instrument files), :mod:`~terracone.io.scan` and :mod:`~terracone.io.stream`
+(the streaming core), :mod:`~terracone.io.bevameter` (plate and shear tests),
 :mod:`~terracone.io.writers` (CSV writers).
 """
 

@@ -1,59 +1,17 @@
 """Bevameter plate tests: pressure-sinkage fits and the Bekker parameters.
 
-A plate of size b pressed into the terrain follows Bekker's equation
-(eq. (2-2) in [1]_)
-
-.. math:: p = (k_c / b + k_\\phi) z^n = k z^n, \\qquad k = k_c / b + k_\\phi
-
-with b the radius of a circular plate or the smaller side of a rectangular
-one.  This module fits ``p = k z^n`` to the loading branch of each test and,
-when the tests cover two or more plate sizes, splits ``k`` into ``kc`` and
-``kphi``.  It is the inverse side of the plate model: the forward pressure of
-eq. (2-2) is :mod:`terracone.physics.plate`.
-
-Fitting methods (all on the loading branch only, see
-:meth:`terracone.data.PlateTest.loading_branch`):
-
-``"loglog"``
-    Ordinary linear regression of ``ln p`` on ``ln z``: minimises
-    ``sum (ln p_i - ln k - n ln z_i)^2``.  Every point has the same weight in
-    log space, so the many low-pressure points at the start of a test (where
-    a small error in p is a large error in ln p) dominate.
-``"wong"``
-    Wong's weighted least squares [2]_: minimises
-    ``sum p_i^2 (ln p_i - ln k - n ln z_i)^2``.  Since
-    ``p_i - p_hat_i ~ p_i (ln p_i - ln p_hat_i)`` for small residuals, the
-    weights ``p_i^2`` make this a linearised least squares on the pressure
-    itself: the high-pressure end of the curve carries the fit.  Closed form
-    (normal equations of the weighted regression, [2]_).
-``"nonlinear"``
-    :func:`scipy.optimize.least_squares` on the pressure,
-    ``sum (p_i - k z_i^n)^2``, started from the ``"loglog"`` fit.
-
-Splitting k into kc and kphi (:func:`fit_plates`), done here in two stages:
-
-1. a *common-n* fit of all tests together with the chosen method: one n
-   shared by every test, one k per test (for ``"loglog"``/``"wong"`` a
-   (weighted) linear regression of ``ln p`` on ``ln z`` with one intercept per
-   test; for ``"nonlinear"`` a joint least squares on p started from the
-   common-n ``"loglog"`` fit).  Each k then has the unit kN/m^(n+2) of the
-   same n, which the split needs;
-2. an ordinary linear regression over the tests of ``k_i = kc (1/b_i) + kphi``
-   (exact with one test at each of two sizes; with two sizes and several
-   tests per size the line through the two mean k's).
-
-Confidence intervals (95 %) are those of the regression in stage 2, so they
-reflect the scatter between tests, not the (strongly autocorrelated) scatter
-of the points within a test; they need at least 3 tests over at least 2 plate
-sizes.  The interval of n is ``n +- t(0.975, m-1) s_n / sqrt(m)`` with
-``s_n`` the standard deviation of the m per-test exponents (needs m >= 3).
-
-With one plate size kc and kphi cannot be separated: they are ``None`` and
-listed in ``undetermined`` (not an error); n and the per-test k are still
-reported.
-
-Units: SI throughout: sinkage and b [m], pressure [kPa], kc [kN/m^(n+1)],
-kphi and k [kN/m^(n+2)].
+A plate of size b (radius of a circular plate, smaller side of a rectangular
+one) follows Bekker's equation, p = (kc/b + kphi) z^n = k z^n (eq. (2-2) in
+[1]_; the forward model is :mod:`terracone.physics.plate`).  This module fits
+``p = k z^n`` to the loading branch of each test by one of three methods:
+``"loglog"`` (ordinary regression of ln p on ln z), ``"wong"`` (Wong's
+weighted least squares with weights p^2 [2]_, the default) and
+``"nonlinear"`` (least squares on p).  With two or more plate sizes
+:func:`fit_plates` splits k into kc and kphi: a common-n fit of all tests,
+then the regression of ``k_i = kc / b_i + kphi`` over the tests, whose 95%
+intervals reflect the scatter between tests.  With one plate size kc and
+kphi are undetermined (None), not an error.  SI throughout.  The methods and
+examples: ``docs/bevameter.md``.
 
 References
 ----------

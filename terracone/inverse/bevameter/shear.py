@@ -1,34 +1,13 @@
 """Terrain internal shear: Janosi-Hanamoto fits of shear tests (the inverse side).
 
-The terrain's internal shear follows the Janosi-Hanamoto curve [1]_
-``tau = (c + sigma tan(phi)) (1 - exp(-j/K))`` (:func:`terracone.physics.shear.shear_stress_janosi_hanamoto`,
-the forward model; the form of eq. (2-4) of [2]_, but for the terrain's own
-shear measured with a shear ring or plate, not the cone-metal cc, phic).
-
-:func:`fit_shear` works in two stages:
-
-1. each test: least squares on tau(j) of ``tau = tau_max (1 - exp(-j/K))``
-   (:func:`scipy.optimize.least_squares`), which gives tau_max and K of the
-   test;
-2. the Mohr-Coulomb line ``tau_max = c + sigma tan(phi)`` through the
-   per-test tau_max: ordinary linear regression over the tests (exact with
-   one test at each of two normal pressures); and a common K from a joint
-   least squares of all tests with one tau_max per test and one shared K.
-
-Points used (the "peak stress region" choice): the points with j >= 0 from
-the start of the test up to the *last* point whose stress is within
-``peak_tolerance`` (default 2 %) of the highest stress of the test, and with
-j <= ``j_max`` if given.  The Janosi-Hanamoto curve rises monotonically to
-tau_max, so a post-peak drop (dense soils) is left out, while a noisy
-plateau is kept whole.  Tests whose stress keeps rising to the end of the
-stroke (strain hardening, bulldozing) have their peak at the end and are used
-whole; give ``j_max`` to fit only the first part of such curves.
-
-With a single normal pressure c and phi cannot be separated: they are None
-and listed in ``undetermined``; tau_max and K per test and the common K are
-still given.
-
-:mod:`terracone.physics.shear` re-exports these fits under their old import path.
+The terrain's internal shear follows tau = (c + sigma tan(phi)) (1 -
+exp(-j/K)) [1]_ (:func:`terracone.physics.shear.shear_stress_janosi_hanamoto`,
+the form of eq. (2-4) of [2]_ for the terrain's own shear, not the cone-metal
+cc, phic).  :func:`fit_shear` fits each test's tau_max and K on the points up
+to the last one within ``peak_tolerance`` of the test's peak (and j <=
+``j_max``), then the Mohr-Coulomb line ``tau_max = c + sigma tan(phi)`` over
+the tests and a common K [3]_.  With a single normal pressure c and phi are
+undetermined (None).  Details: ``docs/bevameter.md``.
 
 References
 ----------

@@ -1,38 +1,14 @@
 """Sum of data-set norms over a box, with a duality-gap certificate, vectorised.
 
-The learning objective of section 3.3.1 of [1]_ is J = sum_d RMSD_d / mean_d
-over data sets d (each CI profile and each plate test).  For fixed
-(n, phic, r_min) every model value is linear in x = (kc, kphi, cc)
-(eqs. (2-5) to (2-7) for the cone, eq. (2-2) and section 3.2 for the
-plates), so
-
-    J(x) = sum_d a_d ||X_d x - y_d||,   lo <= x <= hi,
-
-with a_d = 1 / (mean_d sqrt(N_d)), a convex problem (a second-order cone
-programme in three variables).  J is not differentiable where a data set is
-fitted exactly, which is the noise-free case; a plain reweighting scheme
-stalls there.  This module solves it in two steps:
-
-1. Zero-residual test: the box least-squares fit of all data sets jointly
-   (:func:`terracone.inverse.solver.boxlsq.box_lsq3`).  If every data set's
-   residual vanishes (to the precision of the Gram form), J = 0 there and
-   that is the global minimum, since J >= 0.
-2. Otherwise a smoothed reweighted least-squares iteration (Weiszfeld type:
-   weights a_d / (2 sqrt(SSE_d + eps_d^2)), eps_d shrinking geometrically),
-   each step an exact box least-squares solve.  Every iterate yields a
-   dual-feasible point u_d = a_d r_d / sqrt(SSE_d + eps_d^2) (so
-   ||u_d|| <= a_d), whose Lagrange dual value
-
-       D(u) = -sum_d u_d . y_d + sum_i min(c_i lo_i, c_i hi_i),
-       c = sum_d X_d' u_d,
-
-   is a lower bound on the minimum.  The iteration stops when the duality
-   gap J(x) - D(u) is below the stated tolerance; the gap is returned.
-
-Everything is computed from the Gram terms (X_d'X_d, X_d'y_d, y_d'y_d), so
-thousands of cells are solved in one numpy call.  The Gram form resolves a
-data set's relative RMSD to about 1e-7; final answers are re-evaluated from
-the residuals by the caller.
+For fixed (n, phic, r_min) the learning objective of section 3.3.1 of [1]_ is
+``J(x) = sum_d a_d ||X_d x - y_d||`` over ``lo <= x <= hi``, x = (kc, kphi,
+cc), a_d = 1 / (mean_d sqrt(N_d)): convex, but not differentiable where a
+data set is fitted exactly.  :func:`sum_norm_box` first tests the
+zero-residual case (a joint box least-squares fit), then runs a smoothed
+reweighted least-squares iteration whose every iterate gives a dual-feasible
+point and so a lower bound [2]_; it stops when the duality gap is below the
+tolerance and returns it.  All from the Gram terms, thousands of cells in one
+numpy call.  See ``docs/learn.md`` (Search: a certified global minimum).
 
 References
 ----------

@@ -1,43 +1,16 @@
 """Test planning: which one extra test narrows the predicted plate pressure most?
 
-A linearised (Fisher) preposterior analysis [1]_.  Around the best fit of
-the CI profile, the posterior of ``theta = (kc, kphi, n, cc, phic)`` (the
-free ones) is approximated by a normal distribution with precision
-
-    I_0 = P + J^T S^-1 J,
-
-``P`` the prior precision and ``J`` the Jacobian of the CI model (eq. (2-7))
-with the CI error covariance ``S`` (relative noise weights with a 5% floor,
-AR(1) along depth, sigma from the residuals, as in
-:mod:`terracone.inverse.sites.statistics`; or a given independent noise).  A candidate
-test with Jacobian ``H`` and noise covariance ``R`` adds ``H^T R^-1 H``; in
-the linear-Gaussian approximation the posterior covariance after the test
-does not depend on its outcome, so the *expected* 90% width of the
-predicted plate pressure ``p`` (eq. (2-2)) after the test is
-
-    2 z_0.95 sqrt(g^T (I_0 + H^T R^-1 H)^-1 g),   g = dp/dtheta.
-
-Candidates:
-
-* ``plate:R`` - a plate sinkage test of radius R: pressure at 10 sinkages
-  to 5 cm (2 in), independent relative error ``plate_noise`` (5%);
-* ``ci`` - one more CI push of the same terrain at the same depths, with the
-  same noise as the profile's;
-* ``shear`` - a shear ring/plate test measures the terrain's *internal*
-  shear (c, phi, K, :mod:`terracone.physics.shear`), which enters neither the
-  plate equation (2-2) nor the cone model (2-7) (whose cc, phic are
-  cone-metal values): it carries no information on the plate prediction,
-  and the analysis says so (expected width = current width).
-
-Priors: ``"bounds"`` - uniform over the search box, approximated by its
-variance ``(hi - lo)^2 / 12`` per parameter; a calibration - phic and cc
-normal around the calibrated values and ln(kc/kphi) normal with the widths
-of :class:`terracone.inverse.uncertainty.priors.CalibrationPrior` (kphi and n keep their
-uniform bounds).  Under the bounds prior the CI leaves a whole direction
-free (phic against a common scale of kc and kphi, section 2 of [2]_), so a
-plate test, which measures that scale, beats another CI push; the ranking
-is checked against a brute-force preposterior simulation in
-tests/test_design.py.
+A linearised (Fisher) preposterior analysis [1]_: around the best fit of the
+CI profile the posterior of the free parameters is normal with precision
+``I_0 = P + J^T S^-1 J`` (prior precision P, Jacobian J of eq. (2-7), CI
+error covariance S as in :mod:`terracone.inverse.sites.statistics`); a
+candidate test (``plate:R``, ``ci``, ``shear``) with Jacobian H and noise
+covariance R adds ``H^T R^-1 H``, and the expected 90% width of the predicted
+plate pressure (eq. (2-2)) after it is ``2 z_0.95 sqrt(g^T (I_0 + H^T R^-1
+H)^-1 g)``.  A shear test measures the terrain's internal shear, which enters
+neither (2-2) nor (2-7): it narrows nothing, and the analysis says so.  The
+candidates, priors and the check against a brute-force preposterior
+simulation: ``docs/sites.md``.
 
 References
 ----------

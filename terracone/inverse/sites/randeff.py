@@ -1,33 +1,13 @@
 """Random-effects pooling of per-push estimates: between-push variance apart from estimation noise.
 
-Each push j of a site gives an estimate ``y_j`` of a quantity (a log plate
-pressure, n, ...) with a known sampling variance ``v_j`` (its estimation
-noise, from the fit).  The random-effects model
-
-    y_j = mu + b_j + e_j,   b_j ~ N(0, tau^2),   e_j ~ N(0, v_j)
-
-separates the push-to-push variance ``tau^2`` (the terrain's variability)
-from the estimation variance ``v_j`` (what the noise of one push leaves
-undetermined).  The plain sample variance of the ``y_j`` estimates
-``tau^2 + mean(v_j)`` and so reports estimation noise as variability.
-
-Estimators (vectorised over any number of independent problems):
-
-* ``tau^2``: Paule-Mandel [1]_, the generalised method-of-moments root of
-  ``sum_j w_j (y_j - mu_w)^2 = k - 1`` with ``w_j = 1 / (v_j + tau^2)``,
-  truncated at 0 (recommended for few studies by [2]_);
-* ``mu``: the weighted mean with those weights;
-* its standard error: the Hartung-Knapp-Sidik-Jonkman form [3]_,
-  ``se^2 = q / sum_j w_j`` with ``q = sum_j w_j (y_j - mu)^2 / (k - 1)``,
-  with a Student t quantile on k - 1 degrees of freedom.  The factor ``q``
-  rescales the weights' variance by the observed spread, so the interval
-  stays calibrated when the linearised ``v_j`` are somewhat off (the
-  "modified" form ``max(1, q)`` over-covered, 92-97%, on generated sites;
-  the plain form covers 85-95%, tests/test_sites.py).  With 3-8 pushes
-  the normal quantile with the fixed-weight standard error undercovers;
-* an interval of ``tau^2``: the Q-profile method [4]_, so that a
-  between-push variance the estimation noise cannot resolve shows as a
-  wide interval rather than as a confident zero.
+Each push j gives an estimate ``y_j`` with a known sampling variance ``v_j``;
+the model ``y_j = mu + b_j + e_j``, ``b_j ~ N(0, tau^2)``, ``e_j ~ N(0,
+v_j)`` separates the terrain's push-to-push variance ``tau^2`` from the
+estimation noise (the plain sample variance estimates ``tau^2 + mean(v_j)``).
+Vectorised over independent problems: ``tau^2`` by Paule-Mandel [1]_ (as
+[2]_ recommends for few studies), ``mu`` the weighted mean, its interval by
+Hartung-Knapp-Sidik-Jonkman [3]_ with a t quantile on k - 1 degrees of
+freedom, the interval of ``tau^2`` by the Q-profile method [4]_.
 
 References
 ----------

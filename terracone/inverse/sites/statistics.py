@@ -2,73 +2,17 @@
 
 Recommendation E of [1]_ asks for three or more pushes at each location and
 three or more locations per site.  :func:`fit_sites` turns the pushes of each
-site into one site terrain with its spread, separating three things:
-
-* the **site-level** terrain (its median over pushes),
-* the **push-to-push** variation of the terrain (between-push variance),
-* the **estimation noise** of each push (what its CI noise leaves free),
-
-so that estimation noise is not reported as variability.
-
-Model
------
-1. Every push is fitted alone by the exact solver (fully mobilised shear,
-   :func:`terracone.inverse.solver.many.solve_exact_many`, the same optimum as
-   ``predict``).  Under fully mobilised shear the CI determines the *primed*
-   values ``kc' = s kc`` and ``kphi' = s kphi`` with ``s = 1 + tan(phic) /
-   tan(a)`` (eq. (2-6)), together with n and cc; phic itself trades against
-   the common scale and is a **site** property (fixed by a calibration or by
-   ``phic=LO:LO`` bounds, otherwise left on its ridge, see 4.).
-2. Each push's sampling covariance of ``(kc', kphi', cc, n)`` is the
-   linearised sandwich ``G^-1 J^T S J G^-1`` of the unweighted least squares
-   the solver solves (``J`` the Jacobian of eq. (2-7) at the fit,
-   ``G = J^T J``), with the CI error covariance ``S = sigma^2 W R W``:
-   relative noise weights ``W`` (model CI with a 5% floor), the AR(1)
-   correlation ``R`` along depth estimated from the residuals
-   (:func:`terracone.inverse.uncertainty.noise.estimate_correlation`) and ``sigma`` from
-   the weighted residuals.  A lack of fit (layered soil) shows as large,
-   correlated residuals and so as a large estimation variance: the misfit is
-   carried into the site intervals, not hidden.  Parameters at a bound are
-   held there.  Without a calibration that fails: the CI leaves kc, kphi and
-   cc nearly collinear, most pushes sit at a bound (kc = 0 or cc = 0) and
-   the linearised variance is far too small.  So by default, without a
-   calibration, the estimation variances come from a parametric bootstrap
-   instead (:func:`bootstrap_pushes`, 40 replicates of the site terrain's CI
-   scaled to each push, :func:`site_centers`, plus simulated noise of the
-   push's own model, refitted by the same solver).
-3. The per-push estimates of ``log p'`` (plate pressure with the primed
-   values, eq. (2-2), at each sinkage and plate), ``log kc'``,
-   ``log kphi'``, n and cc are pooled by the random-effects model of
-   :mod:`terracone.inverse.sites.randeff` (Paule-Mandel between-push variance,
-   modified Hartung-Knapp interval with k - 1 degrees of freedom).
-   ``between_cv = sqrt(exp(tau^2) - 1)`` of the plate pressure is the
-   push-to-push coefficient of variation; the plain sample CV (``naive_cv``)
-   is reported beside it.
-4. The common scale: ``p = p' / s``, ``kc = kc' / s``.  With phic fixed,
-   ``s`` is known.  Otherwise phic lies on the site's ridge (the
-   intersection of the pushes' ridges) with density proportional to
-   ``s^-2`` (the uniform bounds prior on the site's kc, kphi, phic,
-   marginalised along the ridge), and the site intervals of p, kc and kphi
-   are the quantiles of ``mu' + se T - log s`` over that density and the
-   t distribution of the pooled mean (a deterministic 200 x 200 grid of
-   quantiles).
-
-5. Without a calibration the push-to-push variation of the plate pressure
-   is not taken from the pushes' own plate predictions (the CI does not fix
-   kc', kphi' and cc of one push apart, and its estimation spread is heavy
-   tailed, which inflated ``between_cv``: 0.23-0.58 for a true 0.2, 0.28 for
-   a true 0) but from what the CI fixes (:func:`shape_pushes`): each push's
-   strength ``g`` and n with the site terrain's shape, ``p'_j = g_j (kc'/b +
-   kphi') z^(n_j)``, pooled the same way with bootstrap estimation
-   variances.  A variation of the kc/kphi ratio or of cc between pushes is
-   not seen.  The site median and its interval still come from the pushes'
-   own fits and the phic ridge (3., 4.): they are set largely by the prior
-   and are not calibrated, and the site says so (``calibrated: false`` and
-   a note).
-
-``profiles_needed = ceil((between_cv / target_cv)^2)`` at the middle
-sinkage of the first plate: the pushes for which the standard error of the
-site-mean plate pressure falls to ``target_cv`` (at least 1).
+site into one site terrain with its spread, separating the site-level terrain
+(its median over pushes), the push-to-push variation (between-push variance)
+and the estimation noise of each push, so that estimation noise is not
+reported as variability.  Every push is fitted by the exact solver; its
+estimation variance is a linearised sandwich (with a calibration) or a
+parametric bootstrap (:func:`bootstrap_pushes`, without); the per-push
+estimates are pooled by :mod:`terracone.inverse.sites.randeff`; the common
+scale of kc and kphi comes from phic, fixed or on the site's ridge; without a
+calibration the push-to-push CV comes from what the CI fixes
+(:func:`shape_pushes`).  The model, step by step, and its checks are in
+``docs/sites.md``.
 
 References
 ----------

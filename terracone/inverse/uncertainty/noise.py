@@ -1,36 +1,14 @@
 """The CI error model of the posterior: noise weights and AR(1) correlation along depth.
 
-The CI error at depth z_i is Gaussian with standard deviation
-``sigma * w_i`` and an AR(1) correlation along depth:
-
-* ``noise_model="relative"`` (default): ``w_i`` is proportional to
-  ``sqrt(m_i^2 + (floor * max m)^2)`` with ``m`` the best-fit model CI and
-  ``floor = noise_floor`` (5% by default; an additive part that stands for
-  the instrument resolution and keeps the surface readings from getting
-  infinite weight); ``"absolute"``: ``w_i = 1``.  The weights are normalised
-  to a root mean square of 1, so ``sigma`` [kPa] is the RMS noise standard
-  deviation over the profile.  They are computed once from the best fit
-  (plug-in weights), which keeps the likelihood a weighted least-squares
-  form.
-* Correlation: readings Delta apart correlate with ``rho**(Delta / dz0)``,
-  ``dz0`` the median spacing (a discretely sampled Ornstein-Uhlenbeck
-  process: AR(1) with lag-1 coefficient ``rho`` at the median spacing, and
-  exact for irregular spacing too).  Its inverse covariance is tridiagonal,
-  so the exact likelihood costs O(N): the residuals are whitened by
-  ``u_1 = e_1``, ``u_i = (e_i - phi_i e_{i-1}) / sqrt(1 - phi_i^2)``.
-  Unless given, ``rho`` is estimated from the best-fit residuals: their
-  lag-1 autocorrelation, corrected for what the fit absorbs of a correlated
-  error, at the actual depths (see :func:`estimate_correlation`), clipped to
-  [0, 0.95] and plugged in.  ``correlation="sample"`` samples rho instead
-  (uniform prior on [0, 0.95]; exact AR(1) likelihood including its
-  log-determinant), which carries its uncertainty into the intervals.
-* ``sigma`` is marginalised analytically under the scale-invariant prior
-  p(sigma) ~ 1/sigma: the marginal likelihood is ``Q(theta)^(-N/2)`` with
-  ``Q`` the whitened sum of squares (a multivariate Student t); a given
-  ``noise`` fixes it.  Draws of sigma are reported from its conditional
-  posterior ``sigma^2 | theta ~ Q / chi^2_N``.
-
-A part of :mod:`terracone.inverse.uncertainty.posterior` (until issue 13, of ``terracone.uncertainty``).
+The CI error at depth z_i is Gaussian with standard deviation ``sigma w_i``:
+relative weights ``w_i ~ sqrt(m_i^2 + (floor max m)^2)`` of the best-fit
+model CI (``noise_model="relative"``, plug-in, normalised to an RMS of 1) or
+``w_i = 1`` (``"absolute"``); readings Delta apart correlate with
+``rho**(Delta / dz0)`` (AR(1) at the median spacing, exact for irregular
+spacing, whitened in O(N)), rho estimated from the residuals
+(:func:`estimate_correlation`) or sampled; sigma is marginalised under
+p(sigma) ~ 1/sigma.  ``docs/uncertainty.md`` (The noise model) gives the
+details and their checks.
 
 References
 ----------

@@ -1,35 +1,16 @@
 """Posterior uncertainty of the prediction process: how well does one CI profile fix the parameters?
 
-:func:`terracone.inverse.predict` returns one best fit.  Many parameter sets
-fit a CI profile almost equally well (section 2 of [1]_: phic trades exactly
-against a common scale of kc and kphi under fully mobilised shear, and the
-kc, kphi and cc columns of eq. (2-7) are nearly collinear), and they predict
-quite different plate pressures.  :func:`posterior` samples the Bayesian
-posterior of (kc, kphi, n, cc, phic) given one profile and reports
-
-* 90% credible intervals of the parameters,
-* an identifiability label per parameter, from the ratio of its posterior to
-  its prior 90% width,
-* 90% bands of the predicted plate pressure against sinkage.
-
-The model of the CI error (noise weights, AR(1) correlation) is in
-:mod:`terracone.inverse.uncertainty.noise`, the priors in :mod:`terracone.inverse.uncertainty.priors`,
-the tabulated likelihood in :mod:`terracone.inverse.uncertainty.likelihood` and the
-emcee set-up in :mod:`terracone.inverse.uncertainty.sampler`; their docstrings give the
-details.
-
-Identifiability
----------------
-``ratio = (posterior 90% width) / (prior 90% width)`` per parameter (the
-prior's width from 8000 prior draws, so it is exact for the n-dependent US
-bounds and the calibration prior too): ``< 0.25`` "determined", ``< 0.75``
-"weakly determined", otherwise "set by prior".  A parameter held fixed
-(bounds LO = HI, or kc = 0 from a calibration) is "set by prior".  The
-labels are relative to the prior: with the default bounds "determined" kc
-may still span a factor of ten.  Under fully mobilised shear with the bounds prior, phic's
-posterior is its prior reweighted by ``s^-2`` (the prior volume of the
-(kc, kphi) pairs on the ridge), whose 90% width is 0.86 of the prior's: "set
-by prior", as it must be.
+Many parameter sets fit a CI profile almost equally well (section 2 of [1]_:
+phic trades against a common scale of kc and kphi, and the columns of eq.
+(2-7) are nearly collinear), and they predict different plate pressures.
+:func:`posterior` samples the Bayesian posterior of (kc, kphi, n, cc, phic)
+given one profile with emcee [2]_ and reports 90% credible intervals, an
+identifiability label per parameter (posterior over prior 90% width: below
+0.25 "determined", below 0.75 "weakly determined", else "set by prior") and
+90% bands of the predicted plate pressure.  The error model is in
+:mod:`.noise`, the priors in :mod:`.priors`, the likelihood in
+:mod:`.likelihood`, the sampler in :mod:`.sampler`; ``docs/uncertainty.md``
+describes them and their coverage.
 
 References
 ----------
@@ -38,8 +19,6 @@ References
    index data. Sections 2 and 3.
 .. [2] Foreman-Mackey, D., Hogg, D.W., Lang, D., Goodman, J. (2013). emcee:
    the MCMC hammer. PASP 125, 306-312.
-.. [3] Goodman, J., Weare, J. (2010). Ensemble samplers with affine
-   invariance. Comm. App. Math. Comp. Sci. 5(1), 65-80.
 """
 
 from __future__ import annotations

@@ -1,26 +1,12 @@
 """The posterior's sampler: emcee's ensemble sampler over the sampling coordinates.
 
-emcee's ensemble sampler [2]_ with differential-evolution moves (80%) and
-the affine-invariant stretch move [3]_ (20%), vectorised: one call of the
-log posterior evaluates all walkers of a half-ensemble (the likelihood is
-tabulated over n, :mod:`terracone.inverse.uncertainty.likelihood`).  With fully mobilised
-shear the sampler moves in ``(s kc, s kphi, n, cc, phic)``, ``s = 1 +
-tan(phic)/tan(15 deg)``, in which the exact phic ridge is a straight
-coordinate direction (the Jacobian ``s^-2`` is part of the target density).
-Walkers (128) start from a Laplace (Gauss-Newton) approximation around the
-exact solver's optimum, regularised by the prior's variances and truncated
-to the prior's support; 80 burn-in steps are discarded and the chain is
-thinned by 6, so ``draws`` = 2000 takes 94 more steps (defaults).  emcee's
-own bookkeeping costs about half a millisecond per step whatever the number
-of walkers, so many walkers and few steps are cheaper than the reverse for
-the same number of effective samples; the integrated autocorrelation time
-is about 15-20 steps, so 2000 draws are worth roughly 600-800 independent
-ones, and the interval ends move by about 1% of the interval's width
-against a 20000-draw run.  Acceptance fraction and autocorrelation times
-are reported, not enforced.
-
-The sampler of :func:`terracone.inverse.uncertainty.posterior.posterior`, moved from
-``terracone.uncertainty``.
+emcee [2]_ with differential-evolution (80%) and stretch [3]_ (20%) moves,
+vectorised over a half-ensemble.  With fully mobilised shear the sampler
+moves in ``(s kc, s kphi, n, cc, phic)``, ``s = 1 + tan(phic)/tan(15 deg)``,
+where the exact phic ridge of [1]_ is a coordinate direction (the Jacobian
+``s^-2`` is part of the target).  128 walkers start from a Laplace
+approximation around the exact optimum; 80 burn-in steps, thinning by 6.
+Settings and their cost: ``docs/uncertainty.md`` (The sampler).
 
 References
 ----------
