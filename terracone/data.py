@@ -743,7 +743,7 @@ class TerrainShear:
     modulus, tau = (c + sigma tan(phi)) (1 - exp(-j/K)) ([2]_; the same form
     as eq. (2-4) of [1]_, which applies it to the cone-metal interface with
     cc, phic_deg, K_cone: :class:`TerrainParameters`).  Measured with shear rings or
-    plates (:func:`terracone.physics.shear.fit_shear`), tabulated for reference
+    plates (:func:`terracone.inverse.bevameter.shear.fit_shear`), tabulated for reference
     terrains (:mod:`terracone.apps.library`), exported as Chrono's Mohr and
     Janosi parameters (:mod:`terracone.apps.export`).
 

@@ -208,7 +208,7 @@ def learn_html(res: Any) -> str:
 
 
 def layered_html(res: Any) -> str:
-    """Table of a :class:`terracone.physics.layers.LayeredResult`: one row per layer (SI)."""
+    """Table of a :class:`terracone.inverse.layered.LayeredResult`: one row per layer (SI)."""
     if not res.ok:
         return _table(
             f"Layered fit {res.id}: not fitted", ["Profile", "error"], [[res.id, res.error]]

@@ -12,10 +12,6 @@ information criterion BIC = N ln(SSE/N) + k ln N, with k = 4 per layer (kc,
 kphi, n, cc) plus one per interface (phic is not counted: it trades exactly
 with the scale of the k's).
 
-These names were in :mod:`terracone.physics.layers` and :mod:`terracone.uncertainty`
-before the forward and inverse modules were put apart (issue 13); both still
-re-export them.
-
 References
 ----------
 .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting

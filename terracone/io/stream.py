@@ -1,24 +1,15 @@
 """Streaming profile sets: long CSV and Parquet inputs larger than memory.
 
-:func:`terracone.io.iter_profile_sets` reads CSV and Parquet files (or a
-directory of them) through this module, block by block through pyarrow's readers
+A first, cheap pass (:func:`terracone.io.scan.scan_inputs`) checks every
+header, counts the profiles and fixes the type of every metadata column;
+then :func:`iter_chunks` reads the files block by block through pyarrow
 (:func:`pyarrow.csv.open_csv`, :meth:`pyarrow.parquet.ParquetFile.iter_batches`)
-and yields :class:`~terracone.data.ProfileSet` chunks of a fixed number of
-profiles.  The rows of a profile must be contiguous; the last profile of a
-block is carried over to the next block, so a profile is never split.
-
-:func:`terracone.apps.batch.run_batch` uses the same stream one level down: a
-first, cheap pass (:func:`terracone.io.scan.scan_inputs`) checks every header, counts the
-profiles and fixes the type of every metadata column; then
-:func:`iter_chunks` cuts the input into :class:`Chunk` objects, which hold
-the per-profile facts the output needs and a :class:`~terracone.data.ProfileSet`
-of the profiles that can be fitted.
-
-CSV files follow the conventions of :mod:`terracone.io`: ``#`` comment and
-blank lines are dropped by :class:`terracone.io.scan.CsvLines` (a line filter that keeps the
-file line of every data row); pyarrow parses the rest.  A file whose rows do
-not all have the header's number of fields is read by the standard library's
-:mod:`csv` module instead (missing fields are empty, extra fields must be).
+and cuts them into :class:`Chunk` objects: the per-profile facts the output
+needs and a :class:`~terracone.data.ProfileSet` of the profiles that can be
+fitted (:func:`chunk_set`).  A profile's rows must be contiguous; the last
+profile of a block is carried over to the next, so a profile is never split.
+:func:`terracone.io.iter_profile_sets` and
+:func:`terracone.apps.batch.run_batch` read through this stream.
 
 References
 ----------

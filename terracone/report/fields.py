@@ -1,21 +1,12 @@
 """Reports of real fields: many CI profiles at once.
 
-A field of tens or hundreds of pushes needs other views than one profile:
-
-* a **summary** first: the distribution of each parameter over the field,
-  the share of profiles flagged for lack of fit, and how often a layered
-  terrain wins over one layer (BIC, ``predict --layers N``);
-* a **map** when the profiles carry coordinates (``lat``/``lon`` or
-  ``latitude``/``longitude`` in their metadata): each profile at its place,
-  coloured by a parameter; plain matplotlib axes, no tiles, no network;
-* **small multiples** of every profile (not a sample): measured points, the
-  one-layer fit and, where two layers win, the layered fit and its
-  interfaces; several profiles per PNG so hundreds stay a few megabytes;
-* one **sortable table** of every profile that scrolls inside its own box.
-
-The builders take *field records*, one plain mapping per profile in SI
-(:func:`records_from_predict`, :func:`records_from_batch`), and return
-report sections (see :mod:`terracone.report.html`).
+A summary of the field (each parameter's distribution, lack of fit, how
+often layers win by BIC), a map when the profiles carry coordinates (plain
+matplotlib axes, no tiles, no network), small multiples of every profile and
+one sortable table of every profile (``docs/report.md``).  The builders take
+*field records*, one plain mapping per profile in SI
+(:func:`records_from_predict`, :func:`records_from_batch`), and return report
+sections of :mod:`terracone.report.parts`.
 
 References
 ----------

@@ -2,22 +2,11 @@
 
 A :class:`Table` holds a title, two-level column headings (a group such as
 ``kc`` over its units ``kN/m^(n+1)`` and ``lb/in^(n+1)``, as in the paper),
-rows of values and notes.  ``to_csv`` writes the notes (citation, the word
-SYNTHETIC where it applies) as ``#`` comment lines above one header row;
-``to_html`` gives a fragment (a scrollable ``<div>`` around a ``<table>``)
-for the report.
-
-Builders:
-
-* :func:`parameters_table`: kc, kphi, n, cc, phic in SI and US columns
-  (Tables 4-1 and 4-3).  The US values of kc and kphi depend on n
-  (:mod:`terracone.physics.units`).
-* :func:`shear_table`: the terrain's internal c, phi, K
-  (:class:`~terracone.data.TerrainShear`) in SI and US columns.
-* :func:`agreement_table`: R, R2, RMSD (kPa and psi) and CV per prediction
-  and plate test, one column group per plate size (Tables 4-2 and 4-4).
-* :func:`comparison_table`: ours beside the published values, row by row.
-* :func:`identifiability_table`: what the data determine, per profile.
+rows of values and notes; ``to_csv`` writes the notes as ``#`` lines above
+one header row, ``to_html`` a fragment for the report.  The builders
+(:func:`parameters_table`, :func:`shear_table`, :func:`agreement_table`,
+:func:`comparison_table`, :func:`identifiability_table`, ...) take results in
+SI and convert at the edge (the US values of kc and kphi depend on n).
 
 References
 ----------

@@ -280,7 +280,7 @@ def layered_text(layered: Mapping[str, Any], units: str) -> str:
     Parameters
     ----------
     layered : mapping
-        Profile id -> :class:`terracone.physics.layers.LayeredResult` (interfaces [m]).
+        Profile id -> :class:`terracone.inverse.layered.LayeredResult` (interfaces [m]).
     units : {"si", "us"}
         Unit of the printed interface depths.
 
@@ -349,7 +349,7 @@ def shear_fit_text(d: Mapping[str, Any], units: str) -> str:
     Parameters
     ----------
     d : mapping
-        ``ShearFit.as_dict(units)`` (:func:`terracone.physics.shear.fit_shear`).
+        ``ShearFit.as_dict(units)`` (:func:`terracone.inverse.bevameter.shear.fit_shear`).
     units : {"si", "us"}
         The units ``d`` is in.
 

@@ -1,24 +1,14 @@
 """The learning process (section 3.3.1 of [1]_) and calibrations.
 
 Given CI profiles and plate pressure-sinkage tests of one terrain, find the
-RM1 transition radius r_min (outer search) and the five parameters kc, kphi,
-n, cc, phic fitted jointly to all data (inner search).
-
-Objective (default weighting): the sum over data sets (each CI profile and
-each plate test) of the data set's RMSD divided by its mean measured value,
-
-    J = sum_d RMSD_d / mean_d.
-
-For fixed (n, phic, r_min) every model value is linear in (kc, kphi, cc)
-(eqs. (2-5) to (2-7) for the cone, eq. (2-2) and section 3.2 for the
-plates), so J is convex in them; its minimum over the bounds is found with a
-duality-gap certificate (:mod:`.sumnorm`).  (n, phic, log r_min) are
-searched on a grid, the best local minima refined jointly with all
-parameters, and a branch and bound on the grid's cells bounds how far the
-answer can be from the global minimum (:mod:`.learnsearch`).
-
-The result can be saved as a :class:`Calibration`, the paper's "information
-library", and used by the prediction process.
+RM1 transition radius r_min and kc, kphi, n, cc, phic fitted jointly to all
+data, minimising ``J = sum_d RMSD_d / mean_d`` over the data sets d (each CI
+profile and each plate test): a certified convex solve in (kc, kphi, cc)
+(:mod:`.sumnorm`) on a grid of (n, phic, log r_min), the best local minima
+refined jointly, and a branch and bound that bounds how far the answer can be
+from the global minimum (:mod:`.search`; ``docs/learn.md``).  The result is
+saved as a :class:`Calibration`, the paper's "information library", which
+the prediction process uses.
 
 References
 ----------
@@ -335,7 +325,7 @@ def learn(
     profile and each plate test's loading branch) within the bounds: a
     certified inner solve in (kc, kphi, cc) on a grid of (n, phic,
     log r_min), then a joint refinement of all parameters from the best
-    grid points that are local minima (see :mod:`.learnsearch`).
+    grid points that are local minima (see :mod:`.search`).
 
     Parameters
     ----------

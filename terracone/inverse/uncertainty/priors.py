@@ -12,7 +12,7 @@
   uniform within its bounds (the profile, not the calibration, sets n).
   A calibration with kc = 0 fixes kc = 0.
 
-Used by :func:`terracone.inverse.uncertainty.posterior.posterior`; ``terracone.uncertainty`` re-exports it.
+Used by :func:`terracone.inverse.uncertainty.posterior.posterior`.
 
 References
 ----------
