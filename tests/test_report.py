@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from chromium import browser_check, find_chromium, screenshot
 from click.testing import CliRunner
 
 import terracone
@@ -31,7 +32,6 @@ from terracone.io import read_plate_tests
 from terracone.physics import units as u
 from terracone.report import build_report, result_kind
 from terracone.report import figures as F
-from terracone.report.browser import browser_check, find_chromium, screenshot
 from terracone.report.paper import published_agreement, published_parameters, us_column_check
 from terracone.report.tables import (
     Table,

@@ -2,7 +2,7 @@
 
 Real data: the Marsden Farm SC900 export (83 pushes) in ../shared; the tests
 that need it skip when it is absent.  The browser tests drive Debian's
-headless Chromium over the DevTools pipe (terracone.report.browser) and skip
+headless Chromium over the DevTools pipe (tests/chromium.py) and skip
 when no Chromium is installed (they never install it).  Screenshots go to
 the test's tmp folder, or to $TERRACONE_SCREENSHOTS when set.
 """
@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from chromium import BrowserSession, find_chromium
 from click.testing import CliRunner
 
 import terracone
@@ -31,7 +32,6 @@ from terracone.notebook import fmt_value
 from terracone.report import build_report
 from terracone.report import fields as FL
 from terracone.report import figures as F
-from terracone.report.browser import BrowserSession, find_chromium
 from terracone.result import PredictionResults
 
 REAL = (

@@ -11,6 +11,7 @@ from types import SimpleNamespace
 
 import pandas as pd
 import pytest
+from chromium import browser_check, find_chromium
 from click.testing import CliRunner
 from PIL import Image
 
@@ -19,7 +20,6 @@ from terracone.cli import cli
 from terracone.io import read_ci_profiles, read_plate_tests
 from terracone.physics import units as u
 from terracone.report import build_report
-from terracone.report.browser import browser_check, find_chromium
 from terracone.report.paper import published_agreement, published_parameters
 
 

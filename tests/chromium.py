@@ -1,6 +1,7 @@
-"""Look at a report in a real browser: headless Chromium, no network.
+"""Look at a report in a real browser: headless Chromium, no network (a test helper).
 
-Used by the tests (and handy by hand) to check that a report renders:
+The report tests use it (and it is handy by hand, from the repository) to check that a
+report renders:
 :func:`browser_check` loads the file with ``--dump-dom`` and reads what the
 report's inline self-check script wrote after the load event (images whose
 ``naturalWidth`` is above zero, errors caught by the page) and the console
