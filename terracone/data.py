@@ -274,10 +274,6 @@ class ProfileSet:
     def __iter__(self) -> Iterator[CIProfile]:
         return (self[i] for i in range(len(self)))
 
-    def to_profiles(self) -> list[CIProfile]:
-        """The profiles as a list of :class:`CIProfile`."""
-        return list(self)
-
     @classmethod
     def from_profiles(cls, items: Iterable[CIProfile | InputError]) -> ProfileSet:
         """Gather profiles (and reader errors, which go to ``errors``) into one set."""

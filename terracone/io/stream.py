@@ -43,7 +43,7 @@ from terracone.io.scan import (
 from terracone.io.tables import to_numbers
 from terracone.physics.cone import Cone, get_cone
 
-__all__ = ["validate_set", "iter_chunks", "chunk_set", "Chunk", "ConeCache"]
+__all__ = ["iter_chunks", "chunk_set", "Chunk", "ConeCache"]
 
 #: Same tolerance as CIProfile.validate for a base depth above -H.
 H_TOL = 1e-9
@@ -565,27 +565,6 @@ def iter_chunks(
 # ---------------------------------------------------------------------------
 # profile sets
 # ---------------------------------------------------------------------------
-
-
-def locate_validation_error(profiles: ProfileSet, j: int, exc: InputError) -> InputError:
-    """An error of :meth:`CIProfile.validate` on profile ``j`` located in its file
-    (:meth:`ProfileSet.locate`)."""
-    return profiles.locate(j, exc)
-
-
-def validate_set(profiles: ProfileSet) -> ProfileSet:
-    """The profiles of a set that :meth:`CIProfile.validate` accepts.
-
-    The others move to ``errors``, located in their file (row and column of
-    the point, as :func:`terracone.apps.batch.run_batch` reports them).
-    """
-    bad = profiles.screen()
-    if not bad:
-        return profiles
-    keep = [j for j in range(len(profiles)) if j not in bad]
-    out = profiles.take(keep)
-    out.errors = list(profiles.errors) + [bad[j] for j in sorted(bad)]
-    return out
 
 
 def chunk_set(chunk: Chunk, plan: ScanPlan, depth_ref: str = "base") -> ProfileSet:

@@ -55,7 +55,6 @@ __all__ = [
     "fig_map",
     "save_figure",
     "png_bytes",
-    "svg_text",
 ]
 
 #: Printed on every figure drawn from synthetic data.
@@ -137,6 +136,20 @@ def _finish(fig: Figure, title: str | None, synthetic: bool) -> Figure:
 
 def _markevery(n: int) -> int:
     return max(1, n // 10)
+
+
+def _measured(ax, x, y, colour, marker, label: str, size: float = 3.5) -> None:
+    """A measured curve: dashed, open markers."""
+    n = np.size(x)
+    ax.plot(x, y, linestyle="--", marker=marker, markersize=size, markerfacecolor="white",
+            markevery=_markevery(n), color=colour, linewidth=1.1, label=label)  # fmt: skip
+
+
+def _modelled(ax, x, y, colour, marker, label: str) -> None:
+    """A model curve: solid, filled markers between the measured ones."""
+    k = _markevery(np.size(x))
+    ax.plot(x, y, linestyle="-", marker=marker, markersize=4, markevery=(k // 2 or 1, k),
+            color=colour, linewidth=2.0, label=label)  # fmt: skip
 
 
 # ---------------------------------------------------------------------------
@@ -241,30 +254,9 @@ def _ci_axes(ax, profiles, d: _Disp, *, measured_label="measured", model_label="
     for i, p in enumerate(profiles):
         c, m = _style(i)
         z = d.length(p["depth"])
-        ax.plot(
-            z,
-            d.pressure(p["ci"]),
-            linestyle="--",
-            marker=m,
-            markersize=4,
-            markerfacecolor="white",
-            markevery=_markevery(z.size),
-            color=c,
-            linewidth=1.1,
-            label=f"{p['id']} {measured_label}",
-        )
+        _measured(ax, z, d.pressure(p["ci"]), c, m, f"{p['id']} {measured_label}", size=4)
         if p.get("ci_model") is not None:
-            ax.plot(
-                z,
-                d.pressure(p["ci_model"]),
-                linestyle="-",
-                marker=m,
-                markersize=4,
-                markevery=(_markevery(z.size) // 2 or 1, _markevery(z.size)),
-                color=c,
-                linewidth=2.0,
-                label=f"{p['id']} {model_label}",
-            )
+            _modelled(ax, z, d.pressure(p["ci_model"]), c, m, f"{p['id']} {model_label}")
     ax.set_xlabel(f"cone-base depth z [{d.L}]")
     ax.set_ylabel(f"cone index CI [{d.P}]")
     ax.set_ylim(bottom=0)
@@ -332,34 +324,15 @@ def _plate_axes(ax, d: _Disp, measured, predicted, bands, *, by_series: bool):
         c, m = _style(i)
         z = np.asarray(s["sinkage"], float)
         lab = s["id"] if by_series else f"measured {d.radius_label(s['radius'])}"
-        ax.plot(
-            d.length(z),
-            d.pressure(s["pressure"]),
-            linestyle="--",
-            marker=m,
-            markersize=3.5,
-            markerfacecolor="white",
-            markevery=_markevery(z.size),
-            color=c,
-            linewidth=1.1,
-            label=s.get("label", lab + (" measured" if by_series else "")),
-        )
+        lab = s.get("label", lab + (" measured" if by_series else ""))
+        _measured(ax, d.length(z), d.pressure(s["pressure"]), c, m, lab)
     for s in predicted:
         i = ids.index(s["id"]) if by_series else radii.index(_radius_key(s["radius"]))
         c, m = _style(i)
         z = np.asarray(s["sinkage"], float)
         lab = s["id"] if by_series else f"predicted {d.radius_label(s['radius'])}"
-        ax.plot(
-            d.length(z),
-            d.pressure(s["pressure"]),
-            linestyle="-",
-            marker=m,
-            markersize=4,
-            markevery=(_markevery(z.size) // 2 or 1, _markevery(z.size)),
-            color=c,
-            linewidth=2.0,
-            label=s.get("label", lab + (" predicted" if by_series else "")),
-        )
+        lab = s.get("label", lab + (" predicted" if by_series else ""))
+        _modelled(ax, d.length(z), d.pressure(s["pressure"]), c, m, lab)
     ax.set_xlabel(f"sinkage z [{d.L}]")
     ax.set_ylabel(f"plate pressure p [{d.P}]")
     ax.set_xlim(left=0)
@@ -898,13 +871,6 @@ def png_bytes(fig: Figure) -> bytes:
     """The figure as PNG bytes."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
-    return buf.getvalue()
-
-
-def svg_text(fig: Figure) -> str:
-    """The figure as SVG text."""
-    buf = io.StringIO()
-    fig.savefig(buf, format="svg")
     return buf.getvalue()
 
 

@@ -334,11 +334,6 @@ class PosteriorResult:
             "values": _convert_samples(self.samples, units).tolist(),
         }
 
-    def params_at(self, index: int) -> TerrainParameters:
-        """One posterior draw as :class:`TerrainParameters`."""
-        kc, kphi, n, cc, phic = (float(v) for v in self.samples[index])
-        return TerrainParameters(kc, kphi, n, cc, phic, self.K_cone, self.model, self.r_min)
-
 
 def _num(v: float) -> float | None:
     v = float(v)
