@@ -31,6 +31,7 @@ from terracone.inverse.bounds import Bounds
 from terracone.inverse.solver.boxlsq import box_lsq3, gram
 from terracone.inverse.solver.columns import bounds_arrays, design
 from terracone.inverse.solver.intervals import CHI2_1_95, identification, linear_intervals
+from terracone.inverse.solver.polish import polish_many
 from terracone.physics.cone import Cone
 from terracone.physics.plate import PressureLaw
 
@@ -268,69 +269,9 @@ def _joint_refine(v0, resid_v, f_res):
     return (res.x, f1, int(res.nfev)) if f1 <= f0 else (v0, f0, int(res.nfev))
 
 
-def _polish(
-    X: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray
-) -> np.ndarray:
-    """Re-solve the bounded linear least squares on the design matrix itself (BVLS).
-
-    The normal equations lose about cond(X) digits near a perfect fit; a
-    QR-based solve does not.  Kept only if it lowers the sum of squares.
-    """
-    free = hi > lo
-    if not free.any():
-        return x0
-    x = _polish_on_face(X, y, lo, hi, x0)
-    if x is not None:
-        r0, r1 = X @ x0 - y, X @ x - y
-        return x if r1 @ r1 < r0 @ r0 else x0
-    xf = np.where(free, 0.0, lo)
-    rhs = y - X @ xf
-    Xf = X[:, free]
-    scale = np.sqrt(np.sum(Xf * Xf, axis=0))
-    scale = np.where(scale > 0, scale, 1.0)
-    try:
-        from scipy.optimize import lsq_linear  # on first use (0.3 s import)
-
-        res = lsq_linear(
-            Xf / scale, rhs, bounds=(lo[free] * scale, hi[free] * scale), method="bvls", tol=1e-15
-        )
-    except (ValueError, np.linalg.LinAlgError):
-        return x0
-    x = xf.copy()
-    x[free] = np.clip(res.x / scale, lo[free], hi[free])
-    r0, r1 = X @ x0 - y, X @ x - y
-    return x if r1 @ r1 < r0 @ r0 else x0
-
-
-def _polish_on_face(X, y, lo, hi, x0) -> np.ndarray | None:
-    """The least-squares solution on x0's face of the box (QR), if it is the box optimum.
-
-    The variables strictly inside their bounds at x0 are re-solved by
-    ``numpy.linalg.lstsq`` with the others held; the result is returned
-    when it stays inside the box and satisfies the optimality (KKT) signs
-    at the held bounds, else None (then BVLS decides).  One small QR
-    instead of scipy's BVLS, which gives the same optimum on that face.
-    """
-    act = (hi > lo) & (x0 > lo) & (x0 < hi)
-    x = x0.copy()
-    if act.any():
-        Xa = X[:, act]
-        scale = np.sqrt(np.sum(Xa * Xa, axis=0))
-        if not np.all(scale > 0):
-            return None
-        rhs = y - X[:, ~act] @ x0[~act]
-        sol = np.linalg.lstsq(Xa / scale, rhs, rcond=None)[0] / scale
-        if not (np.all(sol > lo[act]) and np.all(sol < hi[act])):
-            return None
-        x[act] = sol
-    r = X @ x - y
-    grad = X.T @ r  # half the gradient of the SSE
-    tol = 1e-8 * np.sqrt(np.sum(X * X, axis=0)) * math.sqrt(float(r @ r) + 1e-300)
-    held_lo = (hi > lo) & ~act & (x0 <= lo)
-    held_hi = (hi > lo) & ~act & (x0 >= hi)
-    if np.any(held_lo & (grad < -tol)) or np.any(held_hi & (grad > tol)):
-        return None
-    return x
+def _polish(X: np.ndarray, y: np.ndarray, lo, hi, x0) -> np.ndarray:
+    """:func:`~terracone.inverse.solver.polish.polish_many` on one profile (QR, not the normal equations)."""
+    return polish_many(X[None], y[None], lo[None], hi[None], np.asarray(x0, dtype=float)[None])[0]
 
 
 def _solve_mobilised(
