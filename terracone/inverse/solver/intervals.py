@@ -166,6 +166,20 @@ def _pinned_scan(G, g, yy, lo, hi, idx: int, vals: np.ndarray) -> np.ndarray:
     return box_lsq3(G[:, None], g[:, None], yy[:, None], lo2, hi2)[1]
 
 
+def _compiled_args(z, y, n_loc, phic_deg, K_cone, bounds, cone, law, vals, ratio):
+    """The arguments of the compiled scans (data; geometry and law), or None for numpy.
+
+    The kernels take fully mobilised shear, a scalar law and numba switched on.
+    """
+    coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
+    if K_cone is not None or not enabled() or any(c.size != 1 for c in coef):
+        return None
+    s = 1.0 + math.tan(math.radians(phic_deg)) / math.tan(cone.half_angle)
+    arr = [np.ascontiguousarray(a, dtype=float) for a in (z, y, n_loc)]
+    data = (*arr, s, bounds_params(bounds, ratio), np.ascontiguousarray(vals, dtype=float))
+    return data, (cone.height, cone.radius, not law.is_rm0, *(float(c.item()) for c in coef))
+
+
 def identify_scans(
     z: np.ndarray,
     y: np.ndarray,
@@ -194,21 +208,9 @@ def identify_scans(
     lo, hi : (Nn, 3) ndarray
         The box of (kc, kphi, cc) [SI] at each n.
     """
-    coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
-    if K_cone is None and enabled() and all(c.size == 1 for c in coef):
-        s = 1.0 + math.tan(math.radians(phic_deg)) / math.tan(cone.half_angle)
-        return identify_scan(
-            np.ascontiguousarray(z, dtype=float),
-            np.ascontiguousarray(y, dtype=float),
-            np.ascontiguousarray(n_loc, dtype=float),
-            s,
-            bounds_params(bounds, ratio),
-            np.ascontiguousarray(vals, dtype=float),
-            cone.height,
-            cone.radius,
-            not law.is_rm0,
-            *(float(c.item()) for c in coef),
-        )
+    args = _compiled_args(z, y, n_loc, phic_deg, K_cone, bounds, cone, law, vals, ratio)
+    if args is not None:
+        return identify_scan(*args[0], *args[1])
     X = design(
         z, n_loc[:, None], np.array(phic_deg), cone=cone, law=law, K_cone=K_cone, ratio=ratio
     )
@@ -265,21 +267,8 @@ def identify_extents(
     lo, hi : (Nn, 3) ndarray
         The box of (kc, kphi, cc) [SI] at each n.
     """
-    coef = [np.asarray(c, dtype=float) for c in law.coefficients()]
-    if K_cone is None and enabled() and all(c.size == 1 for c in coef):
-        s = 1.0 + math.tan(math.radians(phic_deg)) / math.tan(cone.half_angle)
-        return identify_extent(
-            np.ascontiguousarray(z, dtype=float),
-            np.ascontiguousarray(y, dtype=float),
-            np.ascontiguousarray(n_loc, dtype=float),
-            s,
-            bounds_params(bounds, ratio),
-            np.ascontiguousarray(vals, dtype=float),
-            float(thr),
-            cone.height,
-            cone.radius,
-            not law.is_rm0,
-            *(float(c.item()) for c in coef),
-        )
+    args = _compiled_args(z, y, n_loc, phic_deg, K_cone, bounds, cone, law, vals, ratio)
+    if args is not None:
+        return identify_extent(*args[0], float(thr), *args[1])
     sse, lo, hi = identify_scans(z, y, n_loc, phic_deg, K_cone, bounds, cone, law, vals, ratio)
     return (*scan_extents(sse, thr), lo, hi)
