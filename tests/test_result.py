@@ -212,7 +212,7 @@ def test_report_reads_a_document_by_its_schema_key(tmp_path):
 
 
 def test_table_has_batch_columns_and_the_results_values(tmp_path):
-    from terracone.apps.batch import OUTPUT_COLUMNS
+    from terracone.result import PARQUET_COLUMNS as OUTPUT_COLUMNS
 
     results = [_result(0), _result(1), _error_result()]
     path = write_results_parquet(tmp_path / "p.parquet", results, "us")
@@ -320,7 +320,7 @@ def test_batch_part_files_have_the_predict_table_schema(ci_file, tmp_path):
     pq_path = tmp_path / "p.parquet"
     r = CliRunner().invoke(cli, ["predict", str(ci_file), "--parquet", str(pq_path)])
     assert r.exit_code == 0, r.output
-    s = run_batch(ci_file, tmp_path / "out", workers=1, quiet=True)
+    s = run_batch(ci_file, tmp_path / "out", workers=1, progress=False)
     assert s.profiles == 3 and s.profiles_ok == 2
     (part,) = sorted((tmp_path / "out").glob("part-*.parquet"))
     assert check_table_schema(part) == 1

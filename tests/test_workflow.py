@@ -56,7 +56,7 @@ def test_plate_curves_are_bekker_by_hand():
     # RM0 plate pressure is Bekker's eq. (2-2): p = (kc / b + kphi) z^n, b the radius
     run = predict_profiles(read_ci_profiles(EXAMPLE)[:1], plates=[0.05])
     res = run.results[0]
-    curve = run.plates[res.id][0]
+    curve = res.plate_curves[0]
     p = res.params
     z = np.linspace(0.0, 0.05, 26)
     np.testing.assert_allclose(curve["sinkage"], z)
@@ -70,7 +70,7 @@ def test_a_bad_profile_is_reported_and_the_rest_fitted(tmp_path):
     run = predict_profiles(read_ci_profiles(f, on_error="collect"), plates=[0.05])
     status = {r.id: r.ok for r in run.results}
     assert status == {"A": True, "B": False}
-    assert list(run.plates) == ["A"]
+    assert [r.id for r in run.results if r.plate_curves] == ["A"]
     err = next(r for r in run.results if r.id == "B").error
     assert "row 7" in str(err) and "ci_kpa" in str(err)
 
