@@ -131,35 +131,11 @@ PARQUET_COLUMNS: tuple[tuple[str, pa.DataType], ...] = (
     ("chunk", pa.int64()),
     ("fit_time_s", pa.float64()),
 )
-_TYPES = dict(PARQUET_COLUMNS)
-#: Per-profile results that are floats (NaN = null) ...
-FLOAT_COLUMNS = (
-    "kc",
-    "kphi",
-    "n",
-    "cc",
-    "phic_deg",
-    "phic_lo",
-    "phic_hi",
-    "n_lo",
-    "n_hi",
-    "rmsd",
-    "r2_ci",
-    "longest_run",
-    *[f"{p}_{q}" for p in UQ_PARAMS for q in ("q05", "q95")],
-    "bic_single",
-    "bic_layered",
-    "preferred_layers",
-    "r2_layered",
-)
-#: ... and texts (None = null).
-TEXT_COLUMNS = (
-    "lack_of_fit",
-    *[f"ident_{p}" for p in UQ_PARAMS],
-    "interfaces",
-    "n_layers",
-    "lack_of_fit_layered",
-)
+_NAMES = [k for k, _ in PARQUET_COLUMNS]
+_FIT = PARQUET_COLUMNS[_NAMES.index("kc") : _NAMES.index("n_points")]
+#: Per-profile fit results that are floats (NaN = null) and texts (None = null).
+FLOAT_COLUMNS = tuple(k for k, t in _FIT if t == pa.float64())
+TEXT_COLUMNS = tuple(k for k, t in _FIT if t == pa.string())
 #: Every per-profile fit result of the table.
 RESULT_COLUMNS = FLOAT_COLUMNS + TEXT_COLUMNS
 
@@ -559,34 +535,21 @@ def _num(v: Any) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def _intervals_from_si(
-    iv: Mapping[str, Sequence[float]], n: float, units: str
-) -> dict[str, list[float]]:
-    conv = {
-        "kc": lambda v: u.kc_from_si(v, n, units),
-        "kphi": lambda v: u.kphi_from_si(v, n, units),
-        "cc": lambda v: u.pressure_from_si(v, units),
-    }
-    out = {}
-    for k, (lo, hi) in iv.items():
-        f = conv.get(k, lambda v: v)
-        out[k] = [float(f(lo)), float(f(hi))]
-    return out
+def _intervals(iv: Mapping[str, Sequence[float]], n: float, units: str, to_si: bool) -> dict:
+    """Intervals of kc, kphi (with n), cc and the unitless rest, to or from SI."""
+    kc, kphi = (u.kc_to_si, u.kphi_to_si) if to_si else (u.kc_from_si, u.kphi_from_si)
+    p = u.pressure_to_si if to_si else u.pressure_from_si
+    conv = {"kc": lambda v: kc(v, n, units), "kphi": lambda v: kphi(v, n, units)}
+    conv["cc"] = lambda v: p(v, units)
+    return {k: [float(conv.get(k, float)(v)) for v in lohi] for k, lohi in iv.items()}
 
 
-def _intervals_to_si(
-    iv: Mapping[str, Sequence[float]], n: float, units: str
-) -> dict[str, tuple[float, float]]:
-    conv = {
-        "kc": lambda v: u.kc_to_si(v, n, units),
-        "kphi": lambda v: u.kphi_to_si(v, n, units),
-        "cc": lambda v: u.pressure_to_si(v, units),
-    }
-    out = {}
-    for k, (lo, hi) in iv.items():
-        f = conv.get(k, lambda v: v)
-        out[k] = (float(f(lo)), float(f(hi)))
-    return out
+def _intervals_from_si(iv: Mapping[str, Sequence[float]], n: float, units: str) -> dict:
+    return _intervals(iv, n, units, to_si=False)
+
+
+def _intervals_to_si(iv: Mapping[str, Sequence[float]], n: float, units: str) -> dict:
+    return {k: (lo, hi) for k, (lo, hi) in _intervals(iv, n, units, to_si=True).items()}
 
 
 # ---------------------------------------------------------------------------

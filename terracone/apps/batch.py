@@ -105,41 +105,19 @@ WORKER_COLUMNS = ("status", "error", "error_row", "error_column", "undetermined"
 
 @dataclass
 class BatchSummary:
-    """What :func:`run_batch` did (also written to ``OUT_DIR/_summary.json``).
+    """What :func:`run_batch` did (also written to ``OUT_DIR/_summary.json``; ``docs/batch.md``).
 
-    Attributes
-    ----------
-    out_dir : str
-    profiles, profiles_ok, profiles_error : int
-        Rows in the output (one per input profile) and their status counts,
-        over all part files (including chunks done by an earlier run).
-    chunks : int
-        Part files of the complete output.
-    chunks_run : int
-        Chunks computed by this call.
-    chunks_skipped : int
-        Chunks found complete in ``out_dir`` (``resume=True``) and not recomputed.
-    chunks_failed : int
-        Chunks whose task failed on the cluster; their profiles are written
-        with status "error" and a later ``resume=True`` run recomputes them.
-    duplicate_ids : dict
-        Profile ids that occur more than once in the output -> count (at
-        most 100 listed); ``n_duplicate_ids`` counts them all.
-    problems : list of str
-        Run-level problems (duplicate ids, failed chunks, a changed input,
-        output that does not match the input).  Empty when all is well.
-    workers : int
-        Worker threads of the cluster.
-    scheduler : str or None
-        Address of the external scheduler; None for the local cluster.
-    scan_s, startup_s, read_s, fit_s, fit_cpu_s, write_s, verify_s, wall_s : float
-        Seconds: first pass over the input; cluster start or connection;
-        reading and parsing chunks (client); fitting (sum over chunks of
-        the time in the worker task, i.e. worker-seconds, and of its CPU
-        time: they differ when the machine is busy); writing part files
-        (client); final check of the output; whole call.
-    profiles_per_s : float
-        Profiles of the chunks computed by this call per second of wall time.
+    Counts are over all part files (chunks of an earlier run included):
+    ``profiles`` (one row each), ``profiles_ok``, ``profiles_error``,
+    ``chunks``; ``chunks_run`` by this call, ``chunks_skipped`` (found whole
+    on resume), ``chunks_failed`` (their profiles are error rows; resume
+    recomputes them); ``duplicate_ids`` (id -> count, at most 100 listed;
+    ``n_duplicate_ids`` counts all); ``problems``: run-level problems, empty
+    when all is well.  ``workers`` (threads) and ``scheduler`` (None: local
+    cluster).  Seconds: ``scan_s``, ``startup_s``, ``read_s`` and
+    ``write_s`` (client), ``fit_s`` and ``fit_cpu_s`` (worker-seconds and
+    their CPU time, summed over chunks), ``verify_s``, ``wall_s``;
+    ``profiles_per_s``: profiles computed by this call per wall second.
     """
 
     out_dir: str

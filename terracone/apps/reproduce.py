@@ -4,49 +4,18 @@ SYNTHETIC DATA.  The paper's measured curves (LETE sand, 1981; KRC, 2018)
 were never published, only the parameters fitted to them (Tables 4-1 and
 4-3) and the agreement statistics (Tables 4-2 and 4-4).  :func:`reproduce`
 therefore generates data from the published parameters with terracone's
-forward models, runs them through the learning, prediction and evaluation
-processes, and sets the results beside the published tables.
-
-Data (all seeded, numpy PCG64):
-
-* LETE sand (seed 1981).  Four CI profiles LS_1..LS_4 from the Table 4-1
-  parameters with the improved model (eqs. (2-2) to (2-7)), **RM0** (the
-  paper does not publish r_min; RM0 needs no invented value), fully
-  mobilised shear, the standard 30 deg, 0.5 in^2 cone, cone-base depths
-  0 to 30 cm every 1 cm.  Five plate-test pairs LS_A..LS_E, radii 3.75 cm
-  and 5 cm, from Wong's LETE sand values (kc 102 kN/m^(n+1), kphi 5301
-  kN/m^(n+2), n 0.79, quoted in section 2 of the paper) with the Bekker
-  equation, sinkage 2 to 100 mm every 2 mm.
-* KRC (seed 2018).  Eight sites KRC_1, 2, 3, 4, 7, 9, 24, 25: a CI profile
-  from the site's Table 4-3 parameters (as for LETE) and a plate pair of
-  4 in and 6 in diameter (the paper's "10 cm" and "15 cm"; its
-  recommendation G, 1,500 lb giving 119 and 53 psi, fixes them at 4 and
-  6 in) generated **from the same Table 4-3 parameters**: the KRC plate
-  measurements were never published.  Each plate test ends when the force
-  reaches 1,500 lbf (6,672 N), as KRC's bevameter did.
-
-Noise model: every CI reading is multiplied by (1 + 0.03 e) and every plate
-pressure by (1 + 0.02 e), e independent standard normal; each LETE plate
-pair is also multiplied by exp(0.10 g), g standard normal, one draw per
-pair (the spread between tests on one site).  Values are rounded to
-0.01 kPa.
-
-Processes: LETE learning (section 3.3.1, RM1) on all CI profiles and plate
-tests gives one calibration; every CI profile is predicted (section 3.3.2)
-with that calibration (these go into the Table 4-1/4-2 analogues) and
-without it (CI alone, shown beside); every prediction is evaluated against
-every plate test (the cross table of Table 4-2).  KRC: learning per site
-(CI and the site's plates), prediction of the site's CI with the site's
-calibration (Table 4-3/4-4 analogues) and without; evaluation against the
-site's plates (Table 4-4).  Posterior plate bands come from
-:func:`terracone.apps.workflow.attach_fits` (the posterior of each calibrated fit).
+forward models (seeded, with the noise model :data:`NOISE_MODEL`), runs them
+through the learning, prediction and evaluation processes (posterior bands
+through :func:`terracone.apps.workflow.attach_fits`), and sets the results
+beside the published tables.  ``docs/report.md`` describes the data, the
+noise model and how to read the comparison.
 
 Layout: each case study is one spec (its data generator, file names, and
 per report section the tables and figures with their keys, titles, notes
 and captions); one builder per kind of table or figure reads it, so what
-LETE and KRC share is written once.  The learning runs, the predictions
-and the figures go through a ``pool`` with a ``map`` method (as in emcee):
-a process pool by default, the builtin ``map`` with ``workers=1``.
+LETE and KRC share is written once.  The learning runs, the posteriors and
+the figures go through a ``pool`` with a ``map`` method (as in emcee): a
+process pool by default, the builtin ``map`` with ``workers=1``.
 
 References
 ----------

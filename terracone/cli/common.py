@@ -180,31 +180,8 @@ json_options = (
 )
 
 
-fit_options = shared(
-    click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True),
-    click.option(
-        "--r-min",
-        default=None,
-        help="RM1 transition radius (e.g. 0.01, 1cm, 0.4in; bare numbers in --units).",
-    ),
-    click.option(
-        "--calibration",
-        type=click.Path(dir_okay=False),
-        default=None,
-        help="Calibration JSON from `terracone learn --save`.",
-    ),
-    click.option(
-        "--terrain", default=None, help="Use a calibration stored in the terrain library."
-    ),
-    click.option(
-        "--library",
-        default=None,
-        help="Terrain library path (default: $TERRACONE_LIBRARY or the user data dir).",
-    ),
-    click.option(
-        "--bounds", default=None, help="kc=LO:HI,kphi=LO:HI,n=LO:HI,cc=LO:HI,phic=LO:HI in --units."
-    ),
-    click.option("--units", type=UNITS, default="si", show_default=True),
+#: How CI files are read: --cone, --format, a wide table's units, --depth-ref, --depth-range.
+reading_options = (
     click.option(
         "--cone",
         default="asabe-large",
@@ -232,6 +209,36 @@ fit_options = shared(
         default=None,
         help="Fit only LO:HI of base depth (e.g. 0.05:0.30, 5cm:30cm; bare numbers in --units).",
     ),
+)
+
+library_option = click.option(
+    "--library",
+    default=None,
+    help="Terrain library path (default: $TERRACONE_LIBRARY or the user data dir).",
+)
+
+fit_options = shared(
+    click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True),
+    click.option(
+        "--r-min",
+        default=None,
+        help="RM1 transition radius (e.g. 0.01, 1cm, 0.4in; bare numbers in --units).",
+    ),
+    click.option(
+        "--calibration",
+        type=click.Path(dir_okay=False),
+        default=None,
+        help="Calibration JSON from `terracone learn --save`.",
+    ),
+    click.option(
+        "--terrain", default=None, help="Use a calibration stored in the terrain library."
+    ),
+    library_option,
+    click.option(
+        "--bounds", default=None, help="kc=LO:HI,kphi=LO:HI,n=LO:HI,cc=LO:HI,phic=LO:HI in --units."
+    ),
+    click.option("--units", type=UNITS, default="si", show_default=True),
+    *reading_options,
     click.option(
         "--layers",
         type=click.IntRange(1, 4),

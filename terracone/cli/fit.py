@@ -8,21 +8,21 @@ from pathlib import Path
 import click
 
 from terracone import __version__
-from terracone.apps.workflow import Reading
 from terracone.cli.common import (
     UNITS,
     emit_json,
     fit_options,
     json_options,
+    library_option,
     load_prior,
-    parse_depth_range,
     parse_length,
     parse_lengths,
     parse_r_min_range,
     reading_from,
+    reading_options,
     settings_from,
     shared,
-    wide_options,
+    store_in_library,
 )
 from terracone.data import InputError, TerrainParameters
 from terracone.physics import units as u
@@ -138,18 +138,7 @@ def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts)
 @click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm1", show_default=True)
 @click.option("--bounds", default=None, help="kc=LO:HI,... as for predict, in --units.")
 @click.option("--units", type=UNITS, default="si", show_default=True)
-@click.option(
-    "--cone",
-    default="asabe-large",
-    show_default=True,
-    help="Cone when the input does not name one (as predict --cone).",
-)
-@click.option("--format", "fmt", type=click.Choice(["csv", "sc900", "wide"]), default=None)
-@shared(*wide_options)
-@click.option("--depth-ref", type=click.Choice(["base", "tip"]), default="base", show_default=True)
-@click.option(
-    "--depth-range", default=None, help="Fit only LO:HI of the CI profiles (as for predict)."
-)
+@shared(*reading_options)
 @click.option(
     "--r-min-range",
     default=None,
@@ -168,45 +157,22 @@ def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts)
 @click.option(
     "--save-as", default=None, help="Store the calibration in the terrain library under this name."
 )
-@click.option(
-    "--library",
-    default=None,
-    help="Terrain library path (default: $TERRACONE_LIBRARY or the user data dir).",
-)
+@library_option
 @click.option("--json", "as_json", is_flag=True)
-def learn_cmd(
-    ci_file,
-    plates_file,
-    model,
-    bounds,
-    units,
-    cone,
-    fmt,
-    depth_ref,
-    depth_range,
-    r_min_range,
-    terrain_name,
-    save,
-    save_as,
-    library,
-    as_json,
-    depth_unit,
-    ci_unit,
-):
+def learn_cmd(ci_file, plates_file, r_min_range, terrain_name, save, save_as, as_json, **opts):
     """Learn r_min, cc, phic and the P-S parameters from CI and plate tests (section 3.3.1)."""
     from terracone.inverse import Bounds
     from terracone.inverse.learning.learn import learn
     from terracone.io import read_plate_tests
 
-    reading = Reading(
-        cone, fmt, depth_ref, parse_depth_range(depth_range, units), depth_unit, ci_unit
-    )
-    profiles = reading.read(ci_file, units, on_error="raise")
+    units, model = opts["units"], opts["model"]
+    profiles = reading_from(opts).read(ci_file, units, on_error="raise")
     plates = read_plate_tests(plates_file)
     rb = parse_r_min_range(r_min_range, units)
     if rb is not None and model != "rm1":
         raise click.BadParameter("--r-min-range: only with --model rm1")
-    res = learn(profiles, plates, model=model, bounds=Bounds.parse(bounds, units), r_min_bounds=rb)
+    bounds = Bounds.parse(opts["bounds"], units)
+    res = learn(profiles, plates, model=model, bounds=bounds, r_min_bounds=rb)
     label = save_as or terrain_name or Path(ci_file).stem
     cal = res.calibration(
         label, cone=profiles[0].cone.name, ci_file=str(ci_file), plates_file=str(plates_file)
@@ -214,20 +180,11 @@ def learn_cmd(
     if save:
         cal.save(save)
     if save_as:
-        from terracone.apps.library import Library
-
-        with Library(library) as lib:
-            lib.add(save_as, "calibration", cal.library_params(), cal.provenance, replace=True)
+        store_in_library(
+            opts["library"], save_as, "calibration", cal.library_params(), cal.provenance
+        )
     d = res.as_dict(units)
-    d.update(
-        {
-            "terrain": label,
-            "terracone": __version__,
-            "command": "learn",
-            "saved": save,
-            "saved_as": save_as,
-        }
-    )
+    d.update(terrain=label, terracone=__version__, command="learn", saved=save, saved_as=save_as)
     if as_json:
         emit_json(d)
         return

@@ -12,25 +12,14 @@ posterior of (kc, kphi, n, cc, phic) given one profile and reports
   its prior 90% width,
 * 90% bands of the predicted plate pressure against sinkage.
 
-The model of the CI error (noise weights, AR(1) correlation) is in
-:mod:`terracone.inverse.uncertainty.noise`, the priors in :mod:`terracone.inverse.uncertainty.priors`,
-the tabulated likelihood in :mod:`terracone.inverse.uncertainty.likelihood` and the
-emcee set-up in :mod:`terracone.inverse.uncertainty.sampler`; their docstrings give the
-details.  (Before issue 13 all of it was ``terracone.uncertainty``, which
-remains as an alias re-exporting every public name.)
-
-Identifiability
----------------
-``ratio = (posterior 90% width) / (prior 90% width)`` per parameter (the
-prior's width from 8000 prior draws, so it is exact for the n-dependent US
-bounds and the calibration prior too): ``< 0.25`` "determined", ``< 0.75``
-"weakly determined", otherwise "set by prior".  A parameter held fixed
-(bounds LO = HI, or kc = 0 from a calibration) is "set by prior".  The
-labels are relative to the prior: with the default bounds "determined" kc
-may still span a factor of ten.  Under fully mobilised shear with the bounds prior, phic's
-posterior is its prior reweighted by ``s^-2`` (the prior volume of the
-(kc, kphi) pairs on the ridge), whose 90% width is 0.86 of the prior's: "set
-by prior", as it must be.
+The model of the CI error is in :mod:`terracone.inverse.uncertainty.noise`,
+the priors in :mod:`~terracone.inverse.uncertainty.priors`, the tabulated
+likelihood in :mod:`~terracone.inverse.uncertainty.likelihood` and the emcee
+set-up in :mod:`~terracone.inverse.uncertainty.sampler`.  Identifiability:
+``ratio = (posterior 90% width) / (prior 90% width)`` per parameter, below
+0.25 "determined", below 0.75 "weakly determined", else "set by prior" (a
+parameter held fixed is "set by prior"); ``docs/uncertainty.md`` explains
+the labels and the phic ridge.
 
 References
 ----------
