@@ -67,8 +67,8 @@ def test_evaluate_text_converts_units_at_the_edge():
 def test_no_library_module_imports_the_cli():
     offenders = []
     for path in PACKAGE.rglob("*.py"):
-        if path.name in ("cli.py", "__main__.py"):
-            continue
+        if path.name in ("cli.py", "__main__.py") or path.relative_to(PACKAGE).parts[0] == "cli":
+            continue  # the CLI itself (a package since issue 20) may import its own modules
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.ImportFrom):
                 base = node.module or ""
