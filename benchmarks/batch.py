@@ -105,7 +105,7 @@ def child(args: argparse.Namespace) -> None:
     t0 = time.perf_counter()
     if args.mode == "local":
         summary = run_batch(
-            args.input, args.out, workers=args.workers, chunk_size=args.chunk_size, quiet=True
+            args.input, args.out, workers=args.workers, chunk_size=args.chunk_size, progress=False
         )
         workers_rss = None
     else:  # memory: our own cluster, so that the workers can be asked for their peak RSS
@@ -129,7 +129,7 @@ def child(args: argparse.Namespace) -> None:
                 args.out,
                 scheduler=cluster.scheduler_address,
                 chunk_size=args.chunk_size,
-                quiet=True,
+                progress=False,
             )
             workers_rss = sorted(
                 v / 1024

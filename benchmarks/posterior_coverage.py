@@ -51,7 +51,7 @@ import numpy as np
 from terracone.data import CIProfile
 from terracone.inverse.learning.learn import Calibration
 from terracone.inverse.uncertainty.noise import ar1_noise
-from terracone.inverse.uncertainty.posterior import posterior
+from terracone.inverse.uncertainty.posterior import PosteriorOptions, posterior
 from terracone.inverse.uncertainty.priors import CalibrationPrior
 from terracone.physics.cone import cone_index_huang
 
@@ -138,8 +138,7 @@ def run(
             seed=seed * 1000 + i,
             plates=(PLATE_RADIUS,),
             plate_sinkages=(0.0, PLATE_SINKAGE),
-            correlation=correlation,
-            **kwargs,
+            options=PosteriorOptions(correlation=correlation, **kwargs),
         )
         times.append(time.perf_counter() - t0)
         lo, hi = res.intervals["n"]

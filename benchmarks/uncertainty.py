@@ -54,14 +54,18 @@ from terracone.inverse.learning.learn import Calibration
 from terracone.inverse.predict import rmsd_objective
 from terracone.inverse.uncertainty import likelihood
 from terracone.inverse.uncertainty.noise import ar1_noise
-from terracone.inverse.uncertainty.posterior import posterior, posterior_for_result
+from terracone.inverse.uncertainty.posterior import (
+    PosteriorOptions,
+    posterior,
+    posterior_for_result,
+)
 from terracone.physics.cone import cone_index_huang
 from terracone.physics.plate import pressure_law
 
 DEPTH = np.round(np.arange(0.0, 0.3001, 0.01), 6)
 LETE = Calibration("LETE sand (synthetic)", "rm0", None, None, 11.0, 1.0, 102.0, 5301.0, 0.79)
 PYSWARMS_OPTIONS = {"c1": 1.49618, "c2": 1.49618, "w": 0.7298}
-BEFORE = dict(nwalkers=64, burn=250, thin=15)
+BEFORE = dict(options=PosteriorOptions(nwalkers=64, burn=250, thin=15))
 
 
 def make_profiles(count: int, seed: int) -> list[CIProfile]:

@@ -68,6 +68,7 @@ __all__ = [
     "read_json",
     "read_results",
     "PosteriorSummary",
+    "LayeredSummary",
     "result_columns",
     "settings_dict",
     "to_document",
@@ -130,35 +131,11 @@ PARQUET_COLUMNS: tuple[tuple[str, pa.DataType], ...] = (
     ("chunk", pa.int64()),
     ("fit_time_s", pa.float64()),
 )
-_TYPES = dict(PARQUET_COLUMNS)
-#: Per-profile results that are floats (NaN = null) ...
-FLOAT_COLUMNS = (
-    "kc",
-    "kphi",
-    "n",
-    "cc",
-    "phic_deg",
-    "phic_lo",
-    "phic_hi",
-    "n_lo",
-    "n_hi",
-    "rmsd",
-    "r2_ci",
-    "longest_run",
-    *[f"{p}_{q}" for p in UQ_PARAMS for q in ("q05", "q95")],
-    "bic_single",
-    "bic_layered",
-    "preferred_layers",
-    "r2_layered",
-)
-#: ... and texts (None = null).
-TEXT_COLUMNS = (
-    "lack_of_fit",
-    *[f"ident_{p}" for p in UQ_PARAMS],
-    "interfaces",
-    "n_layers",
-    "lack_of_fit_layered",
-)
+_NAMES = [k for k, _ in PARQUET_COLUMNS]
+_FIT = PARQUET_COLUMNS[_NAMES.index("kc") : _NAMES.index("n_points")]
+#: Per-profile fit results that are floats (NaN = null) and texts (None = null).
+FLOAT_COLUMNS = tuple(k for k, t in _FIT if t == pa.float64())
+TEXT_COLUMNS = tuple(k for k, t in _FIT if t == pa.string())
 #: Every per-profile fit result of the table.
 RESULT_COLUMNS = FLOAT_COLUMNS + TEXT_COLUMNS
 
@@ -263,6 +240,63 @@ class PosteriorSummary:
             s[:, 1] = u.kphi_from_si(s[:, 1], n, units)
             s[:, 3] = u.pressure_from_si(s[:, 3], units)
         return {"names": list(UQ_PARAMS), "units": units, "values": s.tolist()}
+
+
+@dataclass
+class LayeredSummary:
+    """A layered fit as a prediction table keeps it (SI): what batch's layered columns hold.
+
+    :func:`read_results` attaches one to :attr:`PredictionResult.layered` for
+    each row of a table with a layered fit, where a fitted
+    :class:`~terracone.inverse.layered.LayeredResult` would be.
+
+    Attributes
+    ----------
+    status : {"ok", "error"}
+    error : str or None
+        Why the layered fit was not possible.
+    bic, bic_single : float
+        BIC of the layered and of the one-layer fit.
+    preferred_layers : int
+        Number of layers with the lower BIC.
+    r2_ci : float
+        R2 of the layered CI fit [-].
+    interfaces : list of float
+        Depths of the layer boundaries [m].
+    layer_n : list of float
+        n of each layer, top first [-].
+    lack_of_fit : str or None
+    """
+
+    status: str
+    error: str | None = None
+    bic: float = math.nan
+    bic_single: float = math.nan
+    preferred_layers: int = 1
+    r2_ci: float = math.nan
+    interfaces: list[float] = field(default_factory=list)
+    layer_n: list[float] = field(default_factory=list)
+    lack_of_fit: str | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        """The ``layered`` of a profile in a prediction document, as far as the table knows it."""
+        d: dict[str, Any] = {"status": self.status, "error": self.error}
+        if self.ok:
+            d.update(
+                layers=[{"n": v} for v in self.layer_n],
+                interfaces=[float(v) for v in u.length_from_si(self.interfaces, units)],
+                r2_ci=_num(self.r2_ci),
+                lack_of_fit=self.lack_of_fit,
+                bic=_num(self.bic),
+                bic_single=_num(self.bic_single),
+                preferred_layers=self.preferred_layers,
+                units=units,
+            )
+        return d
 
 
 @dataclass
@@ -468,13 +502,19 @@ class PredictionResults(list):
     ``settings`` holds the settings of the run that wrote them, as the file
     records them (the ``settings`` of a JSON document, of a batch's
     ``_run.json``), e.g. ``settings.get("calibration")``; empty otherwise.
+    ``header`` holds the other top-level keys of a JSON document (``input``,
+    ``command``, ``terracone``, ``units``, ``synthetic``, ``note``, ...).
     """
 
     settings: dict[str, Any]
+    header: dict[str, Any]
 
-    def __init__(self, results: Iterable[PredictionResult] = (), settings: Any = None) -> None:
+    def __init__(
+        self, results: Iterable[PredictionResult] = (), settings: Any = None, header: Any = None
+    ) -> None:
         super().__init__(results)
         self.settings = dict(settings or {})
+        self.header = dict(header or {})
 
     def _repr_html_(self) -> str:
         from terracone.notebook import predictions_html
@@ -495,34 +535,21 @@ def _num(v: Any) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def _intervals_from_si(
-    iv: Mapping[str, Sequence[float]], n: float, units: str
-) -> dict[str, list[float]]:
-    conv = {
-        "kc": lambda v: u.kc_from_si(v, n, units),
-        "kphi": lambda v: u.kphi_from_si(v, n, units),
-        "cc": lambda v: u.pressure_from_si(v, units),
-    }
-    out = {}
-    for k, (lo, hi) in iv.items():
-        f = conv.get(k, lambda v: v)
-        out[k] = [float(f(lo)), float(f(hi))]
-    return out
+def _intervals(iv: Mapping[str, Sequence[float]], n: float, units: str, to_si: bool) -> dict:
+    """Intervals of kc, kphi (with n), cc and the unitless rest, to or from SI."""
+    kc, kphi = (u.kc_to_si, u.kphi_to_si) if to_si else (u.kc_from_si, u.kphi_from_si)
+    p = u.pressure_to_si if to_si else u.pressure_from_si
+    conv = {"kc": lambda v: kc(v, n, units), "kphi": lambda v: kphi(v, n, units)}
+    conv["cc"] = lambda v: p(v, units)
+    return {k: [float(conv.get(k, float)(v)) for v in lohi] for k, lohi in iv.items()}
 
 
-def _intervals_to_si(
-    iv: Mapping[str, Sequence[float]], n: float, units: str
-) -> dict[str, tuple[float, float]]:
-    conv = {
-        "kc": lambda v: u.kc_to_si(v, n, units),
-        "kphi": lambda v: u.kphi_to_si(v, n, units),
-        "cc": lambda v: u.pressure_to_si(v, units),
-    }
-    out = {}
-    for k, (lo, hi) in iv.items():
-        f = conv.get(k, lambda v: v)
-        out[k] = (float(f(lo)), float(f(hi)))
-    return out
+def _intervals_from_si(iv: Mapping[str, Sequence[float]], n: float, units: str) -> dict:
+    return _intervals(iv, n, units, to_si=False)
+
+
+def _intervals_to_si(iv: Mapping[str, Sequence[float]], n: float, units: str) -> dict:
+    return {k: (lo, hi) for k, (lo, hi) in _intervals(iv, n, units, to_si=True).items()}
 
 
 # ---------------------------------------------------------------------------
@@ -773,7 +800,9 @@ def from_document(doc: Mapping[str, Any], source: str | None = None) -> Predicti
         where = f"{source}: " if source else ""
         raise ValueError(f"{where}not a prediction document: no list 'profiles'")
     units = doc.get("units") or (doc.get("settings") or {}).get("units") or "si"
-    return PredictionResults((_result_from_dict(p, units) for p in profiles), doc.get("settings"))
+    header = {k: v for k, v in doc.items() if k not in ("profiles", "settings")}
+    results = (_result_from_dict(p, units) for p in profiles)
+    return PredictionResults(results, doc.get("settings"), header)
 
 
 def read_json(path: PathLike) -> PredictionResults:
@@ -848,61 +877,117 @@ def _posterior_row(post: Any, units: str) -> dict[str, Any]:
 
 
 def _layered_row(lr: Any, units: str) -> dict[str, Any]:
+    """The layered columns of a LayeredResult or a LayeredSummary."""
     if not lr.ok:
         return {"lack_of_fit_layered": f"layered fit not possible: {lr.error}"}
+    ns = lr.layer_n if isinstance(lr, LayeredSummary) else [p.n for p in lr.layers]
     return {
         "bic_single": lr.bic_single,
         "bic_layered": lr.bic,
         "preferred_layers": lr.preferred_layers,
         "r2_layered": lr.r2_ci,
         "interfaces": ",".join(f"{float(u.length_from_si(d, units)):.6g}" for d in lr.interfaces),
-        "n_layers": ",".join(f"{p.n:.6g}" for p in lr.layers),
+        "n_layers": ",".join(f"{v:.6g}" for v in ns),
         "lack_of_fit_layered": lr.lack_of_fit,
     }
 
 
-def _row(r: PredictionResult, units: str) -> dict[str, Any]:
-    """The table row of one result (columns left out are null)."""
-    row: dict[str, Any] = {
-        "profile": r.id,
-        "status": r.status,
-        "error": r.error,
-        "error_row": r.error_row,
-        "error_column": r.error_column,
-        "n_points": None if r.depth is None else int(len(r.depth)),
-        "units": units,
-        "cone": r.cone,
-        "source": r.source,
-        "fit_time_s": r.time_s,
-    }
-    if r.params is not None:
-        p = r.params.as_dict(units)
-        row.update({k: p[k] for k in ("kc", "kphi", "n", "cc", "phic_deg", "model", "r_min")})
-    if not r.ok:
-        return row
-    if r.phic_range:
-        row["phic_lo"], row["phic_hi"] = r.phic_range
-    if "n" in r.profile_intervals:
-        row["n_lo"], row["n_hi"] = r.profile_intervals["n"]
-    row.update(
-        rmsd=float(u.pressure_from_si(r.rmsd, units)),
-        r2_ci=r.r2_ci,
-        longest_run=float(r.longest_run),
-        lack_of_fit=r.lack_of_fit,
-        undetermined=";".join(r.undetermined),
+def _row_layered(row: Mapping[str, Any], units: str) -> LayeredSummary | None:
+    """The layered columns of a table row back to SI (the reverse of :func:`_layered_row`)."""
+    why = _cell(row, "lack_of_fit_layered")
+    if _cell(row, "preferred_layers") is None:
+        head = "layered fit not possible: "
+        if why is None or not why.startswith(head):
+            return None
+        return LayeredSummary("error", error=why[len(head) :])
+
+    def floats(key: str) -> list[float]:
+        return [float(v) for v in (_cell(row, key) or "").split(",") if v.strip()]
+
+    def num(key: str) -> float:
+        return math.nan if _cell(row, key) is None else float(row[key])
+
+    return LayeredSummary(
+        "ok",
+        bic=num("bic_layered"),
+        bic_single=num("bic_single"),
+        preferred_layers=int(row["preferred_layers"]),
+        r2_ci=num("r2_layered"),
+        interfaces=[float(u.length_to_si(v, units)) for v in floats("interfaces")],
+        layer_n=floats("n_layers"),
+        lack_of_fit=why,
     )
-    if r.posterior is not None:
-        row.update(_posterior_row(r.posterior, units))
-    if r.layered is not None:
-        row.update(_layered_row(r.layered, units))
-    return row
 
 
-def result_columns(results: Sequence[PredictionResult], units: str = "si") -> dict[str, list]:
-    """The :data:`PARQUET_COLUMNS` of ``results`` in ``units``, as lists (None = null)."""
+def _objects(values: list) -> np.ndarray:
+    """A list as a NumPy object array (of any values, None included)."""
+    out = np.empty(len(values), dtype=object)
+    out[:] = values
+    return out
+
+
+def result_columns(results: Sequence[PredictionResult], units: str = "si") -> dict[str, Any]:
+    """The :data:`PARQUET_COLUMNS` of ``results`` in ``units``, column by column.
+
+    Floats are NumPy arrays (NaN = null), texts and integers object arrays
+    (None = null); ``source_row`` and ``chunk`` are left out (null), as
+    outside batch.  The one definition of a prediction table's values:
+    :func:`to_table` (``predict --parquet``) and ``terracone batch`` write
+    through it.  Parameters are converted with vectorised unit conversions,
+    so this costs little beside the fit.
+    """
     units = u.check_system(units)
-    rows = [_row(r, units) for r in results]
-    return {k: [row.get(k) for row in rows] for k, _ in PARQUET_COLUMNS}
+    P = len(results)
+    cols: dict[str, Any] = empty_columns(P)
+    cols.update(
+        profile=_objects([r.id for r in results]),
+        status=_objects([r.status for r in results]),
+        error=_objects([r.error for r in results]),
+        error_row=_objects([r.error_row for r in results]),
+        error_column=_objects([r.error_column for r in results]),
+        n_points=_objects([None if r.depth is None else len(r.depth) for r in results]),
+        undetermined=_objects([";".join(r.undetermined) if r.ok else None for r in results]),
+        model=_objects([None if r.params is None else r.params.model for r in results]),
+        r_min=np.full(P, np.nan),
+        units=_objects([units] * P),
+        cone=_objects([r.cone for r in results]),
+        source=_objects([r.source for r in results]),
+        fit_time_s=np.array([r.time_s for r in results], dtype=float),
+    )
+    fitted = np.array([r.params is not None for r in results], dtype=bool)
+    p = [r.params for r in results if r.params is not None]
+    n = np.array([q.n for q in p], dtype=float)
+    cols["kc"][fitted] = u.kc_from_si(np.array([q.kc for q in p], dtype=float), n, units)
+    cols["kphi"][fitted] = u.kphi_from_si(np.array([q.kphi for q in p], dtype=float), n, units)
+    cols["n"][fitted] = n
+    cols["cc"][fitted] = u.pressure_from_si(np.array([q.cc for q in p], dtype=float), units)
+    cols["phic_deg"][fitted] = [q.phic_deg for q in p]
+    rm = np.array([np.nan if q.r_min is None else q.r_min for q in p], dtype=float)
+    cols["r_min"][fitted] = u.length_from_si(rm, units)
+    ok = np.array([r.ok for r in results], dtype=bool)
+    good = [r for r in results if r.ok]
+    nan2 = (math.nan, math.nan)
+    cols["phic_lo"][ok], cols["phic_hi"][ok] = np.array(
+        [r.phic_range or nan2 for r in good] or np.empty((0, 2)), dtype=float
+    ).T
+    cols["n_lo"][ok], cols["n_hi"][ok] = np.array(
+        [r.profile_intervals.get("n", nan2) for r in good] or np.empty((0, 2)), dtype=float
+    ).T
+    cols["rmsd"][ok] = u.pressure_from_si(np.array([r.rmsd for r in good], dtype=float), units)
+    cols["r2_ci"][ok] = [r.r2_ci for r in good]
+    cols["longest_run"][ok] = [r.longest_run for r in good]
+    cols["lack_of_fit"][ok] = _objects([r.lack_of_fit for r in good])
+    for j, r in enumerate(results):
+        if r.ok and r.posterior is not None:
+            _put(cols, j, _posterior_row(r.posterior, units))
+        if r.ok and r.layered is not None:
+            _put(cols, j, _layered_row(r.layered, units))
+    return cols
+
+
+def _put(cols: dict[str, Any], j: int, row: Mapping[str, Any]) -> None:
+    for k, v in row.items():
+        cols[k][j] = np.nan if v is None and cols[k].dtype.kind == "f" else v
 
 
 def _metadata_columns(results: Sequence[PredictionResult]) -> list[tuple[str, pa.Array]]:
@@ -1000,10 +1085,6 @@ def _result_from_row(row: Mapping[str, Any], meta_names: Mapping[str, str]) -> P
     if _cell(row, "n_lo") is not None:
         iv["n"] = (float(row["n_lo"]), float(row["n_hi"]))
     rmsd = _cell(row, "rmsd")
-    layered_keys = [
-        k for k, _ in PARQUET_COLUMNS[PARQUET_COLUMNS.index(("bic_single", pa.float64())) :]
-    ]
-    layered = {k: _cell(row, k) for k in layered_keys[:7] if _cell(row, k) is not None}
     return PredictionResult(
         id=str(row["profile"]),
         status=str(_cell(row, "status")),
@@ -1022,8 +1103,8 @@ def _result_from_row(row: Mapping[str, Any], meta_names: Mapping[str, str]) -> P
         cone=_cell(row, "cone") or "asabe-large",
         source=_cell(row, "source"),
         metadata={m: row[c] for c, m in meta_names.items() if _cell(row, c) is not None},
-        extra={"layered": layered} if layered else {},
         posterior=None if params is None else _row_posterior(row, units, params.n),
+        layered=_row_layered(row, units),
     )
 
 
@@ -1032,8 +1113,7 @@ def from_table(table: pa.Table, settings: Mapping[str, Any] | None = None) -> Pr
 
     Columns other than :data:`PARQUET_COLUMNS` are the profiles' metadata
     (a ``meta_`` prefix that :func:`to_table` added to avoid a clash is
-    removed).  A batch's layered columns stay, in the table's units, in
-    ``extra["layered"]``.
+    removed).  The layered columns become a :class:`LayeredSummary` (SI).
     """
     known = {k for k, _ in PARQUET_COLUMNS} | {"reader_error"}
     meta_names = {}

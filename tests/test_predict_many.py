@@ -311,13 +311,32 @@ def test_polish_compiled_equals_its_numpy_twin(seed):
     assert not np.array_equal(a, x0)  # it did polish
 
 
-def test_one_list_of_predict_options():
-    # predict and predict_many take **PredictOptions; predict_settings gives the defaults
-    import importlib
-    import inspect
+def test_one_settings_object():
+    # predict and predict_many take the fields of PredictSettings (one list), a typo is refused
+    import dataclasses
 
-    mod = importlib.import_module("terracone.inverse.predict")
-    keys = set(mod.PredictOptions.__annotations__)
-    assert keys == set(inspect.signature(mod.predict_settings).parameters)
+    from terracone.inverse.learning.learn import Calibration
+    from terracone.inverse.predict import PredictSettings
+
     with pytest.raises(TypeError, match="unexpected keyword argument 'modle'"):
-        mod.predict_settings(modle="rm1")
+        PredictSettings(modle="rm1")
+    profiles, _ = synthetic(1)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'modle'"):
+        predict_many(profiles, modle="rm1")
+    with pytest.raises(ValueError, match="r_min is required with model 'rm1'"):
+        PredictSettings(model="rm1")
+    with pytest.raises(ValueError, match="prior 'calibration' needs a calibration"):
+        PredictSettings(prior="calibration")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        PredictSettings().model = "rm1"
+    # a calibration is applied once, by the settings: its model, r_min, plates, phic, cc, ratio
+    cal = Calibration("t", "rm1", 0.03, (0.05, 0.1), 12.0, 2.0, 20.0, 1000.0, 0.8)
+    s = PredictSettings(calibration=cal, prior="calibration")
+    assert (s.model, s.r_min, s.plate_pair) == ("rm1", 0.03, (0.05, 0.1))
+    assert s.fit_bounds.phic_deg == (12.0, 12.0) and s.fit_bounds.cc == (2.0, 2.0)
+    assert s.bounds == Bounds() and s.ratio == pytest.approx(20.0 / 1000.0)
+    assert s.prior is cal and s.law.r_min == 0.03
+    # the same settings given as an object or as keywords fit alike
+    a = predict_many(profiles, s)[0]
+    b = predict_many(profiles, calibration=cal)[0]
+    assert a.params == b.params and a.notes == b.notes

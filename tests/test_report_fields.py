@@ -17,6 +17,7 @@ from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 import pytest
 from chromium import BrowserSession, find_chromium
 from click.testing import CliRunner
@@ -32,7 +33,7 @@ from terracone.notebook import fmt_value
 from terracone.report import build_report
 from terracone.report import fields as FL
 from terracone.report import figures as F
-from terracone.result import PredictionResults
+from terracone.result import PredictionResults, from_table, read_results
 
 REAL = (
     Path(__file__).resolve().parents[1]
@@ -272,7 +273,7 @@ def test_coordinates_from_metadata(meta, expected):
 def test_batch_directory_report_of_the_real_field(real_json, tmp_path):
     from terracone.apps.batch import run_batch
 
-    s = run_batch(_need_real(), tmp_path / "b", workers=1, quiet=True)
+    s = run_batch(_need_real(), tmp_path / "b", workers=1, progress=False)
     assert s.profiles == N_REAL
     out = build_report(tmp_path / "b", tmp_path / "batch.html")
     sec = _sections(out)
@@ -280,10 +281,8 @@ def test_batch_directory_report_of_the_real_field(real_json, tmp_path):
     assert len(sec.alts["multiples"]) == math.ceil(N_REAL / FL.PANELS_PER_FIGURE)
     # the batch curves (measured points from _input, model CI from the parameters via
     # cone_index) agree with predict's own curves for the same pushes
-    import pandas as pd
-
-    df = pd.concat(pd.read_parquet(f) for f in sorted((tmp_path / "b").glob("part-*.parquet")))
-    recs = FL.records_from_batch(df.reset_index(drop=True), {"units": "si"})
+    results = read_results(tmp_path / "b")
+    recs = FL.records_from_table(results, results.settings)
     pred = {p["id"].rsplit("/", 1)[1]: p for p in json.loads(real_json.read_text())["profiles"]}
     for r in recs[::10]:
         p = pred[r["label"]]
@@ -575,9 +574,10 @@ def test_batch_records_read_layers_and_units():
             "interfaces": ["4,10", "3", None],  # in
             "lat": [41.5, np.nan, 41.6],
             "lon": [-93.1, np.nan, -93.2],
+            "units": ["us"] * 3,
         }
     )
-    recs = FL.records_from_batch(df, {"units": "us"})
+    recs = FL.records_from_table(from_table(pa.Table.from_pandas(df)), {"units": "us"})
     assert [r["label"] for r in recs] == ["1", "2", "3"]
     np.testing.assert_allclose(recs[0]["interfaces"], [4 * INCH, 10 * INCH])
     assert recs[0]["layers_preferred"] == 2 and recs[1]["layers_preferred"] == 1

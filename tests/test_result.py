@@ -202,7 +202,7 @@ def test_report_reads_a_document_by_its_schema_key(tmp_path):
 
 
 def test_table_has_batch_columns_and_the_results_values(tmp_path):
-    from terracone.apps.batch import OUTPUT_COLUMNS
+    from terracone.result import PARQUET_COLUMNS as OUTPUT_COLUMNS
 
     results = [_result(0), _result(1), _error_result()]
     path = write_parquet(tmp_path / "p.parquet", results, "us")
@@ -310,7 +310,7 @@ def test_batch_part_files_have_the_predict_table_schema(ci_file, tmp_path):
     pq_path = tmp_path / "p.parquet"
     r = CliRunner().invoke(cli, ["predict", str(ci_file), "--parquet", str(pq_path)])
     assert r.exit_code == 0, r.output
-    s = run_batch(ci_file, tmp_path / "out", workers=1, quiet=True)
+    s = run_batch(ci_file, tmp_path / "out", workers=1, progress=False)
     assert s.profiles == 3 and s.profiles_ok == 2
     (part,) = sorted((tmp_path / "out").glob("part-*.parquet"))
     assert check_table_schema(part) == 1
@@ -416,3 +416,42 @@ def test_read_results_names_what_it_cannot_read(tmp_path):
         ValueError, match=r"no part-\*.parquet files \(not a terracone batch directory\)"
     ):
         read_results(tmp_path)
+
+
+def test_a_tables_layered_columns_come_back_in_si(tmp_path):
+    """A layered fit written to a US table reads back in metres (6 in = 0.1524 m by hand)."""
+    from terracone.result import LayeredSummary
+
+    ok, bad = _result(0), _result(1)
+    ok.layered = LayeredSummary(
+        "ok", bic=-10.0, bic_single=-4.0, preferred_layers=2, r2_ci=0.99,
+        interfaces=[6 * INCH_M], layer_n=[0.4, 1.0], lack_of_fit=None,
+    )  # fmt: skip
+    bad.layered = LayeredSummary("error", error="3 points; at least 9 are needed")
+    path = tmp_path / "t.parquet"
+    pq.write_table(to_table([ok, bad], "us"), path)
+    row = pq.read_table(path).to_pylist()[0]
+    assert row["interfaces"] == "6" and row["n_layers"] == "0.4,1"
+    back = read_results(path)
+    lay = back[0].layered
+    assert lay.ok and lay.preferred_layers == 2 and lay.layer_n == [0.4, 1.0]
+    assert lay.interfaces == pytest.approx([0.1524], rel=1e-12)
+    assert (lay.bic, lay.bic_single, lay.r2_ci) == (-10.0, -4.0, 0.99)
+    assert not back[1].layered.ok
+    assert back[1].layered.error == "3 points; at least 9 are needed"
+
+
+def test_report_of_a_predict_parquet_table(ci_file, tmp_path):
+    """terracone report FILE.parquet (new): every profile, n as predict wrote it."""
+    table = tmp_path / "p.parquet"
+    r = CliRunner().invoke(cli, ["predict", str(ci_file), "--parquet", str(table)])
+    assert r.exit_code == 0, r.output
+    out = tmp_path / "p.html"
+    r = CliRunner().invoke(cli, ["report", str(table), "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    html = out.read_text()
+    assert "terracone report: prediction table" in html
+    for pid in ("T0", "T1", "BAD"):
+        assert f">{pid}<" in html
+    for t in TRUTH:  # noise-free profiles: the fitted n is the generating one
+        assert f">{t['n']:.3g}<" in html

@@ -27,6 +27,7 @@ from terracone.inverse.uncertainty.posterior import (
     DETERMINED_BELOW,
     LABELS,
     WEAKLY_BELOW,
+    PosteriorOptions,
     identifiability_label,
     posterior,
     posterior_for_result,
@@ -39,7 +40,12 @@ from terracone.physics.cone import cone_index_huang
 TRUTH = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.0, phic_deg=11.0)
 DEPTH = np.round(np.arange(0.0, 0.3001, 0.01), 6)
 LETE = Calibration("LETE sand", "rm0", None, None, 11.0, 1.0, 102.0, 5301.0, 0.79)
-FAST = dict(draws=600, nwalkers=32, burn=200, thin=10)
+FAST = dict(draws=600, options=PosteriorOptions(nwalkers=32, burn=200, thin=10))
+
+
+def _fast(**options):
+    """The sampler of FAST with other options."""
+    return PosteriorOptions(nwalkers=32, burn=200, thin=10, **options)
 
 
 def profile(noise=0.03, rho=0.0, seed=1, truth=TRUTH, depth=DEPTH, pid="p"):
@@ -233,19 +239,19 @@ def test_correlation_estimate_recovers_rho():
 def test_given_noise_and_correlation():
     p = profile(seed=4)
     sigma_true = 0.03 * float(np.sqrt(np.mean(cone_index_huang(DEPTH, **TRUTH) ** 2)))
-    res = posterior(p, noise=sigma_true, correlation="none", seed=1, **FAST)
+    res = posterior(p, seed=1, draws=600, options=_fast(noise=sigma_true, correlation="none"))
     assert res.noise.sigma == sigma_true and not res.noise.sigma_estimated
     assert res.noise.rho == 0.0 and not res.noise.rho_estimated
     lo, hi = res.intervals["n"]
     assert lo <= TRUTH["n"] <= hi
-    res2 = posterior(p, correlation=0.5, noise_model="absolute", seed=1, **FAST)
+    res2 = posterior(p, seed=1, draws=600, options=_fast(correlation=0.5, noise_model="absolute"))
     assert res2.noise.rho == 0.5 and res2.noise.kind == "absolute"
     assert res2.noise.sigma_rel is None
 
 
 def test_sampled_correlation():
     p = profile(noise=0.04, rho=0.7, seed=8)
-    res = posterior(p, correlation="sample", seed=2, **FAST)
+    res = posterior(p, seed=2, draws=600, options=_fast(correlation="sample"))
     assert res.noise.rho_sampled
     lo, hi = res.noise.rho_interval
     assert 0 <= lo < 0.7 < hi <= 0.95
@@ -309,11 +315,11 @@ def test_bad_input():
     with pytest.raises(ValueError):
         posterior(p, prior="terrain:LETE")
     with pytest.raises(ValueError):
-        posterior(p, correlation="maybe")
+        posterior(p, options=PosteriorOptions(correlation="maybe"))
     with pytest.raises(ValueError):
-        posterior(p, correlation=0.99)
+        posterior(p, options=PosteriorOptions(correlation=0.99))
     with pytest.raises(ValueError):
-        posterior(p, noise=-1.0)
+        posterior(p, options=PosteriorOptions(noise=-1.0))
     with pytest.raises(ValueError):
         posterior(p, draws=2)
     with pytest.raises(ValueError):
@@ -449,17 +455,17 @@ def test_reference_weight_only_under_the_bounds_prior():
     """A calibration prior keeps n uniform: n_prior changes nothing there, bit for bit."""
     p = profile()
     cal = CalibrationPrior(LETE)
-    a = posterior(p, prior=cal, seed=3, n_prior="reference", **FAST)
-    b = posterior(p, prior=cal, seed=3, n_prior="uniform", **FAST)
+    a = posterior(p, prior=cal, seed=3, draws=600, options=_fast(n_prior="reference"))
+    b = posterior(p, prior=cal, seed=3, draws=600, options=_fast(n_prior="uniform"))
     assert np.array_equal(a.samples, b.samples)
     c = posterior(p, seed=3, **FAST)  # the default: uniform
-    d = posterior(p, seed=3, n_prior="reference", **FAST)
+    d = posterior(p, seed=3, draws=600, options=_fast(n_prior="reference"))
     assert not np.array_equal(c.samples, d.samples)
     # the weight falls with n here (sqrt det G of the whitened columns), so the prior draws of
     # n lie lower than the uniform box's
     assert np.median(d.prior_samples[:, 2]) < np.median(c.prior_samples[:, 2])
     with pytest.raises(ValueError, match="n_prior must be"):
-        posterior(p, n_prior="jeffreys")
+        posterior(p, options=PosteriorOptions(n_prior="jeffreys"))
 
 
 # ---------------------------------------------------------------------------

@@ -56,7 +56,7 @@ def test_plate_curves_are_bekker_by_hand():
     # RM0 plate pressure is Bekker's eq. (2-2): p = (kc / b + kphi) z^n, b the radius
     run = predict_profiles(read_ci_profiles(EXAMPLE)[:1], plates=[0.05])
     res = run.results[0]
-    curve = run.plates[res.id][0]
+    curve = res.plate_curves[0]
     p = res.params
     z = np.linspace(0.0, 0.05, 26)
     np.testing.assert_allclose(curve["sinkage"], z)
@@ -70,7 +70,7 @@ def test_a_bad_profile_is_reported_and_the_rest_fitted(tmp_path):
     run = predict_profiles(read_ci_profiles(f, on_error="collect"), plates=[0.05])
     status = {r.id: r.ok for r in run.results}
     assert status == {"A": True, "B": False}
-    assert list(run.plates) == ["A"]
+    assert [r.id for r in run.results if r.plate_curves] == ["A"]
     err = next(r for r in run.results if r.id == "B").error
     assert "row 7" in str(err) and "ci_kpa" in str(err)
 
@@ -79,3 +79,20 @@ def test_a_bad_profile_is_reported_and_the_rest_fitted(tmp_path):
 def test_sinkage_grid(units, top):
     s = sinkage_grid(units)
     assert s[0] == 0.0 and s[-1] == pytest.approx(top, rel=1e-15) and s.size == 26
+
+
+def test_a_failing_posterior_is_recorded_on_its_profile_and_the_rest_goes_on():
+    """attach_fits: a posterior that cannot run says why in lack_of_fit; the fit stays."""
+    from terracone.apps.workflow import attach_fits
+    from terracone.inverse import Bounds, predict_many
+    from terracone.inverse.predict import PredictSettings
+
+    profiles = read_ci_profiles(EXAMPLE)[:2]
+    fixed = Bounds().fixed(kc=20.0, kphi=1500.0, n=0.8, cc=1.0, phic_deg=10.0)
+    s = PredictSettings(bounds=fixed, uncertainty=True, draws=50)
+    results = predict_many(profiles, s)
+    assert all(r.ok for r in results)
+    attach_fits(results, profiles, s)
+    for r in results:
+        assert r.ok and r.posterior is None
+        assert "posterior failed: all parameters are fixed: nothing to sample" in r.lack_of_fit

@@ -1,48 +1,20 @@
-"""Batch prediction: many CI profiles -> one Parquet data set, computed with Dask.
+"""Batch prediction: many CI profiles -> one Parquet data set, on Dask or any pool.
 
-:func:`run_batch` streams cone index profiles from a CSV or Parquet file (or
-a directory of them), fits the improved cone model to every profile with the
-vectorised exact solver (:func:`terracone.inverse.solver.many.solve_exact_many`) on
-a Dask cluster, and writes one row per profile to Parquet part files.
-
-Design
-------
-* **One execution path, any pool.**  By default work runs on
-  ``dask.distributed``: a :class:`~distributed.LocalCluster` of ``workers``
-  processes (one thread each) started and stopped by :func:`run_batch`, or
-  an existing scheduler (``scheduler="tcp://HOST:PORT"``).  ``pool=`` takes
-  any pool instead (emcee's pattern): a Dask client, a ``concurrent.futures``
-  executor, or anything with ``map`` (a ``multiprocessing`` pool, ``map``
-  itself); :func:`_run_on` is the one place that tells them apart.
-* **Chunks, not profiles.**  The input stream is cut into chunks of
-  ``chunk_size`` profiles: chunk *i* holds profiles ``i*chunk_size`` to
-  ``(i+1)*chunk_size - 1`` in input order (files in name order).  One Dask
-  task fits one chunk, with one ``solve_exact_many`` call per cone.  At most
-  ``2 x worker threads`` chunks are in flight (a ``map`` pool gets windows of
-  that many), and the reader only reads ahead when a slot is free, so memory
-  stays flat whatever the input size.
-* **Streaming input.**  CSV is read in blocks with ``pandas.read_csv``
-  (every cell as text, converted like :func:`terracone.io.read_ci_profiles`
-  does), Parquet with ``ParquetFile.iter_batches``.  The last, possibly
-  incomplete, profile of a block is carried over to the next block.  The
-  rows of a profile must be contiguous.  A first, cheap pass over the input
-  (the *scan*) counts the profiles, checks every file's header and fixes the
-  type of every metadata column before anything is computed.
-* **Atomic output.**  The client writes ``part-000000.parquet``,
-  ``part-000001.parquet``, ... (one per chunk) to a temporary name in
-  ``out_dir`` and renames it (``os.replace``) when complete, so a part file
-  is either absent or whole.  ``_run.json`` records the settings and the
-  input fingerprint, ``_summary.json`` the counts and timings.
-* **Nothing lost.**  Every input profile gives exactly one output row;
-  problems with a profile make *its* row ``status="error"`` with a located
-  reason.  At the end the output is checked against the scan: the number of
-  rows, a checksum of the profile ids and duplicate ids.
+:func:`run_batch` scans the input (a CSV or Parquet file, an instrument
+export, or a directory of them), cuts it into chunks of ``chunk_size``
+profiles, fits each chunk on a worker with
+:func:`terracone.inverse.predict_many` (``detail="summary"``) and
+:func:`terracone.apps.workflow.attach_fits` under one
+:class:`~terracone.inverse.predict.PredictSettings`, and writes one Parquet
+part file per chunk with :func:`terracone.result.result_columns` and
+:func:`terracone.result.arrow_table` (the table of ``predict --parquet``).
+Part files are written atomically; ``_run.json`` records the settings and the
+input, ``_summary.json`` the counts and timings; every input profile gives
+one row; ``resume`` finishes an interrupted run.
 
 With the default (local) cluster, call :func:`run_batch` from a script under
-``if __name__ == "__main__":``: the worker processes are started with the
-``spawn`` method, which imports the main module.
-
-See ``docs/batch.md`` for the user guide.
+``if __name__ == "__main__":`` (the workers are spawned).  The design
+(chunks, streaming, atomic output, the final check) is in ``docs/batch.md``.
 """
 
 from __future__ import annotations
@@ -50,6 +22,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import functools
+import gc
 import hashlib
 import itertools
 import json
@@ -72,10 +45,10 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from terracone import __version__
-from terracone.data import CIProfile, InputError, ProfileSet
+from terracone.apps.workflow import Reading, attach_fits
+from terracone.data import InputError, ProfileSet
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.learning.learn import Calibration
-from terracone.inverse.predict import predict_many, predict_settings, screen
+from terracone.inverse.predict import PredictSettings, predict_many, settings_of
 from terracone.inverse.solver.many import solve_exact_many
 from terracone.io import detect_format, instrument_to_parquet
 from terracone.io.scan import ScanPlan, fingerprint, hash_ids, input_files, scan_inputs
@@ -86,25 +59,22 @@ from terracone.physics.cone import Cone, get_cone
 from terracone.physics.metrics import check_fit_fast
 from terracone.physics.plate import pressure_law
 from terracone.result import (
-    FLOAT_COLUMNS,
     PARQUET_COLUMNS,
     RESULT_COLUMNS,
-    TEXT_COLUMNS,
-    UQ_PARAMS,
     arrow_table,
     dumps,
     empty_columns,
+    result_columns,
 )
 
-__all__ = ["BatchSummary", "run_batch", "OUTPUT_COLUMNS"]
+__all__ = ["BatchSummary", "run_batch"]
 
 PathLike = str | os.PathLike[str]
 
 #: Seconds to wait for a worker to join an external scheduler.
 _WAIT_WORKERS_S = 60.0
-#: Grid over n of solve_exact_many (its default) and the noise floor of predict.
-_N_GRID = 41
-_NOISE_FLOOR = 0.01
+#: Grid over n of batch's fits (predict's is finer: N_GRID of terracone.inverse.predict).
+N_GRID = 41
 #: glibc malloc settings of the local cluster's worker processes.  Dask's
 #: default (MALLOC_TRIM_THRESHOLD_=65536) switches off glibc's dynamic mmap
 #: threshold, so every large numpy temporary of the solver is mmapped and
@@ -115,17 +85,11 @@ WORKER_MALLOC_ENV = {"MALLOC_MMAP_MAX_": "0", "MALLOC_TRIM_THRESHOLD_": str(1 <<
 _PART = re.compile(r"^part-(\d{6,})\.parquet$")
 _TMP_PREFIX = ".part-"
 _PART_META_KEY = b"terracone_batch"
-
-#: The part-file columns and the per-profile results: one definition, in terracone.result
-#: (the prediction schema, docs/results.md); the old names stay as aliases.
-_UQ_PARAMS = UQ_PARAMS
-#: Output columns before the metadata columns, with their Arrow types.
+#: Read by apps/export.py (r21chrono's; it moves to terracone.result.read_results): delete
+#: with that merge.
 OUTPUT_COLUMNS = PARQUET_COLUMNS
-_FLOAT_RESULTS = FLOAT_COLUMNS
-_TEXT_RESULTS = TEXT_COLUMNS
-#: every per-profile result: the floats and the texts (None or text)
-_RESULT_KEYS = RESULT_COLUMNS
-_empty_results = empty_columns
+#: What a worker returns per profile: the fit columns of terracone.result.
+WORKER_COLUMNS = ("status", "error", "error_row", "error_column", "undetermined", *RESULT_COLUMNS)
 
 
 # ---------------------------------------------------------------------------
@@ -135,41 +99,19 @@ _empty_results = empty_columns
 
 @dataclass
 class BatchSummary:
-    """What :func:`run_batch` did (also written to ``OUT_DIR/_summary.json``).
+    """What :func:`run_batch` did (also written to ``OUT_DIR/_summary.json``; ``docs/batch.md``).
 
-    Attributes
-    ----------
-    out_dir : str
-    profiles, profiles_ok, profiles_error : int
-        Rows in the output (one per input profile) and their status counts,
-        over all part files (including chunks done by an earlier run).
-    chunks : int
-        Part files of the complete output.
-    chunks_run : int
-        Chunks computed by this call.
-    chunks_skipped : int
-        Chunks found complete in ``out_dir`` (``resume=True``) and not recomputed.
-    chunks_failed : int
-        Chunks whose task failed on the cluster; their profiles are written
-        with status "error" and a later ``resume=True`` run recomputes them.
-    duplicate_ids : dict
-        Profile ids that occur more than once in the output -> count (at
-        most 100 listed); ``n_duplicate_ids`` counts them all.
-    problems : list of str
-        Run-level problems (duplicate ids, failed chunks, a changed input,
-        output that does not match the input).  Empty when all is well.
-    workers : int
-        Worker threads of the cluster.
-    scheduler : str or None
-        Address of the external scheduler; None for the local cluster.
-    scan_s, startup_s, read_s, fit_s, fit_cpu_s, write_s, verify_s, wall_s : float
-        Seconds: first pass over the input; cluster start or connection;
-        reading and parsing chunks (client); fitting (sum over chunks of
-        the time in the worker task, i.e. worker-seconds, and of its CPU
-        time: they differ when the machine is busy); writing part files
-        (client); final check of the output; whole call.
-    profiles_per_s : float
-        Profiles of the chunks computed by this call per second of wall time.
+    Counts are over all part files (chunks of an earlier run included):
+    ``profiles`` (one row each), ``profiles_ok``, ``profiles_error``,
+    ``chunks``; ``chunks_run`` by this call, ``chunks_skipped`` (found whole
+    on resume), ``chunks_failed`` (their profiles are error rows; resume
+    recomputes them); ``duplicate_ids`` (id -> count, at most 100 listed;
+    ``n_duplicate_ids`` counts all); ``problems``: run-level problems, empty
+    when all is well.  ``workers`` (threads) and ``scheduler`` (None: local
+    cluster).  Seconds: ``scan_s``, ``startup_s``, ``read_s`` and
+    ``write_s`` (client), ``fit_s`` and ``fit_cpu_s`` (worker-seconds and
+    their CPU time, summed over chunks), ``verify_s``, ``wall_s``;
+    ``profiles_per_s``: profiles computed by this call per wall second.
     """
 
     out_dir: str
@@ -213,48 +155,8 @@ class BatchSummary:
 
 
 # ---------------------------------------------------------------------------
-# input: terracone.io.stream reads, scans and chunks (the names below are the
-# ones the other sections of this module use)
-# ---------------------------------------------------------------------------
-
-_Plan = ScanPlan
-_Chunk = Chunk
-_Task = ProfileSet  # what a worker fits: the fittable profiles of one chunk
-_hash_ids = hash_ids
-_input_files = input_files
-_fingerprint = fingerprint
-_sc900_to_parquet = instrument_to_parquet
-_ConeCache = ConeCache
-_chunks = iter_chunks
-
-
-def _scan(files: list[tuple[Path, str]]) -> ScanPlan:
-    """The scan, with the output columns ahead of the metadata columns."""
-    return scan_inputs(files, leading=OUTPUT_COLUMNS)
-
-
-# ---------------------------------------------------------------------------
 # fitting: worker side
 # ---------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class _FitSettings:
-    model: str
-    r_min: float | None
-    plate_pair: tuple[float, float] | None
-    bounds: Bounds
-    ratio: float | None  # kc/kphi held fixed (calibration), else None
-    units: str
-    noise_floor: float = _NOISE_FLOOR
-    n_grid: int = _N_GRID
-    uncertainty: bool = False
-    draws: int = 1000
-    prior: Any = "bounds"  # "bounds" or a Calibration
-    seed: int = 0
-    layers: int = 1  # > 1: also fit a layered terrain per profile (terracone.physics.layers)
-    depth_ref: str = "base"  # "tip": file depths are tip depths, base = tip - H
-    depth_range: tuple[float | None, float | None] = (None, None)  # base-depth window [m]
 
 
 def check_fits(
@@ -276,154 +178,52 @@ def check_fits(
     return runs, lof
 
 
-def _layered_columns(out, pset: ProfileSet, results, fit: _FitSettings) -> None:
-    """A layered fit per fitted profile (terracone.physics.layers): BIC against one layer, interfaces, n's."""
-    from terracone.inverse.layered import fit_layered
+def _fit_chunk(
+    task: ProfileSet, settings: PredictSettings, reading: Reading, units: str
+) -> dict[str, Any]:
+    """Fit the profiles of a chunk (on a worker): :data:`WORKER_COLUMNS` in ``units``.
 
-    for j, res in enumerate(results):
-        if not res.ok:
-            continue
-        prof = CIProfile(res.id, res.depth, res.ci, cone=pset.cones[int(pset.cone_idx[j])])
-        try:
-            lr = fit_layered(
-                prof, layers=fit.layers, model=fit.model, r_min=fit.r_min, bounds=fit.bounds
-            )
-        except Exception as exc:  # noqa: BLE001 - recorded per profile, the rest goes on
-            out["lack_of_fit_layered"][j] = f"layered fit failed: {exc}"
-            continue
-        if not lr.ok:
-            out["lack_of_fit_layered"][j] = f"layered fit not possible: {lr.error}"
-            continue
-        out["bic_single"][j] = lr.bic_single
-        out["bic_layered"][j] = lr.bic
-        out["preferred_layers"][j] = lr.preferred_layers
-        out["r2_layered"][j] = lr.r2_ci
-        out["interfaces"][j] = ",".join(
-            f"{float(u.length_from_si(d, fit.units)):.6g}" for d in lr.interfaces
-        )
-        out["n_layers"][j] = ",".join(f"{p.n:.6g}" for p in lr.layers)
-        out["lack_of_fit_layered"][j] = lr.lack_of_fit
-
-
-def _posterior_columns(out, pset: ProfileSet, results, fit: _FitSettings) -> None:
-    """Posterior 90% intervals and identifiability labels, profile by profile (emcee)."""
-    from terracone.inverse.uncertainty.posterior import posterior_for_result
-
-    for j, res in enumerate(results):
-        if not res.ok:
-            continue
-        prof = CIProfile(res.id, res.depth, res.ci, cone=pset.cones[int(pset.cone_idx[j])])
-        try:
-            post = posterior_for_result(
-                prof,
-                res,
-                prior=fit.prior,
-                draws=fit.draws,
-                seed=fit.seed,
-                bounds=fit.bounds,
-                plate_pair=fit.plate_pair,
-            )
-        except Exception as exc:  # noqa: BLE001 - recorded per profile, the rest goes on
-            prev = out["lack_of_fit"][j]
-            out["lack_of_fit"][j] = (prev + "; " if prev else "") + f"posterior failed: {exc}"
-            continue
-        d = post.as_dict(fit.units)
-        for p in _UQ_PARAMS:
-            lo, hi = d["intervals"][p]
-            out[f"{p}_q05"][j] = lo
-            out[f"{p}_q95"][j] = hi
-            out[f"ident_{p}"][j] = d["identifiability"].get(p)
-
-
-def _base_depths(pset: ProfileSet, fit: _FitSettings) -> ProfileSet:
-    """--depth-ref tip (base = tip - H of each profile's cone), then --depth-range."""
-    if fit.depth_ref == "tip":
-        pset = dataclasses.replace(pset, depth=pset.depth - np.repeat(pset.heights(), pset.counts))
-    lo, hi = fit.depth_range
-    return pset if lo is None and hi is None else pset.window(lo, hi)
-
-
-def _result_columns(results: list, fit: _FitSettings) -> dict[str, Any]:
-    """The per-profile results of predict_many as batch's columns, in the output units."""
-    P = len(results)
-    out: dict[str, Any] = _empty_results(P)
-    ok = np.array([r.ok for r in results], dtype=bool)
-    good = [r for r in results if r.ok]
-    n = np.array([r.params.n for r in good])
-    cols = {
-        "kc": u.kc_from_si(np.array([r.params.kc for r in good]), n, fit.units),
-        "kphi": u.kphi_from_si(np.array([r.params.kphi for r in good]), n, fit.units),
-        "n": n,
-        "cc": u.pressure_from_si(np.array([r.params.cc for r in good]), fit.units),
-        "phic_deg": np.array([r.params.phic_deg for r in good]),
-        "phic_lo": np.array([r.phic_range[0] for r in good]),
-        "phic_hi": np.array([r.phic_range[1] for r in good]),
-        "n_lo": np.array([r.profile_intervals["n"][0] for r in good]),
-        "n_hi": np.array([r.profile_intervals["n"][1] for r in good]),
-        "rmsd": u.pressure_from_si(np.array([r.rmsd for r in good]), fit.units),
-        "r2_ci": np.array([r.r2_ci for r in good]),
-        "longest_run": np.array([r.longest_run for r in good], dtype=float),
-        "lack_of_fit": np.array([r.lack_of_fit for r in good] + [None], dtype=object)[:-1],
-    }
-    for k, v in cols.items():
-        out[k][ok] = v
-    out["status"] = np.array([r.status for r in results] + [None], dtype=object)[:-1]
-    out["error"] = np.array([r.error for r in results] + [None], dtype=object)[:-1]
-    und = [";".join(r.undetermined) if r.ok else None for r in results]
-    out["undetermined"] = np.array(und + [None], dtype=object)[:-1]
-    return out
-
-
-def _fit_chunk(task: ProfileSet, fit: _FitSettings) -> dict[str, Any]:
-    """Validate and fit the profiles of a chunk (runs on a Dask worker): predict_many.
-
-    Returns per-profile arrays in the output units: status, error,
-    error_row (-1 = none), error_column, the parameters, rmsd, r2_ci,
-    undetermined; and fit_time_s for the chunk.
+    :func:`predict_many`, :func:`attach_fits` and
+    :func:`terracone.result.result_columns`, after the depth reference and
+    window of ``reading``; also ``fit_time_s`` and ``fit_cpu_s`` of the chunk.
     """
-    t0 = time.perf_counter()
-    c0 = time.process_time()
-    pset = _base_depths(task, fit)
-    results = predict_many(
-        pset,
-        detail="summary",
-        model=fit.model,
-        r_min=fit.r_min,
-        plate_pair=fit.plate_pair,
-        bounds=fit.bounds,
-        kc_over_kphi=fit.ratio,
-        noise_floor=fit.noise_floor,
-        n_grid=fit.n_grid,
-        solve_many=solve_exact_many,  # looked up here: tests replace it
-        chunk_size=max(len(pset), 1),
-    )
-    out = _result_columns(results, fit)
-    error_row = np.full(len(pset), -1, dtype=np.int64)
-    error_column = np.full(len(pset), None, dtype=object)
-    for j, exc in screen(pset).items():  # where predict_many's invalid profiles are wrong
-        error_row[j] = -1 if exc.row is None else exc.row
-        error_column[j] = exc.column
-    with np.errstate(all="ignore"):
-        if fit.uncertainty:
-            _posterior_columns(out, pset, results, fit)
-        if fit.layers > 1:
-            _layered_columns(out, pset, results, fit)
-    lo, hi = fit.depth_range
+    # the fit makes ~15 objects a profile and no cycles: the cyclic collector would only
+    # cost time (its passes fell at random chunks); posteriors and layered fits keep it on
+    plain = not settings.uncertainty and settings.layers < 2
+    with _no_gc() if plain else contextlib.nullcontext():
+        return _fit_columns(task, settings, reading, units)
+
+
+@contextlib.contextmanager
+def _no_gc() -> Iterator[None]:
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _fit_columns(
+    task: ProfileSet, settings: PredictSettings, reading: Reading, units: str
+) -> dict[str, Any]:
+    t0, c0 = time.perf_counter(), time.process_time()
+    pset = task
+    if reading.depth_ref == "tip":
+        pset = dataclasses.replace(pset, depth=pset.depth - np.repeat(pset.heights(), pset.counts))
+    lo, hi = reading.depth_range
+    if lo is not None or hi is not None:
+        pset = pset.window(lo, hi)
+    results = predict_many(pset, settings, chunk_size=max(len(pset), 1))
+    attach_fits(results, pset, settings, layered_posterior=False)  # the table has no columns
+    cols = result_columns(results, units)
+    out = {k: cols[k] for k in WORKER_COLUMNS}
     for j in np.flatnonzero(pset.counts == 0):  # emptied by the depth window
-        out["error"][j] = str(
-            InputError(
-                f"no points in the depth window {lo}:{hi} m",
-                file=pset.source(j).path,
-                profile=pset.ids[j],
-            )  # noqa: E501
-        )
-        error_row[j], error_column[j] = -1, None
-    out.update(
-        error_row=error_row,
-        error_column=error_column,
-        fit_time_s=time.perf_counter() - t0,
-        fit_cpu_s=time.process_time() - c0,
-    )
+        why = f"no points in the depth window {lo}:{hi} m"
+        out["error"][j] = str(InputError(why, file=pset.source(j).path, profile=pset.ids[j]))
+        out["error_row"][j] = out["error_column"][j] = None
+    out.update(fit_time_s=time.perf_counter() - t0, fit_cpu_s=time.process_time() - c0)
     return out
 
 
@@ -436,28 +236,25 @@ def _part_name(i: int) -> str:
     return f"part-{i:06d}.parquet"
 
 
-def _table(
-    chunk: _Chunk,
-    res: dict[str, Any] | None,
-    failure: str | None,
-    run_key: str,
-    plan: _Plan,
-    fit: _FitSettings,
-) -> pa.Table:
+def _table(chunk: Chunk, res: dict[str, Any] | None, failure: str | None, sink: _Sink) -> pa.Table:
     """The output rows of a chunk (``res``: worker results of its fitted profiles)."""
     P = int(chunk.ids.size)
-    status = np.where(np.equal(chunk.error, None), "ok", "error").astype(object)
-    error = chunk.error.copy()
-    error_row = chunk.error_row.copy()
-    error_column = chunk.error_column.copy()
-    floats = _empty_results(P)
-    undetermined = np.full(P, None, dtype=object)
+    cols: dict[str, Any] = empty_columns(P)
+    error_row = chunk.error_row.astype(object)
+    error_row[chunk.error_row < 0] = None
+    cols.update(
+        status=np.where(np.equal(chunk.error, None), "ok", "error").astype(object),
+        error=chunk.error.copy(),
+        error_row=error_row,
+        error_column=chunk.error_column.copy(),
+        undetermined=np.full(P, None, dtype=object),
+    )
     fit_time = 0.0
     idx = np.flatnonzero(chunk.fit)
     if failure is not None:
         for i in idx:
-            status[i] = "error"
-            error[i] = str(
+            cols["status"][i] = "error"
+            cols["error"][i] = str(
                 InputError(
                     f"chunk {chunk.index} failed on the cluster ({failure}); "
                     "rerun with resume to recompute it",
@@ -466,44 +263,29 @@ def _table(
                 )
             )
     elif res is not None and idx.size:
-        status[idx] = res["status"]
-        error[idx] = res["error"]
-        error_row[idx] = res["error_row"]
-        error_column[idx] = res["error_column"]
-        undetermined[idx] = res["undetermined"]
-        for k in _RESULT_KEYS:
-            floats[k][idx] = res[k]
+        for k in WORKER_COLUMNS:
+            cols[k][idx] = res[k]
         fit_time = float(res["fit_time_s"])
-    r_min = fit.r_min
-    r_min_out = None if r_min is None else float(u.length_from_si(r_min, fit.units))
-    cols: dict[str, Any] = {
-        "profile": pa.array(chunk.ids.tolist(), pa.string()),
-        "status": status,
-        "error": error,
-        "error_row": pa.array(error_row, pa.int64(), mask=error_row < 0),
-        "error_column": error_column,
-        "n_points": pa.array(chunk.counts, pa.int64()),
-        "undetermined": undetermined,
-        "model": [fit.model] * P,
-        "r_min": [r_min_out] * P,
-        "units": [fit.units] * P,
-        "cone": chunk.cone,
-        "source": chunk.source,
-        "source_row": pa.array(chunk.first_row, pa.int64()),
-        "chunk": np.full(P, chunk.index, dtype=np.int64),
-        "fit_time_s": np.full(P, fit_time),
-        **floats,
-    }
-    meta = {
-        "chunk": chunk.index,
-        "profiles": P,
-        "failed": failure is not None,
-        "run_key": run_key,
-    }
+    s, units = sink.job["settings"], sink.job["units"]
+    r_min = None if s.r_min is None else float(u.length_from_si(s.r_min, units))
+    cols.update(
+        profile=pa.array(chunk.ids.tolist(), pa.string()),
+        n_points=pa.array(chunk.counts, pa.int64()),
+        model=[s.model] * P,
+        r_min=[r_min] * P,
+        units=[units] * P,
+        cone=chunk.cone,
+        source=chunk.source,
+        source_row=pa.array(chunk.first_row, pa.int64()),
+        chunk=np.full(P, chunk.index, dtype=np.int64),
+        fit_time_s=np.full(P, fit_time),
+    )
+    meta = {"chunk": chunk.index, "profiles": P, "failed": failure is not None}
+    meta["run_key"] = sink.run_key
     return arrow_table(
         cols,
-        [(o, chunk.meta[o]) for o, _, _ in plan.meta],
-        schema=plan.schema,
+        [(o, chunk.meta[o]) for o, _, _ in sink.plan.meta],
+        schema=sink.plan.schema,
         metadata={_PART_META_KEY: json.dumps(meta).encode()},
     )
 
@@ -545,79 +327,50 @@ def _part_meta(path: Path) -> dict[str, Any] | None:
 # ---------------------------------------------------------------------------
 
 
-def _settings(
-    *,
-    model: str,
-    r_min: float | None,
-    calibration: Calibration | None,
-    bounds: Bounds | str | None,
-    units: str,
-    cone: Cone,
-    chunk_size: int,
-    wide: dict[str, str | None] | None = None,
-    uncertainty: bool = False,
-    draws: int = 1000,
-    prior: Any = "bounds",
-    depth_ref: str = "base",
-    depth_range: tuple[float | None, float | None] = (None, None),
-    layers: int = 1,
-) -> tuple[dict[str, Any], _FitSettings]:
-    """The run's settings (recorded in ``_run.json``) and what the workers need to fit."""
-    bounds = Bounds.parse(bounds, units) if isinstance(bounds, str) else bounds or Bounds()
-    # the calibration applied as predict applies it (model, r_min, plates, phic, cc, kc/kphi);
-    # raises on bad settings
-    ps = predict_settings(model=model, r_min=r_min, calibration=calibration, bounds=bounds)
-    model, r_min, plate_pair, bounds, ratio = ps.model, ps.r_min, ps.plate_pair, ps.bounds, ps.ratio
-    prior_cal = None
-    if uncertainty and prior not in (None, "bounds"):
-        prior_cal = prior if isinstance(prior, Calibration) else calibration
-        if prior_cal is None:
-            raise ValueError("prior: give 'bounds' or a Calibration")
-    fit = _FitSettings(
-        model,
-        r_min,
-        plate_pair,
-        bounds,
-        ratio,
-        units,
-        uncertainty=uncertainty,
-        draws=int(draws),
-        prior=prior_cal if prior_cal is not None else "bounds",
-        depth_ref=depth_ref,
-        depth_range=tuple(depth_range),
-        layers=int(layers),
-    )
-    settings = {
-        "model": model,
-        "r_min_m": r_min,
-        "plate_pair_m": None if plate_pair is None else list(plate_pair),
-        "bounds": json.loads(json.dumps(dataclasses.asdict(bounds))),
-        "calibration": None if calibration is None else calibration.to_json(),
-        "kc_over_kphi": ratio,
+def _batch_settings(settings: PredictSettings) -> PredictSettings:
+    """The settings as batch fits them: summary detail, its n grid, seeded posteriors."""
+    if not settings.vectorised:
+        raise ValueError("batch fits with the vectorised exact solver: solver 'exact' and no Kc")
+    seed = 0 if settings.seed is None else settings.seed
+    return dataclasses.replace(settings, detail="summary", n_grid=N_GRID, seed=seed)
+
+
+def _run_settings(
+    s: PredictSettings, reading: Reading, units: str, cone: Cone, chunk_size: int
+) -> dict[str, Any]:
+    """The run's settings as ``_run.json`` records them (and resume compares them)."""
+    record = {
+        "model": s.model,
+        "r_min_m": s.r_min,
+        "plate_pair_m": None if s.plate_pair is None else list(s.plate_pair),
+        "bounds": dataclasses.asdict(s.fit_bounds),
+        "calibration": None if s.calibration is None else s.calibration.to_json(),
+        "kc_over_kphi": s.ratio,
         "units": units,
         "cone": {"name": cone.name, "base_area_m2": cone.base_area, "angle_deg": cone.angle_deg},
         "chunk_size": chunk_size,
-        "solver": "exact_many" + (" (kc/kphi ratio fixed)" if ratio else ""),
-        "uncertainty": {
-            "draws": draws,
-            "prior": "calibration" if prior_cal is not None else "bounds",
-        }
-        if uncertainty
-        else None,
-        "n_grid": fit.n_grid,
-        "noise_floor": fit.noise_floor,
+        "solver": "exact_many" + (" (kc/kphi ratio fixed)" if s.ratio else ""),
+        "uncertainty": None,
+        "n_grid": s.n_grid,
+        "noise_floor": s.noise_floor,
         "terracone_version": __version__,
     }
+    if s.uncertainty:
+        prior = "bounds" if isinstance(s.prior, str) else "calibration"
+        record["uncertainty"] = {"draws": s.draws, "prior": prior}
     # recorded only when set, so that runs written before these keys existed still resume
-    if wide and any(v is not None for v in wide.values()):
-        settings["wide_units"] = dict(wide)
-    if depth_ref != "base":
-        settings["depth_ref"] = depth_ref
-    if any(v is not None for v in depth_range):
-        settings["depth_range_m"] = list(depth_range)
-    if int(layers) > 1:
-        settings["layers"] = int(layers)
-    return json.loads(json.dumps(settings)), fit
+    wide = {"depth_unit": reading.depth_unit, "ci_unit": reading.ci_unit}
+    if any(v is not None for v in wide.values()):
+        record["wide_units"] = wide
+    if reading.depth_ref != "base":
+        record["depth_ref"] = reading.depth_ref
+    if any(v is not None for v in reading.depth_range):
+        record["depth_range_m"] = list(reading.depth_range)
+    if s.layers > 1:
+        record["layers"] = int(s.layers)
+    if s.seed:
+        record["seed"] = s.seed
+    return json.loads(json.dumps(record))
 
 
 def _diff(old: Any, new: Any, where: str = "") -> list[str]:
@@ -742,7 +495,7 @@ def _done_chunks(out_dir: Path, run_key: str, expected: dict[int, int]) -> set[i
 # ---------------------------------------------------------------------------
 
 
-def _verify(out_dir: Path, plan: _Plan, n_chunks: int, summary: BatchSummary) -> None:
+def _verify(out_dir: Path, plan: ScanPlan, n_chunks: int, summary: BatchSummary) -> None:
     hashes = np.empty(plan.profiles, dtype=np.uint64)
     filled = 0
     ok = err = 0
@@ -762,7 +515,7 @@ def _verify(out_dir: Path, plan: _Plan, n_chunks: int, summary: BatchSummary) ->
         st = t.column("status").to_numpy(zero_copy_only=False)
         ok += int(np.count_nonzero(st == "ok"))
         err += int(np.count_nonzero(st != "ok"))
-        h = _hash_ids(ids)
+        h = hash_ids(ids)
         if filled + h.size > hashes.size:
             overflow = True
             h = h[: max(hashes.size - filled, 0)]
@@ -800,7 +553,7 @@ def _verify(out_dir: Path, plan: _Plan, n_chunks: int, summary: BatchSummary) ->
             if i in missing:
                 continue
             ids = pq.read_table(path, columns=["profile"]).column(0).to_numpy(zero_copy_only=False)
-            sel = np.isin(_hash_ids(ids), dup_h)
+            sel = np.isin(hash_ids(ids), dup_h)
             counter.update(str(v) for v in ids[sel])
         dups = {k: c for k, c in counter.items() if c > 1}
         if dups:
@@ -951,14 +704,14 @@ def _pool_size(pool: Any) -> int:
     return 1
 
 
-def _fit_chunk_or_failure(task: Any, fit: Any) -> tuple[dict[str, Any] | None, str | None]:
+def _fit_chunk_or_failure(task: Any, **job: Any) -> tuple[dict[str, Any] | None, str | None]:
     """Fit one chunk on a worker: ``(results, None)``, or ``(None, reason)`` when it fails.
 
     The task function of executor and ``map`` pools: a failure stays with its
     chunk (its profiles become error rows) instead of ending the whole map.
     """
     try:
-        return _fit_chunk(task, fit), None
+        return _fit_chunk(task, **job), None
     except Exception as exc:  # noqa: BLE001 - reported in the chunk's rows
         return None, f"{type(exc).__name__}: {exc}"
 
@@ -968,17 +721,17 @@ class _Sink:
     """Writes the part file of each finished chunk and keeps the counts and the progress."""
 
     out: Path
-    plan: _Plan
-    fit: _FitSettings
+    plan: ScanPlan
+    job: dict[str, Any]  # the worker's settings, reading and units
     run_key: str
     summary: BatchSummary
     profiles_done: int
     bar: Any = None
     callback: Callable[[int, int], None] | None = None
 
-    def write(self, chunk: _Chunk, res: dict[str, Any] | None, failure: str | None) -> None:
+    def write(self, chunk: Chunk, res: dict[str, Any] | None, failure: str | None) -> None:
         t = time.perf_counter()
-        table = _table(chunk, res, failure, self.run_key, self.plan, self.fit)
+        table = _table(chunk, res, failure, self)
         _write_atomic(self.out, _part_name(chunk.index), lambda f: pq.write_table(table, f))
         s = self.summary
         s.write_s += time.perf_counter() - t
@@ -993,7 +746,7 @@ class _Sink:
             self.callback(self.profiles_done, self.plan.profiles)
 
 
-def _to_fit(chunks: Iterator[tuple[int, _Chunk | None, int]], sink: _Sink) -> Iterator[_Chunk]:
+def _to_fit(chunks: Iterator[tuple[int, Chunk | None, int]], sink: _Sink) -> Iterator[Chunk]:
     """The chunks to fit, read lazily; chunks with nothing to fit are written at once."""
     while True:
         t = time.perf_counter()
@@ -1010,7 +763,7 @@ def _to_fit(chunks: Iterator[tuple[int, _Chunk | None, int]], sink: _Sink) -> It
         yield chunk
 
 
-def _on_dask(client: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
+def _on_dask(client: Any, chunks: Iterator[Chunk], sink: _Sink) -> None:
     """Submit the chunks to a Dask client, at most 2 per worker thread in flight."""
     from distributed import as_completed
 
@@ -1022,7 +775,7 @@ def _on_dask(client: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
     sink.summary.workers = sum(client.nthreads().values())
     limit = max(2, 2 * sink.summary.workers)
     token = uuid.uuid4().hex[:8]
-    inflight: dict[Any, _Chunk] = {}
+    inflight: dict[Any, Chunk] = {}
     ac = as_completed(loop=client.loop)
 
     def collect(fut: Any) -> None:
@@ -1044,7 +797,7 @@ def _on_dask(client: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
         while len(inflight) >= limit:
             collect(next(ac))
         key = f"terracone-batch-{token}-{chunk.index:06d}"
-        fut = client.submit(_fit_chunk, chunk.task, sink.fit, key=key, pure=False, retries=1)
+        fut = client.submit(_fit_chunk, chunk.task, **sink.job, key=key, pure=False, retries=1)
         chunk.task = None  # the worker has it; keep only what the output needs
         inflight[fut] = chunk
         ac.add(fut)
@@ -1052,11 +805,11 @@ def _on_dask(client: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
         collect(next(ac))
 
 
-def _on_executor(executor: Executor, chunks: Iterator[_Chunk], sink: _Sink) -> None:
+def _on_executor(executor: Executor, chunks: Iterator[Chunk], sink: _Sink) -> None:
     """Submit the chunks to a concurrent.futures executor, 2 per worker in flight."""
     sink.summary.workers = _pool_size(executor)
     limit = max(2, 2 * sink.summary.workers)
-    inflight: dict[Future, _Chunk] = {}
+    inflight: dict[Future, Chunk] = {}
 
     def drain(keep: int) -> None:
         while len(inflight) > keep:
@@ -1066,17 +819,17 @@ def _on_executor(executor: Executor, chunks: Iterator[_Chunk], sink: _Sink) -> N
 
     for chunk in chunks:
         drain(limit - 1)
-        inflight[executor.submit(_fit_chunk_or_failure, chunk.task, sink.fit)] = chunk
+        inflight[executor.submit(_fit_chunk_or_failure, chunk.task, **sink.job)] = chunk
         chunk.task = None
     drain(0)
 
 
-def _on_map(pool: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
+def _on_map(pool: Any, chunks: Iterator[Chunk], sink: _Sink) -> None:
     """Map the chunks with ``pool.map`` (or ``pool`` itself, e.g. the built-in ``map``)
     in windows of 2 per worker, so only a window of chunks is in memory."""
     mapper = pool.map if hasattr(pool, "map") else pool
     sink.summary.workers = _pool_size(pool)
-    task = functools.partial(_fit_chunk_or_failure, fit=sink.fit)
+    task = functools.partial(_fit_chunk_or_failure, **sink.job)
     size = max(2, 2 * sink.summary.workers)
     while window := list(itertools.islice(chunks, size)):
         tasks = [c.task for c in window]
@@ -1086,7 +839,7 @@ def _on_map(pool: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
             sink.write(chunk, res, failure)
 
 
-def _run_on(pool: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
+def _run_on(pool: Any, chunks: Iterator[Chunk], sink: _Sink) -> None:
     """Fit the chunks on the pool: the one place that knows the kinds of pool."""
     if _is_dask_client(pool):
         sink.summary.scheduler = sink.summary.scheduler or getattr(pool.scheduler, "address", None)
@@ -1101,12 +854,6 @@ def _run_on(pool: Any, chunks: Iterator[_Chunk], sink: _Sink) -> None:
 # ---------------------------------------------------------------------------
 # run_batch
 # ---------------------------------------------------------------------------
-
-
-def _resolve_calibration(calibration: Any) -> Calibration | None:
-    if calibration is None or isinstance(calibration, Calibration):
-        return calibration
-    return Calibration.load(calibration)
 
 
 def _check_args(chunk_size: int, workers: int | None, scheduler: str | None, pool: Any) -> None:
@@ -1125,72 +872,48 @@ def _check_args(chunk_size: int, workers: int | None, scheduler: str | None, poo
 def run_batch(
     input: PathLike,
     out_dir: PathLike,
+    settings: PredictSettings | None = None,
     *,
+    reading: Reading | None = None,
+    units: str = "si",
+    chunk_size: int = 2000,
+    resume: bool = False,
+    pool: Any = None,
     workers: int | None = None,
     scheduler: str | None = None,
-    resume: bool = False,
-    quiet: bool = False,
-    model: str = "rm0",
-    r_min: float | None = None,
-    calibration: Calibration | PathLike | None = None,
-    bounds: Bounds | str | None = None,
-    units: str = "si",
-    cone: str | Cone = "asabe-large",
-    chunk_size: int = 2000,
     progress: bool | Callable[[int, int], None] | None = None,
-    uncertainty: bool = False,
-    draws: int = 1000,
-    prior: str | Calibration | None = "bounds",
-    depth_ref: str = "base",
-    depth_range: tuple[float | None, float | None] = (None, None),
-    layers: int = 1,
-    format: str | None = None,
-    depth_unit: str | None = None,
-    ci_unit: str | None = None,
-    pool: Any = None,
+    **fields: Any,
 ) -> BatchSummary:
-    """Fit every CI profile of a file or directory; write Parquet results.
+    """Fit every CI profile of a file or directory; write Parquet results (``docs/batch.md``).
 
     Parameters
     ----------
     input : path
-        A CSV (``.csv``, ``.csv.gz``) or Parquet file, or a directory of them (name
-        order; ``.``/``_`` names ignored); columns as :func:`terracone.io.read_ci_profiles`
-        reads them (others are metadata); a profile's rows contiguous.
+        A CSV (``.csv``, ``.csv.gz``) or Parquet file, an instrument export, or
+        a directory of CSV and Parquet files (name order; ``.``/``_`` names
+        ignored); a profile's rows contiguous.
     out_dir : path
         New or empty, or (``resume``) written by an earlier run of the same settings.
-    workers, scheduler : optional
-        Processes of the local Dask cluster (default: all cores), or a running
-        scheduler's address (``"tcp://HOST:PORT"``); not both.
-    pool : optional
-        Fit the chunks there instead (emcee's pattern): a Dask ``Client``, an executor,
-        a ``multiprocessing`` pool or anything with ``map`` (or ``map``); two chunks
-        per worker in flight; the caller closes it; not with ``workers``/``scheduler``.
-    resume, quiet : bool
-        Keep the chunks whose part file is whole and compute the others; no progress bar.
-    model, r_min, calibration, bounds
-        As :func:`terracone.inverse.predict_many` (r_min [m]); or a calibration's
-        path, a bounds string (:meth:`Bounds.parse`, in ``units``).
-    units, cone, chunk_size
-        Units of the output (and of a bounds string); the cone of files without a
-        ``cone`` column; profiles per chunk (one task, one part file).
+    settings : PredictSettings, optional
+        What to fit (model, r_min [m], calibration, bounds) and attach
+        (``uncertainty``, ``draws``, ``prior``, ``layers``); ``fields`` are its
+        fields given here instead.  Batch fits with ``detail="summary"``, a
+        grid of :data:`N_GRID` over n and seed 0 unless given.
+    reading : Reading, optional
+        The cone of files without a ``cone`` column, a single file's format,
+        a wide table's units, the depth reference and window.
+    units, chunk_size
+        Units of the output; profiles per chunk (one task, one part file).
+    resume : bool
+        Keep the chunks whose part file is whole and compute the others.
+    pool, workers, scheduler : optional
+        Fit the chunks on ``pool`` (a Dask ``Client``, an executor, anything
+        with ``map``, or ``map``; the caller closes it), or on a local Dask
+        cluster of ``workers`` processes (default: all cores), or on the
+        scheduler at ``scheduler`` (``"tcp://HOST:PORT"``); one of them.
     progress : bool or callable, optional
         None: a tqdm bar on a terminal; True/False: force it; a callable gets
         ``progress(profiles_done, profiles_total)`` per chunk.
-    uncertainty, draws, prior
-        Also sample each posterior (:mod:`terracone.inverse.uncertainty.posterior`; prior
-        "bounds" or the calibration): columns ``<p>_q05``, ``<p>_q95`` (90%) and
-        ``ident_<p>`` for p in kc, kphi, n, cc, phic_deg.
-    depth_ref, depth_range
-        "tip": input depths are tip depths (base = tip - H); fit only base depths
-        in [lo, hi] [m] (either may be None).
-    layers : int
-        With 2 or more, also a layered fit per profile (:mod:`terracone.inverse.layered`):
-        columns ``bic_single``, ``bic_layered``, ``preferred_layers``, ``r2_layered``,
-        ``interfaces``, ``n_layers``, ``lack_of_fit_layered``.
-    format, depth_unit, ci_unit : optional
-        A single file's format ("csv", "sc900", "wide"; None detects it) and a wide
-        table's units; instrument files become ``OUT_DIR/_input/<stem>.parquet``.
 
     Returns
     -------
@@ -1205,58 +928,43 @@ def run_batch(
     """
     t_start = time.perf_counter()
     _check_args(chunk_size, workers, scheduler, pool)
-    units = u.check_system(units)
-    default_cone = get_cone(cone)
-    wide = {"depth_unit": depth_unit, "ci_unit": ci_unit}
-    settings, fit = _settings(
-        model=model,
-        r_min=r_min,
-        calibration=_resolve_calibration(calibration),
-        bounds=bounds,
-        units=units,
-        cone=default_cone,
-        chunk_size=chunk_size,
-        wide=wide,
-        uncertainty=uncertainty,
-        draws=draws,
-        prior=prior,
-        depth_ref=depth_ref,
-        depth_range=depth_range,
-        layers=layers,
-    )
-    files = _input_files(input)
-    fingerprint = _fingerprint(input, files)
-    run = _run_record(settings, fingerprint)
+    units, reading = u.check_system(units), reading or Reading()
+    settings = _batch_settings(settings_of(settings, fields))
+    default_cone = get_cone(reading.cone)
+    files = input_files(input)
+    source = fingerprint(input, files)
+    run = _run_record(_run_settings(settings, reading, units, default_cone, chunk_size), source)
     out = Path(out_dir)
     in_dir = Path(input) if Path(input).is_dir() else None
     resuming = _prepare_out_dir(out, resume, run, in_dir)
-    readable = files if in_dir else _readable(files, out, format, default_cone, wide)
+    readable = files if in_dir else _readable(files, out, reading, default_cone)
     summary = BatchSummary(out_dir=str(out), scheduler=scheduler)
     with _lock(out):
         _remove_leftovers(out)
         plan, expected, done = _begin(out, readable, run, resuming, chunk_size, summary)
-        sink = _Sink(out, plan, fit, run["run_key"], summary, sum(expected[i] for i in done))
-        chunks = _chunks(plan, chunk_size, _ConeCache(default_cone), done)
+        job = {"settings": settings, "reading": reading, "units": units}
+        sink = _Sink(out, plan, job, run["run_key"], summary, sum(expected[i] for i in done))
+        chunks = iter_chunks(plan, chunk_size, ConeCache(default_cone), done)
         where = {"pool": pool, "workers": workers, "scheduler": scheduler}
-        _process(sink, chunks, len(done) < len(expected), where, quiet, progress)
-        changed = _fingerprint(input, files) != fingerprint
+        _process(sink, chunks, len(done) < len(expected), where, progress)
+        changed = fingerprint(input, files) != source
         _finish(sink, expected, done, run, units, t_start, changed)
     return summary
 
 
 def _readable(
-    files: list[tuple[Path, str]], out: Path, format: str | None, cone: Cone, wide: dict
+    files: list[tuple[Path, str]], out: Path, reading: Reading, cone: Cone
 ) -> list[tuple[Path, str]]:
     """The files to read: a single SC900 export or wide table becomes Parquet once."""
-    kind = format
-    if format is None and files[0][1] == "csv":
+    kind = reading.format
+    if kind is None and files[0][1] == "csv":
         kind = detect_format(files[0][0])
     if kind not in ("sc900", "wide"):
         return files
     reader: dict[str, Any] = {"format": kind}
     if kind == "wide":
-        reader.update(wide, depth_ref="base")
-    return [(_sc900_to_parquet(files[0][0], out, cone, **reader), "parquet")]
+        reader.update(depth_unit=reading.depth_unit, ci_unit=reading.ci_unit, depth_ref="base")
+    return [(instrument_to_parquet(files[0][0], out, cone, **reader), "parquet")]
 
 
 def _begin(
@@ -1266,13 +974,13 @@ def _begin(
     resuming: bool,
     chunk_size: int,
     summary: BatchSummary,
-) -> tuple[_Plan, dict[int, int], set[int]]:
+) -> tuple[ScanPlan, dict[int, int], set[int]]:
     """Scan the input; write ``_run.json``, or find the chunks an earlier run finished.
 
     Returns the plan, the profiles expected per chunk and the chunks already done.
     """
     t0 = time.perf_counter()
-    plan = _scan(files)
+    plan = scan_inputs(files, leading=PARQUET_COLUMNS)  # output columns first
     summary.scan_s = time.perf_counter() - t0
     n_chunks = -(-plan.profiles // chunk_size)
     expected = {i: min(chunk_size, plan.profiles - i * chunk_size) for i in range(n_chunks)}
@@ -1346,11 +1054,11 @@ def _write_summary(out: Path, summary: BatchSummary, run: dict[str, Any], units:
 
 
 def _make_bar(
-    progress: bool | Callable[[int, int], None] | None, quiet: bool, total: int, initial: int
+    progress: bool | Callable[[int, int], None] | None, total: int, initial: int
 ) -> tuple[Any, Callable[[int, int], None] | None]:
     if callable(progress):
         return None, progress
-    show = (not quiet) and (progress if progress is not None else sys.stderr.isatty())
+    show = progress if progress is not None else sys.stderr.isatty()
     if not show:
         return None, None
     from tqdm.auto import tqdm
@@ -1370,16 +1078,15 @@ def _make_bar(
 
 def _process(
     sink: _Sink,
-    chunks: Iterator[tuple[int, _Chunk | None, int]],
+    chunks: Iterator[tuple[int, Chunk | None, int]],
     todo: bool,
     where: dict[str, Any],
-    quiet: bool,
     progress: bool | Callable[[int, int], None] | None,
 ) -> None:
     """Stream the chunks through the pool (``where["pool"]``, or a Dask cluster of
     ``where["workers"]`` or at ``where["scheduler"]``) and write the part files."""
     total = sink.plan.profiles
-    sink.bar, sink.callback = _make_bar(progress, quiet, total, sink.profiles_done)
+    sink.bar, sink.callback = _make_bar(progress, total, sink.profiles_done)
     if sink.callback is not None:
         sink.callback(sink.profiles_done, total)
     try:

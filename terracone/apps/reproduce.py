@@ -4,49 +4,18 @@ SYNTHETIC DATA.  The paper's measured curves (LETE sand, 1981; KRC, 2018)
 were never published, only the parameters fitted to them (Tables 4-1 and
 4-3) and the agreement statistics (Tables 4-2 and 4-4).  :func:`reproduce`
 therefore generates data from the published parameters with terracone's
-forward models, runs them through the learning, prediction and evaluation
-processes, and sets the results beside the published tables.
-
-Data (all seeded, numpy PCG64):
-
-* LETE sand (seed 1981).  Four CI profiles LS_1..LS_4 from the Table 4-1
-  parameters with the improved model (eqs. (2-2) to (2-7)), **RM0** (the
-  paper does not publish r_min; RM0 needs no invented value), fully
-  mobilised shear, the standard 30 deg, 0.5 in^2 cone, cone-base depths
-  0 to 30 cm every 1 cm.  Five plate-test pairs LS_A..LS_E, radii 3.75 cm
-  and 5 cm, from Wong's LETE sand values (kc 102 kN/m^(n+1), kphi 5301
-  kN/m^(n+2), n 0.79, quoted in section 2 of the paper) with the Bekker
-  equation, sinkage 2 to 100 mm every 2 mm.
-* KRC (seed 2018).  Eight sites KRC_1, 2, 3, 4, 7, 9, 24, 25: a CI profile
-  from the site's Table 4-3 parameters (as for LETE) and a plate pair of
-  4 in and 6 in diameter (the paper's "10 cm" and "15 cm"; its
-  recommendation G, 1,500 lb giving 119 and 53 psi, fixes them at 4 and
-  6 in) generated **from the same Table 4-3 parameters**: the KRC plate
-  measurements were never published.  Each plate test ends when the force
-  reaches 1,500 lbf (6,672 N), as KRC's bevameter did.
-
-Noise model: every CI reading is multiplied by (1 + 0.03 e) and every plate
-pressure by (1 + 0.02 e), e independent standard normal; each LETE plate
-pair is also multiplied by exp(0.10 g), g standard normal, one draw per
-pair (the spread between tests on one site).  Values are rounded to
-0.01 kPa.
-
-Processes: LETE learning (section 3.3.1, RM1) on all CI profiles and plate
-tests gives one calibration; every CI profile is predicted (section 3.3.2)
-with that calibration (these go into the Table 4-1/4-2 analogues) and
-without it (CI alone, shown beside); every prediction is evaluated against
-every plate test (the cross table of Table 4-2).  KRC: learning per site
-(CI and the site's plates), prediction of the site's CI with the site's
-calibration (Table 4-3/4-4 analogues) and without; evaluation against the
-site's plates (Table 4-4).  Posterior plate bands come from
-:func:`terracone.inverse.uncertainty.posterior.posterior` when that module is available.
+forward models (seeded, with the noise model :data:`NOISE_MODEL`), runs them
+through the learning, prediction and evaluation processes (posterior bands
+through :func:`terracone.apps.workflow.attach_fits`), and sets the results
+beside the published tables.  ``docs/report.md`` describes the data, the
+noise model and how to read the comparison.
 
 Layout: each case study is one spec (its data generator, file names, and
 per report section the tables and figures with their keys, titles, notes
 and captions); one builder per kind of table or figure reads it, so what
-LETE and KRC share is written once.  The learning runs, the predictions
-and the figures go through a ``pool`` with a ``map`` method (as in emcee):
-a process pool by default, the builtin ``map`` with ``workers=1``.
+LETE and KRC share is written once.  The learning runs, the posteriors and
+the figures go through a ``pool`` with a ``map`` method (as in emcee): a
+process pool by default, the builtin ``map`` with ``workers=1``.
 
 References
 ----------
@@ -57,6 +26,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import shutil
@@ -71,12 +41,12 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from terracone import __version__
-from terracone.apps.workflow import plate_curves
+from terracone.apps.workflow import attach_fits, plate_curves
 from terracone.data import CIProfile, PlateTest, TerrainParameters
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.evaluate import PlateEvaluation, cross_table, predicted_plate_pressure
 from terracone.inverse.learning.learn import Calibration, LearnResult, learn
-from terracone.inverse.predict import predict_many
+from terracone.inverse.predict import PredictSettings, predict_many
 from terracone.io import write_ci_profiles, write_plate_tests
 from terracone.physics import units as u
 from terracone.physics.cone import cone_index
@@ -99,7 +69,7 @@ from terracone.report.tables import (
     parameters_table,
     summary_statistics,
 )
-from terracone.result import PredictionResult, dumps, settings_dict, to_document
+from terracone.result import PredictionResult, PredictionResults, dumps, settings_dict, to_document
 
 __all__ = ["ReproduceSummary", "reproduce", "NOISE_MODEL", "WONG_LETE"]
 
@@ -409,21 +379,6 @@ def _write_json(path: Path, obj: Any) -> Path:
     return path
 
 
-def _posterior(profile, result, cal, radii, seed, draws):
-    """Posterior plate bands and identifiability, when terracone.uncertainty is there."""
-    try:
-        from terracone.inverse.uncertainty.posterior import posterior
-    except ImportError as exc:  # pragma: no cover - module is optional here
-        return None, f"posterior not computed ({exc})"
-    try:
-        post = posterior(
-            profile, prior=cal, seed=seed, draws=draws, plates=list(radii), start=result
-        )
-        return post, None
-    except Exception as exc:  # noqa: BLE001 - a colleague's module: report, do not fail
-        return None, f"posterior not computed ({type(exc).__name__}: {exc})"
-
-
 def _predict_doc(
     results: Sequence[PredictionResult],
     *,
@@ -514,11 +469,6 @@ def _mapper(pool: Any) -> Callable[..., Any]:
 
 def _learn_task(profiles, plates, grid):
     return learn(profiles, plates, model="rm1", grid=grid)
-
-
-def _posterior_task(profile, rc, cal, radii, seed, draws):
-    """The posterior plate bands of one calibrated prediction (runs in the pool)."""
-    return _posterior(profile, rc, cal, radii, seed, draws)
 
 
 def _deferred(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> tuple:
@@ -736,31 +686,35 @@ def _predict_all(
 ) -> None:
     """Every profile predicted with and without its calibration, then posteriors in the pool.
 
-    The fits go through :func:`terracone.inverse.predict_many` (the package's one
-    solving path): one call per group's calibration and one without; the
-    posteriors, a second or so each, are mapped over the pool.
+    The fits go through :func:`terracone.inverse.predict_many` (one call per
+    group's calibration and one without); each calibrated fit's posterior
+    (prior: the calibration, a second or so each) is attached by
+    :func:`terracone.apps.workflow.attach_fits`, mapped over the pool with a
+    seed per profile.
     """
     tasks = []
     for case in cases:
         rf = predict_many(case.profiles)
+        radii = list(case.spec.plates.values())
         rc: dict[str, Any] = {}
         for g in case.groups:
+            cal = case.cals[g.id]
+            s = PredictSettings(calibration=cal, prior=cal, uncertainty=True, draws=draws)
             mine = [p for p in case.profiles if case.group_of(p.id) is g]
-            rc.update(zip((p.id for p in mine), predict_many(mine, calibration=case.cals[g.id])))
-        radii = list(case.spec.plates.values())
+            rc.update((p.id, (r, s)) for p, r in zip(mine, predict_many(mine, s)))
         for i, p in enumerate(case.profiles):
-            case.cal_res.append(rc[p.id])
             case.free_res.append(rf[i])
-            args = (p, rc[p.id], case.cal_of(p.id), radii, case.spec.seed + i, draws)
-            tasks.append((_posterior_task, args))
-    posts = iter(mapper(_call, tasks))
+            r, s = rc[p.id]
+            s = dataclasses.replace(s, seed=case.spec.seed + i)
+            tasks.append((partial(attach_fits, plates=radii), (PredictionResults([r]), [p], s)))
+    attached = iter(mapper(_call, tasks))
     for case in cases:
-        for p, r in zip(case.profiles, case.cal_res):
-            post, why = next(posts)
-            r.posterior = post  # written with the calibrated prediction
-            case.posts[p.id] = None if post is None else post.as_dict("si")
-            if why and why not in notes:
-                notes.append(why)
+        for p in case.profiles:
+            (r,) = next(attached)  # written with the calibrated prediction
+            case.cal_res.append(r)
+            case.posts[p.id] = None if r.posterior is None else r.posterior.as_dict("si")
+            if r.posterior is None:
+                notes.append(f"{p.id}: posterior not computed ({r.lack_of_fit})")
 
 
 def _evaluate(case: _Case) -> None:

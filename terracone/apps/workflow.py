@@ -1,15 +1,12 @@
-"""What ``terracone predict`` computes, as one library call.
+"""What ``terracone predict`` computes, as one library call, and what it adds to a fit.
 
-:func:`predict_profiles` chains the prediction process (section 3.3.2 of [1]_)
-over a set of CI profiles with what the command adds on request: predicted
-plate pressure-sinkage curves (eq. (2-2), RM1 of section 3.2), the posterior of
-each fit (:mod:`terracone.inverse.uncertainty.posterior`) and layered fits
-(:mod:`terracone.physics.layers`), attached to each
-:class:`~terracone.result.PredictionResult`.  The result, :class:`PredictRun`,
-writes the same JSON document as ``terracone predict --json``
-(:meth:`PredictRun.as_dict`) and the same table as ``--parquet``
-(:meth:`PredictRun.to_table`), through :mod:`terracone.result`, so a Python
-user gets what the command writes without reaching into the CLI.
+:func:`predict_profiles` fits a set of CI profiles (section 3.3.2 of [1]_) with
+one :class:`~terracone.inverse.predict.PredictSettings` and attaches what was
+asked: predicted plate curves (eq. (2-2), RM1 of section 3.2) and, through
+:func:`attach_fits` (which ``terracone batch`` and ``reproduce`` call too),
+each fit's posterior and layered fit.  :class:`PredictRun` writes the
+``predict --json`` document and the ``--parquet`` table through
+:mod:`terracone.result`.  :class:`Reading` is how the commands read CI files.
 
 References
 ----------
@@ -20,29 +17,36 @@ References
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pyarrow as pa
 
-from terracone.data import CIProfile, InputError, TerrainParameters
-from terracone.inverse.bounds import Bounds
+from terracone.data import CIProfile, InputError, ProfileSet, TerrainParameters
 from terracone.inverse.evaluate import predicted_plate_pressure
-from terracone.inverse.learning.learn import Calibration
-from terracone.inverse.predict import predict_many
+from terracone.inverse.predict import PredictSettings, predict_many, settings_of
+from terracone.io import read_ci_profiles
 from terracone.physics import units as u
+from terracone.physics.cone import Cone
 from terracone.result import (
     PlateCurve,
-    PredictionResult,
     PredictionResults,
     settings_dict,
     to_document,
     to_table,
 )
 
-__all__ = ["PredictRun", "plate_curves", "predict_profiles", "sinkage_grid"]
+__all__ = [
+    "PredictRun",
+    "Reading",
+    "attach_fits",
+    "plate_curves",
+    "predict_profiles",
+    "sinkage_grid",
+]
 
 
 def sinkage_grid(units: str = "si", points: int = 26) -> np.ndarray:
@@ -70,70 +74,86 @@ def plate_curves(
     ]
 
 
+@dataclass(frozen=True)
+class Reading:
+    """How the commands read CI files (:func:`terracone.io.read_ci_profiles`).
+
+    ``cone``: the cone of files that name none; ``format``: "csv", "sc900",
+    "wide" or None (detected); ``depth_ref``: "tip" when the file's depths
+    are the tip's (base = tip - H); ``depth_range``: base depths (lo, hi)
+    [m] to fit, either None; ``depth_unit``, ``ci_unit``: units of a wide
+    table; ``file_units``: unit system of a file that does not state it.
+    """
+
+    cone: str | Cone = "asabe-large"
+    format: str | None = None
+    depth_ref: str = "base"
+    depth_range: tuple[float | None, float | None] = (None, None)
+    depth_unit: str | None = None
+    ci_unit: str | None = None
+    file_units: str | None = None
+
+    def read(
+        self, path: str | os.PathLike[str], units: str = "si", on_error: str = "collect"
+    ) -> list[Any]:
+        """The profiles of ``path`` cut to ``depth_range`` (with a note; bad ones as InputError).
+
+        ``units`` is the unit system of the notes.
+        """
+        items = read_ci_profiles(
+            path,
+            cone=self.cone,
+            depth_ref=self.depth_ref,
+            format=self.format,
+            on_error=on_error,
+            units=self.file_units,
+            depth_unit=self.depth_unit,
+            ci_unit=self.ci_unit,
+        )
+        lo, hi = self.depth_range
+        if lo is None and hi is None:
+            return items
+        a = "-" if lo is None else f"{float(u.length_from_si(lo, units)):g}"
+        b = "-" if hi is None else f"{float(u.length_from_si(hi, units)):g}"
+        span = f"depth window {a}:{b} {u.length_unit(units)}"
+        out = []
+        for it in items:  # the package's one depth window (terracone.data.depth_window)
+            if not isinstance(it, InputError):
+                w = it.window(lo, hi)
+                w.notes = list(it.notes) + [f"{span}: {len(w)} of {len(it)} points"]
+                it = w
+            out.append(it)
+        return out
+
+
 @dataclass
 class PredictRun:
     """Result of :func:`predict_profiles` (SI inside).
 
-    Attributes
-    ----------
-    results : PredictionResults
-        One :class:`~terracone.result.PredictionResult` per input item, in
-        input order (bad profiles carry their error), with the plate curves,
-        posterior and layered fit attached (``plate_curves``, ``posterior``,
-        ``layered``, ``layered_posterior``).
-    settings : dict
-        What the run was asked (SI; converted by :meth:`as_dict`).
-
-    ``plates``, ``posteriors``, ``layered`` and ``layered_posteriors`` map
-    profile ids to what is attached to the results (kept from before the
-    result model).
+    ``results``: one :class:`~terracone.result.PredictionResult` per input
+    item, in input order, with what was asked attached (``plate_curves``,
+    ``posterior``, ``layered``, ``layered_posterior``); ``settings``: what
+    was asked.
     """
 
     results: PredictionResults
-    settings: dict[str, Any] = field(default_factory=dict)
-
-    def _attached(self, name: str) -> dict[str, Any]:
-        out = {}
-        for r in self.results:
-            v = getattr(r, name)
-            if v is not None and (not isinstance(v, list) or v):
-                out[r.id] = v
-        return out
-
-    @property
-    def plates(self) -> dict[str, list[PlateCurve]]:
-        """Profile id to its predicted plate curves."""
-        return self._attached("plate_curves")
-
-    @property
-    def posteriors(self) -> dict[str, Any]:
-        """Profile id to its :class:`terracone.inverse.uncertainty.posterior.PosteriorResult`."""
-        return self._attached("posterior")
-
-    @property
-    def layered(self) -> dict[str, Any]:
-        """Profile id to its :class:`terracone.physics.layers.LayeredResult`."""
-        return self._attached("layered")
-
-    @property
-    def layered_posteriors(self) -> dict[str, Any]:
-        """Profile id to the posterior of its layered fit."""
-        return self._attached("layered_posterior")
-
-    def profile_dict(self, r: PredictionResult, units: str = "si") -> dict[str, Any]:
-        """One profile of the ``terracone predict --json`` document."""
-        return r.as_dict(units)
+    settings: PredictSettings
 
     def as_dict(
-        self, units: str = "si", *, input: str | None = None, **settings: Any
+        self, units: str = "si", *, input: str | None = None, **extra: Any
     ) -> dict[str, Any]:
-        """The ``terracone predict --json`` document; ``settings`` are recorded as given."""
-        return to_document(
-            self.results,
-            units,
-            input=input,
-            settings=settings_dict(self.settings, units, **settings),
-        )
+        """The ``terracone predict --json`` document; ``extra`` settings are recorded as given."""
+        s = self.settings
+        recorded = {
+            "model": s.model,
+            "r_min": s.r_min,
+            "solver": s.solver,
+            "seed": s.seed,
+            "bounds": s.bounds,
+            "calibration": s.calibration.terrain if s.calibration else None,
+        }
+        doc_settings = settings_dict(recorded, units, **extra)
+        return to_document(self.results, units, input=input, settings=doc_settings)
 
     def to_table(self, units: str = "si") -> pa.Table:
         """The ``terracone predict --parquet`` table (batch's part-file columns)."""
@@ -142,20 +162,12 @@ class PredictRun:
 
 def predict_profiles(
     items: Sequence[CIProfile | InputError],
+    settings: PredictSettings | None = None,
     *,
-    model: str = "rm0",
-    r_min: float | None = None,
-    calibration: Calibration | None = None,
-    solver: str = "exact",
-    bounds: Bounds | None = None,
-    seed: int | None = None,
     plates: Sequence[float] = (),
     sinkage: np.ndarray | None = None,
-    uncertainty: bool = False,
-    prior: str | Calibration = "bounds",
-    draws: int = 2000,
     band_sinkage: np.ndarray | None = None,
-    layers: int = 1,
+    **options: Any,
 ) -> PredictRun:
     """Predict terrain parameters for a set of CI profiles, with what predict adds on request.
 
@@ -164,90 +176,93 @@ def predict_profiles(
     items : sequence of CIProfile or InputError
         As readers return them; an :class:`InputError` is reported as that
         profile's error and the others are fitted.
-    model, r_min, calibration, solver, bounds, seed
-        As :func:`terracone.inverse.predict_many`.  r_min [m].
+    settings : PredictSettings, optional
+        What to fit and attach (posterior with ``uncertainty``, layered fit
+        with ``layers`` > 1); ``options`` are its fields given here instead.
     plates : sequence of float
         Plate radii [m] of predicted plate curves (and posterior bands).
-    sinkage : ndarray, optional
-        Sinkages [m] of the plate curves (default :func:`sinkage_grid`).
-    uncertainty : bool
-        Sample each fit's posterior (:func:`terracone.inverse.uncertainty.posterior.posterior_for_result`).
-    prior : "bounds" or Calibration
-        Prior of the posterior.
-    draws : int
-        Posterior draws.
-    band_sinkage : ndarray, optional
-        Sinkages [m] of the posterior plate bands (default 21 points to 5 cm).
-    layers : int
-        Above 1: also a layered fit of each profile (and its posterior with
-        ``uncertainty``).
+    sinkage, band_sinkage : ndarray, optional
+        Sinkages [m] of the plate curves (default :func:`sinkage_grid`) and
+        of the posterior bands (default 21 points to 5 cm).
     """
-    bounds = bounds or Bounds()
-    results = predict_many(
-        items,
-        model=model,
-        r_min=r_min,
-        calibration=calibration,
-        solver=solver,
-        bounds=bounds,
-        seed=seed,
-    )
+    settings = settings_of(settings, options)
+    results = predict_many(items, settings)
     for it, r in zip(items, results):  # a reader's error: its row and column for the table
         if isinstance(it, InputError) and r.error_row is None and r.error_column is None:
             r.error_row, r.error_column = it.row, it.column
-    pair = calibration.plate_pair if calibration else None
-    run = PredictRun(
-        PredictionResults(results),
-        settings={
-            "model": calibration.model if calibration else model,
-            "r_min": calibration.r_min if calibration else r_min,
-            "solver": solver,
-            "seed": seed,
-            "bounds": bounds,
-            "calibration": calibration.terrain if calibration else None,
-        },
-    )
-    by_id = {it.id: it for it in items if not isinstance(it, InputError)}
     s = sinkage_grid() if sinkage is None else sinkage
     for r in results:
-        if not r.ok:
-            continue
-        if plates:
-            r.plate_curves = plate_curves(r.params, plates, s, pair)
-        if uncertainty:
-            r.posterior = _posterior(
-                by_id[r.id], r, prior, draws, seed, plates, band_sinkage, bounds, pair
-            )
-        if layers > 1:
-            _layered(r, by_id[r.id], layers, model, r_min, bounds, uncertainty, draws, seed)
-    return run
+        if r.ok and plates:
+            r.plate_curves = plate_curves(r.params, plates, s, settings.plate_pair)
+    bands = np.linspace(0.0, 0.05, 21) if band_sinkage is None else band_sinkage
+    attach_fits(results, items, settings, plates=list(plates) or None, band_sinkage=bands)
+    return PredictRun(results, settings)
 
 
-def _posterior(profile, result, prior, draws, seed, plates, band_sinkage, bounds, pair):
+def _cone_of(profiles: ProfileSet | Sequence[Any], j: int) -> Cone:
+    if isinstance(profiles, ProfileSet):
+        return profiles.cones[int(profiles.cone_idx[j])]
+    return profiles[j].cone
+
+
+def attach_fits(
+    results: PredictionResults,
+    profiles: ProfileSet | Sequence[CIProfile | InputError],
+    settings: PredictSettings,
+    *,
+    plates: Sequence[float] | None = None,
+    band_sinkage: np.ndarray | None = None,
+    layered_posterior: bool = True,
+) -> PredictionResults:
+    """Attach to each fitted result its posterior and layered fit, as ``settings`` ask.
+
+    The one place where ``predict``, ``batch`` and ``reproduce`` add them:
+    with ``settings.uncertainty`` the posterior of the fit
+    (:func:`terracone.inverse.uncertainty.posterior.posterior_for_result`:
+    prior ``settings.prior`` over ``settings.bounds``, ``draws``, ``seed``;
+    plate bands at ``plates`` [m] and ``band_sinkage`` [m]); with
+    ``settings.layers`` > 1 a layered fit
+    (:func:`terracone.inverse.layered.fit_layered`) and, with
+    ``uncertainty`` and ``layered_posterior``, its posterior.  A profile
+    whose posterior fails keeps its fit and says why in ``lack_of_fit``; a
+    layered fit that fails is an error LayeredResult with the reason.
+
+    ``profiles`` are the profiles fitted, aligned with ``results`` (their
+    cones are used; depths and CI come from the results).  Returns
+    ``results``, changed in place.
+    """
+    if not settings.uncertainty and settings.layers < 2:
+        return results
     from terracone.inverse.uncertainty.posterior import posterior_for_result
 
-    return posterior_for_result(
-        profile,
-        result,
-        prior=prior,
-        draws=draws,
-        seed=seed,
-        plates=list(plates) or None,
-        plate_sinkages=np.linspace(0.0, 0.05, 21) if band_sinkage is None else band_sinkage,
-        bounds=bounds,
-        plate_pair=pair,
-    )
+    for j, r in enumerate(results):
+        if not r.ok:
+            continue
+        prof = CIProfile(r.id, r.depth, r.ci, cone=_cone_of(profiles, j), metadata=r.metadata)
+        with np.errstate(all="ignore"):
+            if settings.uncertainty:
+                try:
+                    r.posterior = posterior_for_result(
+                        prof, r, settings, plates=plates, plate_sinkages=band_sinkage
+                    )
+                except Exception as exc:  # noqa: BLE001 - recorded per profile, the rest goes on
+                    r.lack_of_fit = "; ".join(
+                        filter(None, [r.lack_of_fit, f"posterior failed: {exc}"])
+                    )
+            if settings.layers > 1:
+                r.layered, r.layered_posterior = _layered(prof, settings, layered_posterior)
+    return results
 
 
-def _layered(result, profile, layers, model, r_min, bounds, uncertainty, draws, seed) -> None:
-    """Attach a layered fit (and its posterior) to ``result``."""
-    from terracone.inverse.layered import fit_layered
+def _layered(prof: CIProfile, settings: PredictSettings, sample: bool) -> tuple[Any, Any]:
+    """The layered fit of a profile (an error result if it fails) and, if asked, its posterior."""
+    from terracone.inverse.layered import LayeredResult, fit_layered, layered_posterior
 
-    lr = fit_layered(profile, layers=layers, model=model, r_min=r_min, bounds=bounds)
-    result.layered = lr
-    if uncertainty and lr.ok:
-        from terracone.inverse.layered import layered_posterior
-
-        result.layered_posterior = layered_posterior(
-            profile, lr, bounds=bounds, draws=draws, seed=seed
-        )
+    s = settings
+    try:
+        lr = fit_layered(prof, layers=s.layers, model=s.model, r_min=s.r_min, bounds=s.bounds)
+    except Exception as exc:  # noqa: BLE001 - recorded per profile, the rest goes on
+        return LayeredResult(prof.id, "error", f"{type(exc).__name__}: {exc}"), None
+    if not (sample and s.uncertainty and lr.ok):
+        return lr, None
+    return lr, layered_posterior(prof, lr, bounds=s.bounds, draws=s.draws, seed=s.seed)

@@ -6,12 +6,7 @@ import sys
 
 import click
 
-from terracone.cli.common import (
-    fit_options,
-    load_calibration,
-    parse_depth_range,
-    parse_length,
-)
+from terracone.cli.common import fit_options, reading_from, settings_from
 
 
 @click.command("batch")
@@ -52,63 +47,30 @@ from terracone.cli.common import (
     show_default=True,
     help="Prior with --uncertainty.",
 )
-def batch_cmd(
-    input_path,
-    out_dir,
-    workers,
-    scheduler,
-    resume,
-    quiet,
-    model,
-    r_min,
-    terrain,
-    calibration,
-    library,
-    bounds,
-    units,
-    cone,
-    chunk_size,
-    uncertainty,
-    draws,
-    prior,
-    depth_ref,
-    depth_range,
-    layers,
-    fmt,
-    depth_unit,
-    ci_unit,
-):
+def batch_cmd(input_path, out_dir, workers, scheduler, resume, quiet, chunk_size, **opts):
     """Fit every profile of a CSV/Parquet file or directory on Dask; Parquet results per chunk."""
     from terracone.apps.batch import run_batch
-    from terracone.inverse import Bounds
 
-    cal = load_calibration(calibration, terrain, library)
-    if prior == "calibration" and cal is None:
+    uncertainty = opts.pop("uncertainty")
+    if opts["prior"] == "calibration" and not (opts["calibration"] or opts["terrain"]):
         raise click.UsageError("--prior calibration needs --calibration or --terrain")
-    rm = parse_length(r_min, units, "--r-min") if r_min else None
+    settings = settings_from(
+        opts,
+        uncertainty=uncertainty,
+        draws=opts["draws"],
+        prior=opts["prior"] if uncertainty else "bounds",
+    )
     s = run_batch(
         input_path,
         out_dir,
+        settings,
+        reading=reading_from(opts),
+        units=opts["units"],
+        chunk_size=chunk_size,
+        resume=resume,
         workers=workers,
         scheduler=scheduler,
-        resume=resume,
-        quiet=quiet,
-        model=model,
-        r_min=rm,
-        calibration=cal,
-        bounds=Bounds.parse(bounds, units),
-        units=units,
-        cone=cone,
-        chunk_size=chunk_size,
-        uncertainty=uncertainty,
-        draws=draws,
-        prior=cal if prior == "calibration" else "bounds",
-        depth_ref=depth_ref,
-        depth_range=parse_depth_range(depth_range, units),
-        layers=layers,
-        format=fmt,
-        depth_unit=depth_unit,
-        ci_unit=ci_unit,
+        progress=False if quiet else None,
     )
     click.echo(
         f"{s.profiles} profiles: {s.profiles_ok} fitted, {s.profiles_error} with errors "

@@ -4,18 +4,18 @@ from __future__ import annotations
 
 import os
 import re
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import click
 import numpy as np
 
+from terracone.apps.workflow import Reading
 from terracone.data import InputError
+from terracone.inverse.bounds import Bounds
+from terracone.inverse.predict import PredictSettings
 from terracone.physics import units as u
-from terracone.report.text import (
-    curve_text,
-)
+from terracone.report.text import curve_text
 
 UNITS = click.Choice(["si", "us"])
 
@@ -80,30 +80,6 @@ def parse_r_min_range(text: str | None, units: str) -> tuple[float, float] | Non
     if not (0 < lo <= hi):
         raise click.BadParameter(f"--r-min-range: need 0 < LO <= HI, got {text!r}")
     return lo, hi
-
-
-def windowed(items, rng: tuple[float | None, float | None], units: str):
-    """Restrict profiles to a depth window, with a note; reader errors pass through.
-
-    The window is the package's one depth window,
-    :func:`terracone.data.depth_window` (through :meth:`CIProfile.window`,
-    as :meth:`ProfileSet.window` and ``terracone batch`` apply it).
-    """
-    lo, hi = rng
-    if lo is None and hi is None:
-        return items
-    a = "-" if lo is None else f"{float(u.length_from_si(lo, units)):g}"
-    b = "-" if hi is None else f"{float(u.length_from_si(hi, units)):g}"
-    span = f"depth window {a}:{b} {u.length_unit(units)}"
-    out = []
-    for it in items:
-        if isinstance(it, InputError):
-            out.append(it)
-            continue
-        w = it.window(lo, hi)
-        w.notes = list(it.notes) + [f"{span}: {len(w)} of {len(it)} points"]
-        out.append(w)
-    return out
 
 
 def emit_json(obj: Any, out: str | None = None) -> None:
@@ -204,31 +180,8 @@ json_options = (
 )
 
 
-fit_options = shared(
-    click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True),
-    click.option(
-        "--r-min",
-        default=None,
-        help="RM1 transition radius (e.g. 0.01, 1cm, 0.4in; bare numbers in --units).",
-    ),
-    click.option(
-        "--calibration",
-        type=click.Path(dir_okay=False),
-        default=None,
-        help="Calibration JSON from `terracone learn --save`.",
-    ),
-    click.option(
-        "--terrain", default=None, help="Use a calibration stored in the terrain library."
-    ),
-    click.option(
-        "--library",
-        default=None,
-        help="Terrain library path (default: $TERRACONE_LIBRARY or the user data dir).",
-    ),
-    click.option(
-        "--bounds", default=None, help="kc=LO:HI,kphi=LO:HI,n=LO:HI,cc=LO:HI,phic=LO:HI in --units."
-    ),
-    click.option("--units", type=UNITS, default="si", show_default=True),
+#: How CI files are read: --cone, --format, a wide table's units, --depth-ref, --depth-range.
+reading_options = (
     click.option(
         "--cone",
         default="asabe-large",
@@ -256,6 +209,36 @@ fit_options = shared(
         default=None,
         help="Fit only LO:HI of base depth (e.g. 0.05:0.30, 5cm:30cm; bare numbers in --units).",
     ),
+)
+
+library_option = click.option(
+    "--library",
+    default=None,
+    help="Terrain library path (default: $TERRACONE_LIBRARY or the user data dir).",
+)
+
+fit_options = shared(
+    click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm0", show_default=True),
+    click.option(
+        "--r-min",
+        default=None,
+        help="RM1 transition radius (e.g. 0.01, 1cm, 0.4in; bare numbers in --units).",
+    ),
+    click.option(
+        "--calibration",
+        type=click.Path(dir_okay=False),
+        default=None,
+        help="Calibration JSON from `terracone learn --save`.",
+    ),
+    click.option(
+        "--terrain", default=None, help="Use a calibration stored in the terrain library."
+    ),
+    library_option,
+    click.option(
+        "--bounds", default=None, help="kc=LO:HI,kphi=LO:HI,n=LO:HI,cc=LO:HI,phic=LO:HI in --units."
+    ),
+    click.option("--units", type=UNITS, default="si", show_default=True),
+    *reading_options,
     click.option(
         "--layers",
         type=click.IntRange(1, 4),
@@ -266,80 +249,40 @@ fit_options = shared(
 )
 
 
-def read_profiles(
-    path, cone, fmt, depth_ref, collect=True, units=None, depth_unit=None, ci_unit=None
-):
-    from terracone.io import read_ci_profiles
-
-    return read_ci_profiles(
-        path,
-        cone=cone,
-        depth_ref=depth_ref,
-        format=fmt,
-        on_error="collect" if collect else "raise",
-        units=units,
-        depth_unit=depth_unit,
-        ci_unit=ci_unit,
+def reading_from(opts: dict[str, Any], file_units: str | None = None) -> Reading:
+    """How a command reads its CI files, from the reading options of ``fit_options``."""
+    return Reading(
+        cone=opts["cone"],
+        format=opts["fmt"],
+        depth_ref=opts["depth_ref"],
+        depth_range=parse_depth_range(opts["depth_range"], opts["units"]),
+        depth_unit=opts["depth_unit"],
+        ci_unit=opts["ci_unit"],
+        file_units=file_units,
     )
 
 
-def fit_items(ci_file, cone, fmt, depth_ref, depth_range, units, file_units, depth_unit, ci_unit):
-    """CI profiles of a fit command, read and cut to --depth-range (bad ones as InputError)."""
-    return windowed(
-        read_profiles(
-            ci_file,
-            cone,
-            fmt,
-            depth_ref,
-            units=file_units,
-            depth_unit=depth_unit,
-            ci_unit=ci_unit,
-        ),
-        parse_depth_range(depth_range, units),
-        units,
-    )
+def settings_from(opts: dict[str, Any], **fields: Any) -> PredictSettings:
+    """The one :class:`PredictSettings` of a command's ``fit_options`` (lengths in --units).
 
-
-@dataclass
-class FitArgs:
-    """The parsed ``fit_options`` of a command (lengths in m)."""
-
-    model: str
-    r_min: float | None
-    calibration: Any
-    bounds: Any
-    units: str
-    layers: int
-    depth_range: str | None
-    reading: dict[str, Any]
-
-    def items(self, ci_file: str, file_units: str | None = None) -> list[Any]:
-        """The command's CI profiles, cut to --depth-range (bad ones as InputError)."""
-        r = self.reading
-        return fit_items(
-            ci_file, r["cone"], r["fmt"], r["depth_ref"], self.depth_range, self.units,
-            file_units, r["depth_unit"], r["ci_unit"],
-        )  # fmt: skip
-
-    def check_r_min(self, calibration: Any) -> None:
-        if self.model == "rm1" and self.r_min is None and calibration is None:
-            raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
-
-
-def fit_args(opts: dict[str, Any]) -> FitArgs:
-    """Parse the ``fit_options`` given to a command as ``**opts``."""
-    from terracone.inverse import Bounds
-
+    ``fields`` are further fields (solver, seed, uncertainty, ...); a
+    ``calibration`` among them (design's prior) stands for --calibration.
+    """
     units = opts["units"]
-    return FitArgs(
+    cal = fields.pop("calibration", None) or load_calibration(
+        opts["calibration"], opts["terrain"], opts["library"]
+    )
+    r_min = parse_length(opts["r_min"], units, "--r-min") if opts["r_min"] else None
+    if opts["model"] == "rm1" and r_min is None and cal is None:
+        raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
+    bounds = Bounds.parse(opts["bounds"], units)
+    return PredictSettings(
         model=opts["model"],
-        bounds=Bounds.parse(opts["bounds"], units),
-        r_min=parse_length(opts["r_min"], units, "--r-min") if opts["r_min"] else None,
-        calibration=load_calibration(opts["calibration"], opts["terrain"], opts["library"]),
-        units=units,
+        r_min=r_min,
+        calibration=cal,
+        bounds=bounds,
         layers=opts["layers"],
-        depth_range=opts["depth_range"],
-        reading={k: opts[k] for k in ("cone", "fmt", "depth_ref", "depth_unit", "ci_unit")},
+        **fields,
     )
 
 

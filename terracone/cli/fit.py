@@ -11,32 +11,31 @@ from terracone import __version__
 from terracone.cli.common import (
     UNITS,
     emit_json,
-    fit_args,
-    fit_items,
     fit_options,
     json_options,
-    load_calibration,
+    library_option,
     load_prior,
-    parse_depth_range,
     parse_length,
     parse_lengths,
     parse_r_min_range,
-    read_profiles,
+    reading_from,
+    reading_options,
+    settings_from,
     shared,
-    wide_options,
-    windowed,
+    store_in_library,
 )
 from terracone.data import InputError, TerrainParameters
 from terracone.physics import units as u
 from terracone.report.text import (
     design_text,
     evaluate_text,
+    layered_text,
     learn_text,
+    posterior_text,
     predict_text,
     sites_text,
 )
-from terracone.report.text import layered_text as _layered_text  # the names predict_cmd prints with
-from terracone.report.text import posterior_text as _posterior_text
+from terracone.result import write_parquet
 
 
 @click.command("predict")
@@ -78,78 +77,45 @@ from terracone.report.text import posterior_text as _posterior_text
     help="Also write the results as a Parquet table, with batch's columns (docs/results.md).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-def predict_cmd(
-    ci_file,
-    model,
-    r_min,
-    calibration,
-    terrain,
-    library,
-    solver,
-    seed,
-    bounds,
-    units,
-    plates,
-    cone,
-    fmt,
-    depth_ref,
-    depth_range,
-    file_units,
-    uncertainty,
-    draws,
-    prior,
-    layers,
-    out,
-    parquet_path,
-    as_json,
-    depth_unit,
-    ci_unit,
-):
+def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts):
     """Predict kc, kphi, n, cc, phic from CI profiles (section 3.3.2)."""
     from terracone.apps.workflow import predict_profiles, sinkage_grid
-    from terracone.inverse import Bounds
 
-    b = Bounds.parse(bounds, units)
-    rm = parse_length(r_min, units, "--r-min") if r_min else None
-    if model == "rm1" and rm is None and not (calibration or terrain):
-        raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
-    cal = load_calibration(calibration, terrain, library)
-    radii = parse_lengths(plates, units, "--plates")
-    items = fit_items(
-        ci_file, cone, fmt, depth_ref, depth_range, units, file_units, depth_unit, ci_unit
+    units, uncertainty = opts["units"], opts.pop("uncertainty")
+    settings = settings_from(
+        opts,
+        solver=opts["solver"],
+        seed=opts["seed"],
+        uncertainty=uncertainty,
+        draws=opts["draws"],
+        prior=load_prior(opts["prior"], opts["library"]) if uncertainty else "bounds",
     )
+    radii = parse_lengths(plates, units, "--plates")
+    items = reading_from(opts, file_units).read(ci_file, units)
     run = predict_profiles(
         items,
-        model=model,
-        r_min=rm,
-        calibration=cal,
-        solver=solver,
-        bounds=b,
-        seed=seed,
+        settings,
         plates=radii,
         sinkage=sinkage_grid(units),
-        uncertainty=uncertainty,
-        prior=load_prior(prior, library) if uncertainty else "bounds",
-        draws=draws,
         band_sinkage=sinkage_grid(units, 21),
-        layers=layers,
     )
     results = run.results
-    doc = run.as_dict(units, input=str(ci_file), depth_ref=depth_ref, depth_range=depth_range)
+    depth = {"depth_ref": opts["depth_ref"], "depth_range": opts["depth_range"]}
+    doc = run.as_dict(units, input=str(ci_file), **depth)
     if out:
         emit_json(doc, out)
     if parquet_path:
-        from terracone.result import write_parquet
-
         write_parquet(parquet_path, results, units)
     if as_json:
         emit_json(doc)
     else:
         click.echo(predict_text(results, units))
-        if run.posteriors:
-            click.echo(_posterior_text(run.posteriors, units))
-        if run.layered:
-            click.echo(_layered_text(run.layered, units))
+        posts = {r.id: r.posterior for r in results if r.posterior is not None}
+        layered = {r.id: r.layered for r in results if r.layered is not None}
+        if posts:
+            click.echo(posterior_text(posts, units))
+        if layered:
+            click.echo(layered_text(layered, units))
     if not any(r.ok for r in results):
         sys.exit(1)
 
@@ -172,18 +138,7 @@ def predict_cmd(
 @click.option("--model", type=click.Choice(["rm0", "rm1"]), default="rm1", show_default=True)
 @click.option("--bounds", default=None, help="kc=LO:HI,... as for predict, in --units.")
 @click.option("--units", type=UNITS, default="si", show_default=True)
-@click.option(
-    "--cone",
-    default="asabe-large",
-    show_default=True,
-    help="Cone when the input does not name one (as predict --cone).",
-)
-@click.option("--format", "fmt", type=click.Choice(["csv", "sc900", "wide"]), default=None)
-@shared(*wide_options)
-@click.option("--depth-ref", type=click.Choice(["base", "tip"]), default="base", show_default=True)
-@click.option(
-    "--depth-range", default=None, help="Fit only LO:HI of the CI profiles (as for predict)."
-)
+@shared(*reading_options)
 @click.option(
     "--r-min-range",
     default=None,
@@ -202,45 +157,22 @@ def predict_cmd(
 @click.option(
     "--save-as", default=None, help="Store the calibration in the terrain library under this name."
 )
-@click.option(
-    "--library",
-    default=None,
-    help="Terrain library path (default: $TERRACONE_LIBRARY or the user data dir).",
-)
+@library_option
 @click.option("--json", "as_json", is_flag=True)
-def learn_cmd(
-    ci_file,
-    plates_file,
-    model,
-    bounds,
-    units,
-    cone,
-    fmt,
-    depth_ref,
-    depth_range,
-    r_min_range,
-    terrain_name,
-    save,
-    save_as,
-    library,
-    as_json,
-    depth_unit,
-    ci_unit,
-):
+def learn_cmd(ci_file, plates_file, r_min_range, terrain_name, save, save_as, as_json, **opts):
     """Learn r_min, cc, phic and the P-S parameters from CI and plate tests (section 3.3.1)."""
     from terracone.inverse import Bounds
     from terracone.inverse.learning.learn import learn
     from terracone.io import read_plate_tests
 
-    profiles = read_profiles(
-        ci_file, cone, fmt, depth_ref, collect=False, depth_unit=depth_unit, ci_unit=ci_unit
-    )
-    profiles = windowed(profiles, parse_depth_range(depth_range, units), units)
+    units, model = opts["units"], opts["model"]
+    profiles = reading_from(opts).read(ci_file, units, on_error="raise")
     plates = read_plate_tests(plates_file)
     rb = parse_r_min_range(r_min_range, units)
     if rb is not None and model != "rm1":
         raise click.BadParameter("--r-min-range: only with --model rm1")
-    res = learn(profiles, plates, model=model, bounds=Bounds.parse(bounds, units), r_min_bounds=rb)
+    bounds = Bounds.parse(opts["bounds"], units)
+    res = learn(profiles, plates, model=model, bounds=bounds, r_min_bounds=rb)
     label = save_as or terrain_name or Path(ci_file).stem
     cal = res.calibration(
         label, cone=profiles[0].cone.name, ci_file=str(ci_file), plates_file=str(plates_file)
@@ -248,20 +180,11 @@ def learn_cmd(
     if save:
         cal.save(save)
     if save_as:
-        from terracone.apps.library import Library
-
-        with Library(library) as lib:
-            lib.add(save_as, "calibration", cal.library_params(), cal.provenance, replace=True)
+        store_in_library(
+            opts["library"], save_as, "calibration", cal.library_params(), cal.provenance
+        )
     d = res.as_dict(units)
-    d.update(
-        {
-            "terrain": label,
-            "terracone": __version__,
-            "command": "learn",
-            "saved": save,
-            "saved_as": save_as,
-        }
-    )
+    d.update(terrain=label, terracone=__version__, command="learn", saved=save, saved_as=save_as)
     if as_json:
         emit_json(d)
         return
@@ -379,19 +302,18 @@ def sites_cmd(
         raise click.UsageError("sites pools one-layer fits; --layers is not supported here")
     if not target_cv > 0:
         raise click.BadParameter(f"--target-cv: must be > 0, got {target_cv}")
-    a = fit_args(opts)
-    a.check_r_min(a.calibration)
-    units, cal = a.units, a.calibration
+    s, units = settings_from(opts), opts["units"]
+    cal = s.calibration
     L = parse_length(radius, units, "--radius") if radius else None
     run = site_statistics(
-        a.items(ci_file, file_units),
+        reading_from(opts, file_units).read(ci_file, units),
         by=by,
         radius=L,
         source=str(ci_file),
-        model=a.model,
-        r_min=a.r_min,
+        model=s.model,
+        r_min=s.r_min,
         calibration=cal,
-        bounds=a.bounds,
+        bounds=s.bounds,
         plates=parse_lengths(plates, units, "--plates") or [0.0375, 0.05],
         sinkage=default_sinkages(units),
         target_cv=target_cv,
@@ -399,7 +321,17 @@ def sites_cmd(
         seed=seed,
     )
     doc = _sites_doc(
-        ci_file, by, L, cal, a.model, a.bounds, a.depth_range, target_cv, bootstrap, seed, units
+        ci_file,
+        by,
+        L,
+        cal,
+        s.model,
+        s.bounds,
+        opts["depth_range"],
+        target_cv,
+        bootstrap,
+        seed,
+        units,
     )
     doc.update(run.as_dict(units))
     if out:
@@ -448,24 +380,17 @@ def design_cmd(ci_file, prior, plates, candidates, plate_noise, as_json, **opts)
         raise click.UsageError("design works on one-layer fits; --layers is not supported here")
     if not plate_noise > 0:
         raise click.BadParameter(f"--plate-noise: must be > 0, got {plate_noise}")
-    a = fit_args(opts)
-    units, cal = a.units, a.calibration
-    if prior.startswith("terrain:"):
-        if cal is not None:
-            raise click.UsageError(
-                "give the calibration once: --prior terrain:NAME or --calibration"
-            )
-        cal = load_prior(prior, opts["library"])
-    elif prior != "bounds":
-        raise click.BadParameter(f"--prior: expected bounds or terrain:NAME, got {prior!r}")
-    a.check_r_min(cal)
+    if prior.startswith("terrain:") and (opts["calibration"] or opts["terrain"]):
+        raise click.UsageError("give the calibration once: --prior terrain:NAME or --calibration")
+    units, cal = opts["units"], load_prior(prior, opts["library"])
+    s = settings_from(opts, calibration=None if isinstance(cal, str) else cal)
     radii = parse_lengths(plates, units, "--plates")
     try:
         cands = parse_candidates(candidates, units)
     except ValueError as exc:
         raise click.BadParameter(str(exc)) from None
     designs = []
-    for it in a.items(ci_file):
+    for it in reading_from(opts).read(ci_file, units):
         if isinstance(it, InputError):
             designs.append({"id": str(it.profile), "status": "error", "error": str(it)})
             continue
@@ -473,10 +398,10 @@ def design_cmd(ci_file, prior, plates, candidates, plate_noise, as_json, **opts)
             it,
             candidates=cands,
             plates=radii,
-            prior=cal if cal is not None else "bounds",
-            bounds=a.bounds,
-            model=a.model,
-            r_min=a.r_min,
+            prior=s.calibration or "bounds",
+            bounds=s.bounds,
+            model=s.model,
+            r_min=s.r_min,
             plate_noise=plate_noise,
         )
         designs.append(r.as_dict(units))

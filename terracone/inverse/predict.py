@@ -20,10 +20,11 @@ References
 from __future__ import annotations
 
 import functools
+import os
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, replace
-from typing import Any, TypedDict, Unpack
+from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -43,15 +44,12 @@ from terracone.result import PredictionResult, PredictionResults
 
 __all__ = [
     "PredictSettings",
-    "PredictOptions",
     "SetFit",
     "predict",
     "predict_many",
-    "predict_settings",
+    "settings_of",
     "fit_set",
     "solve_set",
-    "screen",
-    "locate_error",
     "rmsd_objective",
 ]
 
@@ -95,34 +93,94 @@ def rmsd_objective(
 
 
 # ---------------------------------------------------------------------------
-# settings
+# settings: one object from the command line (or Python keywords) to the workers
 # ---------------------------------------------------------------------------
 
 
-@dataclass
+@dataclass(frozen=True)
 class PredictSettings:
-    """Everything :func:`predict_many` fixes before it fits (SI; a calibration applied).
+    """What a prediction is asked, checked once, with a calibration applied (SI).
 
-    Built by :func:`predict_settings`; picklable, so that a process pool can
-    receive it with each chunk.
+    The fields are the keywords of :func:`predict_many` (``docs/predict.md``).
+    ``terracone predict`` and ``terracone batch`` build one from their options
+    and pass it down unchanged: to :func:`predict_many`, to
+    :func:`terracone.apps.workflow.attach_fits` (posterior, layered fit) and,
+    pickled, to batch's workers.  A calibration (section 3.3.1) sets model,
+    r_min and plate_pair (the fields then hold its values), fixes phic and cc
+    (:attr:`fit_bounds`) and, with ``fix_ratio``, kc/kphi (:attr:`ratio`,
+    exact solver only).  ``uncertainty``, ``draws``, ``prior`` and ``layers``
+    ask for what :func:`~terracone.apps.workflow.attach_fits` adds; ``seed``
+    seeds the particle swarm and the posterior sampler.
+
+    Derived (not arguments): ``law`` (the pressure law), ``fit_bounds`` (the
+    bounds of the fit), ``ratio`` (kc/kphi held [m] or None) and ``note``
+    (added to the notes of every profile fitted with a calibration).
     """
 
-    model: str
-    r_min: float | None
-    plate_pair: tuple[float, float] | None
-    law: PressureLaw
-    solver: str
-    bounds: Bounds
-    K_cone: float | None
-    fit_K_cone: bool
-    seed: int | None
-    noise_floor: float
-    pso_options: dict[str, Any] | None
-    ratio: float | None  # kc/kphi [m] held (calibration), else None
-    n_grid: int
-    detail: str
-    note: str | None  # added to every fitted profile's notes (the calibration)
-    solve_many: Callable[..., ManySolution]
+    model: str = "rm0"
+    r_min: float | None = None
+    plate_pair: tuple[float, float] | None = None
+    calibration: Any = None  # a Calibration or its file
+    solver: str = "exact"
+    bounds: Bounds = field(default_factory=Bounds)
+    K_cone: float | None = None
+    fit_K_cone: bool = False
+    seed: int | None = None
+    noise_floor: float = 0.01
+    pso_options: dict[str, Any] | None = None
+    fix_ratio: bool = True
+    kc_over_kphi: float | None = None
+    n_grid: int = N_GRID
+    detail: str = "full"
+    solve_many: Callable[..., ManySolution] | None = None
+    uncertainty: bool = False
+    draws: int = 2000
+    prior: Any = "bounds"
+    layers: int = 1
+    law: PressureLaw = field(init=False, repr=False, compare=False)
+    fit_bounds: Bounds = field(init=False, repr=False, compare=False)
+    ratio: float | None = field(init=False, repr=False, compare=False)
+    note: str | None = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if self.solver not in ("exact", "pso"):
+            raise ValueError(f"solver must be 'exact' or 'pso' (got {self.solver!r})")
+        if self.detail not in ("full", "summary"):
+            raise ValueError(f"detail must be 'full' or 'summary' (got {self.detail!r})")
+        if int(self.layers) < 1:
+            raise ValueError(f"layers must be >= 1 (got {self.layers})")
+        if self.uncertainty and int(self.draws) < 10:
+            raise ValueError(f"draws must be >= 10 (got {self.draws})")
+        put = functools.partial(object.__setattr__, self)
+        if self.bounds is None:
+            put("bounds", Bounds())
+        if isinstance(self.calibration, str | os.PathLike):  # a calibration file
+            from terracone.inverse.learning.learn import Calibration
+
+            put("calibration", Calibration.load(self.calibration))
+        cal, bounds, ratio, note = self.calibration, self.bounds, self.kc_over_kphi, None
+        if cal is not None:
+            put("model", cal.model)
+            put("r_min", cal.r_min)
+            put("plate_pair", cal.plate_pair)
+            bounds = bounds.fixed(phic_deg=cal.phic_deg, cc=cal.cc)
+            if self.fix_ratio and cal.kphi > 0:
+                ratio = cal.kc / cal.kphi
+            held = " and kc/kphi" if ratio is not None and self.solver == "exact" else ""
+            note = f"calibration {cal.terrain!r}: model, r_min, phic, cc{held} fixed"
+        if isinstance(self.prior, str):
+            if self.prior not in ("bounds", "calibration"):
+                raise ValueError(
+                    f"prior must be 'bounds', 'calibration' or a Calibration (got {self.prior!r})"
+                )
+            if self.prior == "calibration":
+                if cal is None:
+                    raise ValueError("prior 'calibration' needs a calibration")
+                put("prior", cal)
+        put("law", pressure_law(self.model, r_min=self.r_min, plate_pair=self.plate_pair))
+        put("fit_bounds", bounds)
+        put("ratio", ratio)
+        put("note", note)
 
     @property
     def vectorised(self) -> bool:
@@ -130,88 +188,11 @@ class PredictSettings:
         return self.solver == "exact" and self.K_cone is None and not self.fit_K_cone
 
 
-class PredictOptions(TypedDict, total=False):
-    """The keywords of :func:`predict` and :func:`predict_many` (documented there).
-
-    One list, so that the two functions and :func:`predict_settings`, which
-    gives each its default, cannot drift apart.
-    """
-
-    model: str
-    r_min: float | None
-    plate_pair: tuple[float, float] | None
-    calibration: Any
-    solver: str
-    bounds: Bounds | None
-    K_cone: float | None
-    fit_K_cone: bool
-    seed: int | None
-    noise_floor: float
-    pso_options: dict[str, Any] | None
-    fix_ratio: bool
-    n_grid: int
-    detail: str
-    solve_many: Callable[..., ManySolution] | None
-    kc_over_kphi: float | None
-
-
-def predict_settings(
-    *,
-    model: str = "rm0",
-    r_min: float | None = None,
-    plate_pair: tuple[float, float] | None = None,
-    calibration: Any = None,
-    solver: str = "exact",
-    bounds: Bounds | None = None,
-    K_cone: float | None = None,
-    fit_K_cone: bool = False,
-    seed: int | None = None,
-    noise_floor: float = 0.01,
-    pso_options: dict[str, Any] | None = None,
-    fix_ratio: bool = True,
-    n_grid: int = N_GRID,
-    detail: str = "full",
-    solve_many: Callable[..., ManySolution] | None = None,
-    kc_over_kphi: float | None = None,
-) -> PredictSettings:
-    """The settings of :func:`predict_many` (same keywords), checked, with a calibration applied.
-
-    ``kc_over_kphi`` [m] holds kc/kphi fixed without a calibration (exact
-    solver only); a calibration with ``fix_ratio`` sets its own.
-    """
-    if solver not in ("exact", "pso"):
-        raise ValueError(f"solver must be 'exact' or 'pso' (got {solver!r})")
-    if detail not in ("full", "summary"):
-        raise ValueError(f"detail must be 'full' or 'summary' (got {detail!r})")
-    bounds = bounds or Bounds()
-    ratio, note = kc_over_kphi, None
-    if calibration is not None:
-        model, r_min = calibration.model, calibration.r_min
-        plate_pair = calibration.plate_pair
-        bounds = bounds.fixed(phic_deg=calibration.phic_deg, cc=calibration.cc)
-        if fix_ratio and calibration.kphi > 0:
-            ratio = calibration.kc / calibration.kphi
-        held = " and kc/kphi" if ratio is not None and solver == "exact" else ""
-        note = f"calibration {calibration.terrain!r}: model, r_min, phic, cc{held} fixed"
-    law = pressure_law(model, r_min=r_min, plate_pair=plate_pair)
-    return PredictSettings(
-        model,
-        r_min,
-        plate_pair,
-        law,
-        solver,
-        bounds,
-        K_cone,
-        fit_K_cone,
-        seed,
-        noise_floor,
-        pso_options,
-        ratio,
-        int(n_grid),
-        detail,
-        note,
-        solve_many or solve_exact_many,
-    )
+def settings_of(settings: PredictSettings | None, options: dict[str, Any]) -> PredictSettings:
+    """``settings`` with ``options`` (fields of :class:`PredictSettings`) changed, or built."""
+    if settings is None:
+        return PredictSettings(**options)
+    return replace(settings, **options) if options else settings
 
 
 # ---------------------------------------------------------------------------
@@ -219,100 +200,51 @@ def predict_settings(
 # ---------------------------------------------------------------------------
 
 
-def predict(profile: CIProfile, **options: Unpack[PredictOptions]) -> PredictionResult:
-    """Fit the improved cone model to one CI profile (prediction process).
+def predict(
+    profile: CIProfile, settings: PredictSettings | None = None, **options: Any
+) -> PredictionResult:
+    """Fit the improved cone model to one CI profile (prediction process, section 3.3.2).
 
-    ``predict_many([profile], **options)[0]``: one profile through the one
-    solving path.
-
-    Parameters
-    ----------
-    profile : CIProfile
-    **options
-        The keywords of :func:`predict_many` (:class:`PredictOptions`):
-        model, r_min, plate_pair, calibration, solver, bounds, K_cone, fit_K_cone,
-        seed, noise_floor, pso_options, fix_ratio, n_grid, detail,
-        kc_over_kphi.
-
-    Returns
-    -------
-    PredictionResult
-
-    References
-    ----------
-    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P.
-       Predicting terrain parameters for physics-based vehicle mobility
-       models from cone index data. Section 3.3.2.
+    ``predict_many([profile], settings, **options)[0]``: one profile through
+    the one solving path; ``options`` are fields of :class:`PredictSettings`.
     """
-    return predict_many([profile], **options)[0]
+    return predict_many([profile], settings, **options)[0]
 
 
 def predict_many(
     profiles: ProfileSet | Iterable[CIProfile | InputError],
+    settings: PredictSettings | None = None,
     *,
     pool: Any = None,
     chunk_size: int = 1000,
-    **options: Unpack[PredictOptions],
+    **options: Any,
 ) -> PredictionResults:
     """Fit the improved cone model to a set of CI profiles through one vectorised path.
 
     Every profile is validated (a bad one becomes an error result naming
     its file, profile, row and column; reader errors likewise), the valid
     ones are grouped by cone and each group's optima are found by one
-    :func:`terracone.inverse.solver.many.solve_exact_many` call, re-solved on the
-    design matrix itself (:func:`polish_many`), and given the statistics
-    :func:`predict` reports.  The particle swarm and the fits with finite
-    Kc run profile by profile inside the same function.
+    :func:`terracone.inverse.solver.many.solve_exact_many` call, re-solved on
+    the design matrix itself (:func:`polish_many`), and given their
+    statistics.  The particle swarm and the fits with finite Kc run profile
+    by profile inside the same function.
 
     Parameters
     ----------
     profiles : ProfileSet or iterable of CIProfile and InputError
         The set to fit.  A ProfileSet's ``errors`` come after its profiles.
+    settings : PredictSettings, optional
+        What to fit (model, r_min [m], calibration, solver, bounds, ...).
     pool : object with ``map``, optional
-        Maps the fit over chunks of ``chunk_size`` profiles (emcee's
-        pattern): a ``multiprocessing`` pool, a
-        ``concurrent.futures`` executor, a Dask client adapter; None: the
-        builtin ``map``.  The results do not depend on the pool.
+        Maps the fit over chunks of ``chunk_size`` profiles (emcee's pattern):
+        a ``multiprocessing`` pool, a ``concurrent.futures`` executor, a Dask
+        client adapter; None: the builtin ``map``.  The results do not
+        depend on the pool.
     chunk_size : int
         Profiles per chunk.
-    model : {"rm0", "rm1"}
-    r_min : float, optional
-        RM1 transition radius [m].
-    plate_pair : (r1, r2), optional
-        Plate radii [m] defining the RM1 secant when r_min > r2.
-    calibration : Calibration, optional
-        A learned calibration (section 3.3.1): fixes model, r_min, phic and
-        cc, and (``fix_ratio``) the ratio kc/kphi of the calibrated terrain.
-    solver : {"exact", "pso"}
-    bounds : Bounds, optional
-        Search bounds (defaults in SI: kc 0-1000, kphi 0-20000, n 0.05-2,
-        cc 0-100 kPa, phic 0-45 deg).
-    K_cone : float, optional
-        Fixed cone-terrain shear deformation parameter [m]; None: fully
-        mobilised shear.
-    fit_K_cone : bool
-        Search Kc as a sixth parameter within ``bounds.Kc``.
-    seed : int, optional
-        Seed of the particle swarm.
-    noise_floor : float
-        Smallest relative noise assumed when judging identifiability.
-    pso_options : dict, optional
-        Keywords of :func:`terracone.inverse.solver.pso.pso`.
-    fix_ratio : bool
-        With a calibration, hold kc/kphi at the calibrated terrain's value:
-        the cone barely separates kc from kphi (their columns are nearly
-        collinear), plates of two sizes do.  Only the exact solver uses it.
-    n_grid : int
-        Points of the global grid over n (97; batch uses 41).
-    detail : {"full", "summary"}
-        ``"full"``: everything :func:`predict` reports, with the profile
-        intervals of kc, kphi and cc from the identifiability scans;
-        ``"summary"``: the same optimum and statistics without those scans
-        (what ``terracone batch`` writes).
-    solve_many : callable, optional
-        The vectorised solver (default :func:`solve_exact_many`).
-    kc_over_kphi : float, optional
-        Hold kc/kphi [m] fixed (exact solver), as a calibration does.
+    **options
+        Fields of :class:`PredictSettings`, given here instead of ``settings``
+        (or changed in it), e.g. ``model="rm1", r_min=0.01``.
 
     Returns
     -------
@@ -325,7 +257,7 @@ def predict_many(
        Predicting terrain parameters for physics-based vehicle mobility
        models from cone index data. Section 3.3.2.
     """
-    settings = predict_settings(**options)
+    settings = settings_of(settings, options)
     pset, order, errors, originals = _gather(profiles)
     if chunk_size < 1:
         raise ValueError(f"chunk_size must be >= 1 (got {chunk_size})")
@@ -398,8 +330,8 @@ def fit_set(settings: PredictSettings, pset: ProfileSet) -> list[PredictionResul
     """
     out: list[PredictionResult | None] = [None] * len(pset)
     meta = [{}] * len(pset) if pset.metadata is None else pset.metadata.to_pylist()
-    for j, exc in screen(pset).items():
-        out[j] = _error_result(pset, j, str(exc), meta[j])
+    for j, exc in pset.screen().items():
+        out[j] = _error_result(pset, j, exc, meta[j])
     good = np.array([j for j in range(len(pset)) if out[j] is None], dtype=np.intp)
     if settings.vectorised:
         for c in np.unique(pset.cone_idx[good]):
@@ -418,22 +350,9 @@ def fit_set(settings: PredictSettings, pset: ProfileSet) -> list[PredictionResul
     return out
 
 
-# ---------------------------------------------------------------------------
-# validation: located errors, vectorised screen
-# ---------------------------------------------------------------------------
-
-
-def screen(pset: ProfileSet) -> dict[int, InputError]:
-    """The profiles of a set that cannot be fitted, located (:meth:`ProfileSet.screen`)."""
-    return pset.screen()
-
-
-def locate_error(pset: ProfileSet, j: int, exc: InputError) -> InputError:
-    """A validation error of profile ``j`` located in its file (:meth:`ProfileSet.locate`)."""
-    return pset.locate(j, exc)
-
-
-def _error_result(pset: ProfileSet, j: int, reason: str, meta: dict) -> PredictionResult:
+def _error_result(
+    pset: ProfileSet, j: int, reason: str | InputError, meta: dict
+) -> PredictionResult:
     src = pset.source(j)
     return PredictionResult(
         id=str(pset.ids[j]),
@@ -513,12 +432,12 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
     """
     from terracone.inverse.solver.kernels import box_grid
 
-    s, b = settings, settings.bounds
+    s, b = settings, settings.fit_bounds
     cone = group.cones[int(group.cone_idx[0])]
     bounds_of = list(zip(group.offsets[:-1].tolist(), group.offsets[1:].tolist()))
     zs = [group.depth[a:e] for a, e in bounds_of]
     ys = [group.ci[a:e] for a, e in bounds_of]
-    ms = s.solve_many(
+    ms = (s.solve_many or solve_exact_many)(
         zs,
         ys,
         cone=cone,
@@ -701,7 +620,7 @@ def _exact_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainPara
         y,
         cone=cone,
         law=s.law,
-        bounds=s.bounds,
+        bounds=s.fit_bounds,
         K_cone=s.K_cone,
         fit_K_cone=s.fit_K_cone,
         n_grid=s.n_grid,
@@ -726,7 +645,7 @@ def _exact_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainPara
 
 def _pso_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainParameters, dict]:
     """The paper's particle swarm on the RMSD (section 3.3.2) for one profile."""
-    s, b = settings, settings.bounds
+    s, b = settings, settings.fit_bounds
     f = rmsd_objective(CIProfile("", z, y, cone=cone), s.law, b, s.K_cone)
     lo = [b.kc[0], b.kphi[0], b.n[0], b.cc[0], b.phic_deg[0]] + (
         [b.K_cone[0]] if s.fit_K_cone else []

@@ -4,10 +4,10 @@
 
 * the JSON of ``terracone predict --json`` (``"schema":
   "terracone.prediction/1"``, docs/results.md; older documents by
-  ``"command": "predict"``),
-  ``terracone learn --json`` or ``terracone evaluate --json``;
-* the output directory of ``terracone batch`` (``part-*.parquet`` and
-  ``_summary.json``);
+  ``"command": "predict"``), the table of ``terracone predict --parquet``,
+  or the output directory of ``terracone batch`` (``part-*.parquet`` and
+  ``_summary.json``): all three read by :func:`terracone.result.read_results`;
+* the JSON of ``terracone learn --json`` or ``terracone evaluate --json``;
 * the output directory of :func:`terracone.apps.reproduce.reproduce`
   (``reproduce.json``);
 * a directory holding several of the JSON documents above (e.g. the output
@@ -30,7 +30,7 @@ from terracone.report.html import (
     predict_document,
     render_document,
 )
-from terracone.result import check_schema, check_table_schema
+from terracone.result import check_schema, read_results, to_document
 
 __all__ = ["build_report", "load_document", "result_kind"]
 
@@ -89,10 +89,8 @@ def load_document(
             if result_kind(doc) != "reproduce":
                 raise ValueError(f"{p / 'reproduce.json'}: not written by terracone reproduce")
             return doc["document"], p
-        parts = sorted(p.glob("part-*.parquet"))
-        if parts:
-            check_table_schema(parts[0])
-            return batch_document(p, map_by=map_by), p
+        if any(p.glob("part-*.parquet")):
+            return batch_document(read_results(p), p, map_by=map_by), p
         docs = []
         for f in sorted(p.glob("*.json")):
             try:
@@ -123,6 +121,8 @@ def load_document(
             "meta": {"results": str(p)},
             "sections": sections,
         }, p
+    if p.suffix.lower() in (".parquet", ".pq"):
+        return batch_document(read_results(p), p, map_by=map_by), p.parent
     doc = _read_json(p)
     try:
         kind = result_kind(doc)
@@ -133,9 +133,22 @@ def load_document(
     return _document(kind, doc, str(p), map_by), p.parent
 
 
+def _prediction_document(source: str) -> dict[str, Any]:
+    """A prediction JSON document read by :func:`terracone.result.read_results` (SI) and
+    written again in its own units by the one JSON writer, :func:`terracone.result.to_document`."""
+    results = read_results(source)
+    head = dict(results.header)
+    units = head.pop("units", None) or results.settings.get("units") or "si"
+    command, input = head.pop("command", "predict"), head.pop("input", None)
+    settings = results.settings or None
+    return to_document(
+        results, units, command=command, input=input, settings=settings, samples=False, **head
+    )
+
+
 def _document(kind: str, doc: dict[str, Any], source: str, map_by: str = "n") -> dict[str, Any]:
     if kind == "predict":
-        return predict_document(doc, source=source, map_by=map_by)
+        return predict_document(_prediction_document(source), source=source, map_by=map_by)
     if kind == "learn":
         return learn_document(doc, source=source)
     if kind == "evaluate":

@@ -5,7 +5,7 @@ often layers win by BIC), a map when the profiles carry coordinates (plain
 matplotlib axes, no tiles, no network), small multiples of every profile and
 one sortable table of every profile (``docs/report.md``).  The builders take
 *field records*, one plain mapping per profile in SI
-(:func:`records_from_predict`, :func:`records_from_batch`), and return report
+(:func:`records_from_predict`, :func:`records_from_table`), and return report
 sections of :mod:`terracone.report.parts`.
 
 References
@@ -38,7 +38,7 @@ __all__ = [
     "PANELS_PER_FIGURE",
     "coordinates",
     "records_from_predict",
-    "records_from_batch",
+    "records_from_table",
     "summary_section",
     "map_section",
     "multiples_section",
@@ -213,29 +213,25 @@ def _curves_from_source(source: str, ids: set[str], units: str) -> dict[str, tup
     return out
 
 
-def _batch_curves(recs: list[dict[str, Any]], df: Any, summary: Mapping[str, Any]) -> int:
-    """Attach measured points and the one-layer model CI to batch records; profiles drawn."""
+def _table_curves(recs: list[dict[str, Any]], results: Sequence[Any], settings: Mapping) -> int:
+    """Attach measured points and the one-layer model CI to table records; profiles drawn."""
     from terracone.physics.cone import cone_index, get_cone
 
-    units = summary.get("units") or "si"
-    settings = summary.get("settings") or {}
     tip = settings.get("depth_ref") == "tip"
     by_source: dict[str, set[str]] = {}
-    cone_of: dict[str, str] = {}
-    for rec, (_, r) in zip(recs, df.iterrows(), strict=True):
-        if isinstance(r.get("source"), str):
-            by_source.setdefault(r["source"], set()).add(rec["id"])
-        cone_of[rec["id"]] = str(r.get("cone") or "asabe-large")
+    for r in results:
+        if isinstance(r.source, str):
+            by_source.setdefault(r.source, set()).add(str(r.id))
     curves: dict[str, tuple] = {}
     for src, ids in by_source.items():
-        curves.update(_curves_from_source(src, ids, units))
+        curves.update(_curves_from_source(src, ids, settings.get("units") or "si"))
     drawn = 0
-    for rec in recs:
+    for rec, r in zip(recs, results, strict=True):
         c = curves.get(rec["id"])
         if c is None or c[0].size == 0:
             continue
         z, y, cone = c
-        cone = cone or get_cone(cone_of[rec["id"]])
+        cone = cone or get_cone(r.cone or "asabe-large")
         if tip:
             z = z - cone.height
         rec["depth"], rec["ci"] = z, y
@@ -258,58 +254,41 @@ def _batch_curves(recs: list[dict[str, Any]], df: Any, summary: Mapping[str, Any
     return drawn
 
 
-def records_from_batch(df: Any, summary: Mapping[str, Any]) -> list[dict[str, Any]]:
-    """Field records (SI) of a ``terracone batch`` output table (as :func:`records_from_predict`).
+def records_from_table(results: Sequence[Any], settings: Mapping[str, Any]) -> list[dict]:
+    """Field records (SI) of a prediction table (as :func:`records_from_predict`).
 
-    Measured points come from the batch's input file (``source`` column:
-    the converted ``_input/*.parquet`` of an SC900 export, or the CSV);
-    the one-layer curve is the model CI of the fitted parameters (eq. (2-7)).
-    Batch output keeps the layered fit's interfaces and n per layer but not
-    its other parameters, so the layered curve is not drawn; its interfaces
-    are.
+    ``results``: :func:`terracone.result.read_results` of a ``terracone batch``
+    directory or a ``predict --parquet`` file; ``settings``: the run's
+    (``depth_ref``, ``units``).  Measured points come from each profile's
+    input file (``source``: the converted ``_input/*.parquet`` of an SC900
+    export, or the CSV); the one-layer curve is the model CI of the fitted
+    parameters (eq. (2-7)).  A table keeps the layered fit's interfaces and n
+    per layer but not its other parameters, so the layered curve is not
+    drawn; its interfaces are.
     """
-    units = summary.get("units") or "si"
-    ids = [str(r.get("profile", r.get("id"))) for _, r in df.iterrows()]
     recs = []
-    for (_, r), label in zip(df.iterrows(), _short(ids), strict=True):
-        un = r.get("units") if isinstance(r.get("units"), str) else units
-        rec: dict[str, Any] = {
-            "id": str(r.get("profile", r.get("id"))),
-            "label": label,
-            "status": r.get("status", "ok"),
-            "error": r.get("error") if isinstance(r.get("error"), str) else None,
-        }
-        vals = {k: _num(r.get(k)) for k in ("kc", "kphi", "n", "cc", "phic_deg")}
-        if rec["status"] == "ok" and vals["n"] is not None:
-            tp = TerrainParameters.from_dict(vals | {"model": "rm0"}, units=un)
-            rec.update(kc=tp.kc, kphi=tp.kphi, n=tp.n, cc=tp.cc, phic_deg=tp.phic_deg)
-            rec["model"] = r.get("model") if isinstance(r.get("model"), str) else "rm0"
-            rm = _num(r.get("r_min"))
-            rec["r_min"] = None if rm is None else float(u.length_to_si(rm, un))
-        rm = _num(r.get("rmsd"))
-        rec["rmsd"] = None if rm is None else float(u.pressure_to_si(rm, un))
-        rec["r2_ci"] = _num(r.get("r2_ci"))
-        lof = r.get("lack_of_fit")
-        rec["lack_of_fit"] = lof if isinstance(lof, str) and lof else None
+    for r, label in zip(results, _short([str(r.id) for r in results]), strict=True):
+        rec: dict[str, Any] = {"id": str(r.id), "label": label, "status": r.status}
+        rec["error"] = r.error
+        if r.ok and r.params is not None:
+            p = r.params
+            rec.update(kc=p.kc, kphi=p.kphi, n=p.n, cc=p.cc, phic_deg=p.phic_deg)
+            rec.update(model=p.model, r_min=p.r_min)
+        rec["rmsd"], rec["r2_ci"] = _num(r.rmsd), _num(r.r2_ci)
+        rec["lack_of_fit"] = r.lack_of_fit or None
         rec["flagged"] = rec["lack_of_fit"] is not None
-        xy = coordinates({k: r.get(k) for k in ("lon", "lat", "longitude", "latitude")})
+        xy = coordinates(r.metadata)
         rec["lon"], rec["lat"] = xy if xy else (None, None)
-        pref = _num(r.get("preferred_layers"))
-        rec["layers_preferred"] = None if pref is None else int(pref)
-        lofl = r.get("lack_of_fit_layered")
-        rec["layered_status"] = (
-            "ok" if pref is not None else ("error" if isinstance(lofl, str) and lofl else None)
-        )
-        if isinstance(lofl, str) and pref is None:
-            rec["layered_error"] = lofl
-        iface = r.get("interfaces")
-        if isinstance(iface, str) and iface:
-            rec["interfaces"] = [
-                float(u.length_to_si(float(x), un)) for x in iface.split(",") if x.strip()
-            ]
-        rec["r2_layered"] = _num(r.get("r2_layered"))
+        lay = r.layered
+        rec["layers_preferred"] = lay.preferred_layers if lay is not None and lay.ok else None
+        rec["layered_status"] = None if lay is None else lay.status
+        if lay is not None and not lay.ok:
+            rec["layered_error"] = f"layered fit not possible: {lay.error}"
+        if lay is not None and lay.ok and lay.interfaces:
+            rec["interfaces"] = list(lay.interfaces)
+        rec["r2_layered"] = _num(lay.r2_ci) if lay is not None and lay.ok else None
         recs.append(rec)
-    _batch_curves(recs, df, summary)
+    _table_curves(recs, results, settings)
     return recs
 
 

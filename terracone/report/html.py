@@ -919,29 +919,30 @@ def evaluate_document(doc: Mapping[str, Any], *, source: str | None = None) -> d
 # ---------------------------------------------------------------------------
 
 
-def batch_document(directory: str | Path, *, map_by: str = "n") -> dict[str, Any]:
-    """Report document of a ``terracone batch`` output directory (Parquet parts)."""
-    import pandas as pd
+def batch_document(results: Any, path: str | Path, *, map_by: str = "n") -> dict[str, Any]:
+    """Report document of a prediction table: a ``terracone batch`` directory or ``predict --parquet``.
 
-    d = Path(directory)
-    parts_files = sorted(d.glob("part-*.parquet"))
-    summary = _batch_summary(d)
-    frames = [pd.read_parquet(f) for f in parts_files]
-    df = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
-    units = _units_of(summary)
-    n_total = len(df)
-    status = df["status"] if "status" in df else pd.Series(["ok"] * n_total)
+    ``results``: :func:`terracone.result.read_results` of ``path`` (SI).
+    """
+    d = Path(path)
+    summary = _batch_summary(d) if d.is_dir() else {}
+    n_parts = len(list(d.glob("part-*.parquet"))) if d.is_dir() else 1
+    settings = {"units": _units_of(summary), **results.settings}
+    n_total = len(results)
+    ok = [r for r in results if r.ok]
     sections: list[dict[str, Any]] = (
-        FL.field_sections(FL.records_from_batch(df, summary), units=units, map_by=map_by)
+        FL.field_sections(
+            FL.records_from_table(results, settings), units=settings["units"], map_by=map_by
+        )
         if n_total
         else []
     )
     meta_pairs = {
-        "directory": str(d),
-        "part files": len(parts_files),
+        "directory" if d.is_dir() else "file": str(d),
+        "part files": n_parts,
         "profiles": n_total,
-        "fitted": int((status == "ok").sum()) if n_total else 0,
-        "not fitted": int((status != "ok").sum()) if n_total else 0,
+        "fitted": len(ok),
+        "not fitted": n_total - len(ok),
     }
     parts = [kv_part(meta_pairs)]
     if summary.get("problems"):
@@ -951,8 +952,7 @@ def batch_document(directory: str | Path, *, map_by: str = "n") -> dict[str, Any
         parts.append(text_part("From _summary.json:"))
         parts.append(kv_part(_settings_pairs(summary)))
     sections.append({"id": "inputs", "heading": "Inputs and settings", "parts": parts})
-
-    rows = [_batch_row(r, units) for _, r in df.iterrows()]
+    rows = [_table_row(r) for r in results]
     tab = parameters_table(
         [x for x in rows if x.get("n") is not None],
         key="parameters",
@@ -960,26 +960,21 @@ def batch_document(directory: str | Path, *, map_by: str = "n") -> dict[str, Any
         first="Profile",
         extra=_FIT_EXTRA[:3],
     )
-    _mark_settings_bounds(
-        tab, [x for x in rows if x.get("n") is not None], summary.get("settings") or {}, units
-    )
+    fitted_rows = [x for x in rows if x.get("n") is not None]
+    _mark_settings_bounds(tab, fitted_rows, summary.get("settings") or {}, _units_of(summary))
     tparts = [table_part(tab, max_rows=200)]
-    if n_total and "error" in df:
-        errs = df[status != "ok"]
-        if len(errs):
-            tparts.append(text_part("Profiles not fitted (first 50):"))
-            tparts.append(
-                list_part(
-                    [f"{r.get('profile')}: {r.get('error')}" for _, r in errs.head(50).iterrows()]
-                )
-            )
+    errs = [r for r in results if not r.ok]
+    if errs:
+        tparts.append(text_part("Profiles not fitted (first 50):"))
+        tparts.append(list_part([f"{r.id}: {r.error}" for r in errs[:50]]))
     sections.append({"id": "parameters", "heading": "Parameters", "parts": tparts})
-    if n_total and "undetermined" in df:
-        sections.append(_batch_identifiability(df, summary))
+    if n_total:
+        sections.append(_table_identifiability(results, settings))
+    kind = "batch prediction" if d.is_dir() else "prediction table"
     return {
-        "title": "terracone report: batch prediction",
-        "subtitle": f"{n_total} profiles in {len(parts_files)} part file(s)",
-        "meta": {"results": str(d), "command": "batch"},
+        "title": f"terracone report: {kind}",
+        "subtitle": f"{n_total} profiles in {n_parts} part file(s)",
+        "meta": {"results": str(d), "command": "batch" if d.is_dir() else "predict"},
         "sections": sections,
     }
 
@@ -992,41 +987,29 @@ def _batch_summary(directory: Path) -> dict[str, Any]:
         return {}
 
 
-def _batch_row(r: Any, units: str) -> dict[str, Any]:
-    """One output row of a batch as a parameters-table record (SI)."""
-    row = {"id": r.get("profile", r.get("id"))}
-    if r.get("status", "ok") == "ok" and r.get("n") is not None and np.isfinite(r.get("n")):
-        p = _si_params(
-            {k: _nan_none(r.get(k)) for k in ("kc", "kphi", "n", "cc", "phic_deg")}
-            | {"units": units},
-            units,
-        )
-        if p:
-            row.update({k: p[k] for k in ("kc", "kphi", "n", "cc", "phic_deg")})
-    rm = _nan_none(r.get("rmsd"))
-    row["rmsd"] = None if rm is None else float(u.pressure_to_si(rm, units))
-    row["r2_ci"] = _nan_none(r.get("r2_ci"))
+def _table_row(r: Any) -> dict[str, Any]:
+    """One result of a prediction table as a parameters-table record (SI)."""
+    row: dict[str, Any] = {"id": r.id}
+    if r.ok and r.params is not None:
+        p = r.params
+        row.update(kc=p.kc, kphi=p.kphi, n=p.n, cc=p.cc, phic_deg=p.phic_deg)
+    row["rmsd"], row["r2_ci"] = _nan_none(r.rmsd), _nan_none(r.r2_ci)
     return row
 
 
-def _batch_identifiability(df: Any, summary: Mapping[str, Any]) -> dict[str, Any]:
-    """The identifiability section of a batch report (first 200 profiles)."""
-    ident_rows = []
-    for _, r in df.head(200).iterrows():
-        und = r.get("undetermined")
-        und = [x for x in str(und).split(";") if x] if isinstance(und, str) else []
-        lo, hi = _nan_none(r.get("phic_lo")), _nan_none(r.get("phic_hi"))
-        nlo, nhi = _nan_none(r.get("n_lo")), _nan_none(r.get("n_hi"))
-        ident_rows.append(
-            {
-                "id": r.get("profile", r.get("id")),
-                "status": r.get("status", "ok"),
-                "undetermined": und,
-                "phic_range_deg": None if lo is None or hi is None else [lo, hi],
-                "intervals": {} if nlo is None or nhi is None else {"n": [nlo, nhi]},
-            }
-        )
-    fixed = ("phic", "cc") if (summary.get("settings") or {}).get("calibration") else ()
+def _table_identifiability(results: Any, settings: Mapping[str, Any]) -> dict[str, Any]:
+    """The identifiability section of a prediction table's report (first 200 profiles)."""
+    ident_rows = [
+        {
+            "id": r.id,
+            "status": r.status,
+            "undetermined": list(r.undetermined),
+            "phic_range_deg": None if r.phic_range is None else list(r.phic_range),
+            "intervals": {k: list(v) for k, v in r.profile_intervals.items() if k == "n"},
+        }
+        for r in results[:200]
+    ]
+    fixed = ("phic", "cc") if settings.get("calibration") else ()
     ident = identifiability_table(
         ident_rows,
         key="identifiability",

@@ -1,16 +1,25 @@
 """Posterior uncertainty of the prediction process: how well does one CI profile fix the parameters?
 
-Many parameter sets fit a CI profile almost equally well (section 2 of [1]_:
-phic trades against a common scale of kc and kphi, and the columns of eq.
-(2-7) are nearly collinear), and they predict different plate pressures.
-:func:`posterior` samples the Bayesian posterior of (kc, kphi, n, cc, phic)
-given one profile with emcee [2]_ and reports 90% credible intervals, an
-identifiability label per parameter (posterior over prior 90% width: below
-0.25 "determined", below 0.75 "weakly determined", else "set by prior") and
-90% bands of the predicted plate pressure.  The error model is in
-:mod:`.noise`, the priors in :mod:`.priors`, the likelihood in
-:mod:`.likelihood`, the sampler in :mod:`.sampler`; ``docs/uncertainty.md``
-describes them and their coverage.
+:func:`terracone.inverse.predict` returns one best fit.  Many parameter sets
+fit a CI profile almost equally well (section 2 of [1]_: phic trades exactly
+against a common scale of kc and kphi under fully mobilised shear, and the
+kc, kphi and cc columns of eq. (2-7) are nearly collinear), and they predict
+quite different plate pressures.  :func:`posterior` samples the Bayesian
+posterior of (kc, kphi, n, cc, phic) given one profile and reports
+
+* 90% credible intervals of the parameters,
+* an identifiability label per parameter, from the ratio of its posterior to
+  its prior 90% width,
+* 90% bands of the predicted plate pressure against sinkage.
+
+The model of the CI error is in :mod:`terracone.inverse.uncertainty.noise`,
+the priors in :mod:`~terracone.inverse.uncertainty.priors`, the tabulated
+likelihood in :mod:`~terracone.inverse.uncertainty.likelihood` and the emcee
+set-up in :mod:`~terracone.inverse.uncertainty.sampler`.  Identifiability:
+``ratio = (posterior 90% width) / (prior 90% width)`` per parameter, below
+0.25 "determined", below 0.75 "weakly determined", else "set by prior" (a
+parameter held fixed is "set by prior"); ``docs/uncertainty.md`` explains
+the labels and the phic ridge.
 
 References
 ----------
@@ -26,21 +35,18 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from terracone.data import CIProfile, TerrainParameters
-from terracone.inverse.bounds import Bounds
-from terracone.inverse.learning.learn import Calibration
-from terracone.inverse.predict import predict
+from terracone.inverse.predict import PredictSettings, predict, settings_of
 from terracone.inverse.uncertainty.likelihood import Likelihood
 from terracone.inverse.uncertainty.noise import NoiseModel, NoiseSetup, noise_setup
 from terracone.inverse.uncertainty.priors import (
     PARAM_NAMES,
-    CalibrationPrior,
     Prior,
     as_calibration_prior,
 )
@@ -64,6 +70,7 @@ __all__ = [
     "PlateBand",
     "SamplerDiagnostics",
     "PosteriorResult",
+    "PosteriorOptions",
     "identifiability_label",
     "plate_bands",
     "posterior",
@@ -362,45 +369,12 @@ def _start_params(start: Any) -> TerrainParameters:
     raise TypeError("start must be a PredictionResult or TerrainParameters")
 
 
-def posterior(
-    profile: CIProfile,
-    *,
-    model: str = "rm0",
-    r_min: float | None = None,
-    plate_pair: tuple[float, float] | None = None,
-    bounds: Bounds | None = None,
-    prior: str | Calibration | CalibrationPrior = "bounds",
-    noise: float | None = None,
-    correlation: str | float = "estimate",
-    noise_model: str = "relative",
-    noise_floor: float = 0.05,
-    K_cone: float | None = None,
-    draws: int = 2000,
-    seed: int | None = None,
-    plates: Sequence[float] | None = None,
-    plate_sinkages: ArrayLike | None = None,
-    start: PredictionResult | TerrainParameters | None = None,
-    nwalkers: int = 128,
-    burn: int = 80,
-    thin: int = 6,
-    level: float = 0.9,
-    n_prior: str = "uniform",
-) -> PosteriorResult:
-    """Sample the posterior of (kc, kphi, n, cc, phic) given one CI profile.
+@dataclass(frozen=True)
+class PosteriorOptions:
+    """How :func:`posterior` models the CI error and runs the sampler (``docs/uncertainty.md``).
 
-    Parameters
+    Attributes
     ----------
-    profile : CIProfile
-        Depths [m] and cone index [kPa].
-    model, r_min, plate_pair
-        Pressure law (section 3.2 of [1]_): "rm0" or "rm1", the RM1 transition
-        radius [m] and the plate radii [m] of its secant; a calibration prior
-        sets all three.
-    bounds : Bounds, optional
-        Support of the prior (default :class:`Bounds`).
-    prior : "bounds", Calibration or CalibrationPrior
-        Uniform over the bounds, or centred on a calibration
-        (:mod:`terracone.inverse.uncertainty.priors`).
     noise : float, optional
         Noise standard deviation [kPa] (RMS over the profile); marginalised when None.
     correlation : "estimate", "sample", "none" or float
@@ -409,17 +383,6 @@ def posterior(
     noise_model, noise_floor
         "relative" or "absolute"; floor of the relative model, a fraction of
         the largest model CI [-] (:mod:`terracone.inverse.uncertainty.noise`).
-    K_cone : float, optional
-        Cone-terrain shear deformation parameter [m]; None: fully mobilised.
-    draws : int
-        Number of posterior samples returned.
-    seed : int, optional
-        The same seed gives the same samples bit for bit.
-    plates, plate_sinkages : optional
-        Plate radii [m] (default: the calibration's pair, else ``plate_pair``,
-        else 3.75 and 5 cm) and sinkages [m] (0 to 10 cm every 5 mm) of the bands.
-    start : PredictionResult or TerrainParameters, optional
-        Best fit to start from; :func:`terracone.inverse.predict` runs when None.
     nwalkers, burn, thin : int
         Walkers, burn-in steps discarded and thinning of the kept chain.
     level : float
@@ -427,6 +390,68 @@ def posterior(
     n_prior : {"uniform", "reference"}
         Under the bounds prior, "reference" weights the box by sqrt(det G(n))
         (:meth:`Prior.set_reference`; not the default, docs/uncertainty.md).
+    """
+
+    noise: float | None = None
+    correlation: str | float = "estimate"
+    noise_model: str = "relative"
+    noise_floor: float = 0.05
+    nwalkers: int = 128
+    burn: int = 80
+    thin: int = 6
+    level: float = 0.9
+    n_prior: str = "uniform"
+
+    def __post_init__(self) -> None:
+        if not 0 < self.level < 1:
+            raise ValueError(f"level must be in (0, 1) (got {self.level})")
+        if self.nwalkers < 8 or self.nwalkers % 2:
+            raise ValueError(f"nwalkers must be even and >= 8 (got {self.nwalkers})")
+        if self.burn < 0 or self.thin < 1:
+            raise ValueError("burn must be >= 0 and thin >= 1")
+        if self.noise_model not in ("relative", "absolute"):
+            raise ValueError(
+                f"noise_model must be 'relative' or 'absolute' (got {self.noise_model!r})"
+            )
+        if self.noise is not None and not (self.noise > 0 and math.isfinite(self.noise)):
+            raise ValueError(f"noise must be > 0 [kPa] (got {self.noise})")
+        if not 0 <= self.noise_floor < 10:
+            raise ValueError(f"noise_floor must be >= 0 (got {self.noise_floor})")
+        if self.n_prior not in ("reference", "uniform"):
+            raise ValueError(f"n_prior must be 'reference' or 'uniform' (got {self.n_prior!r})")
+
+
+def posterior(
+    profile: CIProfile,
+    settings: PredictSettings | None = None,
+    *,
+    start: PredictionResult | TerrainParameters | None = None,
+    plates: Sequence[float] | None = None,
+    plate_sinkages: ArrayLike | None = None,
+    options: PosteriorOptions | None = None,
+    **fields: Any,
+) -> PosteriorResult:
+    """Sample the posterior of (kc, kphi, n, cc, phic) given one CI profile.
+
+    Parameters
+    ----------
+    profile : CIProfile
+        Depths [m] and cone index [kPa].
+    settings : PredictSettings, optional
+        The prediction's settings: the pressure law (``model``, ``r_min`` [m],
+        ``plate_pair`` [m]; a calibration prior sets all three), ``K_cone`` [m]
+        (None: fully mobilised), ``bounds`` (the support of the prior),
+        ``prior`` ("bounds", a Calibration or a CalibrationPrior:
+        :mod:`terracone.inverse.uncertainty.priors`), ``draws`` (samples
+        returned) and ``seed`` (the same seed gives the same samples bit for
+        bit).  ``fields`` are its fields given here instead (``seed=1``).
+    start : PredictionResult or TerrainParameters, optional
+        Best fit to start from; :func:`terracone.inverse.predict` runs when None.
+    plates, plate_sinkages : optional
+        Plate radii [m] (default: the calibration's pair, else ``plate_pair``,
+        else 3.75 and 5 cm) and sinkages [m] (0 to 10 cm every 5 mm) of the bands.
+    options : PosteriorOptions, optional
+        The noise model and the sampler.
 
     Returns
     -------
@@ -444,21 +469,19 @@ def posterior(
        models from cone index data. Sections 2, 3.2, 3.3.2.
     """
     t0, c0 = time.perf_counter(), time.process_time()
-    _check_options(level, draws, nwalkers, burn, thin, noise_model, noise, noise_floor)
-    law_args = dict(model=model, r_min=r_min, plate_pair=plate_pair, K_cone=K_cone, bounds=bounds)
-    noise_args = dict(noise=noise, correlation=correlation, model=noise_model, floor=noise_floor)
-    st = _prepare(profile, law_args, noise_args, prior, start, seed, n_prior)
-    samples, rho_draws, diag = _draw(st, draws, nwalkers, burn, thin)
-    noise_out = _noise_summary(
-        st.noise, st.lik, samples, rho_draws, noise, noise_model, noise_floor, level, st.rng
-    )
-    summary = _summaries(samples, st.prior_draws, st.prior, level)
+    s, o = settings_of(settings, fields), options or PosteriorOptions()
+    if s.draws < 10:
+        raise ValueError(f"draws must be >= 10 (got {s.draws})")
+    st = _prepare(profile, s, o, start)
+    samples, rho_draws, diag = _draw(st, s.draws, o)
+    noise_out = _noise_summary(st.noise, st.lik, samples, rho_draws, o, st.rng)
+    summary = _summaries(samples, st.prior_draws, st.prior, o.level)
     radii = DEFAULT_PLATES if st.plate_pair is None else tuple(st.plate_pair)
     radii = radii if plates is None else tuple(plates)
     sink = np.asarray(DEFAULT_SINKAGES if plate_sinkages is None else plate_sinkages, float)
-    bands = plate_bands(samples, radii, sink, law=st.law, level=level)
+    bands = plate_bands(samples, radii, sink, law=st.law, level=o.level)
     diag.time_s, diag.cpu_s = time.perf_counter() - t0, time.process_time() - c0
-    return _result(profile, st, samples, summary, bands, noise_out, diag, level)
+    return _result(profile, st, samples, summary, bands, noise_out, diag, o.level)
 
 
 @dataclass
@@ -511,39 +534,29 @@ def _result(
     )
 
 
-def _prepare(
-    profile: CIProfile,
-    law_args: dict[str, Any],
-    noise_args: dict[str, Any],
-    prior: Any,
-    start: Any,
-    seed: int | None,
-    n_prior: str,
-) -> _Setup:
+def _prepare(profile: CIProfile, s: PredictSettings, o: PosteriorOptions, start: Any) -> _Setup:
     """The best fit, noise model, prior, likelihood and target of :func:`posterior`."""
-    model, r_min, plate_pair = law_args["model"], law_args["r_min"], law_args["plate_pair"]
-    K_cone, bounds = law_args["K_cone"], law_args["bounds"] or Bounds()
-    cal_prior = as_calibration_prior(prior)
+    model, r_min, plate_pair, K_cone, bounds = s.model, s.r_min, s.plate_pair, s.K_cone, s.bounds
+    cal_prior = as_calibration_prior(s.prior)
     cal = cal_prior.calibration if cal_prior is not None else None
     if cal is not None:
         model, r_min, plate_pair = cal.model, cal.r_min, cal.plate_pair
     law = pressure_law(model, r_min=r_min, plate_pair=plate_pair)
     profile.validate()
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(s.seed)
     if start is None:
         start = predict(
             profile,
             model=model,
             r_min=r_min,
             plate_pair=plate_pair,
-            calibration=cal,
+            calibration=cal if cal is not None else s.calibration,
             bounds=bounds,
             K_cone=K_cone,
         )
     p0 = _start_params(start)
-    na = noise_args
     ns = noise_setup(
-        profile, p0, law, K_cone, bounds, cal, na["model"], na["floor"], na["correlation"]
+        profile, p0, law, K_cone, bounds, cal, o.noise_model, o.noise_floor, o.correlation
     )
     pri = Prior(bounds, cal_prior)
     lik = Likelihood(
@@ -557,15 +570,13 @@ def _prepare(
         phi=None if ns.rho_sampled else ns.phi,
         spacing=ns.dz0 or None,
     )
-    if n_prior not in ("reference", "uniform"):
-        raise ValueError(f"n_prior must be 'reference' or 'uniform' (got {n_prior!r})")
-    if n_prior == "reference":
+    if o.n_prior == "reference":
         free = (not pri.kc_fixed, not pri.kphi_fixed, not pri.cc_fixed)
         pri.set_reference(lik.grid, lik.gram_half_logdet(free, p0.phic_deg))
     x0, coords = _start_and_coordinates(p0, bounds, pri, profile.cone, K_cone)
     if coords.ndim == 0:
         raise ValueError("all parameters are fixed: nothing to sample")
-    target = LogPosterior(coords, pri, lik, na["noise"], ns.rho_sampled, ns.rho)
+    target = LogPosterior(coords, pri, lik, o.noise, ns.rho_sampled, ns.rho)
     prior_draws = pri.sample(rng, _N_PRIOR_DRAWS)
     return _Setup(
         model=model,
@@ -587,13 +598,13 @@ def _prepare(
 
 
 def _draw(
-    st: _Setup, draws: int, nwalkers: int, burn: int, thin: int
+    st: _Setup, draws: int, o: PosteriorOptions
 ) -> tuple[np.ndarray, np.ndarray | None, SamplerDiagnostics]:
     """Run the sampler: parameter draws (SI), rho draws (or None) and the diagnostics.
 
     The diagnostics' ``time_s`` and ``cpu_s`` are left for the caller to fill in.
     """
-    coords = st.coords
+    coords, nwalkers, burn, thin = st.coords, o.nwalkers, o.burn, o.thin
     walkers, names = start_walkers(
         st.x0, st.prior, coords, st.target, st.lik, st.prior_draws, nwalkers, st.rng, st.notes
     )
@@ -636,25 +647,9 @@ def _start_and_coordinates(p0, bounds, pri, cone, K_cone):
     return x0, SamplerCoordinates(pri, cone, K_cone, fixed_vals)
 
 
-def _check_options(level, draws, nwalkers, burn, thin, noise_model, noise, noise_floor) -> None:
-    if not 0 < level < 1:
-        raise ValueError(f"level must be in (0, 1) (got {level})")
-    if draws < 10:
-        raise ValueError(f"draws must be >= 10 (got {draws})")
-    if nwalkers < 8 or nwalkers % 2:
-        raise ValueError(f"nwalkers must be even and >= 8 (got {nwalkers})")
-    if burn < 0 or thin < 1:
-        raise ValueError("burn must be >= 0 and thin >= 1")
-    if noise_model not in ("relative", "absolute"):
-        raise ValueError(f"noise_model must be 'relative' or 'absolute' (got {noise_model!r})")
-    if noise is not None and not (noise > 0 and math.isfinite(noise)):
-        raise ValueError(f"noise must be > 0 [kPa] (got {noise})")
-    if not 0 <= noise_floor < 10:
-        raise ValueError(f"noise_floor must be >= 0 (got {noise_floor})")
-
-
-def _noise_summary(ns, lik, samples, rho_draws, sigma_fixed, noise_model, floor, level, rng):
+def _noise_summary(ns, lik, samples, rho_draws, o: PosteriorOptions, rng):
     """The :class:`NoiseModel` reported: sigma from sigma^2 | theta ~ Q / chi^2_N."""
+    sigma_fixed, noise_model, floor, level = o.noise, o.noise_model, o.noise_floor, o.level
     q = [(1 - level) / 2, 0.5, (1 + level) / 2]
     if sigma_fixed is None:
         Q = lik.sse(samples, rho=rho_draws)
@@ -765,63 +760,40 @@ def plate_bands(
 def posterior_for_result(
     profile: CIProfile,
     result: PredictionResult,
+    settings: PredictSettings | None = None,
     *,
-    prior: str | Calibration | CalibrationPrior = "bounds",
-    draws: int = 2000,
-    seed: int | None = None,
     plates: Sequence[float] | None = None,
-    bounds: Bounds | None = None,
-    plate_pair: tuple[float, float] | None = None,
-    **kwargs: Any,
+    plate_sinkages: ArrayLike | None = None,
+    options: PosteriorOptions | None = None,
+    **fields: Any,
 ) -> PosteriorResult:
     """:func:`posterior` for a profile already fitted by :func:`~terracone.inverse.predict`.
 
-    The CLI calls this once per profile: model, r_min and Kc are taken from
-    ``result.params`` (or from the calibration when ``prior`` is one), and
-    the walkers start at the result's optimum.  When the prior is a
-    calibration and the result was not fitted with it (its phic lies more
+    Model, r_min and Kc are taken from ``result.params`` and the walkers
+    start at the result's optimum; ``settings`` (or its ``fields``) give the
+    prior, its bounds, draws, seed and the RM1 plate pair.  When the prior is
+    a calibration and the result was not fitted with it (its phic lies more
     than 3 prior standard deviations from the calibration's), the profile is
     re-fitted with the calibration first.
-
-    Parameters
-    ----------
-    profile : CIProfile
-        The profile ``result`` was fitted to.
-    result : PredictionResult
-        Must be ``ok``.
-    prior : "bounds", Calibration or CalibrationPrior
-    draws : int
-    seed : int, optional
-    plates : sequence of float, optional
-        Plate radii of the bands [m].
-    bounds : Bounds, optional
-        The bounds the prediction used.
-    plate_pair : (float, float), optional
-        RM1 plate pair [m] (without a calibration).
-    **kwargs
-        Passed to :func:`posterior` (noise, correlation, noise_model, ...).
     """
     if not result.ok or result.params is None:
         raise ValueError(f"profile {result.id}: prediction failed: {result.error}")
-    p = result.params
-    cal_prior = as_calibration_prior(prior)
+    p, s = result.params, settings_of(settings, fields)
+    cal_prior = as_calibration_prior(s.prior)
     start: PredictionResult | None = result
     if cal_prior is not None:
         c = cal_prior.calibration
         tol = 3.0 * max(cal_prior.phic_sd, 1e-9)
         if abs(p.phic_deg - c.phic_deg) > tol or p.model != c.model:
             start = None
-    return posterior(
-        profile,
+    s = replace(
+        s,
         model=p.model,
         r_min=p.r_min,
-        plate_pair=plate_pair,
-        bounds=bounds,
-        prior=cal_prior if cal_prior is not None else "bounds",
         K_cone=p.K_cone,
-        draws=draws,
-        seed=seed,
-        plates=plates,
-        start=start,
-        **kwargs,
+        calibration=None,
+        prior=cal_prior or "bounds",
+    )
+    return posterior(
+        profile, s, start=start, plates=plates, plate_sinkages=plate_sinkages, options=options
     )
