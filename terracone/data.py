@@ -36,7 +36,8 @@ __all__ = [
 #: Cone index above which a reading cannot be soil [kPa]: 100 MPa.  Hand-held cone
 #: index penetrometers read to 7 MPa (FieldScout SC900: 0-7,000 kPa) or about 10 MPa, and
 #: the soil behaviour type charts of the cone penetration test end at a cone resistance of
-#: 100 MPa (q_t / p_a = 1000; Robertson 1990, 2010), above the densest gravels.  A larger
+#: 100 MPa (q_c / p_a = 1000; Robertson et al. 1986, Robertson 2010), above the densest
+#: gravels.  A larger
 #: value is a unit error (Pa read as kPa) or a corrupt cell, never terrain.
 CI_MAX_KPA = 1.0e5
 #: Base depth below which no cone index penetrometer pushes [m]: 5 m.  Hand-held
