@@ -37,8 +37,7 @@ __all__ = [
 #: index penetrometers read to 7 MPa (FieldScout SC900: 0-7,000 kPa) or about 10 MPa, and
 #: the soil behaviour type charts of the cone penetration test end at a cone resistance of
 #: 100 MPa (q_c / p_a = 1000; Robertson et al. 1986, Robertson 2010), above the densest
-#: gravels.  A larger
-#: value is a unit error (Pa read as kPa) or a corrupt cell, never terrain.
+#: gravels.  A larger value is a unit error (Pa read as kPa) or a corrupt cell, never terrain.
 CI_MAX_KPA = 1.0e5
 #: Base depth below which no cone index penetrometer pushes [m]: 5 m.  Hand-held
 #: instruments reach 45 cm (SC900) to 80 cm (Eijkelkamp penetrologger), vehicle-mounted
