@@ -325,7 +325,7 @@ def test_predict_same_with_and_without_kernels(case, law):
 
 def run_py(code: str, **env_extra: str) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
-    env.pop("TERRACONE_NUMBA", None)
+    env["TERRACONE_NUMBA"] = "1"  # compiled on demand (tests/test_jit.py tests the default)
     env.update(env_extra)
     return subprocess.run(
         [sys.executable, "-c", textwrap.dedent(code)],
@@ -356,9 +356,9 @@ def test_cli_start_up_imports_no_numba():
 
 
 def test_switch_disables_the_kernels():
-    p = run_py("from terracone import jit; print(jit.enabled(), jit.ENABLED)", TERRACONE_NUMBA="0")
+    p = run_py("from terracone import jit; print(jit.enabled(), jit.mode())", TERRACONE_NUMBA="0")
     assert p.returncode == 0, p.stderr
-    assert p.stdout.split() == ["False", "False"]
+    assert p.stdout.split() == ["False", "off"]
 
 
 KERNEL_RUN = """

@@ -1392,6 +1392,9 @@ def _process(
     try:
         if not todo:
             return
+        # with a cold kernel cache this starts the one background warm-up (terracone.jit),
+        # here rather than in every worker; the workers use numpy until it is done
+        enabled()
         if where["pool"] is not None:
             _run_on(where["pool"], _to_fit(chunks, sink), sink)
             return

@@ -27,8 +27,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from terracone.inverse.uncertainty.noise import whiten_ar1
-from terracone.jit import ENABLED as JIT_ENABLED
-from terracone.jit import njit
+from terracone.jit import enabled, njit
 from terracone.physics.cone import Cone, cone_index_basis
 from terracone.physics.plate import PressureLaw
 
@@ -288,7 +287,7 @@ class Likelihood:
         """Whitened sum of squares Q of parameter rows (P, 5) (and rho (P,) if sampled)."""
         params = np.ascontiguousarray(params, dtype=float)
         r = np.zeros(0) if rho is None or not self.per_row else np.asarray(rho, dtype=float)
-        kernel = spline_sse_compiled if JIT_ENABLED else spline_sse
+        kernel = spline_sse_compiled if enabled() else spline_sse
         return kernel(self.coef, self.n0, self.h, self.wy, params, self.t, r, self.dzr)
 
     def gram_half_logdet(self, free: Sequence[bool], phic_deg: float = 0.0) -> np.ndarray:
