@@ -1,8 +1,15 @@
 """Benchmark of ``terracone batch`` (terracone.apps.batch.run_batch).
 
-Measures, on generated noise-free profiles (25-60 depths each, known truth,
-written as Parquet by streaming so that generation itself stays flat in
-memory):
+Measures:
+
+0. efficiency on field-like CSV (noisy profiles, a quarter of them bad in five
+   ways, metadata columns site/lat/lon): the batch rate on W local workers
+   against W x the per-core fit rate of ``predict_many(detail="summary")`` on
+   a chunk of the same file, from alternating runs (each one's best kept),
+   with the peak memory of client and workers;
+
+and on generated noise-free profiles (25-60 depths each, known truth, written
+as Parquet by streaming so that generation itself stays flat in memory):
 
 1. throughput end to end (cluster start, reading, fitting, writing, final
    check) with 1 and 2 local workers, and how the time splits between
@@ -14,7 +21,8 @@ memory):
 
 Every measured run is a fresh Python process.  Usage::
 
-    python benchmarks/batch.py                      # 20,000 profiles; memory at 1e4, 1e5
+    python benchmarks/batch.py --only-efficiency    # the efficiency on field-like CSV
+    python benchmarks/batch.py                      # all; memory at 1e4, 1e5
     python benchmarks/batch.py --million            # also memory at 1e6 (minutes)
     python benchmarks/batch.py --profiles 5000 --memory 10000   # quick
 """
@@ -96,12 +104,96 @@ def generate(path: Path, n_profiles: int, seed: int = 0) -> None:
     os.replace(tmp, path)
 
 
+#: The five kinds of bad profile of field-like input (a quarter of the profiles in all).
+BAD_KINDS = ("nan", "text", "negative", "unordered", "short")
+
+
+def generate_field_csv(path: Path, n_profiles: int, bad: float = 0.25, seed: int = 0) -> None:
+    """Write field-like CI profiles to CSV, streaming: noisy readings (3%), 10-46 depths in
+    cm, the metadata columns site, lat and lon, and a fraction ``bad`` of bad profiles,
+    evenly of :data:`BAD_KINDS` (a NaN reading, a text cell, a negative CI, two depths out
+    of order, two points only), each at a random point of its profile."""
+    from terracone import cone_index
+
+    rng = np.random.default_rng(seed)
+    tmp = path.with_suffix(".tmp")
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write("profile,site,lat,lon,depth_cm,ci_kpa\n")
+        for start in range(0, n_profiles, BATCH):
+            B = min(BATCH, n_profiles - start)
+            nz = rng.integers(10, 47, B)
+            Z = int(nz.max())
+            depth = np.minimum(np.arange(Z)[None, :], nz[:, None] - 1) * 1.0  # cm, 1 cm steps
+            ci = cone_index(
+                depth / 100,
+                kc=rng.uniform(0, 50, B)[:, None],
+                kphi=rng.uniform(200, 3000, B)[:, None],
+                n=rng.uniform(0.3, 1.3, B)[:, None],
+                cc=rng.uniform(0, 10, B)[:, None],
+                phic=rng.uniform(0, 30, B)[:, None],
+            )
+            ci = ci * (1 + 0.03 * rng.standard_normal(ci.shape))
+            dz = np.char.mod("%g", depth).astype(object)
+            cz = np.char.mod("%.2f", ci).astype(object)
+            kind = np.where(rng.uniform(size=B) < bad, rng.integers(0, len(BAD_KINDS), B), -1)
+            at = (rng.uniform(size=B) * (nz - 1)).astype(int) + 1  # a point after the first
+            rows = np.arange(B)
+            for k, name in enumerate(BAD_KINDS):
+                sel = rows[kind == k]
+                if name == "nan":
+                    cz[sel, at[sel]] = "NaN"
+                elif name == "text":
+                    cz[sel, at[sel]] = "n/a"
+                elif name == "negative":
+                    cz[sel, at[sel]] = "-12.5"
+                elif name == "unordered":
+                    dz[sel, at[sel]] = np.char.mod("%g", depth[sel, at[sel]] - 1.5).astype(object)
+                else:
+                    nz[sel] = 2
+            site = rng.choice(np.array(["north", "south", "east", "west"], dtype=object), B)
+            lat, lon = rng.uniform(40, 41, B), rng.uniform(-80, -79, B)
+            head = [f"p{start + i:08d},{site[i]},{lat[i]:.6f},{lon[i]:.6f}," for i in range(B)]
+            lines = [
+                "".join(f"{head[i]}{dz[i, j]},{cz[i, j]}\n" for j in range(int(nz[i])))
+                for i in range(B)
+            ]
+            f.write("".join(lines))
+    os.replace(tmp, path)
+
+
+def per_core_child(args: argparse.Namespace) -> None:
+    """The per-core fit rate (in its own process): ``predict_many(..., detail="summary")``
+    on the first chunk of ``chunk_size`` profiles of the input, as a batch worker gets it
+    (the profiles the reader refused as the set's errors, the others unscreened), best of
+    3 after one warm-up call; prints a JSON line."""
+    from terracone.inverse.predict import predict_many
+    from terracone.io.stream import ConeCache, input_files, iter_chunks, scan_inputs
+    from terracone.physics.cone import get_cone
+
+    plan = scan_inputs(input_files(args.input))
+    cones = ConeCache(get_cone("asabe-large"))
+    _, chunk, n = next(iter_chunks(plan, args.chunk_size, cones, set()))
+    pset = chunk.task
+    pset.errors = [e for e in chunk.problems if e is not None]
+    predict_many(pset, detail="summary", chunk_size=n)
+    best = float("inf")
+    for _ in range(3):
+        t = time.perf_counter()
+        res = predict_many(pset, detail="summary", chunk_size=n)
+        best = min(best, time.perf_counter() - t)
+    assert len(res) == n
+    print(json.dumps({"profiles": n, "best_s": best, "rate": n / best}))
+
+
 def child(args: argparse.Namespace) -> None:
     """One measured run (in its own process); prints a JSON line."""
     import logging
 
     from terracone.apps.batch import run_batch
 
+    if args.mode == "per-core":
+        per_core_child(args)
+        return
     t0 = time.perf_counter()
     if args.mode == "local":
         summary = run_batch(
@@ -244,6 +336,60 @@ def throughput(args: argparse.Namespace, work: Path, data, counts: list[int]) ->
     )
 
 
+def efficiency(args: argparse.Namespace, work: Path) -> None:
+    """Batch on field-like CSV against the per-core fit rate on a chunk of the same file.
+
+    Alternating runs (batch, per-core rate, batch, per-core rate, ...), each one's best
+    kept: the batch rate end to end with the start-up (cluster start, kernel loading)
+    removed, against ``workers x`` the per-core rate of ``predict_many(detail="summary")``
+    on the file's first chunk.  Peak memory of the client and the workers as well.
+    """
+    n, W = args.field_profiles, args.field_workers
+    src = work / f"field-{n}.csv"
+    if not src.exists():
+        t = time.perf_counter()
+        generate_field_csv(src, n)
+        mb = src.stat().st_size / 1e6
+        print(f"\ngenerated {n:,} field-like profiles -> {src.name} ({mb:.0f} MB) in "
+              f"{time.perf_counter() - t:.1f} s")  # fmt: skip
+    print(
+        f"\nEfficiency on field-like CSV ({n:,} profiles, {int(100 * 0.25)}% bad of "
+        f"{len(BAD_KINDS)} kinds, site/lat/lon columns), {W} local workers, chunk_size "
+        f"{args.chunk_size}:"
+    )
+    print(f"{'run':>12} {'profiles/s':>11} {'wall s':>7} {'start s':>7} {'read s':>7} "
+          f"{'fit cpu':>8} {'write s':>7} {'client MB':>9} {'workers MB':>12} {'load':>5}")  # fmt: skip
+    best_b, best_c = 0.0, 0.0
+    for _ in range(args.rounds):
+        out = work / f"out-eff-{time.time_ns()}"
+        r = run_child("memory", src, out, W, args.chunk_size)
+        s = r["summary"]
+        assert s["profiles"] == n and s["success"], s["problems"]
+        rate = n / (s["wall_s"] - s["startup_s"])
+        best_b = max(best_b, rate)
+        wr = ", ".join(f"{v:.0f}" for v in r["workers_rss_mb"])
+        print(
+            f"{'batch':>12} {rate:>11,.0f} {s['wall_s']:>7.1f} {s['startup_s']:>7.1f} "
+            f"{s['read_s']:>7.1f} {s['fit_cpu_s']:>8.1f} {s['write_s']:>7.1f} "
+            f"{r['client_rss_mb']:>9.0f} {wr:>12} {os.getloadavg()[0]:>5.1f}"
+        )
+        c = run_child("per-core", src, out, 1, args.chunk_size)
+        best_c = max(best_c, c["rate"])
+        print(f"{'per core':>12} {c['rate']:>11,.0f} {'':>7} {'':>7} {'':>7} "
+              f"{c['best_s']:>8.2f} {'':>7} {'':>9} {'':>12} {os.getloadavg()[0]:>5.1f}")  # fmt: skip
+    eff = best_b / (W * best_c)
+    print(
+        f"  best batch {best_b:,.0f} profiles/s, best per-core {best_c:,.0f} profiles/s: "
+        f"efficiency {eff:.2f} of {W} x per-core (target >= 0.8: {'MET' if eff >= 0.8 else 'NOT MET'})"
+    )
+    print(
+        "  batch: profiles / (wall - start), start = cluster start and kernel loading; per core:\n"
+        "  predict_many(detail='summary') on the file's first chunk, best of 3, one process;\n"
+        "  fit cpu: CPU seconds of the fit tasks (per-core row: its best time); load: 1-minute\n"
+        "  load average after the run (2 CPUs: above 2, other work competed)"
+    )
+
+
 def startup(args: argparse.Namespace, work: Path, data) -> None:
     """Start-up: workers compiling into an empty numba cache, then loading from it."""
     src_s = data(args.startup_profiles)
@@ -303,6 +449,14 @@ def main() -> None:
     ap.add_argument("--chunk-size", type=int, default=2000)
     ap.add_argument("--memory", default="10000,100000", help="input sizes of the memory runs")
     ap.add_argument("--million", action="store_true", help="add a memory run at 1,000,000")
+    ap.add_argument(
+        "--field-profiles", type=int, default=60000, help="field-like CSV of the efficiency runs"
+    )
+    ap.add_argument("--field-workers", type=int, default=2, help="workers of the efficiency runs")
+    ap.add_argument(
+        "--rounds", type=int, default=2, help="alternating rounds of the efficiency runs"
+    )
+    ap.add_argument("--only-efficiency", action="store_true", help="skip the other measurements")
     ap.add_argument("--dir", default=None, help="work directory (default: a temporary one)")
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--input", default=None, help=argparse.SUPPRESS)
@@ -324,6 +478,10 @@ def main() -> None:
     )
 
     data = functools.partial(input_file, work)
+    efficiency(args, work)
+    if args.only_efficiency:
+        print(f"\n(work directory: {work})")
+        return
     counts = [int(v) for v in args.workers.split(",") if v.strip()]
     if counts:
         throughput(args, work, data, counts)

@@ -394,8 +394,20 @@ class ProfileSet:
         :data:`CI_MAX_KPA`, depth below :data:`DEPTH_MAX_M`, non-increasing
         depth, too few points, tip above the surface) picks the suspects;
         :meth:`CIProfile.validate` words each one's reason, and
-        :meth:`locate` names its file, row and column.
+        :meth:`locate` names its file, row and column.  Found once per set
+        (a batch worker asks twice): the arrays of a set are not changed in
+        place, a changed set is a new one (``replace``, :meth:`take`, ...).
         """
+        used = (self.depth, self.ci, self.offsets, self.cone_idx, self.cones, self.ids, self.rows)
+        used += (self.file_idx, self.files)
+        cached = self.__dict__.get("_screened")
+        if cached is not None and all(a is b for a, b in zip(cached[0], used)):
+            return dict(cached[1])
+        errors = self._screen()
+        self.__dict__["_screened"] = (used, errors)
+        return dict(errors)
+
+    def _screen(self) -> dict[int, InputError]:
         off = self.offsets
         P = len(self)
         if P == 0:

@@ -378,6 +378,49 @@ def test_csv_numbers_convert_like_python_float():
     np.testing.assert_array_equal(vals[[0, 5, 7]], [1.0, 3.0, 3.0])
 
 
+def test_csv_numbers_of_a_block_with_a_few_bad_cells_equal_python_float():
+    """A large block mixing plain numbers (Arrow casts them) and bad cells (Python reads
+    them): every value as Python's float reads it, every reason as to_numbers gives it."""
+    rng = np.random.default_rng(7)
+    vals = rng.standard_normal(5000) * 10.0 ** rng.integers(-5, 6, 5000)
+    cells = [repr(float(v)) for v in vals]
+    for i, bad in zip(rng.choice(5000, 6, replace=False), ["NaN", "n/a", "", "inf", "x!", "٣"]):
+        cells[int(i)] = bad
+    got, why = stream.csv_numbers(pa.array(cells), 2.0)
+    ref = to_numbers(cells)
+    assert list(why) == [ref.reasons.get(i) for i in range(len(cells))]
+    ok = ~ref.bad
+    assert np.array_equal(got[ok], 2.0 * ref.values[ok])  # bit for bit
+    assert sum(w is not None for w in why) == 5  # '٣' reads as 3
+
+
+def test_profile_starts_in_arrow_equal_profile_starts():
+    """scan's text_starts (ids compared in Arrow) finds the profile starts profile_starts
+    finds: runs of equal cells, merged when equal once stripped of blanks."""
+    from terracone.io.scan import profile_starts, text_starts
+
+    rng = np.random.default_rng(3)
+    names = np.array(["a", " a", "a ", "b", "c", " c ", "", " "], dtype=object)
+    for _ in range(20):
+        cells = names[np.sort(rng.integers(0, names.size, 200))]
+        cells = np.repeat(cells, rng.integers(1, 4, cells.size))
+        want = profile_starts(cells.astype(object))
+        assert np.array_equal(text_starts(pa.array(cells.tolist())), want)
+
+
+def test_csv_metadata_cells_in_arrow_equal_python():
+    """A CSV metadata column taken per profile: numbers (blank: missing) and text, Arrow's
+    conversion against the Python one."""
+    num = pa.array([" 1.5", "", "-2e3 ", "nan", "7"])
+    a = stream._meta_array(num, pa.float64(), True).to_pylist()
+    b = stream._meta_array(num.to_pylist(), pa.float64(), True).to_pylist()
+    assert a[:3] == b[:3] == [1.5, None, -2000.0] and math.isnan(a[3]) and a[4] == b[4] == 7.0
+    text = pa.array([" north", "south ", ""])
+    assert stream._meta_array(text, pa.string(), True).to_pylist() == ["north", "south", ""]
+    odd = pa.array(["Infinity", "1"])  # Arrow does not cast it: Python does
+    assert stream._meta_array(odd, pa.float64(), True).to_pylist() == [math.inf, 1.0]
+
+
 def test_concat_merges_cones_files_and_metadata():
     a = ProfileSet.from_profiles(
         [
