@@ -158,7 +158,11 @@ def _key() -> str:
         except metadata.PackageNotFoundError:
             parts.append("-")
     for rel in KERNEL_SOURCES:
-        st = (_PKG / rel).stat()
+        try:
+            st = (_PKG / rel).stat()
+        except OSError:  # no source beside the package (a zip): numba caches nothing either
+            parts.append(f"{rel} -")
+            continue
         parts.append(f"{rel} {st.st_size} {st.st_mtime_ns}")
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
 
@@ -239,14 +243,17 @@ def start_warmup() -> bool:
             return False
     env = dict(os.environ, TERRACONE_NUMBA="1")
     cmd = [sys.executable, "-m", WARMUP_MODULE]
-    if os.name == "posix":  # sh starts it in the background and exits: no zombie is left
-        cmd = ["/bin/sh", "-c", 'exec "$@" </dev/null >/dev/null 2>&1 &', "sh", *cmd]
-        subprocess.run(cmd, env=env, cwd=_PKG.parent, start_new_session=True, check=False)
-    else:  # pragma: no cover
-        flags = getattr(subprocess, "DETACHED_PROCESS", 0) | getattr(
-            subprocess, "CREATE_NEW_PROCESS_GROUP", 0
-        )
-        subprocess.Popen(cmd, env=env, cwd=_PKG.parent, creationflags=flags, close_fds=True)
+    try:
+        if os.name == "posix":  # sh starts it in the background and exits: no zombie is left
+            cmd = ["/bin/sh", "-c", 'exec "$@" </dev/null >/dev/null 2>&1 &', "sh", *cmd]
+            subprocess.run(cmd, env=env, cwd=_PKG.parent, start_new_session=True, check=True)
+        else:  # pragma: no cover
+            flags = getattr(subprocess, "DETACHED_PROCESS", 0) | getattr(
+                subprocess, "CREATE_NEW_PROCESS_GROUP", 0
+            )
+            subprocess.Popen(cmd, env=env, cwd=_PKG.parent, creationflags=flags, close_fds=True)
+    except (OSError, subprocess.CalledProcessError):  # no shell, no processes: numpy it stays
+        return False
     print(
         f"terracone: compiling the solver kernels in the background for later runs (about "
         f"{COMPILE_S} s of one core, once); this run uses their numpy twins",
