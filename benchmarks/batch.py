@@ -413,7 +413,7 @@ def efficiency(args: argparse.Namespace, work: Path) -> None:
         f"{len(BAD_KINDS)} kinds, site/lat/lon columns), {W} local workers, chunk_size "
         f"{args.chunk_size}:"
     )
-    print(f"{'run':>12} {'profiles/s':>11} {'wall s':>7} {'start s':>7} {'read s':>7} "
+    print(f"{'run':>12} {'profiles/s':>11} {'wall s':>7} {'start s':>7} {'scan s':>7} {'read s':>7} "
           f"{'fit cpu':>8} {'write s':>7} {'client MB':>9} {'workers MB':>12} {'load':>5}")  # fmt: skip
     best_b, best_c, cpu_b, cpu_c = 0.0, 0.0, float("inf"), 0.0
     for _ in range(args.rounds):
@@ -428,13 +428,13 @@ def efficiency(args: argparse.Namespace, work: Path) -> None:
         wr = ", ".join(f"{v:.0f}" for v in r["workers_rss_mb"])
         print(
             f"{'batch':>12} {rate:>11,.0f} {s['wall_s']:>7.1f} {s['startup_s']:>7.1f} "
-            f"{s['read_s']:>7.1f} {s['fit_cpu_s']:>8.1f} {s['write_s']:>7.1f} "
+            f"{s['scan_s']:>7.2f} {s['read_s']:>7.1f} {s['fit_cpu_s']:>8.1f} {s['write_s']:>7.1f} "
             f"{r['client_rss_mb']:>9.0f} {wr:>12} {os.getloadavg()[0]:>5.1f}"
         )
         c = run_child("per-core", src, out, 1, args.chunk_size)
         best_c = max(best_c, c["rate"])
         cpu_c = max(cpu_c, c["cpu_rate"])
-        print(f"{'per core':>12} {c['rate']:>11,.0f} {'':>7} {'':>7} {'':>7} "
+        print(f"{'per core':>12} {c['rate']:>11,.0f} {'':>7} {'':>7} {'':>7} {'':>7} "
               f"{c['best_s']:>8.2f} {'':>7} {'':>9} {'':>12} {os.getloadavg()[0]:>5.1f}")  # fmt: skip
     print(
         f"  cost per profile in predict_many (last per-core run): a fit {c['fit_us']:.0f} us, "

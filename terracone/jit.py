@@ -66,6 +66,7 @@ __all__ = [
     "marker_path",
     "warmup_lock",
     "start_warmup",
+    "warm_up_if_cold",
     "WARMUP_MODULE",
     "KERNEL_SOURCES",
 ]
@@ -260,6 +261,16 @@ def start_warmup() -> bool:
         file=sys.stderr,
     )
     return True
+
+
+def warm_up_if_cold() -> bool:
+    """Start :func:`start_warmup` when the default policy finds the cache cold; True when the
+    compiled kernels are cached.  Imports no numba (a batch's client, which fits nothing,
+    calls it before starting its workers)."""
+    if mode() != "auto" or ready():
+        return ready()
+    start_warmup()
+    return False
 
 
 def enabled() -> bool:

@@ -363,6 +363,39 @@ def test_ragged_rows_read_like_the_list(tmp_path, tiny_blocks):
 # ---------------------------------------------------------------------------
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_csv_lines_drop_comments_and_blank_lines_and_number_the_rest(tmp_path, monkeypatch, seed):
+    """CsvLines against a plain line-by-line filter: the kept lines in order and the file
+    line of each, on files with and without comment and blank lines, read in small blocks
+    (blocks without either take the fast path)."""
+    from terracone.io.scan import CsvLines
+
+    rng = np.random.default_rng(seed)
+    kinds = ["a,1,2", "b, 3 ,4", "# note", "", "   ", "\t# c", "x,#5,6"]
+    p_bad = [0.0, 0.02, 0.3][seed % 3]
+    lines = ["h1,h2,h3"]
+    for _ in range(400):
+        k = (
+            int(rng.integers(2, len(kinds) - 1))
+            if rng.uniform() < p_bad
+            else int(rng.choice([0, 1, 6]))
+        )
+        lines.append(kinds[k])
+    eol = "\r\n" if seed % 2 else "\n"
+    path = tmp_path / "f.csv"
+    path.write_bytes(eol.join(lines).encode() + eol.encode())
+    monkeypatch.setattr(CsvLines, "BLOCK", 64)
+    kept = [
+        (i + 1, ln) for i, ln in enumerate(lines) if ln.strip() and not ln.strip().startswith("#")
+    ]
+    with CsvLines(str(path)) as stream:
+        assert stream.header() == ["h1", "h2", "h3"]
+        body = stream.read().decode()
+        got = body.split(eol)[:-1]
+        assert got == [ln for _, ln in kept[1:]]
+        assert stream.lines(0, len(got)).tolist() == [i for i, _ in kept[1:]]
+
+
 def test_csv_numbers_convert_like_python_float():
     cells = ["1.5", " 2", "1e5", "+.5", "1.", "-0", "7E-3", "0.1", "123456789.123456789"]
     vals, why = stream.csv_numbers(pa.array(cells), 2.0)

@@ -87,7 +87,7 @@ from terracone.io.scan import (
     scan_inputs,
 )
 from terracone.io.stream import Chunk, ConeCache, iter_chunks
-from terracone.jit import enabled
+from terracone.jit import enabled, warm_up_if_cold
 from terracone.physics import units as u
 from terracone.physics.cone import Cone, get_cone
 from terracone.physics.metrics import check_fit_fast
@@ -1394,7 +1394,7 @@ def _process(
             return
         # with a cold kernel cache this starts the one background warm-up (terracone.jit),
         # here rather than in every worker; the workers use numpy until it is done
-        enabled()
+        warm_up_if_cold()
         if where["pool"] is not None:
             _run_on(where["pool"], _to_fit(chunks, sink), sink)
             return
