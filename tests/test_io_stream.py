@@ -366,8 +366,7 @@ def test_ragged_rows_read_like_the_list(tmp_path, tiny_blocks):
 @pytest.mark.parametrize("seed", range(6))
 def test_csv_lines_drop_comments_and_blank_lines_and_number_the_rest(tmp_path, monkeypatch, seed):
     """CsvLines against a plain line-by-line filter: the kept lines in order and the file
-    line of each, on files with and without comment and blank lines, read in small blocks
-    (blocks without either take the fast path)."""
+    line of each, on files with and without comment and blank lines, read in small blocks."""
     from terracone.io.scan import CsvLines
 
     rng = np.random.default_rng(seed)

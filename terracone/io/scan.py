@@ -160,8 +160,6 @@ def fingerprint(input: PathLike, files: list[tuple[Path, str]]) -> dict[str, Any
 # a "\n" followed by a comment or blank line (literal prefix: fast to search)
 _SKIP_NEXT = re.compile(rb"\n(?=[ \t\r\f\v]*[#\n])")
 _SKIP_FIRST = re.compile(rb"[ \t\r\f\v]*[#\n]")
-# a line that starts with one of these may be blank (found by bytes search, fast)
-_BLANK_AFTER_NL = (b"\n\n", b"\n\r", b"\n ", b"\n\t", b"\n\f", b"\n\v")
 
 
 class CsvLines(io.RawIOBase):
@@ -237,11 +235,6 @@ class CsvLines(io.RawIOBase):
         """Append the kept lines of ``data`` (whole lines) to the output buffer."""
         base = self._line
         out = self._out
-        if b"#" not in data and not any(p in data for p in _BLANK_AFTER_NL):
-            if not _SKIP_FIRST.match(data):  # no comment, no blank line: keep it all
-                out += data
-                self._line = base + data.count(b"\n")
-                return
         starts = [m.start() + 1 for m in _SKIP_NEXT.finditer(data)]  # dropped line starts
         if _SKIP_FIRST.match(data):
             starts.insert(0, 0)

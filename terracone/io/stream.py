@@ -52,6 +52,7 @@ from terracone.io.scan import (
     profile_starts,
     scan_inputs,
     strip_text,
+    text_starts,
 )
 from terracone.io.tables import OnError, PathLike, check_options, to_numbers
 from terracone.physics.cone import Cone, get_cone
@@ -82,7 +83,7 @@ class Rows:
     """A block of input rows of one file, numbers already in SI."""
 
     file: int
-    ids: np.ndarray  # object (str), per row; CSV: raw cells (see profile_starts)
+    ids: np.ndarray | pa.Array  # per row: object (str), or CSV's raw text cells in Arrow
     depth: np.ndarray
     ci: np.ndarray
     depth_why: np.ndarray | None  # object: why a cell is unusable (None where fine)
@@ -92,7 +93,7 @@ class Rows:
     meta: dict[str, Any]  # input name -> ndarray (CSV text) or pa.Array (Parquet)
 
     def __len__(self) -> int:
-        return int(self.ids.size)
+        return len(self.ids)
 
     def slice(self, a: int, b: int) -> Rows:
         def cut(x: Any) -> Any:
@@ -104,7 +105,7 @@ class Rows:
 
         return Rows(
             self.file,
-            self.ids[a:b],
+            cut(self.ids),
             self.depth[a:b],
             self.ci[a:b],
             cut(self.depth_why),
@@ -138,7 +139,7 @@ class Rows:
         first = parts[0]
         return Rows(
             first.file,
-            np.concatenate([p.ids for p in parts]),
+            join([p.ids for p in parts]),
             np.concatenate([p.depth for p in parts]),
             np.concatenate([p.ci for p in parts]),
             why("depth_why"),
@@ -235,7 +236,7 @@ def read_file(k: int, info: FileInfo) -> Iterator[Rows]:
                 if info.id_col is None:
                     ids = np.full(n, info.stem, dtype=object)
                 else:
-                    ids = block_cells(block, col[info.id_col])  # raw: stripped per profile
+                    ids = block.column(f"c{col[info.id_col]}")  # raw: stripped per profile
                 depth, dwhy = csv_numbers(block.column(col[info.depth_col]), info.depth_factor)
                 ci, cwhy = csv_numbers(block.column(col[info.ci_col]), info.ci_factor)
                 cone = None if info.cone_col is None else block_cells(block, col[info.cone_col])
@@ -267,6 +268,21 @@ def read_file(k: int, info: FileInfo) -> Iterator[Rows]:
             row0 += n
 
 
+def _cells_at(ids: np.ndarray | pa.Array, at: np.ndarray) -> np.ndarray:
+    """The id cells at rows ``at`` as an object array of str."""
+    if isinstance(ids, pa.Array):
+        return ids.take(pa.array(at, pa.int64())).to_numpy(zero_copy_only=False).astype(object)
+    return ids[at]
+
+
+def _any_other(ids: np.ndarray | pa.Array, tail_ids: np.ndarray | pa.Array) -> bool:
+    """Whether any id cell differs from the first of ``tail_ids`` (raw cells)."""
+    first = _cells_at(tail_ids, np.zeros(1, dtype=np.int64))[0]
+    if isinstance(ids, pa.Array):
+        return bool(pc.any(pc.not_equal(ids, pa.scalar(first, ids.type))).as_py())
+    return bool(np.any(ids != first))
+
+
 def profile_blocks(plan: ScanPlan) -> Iterator[tuple[Rows, np.ndarray]]:
     """(rows, profile starts) holding complete profiles only, in input order.
 
@@ -277,12 +293,16 @@ def profile_blocks(plan: ScanPlan) -> Iterator[tuple[Rows, np.ndarray]]:
         tail: list[Rows] = []
         for rows in read_file(k, info):
             if tail:
-                if not np.any(rows.ids != tail[0].ids[0]):  # all rows continue the tail
+                if not _any_other(rows.ids, tail[0].ids):  # all rows continue the tail
                     tail.append(rows)
                     continue
                 rows = Rows.concat([*tail, rows])
                 tail = []
-            st = profile_starts(rows.ids)
+            st = (
+                text_starts(rows.ids)
+                if isinstance(rows.ids, pa.Array)
+                else profile_starts(rows.ids)
+            )
             last = int(st[-1])
             if last > 0:
                 yield rows.slice(0, last), st[:-1]
@@ -428,7 +448,7 @@ def make_piece(rows: Rows, starts: np.ndarray, plan: ScanPlan, cones: ConeCache)
     P = int(starts.size)
     ends = np.append(starts[1:], n)
     counts = ends - starts
-    ids = strip_text(rows.ids[starts])
+    ids = strip_text(_cells_at(rows.ids, starts))
     first = rows.lines[starts]
     flagged = np.zeros(P, dtype=bool)
     if info.id_col is not None:
