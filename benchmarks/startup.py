@@ -25,6 +25,7 @@ the process (TERRACONE_NUMBA=1), to show what compiling costs.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import signal
 import subprocess
@@ -101,23 +102,29 @@ def cli_help() -> dict[str, tuple[float, float]]:
 
 
 def wait_for_warmup(cache: Path, timeout: float = 1800.0) -> float:
-    """Wait for the background warm-up of ``cache`` to end (its pid is in the lock file);
-    return how long it ran after this call [s].  Ended by that pid after ``timeout``."""
-    lock = cache / "terracone-kernels.lock"
+    """Wait until the background warm-up of ``cache`` has written its marker and let go of
+    its lock; return how long that took [s].  The warm-up's process id is in the lock file:
+    it is ended by that id if it takes longer than ``timeout``."""
+    import fcntl
+
     t0 = time.perf_counter()
-    while not (lock.exists() and lock.read_text().strip()):
-        if time.perf_counter() - t0 > 60:
-            raise RuntimeError("no background warm-up started")
-        time.sleep(0.1)
-    pid = int(lock.read_text().split()[0])
+    lock = cache / "terracone-kernels.lock"
     while True:
-        try:
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            return time.perf_counter() - t0
+        if any(cache.glob("terracone-kernels-*.ready")):
+            with open(lock, "a+b") as f:
+                try:
+                    fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                except BlockingIOError:
+                    pass  # still finishing
+                else:
+                    fcntl.flock(f, fcntl.LOCK_UN)
+                    return time.perf_counter() - t0
         if time.perf_counter() - t0 > timeout:
-            os.kill(pid, signal.SIGTERM)
-            raise RuntimeError(f"the warm-up (pid {pid}) took more than {timeout:g} s")
+            text = lock.read_text().split() if lock.exists() else []
+            if text:
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(int(text[0]), signal.SIGTERM)
+            raise RuntimeError(f"the warm-up of {cache} took more than {timeout:g} s")
         time.sleep(0.2)
 
 

@@ -203,24 +203,39 @@ def mark_ready() -> None:
     _state["ready"] = True
 
 
+#: The environment variable through which a starting run hands its held lock to the warm-up.
+_LOCK_FD = "TERRACONE_WARMUP_LOCK_FD"
+
+
 @contextlib.contextmanager
 def warmup_lock(blocking: bool = False) -> Iterator[bool]:
-    """Hold the warm-up's lock file; yields False when another process holds it
-    (``blocking=False``).  Released when the block ends or the process dies."""
+    """Hold the warm-up's lock file (``terracone-kernels.lock`` beside the marker); yields
+    False when another process holds it (``blocking=False``).  Released when the block ends
+    or the process dies.  The holder writes its process id into the file.  A warm-up that
+    :func:`start_warmup` started finds the lock already taken for it (inherited, so no other
+    run can slip in between) and keeps it.
+    """
     try:
         import fcntl
     except ImportError:  # pragma: no cover - not POSIX: no lock, at worst two compile
         yield True
         return
-    d = _marker_dir()
-    d.mkdir(parents=True, exist_ok=True)
-    with open(d / "terracone-kernels.lock", "a+b") as f:
+    inherited = os.environ.pop(_LOCK_FD, None)
+    if inherited is not None:
+        f = os.fdopen(int(inherited), "r+b")
+    else:
+        d = _marker_dir()
+        d.mkdir(parents=True, exist_ok=True)
+        f = open(d / "terracone-kernels.lock", "a+b")  # noqa: SIM115 - closed below
+    with f:
+        if inherited is None:
+            try:
+                fcntl.flock(f, fcntl.LOCK_EX | (0 if blocking else fcntl.LOCK_NB))
+            except BlockingIOError:
+                yield False
+                return
         try:
-            fcntl.flock(f, fcntl.LOCK_EX | (0 if blocking else fcntl.LOCK_NB))
-        except BlockingIOError:
-            yield False
-            return
-        try:
+            f.seek(0)
             f.truncate(0)
             f.write(f"{os.getpid()}\n".encode())  # who holds it
             f.flush()
@@ -229,32 +244,56 @@ def warmup_lock(blocking: bool = False) -> Iterator[bool]:
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
+def _spawn(cmd: list[str], env: dict[str, str], fd: int | None) -> None:
+    """Start ``cmd`` detached: sh starts it in the background and exits (no zombie is left);
+    it inherits the descriptor ``fd`` (the held lock)."""
+    if os.name == "posix":
+        sh = ["/bin/sh", "-c", 'exec "$@" </dev/null >/dev/null 2>&1 &', "sh", *cmd]
+        kw: dict[str, Any] = {"pass_fds": (fd,)} if fd is not None else {}
+        subprocess.run(sh, env=env, cwd=_PKG.parent, start_new_session=True, check=True, **kw)
+    else:  # pragma: no cover
+        flags = getattr(subprocess, "DETACHED_PROCESS", 0) | getattr(
+            subprocess, "CREATE_NEW_PROCESS_GROUP", 0
+        )
+        subprocess.Popen(cmd, env=env, cwd=_PKG.parent, creationflags=flags, close_fds=True)
+
+
 def start_warmup() -> bool:
     """Start the warm-up in a detached background process, unless one runs already.
 
-    Once per process; says so once on stderr.  Returns whether it started one.
+    Once per process; takes the warm-up's lock and hands it to the new process, so that
+    runs starting meanwhile find it taken; says so once on stderr.  Returns whether it
+    started one.
     """
     if _state["spawned"]:
         return False
     _state["spawned"] = True
     if util.find_spec("numba") is None:
         return not _numba_usable()  # warns once that numba is missing
-    with warmup_lock() as free:
-        if not free:  # another process is compiling
-            return False
     env = dict(os.environ, TERRACONE_NUMBA="1")
     cmd = [sys.executable, "-m", WARMUP_MODULE]
     try:
-        if os.name == "posix":  # sh starts it in the background and exits: no zombie is left
-            cmd = ["/bin/sh", "-c", 'exec "$@" </dev/null >/dev/null 2>&1 &', "sh", *cmd]
-            subprocess.run(cmd, env=env, cwd=_PKG.parent, start_new_session=True, check=True)
-        else:  # pragma: no cover
-            flags = getattr(subprocess, "DETACHED_PROCESS", 0) | getattr(
-                subprocess, "CREATE_NEW_PROCESS_GROUP", 0
-            )
-            subprocess.Popen(cmd, env=env, cwd=_PKG.parent, creationflags=flags, close_fds=True)
-    except (OSError, subprocess.CalledProcessError):  # no shell, no processes: numpy it stays
-        return False
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        fcntl = None
+    d = _marker_dir()
+    d.mkdir(parents=True, exist_ok=True)
+    with open(d / "terracone-kernels.lock", "a+b") as f:
+        fd = None
+        if fcntl is not None:
+            try:
+                fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:  # another process is compiling
+                return False
+            fd = f.fileno()
+            env[_LOCK_FD] = str(fd)
+        try:
+            _spawn(cmd, env, fd)
+        except (OSError, subprocess.CalledProcessError):  # no shell: numpy it stays
+            if fcntl is not None:
+                fcntl.flock(f, fcntl.LOCK_UN)
+            return False
+    # closing our descriptor leaves the lock with the warm-up's copy of it
     print(
         f"terracone: compiling the solver kernels in the background for later runs (about "
         f"{COMPILE_S} s of one core, once); this run uses their numpy twins",
