@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -159,6 +160,7 @@ def commands(repeat: int) -> dict[str, dict[str, float]]:
             for k, v in times.items():
                 best[name][k] = min(best[name].get(k, float("inf")), v)
     best["background warm-up"] = {"shortest": min(warmups), "longest": max(warmups)}
+    shutil.rmtree(tmp, ignore_errors=True)  # every warm-up it started has ended
     return best
 
 
