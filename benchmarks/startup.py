@@ -103,30 +103,16 @@ def cli_help() -> dict[str, tuple[float, float]]:
 
 
 def wait_for_warmup(cache: Path, timeout: float = 1800.0) -> float:
-    """Wait until the background warm-up of ``cache`` has written its marker and let go of
-    its lock; return how long that took [s].  The warm-up's process id is in the lock file:
-    it is ended by that id if it takes longer than ``timeout``."""
-    import fcntl
+    """Wait for the background warm-up of ``cache`` (:func:`terracone.jit.wait_for_warmup`);
+    how long it took [s].  Ended by its process id if it takes longer than ``timeout``."""
+    from terracone import jit
 
     t0 = time.perf_counter()
-    lock = cache / "terracone-kernels.lock"
-    while True:
-        if any(cache.glob("terracone-kernels-*.ready")):
-            with open(lock, "a+b") as f:
-                try:
-                    fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                except BlockingIOError:
-                    pass  # still finishing
-                else:
-                    fcntl.flock(f, fcntl.LOCK_UN)
-                    return time.perf_counter() - t0
-        if time.perf_counter() - t0 > timeout:
-            text = lock.read_text().split() if lock.exists() else []
-            if text:
-                with contextlib.suppress(ProcessLookupError):
-                    os.kill(int(text[0]), signal.SIGTERM)
-            raise RuntimeError(f"the warm-up of {cache} took more than {timeout:g} s")
-        time.sleep(0.2)
+    if not jit.wait_for_warmup(timeout, cache):
+        with contextlib.suppress(ProcessLookupError, TypeError):
+            os.kill(jit.warmup_pid(cache), signal.SIGTERM)
+        raise RuntimeError(f"the warm-up of {cache} took more than {timeout:g} s")
+    return time.perf_counter() - t0
 
 
 def _terracone(*args: str) -> list[str]:

@@ -67,6 +67,8 @@ __all__ = [
     "warmup_lock",
     "start_warmup",
     "warm_up_if_cold",
+    "wait_for_warmup",
+    "warmup_pid",
     "WARMUP_MODULE",
     "KERNEL_SOURCES",
 ]
@@ -300,6 +302,43 @@ def start_warmup() -> bool:
         file=sys.stderr,
     )
     return True
+
+
+def _lock_path(cache: Path | None) -> Path:
+    return (_marker_dir() if cache is None else Path(cache)) / "terracone-kernels.lock"
+
+
+def warmup_pid(cache: Path | None = None) -> int | None:
+    """Process id of the warm-up that holds (or last held) the lock of ``cache`` (default:
+    this process's cache directory), or None."""
+    path = _lock_path(cache)
+    text = path.read_text().split() if path.exists() else []
+    return int(text[0]) if text else None
+
+
+def wait_for_warmup(timeout: float, cache: Path | None = None) -> bool:
+    """Wait until a background warm-up has written its marker in ``cache`` (default: this
+    process's cache directory) and let go of its lock; False after ``timeout`` [s].
+
+    For scripts and tests that want the compiled kernels, or must not leave a warm-up
+    behind; :func:`warmup_pid` names the process to end if it overstays.
+    """
+    import fcntl
+
+    lock = _lock_path(cache)
+    t0 = time.monotonic()
+    while time.monotonic() - t0 <= timeout:
+        if any(lock.parent.glob(f"terracone-kernels-{_key()}.ready")):
+            with open(lock, "a+b") as f:
+                try:
+                    fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                except BlockingIOError:
+                    pass  # still finishing
+                else:
+                    fcntl.flock(f, fcntl.LOCK_UN)
+                    return True
+        time.sleep(0.2)
+    return False
 
 
 def warm_up_if_cold() -> bool:

@@ -18,7 +18,6 @@ import signal
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import pytest
@@ -47,31 +46,13 @@ def run_py(code: str, cache: Path, **env_extra: str) -> subprocess.CompletedProc
     )
 
 
-def wait_for_warmup(cache: Path, timeout: float = 900.0) -> float:
-    """Wait until the background warm-up of ``cache`` has written its marker and let go of
-    its lock; return how long that took [s].  The warm-up's process id is in the lock file:
-    it is ended by that id if it takes longer than ``timeout``."""
-    import fcntl
-
-    t0 = time.perf_counter()
-    lock = cache / "terracone-kernels.lock"
-    while True:
-        if any(cache.glob("terracone-kernels-*.ready")):
-            with open(lock, "a+b") as f:
-                try:
-                    fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                except BlockingIOError:
-                    pass  # still finishing
-                else:
-                    fcntl.flock(f, fcntl.LOCK_UN)
-                    return time.perf_counter() - t0
-        if time.perf_counter() - t0 > timeout:
-            text = lock.read_text().split() if lock.exists() else []
-            if text:
-                with contextlib.suppress(ProcessLookupError):
-                    os.kill(int(text[0]), signal.SIGTERM)
-            pytest.fail(f"the warm-up of {cache} ran longer than {timeout:g} s")
-        time.sleep(0.2)
+def wait_for_warmup(cache: Path, timeout: float = 900.0) -> None:
+    """Wait for the background warm-up of ``cache``; end it by its process id (in its lock
+    file) and fail if it takes longer than ``timeout``."""
+    if not jit.wait_for_warmup(timeout, cache):
+        with contextlib.suppress(ProcessLookupError, TypeError):
+            os.kill(jit.warmup_pid(cache), signal.SIGTERM)
+        pytest.fail(f"the warm-up of {cache} ran longer than {timeout:g} s")
 
 
 SMALL_JOB = """
