@@ -171,7 +171,8 @@ def _key() -> str:
 
 
 def _marker_dir() -> Path:
-    _setup_cache()
+    with contextlib.suppress(OSError):  # no writable cache anywhere: the marker never appears
+        _setup_cache()
     d = os.environ.get("NUMBA_CACHE_DIR")
     return Path(d) if d else _PKG / "__pycache__"
 
@@ -278,9 +279,13 @@ def start_warmup() -> bool:
         import fcntl
     except ImportError:  # pragma: no cover - not POSIX
         fcntl = None
-    d = _marker_dir()
-    d.mkdir(parents=True, exist_ok=True)
-    with open(d / "terracone-kernels.lock", "a+b") as f:
+    try:
+        d = _marker_dir()
+        d.mkdir(parents=True, exist_ok=True)
+        f = open(d / "terracone-kernels.lock", "a+b")  # noqa: SIM115 - closed below
+    except OSError:  # nowhere to cache: numpy it stays
+        return False
+    with f:
         fd = None
         if fcntl is not None:
             try:
