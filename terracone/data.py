@@ -18,6 +18,8 @@ from terracone.physics import units as u
 from terracone.physics.cone import Cone, get_cone
 
 __all__ = [
+    "CI_MAX_KPA",
+    "DEPTH_MAX_M",
     "CIProfile",
     "ProfileSet",
     "depth_window",
@@ -28,6 +30,19 @@ __all__ = [
     "TerrainShear",
     "InputError",
 ]
+
+
+#: Cone index above which a reading cannot be soil [kPa]: 100 MPa.  Hand-held cone
+#: index penetrometers read to 7 MPa (FieldScout SC900: 0-7,000 kPa) or about 10 MPa, and
+#: the soil behaviour type charts of the cone penetration test end at a cone resistance of
+#: 100 MPa (q_c / p_a = 1000; Robertson et al. 1986, Robertson 2010), above the densest
+#: gravels.  A larger value is a unit error (Pa read as kPa) or a corrupt cell, never terrain.
+CI_MAX_KPA = 1.0e5
+#: Base depth below which no cone index penetrometer pushes [m]: 5 m.  Hand-held
+#: instruments reach 45 cm (SC900) to 80 cm (Eijkelkamp penetrologger), vehicle-mounted
+#: ones about 1 to 1.5 m, and a vehicle engages far less; depths in cm or mm read as m
+#: land beyond it.
+DEPTH_MAX_M = 5.0
 
 
 class InputError(ValueError):
@@ -126,6 +141,22 @@ class CIProfile:
         neg = np.flatnonzero(self.ci < 0)
         if neg.size:
             raise err(f"negative cone index {self.ci[neg[0]]:g}", int(neg[0]), "ci")
+        big = np.flatnonzero(self.ci > CI_MAX_KPA)
+        if big.size:
+            raise err(
+                f"cone index {self.ci[big[0]]:g} kPa is above {CI_MAX_KPA / 1000:g} MPa, "
+                "more than any soil resists (a unit error?)",
+                int(big[0]),
+                "ci",
+            )
+        deep = np.flatnonzero(self.depth > DEPTH_MAX_M)
+        if deep.size:
+            raise err(
+                f"depth {self.depth[deep[0]]:g} m is below {DEPTH_MAX_M:g} m, deeper than "
+                "any cone index penetrometer pushes (a unit error?)",
+                int(deep[0]),
+                "depth",
+            )
         dd = np.flatnonzero(np.diff(self.depth) <= 0)
         if dd.size:
             raise err("depth is not strictly increasing", int(dd[0]) + 1, "depth")
@@ -354,11 +385,24 @@ class ProfileSet:
     def screen(self) -> dict[int, InputError]:
         """The profiles of a set that cannot be fitted, each with its located error.
 
-        A vectorised screen (negative CI, non-increasing depth, too few points,
-        tip above the surface, non-finite values) picks the suspects;
+        A vectorised screen (non-finite values, CI negative or above
+        :data:`CI_MAX_KPA`, depth below :data:`DEPTH_MAX_M`, non-increasing
+        depth, too few points, tip above the surface) picks the suspects;
         :meth:`CIProfile.validate` words each one's reason, and
-        :meth:`locate` names its file, row and column.
+        :meth:`locate` names its file, row and column.  Found once per set
+        (a batch worker asks twice): the arrays of a set are not changed in
+        place, a changed set is a new one (``replace``, :meth:`take`, ...).
         """
+        used = (self.depth, self.ci, self.offsets, self.cone_idx, self.cones, self.ids, self.rows)
+        used += (self.file_idx, self.files)
+        cached = self.__dict__.get("_screened")
+        if cached is not None and all(a is b for a, b in zip(cached[0], used)):
+            return dict(cached[1])
+        errors = self._screen()
+        self.__dict__["_screened"] = (used, errors)
+        return dict(errors)
+
+    def _screen(self) -> dict[int, InputError]:
         off = self.offsets
         P = len(self)
         if P == 0:
@@ -366,12 +410,12 @@ class ProfileSet:
         starts, counts = off[:-1], self.counts
         z, y = self.depth, self.ci
         with np.errstate(invalid="ignore"):
-            row_bad = ~(y >= 0) | ~np.isfinite(z) | ~np.isfinite(y)
+            # NaN fails every comparison: ~(a <= v <= b) also catches it
+            point_bad = ~((y >= 0) & (y <= CI_MAX_KPA)) | ~np.isfinite(z) | ~(z <= DEPTH_MAX_M)
+            row_bad = point_bad.copy()
             row_bad[1:] |= ~(z[1:] > z[:-1])
-            row_bad[starts[counts > 0]] = ~(y[starts[counts > 0]] >= 0) | ~np.isfinite(
-                z[starts[counts > 0]]
-            )
             has = counts > 0
+            row_bad[starts[has]] = point_bad[starts[has]]  # no previous depth to compare
             bad = np.ones(P, dtype=bool)
             bad[has] = np.logical_or.reduceat(row_bad, starts[has])
             bad |= counts < 3

@@ -18,6 +18,12 @@ from pathlib import Path
 import pytest
 from hypothesis import settings
 
+# The suite tests the compiled kernels themselves, compiled on demand (TERRACONE_NUMBA=1),
+# not the default policy of using them once a background warm-up has cached them, which
+# would make the path under test depend on timing (tests/test_jit.py tests that policy);
+# CI's second run sets TERRACONE_NUMBA=0.
+os.environ.setdefault("TERRACONE_NUMBA", "1")
+
 settings.register_profile("terracone", derandomize=True, database=None, print_blob=True)
 settings.register_profile("random", derandomize=False, database=None, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "terracone"))

@@ -363,6 +363,38 @@ def test_ragged_rows_read_like_the_list(tmp_path, tiny_blocks):
 # ---------------------------------------------------------------------------
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_csv_lines_drop_comments_and_blank_lines_and_number_the_rest(tmp_path, monkeypatch, seed):
+    """CsvLines against a plain line-by-line filter: the kept lines in order and the file
+    line of each, on files with and without comment and blank lines, read in small blocks."""
+    from terracone.io.scan import CsvLines
+
+    rng = np.random.default_rng(seed)
+    kinds = ["a,1,2", "b, 3 ,4", "# note", "", "   ", "\t# c", "x,#5,6"]
+    p_bad = [0.0, 0.02, 0.3][seed % 3]
+    lines = ["h1,h2,h3"]
+    for _ in range(400):
+        k = (
+            int(rng.integers(2, len(kinds) - 1))
+            if rng.uniform() < p_bad
+            else int(rng.choice([0, 1, 6]))
+        )
+        lines.append(kinds[k])
+    eol = "\r\n" if seed % 2 else "\n"
+    path = tmp_path / "f.csv"
+    path.write_bytes(eol.join(lines).encode() + eol.encode())
+    monkeypatch.setattr(CsvLines, "BLOCK", 64)
+    kept = [
+        (i + 1, ln) for i, ln in enumerate(lines) if ln.strip() and not ln.strip().startswith("#")
+    ]
+    with CsvLines(str(path)) as stream:
+        assert stream.header() == ["h1", "h2", "h3"]
+        body = stream.read().decode()
+        got = body.split(eol)[:-1]
+        assert got == [ln for _, ln in kept[1:]]
+        assert stream.lines(0, len(got)).tolist() == [i for i, _ in kept[1:]]
+
+
 def test_csv_numbers_convert_like_python_float():
     cells = ["1.5", " 2", "1e5", "+.5", "1.", "-0", "7E-3", "0.1", "123456789.123456789"]
     vals, why = stream.csv_numbers(pa.array(cells), 2.0)
@@ -376,6 +408,49 @@ def test_csv_numbers_convert_like_python_float():
     assert why[3] == "not a number: '1_0'" and why[4] == "not a number: '0x10'"
     # Python's float (and so to_numbers) reads Unicode digits: '٣' is 3
     np.testing.assert_array_equal(vals[[0, 5, 7]], [1.0, 3.0, 3.0])
+
+
+def test_csv_numbers_of_a_block_with_a_few_bad_cells_equal_python_float():
+    """A large block mixing plain numbers (Arrow casts them) and bad cells (Python reads
+    them): every value as Python's float reads it, every reason as to_numbers gives it."""
+    rng = np.random.default_rng(7)
+    vals = rng.standard_normal(5000) * 10.0 ** rng.integers(-5, 6, 5000)
+    cells = [repr(float(v)) for v in vals]
+    for i, bad in zip(rng.choice(5000, 6, replace=False), ["NaN", "n/a", "", "inf", "x!", "٣"]):
+        cells[int(i)] = bad
+    got, why = stream.csv_numbers(pa.array(cells), 2.0)
+    ref = to_numbers(cells)
+    assert list(why) == [ref.reasons.get(i) for i in range(len(cells))]
+    ok = ~ref.bad
+    assert np.array_equal(got[ok], 2.0 * ref.values[ok])  # bit for bit
+    assert sum(w is not None for w in why) == 5  # '٣' reads as 3
+
+
+def test_profile_starts_in_arrow_equal_profile_starts():
+    """scan's text_starts (ids compared in Arrow) finds the profile starts profile_starts
+    finds: runs of equal cells, merged when equal once stripped of blanks."""
+    from terracone.io.scan import profile_starts, text_starts
+
+    rng = np.random.default_rng(3)
+    names = np.array(["a", " a", "a ", "b", "c", " c ", "", " "], dtype=object)
+    for _ in range(20):
+        cells = names[np.sort(rng.integers(0, names.size, 200))]
+        cells = np.repeat(cells, rng.integers(1, 4, cells.size))
+        want = profile_starts(cells.astype(object))
+        assert np.array_equal(text_starts(pa.array(cells.tolist())), want)
+
+
+def test_csv_metadata_cells_in_arrow_equal_python():
+    """A CSV metadata column taken per profile: numbers (blank: missing) and text, Arrow's
+    conversion against the Python one."""
+    num = pa.array([" 1.5", "", "-2e3 ", "nan", "7"])
+    a = stream._meta_array(num, pa.float64(), True).to_pylist()
+    b = stream._meta_array(num.to_pylist(), pa.float64(), True).to_pylist()
+    assert a[:3] == b[:3] == [1.5, None, -2000.0] and math.isnan(a[3]) and a[4] == b[4] == 7.0
+    text = pa.array([" north", "south ", ""])
+    assert stream._meta_array(text, pa.string(), True).to_pylist() == ["north", "south", ""]
+    odd = pa.array(["Infinity", "1"])  # Arrow does not cast it: Python does
+    assert stream._meta_array(odd, pa.float64(), True).to_pylist() == [math.inf, 1.0]
 
 
 def test_concat_merges_cones_files_and_metadata():

@@ -30,7 +30,13 @@ from terracone.data import CIProfile
 from terracone.inverse import Bounds, predict
 from terracone.inverse.solver.boxlsq import box_lsq3, box_lsq3_reference, gram
 from terracone.inverse.solver.intervals import identify_extents, identify_scans, scan_extents
-from terracone.inverse.solver.many import first_min, parabola_vertices, solve_exact_many
+from terracone.inverse.solver.many import (
+    brent_many,
+    brent_steps,
+    first_min,
+    parabola_vertices,
+    solve_exact_many,
+)
 from terracone.physics.cone import cone_index_basis, get_cone
 from terracone.physics.plate import pressure_law
 
@@ -194,6 +200,62 @@ def test_parabola_vertices_by_hand():
     assert np.isnan(v[2])  # 0.37 is outside (0, 0.3): no bracket
 
 
+def test_brent_steps_equal_the_kernel_step():
+    """brent_steps (numpy, vectorised) takes the step of kernels.brent_step (run as Python,
+    the same arithmetic) on random states: parabolic, golden and minimum-length steps alike."""
+    from terracone.inverse.solver import kernels
+
+    step = getattr(kernels.brent_step, "py_func", kernels.brent_step)
+    rng = np.random.default_rng(23)
+    M = 2000
+    a, b = rng.uniform(-1, 0, M), rng.uniform(0.5, 2, M)
+    x, w, v = (a + (b - a) * rng.uniform(size=M) for _ in range(3))
+    x[::7] = w[::7]  # coincident points: no parabola
+    fx, fw, fv = rng.uniform(0, 1, M) * 0.5, rng.uniform(0.5, 1, M), rng.uniform(0.5, 1, M)
+    d, e = rng.uniform(-1, 1, M), rng.uniform(-1, 1, M) * rng.choice([1e-12, 1.0], M)
+    tol = 1e-3
+    got = brent_steps(a, b, x, w, v, fx, fw, fv, d, e, tol)
+    kinds = set()
+    for i in range(M):
+        want = step(a[i], b[i], x[i], w[i], v[i], fx[i], fw[i], fv[i], d[i], e[i], tol)
+        assert [float(g[i]) for g in got] == [float(c) for c in want], i
+        kinds.add("parabolic" if want[2] == d[i] else "golden")  # a parabola keeps e = d
+    assert kinds == {"golden", "parabolic"}
+
+
+@pytest.mark.parametrize("kink", [False, True])
+def test_brent_many_reaches_the_minimum_within_its_tolerance(kink):
+    """Closed-form minima (a quadratic, and a kinked function as where a bound of the box becomes
+    active): every problem ends within 2 xtol of its minimiser, and agrees with the compiled
+    scalar loop's stopping rule (the bracket at most 4 xtol wide)."""
+    rng = np.random.default_rng(5 + kink)
+    P = 300
+    c = rng.uniform(0.2, 0.8, P)
+    k = rng.uniform(0.5, 50.0, P)
+
+    def fun(x, rows):
+        d = x - c[rows]
+        return k[rows] * d * d + (np.where(d > 0, 30.0 * d, -0.1 * d) if kink else 0.0)
+
+    a, b = np.zeros(P), np.ones(P)
+    x0 = np.clip(c + rng.uniform(-0.3, 0.3, P), 0.01, 0.99)
+    x0[:5] = 0.0  # starting at an end of the bracket
+    x0[5:10] = 1.0
+    calls = []
+
+    def f(rows, u):
+        calls.append(rows.size)
+        return fun(u, rows)
+
+    xtol = 1e-9
+    rows = np.arange(P)
+    x, fx, used = brent_many(f, a, b, x0, fun(x0, rows), fun(a, rows), fun(b, rows), xtol)
+    assert np.all(np.abs(x - c) <= 2 * xtol)
+    np.testing.assert_array_equal(fx, fun(x, rows))
+    assert used == sum(calls) and P < used < 60 * P
+    assert calls[-1] < P  # problems stop one by one
+
+
 def fit_many(zs, ys, **kw):
     kw.setdefault("cone", CONE)
     kw.setdefault("law", LAWS["rm0"])
@@ -205,7 +267,7 @@ def fit_many(zs, ys, **kw):
     return out["compiled"], out["numpy"]
 
 
-@pytest.mark.parametrize("P", [3, 40])  # the zooming grid (few profiles) and golden section
+@pytest.mark.parametrize("P", [3, 40])  # phic: the zooming grid (few profiles), golden section
 def test_solve_exact_many_same_with_and_without_kernels(P):
     """Same fits: the grid profile of SSE over n to 1e-12, the optimum's SSE to 1e-9 (the
     refinement of n ends in rounding noise), n to 1e-6."""
@@ -258,7 +320,7 @@ def test_predict_same_with_and_without_kernels(case, law):
 
 def run_py(code: str, **env_extra: str) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
-    env.pop("TERRACONE_NUMBA", None)
+    env["TERRACONE_NUMBA"] = "1"  # compiled on demand (tests/test_jit.py tests the default)
     env.update(env_extra)
     return subprocess.run(
         [sys.executable, "-c", textwrap.dedent(code)],
@@ -289,9 +351,9 @@ def test_cli_start_up_imports_no_numba():
 
 
 def test_switch_disables_the_kernels():
-    p = run_py("from terracone import jit; print(jit.enabled())", TERRACONE_NUMBA="0")
+    p = run_py("from terracone import jit; print(jit.enabled(), jit.mode())", TERRACONE_NUMBA="0")
     assert p.returncode == 0, p.stderr
-    assert p.stdout.split() == ["False"]
+    assert p.stdout.split() == ["False", "off"]
 
 
 KERNEL_RUN = """
@@ -449,7 +511,7 @@ SEARCH_CASES = {
 
 @pytest.mark.parametrize("case", sorted(SEARCH_CASES))
 def test_n_search_finds_the_brute_force_optimum(case):
-    """The refinement of n (Brent's method compiled, golden section in numpy) ends at least as
+    """The refinement of n (Brent's method, compiled and in numpy) ends at least as
     low as a dense brute force over n and phic (resolution 4e-9 in n), within 1e-9 of the SSE or
     1e-15 of y'y at a perfect fit (the box solve compares faces by the normal equations, which
     resolve about 1e-16 of y'y; 20 golden steps leave the noise-free kink case at 3e-14), and at
@@ -486,5 +548,5 @@ def test_profiles_sharing_depths_fit_as_they_do_alone():
     for i in range(len(zs)):
         one = solve_exact_many([zs[i]], [ys[i]], cone=CONE, law=LAWS["rm0"], bounds=Bounds())
         np.testing.assert_allclose(c.sse_n[i], one.sse_n[0], rtol=1e-12, atol=1e-12 * yy[i])
-        assert c.n[i] == pytest.approx(one.n[0], abs=1e-6)  # numpy: the zoom stops for all at once
+        assert c.n[i] == pytest.approx(one.n[0], abs=1e-6)
         assert c.sse[i] == pytest.approx(one.sse[0], rel=1e-9, abs=1e-15 * yy[i])

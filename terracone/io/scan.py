@@ -239,12 +239,16 @@ class CsvLines(io.RawIOBase):
         return out
 
 
-def csv_blocks(stream: CsvLines, width: int, fields: int) -> Iterator[tuple[pa.RecordBatch, int]]:
+def csv_blocks(
+    stream: CsvLines, width: int, fields: int, columns: Sequence[int] | None = None
+) -> Iterator[tuple[pa.RecordBatch, int]]:
     """Blocks of a CSV body (after :meth:`CsvLines.header`), every cell as text.
 
     Yields (batch, index of its first data row); the batch has the header's
-    ``width`` columns ``c0..``.  ``fields`` is the number of fields of the
-    header line (trailing empty ones included).  pyarrow parses the body;
+    ``width`` columns ``c0..`` (only ``columns``, by position, when given:
+    Arrow then converts no others; read them by name, :func:`block_cells`).
+    ``fields`` is the number of fields of the header line (trailing empty
+    ones included).  pyarrow parses the body;
     when a row has another number of fields, or a block is not UTF-8, the
     file is read again from the current block with :mod:`csv`
     (:func:`_csv_module_blocks`), which pads short rows, checks extra fields
@@ -267,7 +271,7 @@ def csv_blocks(stream: CsvLines, width: int, fields: int) -> Iterator[tuple[pa.R
             ),
             convert_options=pacsv.ConvertOptions(
                 column_types={n: pa.string() for n in names},
-                include_columns=names[:width],
+                include_columns=names[:width] if columns is None else [names[j] for j in columns],
                 strings_can_be_null=False,
                 quoted_strings_can_be_null=False,
             ),
@@ -464,13 +468,16 @@ def _scan_csv(path: str, units: str | None) -> tuple[FileInfo, int, int, dict[st
         count = 0
         hsum = np.uint64(0)
         prev: str | None = None
-        for block, _ in csv_blocks(stream, info.width, info.fields):
+        ci = info.col_index
+        wanted = [ci[m] for m in ([info.id_col] if info.id_col else []) + info.meta_cols]
+        for block, _ in csv_blocks(stream, info.width, info.fields, wanted):
             if info.id_col is None:
-                ids = np.full(block.num_rows, info.stem, dtype=object)
+                st = np.zeros(min(block.num_rows, 1), dtype=np.int64)
+                first = np.full(st.size, info.stem, dtype=object)
             else:
-                ids = block_cells(block, info.col_index[info.id_col])
-            st = profile_starts(ids)
-            first = strip_text(ids[st])
+                cells = block.column(f"c{ci[info.id_col]}")
+                st = text_starts(cells)
+                first = strip_text(cells.take(pa.array(st)).to_numpy(zero_copy_only=False))
             if st.size and prev is not None and first[0] == prev:
                 st, first = st[1:], first[1:]
             if first.size:
@@ -480,8 +487,7 @@ def _scan_csv(path: str, units: str | None) -> tuple[FileInfo, int, int, dict[st
                 hsum += hash_ids(first).sum(dtype=np.uint64)
             for m in info.meta_cols:
                 if numeric[m]:
-                    vals = block_cells(block, info.col_index[m])[st]
-                    numeric[m] = all(_is_number_text(v) for v in vals)
+                    numeric[m] = _all_number_text(block.column(f"c{ci[m]}").take(pa.array(st)))
     info.profiles = count
     return info, count, int(hsum), numeric
 
@@ -530,7 +536,39 @@ def parquet_file(path: str) -> pq.ParquetFile:
 
 def block_cells(block: pa.RecordBatch, j: int) -> np.ndarray:
     """Column ``c<j>`` of a CSV block as an object array of str."""
-    return block.column(j).to_numpy(zero_copy_only=False).astype(object, copy=False)
+    return block.column(f"c{j}").to_numpy(zero_copy_only=False).astype(object, copy=False)
+
+
+def text_starts(cells: pa.Array) -> np.ndarray:
+    """:func:`profile_starts` of a column of text cells, compared in Arrow: only the
+    first cell of each run of equal cells becomes a Python str."""
+    n = len(cells)
+    if n == 0:
+        return np.empty(0, dtype=np.int64)
+    change = pc.not_equal(cells.slice(1), cells.slice(0, n - 1)).to_numpy(zero_copy_only=False)
+    st = np.concatenate([[0], np.flatnonzero(change) + 1]).astype(np.int64)
+    if st.size > 1:
+        first = strip_text(cells.take(pa.array(st)).to_numpy(zero_copy_only=False).astype(object))
+        keep = np.ones(st.size, dtype=bool)
+        keep[1:] = first[1:] != first[:-1]
+        st = st[keep]
+    return st
+
+
+#: A metadata cell that reads as a number (or is blank), for Arrow (RE2): DECIMAL or
+#: SPECIAL_FLOAT of terracone.io.tables
+_NUMBER_TEXT_RE2 = (
+    r"^\s*$|^\s*[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\s*$"
+    r"|^\s*[+-]?(?i:nan|inf|infinity)\s*$"
+)
+
+
+def _all_number_text(cells: pa.Array) -> bool:
+    """Whether every cell reads as a number or is blank (:func:`_is_number_text` of each)."""
+    if pc.all(pc.match_substring_regex(cells, _NUMBER_TEXT_RE2)).as_py() is not False:
+        return True
+    # RE2 knows ASCII digits only: ask Python about the others (never more than a block)
+    return all(_is_number_text(v) for v in cells.to_pylist())
 
 
 def _scan_parquet(

@@ -39,6 +39,7 @@ from terracone.io.scan import (
     plain_type,
     profile_starts,
     strip_text,
+    text_starts,
 )
 from terracone.io.tables import to_numbers
 from terracone.physics.cone import Cone, get_cone
@@ -59,7 +60,7 @@ class Rows:
     """A block of input rows of one file, numbers already in SI."""
 
     file: int
-    ids: np.ndarray  # object (str), per row; CSV: raw cells (see profile_starts)
+    ids: np.ndarray | pa.Array  # per row: object (str), or CSV's raw text cells in Arrow
     depth: np.ndarray
     ci: np.ndarray
     depth_why: np.ndarray | None  # object: why a cell is unusable (None where fine)
@@ -69,7 +70,7 @@ class Rows:
     meta: dict[str, Any]  # input name -> ndarray (CSV text) or pa.Array (Parquet)
 
     def __len__(self) -> int:
-        return int(self.ids.size)
+        return len(self.ids)
 
     def slice(self, a: int, b: int) -> Rows:
         def cut(x: Any) -> Any:
@@ -81,7 +82,7 @@ class Rows:
 
         return Rows(
             self.file,
-            self.ids[a:b],
+            cut(self.ids),
             self.depth[a:b],
             self.ci[a:b],
             cut(self.depth_why),
@@ -115,7 +116,7 @@ class Rows:
         first = parts[0]
         return Rows(
             first.file,
-            np.concatenate([p.ids for p in parts]),
+            join([p.ids for p in parts]),
             np.concatenate([p.depth for p in parts]),
             np.concatenate([p.ci for p in parts]),
             why("depth_why"),
@@ -144,18 +145,36 @@ _DECIMAL_RE2 = r"^\s*[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\s*$"
 def csv_numbers(cells: pa.Array, factor: float) -> tuple[np.ndarray, np.ndarray | None]:
     """Text cells of a CSV column as numbers [SI] and why a cell is unusable (or None).
 
-    Converts like :func:`terracone.io.tables.to_numbers`: when every cell is a
-    plain decimal number pyarrow casts the column (a correctly rounded parse,
-    as Python's float); otherwise :func:`to_numbers` says cell by cell.
+    Converts like :func:`terracone.io.tables.to_numbers`: pyarrow casts the
+    cells that are plain decimal numbers (a correctly rounded parse, as
+    Python's float), all at once; only the others (a bad cell, or a number
+    Arrow does not cast) go cell by cell through :func:`to_numbers`, so a
+    block with a few bad cells costs hardly more than a clean one.
     """
-    if pc.all(pc.match_substring_regex(cells, _DECIMAL_RE2)).as_py() is not False:
+    plain = pc.match_substring_regex(cells, _DECIMAL_RE2)
+    if pc.all(plain).as_py() is not False:
         try:
             vals = pc.cast(cells, pa.float64()).to_numpy(zero_copy_only=False)
         except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
             pass  # blanks around a number: to_numbers takes them
         else:
             return vals * factor, None
-    return text_numbers(cells.to_numpy(zero_copy_only=False), factor)
+        return text_numbers(cells.to_numpy(zero_copy_only=False), factor)
+    ok = plain.to_numpy(zero_copy_only=False)
+    vals = np.empty(len(cells))
+    try:
+        vals[ok] = pc.cast(pc.filter(cells, plain), pa.float64()).to_numpy(zero_copy_only=False)
+    except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+        return text_numbers(cells.to_numpy(zero_copy_only=False), factor)
+    rest = np.flatnonzero(~ok)
+    num = to_numbers(pc.take(cells, pa.array(rest)).to_numpy(zero_copy_only=False))
+    vals[rest] = num.values
+    why = None
+    if num.bad.any():
+        why = np.full(len(cells), None, dtype=object)
+        for i, reason in num.reasons.items():
+            why[rest[i]] = reason
+    return vals * factor, why
 
 
 def arrow_numbers(arr: pa.Array, factor: float) -> tuple[np.ndarray, np.ndarray | None]:
@@ -194,11 +213,11 @@ def read_file(k: int, info: FileInfo) -> Iterator[Rows]:
                 if info.id_col is None:
                     ids = np.full(n, info.stem, dtype=object)
                 else:
-                    ids = block_cells(block, col[info.id_col])  # raw: stripped per profile
+                    ids = block.column(f"c{col[info.id_col]}")  # raw: stripped per profile
                 depth, dwhy = csv_numbers(block.column(col[info.depth_col]), info.depth_factor)
                 ci, cwhy = csv_numbers(block.column(col[info.ci_col]), info.ci_factor)
                 cone = None if info.cone_col is None else block_cells(block, col[info.cone_col])
-                meta = {m: block_cells(block, col[m]) for m in info.meta_cols}
+                meta = {m: block.column(col[m]) for m in info.meta_cols}  # text, taken per profile
                 yield Rows(k, ids, depth, ci, dwhy, cwhy, cone, stream.lines(row0, n), meta)
     else:
         pf = parquet_file(info.path)
@@ -226,6 +245,21 @@ def read_file(k: int, info: FileInfo) -> Iterator[Rows]:
             row0 += n
 
 
+def _cells_at(ids: np.ndarray | pa.Array, at: np.ndarray) -> np.ndarray:
+    """The id cells at rows ``at`` as an object array of str."""
+    if isinstance(ids, pa.Array):
+        return ids.take(pa.array(at, pa.int64())).to_numpy(zero_copy_only=False).astype(object)
+    return ids[at]
+
+
+def _any_other(ids: np.ndarray | pa.Array, tail_ids: np.ndarray | pa.Array) -> bool:
+    """Whether any id cell differs from the first of ``tail_ids`` (raw cells)."""
+    first = _cells_at(tail_ids, np.zeros(1, dtype=np.int64))[0]
+    if isinstance(ids, pa.Array):
+        return bool(pc.any(pc.not_equal(ids, pa.scalar(first, ids.type))).as_py())
+    return bool(np.any(ids != first))
+
+
 def profile_blocks(plan: ScanPlan) -> Iterator[tuple[Rows, np.ndarray]]:
     """(rows, profile starts) holding complete profiles only, in input order.
 
@@ -236,12 +270,16 @@ def profile_blocks(plan: ScanPlan) -> Iterator[tuple[Rows, np.ndarray]]:
         tail: list[Rows] = []
         for rows in read_file(k, info):
             if tail:
-                if not np.any(rows.ids != tail[0].ids[0]):  # all rows continue the tail
+                if not _any_other(rows.ids, tail[0].ids):  # all rows continue the tail
                     tail.append(rows)
                     continue
                 rows = Rows.concat([*tail, rows])
                 tail = []
-            st = profile_starts(rows.ids)
+            st = (
+                text_starts(rows.ids)
+                if isinstance(rows.ids, pa.Array)
+                else profile_starts(rows.ids)
+            )
             last = int(st[-1])
             if last > 0:
                 yield rows.slice(0, last), st[:-1]
@@ -298,7 +336,18 @@ class ConeCache:
 
 
 def _meta_array(values: Any, t: pa.DataType, from_csv: bool) -> pa.Array:
-    """Per-profile metadata values as an Arrow array of the output type."""
+    """Per-profile metadata values as an Arrow array of the output type (CSV: text cells)."""
+    if from_csv and isinstance(values, pa.Array):
+        text = pc.utf8_trim_whitespace(values)
+        if not (pa.types.is_floating(t) or pa.types.is_integer(t)):
+            return text.cast(t)
+        try:  # blank cells are missing values
+            nums = pc.cast(
+                pc.if_else(pc.equal(text, ""), pa.scalar(None, pa.string()), text), pa.float64()
+            )
+            return nums.cast(t)
+        except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+            values = text.to_pylist()  # what Arrow does not cast (e.g. "Infinity"): as Python
     if from_csv:
         text = [str(v).strip() for v in values]
         if pa.types.is_floating(t) or pa.types.is_integer(t):
@@ -376,7 +425,7 @@ def make_piece(rows: Rows, starts: np.ndarray, plan: ScanPlan, cones: ConeCache)
     P = int(starts.size)
     ends = np.append(starts[1:], n)
     counts = ends - starts
-    ids = strip_text(rows.ids[starts])
+    ids = strip_text(_cells_at(rows.ids, starts))
     first = rows.lines[starts]
     flagged = np.zeros(P, dtype=bool)
     if info.id_col is not None:
@@ -475,13 +524,13 @@ def make_chunk(index: int, pieces: list[Piece], plan: ScanPlan) -> Chunk:
     cone_pos: dict[Cone, int] = {}
     files: list[SourceFile] = []
     file_pos: dict[str, int] = {}
-    t_ids: list[str] = []
+    t_ids: list[np.ndarray] = []
     t_counts: list[np.ndarray] = []
     t_depth: list[np.ndarray] = []
     t_ci: list[np.ndarray] = []
     t_lines: list[np.ndarray] = []
-    t_cone: list[int] = []
-    t_file: list[int] = []
+    t_cone: list[np.ndarray] = []
+    t_file: list[np.ndarray] = []
     for p in pieces:
         if not p.fit.any():
             continue
@@ -494,26 +543,34 @@ def make_chunk(index: int, pieces: list[Piece], plan: ScanPlan) -> Chunk:
         t_ci.append(p.rows.ci[keep_rows])
         t_lines.append(p.rows.lines[keep_rows])
         t_counts.append(p.counts[p.fit])
-        for i in np.flatnonzero(p.fit):
+        sel = np.flatnonzero(p.fit)
+        # cones by object (ConeCache gives one object per name): hashed once per cone, not per profile
+        local: dict[int, int] = {}
+        codes = np.empty(sel.size, dtype=np.intp)
+        for k, i in enumerate(sel.tolist()):
             c = p.cone_obj[i]
-            if c not in cone_pos:
-                cone_pos[c] = len(cone_list)
-                cone_list.append(c)
-            t_cone.append(cone_pos[c])
-            t_ids.append(str(p.ids[i]))
-            t_file.append(file_pos[info.path])
+            pos = local.get(id(c))
+            if pos is None:
+                if c not in cone_pos:
+                    cone_pos[c] = len(cone_list)
+                    cone_list.append(c)
+                pos = local[id(c)] = cone_pos[c]
+            codes[k] = pos
+        t_cone.append(codes)
+        t_ids.append(p.ids[sel])
+        t_file.append(np.full(sel.size, file_pos[info.path], dtype=np.intp))
     task = None
     if t_ids:
         counts = cat(t_counts)
         task = ProfileSet(
-            ids=np.array(t_ids, dtype=object),
+            ids=cat(t_ids).astype(object),
             offsets=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
             depth=cat(t_depth),
             ci=cat(t_ci),
-            cone_idx=np.asarray(t_cone, dtype=np.intp),
+            cone_idx=cat(t_cone),
             cones=cone_list,
             rows=cat(t_lines),
-            file_idx=np.asarray(t_file, dtype=np.intp),
+            file_idx=cat(t_file),
             files=files,
         )
     meta = {out: pa.concat_arrays([p.meta[out] for p in pieces]) for out, _, _ in plan.meta}

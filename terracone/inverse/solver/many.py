@@ -18,9 +18,11 @@ calls over (profile, n) cells:
 3. a refinement of n around each profile's best grid cell: Brent's method
    (parabolic steps through the best three points, golden-section steps
    when a parabola does not shrink the bracket, as where a bound of the box
-   becomes active) in the compiled kernels, golden section vectorised
-   across profiles in the numpy reference; both stop at the same bracket
-   width.
+   becomes active), compiled profile by profile, or vectorised across
+   profiles in the numpy reference (:func:`brent_many`, the same steps);
+   both stop at the same bracket width, so the reference reaches the
+   compiled path's optimum on any CPU: they differ by the rounding of the
+   SSE, never by where the search stops.
 
 References
 ----------
@@ -33,7 +35,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -49,6 +51,8 @@ __all__ = [
     "bounds_params",
     "first_min",
     "parabola_vertices",
+    "brent_steps",
+    "brent_many",
     "grid",
 ]
 
@@ -281,6 +285,10 @@ class _Problem:
     phis: np.ndarray  # (F,) phic grid [deg] (one point: the nested boxes or a fixed phic)
     kern: _Kernels | None  # compiled kernels, or None (numpy path)
 
+    def take(self, idx: np.ndarray) -> _Problem:
+        """The problem of the profiles ``idx`` only (numpy path)."""
+        return replace(self, zz=self.zz[idx], yy=self.yy[idx], w=self.w[idx], yty=self.yty[idx])
+
     def s_of(self, phi):
         """Scale s = 1 + tan(phic)/tan(a) of the kc and kphi columns (eq. (2-6))."""
         return 1.0 + np.tan(np.radians(phi)) / math.tan(self.cone.half_angle)
@@ -351,12 +359,90 @@ def numpy_cells(pb: _Problem, n: np.ndarray, sv: np.ndarray):
     return xp, np.einsum("pkfz,pz->pkf", r * r, w)
 
 
+def brent_steps(a, b, x, w, v, fx, fw, fv, d, e, tol1):
+    """The next trial points of Brent's minimiser per element, and the new (d, e).
+
+    The numpy twin of :func:`terracone.inverse.solver.kernels.brent_step`:
+    a parabolic step through x, w, v (the best three points so far) where it
+    falls inside the bracket [a, b] and is shorter than half the step before
+    last, a golden-section step into the larger part of the bracket
+    elsewhere; steps are at least ``tol1`` long.
+    """
+    cg = 1.0 - _GOLD  # (3 - sqrt(5)) / 2
+    xm = 0.5 * (a + b)
+    with np.errstate(all="ignore"):
+        r = (x - w) * (fx - fv)
+        q = (x - v) * (fx - fw)
+        p = (x - v) * q - (x - w) * r
+        q = 2.0 * (q - r)
+        p = np.where(q > 0.0, -p, p)
+        q = np.abs(q)
+        para = (np.abs(e) > tol1) & (np.abs(p) < np.abs(0.5 * q * e))
+        para &= (p > q * (a - x)) & (p < q * (b - x))
+        dp = p / q
+    up = x + dp
+    dp = np.where((up - a < 2.0 * tol1) | (b - up < 2.0 * tol1), np.where(xm >= x, tol1, -tol1), dp)
+    e_new = np.where(para, d, np.where(x >= xm, a - x, b - x))
+    d_new = np.where(para, dp, cg * e_new)
+    u = np.where(np.abs(d_new) >= tol1, x + d_new, x + np.where(d_new > 0.0, tol1, -tol1))
+    return u, d_new, e_new
+
+
+def brent_many(f, a, b, x0, f0, fa, fb, xtol: float, maxiter: int = 200):
+    """Brent's minimisation of f over [a_p, b_p] for P problems at once: the numpy twin of
+    :func:`terracone.inverse.solver.kernels.brent_refine`, step for step.
+
+    ``f(rows, u)`` gives f of the problems ``rows`` at the points ``u``.
+    Starts from x0 (value f0) with the bracket's ends (values fa, fb) as the
+    two other points; each problem stops when its bracket is at most 4 xtol
+    wide around its best point, so every problem ends within 2 xtol of a
+    local minimum of f on [a, b] whatever the rounding of f.  Returns (x,
+    f(x), evaluations); f(x) is never above f0.
+    """
+    lo, hi = np.array(a, dtype=float), np.array(b, dtype=float)
+    x, fx = np.array(x0, dtype=float), np.array(f0, dtype=float)
+    fa, fb = np.asarray(fa, dtype=float), np.asarray(fb, dtype=float)
+    # the other two points: the bracket's ends (the one at x, if any, left out)
+    at_lo, at_hi = lo == x, (hi == x) & (lo != x)
+    lo_first = ~at_lo & ~at_hi & (fa <= fb)
+    w_ = np.where(at_lo | ~(at_hi | lo_first), hi, lo)
+    fw = np.where(at_lo | ~(at_hi | lo_first), fb, fa)
+    v = np.where(at_hi, lo, hi)
+    fv = np.where(at_hi, fa, fb)
+    d = hi - lo
+    e = d.copy()
+    used = 0
+    for _ in range(maxiter):
+        act = np.flatnonzero(np.abs(x - 0.5 * (lo + hi)) > 2.0 * xtol - 0.5 * (hi - lo))
+        if act.size == 0:
+            break
+        sl = (lo[act], hi[act], x[act], w_[act], v[act], fx[act], fw[act], fv[act])
+        u, d[act], e[act] = brent_steps(*sl, d[act], e[act], xtol)
+        fu = f(act, u)
+        used += act.size
+        lo_a, hi_a, x_a, w_a, v_a, fx_a, fw_a, fv_a = sl
+        ok = fu <= fx_a  # u is the new best: the old best bounds the bracket
+        lo[act] = np.where(ok, np.where(u >= x_a, x_a, lo_a), np.where(u < x_a, u, lo_a))
+        hi[act] = np.where(ok, np.where(u >= x_a, hi_a, x_a), np.where(u < x_a, hi_a, u))
+        to_w = ~ok & ((fu <= fw_a) | (w_a == x_a))
+        to_v = ~ok & ~to_w & ((fu <= fv_a) | (v_a == x_a) | (v_a == w_a))
+        v[act] = np.where(ok | to_w, w_a, np.where(to_v, u, v_a))
+        fv[act] = np.where(ok | to_w, fw_a, np.where(to_v, fu, fv_a))
+        w_[act] = np.where(ok, x_a, np.where(to_w, u, w_a))
+        fw[act] = np.where(ok, fx_a, np.where(to_w, fu, fw_a))
+        x[act] = np.where(ok, u, x_a)
+        fx[act] = np.where(ok, fu, fx_a)
+    return x, fx, used
+
+
 def _refine_n(pb: _Problem, ns, sseg, i_n, i_f, refine_iter: int):
     """n of each profile refined around its best grid cell (same phic scale); (n, SSE, nfev).
 
-    Compiled: Brent's method from the grid's three points, to the bracket
-    width that ``refine_iter`` golden steps would leave.  numpy: the golden
-    section / zooming grid of :func:`_minimise_1d` (the reference).
+    Brent's method from the grid's three points to the bracket width that
+    ``refine_iter`` golden steps would leave, compiled
+    (:func:`terracone.inverse.solver.kernels.brent_refine`) or in numpy
+    (:func:`brent_many`, the reference): the same steps, so both end within
+    the same distance of the optimum in n whatever the CPU's rounding.
     """
     P = pb.zz.shape[0]
     rows = np.arange(P)
@@ -364,17 +450,18 @@ def _refine_n(pb: _Problem, ns, sseg, i_n, i_f, refine_iter: int):
     n_best = ns[i_n]
     a_n, b_n = np.clip(n_best - step, *pb.bounds.n), np.clip(n_best + step, *pb.bounds.n)
     s = pb.s_of(pb.phis)[i_f]
+    f0 = sseg[rows, i_n, i_f]
+    fa = sseg[rows, np.maximum(i_n - 1, 0), i_f]
+    fb = sseg[rows, np.minimum(i_n + 1, ns.size - 1), i_f]
+    xtol = 0.5 * step * _GOLD**refine_iter
     if pb.kern is not None:
-        f0 = sseg[rows, i_n, i_f]
-        fa = sseg[rows, np.maximum(i_n - 1, 0), i_f]
-        fb = sseg[rows, np.minimum(i_n + 1, ns.size - 1), i_f]
-        xtol = 0.5 * step * _GOLD**refine_iter
         return pb.kern.brent(pb.zz, pb.yy, pb.w, a_n, b_n, n_best, f0, fa, fb, s, xtol)
 
-    def f(nv):  # nv (P, K) -> SSE (P, K)
-        return pb.cells(nv, s[:, None])[1][:, :, 0]
+    def f(idx, nv):  # the SSE of profiles idx at n = nv (one each)
+        sub = pb if idx.size == P else pb.take(idx)
+        return numpy_cells(sub, nv[:, None], s[idx, None])[1][:, 0, 0]
 
-    return _minimise_1d(f, a_n, b_n, refine_iter)
+    return brent_many(f, a_n, b_n, n_best, f0, fa, fb, xtol)
 
 
 def _refine_phi(pb: _Problem, n_best, i_f, refine_iter: int):
@@ -470,10 +557,9 @@ def solve_exact_many(
     refine_iter : int
         Accuracy of the refinement of n: the bracket of two grid steps
         around the best grid point shrinks to what ``refine_iter`` golden
-        steps leave (4e-10 in n at 40).  Compiled kernels get there by
-        Brent's method (parabolic steps, golden fallback; about 15
-        evaluations), the numpy path by golden section then one parabolic
-        step (or a zooming grid for few profiles).  Fewer iterations leave
+        steps leave (4e-10 in n at 40), by Brent's method (parabolic
+        steps, golden fallback; about 15 evaluations), compiled or in
+        numpy alike.  Fewer iterations leave
         the noise-free optimum visibly short where a bound becomes active
         at n* (kc = 0 or cc = 0): the SSE over n has a kink in curvature
         there, which a parabola does not model.
