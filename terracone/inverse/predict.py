@@ -271,6 +271,11 @@ def predict_many(
         builtin ``map``.  The results do not depend on the pool.
     chunk_size : int
         Profiles per chunk.
+
+    Other Parameters
+    ----------------
+    **options
+        The keywords of :class:`PredictOptions`, those of :func:`predict` too:
     model : {"rm0", "rm1"}
     r_min : float, optional
         RM1 transition radius [m].
