@@ -237,7 +237,10 @@ def write_shear(path: Path) -> None:
 
 def terracone(*args: str, cwd: Path) -> None:
     exe = Path(sys.executable).with_name("terracone")
-    subprocess.run([str(exe), *args], cwd=cwd, check=True, capture_output=True, timeout=TIMEOUT)
+    env = {**os.environ, "TERRACONE_NUMBA": "0"}  # as the examples run (see run_block)
+    subprocess.run(
+        [str(exe), *args], cwd=cwd, env=env, check=True, capture_output=True, timeout=TIMEOUT
+    )
 
 
 @pytest.fixture(scope="session")
