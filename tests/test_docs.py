@@ -65,6 +65,7 @@ import pytest
 from conftest import shared_dir
 
 from terracone.apps.example import example_dir
+from terracone.jit import disabled
 from terracone.physics.cone import cone_index
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -279,7 +280,8 @@ def workspace(tmp_path_factory) -> Path:
     from terracone.apps.batch import run_batch
 
     opts = dict(depth_unit="cm", ci_unit="mpa", cone="penetrologger-1cm2", pool=map)
-    run_batch(ws / "pushes.csv", ws / "batch_out", quiet=True, **opts)
+    with disabled():  # in this process, with the numpy kernels as well
+        run_batch(ws / "pushes.csv", ws / "batch_out", quiet=True, **opts)
     return ws
 
 
