@@ -256,11 +256,14 @@ def test_predict_missing_file_and_calibration(tmp_path, good):
     assert error_line(run("predict", missing)) == f"file {missing}: file not found"
     cal = tmp_path / "cal.json"
     cal.write_text("{not json")
-    msg = error_line(run("predict", good["ci"], "--calibration", cal))
-    assert msg.startswith(f"calibration {cal}: cannot read (Expecting property name")
-    msg = error_line(run("predict", good["ci"], "--calibration", tmp_path / "none.json"))
-    assert msg.startswith(f"calibration {tmp_path / 'none.json'}: cannot read (")
-    assert "No such file or directory" in msg
+    assert error_line(run("predict", good["ci"], "--calibration", cal)) == (
+        f"file {cal}: cannot read JSON "
+        "(Expecting property name enclosed in double quotes: line 1 column 2 (char 1))"
+    )
+    none = tmp_path / "none.json"
+    assert error_line(run("predict", good["ci"], "--calibration", none)) == (
+        f"file {none}: file not found"
+    )
 
 
 def test_predict_option_values(good):
@@ -428,14 +431,14 @@ def test_library_json_errors(tmp_path, monkeypatch):
     bad = tmp_path / "bad.json"
     bad.write_text("{not json")
     why = "(Expecting property name enclosed in double quotes: line 1 column 2 (char 1))"
-    assert error_line(run("library", "import", bad)) == f"{bad}: cannot read JSON {why}"
+    assert error_line(run("library", "import", bad)) == f"file {bad}: cannot read JSON {why}"
     assert error_line(run("library", "add", "x", "--from-json", bad)) == (
         f"file {bad}: cannot read JSON {why}"
     )
     items = tmp_path / "items.json"
     items.write_text('[{"name": "x", "kind": "user", "params": {"kc": "abc"}}]')
     assert error_line(run("library", "import", items)) == (
-        f"{items}: item 0: parameter 'kc' must be a number (got 'abc')"
+        f'file {items}, item 0 (x), key params.kc: must be a number (got "abc")'
     )
     assert error_line(run("library", "show", "nothing-here")).startswith(
         "no terrain 'nothing-here'"
@@ -462,4 +465,256 @@ def test_an_output_folder_that_does_not_exist_is_named(tmp_path):
     )
     assert error_line(r) == (
         f"cannot use {out}: no such file or directory (folder {out.parent} does not exist)"
+    )
+
+
+# ---------------------------------------------------------------------------
+# calibration and library files: every key checked on load (issue 23)
+# ---------------------------------------------------------------------------
+
+DROP = object()  # a key left out of the file
+
+# a calibration file in the documented format (docs/learn.md), written by hand
+CALIBRATION = {
+    "terracone_calibration": 1,
+    "units": "si",
+    "terrain": "LETE sand",
+    "model": "rm1",
+    "r_min": 0.0086,
+    "plate_pair": [0.0375, 0.05],
+    "phic_deg": 11.9,
+    "cc": 0.0,
+    "kc": 99.97,
+    "kphi": 5359.0,
+    "n": 0.791,
+    "cone": "asabe-large",
+    "provenance": {"method": "terracone learn (section 3.3.1)"},
+}
+CALIBRATION_KEYS = (
+    "terracone_calibration, units, terrain, model, r_min, plate_pair, phic_deg, cc, kc, kphi, "
+    "n, Kc, cone, provenance"
+)
+CONES = (
+    "cone must be one of ['asabe-large', 'asabe-small', 'penetrologger-1cm2', "
+    "'penetrologger-2cm2', 'penetrologger-3.33cm2', 'penetrologger-5cm2'], "
+    "'DIAMETER<m|cm|mm|in>:ANGLE' (e.g. 20.27mm:30) or 'AREA<cm2|mm2|in2>:ANGLE' "
+    "(e.g. 5cm2:60) (got 'big')"
+)
+
+# (defect, changed keys, expected message after "file PATH, ")
+CALIBRATION_DEFECTS = [
+    ("no terrain", {"terrain": DROP}, "key terrain: missing (the terrain or site label)"),
+    ("empty terrain", {"terrain": "  "}, 'key terrain: must be non-empty text (got "  ")'),
+    ("no kphi", {"kphi": DROP}, "key kphi: missing (Bekker frictional modulus)"),
+    ("NaN", {"phic_deg": math.nan}, "key phic_deg: must be a finite number (got NaN)"),
+    ("Infinity", {"kc": math.inf}, "key kc: must be a finite number (got Infinity)"),
+    ("text for a number", {"kphi": "5359"}, 'key kphi: must be a number (got "5359")'),
+    ("true for a number", {"n": True}, "key n: must be a number (got true)"),
+    ("null for a required key", {"cc": None}, "key cc: missing (cone-terrain adhesion)"),
+    ("n = 0", {"n": 0}, "key n: must be > 0 (got 0)"),
+    ("phic = 90", {"phic_deg": 90}, "key phic_deg: must be in [0, 90) deg (got 90)"),
+    ("negative cc", {"cc": -1.5}, "key cc: must be >= 0 kPa (got -1.5)"),
+    ("r_min = 0", {"r_min": 0.0}, "key r_min: must be > 0 m (got 0)"),
+    ("negative Kc", {"Kc": -0.01}, "key Kc: must be > 0 m (got -0.01)"),
+    ("rm1 without r_min", {"r_min": DROP}, 'key r_min: missing (model "rm1" needs r_min)'),
+    (
+        "model",
+        {"model": "RM1"},
+        'key model: must be "rm0" or "rm1" (pressure law) (got "RM1")',
+    ),
+    (
+        "one plate",
+        {"plate_pair": [0.05]},
+        "key plate_pair: must be two different plate radii > 0 m (got [0.05])",
+    ),
+    (
+        "equal plates",
+        {"plate_pair": [0.05, 0.05]},
+        "key plate_pair: must be two different plate radii > 0 m (got [0.05, 0.05])",
+    ),
+    ("cone", {"cone": "big"}, f"key cone: {CONES}"),
+    (
+        "US units",
+        {"units": "us"},
+        'key units: must be "si" (calibration files are stored in SI) (got "us")',
+    ),
+    (
+        "a newer format",
+        {"terracone_calibration": 2},
+        "key terracone_calibration: must be 1 (the calibration format this terracone reads) "
+        "(got 2)",
+    ),
+    (
+        "not a calibration",
+        {"terracone_calibration": DROP},
+        "key terracone_calibration: missing: not a terracone calibration file "
+        "(`terracone learn --save` writes them)",
+    ),
+    ("a misspelt key", {"phic": 11.9}, f"key phic: unknown key 'phic'; known: {CALIBRATION_KEYS}"),
+    (
+        "provenance",
+        {"provenance": "learn"},
+        'key provenance: must be a JSON object (got "learn")',
+    ),
+]
+
+
+def changed(doc: dict, changes: dict) -> dict:
+    out = dict(doc)
+    for key, value in changes.items():
+        if value is DROP:
+            del out[key]
+        else:
+            out[key] = value
+    return out
+
+
+def test_the_calibration_of_the_defect_tests_is_good(tmp_path, good):
+    cal = tmp_path / "cal.json"
+    cal.write_text(json.dumps(CALIBRATION))
+    r = run("predict", good["ci"], "--calibration", cal, "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["settings"]["calibration"] == "LETE sand"
+
+
+@pytest.mark.parametrize(
+    "changes, why", [c[1:] for c in CALIBRATION_DEFECTS], ids=[c[0] for c in CALIBRATION_DEFECTS]
+)
+def test_calibration_file_defect(tmp_path, good, changes, why):
+    cal = tmp_path / "cal.json"
+    cal.write_text(json.dumps(changed(CALIBRATION, changes)))  # NaN, Infinity as JSON spells them
+    assert error_line(run("predict", good["ci"], "--calibration", cal)) == f"file {cal}, {why}"
+
+
+def test_calibration_file_that_is_not_an_object(tmp_path, good):
+    cal = tmp_path / "cal.json"
+    cal.write_text("[1, 2]")
+    assert error_line(run("predict", good["ci"], "--calibration", cal)) == (
+        f"file {cal}: expected a JSON object (got [1, 2])"
+    )
+
+
+RECORD = {"name": "a", "kind": "user", "params": {"kc": 5.0, "kphi": 800.0, "n": 0.7}}
+RECORD_KEYS = "name, kind, params, provenance, notes, created, modified, builtin"
+PARAMETERS = (
+    "kc, kphi, n, k, b_m, c_kpa, phi_deg, K_m, cc, phic_deg, Kc, model, r_min, plate_pair, "
+    "cone, moisture_pct, density_kg_m3"
+)
+
+# (defect, second record of the file, expected message after "file PATH, ")
+LIBRARY_DEFECTS = [
+    ("not an object", 3, "item 1: expected a JSON object (got 3)"),
+    ("no name", {"kind": "user"}, "item 1, key name: missing (the terrain's unique name)"),
+    (
+        "name not text",
+        {"name": 3, "kind": "user"},
+        "item 1, key name: must be non-empty text (got 3)",
+    ),
+    (
+        "no kind",
+        {"name": "b"},
+        "item 1 (b), key kind: missing (e.g. calibration or bevameter-fit)",
+    ),
+    (
+        "a misspelt record key",
+        {"name": "b", "kind": "user", "parms": {}},
+        f"item 1 (b), key parms: unknown key 'parms'; known: {RECORD_KEYS}",
+    ),
+    (
+        "params not an object",
+        {"name": "b", "kind": "user", "params": [1.0]},
+        "item 1 (b), key params: must be a JSON object (got [1.0])",
+    ),
+    (
+        "NaN",
+        {"name": "b", "kind": "user", "params": {"phic_deg": math.nan}},
+        "item 1 (b), key params.phic_deg: must be a finite number (got NaN)",
+    ),
+    (
+        "text for a number",
+        {"name": "b", "kind": "user", "params": {"n": "0.7"}},
+        'item 1 (b), key params.n: must be a number (got "0.7")',
+    ),
+    (
+        "n < 0",
+        {"name": "b", "kind": "user", "params": {"n": -0.5}},
+        "item 1 (b), key params.n: must be > 0 (got -0.5)",
+    ),
+    (
+        "phi = 95",
+        {"name": "b", "kind": "user", "params": {"phi_deg": 95}},
+        "item 1 (b), key params.phi_deg: must be in [0, 90) deg (got 95)",
+    ),
+    (
+        "negative cohesion",
+        {"name": "b", "kind": "user", "params": {"c_kpa": -2}},
+        "item 1 (b), key params.c_kpa: must be >= 0 kPa (got -2)",
+    ),
+    (
+        "zero density",
+        {"name": "b", "kind": "user", "params": {"density_kg_m3": 0}},
+        "item 1 (b), key params.density_kg_m3: must be > 0 kg/m^3 (got 0)",
+    ),
+    (
+        "rm1 without r_min",
+        {"name": "b", "kind": "calibration", "params": {"model": "rm1"}},
+        'item 1 (b), key params.r_min: missing (model "rm1" needs r_min)',
+    ),
+    (
+        "an ambiguous parameter",
+        {"name": "b", "kind": "user", "params": {"c": 1.0}},
+        "item 1 (b), key params.c: ambiguous parameter 'c': use 'c_kpa' (terrain internal "
+        "cohesion) or 'cc' (cone-metal adhesion)",
+    ),
+    (
+        "an unknown parameter",
+        {"name": "b", "kind": "user", "params": {"kphii": 1.0}},
+        f"item 1 (b), key params.kphii: unknown parameter 'kphii'; known: {PARAMETERS}",
+    ),
+    (
+        "notes not text",
+        {"name": "b", "kind": "user", "notes": 5},
+        "item 1 (b), key notes: must be text (got 5)",
+    ),
+    (
+        "builtin not a flag",
+        {"name": "b", "kind": "user", "builtin": "no"},
+        'item 1 (b), key builtin: must be true or false (got "no")',
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    "second, why", [c[1:] for c in LIBRARY_DEFECTS], ids=[c[0] for c in LIBRARY_DEFECTS]
+)
+def test_library_file_defect(tmp_path, second, why):
+    lib = tmp_path / "lib.sqlite"
+    path = tmp_path / "terrains.json"
+    path.write_text(json.dumps([RECORD, second]))
+    assert error_line(run("library", "--library", lib, "import", path)) == f"file {path}, {why}"
+    r = run("library", "--library", lib, "list", "--json")  # nothing was imported
+    assert r.exit_code == 0 and [d for d in json.loads(r.output) if not d["builtin"]] == []
+    path.write_text(json.dumps([RECORD]))  # the good record alone imports
+    assert run("library", "--library", lib, "import", path).output == "imported 1, skipped 0\n"
+
+
+def test_library_file_that_is_not_a_list_and_repeated_names(tmp_path):
+    lib = tmp_path / "lib.sqlite"
+    path = tmp_path / "terrains.json"
+    path.write_text('"terrains"')
+    assert error_line(run("library", "--library", lib, "import", path)) == (
+        f"file {path}: expected a JSON list of terrain records"
+    )
+    path.write_text(json.dumps([RECORD, RECORD]))
+    assert error_line(run("library", "--library", lib, "import", path)) == (
+        f"file {path}: repeated names ['a']"
+    )
+
+
+def test_library_add_from_json_names_the_file_and_key(tmp_path):
+    lib = tmp_path / "lib.sqlite"
+    path = tmp_path / "params.json"
+    path.write_text('{"kc": 5.0, "phic_deg": NaN}')
+    assert error_line(run("library", "--library", lib, "add", "x", "--from-json", path)) == (
+        f"file {path}, key phic_deg: must be a finite number (got NaN)"
     )

@@ -292,7 +292,7 @@ def test_calibration_load_rejects_other_files(tmp_path):
     p.write_text("{not json")
     with pytest.raises(ValueError, match="cannot read"):
         Calibration.load(p)
-    with pytest.raises(ValueError, match="cannot read"):
+    with pytest.raises(ValueError, match="missing.json: file not found"):
         Calibration.load(tmp_path / "missing.json")
 
 

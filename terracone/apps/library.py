@@ -31,7 +31,6 @@ import difflib
 import functools
 import io
 import json
-import math
 import os
 import sqlite3
 import time
@@ -43,9 +42,11 @@ from pathlib import Path
 from typing import Any
 
 from terracone.data import TerrainParameters, TerrainShear
+from terracone.io.jsonkeys import TERRAIN_KEYS, FileKeyError, Key, check_keys, read_json
 
 __all__ = [
     "PARAM_UNITS",
+    "RECORD_KEYS",
     "REFERENCE_CITATION",
     "ImportReport",
     "Library",
@@ -57,25 +58,20 @@ __all__ = [
     "reference_records",
 ]
 
-#: Parameter keys a record may carry, with their SI unit.
-PARAM_UNITS: dict[str, str] = {
-    "kc": "kN/m^(n+1)",
-    "kphi": "kN/m^(n+2)",
-    "n": "-",
-    "k": "kN/m^(n+2)",
-    "b_m": "m",
-    "c_kpa": "kPa",
-    "phi_deg": "deg",
-    "K_m": "m",
-    "cc": "kPa",
-    "phic_deg": "deg",
-    "Kc": "m",
-    "model": "-",
-    "r_min": "m",
-    "plate_pair": "m",
-    "cone": "-",
-    "moisture_pct": "%",
-    "density_kg_m3": "kg/m^3",
+#: Parameter keys a record may carry, with their SI unit (their ranges:
+#: :data:`terracone.io.jsonkeys.TERRAIN_KEYS`).
+PARAM_UNITS: dict[str, str] = {k: spec.unit for k, spec in TERRAIN_KEYS.items()}
+
+#: The keys of a record in a library file (:meth:`Library.export`, :meth:`Library.import_`).
+RECORD_KEYS: dict[str, Key] = {
+    "name": Key("text", required=True, meaning="the terrain's unique name"),
+    "kind": Key("text", required=True, meaning="e.g. calibration or bevameter-fit"),
+    "params": Key("object", meaning="parameters in SI"),
+    "provenance": Key("object", meaning="where the values come from"),
+    "notes": Key("string"),
+    "created": Key("string", meaning="ISO date"),
+    "modified": Key("string", meaning="ISO date"),
+    "builtin": Key("flag"),
 }
 
 _AMBIGUOUS = {
@@ -137,59 +133,35 @@ def make_provenance(
     return {k: v for k, v in out.items() if v is not None}
 
 
-def check_params(params: Mapping[str, Any]) -> dict[str, Any]:
+def check_params(
+    params: Mapping[str, Any],
+    *,
+    file: str | os.PathLike | None = None,
+    record: str | None = None,
+    prefix: str = "",
+) -> dict[str, Any]:
     """Validated copy of a parameter dict (SI keys of :data:`PARAM_UNITS`).
 
-    ``None`` values are dropped; numbers must be finite; ``model`` must be
-    ``"rm0"`` or ``"rm1"``, ``plate_pair`` two radii > 0, ``cone`` a name.  Unknown or ambiguous keys raise ValueError.
+    ``None`` values are dropped; numbers must be finite JSON numbers within
+    their physical ranges (:data:`terracone.io.jsonkeys.TERRAIN_KEYS`);
+    ``model`` must be ``"rm0"`` or ``"rm1"`` (``"rm1"`` with ``r_min``),
+    ``plate_pair`` two different radii > 0, ``cone`` a cone name or spec.
+
+    Raises
+    ------
+    terracone.io.jsonkeys.FileKeyError
+        (a ValueError) naming ``file`` and ``record`` when given, the key
+        (``prefix`` + name) and the reason; unknown and ambiguous keys too.
     """
-    if not isinstance(params, Mapping):
-        raise TypeError("params must be a mapping of parameter names to values")
-    out: dict[str, Any] = {}
-    for key, val in params.items():
-        if val is None:
-            continue
-        if key in _AMBIGUOUS:
-            raise ValueError(f"ambiguous parameter {key!r}: use {_AMBIGUOUS[key]}")
-        if key not in PARAM_UNITS:
-            raise ValueError(f"unknown parameter {key!r}; known: {', '.join(PARAM_UNITS)} (all SI)")
-        if key == "model":
-            if val not in ("rm0", "rm1"):
-                raise ValueError(f"model must be 'rm0' or 'rm1' (got {val!r})")
-            out[key] = val
-            continue
-        if key == "cone":
-            if not isinstance(val, str) or not val.strip():
-                raise ValueError(f"cone must be a cone name (got {val!r})")
-            out[key] = val.strip()
-            continue
-        if key == "plate_pair":
-            try:
-                pair = [float(v) for v in val]
-            except (TypeError, ValueError):
-                raise ValueError(f"plate_pair must be two radii [m] (got {val!r})") from None
-            if len(pair) != 2 or not all(math.isfinite(v) and v > 0 for v in pair):
-                raise ValueError(f"plate_pair must be two radii > 0 [m] (got {val!r})")
-            out[key] = pair
-            continue
-        if isinstance(val, bool):
-            raise ValueError(f"parameter {key!r} must be a number (got {val!r})")
-        try:
-            x = float(val)
-        except (TypeError, ValueError):
-            raise ValueError(f"parameter {key!r} must be a number (got {val!r})") from None
-        if not math.isfinite(x):
-            raise ValueError(f"parameter {key!r} must be finite (got {val!r})")
-        out[key] = x
-    if "n" in out and not out["n"] > 0:
-        raise ValueError(f"n must be > 0 (got {out['n']:g})")
-    for key in ("K_m", "Kc", "r_min", "b_m"):
-        if key in out and not out[key] > 0:
-            raise ValueError(f"{key} must be > 0 (got {out[key]:g})")
-    for key in ("phi_deg", "phic_deg"):
-        if key in out and not 0 <= out[key] < 90:
-            raise ValueError(f"{key} must be in [0, 90) degrees (got {out[key]:g})")
-    return out
+    return check_keys(
+        params,
+        TERRAIN_KEYS,
+        file=file,
+        record=record,
+        prefix=prefix,
+        hints=_AMBIGUOUS,
+        what="parameter",
+    )
 
 
 def record_params(
@@ -284,20 +256,31 @@ class TerrainRecord:
         }
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> TerrainRecord:
-        """Record from :meth:`to_dict` output (parameters validated)."""
-        try:
-            name, kind = d["name"], d["kind"]
-        except KeyError as e:
-            raise ValueError(f"terrain record without {e.args[0]!r}") from None
+    def from_dict(
+        cls,
+        d: Mapping[str, Any],
+        *,
+        file: str | os.PathLike | None = None,
+        record: str | None = None,
+    ) -> TerrainRecord:
+        """Record from :meth:`to_dict` output, every key checked (:data:`RECORD_KEYS`).
+
+        Raises
+        ------
+        terracone.io.jsonkeys.FileKeyError
+            (a ValueError) naming ``file``, ``record``, the key and the reason.
+        """
+        where = {"file": file, "record": record}
+        r = check_keys(d, RECORD_KEYS, **where)
+        params = check_params(r.get("params", {}), prefix="params.", **where)
         return cls(
-            name=_check_name(name),
-            kind=_check_kind(kind),
-            params=check_params(d.get("params") or {}),
-            provenance=dict(d.get("provenance") or {}),
-            notes=str(d.get("notes") or ""),
-            created=d.get("created"),
-            modified=d.get("modified"),
+            name=r["name"],
+            kind=r["kind"],
+            params=params,
+            provenance=r.get("provenance", {}),
+            notes=r.get("notes", ""),
+            created=r.get("created"),
+            modified=r.get("modified"),
             builtin=False,
         )
 
@@ -663,26 +646,24 @@ class Library:
         to the stored one of that name, are skipped; another record of a taken
         name raises ValueError (nothing is imported) unless ``replace=True``.
         """
-        try:
-            data = json.loads(Path(path).read_text(encoding="utf-8"))
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"{path}: cannot read JSON ({exc})") from None
+        data = read_json(path)
         if isinstance(data, Mapping):
             data = [data]
         if not isinstance(data, list):
-            raise ValueError(f"{path}: expected a JSON list of terrain records")
+            raise FileKeyError("expected a JSON list of terrain records", file=path)
         recs = []
         for i, d in enumerate(data):
-            if not isinstance(d, Mapping):
-                raise ValueError(f"{path}: item {i} is not a terrain record")
-            try:
-                recs.append(TerrainRecord.from_dict(d))
-            except ValueError as e:
-                raise ValueError(f"{path}: item {i}: {e}") from None
+            name = d.get("name") if isinstance(d, Mapping) else None
+            label = (
+                f"item {i} ({name.strip()})"
+                if isinstance(name, str) and name.strip()
+                else f"item {i}"
+            )
+            recs.append(TerrainRecord.from_dict(d, file=path, record=label))
         names = [r.name for r in recs]
         dup = {n for n in names if names.count(n) > 1}
         if dup:
-            raise ValueError(f"{path}: repeated names {sorted(dup)}")
+            raise FileKeyError(f"repeated names {sorted(dup)}", file=path)
         refs = _reference_map()
         now = _now()
 

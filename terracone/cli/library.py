@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
 from typing import Any
 
 import click
@@ -79,17 +77,12 @@ def library_show(ctx, name):
 @click.pass_context
 def library_add(ctx, name, kind, params, from_json, source, replace):
     """Add a terrain."""
-    from terracone.apps.library import Library, make_provenance
+    from terracone.apps.library import Library, check_params, make_provenance
+    from terracone.io.jsonkeys import read_json
 
     p: dict[str, Any] = {}
     if from_json:
-        try:
-            doc = json.loads(Path(from_json).read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ValueError(f"file {from_json}: cannot read JSON ({exc})") from None
-        if not isinstance(doc, dict):
-            raise ValueError(f"file {from_json}: expected a JSON object of parameters")
-        p.update(doc)
+        p.update(check_params(read_json(from_json), file=from_json))
     for kv in params:
         if "=" not in kv:
             raise click.BadParameter(f"--param: expected KEY=VALUE, got {kv!r}")

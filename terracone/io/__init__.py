@@ -16,7 +16,8 @@ Modules: :mod:`~terracone.io.tables` (CSV tables, schemas, cells),
 every format), :mod:`~terracone.io.sc900`, :mod:`~terracone.io.wide`
 (instrument files), :mod:`~terracone.io.scan` and :mod:`~terracone.io.stream`
 (the streaming core), :mod:`~terracone.io.bevameter` (plate and shear tests),
-:mod:`~terracone.io.writers` (CSV writers).
+:mod:`~terracone.io.writers` (CSV writers), :mod:`~terracone.io.jsonkeys` (the keys of
+calibration and library JSON, checked on load).
 """
 
 from terracone.io.bevameter import read_plate_tests, read_shear_tests

@@ -41,9 +41,36 @@ from terracone.inverse.learning.search import (
     polish,
     refine,
 )
+from terracone.io.jsonkeys import TERRAIN_KEYS, FileKeyError, Key, check_keys, read_json
 from terracone.physics import units as u
 
-__all__ = ["Calibration", "LearnResult", "learn", "learn_problem", "sandwich_cov"]
+__all__ = [
+    "CALIBRATION_KEYS",
+    "Calibration",
+    "LearnResult",
+    "learn",
+    "learn_problem",
+    "sandwich_cov",
+]
+
+_REQUIRED = ("kc", "kphi", "n", "cc", "phic_deg", "model")
+
+#: The keys of a calibration file (format 1, SI): the terrain keys a calibration holds
+#: (:data:`terracone.io.jsonkeys.TERRAIN_KEYS`; kc, kphi, n, cc, phic_deg and model
+#: required, r_min required with model rm1) and the file's own.
+CALIBRATION_KEYS: dict[str, Key] = {
+    "terracone_calibration": Key(
+        "choice", choices=(1,), meaning="the calibration format this terracone reads"
+    ),
+    "units": Key("choice", choices=("si",), meaning="calibration files are stored in SI"),
+    "terrain": Key("text", required=True, meaning="the terrain or site label"),
+    **{
+        k: replace(TERRAIN_KEYS[k], required=k in _REQUIRED)
+        for k in ("model", "r_min", "plate_pair", "phic_deg", "cc", "kc", "kphi", "n", "Kc")
+    },
+    "cone": TERRAIN_KEYS["cone"],
+    "provenance": Key("object", meaning="where the calibration comes from"),
+}
 
 
 @dataclass(init=False)
@@ -134,27 +161,39 @@ class Calibration:
         Path(path).write_text(json.dumps(self.to_json(), indent=2) + "\n")
 
     @classmethod
-    def from_json(cls, d: dict[str, Any]) -> Calibration:
-        if d.get("terracone_calibration") != 1:
-            raise ValueError("not a terracone calibration (key 'terracone_calibration' missing)")
-        if d.get("units", "si") != "si":
-            raise ValueError("calibration files are stored in SI")
-        pp = d.get("plate_pair")
+    def from_json(cls, d: dict[str, Any], *, file: str | Path | None = None) -> Calibration:
+        """Calibration from the content of a calibration file, every key checked.
+
+        Raises
+        ------
+        terracone.io.jsonkeys.FileKeyError
+            (a ValueError) naming ``file``, the key and the reason: a key
+            missing, unknown, of the wrong type, not finite or out of its
+            physical range (:data:`CALIBRATION_KEYS`).
+        """
+        if isinstance(d, dict) and d.get("terracone_calibration") is None:
+            raise FileKeyError(
+                "missing: not a terracone calibration file (`terracone learn --save` writes them)",
+                file=file,
+                key="terracone_calibration",
+            )
+        c = check_keys(d, CALIBRATION_KEYS, file=file)
         params = TerrainParameters(
-            kc=float(d["kc"]),
-            kphi=float(d["kphi"]),
-            n=float(d["n"]),
-            cc=float(d["cc"]),
-            phic_deg=float(d["phic_deg"]),
-            K_cone=None if d.get("Kc") is None else float(d["Kc"]),
-            model=str(d["model"]),
-            r_min=None if d.get("r_min") is None else float(d["r_min"]),
+            kc=c["kc"],
+            kphi=c["kphi"],
+            n=c["n"],
+            cc=c["cc"],
+            phic_deg=c["phic_deg"],
+            K_cone=c.get("Kc"),
+            model=c["model"],
+            r_min=c.get("r_min"),
         )
+        pp = c.get("plate_pair")
         return cls(
-            terrain=str(d["terrain"]),
-            plate_pair=None if not pp else (float(pp[0]), float(pp[1])),
-            cone=str(d.get("cone", "asabe-large")),
-            provenance=dict(d.get("provenance", {})),
+            terrain=c["terrain"],
+            plate_pair=None if not pp else (pp[0], pp[1]),
+            cone=c.get("cone", "asabe-large"),
+            provenance=c.get("provenance", {}),
             params=params,
         )
 
@@ -171,7 +210,7 @@ class Calibration:
                 f"terrain {rec.name!r} is a {rec.kind!r} record, not a calibration from "
                 "`terracone learn --save-as`: it has no learned phic, cc and r_min"
             )
-        d = dict(rec.params)
+        d = {k: v for k, v in rec.params.items() if k in CALIBRATION_KEYS}
         d.update({"terracone_calibration": 1, "units": "si", "terrain": rec.name})
         d["provenance"] = dict(rec.provenance or {})
         d.setdefault("cc", 0.0)
@@ -179,15 +218,8 @@ class Calibration:
 
     @classmethod
     def load(cls, path: str | Path) -> Calibration:
-        """Read a calibration written by :meth:`save`."""
-        try:
-            d = json.loads(Path(path).read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ValueError(f"calibration {path}: cannot read ({exc})") from exc
-        try:
-            return cls.from_json(d)
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ValueError(f"calibration {path}: {exc}") from exc
+        """Read a calibration written by :meth:`save`, every key checked (:meth:`from_json`)."""
+        return cls.from_json(read_json(path), file=path)
 
 
 @dataclass
