@@ -1,28 +1,26 @@
 """Layered terrain, inverse side: fit a stack of layers to one CI profile.
 
 The forward model (:func:`terracone.physics.layers.layered_basis`,
-:func:`terracone.physics.layers.layered_cone_index`) extends eqs. (2-5) and (2-6) of
-[1]_ to a stack of layers with their own kc_j, kphi_j, n_j, cc_j and a common
-phic.  This module fits it: :func:`fit_layered` searches the layers' n and
-the interface depths (the linear parameters by bounded least squares), and
-:func:`layered_posterior` samples the posterior of the fit with emcee.
+:func:`terracone.physics.layers.layered_cone_index`) extends eqs. (2-5) and
+(2-6) of [1]_ to a stack of layers with their own kc_j, kphi_j, n_j, cc_j and
+a common phic.  :func:`fit_layered` finds the global minimum of the RMSD over
+the interfaces, the n's and the linear parameters with the search of
+:mod:`terracone.inverse.layered.search` (a grid and branch and bound over the
+interfaces and n's, exact bounded least squares inside, compiled kernels with
+numpy twins) and reports a lower bound of the SSE over the whole search space
+beside the SSE it found (``certificate``).  One layer is the special case of
+the same search (no interfaces).
 
-Models with one and two (or more) layers are compared by the Bayesian
-information criterion BIC = N ln(SSE/N) + k ln N, with k = 4 per layer (kc,
-kphi, n, cc) plus one per interface (phic is not counted: it trades exactly
-with the scale of the k's).
-
-These names were in :mod:`terracone.physics.layers` and :mod:`terracone.uncertainty`
-before the forward and inverse modules were put apart (issue 13); both still
-re-export them.
+Models with one and more layers are compared by the Bayesian information
+criterion BIC = N ln(SSE/N) + k ln N, with k = 4 per layer (kc, kphi, n, cc)
+plus one per interface (phic is not counted: it trades exactly with the
+scale of the k's).
 
 References
 ----------
 .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
    terrain parameters for physics-based vehicle mobility models from cone
    index data. Eqs. (2-2) to (2-7).
-.. [2] Foreman-Mackey, D., Hogg, D.W., Lang, D., Goodman, J. (2013). emcee:
-   the MCMC hammer. PASP 125, 306-312.
 """
 
 from __future__ import annotations
@@ -32,21 +30,35 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-import emcee
 import numpy as np
-from scipy.optimize import lsq_linear, minimize, nnls
 
 from terracone.data import CIProfile, InputError, TerrainParameters
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.solver.exact import design, solve_exact
-from terracone.inverse.uncertainty.posterior import LABELS, identifiability_label
+from terracone.inverse.layered.search import (
+    CURVATURE_SAFETY,
+    LayeredProblem,
+    SearchResult,
+    search_layers,
+)
 from terracone.physics import units as u
-from terracone.physics.cone import normal_integrals
-from terracone.physics.layers import layered_basis
 from terracone.physics.metrics import check_fit
-from terracone.physics.plate import PressureLaw, pressure_law
+from terracone.physics.plate import pressure_law
 
-__all__ = ["LayeredPosterior", "LayeredResult", "fit_layered", "layered_posterior"]
+__all__ = ["LayeredResult", "fit_layered", "phic_scale"]
+
+PHIC_GRID = 19  # phic values searched when the bounds of kc or kphi are not 0 (as predict)
+
+CERTIFICATE_METHOD = (
+    "interfaces on cells between the depths where an interface meets a cone base or tip, "
+    "each layer's n on a grid (41 points, 4 times finer around the best), exact bounded "
+    "least squares inside; a cell's bound: the rows an interface may cut relaxed by a "
+    "Lagrangian (multipliers: the best fit's residuals) with their parts in each layer taken "
+    "at the cell's ends, so that the layers separate, each layer's minimum over n bounded by "
+    "its grid values less the interpolation error of a curvature at most "
+    f"{CURVATURE_SAFETY:g} times the largest second difference seen; cells within the target "
+    "of the best SSE closed, the others halved (branch and bound) and searched locally "
+    "(Nelder-Mead)"
+)
 
 
 @dataclass
@@ -68,9 +80,20 @@ class LayeredResult:
     preferred_layers : int
         Number of layers with the lower BIC.
     r2_ci, longest_run, lack_of_fit
-        As in :class:`terracone.inverse.PredictionResult`.
+        As in :class:`terracone.result.PredictionResult`.
     phic_range : (float, float)
         Interval of the common phic that fits equally well [deg].
+    certificate : dict
+        ``sse`` [kPa^2], ``lower_bound`` (of the SSE anywhere in the search
+        space, up to the stated assumption) and ``gap`` = (sse -
+        lower_bound) / sse, with how they were found.
+    profile_intervals : dict
+        Outer approximation of the 95% profile interval of each interface
+        [m] (``interface_1`` ...) and each n (``n_1`` ...).
+    undetermined : list of str
+        What the data leave free: ``phic`` and ``phic~scale(kc,kphi)``
+        always (eq. (2-6)), and each ``interface_i`` or ``n_j`` whose
+        profile interval covers half its range or more (a weak contrast).
     """
 
     id: str
@@ -93,6 +116,10 @@ class LayeredResult:
     ci_model_single: np.ndarray | None = None
     time_s: float = 0.0
     metadata: dict[str, Any] = field(default_factory=dict)
+    certificate: dict[str, Any] = field(default_factory=dict)
+    profile_intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
+    undetermined: list[str] = field(default_factory=list)
+    nfev: int = 0
 
     @property
     def ok(self) -> bool:
@@ -105,10 +132,19 @@ class LayeredResult:
         return layered_html(self)
 
     def as_dict(self, units: str = "si", *, curves: bool = True) -> dict[str, Any]:
+        """The ``layered`` block of a profile in ``terracone predict --json`` (``units``)."""
         units = u.check_system(units)
         d: dict[str, Any] = {"id": self.id, "status": self.status, "error": self.error}
         if not self.ok:
             return d
+        iv = {}
+        for k, (lo, hi) in self.profile_intervals.items():
+            conv = k.startswith("interface_")
+            iv[k] = [float(u.length_from_si(v, units)) if conv else float(v) for v in (lo, hi)]
+        cert = dict(self.certificate)
+        for k in ("sse", "lower_bound"):
+            if k in cert:  # kPa^2 -> the unit of pressure squared
+                cert[k] = float(cert[k] * float(u.pressure_from_si(1.0, units)) ** 2)
         d.update(
             {
                 "layers": [p.as_dict(units) for p in self.layers],
@@ -122,7 +158,9 @@ class LayeredResult:
                 "preferred_layers": self.preferred_layers,
                 "phic_range_deg": list(self.phic_range) if self.phic_range else None,
                 "units": units,
-                "undetermined": ["phic", "phic~scale(kc,kphi)"],
+                "undetermined": list(self.undetermined),
+                "profile_intervals": iv,
+                "certificate": cert,
                 "metadata": self.metadata,
             }
         )
@@ -137,183 +175,39 @@ def _bic(sse: float, N: int, k: int) -> float:
     return N * math.log(max(sse, 1e-300) / N) + k * math.log(N)
 
 
-def _box_lsq(
-    X: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray
-) -> tuple[np.ndarray, float]:
-    """min |Xx - y|^2 over lo <= x <= hi; NNLS fast path when lo = 0 and hi does not bind."""
-    scale = np.sqrt(np.sum(X * X, axis=0))
-    scale = np.where(scale > 0, scale, 1.0)
-    Xs = X / scale
-    if np.all(lo == 0):
-        x = _nnls_capped(X, Xs, y, hi, scale)
-        if x is not None:
-            r = X @ x - y
-            return x, float(r @ r)
-    res = lsq_linear(Xs, y, bounds=(lo * scale, hi * scale), method="bvls")
-    x = res.x / scale
-    r = X @ x - y
-    return x, float(r @ r)
+def phic_scale(phic_deg: float | np.ndarray, cone: Any) -> float | np.ndarray:
+    """s = 1 + tan(phic)/tan(alpha): the factor of the kc and kphi columns (eqs. (2-6), (2-7))."""
+    return 1.0 + np.tan(np.radians(phic_deg)) / (cone.radius / cone.height)
 
 
-def _nnls_capped(
-    X: np.ndarray, Xs: np.ndarray, y: np.ndarray, hi: np.ndarray, scale: np.ndarray
-) -> np.ndarray | None:
-    """min |Xx - y|^2 over 0 <= x <= hi by NNLS, holding at hi what NNLS pushes above it.
-
-    Each round fixes the variables above their upper bound at it and solves
-    NNLS for the rest.  The problem is convex, so the result is its global
-    minimum exactly when it satisfies the KKT conditions (gradient zero
-    inside, pointing out of the box at held bounds; tolerance 1e-9 |X_i| |r|);
-    None when it does not (the caller uses BVLS).
-    """
-    k = X.shape[1]
-    at_hi = np.zeros(k, dtype=bool)
-    x = np.zeros(k)
-    for _ in range(k + 1):
-        free = ~at_hi
-        x[at_hi] = hi[at_hi]
-        if not free.any():  # every variable at its cap (scipy's nnls aborts on no columns)
-            break
-        rhs = y - X[:, at_hi] @ hi[at_hi]
-        xs, _ = nnls(Xs[:, free], rhs, maxiter=50 * k)
-        x[free] = xs / scale[free]
-        over = free & (x > hi * (1 + 1e-12))
-        if not over.any():
-            break
-        at_hi |= over
-    else:
-        return None
-    x = np.minimum(x, hi)
-    r = X @ x - y
-    g = X.T @ r
-    tol = 1e-9 * scale * math.sqrt(float(r @ r) + 1e-300)
-    inside = (x > 0) & (x < hi)
-    kkt = np.all(np.abs(g[inside]) <= tol[inside])
-    kkt &= np.all(g[(x <= 0) & ~inside] >= -tol[(x <= 0) & ~inside])
-    kkt &= np.all(g[(x >= hi) & ~inside] <= tol[(x >= hi) & ~inside])
-    return x if kkt else None
+def _phic_values(bounds: Bounds) -> np.ndarray:
+    """phic [deg] searched: the upper bound when the boxes nest (kc and kphi from 0), else a grid."""
+    lo, hi = bounds.phic
+    if lo == hi or (bounds.kc[0] == 0.0 and bounds.kphi[0] == 0.0):
+        return np.array([float(hi)])
+    return np.linspace(lo, hi, PHIC_GRID)
 
 
-def _layer_box(bounds: Bounds, ns: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Lower and upper bounds of (kc, kphi, cc) of every layer, in SI, for the n's ``ns``."""
-    lo, hi = [], []
-    for nj in ns:
-        klo, khi = bounds.kc_si(nj)
-        plo, phi_ = bounds.kphi_si(nj)
-        lo += [float(klo), float(plo), bounds.cc[0]]
-        hi += [float(khi), float(phi_), bounds.cc[1]]
-    return np.array(lo), np.array(hi)
-
-
-def _search_layers(
-    profile: CIProfile,
-    layers: int,
-    bounds: Bounds,
-    law: Any,
-    phi: float,
-    min_thick: float,
-    n_grid: int,
-    solve: Any,
-) -> tuple[np.ndarray, np.ndarray] | LayeredResult:
-    """Each layer's n and the interfaces of the best layered fit (two or more layers).
-
-    Two layers: a grid over (n_1, n_2) and the interface (midpoints between measured
-    depths), a bounded linear least squares per cell, then Nelder-Mead from the best
-    cell.  More layers: Nelder-Mead from six seeded random starts.  A profile too short
-    for the minimum thickness gives an error result.
-    """
-    z, y, cone = profile.depth, profile.ci, profile.cone
-    lo_d, hi_d = z[0] + min_thick, z[-1] - min_thick
-    cands = 0.5 * (z[1:] + z[:-1])
-    cands = cands[(cands >= lo_d) & (cands <= hi_d)]
-    if cands.size == 0:
-        return LayeredResult(
-            profile.id,
-            "error",
-            "profile too short for the minimum layer thickness",
-            metadata=dict(profile.metadata),
-        )
-    nlo, nhi = bounds.n
-    ng = np.linspace(nlo, nhi, n_grid)
-
-    def objective(v):
-        ns = np.clip(v[:layers], nlo, nhi)
-        D = np.sort(np.clip(v[layers:], lo_d, hi_d))
-        if np.any(np.diff(np.concatenate([[z[0]], D, [z[-1]]])) < min_thick * 0.5):
-            return np.inf
-        return solve(ns, D)[1]
-
-    starts = []
-    if layers == 2:
-        best = (np.inf, None)
-        # columns of the layer above and below each candidate interface, per n
-        cols = {
-            (i, k): layered_basis(z, n=[ni, ni], interfaces=[d], phic=phi, law=law, cone=cone)
-            for i, ni in enumerate(ng)
-            for k, d in enumerate(cands)
-        }
-        for k, d in enumerate(cands):
-            for i, n1 in enumerate(ng):
-                for j, n2 in enumerate(ng):
-                    X = np.concatenate([cols[i, k][:, :3], cols[j, k][:, 3:]], axis=1)
-                    lo, hi = _layer_box(bounds, [n1, n2])
-                    f = _box_lsq(X, y, lo, hi)[1]
-                    if f < best[0]:
-                        best = (f, np.array([n1, n2, d]))
-        starts.append(best[1])
-    else:
-        rng = np.random.default_rng(0)
-        for _ in range(6):
-            starts.append(
-                np.concatenate(
-                    [
-                        rng.uniform(0.3, 1.2, layers),
-                        np.sort(rng.uniform(lo_d, hi_d, layers - 1)),
-                    ]
-                )
-            )
-    best_v, best_f = None, np.inf
-    for v0 in starts:
-        f0 = objective(v0)
-        # tolerance relative to the SSE: an absolute one never fires on large SSE values
-        res = minimize(
-            objective,
-            v0,
-            method="Nelder-Mead",
-            options={"xatol": 1e-6, "fatol": 1e-10 * max(f0, 1e-300), "maxiter": 2000},
-        )
-        v, f = (res.x, res.fun) if res.fun <= f0 else (v0, f0)
-        if f < best_f:
-            best_v, best_f = v, f
-    return np.clip(best_v[:layers], nlo, nhi), np.sort(np.clip(best_v[layers:], lo_d, hi_d))
-
-
-def _phic_ridge_layers(
-    x: np.ndarray, ns_best: np.ndarray, bounds: Bounds, cone: Any
-) -> tuple[float, float, float, float]:
-    """The interval of phic that fits equally well over all layers, and its middle.
-
-    The fit is made at phic's upper bound; every layer's scaled kc and kphi must stay in
-    its box (the nested-box argument of :mod:`terracone.inverse.solver.many`).  Returns
-    (phic_lo, phic_mid, s_hi, s_mid), s = 1 + tan(phic)/tan(alpha) (eqs. (2-6), (2-7)).
-    """
-    phi = bounds.phic[1]
-    # phic ridge over all layers: the scaled k's must fit every layer's box
-    tt = math.tan(cone.half_angle)
-    s_hi = 1.0 + math.tan(math.radians(phi)) / tt
-    need = 1.0 + math.tan(math.radians(bounds.phic[0])) / tt
-    for j, nj in enumerate(ns_best):
-        khi = float(bounds.kc_si(nj)[1])
-        phi_hi = float(bounds.kphi_si(nj)[1])
-        kc_p, kp_p = x[3 * j] * s_hi, x[3 * j + 1] * s_hi
-        if khi > 0:
-            need = max(need, kc_p / khi)
-        if phi_hi > 0:
-            need = max(need, kp_p / phi_hi)
-    ph_lo = float(np.clip(math.degrees(math.atan((need - 1.0) * tt)), bounds.phic[0], phi))
-    ph = 0.5 * (ph_lo + phi) if bounds.phic[0] != bounds.phic[1] else phi
-    s_mid = 1.0 + math.tan(math.radians(ph)) / tt
-    return ph_lo, ph, s_hi, s_mid
+def _solve(
+    profile, layers, law, bounds, min_thick, n_grid, search_kw
+) -> tuple[SearchResult, float]:
+    """The best search over phic (see :func:`_phic_values`): (result, phic [deg])."""
+    best: tuple[SearchResult, float] | None = None
+    lower = math.inf
+    nfev = 0
+    for ph in _phic_values(bounds):
+        pb = LayeredProblem(
+            profile.depth, profile.ci, profile.cone, law, bounds, layers, min_thick,
+            float(phic_scale(ph, profile.cone)), n_grid,
+        )  # fmt: skip
+        res = search_layers(pb, **search_kw)
+        nfev += res.nfev
+        lower = min(lower, res.lower)
+        if best is None or res.sse < best[0].sse:
+            best = (res, float(ph))
+    assert best is not None
+    best[0].lower, best[0].nfev = min(lower, best[0].sse), nfev
+    return best
 
 
 def fit_layered(
@@ -323,8 +217,11 @@ def fit_layered(
     model: str = "rm0",
     r_min: float | None = None,
     bounds: Bounds | None = None,
-    n_grid: int = 12,
+    n_grid: int = 41,
     min_thickness: float | None = None,
+    target: float = 0.02,
+    levels: int = 24,
+    noise_floor: float = 0.01,
 ) -> LayeredResult:
     """Fit a model of ``layers`` layers (interfaces fitted) to one CI profile.
 
@@ -332,337 +229,156 @@ def fit_layered(
     ----------
     profile : CIProfile
     layers : int
-        Number of layers (1 gives the homogeneous model, for comparison).
+        Number of layers (1 gives the homogeneous model through the same search).
     model, r_min
-        Pressure law (section 3.2).
+        Pressure law (section 3.2): "rm0" or "rm1" with r_min [m].
     bounds : Bounds
         Bounds of each layer's kc, kphi, n, cc, and of the common phic.
     n_grid : int
-        Grid over each layer's n in the global stage (two layers).
+        Grid over each layer's n (a 4 times finer one around each best).
     min_thickness : float, optional
-        Smallest layer thickness [m]; default: two depth steps.
+        The first interface at least this far below the first measured
+        depth and the last this far above the last one, interfaces at least
+        half of it apart [m]; default: two depth steps.
+    target : float
+        Relative gap between the SSE found and its lower bound that the
+        branch and bound aims at.
+    levels : int
+        Rounds of branch and bound.
+    noise_floor : float
+        Relative noise floor of the profile intervals (as the one-layer fit).
+
+    Returns
+    -------
+    LayeredResult
+        With ``certificate`` (the SSE, a lower bound of the global minimum
+        and their gap), ``profile_intervals`` and ``undetermined``; a
+        profile that cannot be fitted gives ``status="error"``.
 
     Notes
     -----
-    Global stage for two layers: a grid over (n_1, n_2) and the interface
-    depth (midpoints between measured depths); for each cell a bounded
-    linear least squares in the six linear parameters.  Then Nelder-Mead
-    over the n's and interfaces from the best cell.  With more layers,
-    Nelder-Mead from several starts.  phic is put at the upper bound and
-    its equally good interval reported (the nested-box argument of
-    :mod:`terracone.inverse.solver.many`, which needs zero lower bounds of kc and
-    kphi).
+    phic is fitted at its upper bound when the lower bounds of kc and kphi
+    are 0 (the boxes of the scaled k's are nested, as in
+    :mod:`terracone.inverse.solver.many`), else on a grid of 19 values; its
+    equally good interval is reported (``phic_range``) and the layers at its
+    middle.  See :mod:`terracone.inverse.layered.search` for the search and
+    its bound.
     """
     t0 = time.perf_counter()
     bounds = bounds or Bounds()
+    if int(layers) < 1:
+        raise ValueError(f"layers must be at least 1 (got {layers})")
     try:
         profile.validate(min_points=max(3, 4 * layers + layers))
     except InputError as exc:
         return LayeredResult(profile.id, "error", str(exc), metadata=dict(profile.metadata))
     law = pressure_law(model, r_min=r_min)
-    cone = profile.cone
-    z, y = profile.depth, profile.ci
-    phi = bounds.phic[1]
+    z = profile.depth
     step = float(np.median(np.diff(z)))
     min_thick = min_thickness if min_thickness is not None else 2 * step
-
-    def solve(ns, D):
-        X = layered_basis(z, n=ns, interfaces=D, phic=phi, law=law, cone=cone)
-        lo, hi = _layer_box(bounds, ns)
-        return _box_lsq(X, y, lo, hi)
-
-    single = solve_exact(z, y, cone=cone, law=law, bounds=bounds, profiles=False)
+    kw = dict(target=target, levels=levels, noise_floor=noise_floor)
+    single, ph1 = _solve(
+        profile, 1, law, bounds, min_thick, n_grid, dict(kw, intervals=layers == 1)
+    )
     if layers == 1:
-        ns_best, D_best = np.array([single.n]), np.array([])
+        found, ph = single, ph1
     else:
-        found = _search_layers(profile, layers, bounds, law, phi, min_thick, n_grid, solve)
-        if isinstance(found, LayeredResult):
-            return found
-        ns_best, D_best = found
-    x, sse = solve(ns_best, D_best)
-    res = _layered_result(profile, x, sse, ns_best, D_best, single, bounds, law, model, r_min)
+        if z[-1] - z[0] - 2 * min_thick < 0.5 * min_thick * (layers - 2):
+            msg = "profile too short for the minimum layer thickness"
+            return LayeredResult(profile.id, "error", msg, metadata=dict(profile.metadata))
+        found, ph = _solve(profile, layers, law, bounds, min_thick, n_grid, kw)
+    res = _layered_result(profile, found, ph, single, ph1, bounds, model, r_min)
     res.time_s = time.perf_counter() - t0
     return res
 
 
-def _layered_result(
-    profile: CIProfile,
-    x: np.ndarray,
-    sse: float,
-    ns_best: np.ndarray,
-    D_best: np.ndarray,
-    single: Any,
-    bounds: Bounds,
-    law: PressureLaw,
-    model: str,
-    r_min: float | None,
-) -> LayeredResult:
-    """The :class:`LayeredResult` of the best layered fit ``x`` (SSE ``sse``).
+def _phic_ridge(x: np.ndarray, ns: np.ndarray, ph: float, bounds: Bounds, cone: Any):
+    """The interval of phic [deg] that fits as well as ``ph`` over all layers, and its middle.
 
-    ``x`` holds (kc, kphi, cc) per layer at phic's upper bound; the layers are
-    reported at the middle of the equally good phic interval, their k's scaled
-    along the ridge (eqs. (2-6), (2-7)).  BIC (k = 4 per layer plus one per
-    interface) is compared with that of ``single``, the exact one-layer fit.
+    x holds (kc, kphi, cc) per layer with the kc and kphi columns scaled at
+    ``ph``; the products s kc and s kphi are what the data fix (eq. (2-6)),
+    so every s keeping each layer's kc and kphi in its box fits equally well
+    (the nested-box argument of :mod:`terracone.inverse.solver.many`).
+    Returns (phic_lo, phic_hi, phic_mid, s_fit / s_mid).
+    """
+    s_fit = float(phic_scale(ph, cone))
+    need, room = float(phic_scale(bounds.phic[0], cone)), float(phic_scale(bounds.phic[1], cone))
+    for j, nj in enumerate(ns):
+        for k, (lo, hi) in enumerate((bounds.kc_si(nj), bounds.kphi_si(nj))):
+            v = x[3 * j + k] * s_fit  # the product the data fix
+            if float(hi) > 0:
+                need = max(need, v / float(hi))
+            if float(lo) > 0:
+                room = min(room, v / float(lo))
+    tt = cone.radius / cone.height
+    s_lo, s_hi = min(need, s_fit), max(room, s_fit)
+    ph_lo = float(np.clip(math.degrees(math.atan((s_lo - 1.0) * tt)), *bounds.phic))
+    ph_hi = float(np.clip(math.degrees(math.atan((s_hi - 1.0) * tt)), *bounds.phic))
+    mid = 0.5 * (ph_lo + ph_hi)
+    return ph_lo, ph_hi, mid, s_fit / float(phic_scale(mid, cone))
+
+
+def _layered_result(profile, found: SearchResult, ph, single: SearchResult, ph1, bounds, model,
+                    r_min) -> LayeredResult:  # fmt: skip
+    """The :class:`LayeredResult` of the best layered fit ``found`` (at phic ``ph``).
+
+    The layers are reported at the middle of the equally good phic interval,
+    their k's scaled along the ridge (eqs. (2-6), (2-7)).  BIC (k = 4 per
+    layer plus one per interface) is compared with that of ``single``, the
+    one-layer fit by the same search.
     """
     z, y, cone = profile.depth, profile.ci, profile.cone
-    N = y.size
-    phi = bounds.phic[1]
-    ph_lo, ph, s_hi, s_mid = _phic_ridge_layers(x, ns_best, bounds, cone)
+    N, L = y.size, found.n.size
+    x, ns = found.x, found.n
+    ph_lo, ph_hi, mid, ratio = _phic_ridge(x, ns, ph, bounds, cone)
     params = [
         TerrainParameters(
-            kc=float(x[3 * j] * s_hi / s_mid),
-            kphi=float(x[3 * j + 1] * s_hi / s_mid),
-            n=float(ns_best[j]),
+            kc=float(x[3 * j] * ratio),
+            kphi=float(x[3 * j + 1] * ratio),
+            n=float(ns[j]),
             cc=float(x[3 * j + 2]),
-            phic_deg=ph,
+            phic_deg=mid,
             model=model,
             r_min=r_min,
-        )
-        for j in range(len(ns_best))
+        )  # fmt: skip
+        for j in range(L)
     ]
-    X = layered_basis(z, n=ns_best, interfaces=D_best, phic=phi, law=law, cone=cone)
-    m = X @ x
-    chk = check_fit(z, y, m, monotone_model=len(ns_best) == 1)
-    bic = _bic(sse, N, 4 * len(ns_best) + len(D_best))
+    m, m1 = y + found.residuals, y + single.residuals
+    chk = check_fit(z, y, m, monotone_model=L == 1)
+    bic = _bic(found.sse, N, 4 * L + (L - 1))
     bic1 = _bic(single.sse, N, 4)
-    kw = dict(cone=cone, law=law, Kc=None)
-    m1 = design(z, np.array(single.n), np.array(single.phic_deg), **kw) @ np.array(
-        [single.kc, single.kphi, single.cc]
-    )
+    und = _undetermined(found, bounds, ph_lo, ph_hi)
+    cert = {
+        "sse": found.sse,
+        "lower_bound": found.lower,
+        "gap": (found.sse - found.lower) / found.sse if found.sse > 0 else 0.0,
+        "cells_open": found.cells_open,
+        "method": CERTIFICATE_METHOD,
+    }
     return LayeredResult(
-        id=profile.id,
-        status="ok",
-        layers=params,
-        interfaces=[float(v) for v in D_best],
-        rmsd=math.sqrt(sse / N),
-        sse=sse,
-        bic=bic,
-        bic_single=bic1,
-        preferred_layers=len(ns_best) if bic < bic1 else 1,
-        r2_ci=chk.r2,
-        longest_run=chk.longest_run,
-        lack_of_fit=chk.lack_of_fit,
-        phic_range=(ph_lo, phi),
-        depth=z,
-        ci=y,
-        ci_model=m,
-        ci_model_single=m1,
-        metadata=dict(profile.metadata),
-    )
+        id=profile.id, status="ok", layers=params, interfaces=[float(v) for v in found.D],
+        rmsd=math.sqrt(found.sse / N), sse=found.sse, bic=bic, bic_single=bic1,
+        preferred_layers=L if bic < bic1 else 1, r2_ci=chk.r2, longest_run=chk.longest_run,
+        lack_of_fit=chk.lack_of_fit, phic_range=(ph_lo, ph_hi), depth=z, ci=y, ci_model=m,
+        ci_model_single=m1, metadata=dict(profile.metadata), certificate=cert,
+        profile_intervals=dict(found.intervals), undetermined=und, nfev=found.nfev,
+    )  # fmt: skip
 
 
-@dataclass
-class LayeredPosterior:
-    """Posterior of a layered fit: per layer kc, kphi, n, cc, and the interfaces (SI).
-
-    Attributes
-    ----------
-    names : list of str
-        ``kc_1, kphi_1, n_1, cc_1, kc_2, ..., interface_1, ...``.
-    samples : ndarray
-        (draws, len(names)).
-    intervals, medians : dict
-        90% equal-tailed intervals and medians per name.
-    identifiability : dict
-        Label per name from the posterior/prior 90% width ratio.
-    phic_deg : float
-        The common phic held at the fit's value (it trades exactly with the
-        scale of each layer's kc and kphi; labelled "set by prior").
-    acceptance : float
-    """
-
-    names: list[str]
-    samples: np.ndarray = field(repr=False)
-    intervals: dict[str, tuple[float, float]]
-    medians: dict[str, float]
-    identifiability: dict[str, str]
-    phic_deg: float
-    acceptance: float
-
-    def as_dict(self, units: str = "si") -> dict[str, Any]:
-        def conv(name: str, v: float, n: float) -> float:
-            if name.startswith("kc_"):
-                return float(u.kc_from_si(v, n, units))
-            if name.startswith("kphi_"):
-                return float(u.kphi_from_si(v, n, units))
-            if name.startswith("cc_"):
-                return float(u.pressure_from_si(v, units))
-            if name.startswith("interface_"):
-                return float(u.length_from_si(v, units))
-            return float(v)
-
-        iv, med = {}, {}
-        for k, name in enumerate(self.names):
-            if name.startswith(("kc_", "kphi_")):  # convert each draw with its own n
-                j = name.split("_")[1]
-                nn = self.samples[:, self.names.index(f"n_{j}")]
-                col = (u.kc_from_si if name.startswith("kc_") else u.kphi_from_si)(
-                    self.samples[:, k], nn, units
-                )
-                lo, mid, hi = np.quantile(col, [0.05, 0.5, 0.95])
-                iv[name], med[name] = [float(lo), float(hi)], float(mid)
-            else:
-                lo, hi = self.intervals[name]
-                iv[name] = [conv(name, lo, 1.0), conv(name, hi, 1.0)]
-                med[name] = conv(name, self.medians[name], 1.0)
-        labels = dict(self.identifiability)
-        labels["phic_deg"] = LABELS[2]
-        return {
-            "intervals": iv,
-            "medians": med,
-            "identifiability": labels,
-            "phic_deg": self.phic_deg,
-            "acceptance": self.acceptance,
-            "units": units,
-        }
-
-
-def layered_posterior(
-    profile: CIProfile,
-    fit: Any,
-    *,
-    bounds: Bounds | None = None,
-    draws: int = 2000,
-    seed: int | None = None,
-    law: Any = None,
-    nwalkers: int = 48,
-    burn: int = 400,
-) -> LayeredPosterior:
-    """Posterior of a layered fit (:func:`fit_layered`) with emcee.
-
-    Priors uniform over the bounds of each layer's kc, kphi, n, cc and over
-    the interface depths (ordered, within the profile); the common phic is
-    held at the fit's value.  Residuals are independent Gaussian with an
-    unknown sigma integrated out (1/sigma prior), so the log-likelihood is
-    -N/2 log(SSE).  The forward model is :func:`terracone.physics.layers.layered_basis`
-    evaluated for all walkers at once.
-
-    Parameters
-    ----------
-    profile : CIProfile
-        The profile ``fit`` was fitted to.
-    fit : LayeredResult
-        An ``ok`` layered fit; the walkers start around it.
-    bounds : Bounds, optional
-    draws : int
-    seed : int, optional
-        The same seed gives the same draws.
-    law : PressureLaw, optional
-        Default: the fit's model and r_min.
-    nwalkers, burn : int
-
-    Returns
-    -------
-    LayeredPosterior
-
-    References
-    ----------
-    .. [2] Foreman-Mackey, D., Hogg, D.W., Lang, D., Goodman, J. (2013). emcee:
-       the MCMC hammer. PASP 125, 306-312.
-    """
-    bounds = bounds or Bounds()
-    law = law or pressure_law(fit.layers[0].model or "rm0", r_min=fit.layers[0].r_min)
-    z, y = profile.depth, profile.ci
-    phic = fit.layers[0].phic_deg
-    names, lo, hi = _layered_box(fit, bounds, float(z[0]), float(z[-1]))
-    span = np.where(hi > lo, hi - lo, 1.0)
-    log_prob = _LayeredLogPosterior(z, y, profile.cone, law, len(fit.layers), phic, lo, hi)
-    x0 = []
-    for p in fit.layers:
-        x0 += [p.kc, p.kphi, p.n, p.cc]
-    x0 += list(fit.interfaces)
-    x0 = np.clip(np.array(x0), lo, hi)
-    rng = np.random.default_rng(seed)
-    p0 = np.clip(x0 + 1e-3 * span * rng.standard_normal((nwalkers, x0.size)), lo, hi)
-    sampler = emcee.EnsembleSampler(
-        nwalkers,
-        x0.size,
-        log_prob,
-        vectorize=True,
-        moves=[(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)],
-    )
-    sampler.random_state = np.random.RandomState(rng.integers(2**31)).get_state()
-    steps = burn + int(math.ceil(draws / nwalkers)) * 5
-    sampler.run_mcmc(p0, steps, progress=False)
-    chain = sampler.get_chain(discard=burn, thin=5, flat=True)[-draws:]
-    intervals, medians, labels = {}, {}, {}
-    for k, name in enumerate(names):
-        q05, q50, q95 = np.quantile(chain[:, k], [0.05, 0.5, 0.95])
-        intervals[name] = (float(q05), float(q95))
-        medians[name] = float(q50)
-        labels[name] = identifiability_label((q95 - q05) / (0.9 * span[k]))
-    return LayeredPosterior(
-        names, chain, intervals, medians, labels, phic, float(np.mean(sampler.acceptance_fraction))
-    )
-
-
-def _layered_box(
-    fit: Any, bounds: Bounds, d_lo: float, d_hi: float
-) -> tuple[list[str], np.ndarray, np.ndarray]:
-    """Names and prior box of (kc_j, kphi_j, n_j, cc_j per layer, then the interfaces).
-
-    kc and kphi bounds are converted to SI at each layer's fitted n; the
-    interfaces lie between the first and last measured depths [m].
-    """
-    L = len(fit.layers)
-    names, lo, hi = [], [], []
-    for j in range(1, L + 1):
-        n_mid = fit.layers[j - 1].n
-        for nm, (a, b) in (
-            ("kc", tuple(float(v) for v in bounds.kc_si(n_mid))),
-            ("kphi", tuple(float(v) for v in bounds.kphi_si(n_mid))),
-            ("n", bounds.n),
-            ("cc", bounds.cc),
-        ):
-            names.append(f"{nm}_{j}")
-            lo.append(a)
-            hi.append(b)
-    for j in range(1, L):
-        names.append(f"interface_{j}")
-        lo.append(d_lo)
-        hi.append(d_hi)
-    return names, np.array(lo), np.array(hi)
-
-
-class _LayeredLogPosterior:
-    """log p(theta | CI) of :func:`layered_posterior`, vectorised over walkers (W, D).
-
-    Uniform prior inside ``lo <= theta <= hi``; sigma marginalised (1/sigma
-    prior): ``-N/2 log SSE``.  The model CI is eq. (2-7) with eq. (2-6) fully
-    mobilised, layer by layer (:func:`terracone.physics.layers.layered_basis`).
-    """
-
-    def __init__(self, z, y, cone, law, L, phic, lo, hi) -> None:
-        self.z, self.y, self.law, self.L, self.lo, self.hi = z, y, law, L, lo, hi
-        self.R, H = cone.radius, cone.height
-        self.t = self.R / H
-        self.s = 1.0 + math.tan(math.radians(phic)) / self.t
-        self.u1 = z + H
-        self.Lemb = np.where(z >= 0.0, H, self.u1)
-        self.u1s = np.where(self.u1 > 0, self.u1, 1.0)
-
-    def model(self, theta: np.ndarray) -> np.ndarray:
-        """Model CI (W, Z) [kPa] of parameter rows (W, D)."""
-        L, z, R, t, s = self.L, self.z, self.R, self.t, self.s
-        W = theta.shape[0]
-        D = np.concatenate(
-            [np.zeros((W, 1)), np.sort(theta[:, 4 * L :], axis=1), np.full((W, 1), np.inf)], axis=1
-        )
-        ci = np.zeros((W, z.size))
-        for j in range(L):
-            kc, kphi, n, cc = (theta[:, 4 * j + q][:, None] for q in range(4))
-            a = np.clip(self.u1[None, :] - D[:, j + 1][:, None], 0.0, self.Lemb[None, :])
-            b = np.clip(self.u1[None, :] - D[:, j][:, None], 0.0, self.Lemb[None, :])
-            Ic, Ip, Icc = normal_integrals(self.u1s[None, :], a, b, n, self.law, t)
-            ci += 2.0 / (R * R) * (t * s * (kc * Ic + kphi * Ip) + cc * Icc)  # eq. (2-7)
-        return ci
-
-    def __call__(self, theta: np.ndarray) -> np.ndarray:
-        theta = np.atleast_2d(theta)
-        ok = np.all((theta >= self.lo) & (theta <= self.hi), axis=1)
-        out = np.full(theta.shape[0], -np.inf)
-        if ok.any():
-            r = self.model(theta[ok]) - self.y[None, :]
-            sse = np.einsum("wz,wz->w", r, r)
-            out[ok] = -0.5 * self.y.size * np.log(np.maximum(sse, 1e-300))
-        return out
+def _undetermined(found: SearchResult, bounds: Bounds, ph_lo: float, ph_hi: float) -> list[str]:
+    """Interfaces and n's whose profile interval covers half their range or more, and phic."""
+    out = []
+    iv = found.intervals
+    span_n = bounds.n[1] - bounds.n[0]
+    for i in range(found.D.size):
+        lo, hi = iv.get(f"interface_{i + 1}", (0.0, 0.0))
+        rng = found.d_range[1] - found.d_range[0]
+        if hi - lo >= 0.5 * rng:
+            out.append(f"interface_{i + 1}")
+    for j in range(found.n.size):
+        lo, hi = iv.get(f"n_{j + 1}", (0.0, 0.0))
+        if span_n > 0 and hi - lo >= 0.5 * span_n:
+            out.append(f"n_{j + 1}")
+    if ph_hi - ph_lo > 1e-9 or bounds.phic[0] != bounds.phic[1]:
+        out = ["phic", *out, "phic~scale(kc,kphi)"]
+    return out
