@@ -351,7 +351,8 @@ def _layered_result(profile, found: SearchResult, ph, single: SearchResult, ph1,
     cert = {
         "sse": found.sse,
         "lower_bound": found.lower,
-        "gap": (found.sse - found.lower) / found.sse if found.sse > 0 else 0.0,
+        # relative; an SSE within rounding of 0 (1e-12 y'y: a noise-free fit) has none
+        "gap": (found.sse - found.lower) / found.sse if found.sse > 1e-12 * float(y @ y) else 0.0,
         "cells_open": found.cells_open,
         "method": CERTIFICATE_METHOD,
     }

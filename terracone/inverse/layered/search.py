@@ -470,10 +470,17 @@ def search_layers(
                   np.arange(C), np.full((C, Z), np.nan))  # fmt: skip
     dstep = max(float(np.median(np.diff(pb.z))) / 2.0, 1e-4) if Z > 1 else 1e-3
     tr = _Tracker(pb)
-    searched: set[int] = set()
-    for c in np.argsort(base.bound, kind="stable")[:starts]:
-        tr.local(np.concatenate([ends[c].mean(axis=-1), base.nbest[c]]), dstep)
-        searched.add(int(c))
+    searched: set[tuple[int, ...]] = set()
+    # every base cell's middle with each layer's best n (one evaluation each), then local
+    # searches from the cells of lowest separable bound and from those whose middles fit best
+    mid = tr.evaluate(ends.mean(axis=-1), base.nbest)[0]
+    first = np.concatenate([np.argsort(base.bound, kind="stable")[:starts],
+                            np.argsort(mid, kind="stable")[: 2 * starts]])  # fmt: skip
+    for c in first:
+        key = (int(c), *np.round(base.nbest[c] / (4 * max(pb.h, 1e-3))).astype(int))
+        if key not in searched:
+            tr.local(np.concatenate([ends[c].mean(axis=-1), base.nbest[c]]), dstep)
+            searched.add(key)
     cells, closed = base, math.inf
     for _ in range(levels):
         goal = tr.inc.sse * (1.0 - target)
@@ -484,12 +491,18 @@ def search_layers(
             break
         order = np.argsort(cells.bound, kind="stable")
         work, wait = cells.take(order[:cap]), cells.take(order[cap:])
-        _bound_cells(pb, tr, work, goal)
-        fresh = [i for i in np.argsort(work.bound) if int(work.base[i]) not in searched]
-        for i in fresh[:starts]:
-            if work.bound[i] < tr.inc.sse:
-                tr.local(np.concatenate([work.ends[i].mean(axis=-1), work.nbest[i]]), dstep)
-                searched.add(int(work.base[i]))
+        mid = _bound_cells(pb, tr, work, goal)
+        # local searches from the cells whose middles fit best, once per cell and region of n
+        done_here = 0
+        for i in np.argsort(mid):
+            if done_here >= starts or not work.bound[i] < tr.inc.sse:
+                continue
+            key = (int(work.base[i]), *np.round(work.nbest[i] / (4 * max(pb.h, 1e-3))).astype(int))
+            if key in searched:
+                continue
+            tr.local(np.concatenate([work.ends[i].mean(axis=-1), work.nbest[i]]), dstep)
+            searched.add(key)
+            done_here += 1
         cells = _Cells.join([_split(pb, work), wait])
     lower = min(closed, float(cells.bound.min(initial=math.inf)), tr.inc.sse)
     tr.local(tr.inc.p, dstep / 8.0)  # Nelder-Mead restarted from the best, smaller steps
@@ -506,7 +519,7 @@ def search_layers(
     return res
 
 
-def _bound_cells(pb: LayeredProblem, tr: _Tracker, cells: _Cells, goal: float = math.inf) -> None:
+def _bound_cells(pb: LayeredProblem, tr: _Tracker, cells: _Cells, goal: float = math.inf):
     """Bound cells in place with two sets of multipliers, keeping the better bound.
 
     lam = 0 (the rows an interface may cut dropped: the separable bound over
@@ -516,11 +529,11 @@ def _bound_cells(pb: LayeredProblem, tr: _Tracker, cells: _Cells, goal: float = 
     supergradient step of the dual; children inherit it).  Each n box
     shrinks to what either bound leaves below ``goal``; the cells' middles
     with their best n's are evaluated (offered to the tracker: they may
-    improve the best point).
+    improve the best point); returns their SSE (C,).
     """
     C = cells.bound.size
     if C == 0:
-        return
+        return np.zeros(0)
     inc = tr.inc
     unset = np.isnan(cells.lam[:, 0])
     if unset.any():
@@ -542,7 +555,7 @@ def _bound_cells(pb: LayeredProblem, tr: _Tracker, cells: _Cells, goal: float = 
     empty = np.any(hi <= lo, axis=1)  # no n left in some layer: nothing in the cell beats the goal
     cells.bound = np.where(empty, np.maximum(cells.bound, goal), cells.bound)
     cells.nbox = np.where(empty[:, None, None], cells.nbox, np.stack([lo, hi], axis=-1))
-    tr.evaluate(cells.ends.mean(axis=-1), cells.nbest)
+    return tr.evaluate(cells.ends.mean(axis=-1), cells.nbest)[0]
 
 
 def _split(pb: LayeredProblem, c: _Cells) -> _Cells:
