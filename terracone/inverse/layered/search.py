@@ -428,8 +428,8 @@ def search_layers(
     *,
     target: float = 0.02,
     levels: int = 24,
-    cap: int = 48,
-    starts: int = 2,
+    cap: int = 16,
+    starts: int = 1,
     noise_floor: float = 0.01,
     intervals: bool = True,
 ) -> SearchResult:
