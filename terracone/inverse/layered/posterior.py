@@ -194,13 +194,13 @@ def layered_posterior(
     draws: int = 2000,
     seed: int | None = None,
     law: Any = None,
-    nwalkers: int = 8,
-    burn: int = 2000,
-    thin: int = 16,
+    nwalkers: int = 4,
+    burn: int = 1000,
+    thin: int = 8,
     level: float = 0.9,
     min_thickness: float | None = None,
     phic_deg: float | None = None,
-    moves: int = 8,
+    moves: int = 6,
 ) -> LayeredPosterior:
     """Posterior of a layered fit (:func:`~terracone.inverse.layered.fit_layered`).
 

@@ -20,8 +20,8 @@ leaving the target invariant:
   profile of the likelihood rather than a slice of it;
 * **x given (p, sigma)**: exact Gibbs draws along fixed directions (the
   principal axes of the normal equations at the fit, and the coordinate
-  axes): along a line the conditional is a normal truncated to where the
-  line meets the box (:func:`truncated_normal`);
+  axes; every other one at each iteration): along a line the conditional is
+  a normal truncated to where the line meets the box (:func:`truncated_normal`);
 * **sigma given the rest**: sigma^2 = SSE / chi^2_N, exact.
 
 Of the ``moves`` steps of p per iteration, the even ones are joint steps (the
@@ -315,8 +315,9 @@ def run_chains(z, y, p0, s, bp, geom, space, dirs, step, iters, burn, thin, seed
                         cscale[c, ci] *= f
                     else:
                         scale[c] *= math.exp((0.7 if ok else -0.3) / math.sqrt(it + 1.0))
-            # x given (p, sigma): exact draws along the fixed directions
-            for d in range(dirs.shape[0]):
+            # x given (p, sigma): exact draws along every other fixed direction (the other
+            # half at the next iteration)
+            for d in range(it % 2, dirs.shape[0], 2):
                 line_update(x[c], dirs[d], Gs[c], gs[c], lo[c], hi[c], sig[c])
             sse[c] = residual_sse(Xs[c], y, x[c])
             # sigma given the rest
