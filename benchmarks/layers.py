@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
 import os
 import sys
 import tempfile
@@ -144,7 +145,20 @@ def fits(data: dict[str, list]) -> None:
 
 
 def batch(data: dict[str, list], copies: int, workers: tuple[int, ...]) -> None:
-    """Section 3: batch efficiency with --layers 2 (and 1, for comparison)."""
+    """Section 3: batch efficiency with --layers 2, and 1 for comparison.
+
+    Efficiency = end-to-end profiles/s of ``run_batch`` on W local workers /
+    (W x the per-core rate of the same work in this process: ``predict_many(...,
+    detail="summary")`` and, with layers, ``fit_layered`` per profile, on a chunk of
+    the same file).  Each run is on a Dask cluster started beforehand and warmed up
+    with a small batch (kernels loaded in the workers), so that the cluster's
+    start-up is not counted, as issue 20 measures it.  The one-layer runs use 20
+    times more copies and chunks 20 times larger (their work per profile is about
+    20 times less): the same number of chunks, of about the same duration.
+    """
+    import logging
+
+    import distributed
     import pandas as pd
 
     from terracone.apps.batch import run_batch
@@ -152,16 +166,19 @@ def batch(data: dict[str, list], copies: int, workers: tuple[int, ...]) -> None:
     from terracone.inverse.layered import fit_layered
 
     src = pd.read_csv(DATA / "ci_profiles.csv")
-    print(f"\n== 3. batch efficiency ({copies} copies of ci_profiles.csv, cone asabe-small)")
+    print("\n== 3. batch efficiency (copies of ci_profiles.csv, cone asabe-small)")
+    chunk = data["ci_profiles.csv"]  # the file's 224 profiles: the batch fits copies of them
     with tempfile.TemporaryDirectory() as tmp:
-        big = Path(tmp) / "many.csv"
-        parts = []
-        for k in range(copies):
-            part = src.copy()
-            part["profile"] = part["profile"] + f"#{k}"
-            parts.append(part)
-        pd.concat(parts).to_csv(big, index=False)
-        chunk = data["ci_profiles.csv"][:200]
+
+        def copy_file(n: int) -> Path:
+            path = Path(tmp) / f"many{n}.csv"
+            parts = [src.assign(profile=src["profile"] + f"#{k}") for k in range(n)]
+            pd.concat(parts).to_csv(path, index=False)
+            return path
+
+        files = {1: copy_file(20 * copies), 2: copy_file(copies)}
+        chunk_size = {1: 2000, 2: 100}  # as many chunks for either (22 at 10 copies)
+        small = copy_file(1)
         for layers in (1, 2):
 
             def work(items, layers=layers):
@@ -171,20 +188,28 @@ def batch(data: dict[str, list], copies: int, workers: tuple[int, ...]) -> None:
                         fit_layered(p, layers=layers)
 
             work(chunk[:5])
-            t0 = time.perf_counter()
-            work(chunk)
-            rate = len(chunk) / (time.perf_counter() - t0)
+            best = math.inf
+            for _ in range(3):  # the per-core rate: the best of three passes
+                t0 = time.perf_counter()
+                work(chunk)
+                best = min(best, time.perf_counter() - t0)
+            rate = len(chunk) / best
             line = f"--layers {layers}: per-core rate {rate:7.1f} profiles/s;"
             for W in workers:
-                out = Path(tmp) / f"out{layers}_{W}"
-                t0 = time.perf_counter()
-                s = run_batch(
-                    big, out, workers=W, layers=layers, cone="asabe-small", chunk_size=250,
-                    quiet=True,
+                cluster = distributed.LocalCluster(
+                    n_workers=W, threads_per_worker=1, processes=True, host="127.0.0.1",
+                    dashboard_address=None, silence_logs=logging.ERROR,
                 )  # fmt: skip
-                wall = time.perf_counter() - t0
+                with distributed.Client(cluster) as client:
+                    kw = dict(pool=client, layers=layers, cone="asabe-small", quiet=True)
+                    run_batch(small, Path(tmp) / f"warm{layers}_{W}", **kw)
+                    t0 = time.perf_counter()
+                    out = Path(tmp) / f"out{layers}_{W}"
+                    s = run_batch(files[layers], out, chunk_size=chunk_size[layers], **kw)
+                    wall = time.perf_counter() - t0
+                cluster.close()
                 eff = s.profiles / wall / (W * rate)
-                line += f" {W} worker(s) {s.profiles / wall:7.1f} profiles/s, efficiency {eff:.2f};"
+                line += f" {W} worker(s): {s.profiles} profiles {s.profiles / wall:7.1f}/s, efficiency {eff:.2f};"
             print(line)
 
 

@@ -257,3 +257,23 @@ def test_one_layer_is_the_exact_one_layer_fit(noise):
     assert res.sse >= ref.sse * (1 - 1e-6) - 1e-12 * yy
     assert res.certificate["lower_bound"] <= ref.sse * (1 + 1e-9) + 1e-12 * yy
     assert res.layers[0].n == pytest.approx(ref.n, abs=1e-3 if noise else 1e-5)
+
+
+def test_one_layer_with_open_lower_bounds_searches_phic():
+    """With lower bounds of kc and kphi above 0 the scaled boxes do not nest: phic is searched
+    on a grid, and the one-layer special case stays within the grid's reach of the exact solver
+    (which refines phic between its grid values)."""
+    b = Bounds(kc=(5.0, 1000.0), kphi=(100.0, 20000.0))
+    p = TerrainParameters(kc=30.0, kphi=4000.0, n=0.8, cc=2.0, phic_deg=20.0)
+    z = Z[3:]
+    y = layered_cone_index(z, [p], [], cone=CONE)
+    y = y * (1 + 0.03 * np.random.default_rng(4).standard_normal(z.size))
+    res = fit_layered(CIProfile("hom", z, y, cone=CONE), layers=1, bounds=b)
+    ref = solve_exact(z, y, cone=CONE, law=LAWS["rm0"], bounds=b, profiles=False)
+    assert res.ok
+    assert res.sse <= ref.sse * (1 + 1e-3)
+    assert res.certificate["lower_bound"] <= ref.sse * (1 + 1e-9)
+    lo, hi = res.phic_range
+    assert b.phic[0] <= lo <= res.layers[0].phic_deg <= hi <= b.phic[1]
+    for q in res.layers:
+        assert b.kc[0] <= q.kc <= b.kc[1] and b.kphi[0] <= q.kphi <= b.kphi[1]

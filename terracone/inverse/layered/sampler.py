@@ -210,38 +210,73 @@ def carry(x, xb, Lw, d, xb2, Lw2, d2, out) -> None:
 
 
 @njit(error_model="numpy")
-def run_chains(z, y, p0, s, bp, geom, space, dirs, step, iters, burn, thin, seed, moves):
-    """Run C chains from p0 (C, 2L-1); returns (draws (C, K, 2L-1 + 3L + 1), acceptance (C,)).
+def propose(pn, pc, it, m, moves, L, chol, scale, cscale, space):
+    """Fill pn with a proposal from pc (move m of ``moves`` at iteration it); returns the
+    coordinate moved alone (-1: a joint step, -2: a jump of an interface)."""
+    P = pc.shape[0]
+    one = m % 2 == 1  # even moves: the joint step (adapted shape); odd: one coordinate
+    ci = (it + m // 2) % P
+    jump = L > 1 and m == moves - 1  # the last: an interface anywhere in its range
+    for i in range(P):
+        if jump:
+            pn[i] = pc[i]
+            if i == it % (L - 1):
+                pn[i] = space[0] + (space[1] - space[0]) * np.random.random()
+        elif one:
+            pn[i] = pc[i] + (cscale[i] * np.random.standard_normal() if i == ci else 0.0)
+        else:
+            acc_i = 0.0
+            for j in range(i + 1):
+                acc_i += chol[i, j] * np.random.standard_normal()
+            pn[i] = pc[i] + scale * acc_i
+    return -2 if jump else (ci if one else -1)
 
-    Each kept draw is (p, x, sigma); K = (iters - burn) // thin.  space =
-    (lo_d, hi_d, gap, nlo, nhi) is the search space of p; dirs (m, 3L) the
-    fixed directions of the Gibbs moves of x; step (2L-1,) the initial
-    random-walk scales; ``moves`` random-walk steps per iteration.
-    """
-    np.random.seed(seed)
+
+@njit(error_model="numpy")
+def try_move(c, pn, st, sc, z, y, lu1, L, s, bp, geom, space) -> bool:
+    """Metropolis step of chain c to pn with x carried (see the module); st, sc the chains'
+    state and the scratch arrays of :func:`run_chains`.  True when accepted."""
+    p, x, xb, Xs, Gs, gs, lo, hi, lvol, sig, sse, sts = st
+    work, lo2, hi2, xn, Lw1, d1, Lw2, d2, free = sc
+    k = x.shape[1]
+    if not feasible(pn, L, space[0], space[1], space[2], space[3], space[4]):
+        return False
+    state_at(z, y, lu1, pn, L, s, bp, geom, work)
+    lv = log_box_volume(pn, L, bp, lo2, hi2)
+    for i in range(k):  # whitened over the variables free at both ends
+        free[i] = sts[c, i] == 0 and work[6][i] == 0
+    ld1 = whitening(Gs[c], Lw1, d1, free)
+    ld2 = whitening(work[1], Lw2, d2, free)
+    carry(x[c], xb[c], Lw1, d1, work[5], Lw2, d2, xn)
+    for i in range(k):
+        if not (lo2[i] <= xn[i] <= hi2[i]):
+            return False
+    s_new = residual_sse(work[0], y, xn)
+    log_a = -(s_new - sse[c]) / (2.0 * sig[c] * sig[c]) + lvol[c] - lv
+    log_a += ld2 - ld1  # the Jacobian of the carried offset
+    if not math.log(np.random.random()) < log_a:
+        return False
+    p[c] = pn
+    x[c], xb[c] = xn, work[5]
+    Xs[c], Gs[c], gs[c] = work[0], work[1], work[2]
+    sts[c] = work[6]
+    lo[c], hi[c] = lo2, hi2
+    lvol[c], sse[c] = lv, s_new
+    return True
+
+
+@njit(error_model="numpy")
+def init_chains(z, y, lu1, p0, L, s, bp, geom, work):
+    """The chains' state at p0: (p, x, best x, design, normal equations, box, log box
+    volume, sigma, SSE, face of the best x), x at its best value."""
     C, P = p0.shape
-    L = (P + 1) // 2
-    k = 3 * L
-    Z = z.shape[0]
-    lo_d, hi_d, gap, nlo, nhi = space
-    lu1 = np.empty(Z)
-    for q in range(Z):
-        u1 = z[q] + geom[0]
-        lu1[q] = math.log(u1) if u1 > 0.0 else 0.0
-    K = (iters - burn) // thin
-    out = np.empty((C, K, P + k + 1))
-    acc = np.zeros(C)
-    # per chain: p, x, best x at p, design, normal equations, box, sigma
-    p, pn = p0.copy(), np.empty(P)
-    x, xb = np.empty((C, k)), np.empty((C, k))
-    Xs, Gs, gs = np.empty((C, Z, k)), np.empty((C, k, k)), np.empty((C, k))
-    lo, hi = np.empty((C, k)), np.empty((C, k))
-    lvol, sig, sse = np.empty(C), np.empty(C), np.empty(C)
-    sts = np.zeros((C, k), dtype=np.int64)  # the face of each chain's best x (0: free)
-    work = lk.new_work(Z, k)
-    lo2, hi2, xn = np.empty(k), np.empty(k), np.empty(k)
-    Lw1, d1, Lw2, d2 = np.zeros((k, k)), np.empty(k), np.zeros((k, k)), np.empty(k)
-    free = np.empty(k, dtype=np.bool_)
+    Z, k = z.shape[0], 3 * L
+    st = (
+        p0.copy(), np.empty((C, k)), np.empty((C, k)), np.empty((C, Z, k)),
+        np.empty((C, k, k)), np.empty((C, k)), np.empty((C, k)), np.empty((C, k)),
+        np.empty(C), np.empty(C), np.empty(C), np.zeros((C, k), dtype=np.int64),
+    )  # fmt: skip
+    p, x, xb, Xs, Gs, gs, lo, hi, lvol, sig, sse, sts = st
     for c in range(C):
         sse[c] = state_at(z, y, lu1, p[c], L, s, bp, geom, work)
         x[c], xb[c] = work[5], work[5]
@@ -249,79 +284,70 @@ def run_chains(z, y, p0, s, bp, geom, space, dirs, step, iters, burn, thin, seed
         sts[c] = work[6]
         lvol[c] = log_box_volume(p[c], L, bp, lo[c], hi[c])
         sig[c] = math.sqrt(max(sse[c], 1e-300) / Z)
-    chol = np.zeros((P, P))
-    for i in range(P):
-        chol[i, i] = step[i]
-    scale = np.ones(C)
-    cscale = np.empty((C, P))
-    for i in range(P):
-        cscale[:, i] = step[i]
+    return st
+
+
+@njit(error_model="numpy")
+def run_chains(z, y, p0, s, bp, geom, space, dirs, step, iters, burn, thin, seed, moves):
+    """Run C chains from p0 (C, 2L-1); returns (draws (C, K, 2L-1 + 3L + 1), acceptance (C,)).
+
+    Each kept draw is (p, x, sigma); K = (iters - burn) // thin.  space =
+    (lo_d, hi_d, gap, nlo, nhi) is the search space of p; dirs (m, 3L) the
+    fixed directions of the Gibbs moves of x; step (2L-1,) the initial
+    random-walk scales; ``moves`` moves of p per iteration.
+    """
+    np.random.seed(seed)
+    C, P = p0.shape
+    L = (P + 1) // 2
+    k = 3 * L
+    Z = z.shape[0]
+    lu1 = np.empty(Z)
+    for q in range(Z):
+        u1 = z[q] + geom[0]
+        lu1[q] = math.log(u1) if u1 > 0.0 else 0.0
+    K = (iters - burn) // thin
+    out = np.empty((C, K, P + k + 1))
+    acc = np.zeros(C)
+    work = lk.new_work(Z, k)
+    st = init_chains(z, y, lu1, p0, L, s, bp, geom, work)
+    p, x, Xs, Gs, gs, lo, hi, sig, sse = (
+        st[0],
+        st[1],
+        st[3],
+        st[4],
+        st[5],
+        st[6],
+        st[7],
+        st[9],
+        st[10],
+    )
+    sc = (work, np.empty(k), np.empty(k), np.empty(k), np.zeros((k, k)), np.empty(k),
+          np.zeros((k, k)), np.empty(k), np.empty(k, dtype=np.bool_))  # fmt: skip
+    pn = np.empty(P)
+    chol = np.diag(step.copy())
+    scale, cscale = np.ones(C), np.empty((C, P))
+    for c in range(C):
+        cscale[c] = step
     hist = np.empty((C, max(burn // 4, 1), P))
     nh = 0
     for it in range(iters):
         if it == burn // 2 and nh > 2 * P:  # the step's shape from the chains' spread
             chol = adapted_shape(hist[:, :nh], chol)
         for c in range(C):
-            for _m in range(moves):  # (p, x) together: x carried with its best value
-                # even moves: the joint step (adapted shape); odd: one coordinate at a time, or
-                # (the last move) an interface anywhere in its range (a jump between modes)
-                one = _m % 2 == 1
-                ci = (it + _m // 2) % P
-                jump = L > 1 and _m == moves - 1
-                for i in range(P):
-                    if jump:
-                        pn[i] = p[c, i]
-                        if i == it % (L - 1):
-                            pn[i] = lo_d + (hi_d - lo_d) * np.random.random()
-                    elif one:
-                        pn[i] = p[c, i] + (
-                            cscale[c, i] * np.random.standard_normal() if i == ci else 0.0
-                        )
-                    else:
-                        acc_i = 0.0
-                        for j in range(i + 1):
-                            acc_i += chol[i, j] * np.random.standard_normal()
-                        pn[i] = p[c, i] + scale[c] * acc_i
-                ok = False
-                if feasible(pn, L, lo_d, hi_d, gap, nlo, nhi):
-                    state_at(z, y, lu1, pn, L, s, bp, geom, work)
-                    lv = log_box_volume(pn, L, bp, lo2, hi2)
-                    for i in range(k):  # whitened over the variables free at both ends
-                        free[i] = sts[c, i] == 0 and work[6][i] == 0
-                    ld1 = whitening(Gs[c], Lw1, d1, free)
-                    ld2 = whitening(work[1], Lw2, d2, free)
-                    carry(x[c], xb[c], Lw1, d1, work[5], Lw2, d2, xn)
-                    ok = True
-                    for i in range(k):
-                        if not (lo2[i] <= xn[i] <= hi2[i]):
-                            ok = False
-                    if ok:
-                        s_new = residual_sse(work[0], y, xn)
-                        log_a = -(s_new - sse[c]) / (2.0 * sig[c] * sig[c]) + lvol[c] - lv
-                        log_a += ld2 - ld1  # the Jacobian of the carried offset
-                        if math.log(np.random.random()) < log_a:
-                            p[c] = pn
-                            x[c], xb[c] = xn, work[5]
-                            Xs[c], Gs[c], gs[c] = work[0], work[1], work[2]
-                            sts[c] = work[6]
-                            lo[c], hi[c] = lo2, hi2
-                            lvol[c], sse[c] = lv, s_new
-                            acc[c] += 1.0 / moves if it >= burn else 0.0
-                        else:
-                            ok = False
-                if it < burn and not jump:  # Robbins-Monro on the step's scale
-                    f = math.exp((0.56 if ok else -0.44) / math.sqrt(it + 1.0))
-                    if one:  # a single coordinate: towards 0.44 accepted
-                        cscale[c, ci] *= f
-                    else:
-                        scale[c] *= math.exp((0.7 if ok else -0.3) / math.sqrt(it + 1.0))
+            for m in range(moves):  # (p, x) together: x carried with its best value
+                ci = propose(pn, p[c], it, m, moves, L, chol, scale[c], cscale[c], space)
+                ok = try_move(c, pn, st, sc, z, y, lu1, L, s, bp, geom, space)
+                acc[c] += 1.0 / moves if ok and it >= burn else 0.0
+                if it < burn and ci >= 0:  # Robbins-Monro: one coordinate towards 0.44
+                    cscale[c, ci] *= math.exp((0.56 if ok else -0.44) / math.sqrt(it + 1.0))
+                elif it < burn and ci == -1:  # the joint step towards 0.3 accepted
+                    scale[c] *= math.exp((0.7 if ok else -0.3) / math.sqrt(it + 1.0))
             # x given (p, sigma): exact draws along every other fixed direction (the other
             # half at the next iteration)
             for d in range(it % 2, dirs.shape[0], 2):
                 line_update(x[c], dirs[d], Gs[c], gs[c], lo[c], hi[c], sig[c])
             sse[c] = residual_sse(Xs[c], y, x[c])
-            # sigma given the rest
-            sig[c] = math.sqrt(max(sse[c], 1e-300) / np.random.chisquare(Z))
+            sig[c] = math.sqrt(max(sse[c], 1e-300) / np.random.chisquare(Z))  # sigma | rest
             if burn // 4 <= it < burn // 2 and nh < hist.shape[1]:
                 hist[c, nh] = p[c]
             if it >= burn and (it - burn) % thin == 0 and (it - burn) // thin < K:

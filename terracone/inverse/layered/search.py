@@ -594,21 +594,17 @@ def _profile_intervals(pb, tr: _Tracker, res: SearchResult, base: _Cells, noise_
     """Approximate 95% profile intervals of each interface and each n (inner approximations).
 
     The threshold is SSE + 3.84 sigma^2 with sigma^2 = max(SSE / (N - 5L),
-    (noise_floor mean|CI|)^2), as the one-layer fit's.  Every base cell that
-    its bound does not exclude is evaluated at its middle with its best n's;
-    each n is swept over its grid at the best fit's interfaces and the other
-    n's.  An interval holds the values of the points evaluated within the
-    threshold (so the data cannot exclude them), widened by a grid step.
+    (noise_floor mean|CI|)^2), as the one-layer fit's.  The points are those
+    the search evaluated (the middle of every base cell with each layer's
+    best n, the cells it refined, its local searches) and a sweep of each n
+    over its grid at the best fit's interfaces and other n's.  An interval
+    holds the values of the points within the threshold (so the data cannot
+    exclude them), widened by a grid step.
     """
     N, L = pb.y.size, pb.L
     sigma2 = max(res.sse / max(N - 5 * L, 1), (noise_floor * float(np.mean(np.abs(pb.y)))) ** 2)
     thr = res.sse + CHI2_1_95 * sigma2
     res.threshold = thr
-    if L > 1:
-        cells = base.take(np.flatnonzero(base.bound <= thr))
-        _bound_cells(pb, tr, cells)
-        cells = cells.take(np.flatnonzero(cells.bound <= thr))
-        tr.evaluate(cells.ends.mean(axis=-1), cells.nbest)
     if pb.ng.size > 1:
         for j in range(L):
             nss = np.repeat(res.n[None, :], pb.ng.size, axis=0)

@@ -393,6 +393,24 @@ def quad3(G, g, yy, lo, hi, x, st, ws, C, idx) -> float:
 
 
 @njit(error_model="numpy")
+def add_row(G, g, F, k, q, yq) -> float:
+    """Add row q of the full columns at grid index k, F[k, q] (3,), to the normal equations G
+    (3, 3), g (3,) of data yq; returns yq^2 (for y'y)."""
+    A, B, C = F[k, q, 0], F[k, q, 1], F[k, q, 2]
+    G[0, 0] += A * A
+    G[0, 1] += A * B
+    G[0, 2] += A * C
+    G[1, 1] += B * B
+    G[1, 2] += B * C
+    G[2, 2] += C * C
+    G[1, 0], G[2, 0], G[2, 1] = G[0, 1], G[0, 2], G[1, 2]
+    g[0] += A * yq
+    g[1] += B * yq
+    g[2] += C * yq
+    return yq * yq
+
+
+@njit(error_model="numpy")
 def segment_sse(F, y, lo, hi, need):
     """One-layer SSE of runs of rows [i, j) at every n: (Z + 1, Z + 1, K).
 
@@ -419,28 +437,15 @@ def segment_sse(F, y, lo, hi, need):
         if last < 0:
             continue
         for k in range(K):
-            aa = ab = ac = bb = bc = cc = ay = by = cy = yy = 0.0
+            G[:] = 0.0
+            g[:] = 0.0
+            yy = 0.0
             if need[i, i]:
                 out[i, i, k] = 0.0
-            for j in range(i, last):
-                A, B, C = F[k, j, 0], F[k, j, 1], F[k, j, 2]
-                aa += A * A
-                ab += A * B
-                ac += A * C
-                bb += B * B
-                bc += B * C
-                cc += C * C
-                ay += A * y[j]
-                by += B * y[j]
-                cy += C * y[j]
-                yy += y[j] * y[j]
-                if not need[i, j + 1]:
-                    continue
-                G[0, 0], G[0, 1], G[0, 2] = aa, ab, ac
-                G[1, 0], G[1, 1], G[1, 2] = ab, bb, bc
-                G[2, 0], G[2, 1], G[2, 2] = ac, bc, cc
-                g[0], g[1], g[2] = ay, by, cy
-                out[i, j + 1, k] = max(quad3(G, g, yy, lo[k], hi[k], x, st, ws, Cw, idx), 0.0)
+            for j in range(i, last):  # running sums from row i
+                yy += add_row(G, g, F, k, j, y[j])
+                if need[i, j + 1]:
+                    out[i, j + 1, k] = max(quad3(G, g, yy, lo[k], hi[k], x, st, ws, Cw, idx), 0.0)
     return out
 
 
@@ -488,19 +493,11 @@ def cell_terms(z, y, lu1, F, ns, lo, hi, kidx, seg, mixed, lam, ends, s, geom):
                     for q in range(Z):
                         xp[c, j, m, q] = xp[c, j, m - 1, q]
                     continue
-                aa = ab = ac = bb = bc = cc = ay = by = cy = yy = 0.0
+                G[:] = 0.0
+                g[:] = 0.0
+                yy = 0.0
                 for q in range(i0, i1):
-                    A, B, C = F[k, q, 0], F[k, q, 1], F[k, q, 2]
-                    aa += A * A
-                    ab += A * B
-                    ac += A * C
-                    bb += B * B
-                    bc += B * C
-                    cc += C * C
-                    ay += A * y[q]
-                    by += B * y[q]
-                    cy += C * y[q]
-                    yy += y[q] * y[q]
+                    yy += add_row(G, g, F, k, q, y[q])
                 for q in range(Z):
                     P[q, 0] = P[q, 1] = P[q, 2] = 0.0
                     if not mixed[c, q]:
@@ -518,23 +515,16 @@ def cell_terms(z, y, lu1, F, ns, lo, hi, kidx, seg, mixed, lam, ends, s, geom):
                         z[q], H, lu1[q], d_top, d_bot, ns[k], s, R, rm1, r_t, alpha, beta
                     )
                     P[q, 0], P[q, 1], P[q, 2] = A, B, C
-                    ay -= lq * A
-                    by -= lq * B
-                    cy -= lq * C
+                    g[0] -= lq * A
+                    g[1] -= lq * B
+                    g[2] -= lq * C
                 if i1 <= i0:  # no row held in the layer: a linear term, smallest at a corner
                     f = 0.0
-                    for a, ga in ((0, ay), (1, by), (2, cy)):
-                        if -2.0 * ga * lo[k, a] <= -2.0 * ga * hi[k, a]:
-                            x[a] = lo[k, a]
-                        else:
-                            x[a] = hi[k, a]
-                        f -= 2.0 * ga * x[a]
+                    for a in range(3):
+                        x[a] = lo[k, a] if g[a] * lo[k, a] >= g[a] * hi[k, a] else hi[k, a]
+                        f -= 2.0 * g[a] * x[a]
                     out[c, j, m] = f
                 else:
-                    G[0, 0], G[0, 1], G[0, 2] = aa, ab, ac
-                    G[1, 0], G[1, 1], G[1, 2] = ab, bb, bc
-                    G[2, 0], G[2, 1], G[2, 2] = ac, bc, cc
-                    g[0], g[1], g[2] = ay, by, cy
                     out[c, j, m] = quad3(G, g, yy, lo[k], hi[k], x, st, ws, Cw, idx)
                 for q in range(Z):
                     if mixed[c, q]:
