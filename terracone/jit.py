@@ -79,6 +79,7 @@ WARMUP_MODULE = "terracone.apps.warmup"
 #: stamp key the marker, as they key numba's own cache).
 KERNEL_SOURCES = (
     "inverse/solver/kernels.py",
+    "inverse/solver/layered_kernels.py",
     "inverse/solver/polish.py",
     "inverse/uncertainty/likelihood.py",
     "physics/metrics.py",

@@ -229,28 +229,3 @@ def test_fit_layered_errors_are_results():
     res = fit_layered(short, layers=2)
     assert not res.ok and res.error
     assert res.as_dict() == {"id": "short", "status": "error", "error": res.error}
-
-
-def test_box_lsq_reaches_bvls_optimum():
-    """The NNLS-with-caps path of the layered fit's box solve against scipy's BVLS: the same
-    minimum on random boxed problems where upper bounds bind (7 variables, 2 layers + cc)."""
-    import importlib
-
-    from scipy.optimize import lsq_linear
-
-    layered = importlib.import_module("terracone.inverse.layered")
-    rng = np.random.default_rng(7)
-    binding = 0
-    for _ in range(60):
-        X = np.abs(rng.standard_normal((30, 7))) * rng.uniform(0.1, 10.0, 7)
-        y = X @ rng.uniform(0.0, 2.0, 7) + rng.normal(0.0, 0.5, 30)
-        lo, hi = np.zeros(7), rng.uniform(0.2, 1.5, 7)
-        x, sse = layered._box_lsq(X, y, lo, hi)
-        ref = lsq_linear(X, y, bounds=(lo, hi), method="bvls", tol=1e-14).x
-        sse_ref = float(np.sum((X @ ref - y) ** 2))
-        assert np.all(x >= lo) and np.all(x <= hi)
-        assert sse == pytest.approx(float(np.sum((X @ x - y) ** 2)), rel=1e-12)
-        assert sse <= sse_ref * (1 + 1e-9) + 1e-12
-        np.testing.assert_allclose(x, ref, rtol=1e-6, atol=1e-8)
-        binding += int(np.any(np.isclose(x, hi)))
-    assert binding >= 20  # the upper bounds really bind

@@ -1,0 +1,256 @@
+"""Benchmark of the layered fit (issue 24): speed before and after, fits, batch, calibration.
+
+On the Marsden Farm pushes in ../shared (``ci_profiles.csv`` and the SC900
+export, the SC900's small cone), in one run:
+
+1. per-push time of the one-layer fit (``predict_many``, what ``terracone
+   predict`` runs) and of the layered fit with 1, 2 and 3 layers, after
+   (``fit_layered``) and before (the frozen copy of the fit before issue 24,
+   ``benchmarks/layered_before.py``, on a subset: it takes 0.3 s a push
+   with two layers and 2-7 s with three), with the ratios to the one-layer
+   fit measured in the same run;
+2. the RMSD and BIC of every push against the fits recorded before issue 24
+   (``tests/data/layered_rmsd_before.csv``): better, equal, worse; and how
+   often two or three layers win by BIC, with the median R^2;
+3. the efficiency of ``terracone batch --layers 2`` (``run_batch``):
+   profiles per second end to end on W local workers divided by W times the
+   per-core rate of the same work (``predict_many(..., detail="summary")``
+   and ``fit_layered`` on a chunk of the same file, in this process);
+4. with ``--coverage N``, the coverage table of the layered posterior's 90%
+   intervals over N profiles drawn from its prior (the test's generator).
+
+Wall-clock figures on a shared machine are noisy; the ratios are measured in
+one run.  Usage::
+
+    python benchmarks/layers.py                      # all of it, modest sizes
+    python benchmarks/layers.py --before 40 --copies 20 --coverage 200
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != HERE]  # no shadowing
+
+import numpy as np  # noqa: E402
+
+DATA = ROOT.parent / "shared" / "data" / "marsden-penetrometer"
+FILES = ("ci_profiles.csv", "sc900_export_2019-06-11.txt")
+RECORD = ROOT / "tests" / "data" / "layered_rmsd_before.csv"
+
+
+def before_module():
+    """benchmarks/layered_before.py, imported by path (benchmarks/ is kept off sys.path)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("layered_before", HERE / "layered_before.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def pushes() -> dict[str, list]:
+    from terracone.io import read_ci_profiles
+
+    out = {}
+    for name in FILES:
+        items = read_ci_profiles(DATA / name, cone="asabe-small", on_error="collect")
+        out[name] = [p for p in items if hasattr(p, "depth")]
+    return out
+
+
+def per_push(fn, items) -> float:
+    t0 = time.perf_counter()
+    for p in items:
+        fn(p)
+    return (time.perf_counter() - t0) / len(items)
+
+
+def speed(data: dict[str, list], n_before: int) -> None:
+    """Section 1: per-push times and ratios to the one-layer fit, before and after."""
+    from terracone.inverse import predict_many
+    from terracone.inverse.layered import fit_layered
+
+    before = before_module()
+    print("== 1. per-push time on the Marsden pushes (ms; ratio to the one-layer fit)")
+    for name, items in data.items():
+        fit_layered(items[-1], layers=3)  # kernels loaded, not timed
+        predict_many(items[:3])
+        t1 = []
+        for _ in range(3):  # the one-layer fit of the whole file, three times: its best
+            t0 = time.perf_counter()
+            predict_many(items)
+            t1.append((time.perf_counter() - t0) / len(items))
+        one = min(t1)
+        ok = {L: [p for p in items if p.depth.size >= 5 * L] for L in (1, 2, 3)}
+        after = {L: per_push(lambda p, L=L: fit_layered(p, layers=L), ok[L]) for L in (1, 2, 3)}
+        sub = {L: ok[L][:: max(1, len(ok[L]) // n_before)][:n_before] for L in (2, 3)}
+        old = {L: per_push(lambda p, L=L: before.fit_before(p, layers=L), sub[L]) for L in (2, 3)}
+        print(f"{name}: {len(items)} pushes; one layer (predict_many) {one * 1e3:.2f} ms")
+        for L in (1, 2, 3):
+            line = f"  {L} layer(s): after {after[L] * 1e3:8.2f} ms  {after[L] / one:6.1f}x"
+            if L > 1:
+                line += (
+                    f"   before {old[L] * 1e3:8.1f} ms  {old[L] / one:7.0f}x"
+                    f" ({len(sub[L])} pushes)   speed-up {old[L] / after[L]:5.0f}x"
+                )
+            print(line)
+
+
+def fits(data: dict[str, list]) -> None:
+    """Section 2: RMSD and BIC against the fits recorded before issue 24."""
+    from terracone.inverse.layered import fit_layered
+
+    with open(RECORD, newline="") as fh:
+        rows = list(csv.DictReader(line for line in fh if not line.startswith("#")))
+    by_id = {(n, p.id): p for n, items in data.items() for p in items}
+    print("\n== 2. RMSD and BIC against the fits before issue 24 (every recorded push)")
+    for L in (2, 3):
+        sel = [r for r in rows if int(r["layers"]) == L]
+        new, old, wins, r2_1, r2_L, gaps = [], [], [], [], [], []
+        for r in sel:
+            res = fit_layered(by_id[(r["file"], r["profile"])], layers=L)
+            new.append(res.rmsd)
+            old.append(float(r["rmsd_kpa"]))
+            wins.append(res.preferred_layers == L)
+            r2_L.append(res.r2_ci)
+            y, m1 = res.ci, res.ci_model_single
+            r2_1.append(1 - np.sum((m1 - y) ** 2) / np.sum((y - y.mean()) ** 2))
+            gaps.append(res.certificate["gap"])
+        new, old = np.array(new), np.array(old)
+        better = int(np.sum(new < old * (1 - 1e-6)))
+        worse = int(np.sum(new > old * (1 + 1e-6) + 1e-6))
+        rel = (new - old) / old
+        n = len(sel)
+        # BIC changes by N ln(SSE_new / SSE_old) = 2 N ln(RMSD_new / RMSD_old)
+        print(
+            f"{L} layers, {n} pushes: RMSD better {better}, equal {n - better - worse}, worse"
+            f" {worse}; change median {np.median(rel):+.2%}, best {rel.min():+.1%};"
+            f" BIC change median {np.median(2 * np.log(new / old)):+.3f} per point"
+        )
+        print(
+            f"   {L} layers win by BIC on {np.mean(wins):.0%}; median R2 one layer"
+            f" {np.median(r2_1):.2f}, {L} layers {np.median(r2_L):.2f}; certificate gap"
+            f" median {np.median(gaps):.2%}, 90th percentile {np.quantile(gaps, 0.9):.1%}"
+        )
+
+
+def batch(data: dict[str, list], copies: int, workers: tuple[int, ...]) -> None:
+    """Section 3: batch efficiency with --layers 2, and 1 for comparison.
+
+    Efficiency = end-to-end profiles/s of ``run_batch`` on W local workers /
+    (W x the per-core rate of the same work in this process: ``predict_many(...,
+    detail="summary")`` and, with layers, ``fit_layered`` per profile, on a chunk of
+    the same file).  Each run is on a Dask cluster started beforehand and warmed up
+    with a small batch (kernels loaded in the workers), so that the cluster's
+    start-up is not counted, as issue 20 measures it.  The one-layer runs use 20
+    times more copies and chunks 20 times larger (their work per profile is about
+    20 times less): the same number of chunks, of about the same duration.
+    """
+    import logging
+
+    import distributed
+    import pandas as pd
+
+    from terracone.apps.batch import run_batch
+    from terracone.inverse import predict_many
+    from terracone.inverse.layered import fit_layered
+
+    src = pd.read_csv(DATA / "ci_profiles.csv")
+    print("\n== 3. batch efficiency (copies of ci_profiles.csv, cone asabe-small)")
+    chunk = data["ci_profiles.csv"]  # the file's 224 profiles: the batch fits copies of them
+    with tempfile.TemporaryDirectory() as tmp:
+
+        def copy_file(n: int) -> Path:
+            path = Path(tmp) / f"many{n}.csv"
+            parts = [src.assign(profile=src["profile"] + f"#{k}") for k in range(n)]
+            pd.concat(parts).to_csv(path, index=False)
+            return path
+
+        files = {1: copy_file(20 * copies), 2: copy_file(copies)}
+        chunk_size = {1: 2000, 2: 100}  # as many chunks for either (22 at 10 copies)
+        small = copy_file(1)
+        for layers in (1, 2):
+
+            def work(items, layers=layers):
+                predict_many(items, detail="summary")
+                if layers > 1:
+                    for p in items:
+                        fit_layered(p, layers=layers)
+
+            work(chunk[:5])
+            best = math.inf
+            for _ in range(3):  # the per-core rate: the best of three passes
+                t0 = time.perf_counter()
+                work(chunk)
+                best = min(best, time.perf_counter() - t0)
+            rate = len(chunk) / best
+            line = f"--layers {layers}: per-core rate {rate:7.1f} profiles/s;"
+            for W in workers:
+                cluster = distributed.LocalCluster(
+                    n_workers=W, threads_per_worker=1, processes=True, host="127.0.0.1",
+                    dashboard_address=None, silence_logs=logging.ERROR,
+                )  # fmt: skip
+                with distributed.Client(cluster) as client:
+                    kw = dict(pool=client, layers=layers, cone="asabe-small", quiet=True)
+                    run_batch(small, Path(tmp) / f"warm{layers}_{W}", **kw)
+                    t0 = time.perf_counter()
+                    out = Path(tmp) / f"out{layers}_{W}"
+                    s = run_batch(files[layers], out, chunk_size=chunk_size[layers], **kw)
+                    wall = time.perf_counter() - t0
+                cluster.close()
+                eff = s.profiles / wall / (W * rate)
+                line += f" {W} worker(s): {s.profiles} profiles {s.profiles / wall:7.1f}/s, efficiency {eff:.2f};"
+            print(line)
+
+
+def coverage(count: int) -> None:
+    """Section 4: coverage of the layered posterior's 90% intervals (the test's generator)."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    from scipy.stats import binom
+    from test_layered_uncertainty import coverage_run
+
+    t0 = time.perf_counter()
+    hits = coverage_run(count)
+    lo, hi = binom.ppf([0.001, 0.999], count, 0.9)
+    print(f"\n== 4. coverage of the 90% intervals, {count} two-layer profiles from the prior")
+    print(f"   (central 99.8% of Binomial({count}, 0.9): {lo:.0f} to {hi:.0f})")
+    for name, v in hits.items():
+        print(f"   {name:12s} {int(v.sum()):4d} / {count}  {v.mean():.3f}")
+    print(f"   {(time.perf_counter() - t0) / count:.2f} s a profile (fit and posterior)")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--before", type=int, default=12, help="pushes timed with the old fit")
+    ap.add_argument("--copies", type=int, default=10, help="copies of the CSV for the batch")
+    ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--coverage", type=int, default=0, help="profiles of the coverage table")
+    ap.add_argument("--skip", nargs="*", default=[], choices=["speed", "fits", "batch"])
+    args = ap.parse_args()
+    if not DATA.exists():
+        sys.exit(f"{DATA} not found: the Marsden pushes live in ../shared beside the repository")
+    data = pushes()
+    if "speed" not in args.skip:
+        speed(data, args.before)
+    if "fits" not in args.skip:
+        fits(data)
+    if "batch" not in args.skip:
+        batch(data, args.copies, tuple(args.workers))
+    if args.coverage:
+        coverage(args.coverage)
+    load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
+    print(f"\n(load average of the machine at the end: {load})")
+
+
+if __name__ == "__main__":
+    main()
