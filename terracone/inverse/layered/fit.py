@@ -302,7 +302,10 @@ def _phic_ridge(x: np.ndarray, ns: np.ndarray, ph: float, bounds: Bounds, cone: 
     Returns (phic_lo, phic_hi, phic_mid, s_fit / s_mid).
     """
     s_fit = float(phic_scale(ph, cone))
-    need, room = float(phic_scale(bounds.phic_deg[0], cone)), float(phic_scale(bounds.phic_deg[1], cone))
+    need, room = (
+        float(phic_scale(bounds.phic_deg[0], cone)),
+        float(phic_scale(bounds.phic_deg[1], cone)),
+    )
     for j, nj in enumerate(ns):
         for k, (lo, hi) in enumerate((bounds.kc_si(nj), bounds.kphi_si(nj))):
             v = x[3 * j + k] * s_fit  # the product the data fix
