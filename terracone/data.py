@@ -748,7 +748,7 @@ class TerrainShear:
     cc, phic, Kc: :class:`TerrainParameters`).  Measured with shear rings or
     plates (:func:`terracone.physics.shear.fit_shear`), tabulated for reference
     terrains (:mod:`terracone.apps.library`), exported as Chrono's Mohr and
-    Janosi parameters (:mod:`terracone.apps.export`).
+    Janosi parameters (:mod:`terracone.apps.chrono`).
 
     Attributes
     ----------
