@@ -785,7 +785,7 @@ class TerrainShear:
     cc, phic_deg, K_cone: :class:`TerrainParameters`).  Measured with shear rings or
     plates (:func:`terracone.inverse.bevameter.shear.fit_shear`), tabulated for reference
     terrains (:mod:`terracone.apps.library`), exported as Chrono's Mohr and
-    Janosi parameters (:mod:`terracone.apps.export`).
+    Janosi parameters (:mod:`terracone.apps.chrono`).
 
     Attributes
     ----------

@@ -552,13 +552,13 @@ def test_library_and_chrono_export(tmp_path: Path, monkeypatch):
     out = tmp_path / "scm.json"
     r = run("export", "--terrain", "my-soil", "--format", "chrono-scm", "--out", str(out))
     assert r.exit_code == 0, r.output
-    soil = json.loads(out.read_text())["Soil Parameters"]
+    soil = json.loads(out.read_text())["Soil parameters"]  # Chrono's co-simulation spec
     assert soil["Bekker Kphi"] == pytest.approx(5.0e6)
     assert soil["Bekker Kc"] == pytest.approx(1.0e5)
-    assert soil["Bekker n"] == pytest.approx(0.8)
-    assert soil["Mohr Cohesion"] == pytest.approx(1500.0)
-    assert soil["Mohr Friction"] == pytest.approx(30.0)
-    assert soil["Janosi Shear"] == pytest.approx(0.02)
+    assert soil["Bekker n exponent"] == pytest.approx(0.8)
+    assert soil["Mohr cohesive limit"] == pytest.approx(1500.0)
+    assert soil["Mohr friction limit"] == pytest.approx(30.0)
+    assert soil["Janosi shear coefficient"] == pytest.approx(0.02)
     # remove, then it is gone (one message, non-zero exit)
     r = run("library", "remove", "my-soil")
     assert r.exit_code == 0 and "my-soil" in r.output

@@ -157,13 +157,8 @@ RANKS = {
 }
 #: Deliberate exceptions to the layer order, each explained in docs/architecture.md.
 UPWARD_ALLOWED = {("terracone.apps.reproduce", "terracone.report")}
-#: Classes named ``*Result`` outside result.py and inverse/: Sobol indices, and the
-#: second result model of apps/export.py, which issue 20 (r21chrono) replaces with
-#: terracone.result.read_results; delete its entry then.
-RESULT_CLASSES_ALLOWED = {
-    ("apps/sensitivity.py", "SobolResult"),
-    ("apps/export.py", "ProfileResult"),
-}
+#: Classes named ``*Result`` outside result.py and inverse/: Sobol indices.
+RESULT_CLASSES_ALLOWED = {("apps/sensitivity.py", "SobolResult")}
 
 
 def module_name(path: str) -> str:

@@ -85,9 +85,6 @@ WORKER_MALLOC_ENV = {"MALLOC_MMAP_MAX_": "0", "MALLOC_TRIM_THRESHOLD_": str(1 <<
 _PART = re.compile(r"^part-(\d{6,})\.parquet$")
 _TMP_PREFIX = ".part-"
 _PART_META_KEY = b"terracone_batch"
-#: Read by apps/export.py (r21chrono's; it moves to terracone.result.read_results): delete
-#: with that merge.
-OUTPUT_COLUMNS = PARQUET_COLUMNS
 #: What a worker returns per profile: the fit columns of terracone.result.
 WORKER_COLUMNS = ("status", "error", "error_row", "error_column", "undetermined", *RESULT_COLUMNS)
 

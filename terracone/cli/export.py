@@ -2,15 +2,72 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import click
 
-from terracone.cli.common import (
-    UNITS,
-    parse_length,
-)
+from terracone.cli.common import UNITS, parse_length
 from terracone.physics import units as u
+
+#: ``--format`` choices; chrono-scm and pychrono take the Chrono options.
+EXPORT_FORMATS = ("chrono-scm", "pychrono", "json", "csv", "geojson")
+CHRONO_FORMATS = ("chrono-scm", "pychrono")
+
+_PRESSURE_RE = re.compile(r"^\s*([-+0-9.eE]+)\s*([A-Za-z]+)?\s*$")
+_ANGLE_RE = re.compile(r"^\s*([-+0-9.eE]+)\s*(deg|°)?\s*$")
+
+
+def parse_pressure(text: str, units: str, what: str) -> float:
+    """'1.3kPa', '0.19psi', '1300Pa', '0.0013MPa' or a bare number in ``units`` -> kPa."""
+    m = _PRESSURE_RE.match(text)
+    unit = (m.group(2) or "").lower() if m else ""
+    if not m or (unit and unit not in u.PRESSURE_UNITS):
+        raise click.BadParameter(
+            f"{what}: expected a pressure such as 1.3kPa, 0.19psi or a bare number in "
+            f"{u.pressure_unit(units)} (--units), got {text!r}"
+        )
+    try:
+        v = float(m.group(1))
+    except ValueError:
+        raise click.BadParameter(f"{what}: {m.group(1)!r} is not a number") from None
+    return v * u.PRESSURE_UNITS[unit] if unit else float(u.pressure_to_si(v, units))
+
+
+def parse_angle(text: str, what: str) -> float:
+    """'31', '31deg' or '31°' -> degrees."""
+    m = _ANGLE_RE.match(text)
+    try:
+        if m:
+            return float(m.group(1))
+    except ValueError:
+        pass
+    raise click.BadParameter(
+        f"{what}: expected an angle in degrees such as 31 or 31deg, got {text!r}"
+    )
+
+
+def parse_patch(text: str, units: str) -> tuple[float, float]:
+    """'LENGTHxWIDTH' (each a length with a unit suffix or in ``units``) -> m."""
+    parts = text.lower().split("x")
+    if len(parts) != 2:
+        raise click.BadParameter(
+            f"--patch: expected LENGTHxWIDTH such as 4x1 or 4mx1m, got {text!r}"
+        )
+    return parse_length(parts[0], units, "--patch"), parse_length(parts[1], units, "--patch")
+
+
+def parse_origin(text: str) -> tuple[float, float]:
+    """'LAT,LON' in decimal degrees."""
+    try:
+        lat, lon = (float(s) for s in text.split(","))
+    except ValueError:
+        raise click.BadParameter(
+            f"--origin: expected LAT,LON in decimal degrees, got {text!r}"
+        ) from None
+    if not (-90 <= lat <= 90 and -180 <= lon <= 180):
+        raise click.BadParameter(f"--origin: {text!r} is not a latitude, longitude")
+    return lat, lon
 
 
 @click.command("export")
@@ -20,127 +77,120 @@ from terracone.physics import units as u
     "results_path",
     default=None,
     type=click.Path(exists=True),
-    help="predict --json output (a file) or a batch output directory.",
+    help="predict --json or --parquet output (a file), or a batch output directory.",
 )
 @click.option("--profile", default=None, help="With --results: the profile to export.")
 @click.option(
     "--format",
     "fmt",
-    type=click.Choice(["chrono-scm", "json", "csv", "geojson"]),
+    type=click.Choice(EXPORT_FORMATS),
     required=True,
-    help="geojson needs --results.",
+    help="chrono-scm: Chrono's co-simulation SCM spec; pychrono: a Python module for "
+    "PyChrono's SCMTerrain; json, csv: plain parameters; geojson (needs --results).",
 )
 @click.option(
     "--out",
     required=True,
     type=click.Path(),
-    help="Output file (a directory with --samples).",
+    help="Output file (chrono-scm with --samples: a directory).",
 )
-@click.option("--units", type=UNITS, default="si", show_default=True, help="For json/csv.")
+@click.option(
+    "--units",
+    type=UNITS,
+    default=None,
+    help="json/csv/geojson values, and bare numbers of --cohesion, --janosi, --patch, "
+    "--grid-spacing  [default: si; geojson: the run's]",
+)
 @click.option("--library", default=None, help="Terrain library path.")
+@click.option(
+    "--shear",
+    default=None,
+    help="Chrono: Mohr cohesion, friction and Janosi K from a `fit-shear --json` file "
+    "or a library terrain.",
+)
+@click.option("--cohesion", default=None, help="Chrono: Mohr cohesion (1.3kPa, 0.19psi).")
+@click.option("--friction", default=None, help="Chrono: Mohr friction angle [deg].")
+@click.option("--janosi", default=None, help="Chrono: Janosi shear modulus K (12mm, 0.5in).")
 @click.option(
     "--elastic-k",
     type=float,
     default=None,
-    help="chrono-scm: SCM elastic stiffness [Pa/m], above Bekker Kphi "
-    "(default 4e8, Chrono's scm_hard.json; not from data).",
+    help="Chrono: SCM elastic stiffness [Pa/m], above Bekker Kphi (default 4e8; not from data).",
 )
 @click.option(
     "--damping",
     type=float,
     default=None,
-    help="chrono-scm: SCM damping R [Pa s/m] (default 3e4, Chrono's soil files; not from data).",
+    help="Chrono: SCM damping R [Pa s/m] (default 3e4; not from data).",
 )
+@click.option("--patch", default=None, help="Chrono: patch LENGTHxWIDTH (default 4x1 m).")
+@click.option("--grid-spacing", default=None, help="Chrono: SCM grid spacing (default 0.1 m).")
 @click.option(
-    "--cohesion", type=float, default=None, help="chrono-scm: Mohr cohesion [kPa or psi]."
-)
-@click.option("--friction", type=float, default=None, help="chrono-scm: Mohr friction [deg].")
-@click.option(
-    "--janosi", default=None, help="chrono-scm: Janosi shear modulus K (e.g. 0.01, 1cm, 0.4in)."
+    "--origin",
+    default=None,
+    help="pychrono, located profiles: ORIGIN LAT,LON of the module's frame "
+    "(default: the middle of the profiles).",
 )
 @click.option(
     "--samples",
     type=click.IntRange(1),
     default=None,
-    help="chrono-scm: N files from N posterior draws (predict --uncertainty --json).",
+    help="Chrono: N posterior draws (predict --uncertainty --json): N spec files, or one "
+    "module with N sets.",
 )
 @click.option("--seed", type=int, default=None, help="Seed of the --samples draw.")
-def export_cmd(
-    terrain,
-    results_path,
-    profile,
-    fmt,
-    out,
-    units,
-    library,
-    elastic_k,
-    damping,
-    cohesion,
-    friction,
-    janosi,
-    samples,
-    seed,
-):
-    """Write a terrain or a result for a simulator (Chrono SCM JSON), as plain B-W
-    parameters, or results as GeoJSON points.
+def export_cmd(terrain, results_path, profile, fmt, out, units, library, **chrono):
+    """Write a terrain or results for Project Chrono's SCM (a co-simulation spec or a PyChrono
+    module), as plain Bekker-Wong parameters, or results as GeoJSON points.
 
-    Chrono SCM files get all eight soil parameters: Elastic K and Dampening R
-    are documented defaults unless given (said on stderr); Mohr cohesion,
-    friction and Janosi shear come from the terrain (a cone prediction has
-    none: give --cohesion, --friction, --janosi).
+    Chrono needs all eight SCM soil values.  The cone gives Bekker Kphi, Kc
+    and n; Mohr cohesion, friction and Janosi K come from --shear, a library
+    terrain that has them, or --cohesion, --friction, --janosi.  When one is
+    missing nothing is written.  Elastic stiffness, damping, patch and grid
+    spacing are defaults unless given (said on stderr).
     """
     if (terrain is None) == (results_path is None):
         raise click.UsageError("give exactly one of --terrain and --results")
+    if fmt not in CHRONO_FORMATS:
+        given = [f"--{k.replace('_', '-')}" for k, v in chrono.items() if v is not None]
+        if given:
+            raise click.UsageError(f"{', '.join(given)}: only with --format chrono-scm or pychrono")
     if fmt == "geojson":
-        return _export_geojson(results_path, out)
-    if samples is not None and (fmt != "chrono-scm" or results_path is None):
-        raise click.UsageError("--samples needs --results and --format chrono-scm")
-    shear = {
-        "cohesion_kpa": None if cohesion is None else float(u.pressure_to_si(cohesion, units)),
-        "friction_deg": friction,
-        "janosi_m": None if janosi is None else parse_length(janosi, units, "--janosi"),
-    }
+        return _export_geojson(results_path, out, units)
+    if fmt in ("json", "csv"):
+        return _export_plain(terrain, results_path, profile, fmt, out, units or "si", library)
+    return _export_chrono(terrain, results_path, profile, fmt, out, units or "si", library, chrono)
+
+
+def _export_plain(terrain, results_path, profile, fmt, out, units, library) -> None:
+    from terracone.apps.export import export_terrain
+
     if terrain is not None:
         from terracone.apps.library import Library
 
         with Library(library) as lib:
-            rec = lib.get(terrain)
-        name, params = terrain, rec
+            name, params = terrain, lib.get(terrain)
     else:
-        from terracone.apps.export import load_results, pick_profile
+        from terracone.apps.export import pick_profile
+        from terracone.result import read_results
 
-        res = pick_profile(load_results(results_path), profile, str(results_path))
+        res = pick_profile(read_results(results_path), profile, str(results_path))
         name, params = res.id, res.params
-    if fmt != "chrono-scm":
-        from terracone.apps.export import export_terrain
-
-        missing = export_terrain(params, fmt, out, units=units, name=name)
-        if missing:
-            click.echo(
-                f"terracone: {name!r} lacks {', '.join(missing)}: left out of {out}", err=True
-            )
-        click.echo(f"wrote {out}")
-        return None
-    scm = {"elastic_k": elastic_k, "damping_r": damping, **shear}
-    if samples is not None:
-        return _export_samples(res, samples, seed, out, scm)
-    from terracone.apps.export import chrono_scm
-
-    doc = chrono_scm(params, name, **scm)
-    doc.write(out)
-    if doc.provenance_text():
-        click.echo(f"terracone: {out}: {doc.provenance_text()}", err=True)
+    missing = export_terrain(params, fmt, out, units=units, name=name)
+    if missing:
+        click.echo(f"terracone: {name!r} lacks {', '.join(missing)}: left out of {out}", err=True)
     click.echo(f"wrote {out}")
-    return None
 
 
-def _export_geojson(results_path: str | None, out: str) -> None:
-    from terracone.apps.export import load_results, write_geojson
+def _export_geojson(results_path: str | None, out: str, units: str | None) -> None:
+    from terracone.apps.export import write_geojson
+    from terracone.result import read_results
 
     if results_path is None:
         raise click.UsageError("--format geojson needs --results (predict JSON or batch directory)")
-    results = load_results(results_path)
-    unlocated = write_geojson(results, out)
+    results = read_results(results_path)
+    units = units or results.settings.get("units") or "si"
+    unlocated = write_geojson(results, out, units)
     n = len(results) - len(unlocated)
     msg = f"terracone: {out}: {n} located profile{'s' if n != 1 else ''} of {len(results)}"
     if unlocated:
@@ -150,11 +200,107 @@ def _export_geojson(results_path: str | None, out: str) -> None:
     click.echo(f"wrote {out}")
 
 
-def _export_samples(res, count: int, seed: int | None, out: str, scm: dict) -> None:
-    """N Chrono SCM files from N posterior draws of one profile, and an index CSV."""
-    from terracone.apps.export import write_scm_samples
+def _shear_layers(opts: dict, units: str, library: str | None, base: tuple | None):
+    """(values, sources) of the terrain's shear values: terrain, then --shear, then options."""
+    from terracone.apps.export import merge_shear, shear_of
 
-    written = write_scm_samples(res, count, out, seed=seed, **scm)
-    if written and written[-1].provenance_text():
-        click.echo(f"terracone: {Path(out)}: {written[-1].provenance_text()}", err=True)
-    click.echo(f"wrote {count} Chrono SCM files and draws.csv to {Path(out)}")
+    layers = [base] if base else []
+    if opts["shear"] is not None:
+        values, source = shear_of(opts["shear"], library)
+        layers.append((source, values))
+    for key, opt, parse in (
+        ("c_kpa", "cohesion", lambda t: parse_pressure(t, units, "--cohesion")),
+        ("phi_deg", "friction", lambda t: parse_angle(t, "--friction")),
+        ("K_m", "janosi", lambda t: parse_length(t, units, "--janosi")),
+    ):
+        if opts[opt] is not None:
+            layers.append((f"--{opt}", {key: parse(opts[opt])}))
+    return merge_shear(layers)
+
+
+def _chrono_soils(terrain, results_path, profile, fmt, units, library, opts):
+    """The soils to write and the lines said on stderr about them."""
+    from terracone.apps.chrono import SPEC_SOIL_KEYS
+
+    bekker = ", ".join(SPEC_SOIL_KEYS[:3])
+    origin = f"library terrain {terrain!r}" if terrain else f"the cone ({results_path})"
+    notes, base, record = [f"{bekker} from {origin}"], None, None
+    if terrain is not None:
+        from terracone.apps.library import Library
+
+        with Library(library) as lib:
+            record = lib.get(terrain)
+        base = (f"library terrain {terrain!r}", record.params)
+    shear, sources = _shear_layers(opts, units, library, base)
+    keys = dict(zip(("c_kpa", "phi_deg", "K_m"), SPEC_SOIL_KEYS[3:6]))
+    by_source: dict[str, list[str]] = {}
+    for k, src in sources.items():
+        by_source.setdefault(src, []).append(keys[k])
+    notes += [f"{', '.join(ks)} from {src}" for src, ks in by_source.items()]
+    if record is not None:
+        from terracone.apps.export import terrain_soil
+
+        if opts["samples"] is not None:
+            raise click.UsageError("--samples needs --results with posterior draws")
+        return [terrain_soil(record, shear)], notes, []
+    from terracone.apps.export import result_soils
+    from terracone.result import read_results
+
+    soils, left = result_soils(
+        read_results(results_path),
+        shear,
+        profile=profile,
+        several=fmt == "pychrono",
+        source=str(results_path),
+        samples=opts["samples"],
+        seed=opts["seed"],
+    )
+    return soils, notes, left
+
+
+def _export_chrono(terrain, results_path, profile, fmt, out, units, library, opts) -> None:
+    from terracone.apps.chrono import scm_settings
+
+    settings = scm_settings(
+        elastic_k=opts["elastic_k"],
+        damping_r=opts["damping"],
+        patch=None if opts["patch"] is None else parse_patch(opts["patch"], units),
+        grid_spacing=(
+            None
+            if opts["grid_spacing"] is None
+            else parse_length(opts["grid_spacing"], units, "--grid-spacing")
+        ),
+    )
+    soils, notes, left = _chrono_soils(terrain, results_path, profile, fmt, units, library, opts)
+    try:
+        what = _write_chrono(soils, fmt, out, settings, opts, terrain or results_path, notes)
+    except ValueError as exc:
+        found = f" (found: {'; '.join(notes)})" if notes else ""
+        raise ValueError(f"{exc}{found}") from None
+    for line in (*notes, settings.defaults_text(spec=fmt == "chrono-scm")):
+        if line:
+            click.echo(f"terracone: {out}: {line}", err=True)
+    if left:
+        more = "; ..." if len(left) > 5 else ""
+        click.echo(f"terracone: {out}: left out {len(left)}: {'; '.join(left[:5])}{more}", err=True)
+    click.echo(f"wrote {what} to {Path(out)}")
+
+
+def _write_chrono(soils, fmt, out, settings, opts, source, notes) -> str:
+    """Write the Chrono output; returns what was written, in words."""
+    from terracone.apps.chrono import write_pychrono, write_scm_spec, write_scm_specs
+
+    if opts["origin"] is not None and (fmt != "pychrono" or len(soils) < 2):
+        raise click.UsageError("--origin: only with --format pychrono and several located profiles")
+    if fmt == "pychrono":
+        origin = None if opts["origin"] is None else parse_origin(opts["origin"])
+        write_pychrono(out, soils, settings, origin=origin, source=str(source), notes=notes)
+        what = f"{len(soils)} located soils" if len(soils) > 1 else f"the soil of {soils[0].id!r}"
+        if opts["samples"]:
+            what += f" with {opts['samples']} posterior draws"
+        return what
+    if opts["samples"] is not None:
+        write_scm_specs(out, soils[0], settings)
+        return f"{opts['samples']} Chrono SCM specs and draws.csv of {soils[0].id!r}"
+    write_scm_spec(out, soils[0].params, settings, repr(soils[0].id))
+    return f"the Chrono SCM spec of {soils[0].id!r}"

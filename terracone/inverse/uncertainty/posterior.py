@@ -332,7 +332,7 @@ class PosteriorResult:
 
         ``values`` is a list of rows (kc, kphi, n, cc, phic_deg), each draw
         converted with its own n; the key ``samples`` of ``predict
-        --uncertainty --json``, read back by :func:`terracone.apps.export.load_results`.
+        --uncertainty --json``, read back by :func:`terracone.result.read_results`.
         """
         units = u.check_system(units)
         return {
