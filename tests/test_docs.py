@@ -57,6 +57,7 @@ import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from importlib.util import find_spec
 from pathlib import Path
 
 import numpy as np
@@ -71,7 +72,7 @@ from terracone.physics.cone import cone_index
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = [ROOT / "README.md"] + sorted((ROOT / "docs").glob("*.md"))
 RUN = {"python", "sh", "bash", "console"}
-SHOWN = {"text", "json", "csv", "yaml", "toml"}
+SHOWN = {"text", "json", "csv", "yaml", "toml", "cpp"}
 TIMEOUT = 300  # seconds for one block
 
 #: Install blocks (not run here) and the line of .ci/run that runs the same.
@@ -278,10 +279,11 @@ def workspace(tmp_path_factory) -> Path:
     pred = ["--depth-unit", "cm", "--uncertainty", "--draws", "500", "--json", "--out", "pred.json"]
     terracone("predict", "pushes.csv", *pred, cwd=ws)
     from terracone.apps.batch import run_batch
+    from terracone.apps.workflow import Reading
 
-    opts = dict(depth_unit="cm", ci_unit="mpa", cone="penetrologger-1cm2", pool=map)
+    reading = Reading(depth_unit="cm", ci_unit="mpa", cone="penetrologger-1cm2")
     with disabled():  # in this process, with the numpy kernels as well
-        run_batch(ws / "pushes.csv", ws / "batch_out", quiet=True, **opts)
+        run_batch(ws / "pushes.csv", ws / "batch_out", reading=reading, progress=False, pool=map)
     return ws
 
 
@@ -305,6 +307,8 @@ def needs(block: Block) -> str | None:
         return f"../shared not found: {shared_dir()} is read by this example"
     if "BrowserSession" in block.code and shutil.which("chromium") is None:
         return "chromium not installed: this example drives a browser"
+    if re.search(r"^import pychrono", block.code, re.M) and find_spec("pychrono") is None:
+        return "PyChrono not installed (conda only): tests/test_chrono.py runs the modules on a stand-in"
     return None
 
 
@@ -314,6 +318,7 @@ def run_block(block: Block, folder: Path) -> subprocess.CompletedProcess:
     env["TERRACONE_LIBRARY"] = str(folder / "library.sqlite")
     env["TERRACONE_NUMBA"] = "0"  # small jobs: no kernel loading, whatever the cache holds
     env["MPLBACKEND"] = "Agg"
+    env["PYTHONPATH"] = str(ROOT / "tests")  # the report page's browser helper, tests/chromium.py
     env.pop("TERRACONE_WHEEL", None)
     if block.lang == "python":
         script = folder / f"example_{block.line}.py"
