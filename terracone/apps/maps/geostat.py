@@ -6,11 +6,13 @@ covariance, plus the nugget ``e_i``, which absorbs the push-to-push variation
 of the terrain and each push's estimation variance.  The map is the ordinary
 kriging estimate of ``S`` with its kriging variance.
 
-* **Variogram**: the empirical semivariogram of gstools
-  (:func:`gstools.vario_estimate`, Matheron estimator, gstools' standard
-  bins) fitted by :meth:`gstools.CovModel.fit_variogram` with a
-  :class:`gstools.Stable` model (exponential to Gaussian, ``alpha`` in
-  (0, 2]) plus a nugget, each bin weighted by its number of pairs.
+* **Variogram**: a :class:`gstools.Stable` model (exponential to Gaussian,
+  ``alpha`` in (0, 2]) plus a nugget.  gstools estimates the empirical
+  semivariogram (:func:`gstools.vario_estimate`, Matheron estimator, its
+  standard bins) and fits the model to it
+  (:meth:`gstools.CovModel.fit_variogram`, bins weighted by their pairs);
+  that fit starts the restricted maximum likelihood fit of the same model to
+  the pushes themselves (:func:`fit_reml`), which is kept.
 * **Spatial structure**: a permutation test of the semivariogram at the
   shortest lags: the mean of (Z_i - Z_j)^2 / 2 over each push's 5 nearest
   neighbours, divided by the variance, against 199 random permutations of the
@@ -25,12 +27,16 @@ kriging estimate of ``S`` with its kriging variance.
   of the smooth field, the kriging variance less the nugget.  Up to
   :data:`GLOBAL_PUSHES` pushes every push conditions every cell; above, each
   block of cells is kriged from the :data:`NEIGHBOURS` pushes nearest to its
-  centre (local neighbourhoods).
+  centre (local neighbourhoods: gstools' kriging variance costs cells x
+  pushes^2, 300 s for 1,000 pushes on 36,864 cells against 1.2 s local;
+  benchmarks/map.py).
 * **Cross-validation**: leave-one-out with the fitted variogram held fixed,
   by the closed form of Dubrule (1983) on the kriging system gstools solves
   (exactly gstools' kriging of each push from the others; checked against it
   in the tests): the error of each push's prediction from the others and its
   kriging variance, which includes the nugget since a push is predicted.
+  Above :data:`LOO_GLOBAL_PUSHES` pushes, from each push's
+  :data:`LOO_NEIGHBOURS` nearest pushes.
 
 References
 ----------
@@ -57,24 +63,29 @@ from threadpoolctl import threadpool_limits
 
 __all__ = [
     "GLOBAL_PUSHES",
+    "LOO_GLOBAL_PUSHES",
     "NEIGHBOURS",
     "CrossValidation",
     "Variogram",
+    "fit_reml",
     "fit_variogram",
     "krige",
     "leave_one_out",
     "pooled",
+    "restricted_nll",
     "structure_test",
 ]
 
 #: Up to this many pushes, every push conditions every cell (one global kriging system).
-GLOBAL_PUSHES = 1000
+GLOBAL_PUSHES = 250
 #: Above it, each block of cells is kriged from this many nearest pushes.
-NEIGHBOURS = 150
+NEIGHBOURS = 250
 #: Pushes per block of cells in local kriging (about).
 BLOCK_PUSHES = 25
 #: Neighbours of each push in local leave-one-out.
 LOO_NEIGHBOURS = 64
+#: Up to this many pushes, leave-one-out uses every push (one inverse of the kriging matrix).
+LOO_GLOBAL_PUSHES = 1000
 #: The permutation test's level, neighbours and permutations.
 STRUCTURE_ALPHA = 0.05
 STRUCTURE_NEIGHBOURS = 5
@@ -369,7 +380,8 @@ def fit_variogram(x: np.ndarray, y: np.ndarray, z: np.ndarray, *, seed: int = 0)
 def _krige_all(model: Any, px, py, z, gx, gy) -> tuple[np.ndarray, np.ndarray]:
     import gstools as gs
 
-    with threadpool_limits(1, user_api="blas"):  # at most 1000 pushes: threads only contend
+    # small systems: BLAS threads only contend (16x slower seen on a busy machine)
+    with threadpool_limits(1 if px.size <= NEIGHBOURS else None, user_api="blas"):
         k = gs.krige.Ordinary(model, (px, py), z, exact=False, cond_err="nugget")
         m, v = k((gx, gy), mesh_type="unstructured", chunk_size=20000, store=False)
     return np.asarray(m, dtype=float), np.asarray(v, dtype=float)
@@ -395,6 +407,7 @@ def krige(
     gx: np.ndarray,
     gy: np.ndarray,
     *,
+    neighbourhood: str = "auto",
     progress: Any = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Ordinary kriging of the smooth field at (gx, gy): estimate and its variance.
@@ -407,6 +420,9 @@ def krige(
         The pushes' places [m] and values (kriged space).
     gx, gy : ndarray
         The places to estimate [m].
+    neighbourhood : {"auto", "global", "local"}
+        Every push for every cell, or the :data:`NEIGHBOURS` nearest pushes
+        of each block of cells; "auto": global up to :data:`GLOBAL_PUSHES` pushes.
     progress : callable, optional
         ``progress(k)`` after each block of ``k`` cells.
 
@@ -416,7 +432,9 @@ def krige(
         The variance is that of the smooth field (gstools' kriging variance
         less the nugget, at least 0).
     """
-    if z.size <= GLOBAL_PUSHES:
+    if neighbourhood not in ("auto", "global", "local"):
+        raise ValueError(f"neighbourhood must be auto, global or local (got {neighbourhood!r})")
+    if neighbourhood == "global" or (neighbourhood == "auto" and z.size <= GLOBAL_PUSHES):
         m, v = _krige_all(vg.model, px, py, z, gx, gy)
         if progress:
             progress(gx.size)
@@ -470,7 +488,7 @@ def leave_one_out(
     Kriging (Dubrule's closed form): with ``B`` the inverse of the kriging
     matrix, the error of push i's prediction from the others is
     ``(B [z, 0])_i / B_ii`` and its variance ``1 / B_ii``.  Above
-    :data:`GLOBAL_PUSHES` pushes, each push is predicted from its
+    :data:`LOO_GLOBAL_PUSHES` pushes, each push is predicted from its
     :data:`LOO_NEIGHBOURS` nearest pushes.  A pure nugget predicts each push
     by the mean of the others, with the t predictive interval.
     """
@@ -482,7 +500,7 @@ def leave_one_out(
         q = float(stats.t.ppf(0.95, n - 2))
         return CrossValidation(s[rows], ss[rows] * (1 + 1 / (n - 1)), z[rows], q)
     q = float(stats.norm.ppf(0.95))
-    if n <= GLOBAL_PUSHES:
+    if n <= LOO_GLOBAL_PUSHES:
         b = _inverse(_augmented(vg.model, px, py))
         d = np.diag(b)[:n]
         err = (b[:n, :n] @ z) / d
