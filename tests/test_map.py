@@ -240,6 +240,33 @@ def test_pure_nugget_field_gets_the_message_and_the_pooled_interval():
             np.testing.assert_allclose(band, w, rtol=1e-12)  # every cell, none masked
 
 
+def test_estimation_variance_from_draws_only_under_the_fits_prior():
+    from terracone.apps.maps.survey import Quantity, Survey, push_values
+    from terracone.result import PosteriorSummary
+
+    rng = np.random.default_rng(1)
+    draws = np.column_stack(
+        [rng.uniform(40, 60, 50), rng.uniform(1400, 1600, 50), rng.uniform(0.8, 1.0, 50),
+         np.full(50, 5.0), np.full(50, 11.0)]
+    )  # fmt: skip
+    r = PredictionResult("a", "ok", params=CAL.params, profile_intervals={"n": (0.8, 1.0)})
+    q = Quantity("plate_pressure", "pressure", True, "p", plate=PLATE)
+    one = np.zeros(1)
+    s = Survey([r], one, one, one, one, None, "", settings={"calibration": "generated"})
+    # by hand: eq. (2-2) for each draw, the variance of the logs
+    p = (draws[:, 0] / PLATE[0] + draws[:, 1]) * PLATE[1] ** draws[:, 2]
+    for prior, want in (("calibration:generated", np.var(np.log(p), ddof=1)), ("bounds", None)):
+        r.posterior = PosteriorSummary({"n": (0.85, 0.95)}, samples=draws, prior=prior)
+        _, ev, _ = push_values(s, q)
+        _, ev_n, _ = push_values(s, Quantity("n", "dimensionless", False, "n"))
+        if want is None:  # the bounds posterior of a calibrated fit: not the fit's spread
+            assert math.isnan(ev[0])
+            assert ev_n[0] == pytest.approx((0.2 / (2 * 1.959963984540054)) ** 2)  # profile 95%
+        else:
+            assert ev[0] == pytest.approx(want, rel=1e-12)
+            assert ev_n[0] == pytest.approx((0.1 / (2 * 1.6448536269514722)) ** 2)  # posterior 90%
+
+
 # ---------------------------------------------------------------------------
 # kriging and cross-validation against references
 # ---------------------------------------------------------------------------
@@ -279,6 +306,26 @@ def test_leave_one_out_is_gstools_kriging_from_the_others(small):
         m, v = k(([x[i]], [y[i]]), mesh_type="unstructured")
         assert cv.prediction[i] == pytest.approx(float(m[0]), rel=1e-8, abs=1e-10)
         assert cv.variance[i] == pytest.approx(float(v[0]), rel=1e-8)  # a push's: with the nugget
+
+
+def test_local_neighbourhoods_holding_every_push_are_the_global_system(small, monkeypatch):
+    """The neighbour bookkeeping of local kriging and local leave-one-out, checked exactly."""
+    import terracone.apps.maps.geostat as G
+
+    vg, x, y, z = small
+    gx, gy = np.linspace(0, 500, 30), np.linspace(500, 0, 30)
+    mg, vgl = krige(vg, x, y, z, gx, gy, neighbourhood="global")
+    ml, vl = krige(vg, x, y, z, gx, gy, neighbourhood="local")  # 250 neighbours >= 25 pushes
+    np.testing.assert_allclose(ml, mg, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(vl, vgl, rtol=1e-9, atol=1e-12)
+    full = leave_one_out(vg, x, y, z)
+    monkeypatch.setattr(G, "LOO_GLOBAL_PUSHES", 10)  # 25 pushes: local, the 24 others each
+    monkeypatch.setattr(G, "LOO_NEIGHBOURS", 24)
+    part = leave_one_out(vg, x, y, z)
+    np.testing.assert_allclose(part.prediction, full.prediction, rtol=1e-9)
+    np.testing.assert_allclose(part.variance, full.variance, rtol=1e-9)
+    with pytest.raises(ValueError, match="neighbourhood must be auto, global or local"):
+        krige(vg, x, y, z, gx, gy, neighbourhood="nearest")
 
 
 # ---------------------------------------------------------------------------

@@ -505,9 +505,9 @@ def leave_one_out(
         d = np.diag(b)[:n]
         err = (b[:n, :n] @ z) / d
         return CrossValidation((z - err)[rows], 1.0 / d[rows], z[rows], q)
-    k = min(LOO_NEIGHBOURS, n - 2)
+    k = min(LOO_NEIGHBOURS, n - 1)
     pts = _xy(px, py)
-    _, nb = cKDTree(pts).query(pts[rows], k=k + 2)
+    _, nb = cKDTree(pts).query(pts[rows], k=min(k + 2, n))  # the push itself and k others
     me = rows[:, None]
     others = np.take_along_axis(nb, np.argsort(nb == me, axis=1, kind="stable"), axis=1)
     nb = np.column_stack([me, others[:, :k]])  # the push first, then its k nearest others

@@ -416,9 +416,22 @@ def _plate(p: TerrainParameters, radius: float, sinkage: float, pair: Any) -> fl
     )
 
 
-def _draws_variance(r: PredictionResult, q: Quantity, pair: Any) -> float:
-    """Variance over the posterior draws of the kriged value (log or linear), NaN without draws."""
+def _posterior(r: PredictionResult, calibrated: bool) -> Any:
+    """The push's posterior when its prior is that of the fit (a calibration's, or the bounds').
+
+    A posterior under the bounds prior of a calibrated fit describes another
+    estimate (kc/kphi, phic and cc free): its spread is not the fit's.
+    """
     post = r.posterior
+    prior = str(getattr(post, "prior", None) or "")
+    if post is None or calibrated != prior.startswith("calibration"):
+        return None
+    return post
+
+
+def _draws_variance(r: PredictionResult, q: Quantity, pair: Any, calibrated: bool) -> float:
+    """Variance over the posterior draws of the kriged value (log or linear), NaN without draws."""
+    post = _posterior(r, calibrated)
     s = None if post is None else getattr(post, "samples", None)
     if s is None or len(s) < 2:
         return math.nan
@@ -428,23 +441,22 @@ def _draws_variance(r: PredictionResult, q: Quantity, pair: Any) -> float:
     if q.plate is None or q.layer is not None:
         return math.nan
     radius, z = q.plate
+    ok = (s[:, 0] >= 0) & (s[:, 1] >= 0) & (s[:, 2] > 0) & (s[:, 2] <= 3)
     if q.name == "strength":
-        v = s[:, 0] / radius + s[:, 1]
+        v = s[ok, 0] / radius + s[ok, 1]
     else:
         p = r.params
-        v = np.array(
-            [
-                _plate(TerrainParameters(a, b, c, model=p.model, r_min=p.r_min), radius, z, pair)
-                for a, b, c in s[:, :3]
-            ]
-        )
+        v = plate_pressure(
+            z, kc=s[ok, 0], kphi=s[ok, 1], n=s[ok, 2], radius=radius, model=p.model,
+            r_min=p.r_min if p.model == "rm1" else None, plate_pair=pair if p.model == "rm1" else None,
+        )  # fmt: skip
     v = v[v > 0]
     return float(np.var(np.log(v), ddof=1)) if v.size > 1 else math.nan
 
 
-def _n_variance(r: PredictionResult) -> float:
+def _n_variance(r: PredictionResult, calibrated: bool) -> float:
     """Estimation variance of n from its interval (posterior 90%, else profile 95%)."""
-    post = r.posterior
+    post = _posterior(r, calibrated)
     if post is not None and "n" in getattr(post, "intervals", {}):
         lo, hi = post.intervals["n"]
         z = float(norm.ppf(0.5 + 0.5 * float(getattr(post, "level", 0.9))))
@@ -485,5 +497,6 @@ def push_values(
             excluded.append((r.id, why))
             v = math.nan
         vals.append(v)
-        evar.append(_n_variance(r) if q.name == "n" else _draws_variance(r, q, pair))
+        cal = survey.calibration is not None
+        evar.append(_n_variance(r, cal) if q.name == "n" else _draws_variance(r, q, pair, cal))
     return np.array(vals, dtype=float), np.array(evar, dtype=float), excluded
