@@ -130,7 +130,11 @@ def map_document(result: MapResult, units: str = "si") -> dict[str, Any]:
             "bounds": list(g.bounds),
         },
         "calibrated": result.calibrated,
-        "calibration": s.calibration if isinstance(s.calibration, str | None) else "recorded",
+        "calibration": (
+            s.calibration.get("terrain", "recorded")
+            if isinstance(s.calibration, dict)
+            else s.calibration
+        ),
         "pushes": {
             "located": len(s.results),
             "unlocated": list(s.unlocated),
