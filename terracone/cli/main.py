@@ -12,6 +12,7 @@ from terracone.cli.export import export_cmd
 from terracone.cli.fit import design_cmd, evaluate_cmd, learn_cmd, predict_cmd, sites_cmd
 from terracone.cli.forward import ci_cmd, plate_cmd
 from terracone.cli.library import library_grp
+from terracone.cli.map import map_cmd
 from terracone.cli.report import demo_cmd, report_cmd, reproduce_cmd
 
 
@@ -48,6 +49,7 @@ for _command in (
     fit_shear_cmd,
     library_grp,
     export_cmd,
+    map_cmd,
     batch_cmd,
     report_cmd,
     reproduce_cmd,

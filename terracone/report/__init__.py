@@ -84,6 +84,10 @@ def load_document(
     if not p.exists():
         raise ValueError(f"{p}: no such file or directory")
     if p.is_dir():
+        if (p / "map.json").exists():  # a terracone map directory (issue 22)
+            from terracone.report.maps import map_document
+
+            return map_document(p), p
         if (p / "reproduce.json").exists():
             doc = _read_json(p / "reproduce.json")
             if result_kind(doc) != "reproduce":

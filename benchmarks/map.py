@@ -1,0 +1,114 @@
+"""Kriging benchmark of ``terracone map``: 1,000 and 10,000 pushes at the default resolution.
+
+Run as ``python benchmarks/map.py`` (``--quick``: skip the global/local comparison).
+
+The pushes lie at random on a square whose side grows with their number
+(about 30 m between neighbours, as a dense field survey), with values drawn
+from a gstools Gaussian random field (sd 0.35, length scale 150 m) plus a
+nugget (sd 0.1): the log of a plate pressure, say.  Timed with
+time.perf_counter, once each (the machine is shared: read the ratios):
+
+* the variogram fit (gstools' binned fit, then restricted maximum likelihood
+  on at most 600 pushes), the kriging of every cell of the default grid and
+  the leave-one-out cross-validation, at 1,000 and 10,000 pushes;
+* at 500 and 1,000 pushes on 20 m cells, global kriging (every push for
+  every cell, what ``map`` does up to 250 pushes) against local
+  neighbourhoods (250 nearest pushes per block of cells), with the largest
+  difference of the estimates in kriging standard deviations, and how the
+  global cost grows with the pushes (gstools' kriging variance costs cells x
+  pushes^2: the reason for local neighbourhoods).
+
+Printed: cells, seconds per step, the ratio 10,000 / 1,000 of the total
+(10x the pushes and about 10x the cells: local kriging keeps it near 10),
+and the global/local comparison.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+_HERE = Path(__file__).resolve().parent
+sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != _HERE]
+
+import gstools as gs  # noqa: E402
+import numpy as np  # noqa: E402
+
+from terracone.apps.maps.geostat import fit_variogram, krige, leave_one_out  # noqa: E402
+from terracone.apps.maps.grid import choose_grid  # noqa: E402
+
+SPACING = 30.0  # m between neighbouring pushes, about
+
+
+def pushes(n: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    side = SPACING * np.sqrt(n)
+    x, y = rng.uniform(0, side, n), rng.uniform(0, side, n)
+    srf = gs.SRF(gs.Gaussian(dim=2, var=0.35**2, len_scale=150.0), seed=seed)
+    z = srf((x, y), mesh_type="unstructured") + rng.normal(0, 0.1, n)
+    return x, y, z
+
+
+def timed(f, *args, **kwargs):
+    t = time.perf_counter()
+    out = f(*args, **kwargs)
+    return out, time.perf_counter() - t
+
+
+def run(n: int) -> dict[str, float]:
+    x, y, z = pushes(n)
+    grid, note = choose_grid(x, y)
+    gx, gy = (a.ravel() for a in grid.centres())
+    vg, t_fit = timed(fit_variogram, x, y, z)
+    (m, v), t_krige = timed(krige, vg, x, y, z, gx, gy)
+    cv, t_loo = timed(leave_one_out, vg, x, y, z)
+    s = cv.summary(log=False)
+    print(
+        f"{n:>6} pushes  {gx.size:>7} cells of {grid.resolution:g} m  fit {t_fit:6.2f} s  "
+        f"krige {t_krige:6.2f} s  LOO {t_loo:6.2f} s  (LOO 90% coverage {s['coverage_90']:.3f}, "
+        f"nugget {vg.nugget:.4f} for 0.0100, range {vg.range:.0f} m)"
+    )
+    return {"fit": t_fit, "krige": t_krige, "loo": t_loo, "cells": gx.size}
+
+
+def compare_global_local(n: int = 1000, resolution: float = 20.0) -> tuple[float, int]:
+    """Global against local kriging of ``n`` pushes on a grid of ``resolution`` m cells."""
+    x, y, z = pushes(n)
+    grid, _ = choose_grid(x, y, resolution)
+    gx, gy = (a.ravel() for a in grid.centres())
+    vg = fit_variogram(x, y, z)
+    (mg, vgl), tg = timed(krige, vg, x, y, z, gx, gy, neighbourhood="global")
+    (ml, vl), tl = timed(krige, vg, x, y, z, gx, gy, neighbourhood="local")
+    d = np.max(np.abs(mg - ml) / np.sqrt(vgl + vg.nugget))
+    print(
+        f"{n} pushes, {gx.size} cells of {resolution:g} m: global {tg:.2f} s, local {tl:.2f} s "
+        f"(global/local {tg / tl:.1f}); largest difference {d:.3f} kriging sd (a new push's), "
+        f"median variance ratio local/global {np.median(vl / np.maximum(vgl, 1e-300)):.3f}"
+    )
+    return tg, gx.size
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="skip the global/local comparison")
+    args = ap.parse_args()
+    small, large = run(1000), run(10000)
+    t1 = small["fit"] + small["krige"] + small["loo"]
+    t10 = large["fit"] + large["krige"] + large["loo"]
+    print(
+        f"10,000 / 1,000 pushes: {t10 / t1:.1f}x the time for {large['cells'] / small['cells']:.1f}x "
+        f"the cells (kriging alone {large['krige'] / small['krige']:.1f}x)"
+    )
+    if not args.quick:
+        t500, c500 = compare_global_local(500)
+        t1000, c1000 = compare_global_local(1000)
+        print(
+            f"global kriging, 1,000 / 500 pushes ({c1000 / c500:.1f}x the cells): "
+            f"{t1000 / t500:.1f}x the time"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,314 @@
+"""The files of a map: GeoTIFF rasters, GeoParquet pushes, the cells' table and ``map.json``.
+
+In the output directory:
+
+* ``<quantity>.tif``: one GeoTIFF per quantity (rasterio), float32, three
+  bands: median, lo (5%) and hi (95%), in the map's unit system; the CRS
+  set, NaN as nodata (cells beyond the variogram's range), each band's
+  description and unit (``median [kPa]``), the quantity and its variogram
+  in the tags;
+* ``points.parquet``: the located pushes as GeoParquet (geopandas), points
+  in the map CRS with lat, lon, x, y and each push's value of each quantity;
+* ``cells.parquet``: one row per cell that has a value (plain Parquet, SI):
+  the centre (x, y in the map CRS, lat, lon), each quantity's median, lo
+  and hi, and the cell's kc, kphi, n, cc, phic_deg for simulators
+  (:func:`read_map_cells`);
+* ``map.json``: :func:`map_document`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from terracone.apps.maps.workflow import LEVEL, MapResult, QuantityMap
+from terracone.data import TerrainParameters
+from terracone.physics import units as u
+
+__all__ = [
+    "MAP_SCHEMA",
+    "LocatedParameters",
+    "map_document",
+    "read_map_cells",
+    "write_map",
+]
+
+PathLike = str | os.PathLike[str]
+#: Name and version of ``map.json`` (also in the Arrow metadata of ``cells.parquet``).
+MAP_SCHEMA = "terracone.map/1"
+_CELLS_KEY = b"terracone.map"
+
+
+class LocatedParameters(NamedTuple):
+    """The terrain parameters of one map cell at its centre (WGS 84 degrees)."""
+
+    lat: float
+    lon: float
+    params: TerrainParameters
+
+
+def _f(v: Any) -> float | None:
+    return None if v is None or not math.isfinite(float(v)) else float(v)
+
+
+def _quantity_dict(m: QuantityMap, units: str) -> dict[str, Any]:
+    q = m.quantity
+    d: dict[str, Any] = {
+        "file": None if m.skipped else f"{q.name}.tif",
+        "units": q.unit(units),
+        "description": q.label,
+        "source": q.source,
+        "space": "log" if q.log else "linear",
+        "pushes": int(np.isfinite(m.values).sum()),
+        "excluded": [{"id": i, "reason": r} for i, r in m.excluded],
+    }
+    if q.plate is not None:
+        d["plate_radius"] = float(u.length_from_si(q.plate[0], units))
+        d["sinkage"] = float(u.length_from_si(q.plate[1], units))
+    if q.layer is not None:
+        d["layer"] = [float(u.length_from_si(v, units)) for v in q.layer]
+    if m.skipped:
+        d["skipped"] = m.skipped
+        return d
+    vg = m.variogram.as_dict()
+    vg["estimation_variance"] = _f(m.estimation_variance)
+    vg["push_to_push_variance"] = (
+        None
+        if not math.isfinite(m.estimation_variance)
+        else max(vg["nugget"] - m.estimation_variance, 0.0)
+    )
+    d["variogram"] = vg
+    cv = m.cross_validation.summary(q.log)
+    cv["rmse"] = float(q.from_si(cv["rmse"], units))
+    d["cross_validation"] = cv
+    d["pooled"] = (
+        None
+        if m.pooled is None
+        else dict(zip(("median", "lo", "hi"), (float(v) for v in q.from_si(m.pooled, units))))
+    )
+    d["cells"] = {"total": int(m.median.size), "masked": m.masked}
+    d["message"] = m.message()
+    return d
+
+
+def map_document(result: MapResult, units: str = "si") -> dict[str, Any]:
+    """``map.json``: the CRS, the grid, the pushes and each quantity's variogram and cross-validation.
+
+    Values in ``units`` (pressures kPa or psi); lengths of the map (grid,
+    variogram ranges) in metres of the CRS; variogram sills in the kriged
+    space (log or linear).
+    """
+    from terracone import __version__
+
+    units = u.check_system(units)
+    s, g = result.survey, result.grid
+    crs = s.crs
+    epsg = crs.to_epsg()
+    p = result.parameters
+    return {
+        "schema": MAP_SCHEMA,
+        "terracone": __version__,
+        "crs": f"EPSG:{epsg}" if epsg else crs.to_wkt(),
+        "crs_name": crs.name,
+        "crs_note": s.crs_note,
+        "crs_units": "m",
+        "units": units,
+        "level": LEVEL,
+        "resolution": g.resolution,
+        "resolution_note": result.grid_note,
+        "grid": {
+            "width": g.width,
+            "height": g.height,
+            "transform": list(g.transform),
+            "bounds": list(g.bounds),
+        },
+        "calibrated": result.calibrated,
+        "calibration": (
+            s.calibration.get("terrain", "recorded")
+            if isinstance(s.calibration, dict)
+            else s.calibration
+        ),
+        "pushes": {
+            "located": len(s.results),
+            "unlocated": list(s.unlocated),
+            "not_fitted": [{"id": i, "reason": r} for i, r in s.not_fitted],
+        },
+        "layer_note": result.layer_note,
+        "quantities": {m.name: _quantity_dict(m, units) for m in result.quantities},
+        "parameters": {
+            "method": p["method"],
+            "reference_size_m": p["reference_size"],
+            "kc_share": p["kc_share"],
+            "model": p["model"],
+            "r_min_m": p["r_min"],
+        },
+        "points": "points.parquet",
+        "cells": "cells.parquet",
+        "notes": list(result.notes),
+    }
+
+
+def _write_tif(path: Path, m: QuantityMap, result: MapResult, units: str) -> None:
+    import rasterio
+    from rasterio.crs import CRS
+    from rasterio.transform import Affine
+
+    g = result.grid
+    unit = m.quantity.unit(units)
+    bands = np.stack([m.quantity.from_si(a, units) for a in (m.median, m.lo, m.hi)])
+    with rasterio.open(
+        path,
+        "w",
+        driver="GTiff",
+        width=g.width,
+        height=g.height,
+        count=3,
+        dtype="float32",
+        crs=CRS.from_wkt(result.survey.crs.to_wkt()),
+        transform=Affine(*g.transform),
+        nodata=float("nan"),
+        compress="deflate",
+    ) as dst:
+        dst.write(bands.astype("float32"))
+        lo, hi = (1 - LEVEL) / 2, (1 + LEVEL) / 2
+        for i, what in enumerate(("median", f"lo ({lo:.0%})", f"hi ({hi:.0%})"), 1):
+            dst.set_band_description(i, f"{what} [{unit}]")
+        dst.units = (unit, unit, unit)
+        dst.update_tags(
+            quantity=m.name,
+            description=m.quantity.label,
+            units=unit,
+            level=str(LEVEL),
+            variogram=json.dumps(
+                {k: v for k, v in m.variogram.as_dict().items() if k != "empirical"}
+            ),
+            software="terracone",
+        )
+
+
+def _write_points(path: Path, result: MapResult, units: str) -> None:
+    import geopandas as gpd
+
+    s = result.survey
+    cols: dict[str, Any] = {
+        "profile": s.ids,
+        "lat": s.lat,
+        "lon": s.lon,
+        "x": s.x,
+        "y": s.y,
+    }
+    for m in result.quantities:
+        cols[m.name] = m.quantity.from_si(m.values, units)
+    cols["lack_of_fit"] = [r.lack_of_fit for r in s.results]
+    gdf = gpd.GeoDataFrame(cols, geometry=gpd.points_from_xy(s.x, s.y), crs=s.crs)
+    gdf.to_parquet(path)
+
+
+def _write_cells(path: Path, result: MapResult) -> None:
+    from pyproj import Transformer
+
+    g, p = result.grid, result.parameters
+    gx, gy = g.centres()
+    cols: dict[str, np.ndarray] = {"x": gx.ravel(), "y": gy.ravel()}
+    keep = np.zeros(gx.size, dtype=bool)
+    for m in result.quantities:
+        if m.median is None:
+            continue
+        for k in ("median", "lo", "hi"):
+            cols[f"{m.name}_{k}"] = getattr(m, k).ravel()
+        keep |= np.isfinite(cols[f"{m.name}_median"])
+    for k in ("kc", "kphi", "n", "cc", "phic_deg"):
+        cols[k] = np.broadcast_to(np.asarray(p[k], dtype=float), gx.shape).ravel()
+    cols = {k: v[keep] for k, v in cols.items()}
+    tr = Transformer.from_crs(result.survey.crs, "EPSG:4326", always_xy=True)
+    lon, lat = tr.transform(cols["x"], cols["y"])
+    cols = {"x": cols["x"], "y": cols["y"], "lat": np.asarray(lat), "lon": np.asarray(lon), **{
+        k: v for k, v in cols.items() if k not in ("x", "y")}}  # fmt: skip
+    meta = {
+        "schema": MAP_SCHEMA,
+        "units": "si",
+        "crs": result.survey.crs.to_wkt(),
+        "model": p["model"],
+        "r_min_m": p["r_min"],
+        "parameters": p["method"],
+    }
+    table = pa.table({k: pa.array(np.asarray(v, dtype=float)) for k, v in cols.items()})
+    pq.write_table(table.replace_schema_metadata({_CELLS_KEY: json.dumps(meta).encode()}), path)
+
+
+def write_map(result: MapResult, directory: PathLike, units: str = "si") -> dict[str, Path]:
+    """Write a map's rasters, ``points.parquet``, ``cells.parquet`` and ``map.json`` to ``directory``.
+
+    Returns the written files by name (quantities by their name, then
+    ``points``, ``cells``, ``map``).  The directory is created.
+    """
+    units = u.check_system(units)
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    files: dict[str, Path] = {}
+    for m in result.quantities:
+        if m.skipped:
+            continue
+        files[m.name] = out / f"{m.name}.tif"
+        _write_tif(files[m.name], m, result, units)
+    files["points"] = out / "points.parquet"
+    _write_points(files["points"], result, units)
+    files["cells"] = out / "cells.parquet"
+    _write_cells(files["cells"], result)
+    files["map"] = out / "map.json"
+    from terracone.result import dumps
+
+    files["map"].write_text(dumps(map_document(result, units)) + "\n")
+    return files
+
+
+def read_map_cells(directory: PathLike) -> list[LocatedParameters]:
+    """The terrain parameters of every cell of a map (``cells.parquet``), for simulators.
+
+    Parameters
+    ----------
+    directory : str or path-like
+        The output directory of ``terracone map`` (or :func:`write_map`).
+
+    Returns
+    -------
+    list of LocatedParameters
+        ``(lat, lon, params)`` per cell with a value of kc, kphi and n, at
+        the cell centre; ``params`` in SI (kc [kN/m^(n+1)], kphi
+        [kN/m^(n+2)], n, cc [kPa], phic_deg [deg], model, r_min [m]).
+
+    Raises
+    ------
+    ValueError
+        The directory holds no ``cells.parquet`` written by terracone.
+    """
+    path = Path(directory) / "cells.parquet"
+    if not path.is_file():
+        raise ValueError(f"{directory}: no cells.parquet (not a terracone map directory)")
+    try:
+        table = pq.read_table(path)
+    except (OSError, pa.ArrowInvalid) as exc:
+        raise ValueError(f"file {path}: cannot read Parquet ({exc})") from exc
+    raw = (table.schema.metadata or {}).get(_CELLS_KEY)
+    if raw is None:
+        raise ValueError(f"file {path}: not a terracone map's cells (no {_CELLS_KEY.decode()})")
+    meta = json.loads(raw)
+    cols = table.to_pydict()
+    out = []
+    for i in range(table.num_rows):
+        v = {k: cols[k][i] for k in ("lat", "lon", "kc", "kphi", "n", "cc", "phic_deg")}
+        if not all(x is not None and math.isfinite(x) for x in v.values()):
+            continue
+        params = TerrainParameters(
+            v["kc"], v["kphi"], v["n"], v["cc"], v["phic_deg"],
+            model=meta.get("model", "rm0"), r_min=meta.get("r_min_m"),
+        )  # fmt: skip
+        out.append(LocatedParameters(v["lat"], v["lon"], params))
+    return out
