@@ -183,9 +183,12 @@ MI_INPUTS = {
 }
 
 
+_EXAMPLES = {"length": "'40 in'", "force": "'10 kN'", "power": "'190 hp'"}
+
+
 def _quantity(d: Mapping[str, Any], key: str, kind: str, where: str) -> float:
     if key not in d or d[key] is None:
-        raise ValueError(f"{where}: missing key {key!r} (a {kind} such as '10 kN' or '40 in')")
+        raise ValueError(f"{where}: missing key {key!r} (a {kind} such as {_EXAMPLES[kind]})")
     try:
         v = u.quantity_to_si(d[key], kind)
     except ValueError as exc:
@@ -219,6 +222,9 @@ def _mobility_index(d: Mapping[str, Any], where: str) -> tuple[float, str]:
     unknown = sorted(set(inputs) - set(MI_INPUTS))
     if unknown:
         raise ValueError(f"{w}: unknown key(s) {unknown} (known: {', '.join(MI_INPUTS)})")
+    missing = [k for k, (_, req) in MI_INPUTS.items() if req and inputs.get(k) is None]
+    if missing:
+        raise ValueError(f"{w}: missing key(s) {', '.join(repr(k) for k in missing)}")
     trans = inputs.get("transmission", "automatic")
     if trans not in ("automatic", "manual"):
         raise ValueError(f"{w}: key 'transmission': 'automatic' or 'manual', got {trans!r}")
@@ -483,8 +489,8 @@ def _wheel_notes(wheel: Wheel, z: float) -> list[str]:
         notes.append("kc + b kphi = 0: the terrain bears no wheel (infinite sinkage)")
     elif z > BEKKER_MAX_SINKAGE * wheel.diameter:
         notes.append(
-            f"wheel sinkage {z:.3g} m exceeds D/6: Bekker's rigid-wheel sinkage is not "
-            "reliable there (Wong 2008, ch. 2)"
+            f"wheel sinkage above D/6 = {BEKKER_MAX_SINKAGE * wheel.diameter:.3g} m: Bekker's "
+            "rigid-wheel sinkage is not reliable there (Wong 2008, ch. 2)"
         )
     if wheel.diameter < BEKKER_MIN_DIAMETER:
         notes.append(
@@ -975,7 +981,7 @@ def write_mavs(
             "what": what,
             "profiles": [m.id for m in chosen],
             "cone_index_of": kind,
-            "critical_layer_in": [layer[0] / u.INCH, layer[1] / u.INCH],
+            "critical_layer_in": [round(layer[0] / u.INCH, 9), round(layer[1] / u.INCH, 9)],
             "source": source,
         },
     }

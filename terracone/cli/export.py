@@ -26,9 +26,9 @@ from terracone.physics import units as u
 @click.option(
     "--format",
     "fmt",
-    type=click.Choice(["chrono-scm", "json", "csv", "geojson"]),
+    type=click.Choice(["chrono-scm", "json", "csv", "geojson", "mavs"]),
     required=True,
-    help="geojson needs --results.",
+    help="geojson and mavs need --results.",
 )
 @click.option(
     "--out",
@@ -65,6 +65,12 @@ from terracone.physics import units as u
     help="chrono-scm: N files from N posterior draws (predict --uncertainty --json).",
 )
 @click.option("--seed", type=int, default=None, help="Seed of the --samples draw.")
+@click.option(
+    "--material",
+    type=click.Choice(["sand", "clay"]),
+    default=None,
+    help="mavs: MAVS soil type of the surface (its Cone Index: CI for sand, RCI for clay).",
+)
 def export_cmd(
     terrain,
     results_path,
@@ -80,6 +86,7 @@ def export_cmd(
     janosi,
     samples,
     seed,
+    material,
 ):
     """Write a terrain or a result for a simulator (Chrono SCM JSON), as plain B-W
     parameters, or results as GeoJSON points.
@@ -93,6 +100,10 @@ def export_cmd(
         raise click.UsageError("give exactly one of --terrain and --results")
     if fmt == "geojson":
         return _export_geojson(results_path, out)
+    if fmt == "mavs":
+        from terracone.cli.mobility import export_mavs
+
+        return export_mavs(results_path, profile, material, out)
     if samples is not None and (fmt != "chrono-scm" or results_path is None):
         raise click.UsageError("--samples needs --results and --format chrono-scm")
     shear = {

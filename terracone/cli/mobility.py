@@ -119,3 +119,27 @@ def mobility_cmd(
         click.echo(mobility_text(doc))
     if not run.evaluated_any:
         sys.exit(1)
+
+
+def export_mavs(results_path: str | None, profile: str | None, material: str | None, out: str):
+    """``terracone export --format mavs``: the MAVS surface entry of a profile or a site."""
+    from terracone.apps.mobility import write_mavs
+    from terracone.result import read_results
+
+    if results_path is None:
+        raise click.UsageError("--format mavs needs --results (predict JSON or batch directory)")
+    if material is None:
+        raise click.UsageError("--format mavs needs --material sand or clay (MAVS's soil type)")
+    doc, notes = write_mavs(
+        read_results(results_path), out, material=material, profile=profile,
+        source=str(results_path),
+    )  # fmt: skip
+    for n in notes:
+        click.echo(f"terracone: {n}", err=True)
+    entry = doc["Surface Mesh"][0]
+    click.echo(
+        f"terracone: {out}: Material {entry['Material']}, Cone Index {entry['Cone Index']:.4g} psi "
+        f"({doc['terracone']['cone_index_of']} of the 0-6 in layer, {doc['terracone']['what']})",
+        err=True,
+    )
+    click.echo(f"wrote {out}")

@@ -11,7 +11,6 @@ located, and the notes.  Nothing is computed here; the numbers are those of
 from __future__ import annotations
 
 import math
-from collections import Counter
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -24,7 +23,7 @@ from terracone.report.html import figure_part, kv_part, list_part, table_part, t
 from terracone.report.tables import Table
 from terracone.report.text import table
 
-__all__ = ["mobility_text", "mobility_document", "verdict", "go_map_figure"]
+__all__ = ["mobility_text", "mobility_document", "verdict", "go_map_figure", "profile_notes"]
 
 
 def verdict(go: bool | None) -> str:
@@ -55,13 +54,23 @@ def _headers(units: str, first: str) -> list[str]:
     ]  # fmt: skip
 
 
-def _shared_notes(profiles: Sequence[Mapping[str, Any]]) -> tuple[list[str], set[str]]:
-    """Notes every profile carries (said once) and the set of them."""
-    if not profiles:
-        return [], set()
-    counts = Counter(n for p in profiles for n in dict.fromkeys(p["notes"]))
-    common = [n for n, c in counts.items() if c == len(profiles) and len(profiles) > 1]
-    return common, set(common)
+def profile_notes(profiles: Sequence[Mapping[str, Any]], shown: int = 3) -> list[str]:
+    """The profiles' notes, each said once: "id: note", "k profiles (ids): note" or
+    "every profile: note"."""
+    by_note: dict[str, list[str]] = {}
+    for p in profiles:
+        for n in dict.fromkeys(p["notes"]):
+            by_note.setdefault(n, []).append(str(p["id"]))
+    out = []
+    for n, ids in by_note.items():
+        if len(ids) == 1:
+            out.append(f"{ids[0]}: {n}")
+        elif len(ids) == len(profiles):
+            out.append(f"every profile: {n}")
+        else:
+            more = ", ..." if len(ids) > shown else ""
+            out.append(f"{len(ids)} profiles ({', '.join(ids[:shown])}{more}): {n}")
+    return out
 
 
 def mobility_text(doc: Mapping[str, Any]) -> str:
@@ -81,9 +90,7 @@ def mobility_text(doc: Mapping[str, Any]) -> str:
     ]
     if doc.get("sites"):
         lines += ["", table(_headers(units, "site"), [_row(s, "site") for s in doc["sites"]])]
-    common, seen = _shared_notes(doc["profiles"])
-    notes = list(doc.get("notes", [])) + [f"every profile: {n}" for n in common]
-    notes += [f"{p['id']}: {n}" for p in doc["profiles"] for n in p["notes"] if n not in seen]
+    notes = list(doc.get("notes", [])) + profile_notes(doc["profiles"])
     if notes:
         lines += [""] + notes
     return "\n".join(lines)
@@ -129,7 +136,7 @@ def go_map_figure(doc: Mapping[str, Any]) -> Figure | None:
     for go, colour, marker, label in (
         (True, "#1a7f37", "o", "GO"),
         (False, "#c00000", "X", "NO-GO"),
-        (None, "#888888", ".", "undecided (no RCI)"),
+        (None, "#bbbbbb", "o", "undecided (no RCI)"),
     ):
         sel = [(x, y) for x, y, g in pts if g is go]
         if sel:
@@ -185,9 +192,7 @@ def mobility_document(doc: Mapping[str, Any], *, source: str | None = None) -> d
     fig = go_map_figure(doc)
     if fig is not None:
         parts.append(figure_part(fig, "GO and NO-GO of the located profiles (plain degrees)."))
-    common, seen = _shared_notes(profiles)
-    notes = list(doc.get("notes", [])) + [f"every profile: {n}" for n in common]
-    notes += [f"{p['id']}: {n}" for p in profiles for n in p["notes"] if n not in seen]
+    notes = list(doc.get("notes", [])) + profile_notes(profiles)
     if notes:
         parts.append(list_part(notes))
     return {
