@@ -541,3 +541,16 @@ def test_mavs_export_errors(marsden, tmp_path):
     assert res.exit_code != 0 and "too shallow" in res.output
     res = run("export", "--results", marsden, "--format", "mavs", "--out", out)
     assert res.exit_code != 0 and "--material" in res.output
+
+
+def test_the_worked_example_of_docs_mobility(marsden):
+    """docs/mobility.md: the M1152 on push 0003-N1 with RI 0.8: RCI 644.1 kPa against
+    VCI_1 191.6 kPa, GO by 452.5 kPa (each step by hand in the docs and above)."""
+    d = {**VEHICLE, "mobility_index": None, "tire_deflection_ratio": 0.15,
+         "mobility_index_inputs": {
+             "gross_weight": "13450 lb", "axles": 2, "tires": 4, "tire_width": "12.5 in",
+             "tire_diameter": "37 in", "ground_clearance": "17.4 in", "engine_power": "190 hp"}}  # fmt: skip
+    run_ = evaluate_mobility(read_results(marsden), vehicle_from_dict(d), remolding_index=0.8)
+    p = next(q for q in run_.profiles if q.id.endswith("0003-N1"))
+    assert p.rci == pytest.approx(0.8 * 805.14653, rel=1e-7) and p.go is True
+    assert p.margin == pytest.approx(644.117 - 191.649, abs=0.01)
