@@ -534,15 +534,25 @@ def _profile_ci(r: PredictionResult, ci_profiles: Mapping[str, CIProfile] | None
     return None, None
 
 
-def _nrmm(out: ProfileMobility, depth, ci, ri_option: float | None, vci: float) -> None:
+NO_CI_NOTE = (
+    "the results keep no CI (a batch Parquet table): the critical-layer CI is not computed; "
+    "give the CI file (--ci)"
+)
+
+
+def _nrmm(
+    out: ProfileMobility,
+    depth,
+    ci,
+    ri_option: float | None,
+    vci: float,
+    no_ci_note: str = NO_CI_NOTE,
+) -> None:
     """Critical-layer CI, RI, RCI, GO and margin of one profile, in place."""
     top, bottom = out.layer
     if depth is None:
         out.layer_status = "no ci"
-        out.notes.append(
-            "the results keep no CI (a batch Parquet table): the critical-layer CI is not "
-            "computed; give the CI file (--ci)"
-        )
+        out.notes.append(no_ci_note)
         return
     out.deepest = float(np.max(depth)) if len(depth) else None
     out.ci = critical_layer_mean(depth, ci, top, bottom)
@@ -609,7 +619,8 @@ def evaluate_profile(
     out = ProfileMobility(r.id, r.status, r.error, layer=top_bottom, metadata=dict(r.metadata))
     out.vci = vehicle.vci(passes)
     depth, ci = _profile_ci(r, ci_profiles)
-    _nrmm(out, depth, ci, remolding_index, out.vci)
+    note = NO_CI_NOTE if ci_profiles is None else "no CI: the profile is not in the CI file (--ci)"
+    _nrmm(out, depth, ci, remolding_index, out.vci, note)
     if not r.ok or r.params is None:
         out.notes.append(f"not fitted ({r.error or r.message or 'no parameters'}): no wheel")
         return out
