@@ -554,3 +554,8 @@ def test_the_worked_example_of_docs_mobility(marsden):
     p = next(q for q in run_.profiles if q.id.endswith("0003-N1"))
     assert p.rci == pytest.approx(0.8 * 805.14653, rel=1e-7) and p.go is True
     assert p.margin == pytest.approx(644.117 - 191.649, abs=0.01)
+
+
+def test_profiles_outside_every_site_are_said():
+    run_ = evaluate_mobility(located_results(), vehicle_from_dict(VEHICLE), by=["plot"])
+    assert run_.sites == [] and "3 profile(s) without plot in their metadata" in run_.notes[-1]

@@ -876,6 +876,11 @@ def evaluate_mobility(
                      "for VCI_1 only)")  # fmt: skip
     keys = _grouping(profiles, by)
     sites = _sites(profiles, keys, vehicle.vci(passes), level)
+    alone = [p.id for p in profiles if keys and p.site is None]
+    if alone:
+        shown = ", ".join(alone[:3]) + (", ..." if len(alone) > 3 else "")
+        notes.append(f"{len(alone)} profile(s) without {'/'.join(keys)} in their metadata are in "
+                     f"no site: {shown}")  # fmt: skip
     settings = {"remolding_index": remolding_index, "level": level, "prior": prior,
                 "calibration": results.settings.get("calibration")}  # fmt: skip
     return MobilityRun(vehicle, passes, lay, profiles, sites, keys, settings, notes)
