@@ -31,6 +31,10 @@ PLATES.csv, plates.csv              the bundled plate tests (radii 3.75 and 5 cm
 SHEAR.csv                           shear tests at 3 normal pressures
 pushes.csv                          a wide table: 6 located pushes, depths in cm, CI in MPa
                                     ("Unit: MPa"), a Penetrologger 1 cm2 cone
+survey.csv, survey.json             the same with 30 pushes on a grid; its prediction with
+                                    sand.json (= cal.json)
+sc900_export.txt                    PokeMe.txt again
+hmmwv.json                          the vehicle file of docs/mobility.md
 PokeMe.txt, field.txt               FieldScout SC900 exports (kPa, 1/2 inch cone), 4 pushes
 big.csv, big/, field-data/          200 pushes of LETE sand as a long CSV (big/, field-data/:
                                     split in two files)
@@ -50,6 +54,7 @@ shortened form, listed with its reason in :data:`SHORTENED`.
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -197,14 +202,35 @@ def write_long_ci(path: Path, pushes: int, seed: int, first: int = 1) -> pd.Data
     return df
 
 
-def write_wide(path: Path) -> None:
-    """A wide table: one row per push, depths 0-30 cm every 2 cm, CI in MPa."""
+#: The vehicle file of docs/mobility.md (an HMMWV M1152 from its published data).
+HMMWV = {
+    "name": "HMMWV M1152",
+    "kind": "wheeled",
+    "mobility_index_inputs": {
+        "gross_weight": "13450 lb", "axles": 2, "tires": 4,
+        "tire_width": "12.5 in", "tire_diameter": "37 in",
+        "ground_clearance": "17.4 in", "engine_power": "190 hp",
+        "transmission": "automatic", "chains": False,
+    },
+    "tire_deflection_ratio": 0.15,
+    "wheel": {"load": "3363 lb", "diameter": "37 in", "width": "12.5 in"},
+}  # fmt: skip
+
+
+def write_wide(path: Path, pushes: int = 6) -> None:
+    """A wide table: one row per push, depths 0-30 cm every 2 cm, CI in MPa; 6 pushes on a
+    line, more on a grid of 6 columns about 20 m apart."""
     z_cm = np.arange(0, 31, 2)
     head = ["plot", "point", "lat", "lon"] + [f"{z:g}" for z in z_cm]
     lines = ["# SYNTHETIC DATA: LETE sand, Penetrologger 1 cm2 cone", "Unit: MPa", ",".join(head)]
-    for k in range(6):
+    for k in range(pushes):
         ci = synthetic_ci(z_cm / 100, 40 + k, cone="penetrologger-1cm2") / 1000
-        where = [("north", "south")[k // 3], f"P{k + 1}", f"{-34.38 - 0.001 * k:.4f}", "19.175"]
+        lat, lon = (
+            (-34.38 - 0.001 * k, 19.175)
+            if pushes == 6
+            else (-34.38 - 0.0002 * (k // 6), 19.175 + 0.0002 * (k % 6))
+        )
+        where = [("north", "south")[2 * k // pushes], f"P{k + 1}", f"{lat:.4f}", f"{lon:.4f}"]
         lines.append(",".join(where + [f"{c:.4f}" for c in ci]))
     path.write_text("\n".join(lines) + "\n")
 
@@ -270,9 +296,15 @@ def workspace(tmp_path_factory) -> Path:
         write_long_ci(ws / folder / "b.csv", 100, seed=200, first=101)
     write_shear(ws / "SHEAR.csv")
     write_wide(ws / "pushes.csv")
+    write_wide(ws / "survey.csv", 30)
     write_sc900(ws / "PokeMe.txt")
     shutil.copy(ws / "PokeMe.txt", ws / "field.txt")
+    shutil.copy(ws / "PokeMe.txt", ws / "sc900_export.txt")
+    (ws / "hmmwv.json").write_text(json.dumps(HMMWV, indent=1))
     terracone("learn", "--ci", "CI.csv", "--plates", "PLATES.csv", "--save", "cal.json", cwd=ws)
+    shutil.copy(ws / "cal.json", ws / "sand.json")
+    survey = ["--format", "wide", "--depth-unit", "cm", "--calibration", "sand.json", "--json"]
+    terracone("predict", "survey.csv", *survey, "--out", "survey.json", cwd=ws)
     terracone(
         "predict", "CI.csv", "--plates", "1.5in,2.5in", "--json", "--out", "predict.json", cwd=ws
     )

@@ -18,6 +18,7 @@ References used here, none of them terracone's own output:
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 from pathlib import Path
@@ -29,6 +30,7 @@ import pyarrow.parquet as pq
 import pytest
 import rasterio
 from click.testing import CliRunner
+from pychrono_standin import SCMTerrain, install
 from pyproj import Transformer
 from scipy import stats
 from scipy.integrate import trapezoid
@@ -517,6 +519,44 @@ def test_cli_map_end_to_end_on_a_located_wide_table(located_json, tmp_path):
     # the printed --json is map.json
     r2 = CliRunner().invoke(cli, args + ["--layers-ci", "0:15cm,15:30cm", "--json"])
     assert r2.exit_code == 0 and json.loads(r2.stdout)["quantities"] == doc["quantities"]
+
+
+def test_export_map_to_pychrono_gives_each_cell_its_parameters(located_json, tmp_path, monkeypatch):
+    """``export --map DIR --format pychrono``: Chrono's callback gives, at each cell centre,
+    that cell's kc, kphi, n from cells.parquet (read with pyarrow, converted by hand:
+    kN/m^(n+1) -> Pa/m^(n-1) and kN/m^(n+2) -> Pa/m^n are x 1000) and the shear values
+    given; run on the PyChrono stand-in (PyChrono is conda-only)."""
+    out = tmp_path / "map"
+    r = CliRunner().invoke(cli, ["map", str(located_json), "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    soil = tmp_path / "map_soil.py"
+    args = ["export", "--map", str(out), "--format", "pychrono", "--out", str(soil)]
+    r = CliRunner().invoke(
+        cli, args + ["--cohesion", "1.3kPa", "--friction", "31", "--janosi", "12mm"]
+    )
+    cells = pq.read_table(out / "cells.parquet").to_pandas().dropna(subset=["kc", "kphi", "n"])
+    assert r.exit_code == 0, r.output
+    assert f"wrote {len(cells)} located soils to" in r.stdout
+    install(monkeypatch)
+    spec = importlib.util.spec_from_file_location("map_soil", soil)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    terrain = SCMTerrain(system=None)
+    module.apply(terrain)
+    for c in cells.sample(25, random_state=1).itertuples():
+        got = terrain.soil_at(*module.to_local(c.lat, c.lon))
+        want = (1000 * c.kphi, 1000 * c.kc, c.n, 1300.0, 31.0, 0.012, 4e8, 3e4)
+        assert got == pytest.approx(want, rel=1e-9)
+    # --map is a pychrono source only, and one source at a time
+    r = CliRunner().invoke(
+        cli, ["export", "--map", str(out), "--format", "chrono-scm", "--out", "x"]
+    )
+    assert r.exit_code == 2 and "--map: only with --format pychrono" in r.output
+    r = CliRunner().invoke(cli, args + ["--results", str(located_json)])
+    assert r.exit_code == 2 and "give exactly one of --terrain, --results and --map" in r.output
+    r = CliRunner().invoke(cli, args)  # no shear values: refused, nothing written
+    assert r.exit_code == 1 and "lacks Mohr cohesive limit" in r.output
+    assert "nothing was written" in r.output
 
 
 def test_cli_map_units_us_converts_the_rasters_only(located_json, tmp_path):

@@ -47,6 +47,7 @@ __all__ = [
     "export_terrain",
     "geojson",
     "location",
+    "map_soils",
     "merge_shear",
     "pick_profile",
     "plain_units",
@@ -457,6 +458,32 @@ def _soil(r: PredictionResult, shear: Mapping[str, float], draws: np.ndarray | N
     where = location(r) or (None, None)
     rows = () if draws is None else tuple({**dict(zip(UQ_PARAMS, d)), **shear} for d in draws)
     return LocatedSoil(r.id, {**record_params(r.params), **shear}, where[0], where[1], rows)
+
+
+def map_soils(directory: str | os.PathLike[str], shear: Mapping[str, float]) -> list[LocatedSoil]:
+    """The cells of a terrain map (``terracone map``) as located soils for Chrono.
+
+    Parameters
+    ----------
+    directory : str or path-like
+        The output directory of ``terracone map``
+        (:func:`terracone.apps.maps.read_map_cells`).
+    shear : mapping
+        c_kpa [kPa], phi_deg [deg], K_m [m]: the terrain's shear values, the
+        same in every cell (a map holds the cone's parameters only).
+
+    Returns
+    -------
+    list of LocatedSoil
+        One soil per cell with kc, kphi and n, named ``cell-<i>``, at the
+        cell centre.
+    """
+    from terracone.apps.maps import read_map_cells
+
+    return [
+        LocatedSoil(f"cell-{i}", {**record_params(c.params), **shear}, c.lat, c.lon)
+        for i, c in enumerate(read_map_cells(directory))
+    ]
 
 
 def result_soils(

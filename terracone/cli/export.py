@@ -11,7 +11,7 @@ from terracone.cli.common import UNITS, parse_length
 from terracone.physics import units as u
 
 #: ``--format`` choices; chrono-scm and pychrono take the Chrono options.
-EXPORT_FORMATS = ("chrono-scm", "pychrono", "json", "csv", "geojson")
+EXPORT_FORMATS = ("chrono-scm", "pychrono", "json", "csv", "geojson", "mavs")
 CHRONO_FORMATS = ("chrono-scm", "pychrono")
 
 _PRESSURE_RE = re.compile(r"^\s*([-+0-9.eE]+)\s*([A-Za-z]+)?\s*$")
@@ -79,6 +79,13 @@ def parse_origin(text: str) -> tuple[float, float]:
     type=click.Path(exists=True),
     help="predict --json or --parquet output (a file), or a batch output directory.",
 )
+@click.option(
+    "--map",
+    "map_dir",
+    type=click.Path(exists=True, file_okay=False),
+    default=None,
+    help="pychrono: a terrain map directory (terracone map): a soil per cell.",
+)
 @click.option("--profile", default=None, help="With --results: the profile to export.")
 @click.option(
     "--format",
@@ -139,7 +146,15 @@ def parse_origin(text: str) -> tuple[float, float]:
     "module with N sets.",
 )
 @click.option("--seed", type=int, default=None, help="Seed of the --samples draw.")
-def export_cmd(terrain, results_path, profile, fmt, out, units, library, **chrono):
+@click.option(
+    "--material",
+    type=click.Choice(["sand", "clay"]),
+    default=None,
+    help="mavs: MAVS soil type of the surface (its Cone Index: CI for sand, RCI for clay).",
+)
+def export_cmd(
+    terrain, results_path, map_dir, profile, fmt, out, units, library, material, **chrono
+):
     """Write a terrain or results for Project Chrono's SCM (a co-simulation spec or a PyChrono
     module), as plain Bekker-Wong parameters, or results as GeoJSON points.
 
@@ -149,16 +164,25 @@ def export_cmd(terrain, results_path, profile, fmt, out, units, library, **chron
     missing nothing is written.  Elastic stiffness, damping, patch and grid
     spacing are defaults unless given (said on stderr).
     """
-    if (terrain is None) == (results_path is None):
-        raise click.UsageError("give exactly one of --terrain and --results")
+    if sum(x is not None for x in (terrain, results_path, map_dir)) != 1:
+        raise click.UsageError("give exactly one of --terrain, --results and --map")
+    if map_dir is not None and fmt != "pychrono":
+        raise click.UsageError("--map: only with --format pychrono (a terrain map's cells)")
+    if material is not None and fmt != "mavs":
+        raise click.UsageError("--material: only with --format mavs")
     if fmt not in CHRONO_FORMATS:
         given = [f"--{k.replace('_', '-')}" for k, v in chrono.items() if v is not None]
         if given:
             raise click.UsageError(f"{', '.join(given)}: only with --format chrono-scm or pychrono")
     if fmt == "geojson":
         return _export_geojson(results_path, out, units)
+    if fmt == "mavs":
+        from terracone.cli.mobility import export_mavs
+
+        return export_mavs(results_path, profile, material, out)
     if fmt in ("json", "csv"):
         return _export_plain(terrain, results_path, profile, fmt, out, units or "si", library)
+    chrono["map_dir"] = map_dir
     return _export_chrono(terrain, results_path, profile, fmt, out, units or "si", library, chrono)
 
 
@@ -223,7 +247,8 @@ def _chrono_soils(terrain, results_path, profile, fmt, units, library, opts):
     from terracone.apps.chrono import SPEC_SOIL_KEYS
 
     bekker = ", ".join(SPEC_SOIL_KEYS[:3])
-    origin = f"library terrain {terrain!r}" if terrain else f"the cone ({results_path})"
+    source = results_path if opts["map_dir"] is None else f"map {opts['map_dir']}"
+    origin = f"library terrain {terrain!r}" if terrain else f"the cone ({source})"
     notes, base, record = [f"{bekker} from {origin}"], None, None
     if terrain is not None:
         from terracone.apps.library import Library
@@ -243,6 +268,12 @@ def _chrono_soils(terrain, results_path, profile, fmt, units, library, opts):
         if opts["samples"] is not None:
             raise click.UsageError("--samples needs --results with posterior draws")
         return [terrain_soil(record, shear)], notes, []
+    if opts["map_dir"] is not None:
+        from terracone.apps.export import map_soils
+
+        if opts["samples"] is not None:
+            raise click.UsageError("--samples needs --results with posterior draws")
+        return map_soils(opts["map_dir"], shear), notes, []
     from terracone.apps.export import result_soils
     from terracone.result import read_results
 
@@ -273,7 +304,8 @@ def _export_chrono(terrain, results_path, profile, fmt, out, units, library, opt
     )
     soils, notes, left = _chrono_soils(terrain, results_path, profile, fmt, units, library, opts)
     try:
-        what = _write_chrono(soils, fmt, out, settings, opts, terrain or results_path, notes)
+        source = terrain or results_path or opts["map_dir"]
+        what = _write_chrono(soils, fmt, out, settings, opts, source, notes)
     except ValueError as exc:
         found = f" (found: {'; '.join(notes)})" if notes else ""
         raise ValueError(f"{exc}{found}") from None

@@ -10,21 +10,33 @@ length         m                       in
 pressure       kPa                     psi
 kc             kN/m^(n+1)              lb/in^(n+1)
 kphi           kN/m^(n+2)              lb/in^(n+2)
+force          N                       lbf
 =============  ======================  =========================
 
 The factors are exact: 1 in = 0.0254 m and 1 lbf = 4.4482216152605 N.
 The factors of kc and kphi depend on the sinkage exponent n.
+
+Quantities written with their unit (``"10 kN"``, ``"40 in"``, ``"190 hp"``,
+as in a vehicle file) are read by :func:`quantity_to_si`.  Its factors are
+exact by definition [2]_: 1 ft = 12 in, 1 kip = 1000 lbf, 1 kgf = 9.80665 N
+(standard gravity), 1 hp = 550 ft lbf/s = 745.69987158227 W (mechanical
+horsepower); a mass (kg, t) stands for its weight under standard gravity.
 
 References
 ----------
 .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
    terrain parameters for physics-based vehicle mobility models from cone
    index data. Nomenclature and Tables 4-1 to 4-4.
+.. [2] NIST Special Publication 811 (2008), Guide for the Use of the
+   International System of Units, Appendix B (conversion factors) and
+   section 8.6 (standard acceleration of gravity g_n = 9.80665 m/s^2).
 """
 
 from __future__ import annotations
 
-from typing import Literal
+import math
+import re
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -49,11 +61,21 @@ __all__ = [
     "pressure_unit",
     "kc_unit",
     "kphi_unit",
+    "force_unit",
+    "force_from_si",
+    "force_to_si",
+    "G_N",
+    "HP",
+    "QUANTITY_UNITS",
+    "quantity_to_si",
 ]
 
 INCH = 0.0254  # [m], exact
 LBF = 4.4482216152605  # [N], exact
 PSI = LBF / INCH**2 / 1000.0  # [kPa]
+
+G_N = 9.80665  # standard acceleration of gravity [m/s^2], exact [2]
+HP = 550.0 * 12.0 * INCH * LBF  # mechanical horsepower, 550 ft lbf/s [W], exact [2]
 
 UnitSystem = Literal["si", "us"]
 
@@ -61,6 +83,27 @@ UnitSystem = Literal["si", "us"]
 LENGTH_UNITS: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": INCH}
 #: Pressure units accepted in file column suffixes [kPa].
 PRESSURE_UNITS: dict[str, float] = {"kpa": 1.0, "mpa": 1000.0, "psi": PSI, "pa": 0.001}
+
+#: Units of quantities written with their unit (:func:`quantity_to_si`), per kind,
+#: as factors to SI (m, N, W); names are matched without regard to case.
+QUANTITY_UNITS: dict[str, dict[str, float]] = {
+    "length": {**LENGTH_UNITS, "ft": 12.0 * INCH},
+    "force": {
+        "n": 1.0,
+        "kn": 1000.0,
+        "lbf": LBF,
+        "lb": LBF,
+        "kip": 1000.0 * LBF,
+        "kips": 1000.0 * LBF,
+        "kgf": G_N,
+        "kg": G_N,  # a mass: its weight under standard gravity
+        "t": 1000.0 * G_N,
+    },
+    "power": {"w": 1.0, "kw": 1000.0, "hp": HP},
+}
+_SI_NAME = {"length": "m", "force": "N", "power": "W"}
+_EXAMPLE = {"length": "'40 in'", "force": "'10 kN'", "power": "'190 hp'"}
+_QUANTITY_RE = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z]+)?\s*$")
 
 _SYSTEM_LENGTH = {"si": 1.0, "us": INCH}
 _SYSTEM_PRESSURE = {"si": 1.0, "us": PSI}
@@ -145,3 +188,69 @@ def kc_unit(units: str) -> str:
 def kphi_unit(units: str) -> str:
     """Name of the unit of kphi in a system."""
     return {"si": "kN/m^(n+2)", "us": "lb/in^(n+2)"}[check_system(units)]
+
+
+def force_to_si(value: ArrayLike, units: str) -> np.ndarray:
+    """Force in the system's unit (N or lbf) to [N]."""
+    return np.asarray(value, dtype=float) * {"si": 1.0, "us": LBF}[check_system(units)]
+
+
+def force_from_si(value: ArrayLike, units: str) -> np.ndarray:
+    """Force in [N] to the system's unit (N or lbf)."""
+    return np.asarray(value, dtype=float) / {"si": 1.0, "us": LBF}[check_system(units)]
+
+
+def force_unit(units: str) -> str:
+    """Name of the force unit of a system."""
+    return {"si": "N", "us": "lbf"}[check_system(units)]
+
+
+def quantity_to_si(value: Any, kind: str) -> float:
+    """A quantity written with its unit (``"10 kN"``, ``"40 in"``) or a bare number in SI.
+
+    Parameters
+    ----------
+    value : str or float
+        A string ``"<number> <unit>"`` with a unit of :data:`QUANTITY_UNITS`
+        for ``kind`` (case ignored), or a bare number (int or float) taken
+        as SI (m, N, W).
+    kind : {"length", "force", "power"}
+
+    Returns
+    -------
+    float
+        The value in SI: [m], [N] or [W].
+
+    Raises
+    ------
+    ValueError
+        A string without a unit, an unknown unit, a non-finite number or
+        another type; the message says what was expected.
+    """
+    table = QUANTITY_UNITS[kind]
+    if isinstance(value, bool) or value is None:
+        raise ValueError(f"expected a {kind} such as {_EXAMPLE[kind]}, got {value!r}")
+    if isinstance(value, int | float):
+        v = float(value)
+    elif isinstance(value, str):
+        m = _QUANTITY_RE.match(value)
+        if not m:
+            raise ValueError(
+                f"expected a {kind} with its unit, e.g. {_EXAMPLE[kind]}, got {value!r}"
+            )
+        if m.group(2) is None:
+            raise ValueError(
+                f"{value!r} has no unit: write it with one ({', '.join(table)}) "
+                f"or as a bare number in {_SI_NAME[kind]}"
+            )
+        unit = m.group(2).lower()
+        if unit not in table:
+            raise ValueError(
+                f"unknown {kind} unit {m.group(2)!r} in {value!r} (known: {', '.join(table)})"
+            )
+        v = float(m.group(1)) * table[unit]
+    else:
+        raise ValueError(f"expected a {kind} such as {_EXAMPLE[kind]} or a number, got {value!r}")
+    if not math.isfinite(v):
+        raise ValueError(f"{value!r} is not a finite {kind}")
+    return v

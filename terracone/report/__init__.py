@@ -44,6 +44,8 @@ def result_kind(doc: Any) -> str:
     """
     if not isinstance(doc, dict):
         raise ValueError("not a terracone result: expected a JSON object")
+    if doc.get("command") == "mobility":
+        return "mobility"
     if "schema" in doc or "schema_version" in doc:
         check_schema(doc)
         return "predict"
@@ -161,6 +163,10 @@ def _document(kind: str, doc: dict[str, Any], source: str, map_by: str = "n") ->
         from terracone.report.sites import sites_document
 
         return sites_document(doc, source=source)
+    if kind == "mobility":
+        from terracone.report.mobility import mobility_document
+
+        return mobility_document(doc, source=source)
     raise ValueError(f"unknown result kind {kind!r}")  # pragma: no cover
 
 

@@ -1,0 +1,145 @@
+"""What the terrain means for a vehicle: ``terracone mobility``."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from terracone.cli.common import UNITS, emit_json, json_options, parse_length, shared
+
+
+def parse_layer(text: str | None, units: str) -> tuple[float, float] | None:
+    """'TOP:BOTTOM' (lengths with a unit, or bare numbers in --units) -> (top, bottom) [m]."""
+    if not text:
+        return None
+    if ":" not in text:
+        raise click.BadParameter(f"--layer: expected TOP:BOTTOM such as 0:6in, got {text!r}")
+    top_s, bottom_s = text.split(":", 1)
+    if not top_s.strip() or not bottom_s.strip():
+        raise click.BadParameter(f"--layer: give both TOP and BOTTOM, got {text!r}")
+    top, bottom = parse_length(top_s, units, "--layer"), parse_length(bottom_s, units, "--layer")
+    if not 0 <= top < bottom:
+        raise click.BadParameter(f"--layer: need 0 <= TOP < BOTTOM, got {text!r}")
+    return top, bottom
+
+
+def _progress(count: int):
+    """tqdm over the profiles when there are many and stderr is a terminal."""
+    if count < 500 or not sys.stderr.isatty():
+        return None
+    from tqdm.auto import tqdm
+
+    return lambda it: tqdm(it, total=count, desc="terracone mobility", unit="profile",
+                           file=sys.stderr)  # fmt: skip
+
+
+@click.command("mobility")
+@click.argument("results_path", metavar="RESULTS", type=click.Path(exists=True))
+@click.option(
+    "--vehicle",
+    "vehicle_path",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Vehicle JSON: name, kind, mobility_index (or mobility_index_inputs), "
+    "tire_deflection_ratio, wheel {load, diameter, width} (docs/mobility.md).",
+)
+@click.option(
+    "--passes",
+    type=click.Choice(["1", "50"]),
+    default="1",
+    show_default=True,
+    help="VCI_1 with the 0-6 in critical layer, or VCI_50 with 6-12 in.",
+)
+@click.option(
+    "--layer", default=None, help="Critical layer TOP:BOTTOM in place of --passes' (e.g. 0:6in)."
+)
+@click.option(
+    "--remolding-index",
+    type=float,
+    default=None,
+    help="Remolding index RI in (0, 2] of every profile (default: an RI column of the metadata).",
+)
+@click.option(
+    "--by",
+    default=None,
+    help="Metadata column(s) naming each profile's site or map cell (default: site, if present).",
+)
+@click.option(
+    "--ci",
+    "ci_file",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="CI file of results that keep no CI (a batch directory), matched by profile id.",
+)
+@click.option(
+    "--file-units", type=UNITS, default=None, help="Unit system of a --ci file that states none."
+)
+@click.option(
+    "--units", type=UNITS, default="si", show_default=True, help="SI: m, kPa, N; US: in, psi, lbf."
+)
+@shared(*json_options)
+def mobility_cmd(
+    results_path, vehicle_path, passes, layer, remolding_index, by, ci_file, file_units, units,
+    out, as_json,
+):  # fmt: skip
+    """NRMM go/no-go and Bekker wheel sinkage of a vehicle on predicted terrain.
+
+    RESULTS is a predict JSON or Parquet file, or a batch directory.  Per
+    profile (and per site): the critical-layer mean CI, RCI = CI x RI, the
+    vehicle cone index (Priddy and Willoughby 2006), GO when RCI >= VCI with
+    the margin, and the sinkage and compaction resistance of the vehicle's
+    wheel from kc, kphi and n (Bekker), with the 90% band of the posterior
+    draws of predict --uncertainty --json.
+    """
+    from terracone.apps.mobility import ci_profiles_by_id, evaluate_mobility, load_vehicle
+    from terracone.report.mobility import mobility_text
+    from terracone.result import read_results
+
+    vehicle = load_vehicle(vehicle_path)
+    results = read_results(results_path)
+    ci_profiles = None
+    if ci_file:
+        from terracone.cli.common import read_profiles
+
+        items = read_profiles(ci_file, "asabe-large", None, "base", units=file_units)
+        ci_profiles = ci_profiles_by_id(items)
+    run = evaluate_mobility(
+        results, vehicle, passes=int(passes), layer=parse_layer(layer, units),
+        remolding_index=remolding_index,
+        by=None if by is None else [k.strip() for k in by.split(",")],
+        ci_profiles=ci_profiles, source=str(results_path), progress=_progress(len(results)),
+    )  # fmt: skip
+    doc = run.as_dict(units, input=str(results_path))
+    if out:
+        emit_json(doc, out)
+    if as_json:
+        emit_json(doc)
+    else:
+        click.echo(mobility_text(doc))
+    if not run.evaluated_any:
+        sys.exit(1)
+
+
+def export_mavs(results_path: str | None, profile: str | None, material: str | None, out: str):
+    """``terracone export --format mavs``: the MAVS surface entry of a profile or a site."""
+    from terracone.apps.mobility import write_mavs
+    from terracone.result import read_results
+
+    if results_path is None:
+        raise click.UsageError("--format mavs needs --results (predict JSON or batch directory)")
+    if material is None:
+        raise click.UsageError("--format mavs needs --material sand or clay (MAVS's soil type)")
+    doc, notes = write_mavs(
+        read_results(results_path), out, material=material, profile=profile,
+        source=str(results_path),
+    )  # fmt: skip
+    for n in notes:
+        click.echo(f"terracone: {n}", err=True)
+    entry = doc["Surface Mesh"][0]
+    click.echo(
+        f"terracone: {out}: Material {entry['Material']}, Cone Index {entry['Cone Index']:.4g} psi "
+        f"({doc['terracone']['cone_index_of']} of the 0-6 in layer, {doc['terracone']['what']})",
+        err=True,
+    )
+    click.echo(f"wrote {out}")

@@ -1,0 +1,202 @@
+"""Text and report section of ``terracone mobility``: GO/NO-GO, margins, wheel sinkage, a map.
+
+:func:`mobility_text` is the table the command prints; :func:`mobility_document`
+the HTML report section of a ``terracone mobility --json`` document (schema
+``terracone.mobility/1``, docs/mobility.md): the vehicle, a table of the
+profiles and of the sites, a map of GO and NO-GO where the profiles are
+located, and the notes.  Nothing is computed here; the numbers are those of
+:mod:`terracone.apps.mobility`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from terracone.physics import units as u
+from terracone.report.fields import coordinates
+from terracone.report.html import figure_part, kv_part, list_part, table_part, text_part
+from terracone.report.tables import Table
+from terracone.report.text import table
+
+__all__ = ["mobility_text", "mobility_document", "verdict", "go_map_figure", "profile_notes"]
+
+
+def verdict(go: bool | None) -> str:
+    """ "GO", "NO-GO" or "-" (undecided: no RCI)."""
+    return "-" if go is None else ("GO" if go else "NO-GO")
+
+
+def _band(w: Mapping[str, Any], key: str) -> tuple[Any, Any]:
+    lo, hi = w.get("lo"), w.get("hi")
+    return (lo[key], hi[key]) if lo and hi else (None, None)
+
+
+def _row(d: Mapping[str, Any], name_key: str) -> list[Any]:
+    cl, w = d["critical_layer"], d["wheel"]
+    zlo, zhi = _band(w, "sinkage")
+    rlo, rhi = _band(w, "resistance")
+    return [
+        d[name_key], cl["ci"], cl.get("ri"), cl["rci"], d["vci"], verdict(d["go"]), d["margin"],
+        w["sinkage"], zlo, zhi, w["resistance"], rlo, rhi,
+    ]  # fmt: skip
+
+
+def _headers(units: str, first: str) -> list[str]:
+    pu, lu, fu = u.pressure_unit(units), u.length_unit(units), u.force_unit(units)
+    return [
+        first, f"CI [{pu}]", "RI", f"RCI [{pu}]", f"VCI [{pu}]", "GO", f"margin [{pu}]",
+        f"sinkage [{lu}]", "5%", "95%", f"resistance [{fu}]", "5%", "95%",
+    ]  # fmt: skip
+
+
+def profile_notes(profiles: Sequence[Mapping[str, Any]], shown: int = 3) -> list[str]:
+    """The profiles' notes, each said once: "id: note", "k profiles (ids): note" or
+    "every profile: note"."""
+    by_note: dict[str, list[str]] = {}
+    for p in profiles:
+        for n in dict.fromkeys(p["notes"]):
+            by_note.setdefault(n, []).append(str(p["id"]))
+    out = []
+    for n, ids in by_note.items():
+        if len(ids) == 1:
+            out.append(f"{ids[0]}: {n}")
+        elif len(ids) == len(profiles):
+            out.append(f"every profile: {n}")
+        else:
+            more = ", ..." if len(ids) > shown else ""
+            out.append(f"{len(ids)} profiles ({', '.join(ids[:shown])}{more}): {n}")
+    return out
+
+
+def mobility_text(doc: Mapping[str, Any]) -> str:
+    """The plain-text tables of a mobility document (what ``terracone mobility`` prints)."""
+    units = doc["units"]
+    v, st = doc["vehicle"], doc["settings"]
+    lu = u.length_unit(units)
+    lines = [
+        f"vehicle {v['name']} ({v['kind']}): MI {v['mobility_index']:.4g} ({v['mobility_index_from']}),"
+        f" delta/h {v['tire_deflection_ratio']:g} (DCF {v['dcf']:.4g}), "
+        f"VCI_{v['passes']} {v['vci']:.4g} {u.pressure_unit(units)}",
+        f"critical layer {st['layer']['top']:.4g}-{st['layer']['bottom']:.4g} {lu}; wheel "
+        f"{v['wheel']['load']:.4g} {u.force_unit(units)}, D {v['wheel']['diameter']:.4g} {lu}, "
+        f"b {v['wheel']['width']:.4g} {lu}",
+        "",
+        table(_headers(units, "profile"), [_row(p, "id") for p in doc["profiles"]]),
+    ]
+    if doc.get("sites"):
+        lines += ["", table(_headers(units, "site"), [_row(s, "site") for s in doc["sites"]])]
+    notes = list(doc.get("notes", [])) + profile_notes(doc["profiles"])
+    if notes:
+        lines += [""] + notes
+    return "\n".join(lines)
+
+
+def _table(rows: Sequence[Mapping[str, Any]], units: str, site: bool) -> Table:
+    hs = _headers(units, "site" if site else "profile")
+    columns = [(h.split(" [")[0], h.split(" [")[1].rstrip("]") if " [" in h else "") for h in hs]
+    columns[8], columns[9] = ("sinkage", "5%"), ("sinkage", "95%")
+    columns[11], columns[12] = ("resistance", "5%"), ("resistance", "95%")
+    body = [_row(r, "site" if site else "id") for r in rows]
+    if site:
+        columns.append(("GO share", "of profiles"))
+        for b, r in zip(body, rows):
+            b.append(r.get("go_fraction"))
+    return Table(
+        key="mobility-sites" if site else "mobility",
+        title=("Sites: " if site else "Profiles: ")
+        + "critical-layer CI, RCI against VCI, and the wheel",
+        columns=columns,
+        rows=body,
+        notes=[
+            "GO when RCI >= VCI (Priddy and Willoughby 2006); margin = RCI - VCI; '-' where "
+            "there is no RCI (no remolding index, or no CI over the critical layer).",
+            "sinkage and compaction resistance of the vehicle's rigid wheel (Bekker 1969); "
+            "5%/95%: band of the posterior draws where the results keep them.",
+        ],
+    )
+
+
+def go_map_figure(doc: Mapping[str, Any]) -> Figure | None:
+    """GO and NO-GO of the located profiles on longitude and latitude; None when none is located."""
+    pts = []
+    for p in doc["profiles"]:
+        xy = coordinates(p.get("metadata"))
+        if xy is not None:
+            pts.append((xy[0], xy[1], p["go"]))
+    if not pts:
+        return None
+    fig = Figure(figsize=(7.2, 5.6))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    for go, colour, marker, label in (
+        (True, "#1a7f37", "o", "GO"),
+        (False, "#c00000", "X", "NO-GO"),
+        (None, "#bbbbbb", "o", "undecided (no RCI)"),
+    ):
+        sel = [(x, y) for x, y, g in pts if g is go]
+        if sel:
+            xs, ys = zip(*sel, strict=True)
+            ax.scatter(xs, ys, c=colour, marker=marker, s=50, label=f"{label} ({len(sel)})",
+                       edgecolors="black", linewidths=0.4)  # fmt: skip
+    mean_lat = sum(y for _, y, _ in pts) / len(pts)
+    ax.set_aspect(1.0 / max(0.05, math.cos(math.radians(mean_lat))))
+    ax.ticklabel_format(useOffset=False, style="plain")
+    ax.set_xlabel("longitude [deg]")
+    ax.set_ylabel("latitude [deg]")
+    ax.legend(fontsize=8, loc="best")
+    v = doc["vehicle"]
+    ax.set_title(f"{v['name']}: RCI against VCI_{v['passes']}", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def mobility_document(doc: Mapping[str, Any], *, source: str | None = None) -> dict[str, Any]:
+    """Report document of a ``terracone mobility --json`` result."""
+    units = str(doc.get("units", "si"))
+    v, st = doc["vehicle"], doc["settings"]
+    profiles, sites = list(doc.get("profiles") or []), list(doc.get("sites") or [])
+    decided = [p["go"] for p in profiles if p["go"] is not None]
+    parts: list[dict[str, Any]] = [
+        kv_part(
+            {
+                "results file": source,
+                "input": doc.get("input"),
+                "vehicle": f"{v['name']} ({v['kind']})",
+                "mobility index": v["mobility_index"],
+                f"VCI_{v['passes']} [{u.pressure_unit(units)}]": v["vci"],
+                f"critical layer [{u.length_unit(units)}]": (
+                    f"{st['layer']['top']:.4g}-{st['layer']['bottom']:.4g}"
+                ),
+                "remolding index": st.get("remolding_index") or "from metadata",
+                "profiles": len(profiles),
+                "GO / NO-GO / undecided": (
+                    f"{sum(decided)} / {len(decided) - sum(decided)} / {len(profiles) - len(decided)}"
+                ),
+                "prior": st.get("prior"),
+            }
+        ),
+        text_part(
+            "NRMM: the mean CI of the critical layer times the remolding index (RCI) against "
+            "the vehicle cone index of the vehicle's mobility index; Bekker-Wong: the sinkage "
+            "and compaction resistance of the vehicle's wheel from each profile's kc, kphi and n."
+        ),
+        table_part(_table(profiles, units, site=False), max_rows=2000, tall=len(profiles) > 30),
+    ]
+    if sites:
+        parts.append(table_part(_table(sites, units, site=True), max_rows=2000))
+    fig = go_map_figure(doc)
+    if fig is not None:
+        parts.append(figure_part(fig, "GO and NO-GO of the located profiles (plain degrees)."))
+    notes = list(doc.get("notes", [])) + profile_notes(profiles)
+    if notes:
+        parts.append(list_part(notes))
+    return {
+        "title": f"terracone report: mobility of {v['name']}",
+        "meta": {"results": source, "command": "mobility"},
+        "sections": [{"id": "mobility", "heading": "Vehicle mobility", "parts": parts}],
+    }
