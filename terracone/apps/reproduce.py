@@ -1,21 +1,12 @@
 """Re-create the paper's two case studies on synthetic data and report them.
 
-SYNTHETIC DATA.  The paper's measured curves (LETE sand, 1981; KRC, 2018)
-were never published, only the parameters fitted to them (Tables 4-1 and
-4-3) and the agreement statistics (Tables 4-2 and 4-4).  :func:`reproduce`
-therefore generates data from the published parameters with terracone's
-forward models (seeded, with the noise model :data:`NOISE_MODEL`), runs them
-through the learning, prediction and evaluation processes (posterior bands
-through :func:`terracone.apps.workflow.attach_fits`), and sets the results
-beside the published tables.  ``docs/report.md`` describes the data, the
-noise model and how to read the comparison.
-
-Layout: each case study is one spec (its data generator, file names, and
-per report section the tables and figures with their keys, titles, notes
-and captions); one builder per kind of table or figure reads it, so what
-LETE and KRC share is written once.  The learning runs, the posteriors and
-the figures go through a ``pool`` with a ``map`` method (as in emcee): a
-process pool by default, the builtin ``map`` with ``workers=1``.
+SYNTHETIC DATA: generated from the published parameters (Tables 4-1 and
+4-3) with the noise model :data:`NOISE_MODEL`, then learned, predicted and
+evaluated beside the published tables; ``docs/report.md`` explains the data
+and how to read the comparison.  Each case study is one spec (``_CASES``)
+read by one builder per kind of table or figure; the learning runs,
+posteriors and figures go through a ``pool`` with a ``map`` method (as in
+emcee).
 
 References
 ----------
@@ -103,6 +94,7 @@ SYNTHETIC_TEXT = (
     "with a stated noise model. They are not the paper's measurements, which were never "
     "published. Columns marked 'paper' are the published values."
 )
+_SYNTH = {"synthetic": True, "note": SYNTHETIC_TEXT}  # in every JSON document written
 
 NOISE_MODEL = [
     f"CI: each reading x (1 + {CI_NOISE:g} e), e ~ N(0, 1) independent; cone-base depths 0 to "
@@ -156,20 +148,6 @@ class ReproduceSummary:
     tables: dict[str, Path] = field(default_factory=dict)
     figures: dict[str, dict[str, Path]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
-
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "out_dir": str(self.out_dir),
-            "report": str(self.report),
-            "quick": self.quick,
-            "seconds": self.seconds,
-            "files": [str(f) for f in self.files],
-            "lete_learned": self.lete_learned,
-            "krc_learned": self.krc_learned,
-            "tables": {k: str(v) for k, v in self.tables.items()},
-            "figures": {k: {f: str(p) for f, p in v.items()} for k, v in self.figures.items()},
-            "notes": list(self.notes),
-        }
 
 
 # ---------------------------------------------------------------------------
@@ -341,16 +319,7 @@ def _krc_data(spec: _CaseSpec, pub: list[dict[str, Any]], quick: bool) -> _Case:
 
 
 def _si(params: TerrainParameters, id_: str) -> dict[str, Any]:
-    return {
-        "id": id_,
-        "kc": params.kc,
-        "kphi": params.kphi,
-        "n": params.n,
-        "cc": params.cc,
-        "phic_deg": params.phic_deg,
-        "model": params.model,
-        "r_min": params.r_min,
-    }
+    return {"id": id_, **params.as_dict("si")}
 
 
 def _rows(evals, where, prediction: str | None = None) -> list[dict[str, Any]]:
@@ -411,17 +380,12 @@ def _predict_doc(
 
 
 def _learn_doc(res: LearnResult, terrain: str) -> dict[str, Any]:
-    d = res.as_dict("si")
-    d.update(
-        {
-            "terrain": terrain,
-            "terracone": __version__,
-            "command": "learn",
-            "synthetic": True,
-            "note": SYNTHETIC_TEXT,
-        }
-    )
-    return d
+    return {
+        **res.as_dict("si"),
+        "terrain": terrain,
+        "terracone": __version__,
+        "command": "learn",
+    } | _SYNTH
 
 
 def _evaluate_doc(case: _Case) -> dict[str, Any]:
@@ -430,13 +394,7 @@ def _evaluate_doc(case: _Case) -> dict[str, Any]:
         plates = [{**r, "test": f"{r['pair']} {r['plate']}", "units": "si"} for r in case.rows_cal]
     else:
         plates = [e.as_dict("si") for e in case.evals_cal]
-    return {
-        "command": "evaluate",
-        "synthetic": True,
-        "note": SYNTHETIC_TEXT,
-        "units": "si",
-        "plates": plates,
-    }
+    return {"command": "evaluate", **_SYNTH, "units": "si", "plates": plates}
 
 
 def _text(s: str) -> dict[str, Any]:
@@ -456,10 +414,9 @@ def _kv(pairs: dict[str, Any]) -> dict[str, Any]:
 # ---------------------------------------------------------------------------
 
 
-def _call(task: tuple[Callable[..., Any], tuple]) -> Any:
-    """Run one ``(function, args)`` task (in a worker of the pool, or here)."""
-    fn, args = task
-    return fn(*args)
+def _call(task: Callable[[], Any]) -> Any:
+    """Run one task, a ``partial`` (in a worker of the pool, or here)."""
+    return task()
 
 
 def _mapper(pool: Any) -> Callable[..., Any]:
@@ -467,20 +424,9 @@ def _mapper(pool: Any) -> Callable[..., Any]:
     return pool.map if hasattr(pool, "map") else pool
 
 
-def _learn_task(profiles, plates, grid):
-    return learn(profiles, plates, model="rm1", grid=grid)
-
-
-def _deferred(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> tuple:
-    """A figure to draw later: (function, args, kwargs)."""
-    return fn, args, kwargs
-
-
-def _render(spec: tuple, directory: Path, key: str) -> dict[str, Path]:
+def _render(fig: Callable[[], Any], directory: Path, key: str) -> dict[str, Path]:
     """Draw one figure and write its PNG and SVG (runs in a worker)."""
-    fn, args, kwargs = spec
-    fig = fn(*args, **kwargs)
-    return F.save_figure(fig, directory, key)
+    return F.save_figure(fig(), directory, key)
 
 
 class _Out:
@@ -491,7 +437,7 @@ class _Out:
         self.files: list[Path] = []
         self.tables: dict[str, Path] = {}
         self.figures: dict[str, dict[str, Path]] = {}
-        self.pending: list[tuple] = []
+        self.pending: list[partial] = []
 
     def rel(self, p: Path) -> str:
         return p.relative_to(self.root).as_posix()
@@ -510,9 +456,9 @@ class _Out:
         self.tables[t.key] = csv_path
         return {"type": "table", "table": t.to_dict(), "max_rows": max_rows}
 
-    def figure(self, spec: tuple, key: str, caption: str) -> dict[str, Any]:
-        """Queue figure ``spec`` (from :func:`_deferred`) as ``figures/key.png`` and ``.svg``."""
-        self.pending.append((_render, (spec, self.root / "figures", key)))
+    def figure(self, fig: Callable[[], Any], key: str, caption: str) -> dict[str, Any]:
+        """Queue figure ``fig`` (a ``partial``) as ``figures/key.png`` and ``.svg``."""
+        self.pending.append(partial(_render, fig, self.root / "figures", key))
         paths = {f: self.root / "figures" / f"{key}.{f}" for f in ("png", "svg")}
         for p in paths.values():
             self.file(p)
@@ -675,7 +621,7 @@ def _write_inputs(out: _Out, case: _Case) -> Path:
 def _learn_all(cases: Sequence[_Case], mapper: Callable[..., Any], grid: tuple) -> None:
     """The learning process (section 3.3.1), one run per group of every case, in the pool."""
     groups = [(case, g) for case in cases for g in case.groups]
-    tasks = [(_learn_task, (g.profiles, g.plates, grid)) for _, g in groups]
+    tasks = [partial(learn, g.profiles, g.plates, model="rm1", grid=grid) for _, g in groups]
     for (case, g), lr in zip(groups, mapper(_call, tasks)):
         case.learned[g.id] = lr
         case.cals[g.id] = lr.calibration(f"{g.id} ({LABEL})", data=LABEL)
@@ -706,7 +652,7 @@ def _predict_all(
             case.free_res.append(rf[i])
             r, s = rc[p.id]
             s = dataclasses.replace(s, seed=case.spec.seed + i)
-            tasks.append((partial(attach_fits, plates=radii), (PredictionResults([r]), [p], s)))
+            tasks.append(partial(attach_fits, PredictionResults([r]), [p], s, plates=radii))
     attached = iter(mapper(_call, tasks))
     for case in cases:
         for p in case.profiles:
@@ -744,7 +690,7 @@ def _write_results(out: _Out, case: _Case, ci_file: Path) -> None:
         cal.save(out.file(res / f"{spec.slug}_calibration{name}.json"))
     docs = {gid: _learn_doc(lr, f"{gid} ({LABEL})") for gid, lr in case.learned.items()}
     if spec.per_site:
-        learn_doc = {"synthetic": True, "note": SYNTHETIC_TEXT, "sites": docs}
+        learn_doc = {**_SYNTH, "sites": docs}
         calibration = "per site (learned on each site's CI and plates)"
     else:
         (learn_doc,) = docs.values()
@@ -787,8 +733,7 @@ def _write_report(out: _Out, sections: list[dict[str, Any]], *, quick: bool, sec
     manifest = {
         "kind": "terracone-reproduce",
         "terracone": __version__,
-        "synthetic": True,
-        "note": SYNTHETIC_TEXT,
+        **_SYNTH,
         "quick": quick,
         "seconds": seconds,
         "noise_model": NOISE_MODEL,
@@ -995,7 +940,7 @@ def _parameters_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
         synthetic=True,
         **case.spec.tables[name],
     )
-    _mark_bounds(t, [_si(r.params, r.id) for r in ok])
+    mark_bounds(t, [_si(r.params, r.id) for r in ok])
     return [out.table(t)]
 
 
@@ -1039,7 +984,7 @@ def _ridge_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Not in the paper: the ridge of equally good fits of the first profile."""
     f = case.spec.figures[name]
     p0, pub0 = case.profiles[0], case.pub[0]
-    fig = _deferred(
+    fig = partial(
         F.fig_ridge,
         p0.depth,
         p0.ci,
@@ -1076,7 +1021,7 @@ def _lete_learning_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any
         + spec["notes"],
         synthetic=True,
     )
-    _mark_bounds(t, rows, rmin_col=10, rmin_range=(5e-4, 3 * max(case.spec.plates.values())))
+    mark_bounds(t, rows, rmin_col=10, rmin_range=(5e-4, 3 * max(case.spec.plates.values())))
     return [out.table(t)]
 
 
@@ -1114,7 +1059,7 @@ def _site_learning_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any
         synthetic=True,
         **case.spec.tables[name],
     )
-    _mark_bounds(t, rows, rmin_col=9, rmin_range=(5e-4, 3 * max(case.spec.plates.values())))
+    mark_bounds(t, rows, rmin_col=9, rmin_range=(5e-4, 3 * max(case.spec.plates.values())))
     return [out.table(t)]
 
 
@@ -1124,7 +1069,7 @@ def _janosi_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     (lr,) = case.learned.values()
     (cal,) = case.cals.values()
     lp = lr.params
-    fig = _deferred(
+    fig = partial(
         F.fig_janosi,
         _measured_ci(case.profiles),
         WONG_LETE,
@@ -1147,7 +1092,7 @@ def _janosi_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
 def _ci_fit_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Figure 4-1 analogue: measured and predicted CI."""
     f = case.spec.figures[name]
-    fig = _deferred(F.fig_ci_fit, _fitted_ci(case.cal_res), title=f["title"], synthetic=True)
+    fig = partial(F.fig_ci_fit, _fitted_ci(case.cal_res), title=f["title"], synthetic=True)
     return [out.figure(fig, f["key"], f["caption"])]
 
 
@@ -1184,7 +1129,7 @@ def _plates_part(out: _Out, case: _Case, name: str, *, calibrated: bool) -> list
     if calibrated:  # the posterior band of the first profile
         bands = [b for r in case.cal_res[:1] for b in _bands(case.posts.get(r.id), r.id)]
         args += (bands,)
-    fig = _deferred(F.fig_plate_fit, *args, title=f["title"], synthetic=True)
+    fig = partial(F.fig_plate_fit, *args, title=f["title"], synthetic=True)
     caption = f["caption"].format(
         pairs=_span(sorted({t.metadata["pair"] for t in case.plates})),
         profiles=_span([p.id for p in case.profiles]),
@@ -1212,7 +1157,7 @@ def _site_figures_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]
             pressure = predicted_plate_pressure(rc.params, sk, t.b, pair)
             predicted.append({"id": t.id, "radius": t.b, "sinkage": sk, "pressure": pressure})
         number = f["numbers"][rc.id]
-        fig = _deferred(
+        fig = partial(
             F.fig_site,
             {"id": rc.id, "depth": rc.depth, "ci": rc.ci, "ci_model": rc.ci_model},
             measured,
@@ -1532,20 +1477,6 @@ _CASES = tuple(_CaseSpec(**{name: row[i] for name, row in _CASE_TABLE.items()}) 
 def _span(ids: Sequence[str]) -> str:
     ids = list(ids)
     return ids[0] if len(ids) == 1 else f"{ids[0]} to {ids[-1]}"
-
-
-def _mark_bounds(
-    table: Table,
-    rows: Sequence[dict[str, Any]],
-    *,
-    rmin_col: int | None = None,
-    rmin_range: tuple[float, float] | None = None,
-) -> Table:
-    """Highlight parameters on a bound of the default search (parameters_table layout)."""
-    b = Bounds()
-    return mark_bounds(
-        table, rows, cc=b.cc, phic_deg=b.phic_deg, n=b.n, rmin_col=rmin_col, rmin_range=rmin_range
-    )
 
 
 def _fmt(v: float, d: int = 3) -> str:
