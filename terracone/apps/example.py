@@ -71,31 +71,16 @@ def example_dir() -> Path:
 def make_example() -> tuple[list[CIProfile], list[PlateTest]]:
     """Generate the example data (deterministic)."""
     rng = np.random.default_rng(SEED)
-    t = TRUTH
     z = np.round(np.arange(0.0, 0.3001, 0.01), 4)
-    ci_true = cone_index(
-        z,
-        kc=t["kc"],
-        kphi=t["kphi"],
-        n=t["n"],
-        cc=t["cc"],
-        phic_deg=t["phic_deg"],
-        model=t["model"],
-        r_min=t["r_min"],
-        plate_pair=t["plate_pair"],
-    )
-    profiles = []
-    for i in range(3):
-        ci = ci_true * (1.0 + CI_NOISE * rng.standard_normal(z.size))
-        profiles.append(
-            CIProfile(
-                f"LS_syn_{i + 1}", z, np.round(ci, 2), metadata={"site": "LETE sand (synthetic)"}
-            )
-        )
+    ci_true = cone_index(z, **TRUTH)
+    profiles = [
+        CIProfile(f"LS_syn_{i + 1}", z, np.round(ci, 2), metadata={"site": "LETE sand (synthetic)"})
+        for i, ci in enumerate(ci_true * (1.0 + CI_NOISE * rng.standard_normal((3, z.size))))
+    ]
     s = np.round(np.arange(0.002, 0.1001, 0.002), 4)
     plates = []
     for label, r in (("A_r3.75cm", 0.0375), ("A_r5cm", 0.05)):
-        p = plate_pressure(s, kc=t["kc"], kphi=t["kphi"], n=t["n"], radius=r)
+        p = plate_pressure(s, kc=TRUTH["kc"], kphi=TRUTH["kphi"], n=TRUTH["n"], radius=r)
         p = p * (1.0 + PLATE_NOISE * rng.standard_normal(s.size))
         plates.append(PlateTest(f"LS_syn_{label}", r, "circular", s, np.round(p, 2)))
     return profiles, plates
@@ -163,9 +148,8 @@ def run_demo(units: str = "si", out: str | None = None) -> Demo:
     profiles = read_ci_profiles(d / CI_FILE)
     plates = read_plate_tests(d / PLATES_FILE)
     res = learn(profiles, plates, model="rm1")
-    ld = res.as_dict(units)
-    ld["terrain"] = "LETE sand (synthetic)"
-    cal = res.calibration("LETE sand (synthetic)")
+    ld = res.as_dict(units) | {"terrain": "LETE sand (synthetic)"}
+    cal = res.calibration(ld["terrain"])
     results = predict_many(profiles, calibration=cal)
     rows = cross_table(
         [(r.id, r.params) for r in results if r.ok], plates, plate_pair=cal.plate_pair
@@ -177,13 +161,8 @@ def run_demo(units: str = "si", out: str | None = None) -> Demo:
         (o / "learn.json").write_text(dumps(ld) + "\n")
         cal.save(o / "calibration.json")
         settings = {"model": cal.model, "r_min": cal.r_min, "solver": "exact", "bounds": Bounds()}
-        write_json(
-            o / "predict.json",
-            results,
-            units,
-            input=str(d / CI_FILE),
-            settings=settings_dict({**settings, "calibration": cal.terrain}, units),
-        )
+        settings = settings_dict({**settings, "calibration": cal.terrain}, units)
+        write_json(o / "predict.json", results, units, input=str(d / CI_FILE), settings=settings)
         (o / "evaluate.json").write_text(dumps({"plates": [r.as_dict(units) for r in rows]}) + "\n")
     return demo
 
