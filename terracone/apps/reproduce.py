@@ -168,7 +168,7 @@ class _Section(NamedTuple):
 
     id: str
     heading: str
-    parts: tuple[str, ...]
+    parts: str  # names of the parts (keys of ``_PARTS``), separated by spaces
     full_only: bool = False  # left out of a quick run
 
 
@@ -322,23 +322,14 @@ def _si(params: TerrainParameters, id_: str) -> dict[str, Any]:
     return {"id": id_, **params.as_dict("si")}
 
 
-def _rows(evals, where, prediction: str | None = None) -> list[dict[str, Any]]:
+def _rows(evals: Sequence[PlateEvaluation], where) -> list[dict[str, Any]]:
+    """Agreement rows: prediction, plate pair (or site) and plate of the test, R .. n_points."""
+    keys = ("R", "R2", "RMSD", "CV", "n_points")
     out = []
     for e in evals:
         pair, plate = where[e.test]
-        a = e.agreement
-        out.append(
-            {
-                "prediction": prediction or e.prediction,
-                "pair": pair,
-                "plate": plate,
-                "R": a.R,
-                "R2": a.R2,
-                "RMSD": a.RMSD,
-                "CV": a.CV,
-                "n_points": a.n_points,
-            }
-        )
+        row = {"prediction": e.prediction, "pair": pair, "plate": plate}
+        out.append(row | {k: getattr(e.agreement, k) for k in keys})
     return out
 
 
@@ -403,10 +394,6 @@ def _text(s: str) -> dict[str, Any]:
 
 def _list(items: Sequence[str]) -> dict[str, Any]:
     return {"type": "list", "items": list(items)}
-
-
-def _kv(pairs: dict[str, Any]) -> dict[str, Any]:
-    return {"type": "kv", "pairs": pairs}
 
 
 # ---------------------------------------------------------------------------
@@ -586,7 +573,7 @@ def _run(
         "posterior draws per profile": draws,
         "terracone": __version__,
     }
-    sections[1]["parts"] += [_text("Run:"), _kv(run)]
+    sections[1]["parts"] += [_text("Run:"), {"type": "kv", "pairs": run}]
     report = _write_report(out, sections, quick=quick, seconds=seconds)
     lete, krc = cases
     return ReproduceSummary(
@@ -757,7 +744,7 @@ def _document_sections(
         for sec in case.spec.sections:
             if sec.full_only and quick:  # one ridge figure (LETE) is enough for a quick run
                 continue
-            parts = [p for name in sec.parts for p in _PARTS[name](out, case, name)]
+            parts = [p for name in sec.parts.split() for p in _PARTS[name](out, case, name)]
             sections.append({"id": sec.id, "heading": sec.heading, "parts": parts})
     sections.append(_side_by_side_section(out, cases, quick))
     sections.append(_published_section(out))
@@ -924,6 +911,13 @@ def _ident_profiles(results, posts):
     return out
 
 
+def _curve(id_: str, b: float, sinkage, pressure, label: str | None = None) -> dict[str, Any]:
+    """A plate curve of the figures: id, radius [m], sinkage [m], pressure [kPa], label."""
+    return {"id": id_, "radius": b, "sinkage": sinkage, "pressure": pressure} | (
+        {"label": label} if label else {}
+    )
+
+
 def _rmin_mm(r: dict[str, Any]) -> float | None:
     return None if r.get("r_min") is None else r["r_min"] * 1000
 
@@ -1068,20 +1062,13 @@ def _janosi_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     f = case.spec.figures[name]
     (lr,) = case.learned.values()
     (cal,) = case.cals.values()
-    lp = lr.params
+    learned = {k: getattr(lr.params, k) for k in ("cc", "phic_deg", "model", "r_min")}
+    improved = WONG_LETE | learned | {"plate_pair": cal.plate_pair, "label": f["improved_label"]}
     fig = partial(
         F.fig_janosi,
         _measured_ci(case.profiles),
         WONG_LETE,
-        improved_params={
-            **WONG_LETE,
-            "cc": lp.cc,
-            "phic_deg": lp.phic_deg,
-            "model": lp.model,
-            "r_min": lp.r_min,
-            "plate_pair": cal.plate_pair,
-            "label": f["improved_label"],
-        },
+        improved_params=improved,
         params_label=f["params_label"],
         title=f["title"],
         synthetic=True,
@@ -1102,24 +1089,12 @@ def _plates_part(out: _Out, case: _Case, name: str, *, calibrated: bool) -> list
     (cal,) = case.cals.values()
     results, pair = (case.cal_res, cal.plate_pair) if calibrated else (case.free_res, None)
     measured = [
-        {
-            "id": t.metadata["pair"],
-            "radius": t.b,
-            "sinkage": t.sinkage,
-            "pressure": t.pressure,
-            "label": f"{t.metadata['pair']} measured",
-        }
+        _curve(t.metadata["pair"], t.b, t.sinkage, t.pressure, f"{t.metadata['pair']} measured")
         for t in case.plates
     ]
     s = np.linspace(0.0, 0.1, 41)
     predicted = [
-        {
-            "id": r.id,
-            "radius": b,
-            "sinkage": s,
-            "pressure": predicted_plate_pressure(r.params, s, b, pair),
-            "label": f"{r.id} predicted",
-        }
+        _curve(r.id, b, s, predicted_plate_pressure(r.params, s, b, pair), f"{r.id} predicted")
         for r in results
         if r.ok
         for b in case.spec.plates.values()
@@ -1147,15 +1122,12 @@ def _site_figures_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]
             parts.append(_text(f"{rc.id}: not fitted ({rc.error})"))
             continue
         plates, pair = case.group_of(rc.id).plates, case.cal_of(rc.id).plate_pair
-        measured = [
-            {"id": t.id, "radius": t.b, "sinkage": t.sinkage, "pressure": t.pressure}
-            for t in plates
+        measured = [_curve(t.id, t.b, t.sinkage, t.pressure) for t in plates]
+        sinkages = [np.linspace(0.0, float(t.sinkage.max()), 41) for t in plates]
+        predicted = [
+            _curve(t.id, t.b, sk, predicted_plate_pressure(rc.params, sk, t.b, pair))
+            for t, sk in zip(plates, sinkages)
         ]
-        predicted = []
-        for t in plates:
-            sk = np.linspace(0.0, float(t.sinkage.max()), 41)
-            pressure = predicted_plate_pressure(rc.params, sk, t.b, pair)
-            predicted.append({"id": t.id, "radius": t.b, "sinkage": sk, "pressure": pressure})
         number = f["numbers"][rc.id]
         fig = partial(
             F.fig_site,
@@ -1202,32 +1174,20 @@ _LETE_SECTIONS = (
     _Section(
         "lete-learning",
         "LETE sand: learning and Figure 2-1",
-        ("learning", "learning_datasets", "fig_janosi"),
+        "learning learning_datasets fig_janosi",
     ),
     _Section(
         "lete-prediction",
         "LETE sand: prediction (Table 4-1, Figure 4-1)",
-        (
-            "parameters",
-            "parameters_vs_published",
-            "fig_ci",
-            "identifiability",
-            "identifiability_ci_only",
-        ),
+        "parameters parameters_vs_published fig_ci identifiability identifiability_ci_only",
     ),
     _Section(
         "lete-plates",
         "LETE sand: plates (Figure 4-2, Table 4-2)",
-        (
-            "fig_plates",
-            "agreement",
-            "agreement_vs_published",
-            "agreement_control",
-            "fig_plates_ci_only",
-            "agreement_ci_only",
-        ),
+        "fig_plates agreement agreement_vs_published agreement_control fig_plates_ci_only "
+        "agreement_ci_only",
     ),
-    _Section("lete-ridge", "LETE sand: the ridge of equally good fits", ("fig_ridge",)),
+    _Section("lete-ridge", "LETE sand: the ridge of equally good fits", "fig_ridge"),
 )
 
 #: LETE sand: keyword arguments of each table part (key, title, notes, ...).
@@ -1353,21 +1313,14 @@ _KRC_SECTIONS = (
     _Section(
         "krc-prediction",
         "KRC: learning and prediction (Table 4-3)",
-        (
-            "learning_per_site",
-            "parameters",
-            "parameters_vs_published",
-            "identifiability",
-            "identifiability_ci_only",
-        ),
+        "learning_per_site parameters parameters_vs_published identifiability "
+        "identifiability_ci_only",
     ),
-    _Section("krc-figures", "KRC: Figures 4-3 to 4-10", ("fig_sites",)),
+    _Section("krc-figures", "KRC: Figures 4-3 to 4-10", "fig_sites"),
     _Section(
-        "krc-agreement",
-        "KRC: Table 4-4",
-        ("agreement", "agreement_vs_published", "agreement_ci_only"),
+        "krc-agreement", "KRC: Table 4-4", "agreement agreement_vs_published agreement_ci_only"
     ),
-    _Section("krc-ridge", "KRC: the ridge of equally good fits", ("fig_ridge",), full_only=True),
+    _Section("krc-ridge", "KRC: the ridge of equally good fits", "fig_ridge", full_only=True),
 )
 
 #: KRC: keyword arguments of each table part (key, title, notes, ...).

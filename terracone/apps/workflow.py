@@ -1,12 +1,9 @@
 """What ``terracone predict`` computes, as one library call, and what it adds to a fit.
 
-:func:`predict_profiles` fits a set of CI profiles (section 3.3.2 of [1]_) with
-one :class:`~terracone.inverse.predict.PredictSettings` and attaches what was
-asked: predicted plate curves (eq. (2-2), RM1 of section 3.2) and, through
-:func:`attach_fits` (which ``terracone batch`` and ``reproduce`` call too),
-each fit's posterior and layered fit.  :class:`PredictRun` writes the
-``predict --json`` document and the ``--parquet`` table through
-:mod:`terracone.result`.  :class:`Reading` is how the commands read CI files.
+:func:`predict_profiles` fits CI profiles (section 3.3.2 of [1]_) with one
+:class:`~terracone.inverse.predict.PredictSettings` and attaches predicted
+plate curves (eq. (2-2), RM1 of section 3.2) and, through :func:`attach_fits`
+(shared with ``batch`` and ``reproduce``), posteriors and layered fits.
 
 References
 ----------
