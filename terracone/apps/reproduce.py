@@ -177,9 +177,9 @@ class _CaseSpec:
     """What differs between the two case studies, as data (one column of ``_CASE_TABLE``).
 
     Every table and figure the two case studies share is built by one part
-    builder (``_PARTS``) from these fields; ``tables[part]`` holds the
-    keyword arguments of the report table (key, title, notes, ...),
-    ``figures[part]`` the figure's key, title and caption.
+    builder (``_PARTS``) from these fields; ``texts[part]`` holds the
+    keyword arguments of a report table (key, title, notes, ...) or a
+    figure's key, title and caption.
     """
 
     slug: str  # file names and table keys: "lete", "krc"
@@ -195,8 +195,7 @@ class _CaseSpec:
     comments: tuple[str, str]  # what each data file holds (its header)
     published_label: str
     sections: tuple[_Section, ...]
-    tables: dict[str, dict[str, Any]]
-    figures: dict[str, dict[str, Any]]
+    texts: dict[str, dict[str, Any]]
 
     @property
     def short(self) -> str:
@@ -246,33 +245,16 @@ class _Case:
 
 
 def _ci_profile(site: str, p: dict[str, Any], rng: np.random.Generator, case: str) -> CIProfile:
-    ci = cone_index(
-        CI_DEPTHS,
-        kc=p["kc"],
-        kphi=p["kphi"],
-        n=p["n"],
-        cc=p["cc"],
-        phic_deg=p["phic_deg"],
-        model=GENERATING_MODEL,
-    )
+    params = {k: p[k] for k in ("kc", "kphi", "n", "cc", "phic_deg")}
+    ci = cone_index(CI_DEPTHS, **params, model=GENERATING_MODEL)
     ci = ci * (1.0 + CI_NOISE * rng.standard_normal(CI_DEPTHS.size))
-    return CIProfile(
-        site,
-        CI_DEPTHS.copy(),
-        np.round(ci, 2),
-        metadata={"case": case, "data": LABEL},
-    )
+    meta = {"case": case, "data": LABEL}
+    return CIProfile(site, CI_DEPTHS.copy(), np.round(ci, 2), metadata=meta)
 
 
 def _plate_test(pair: str, key: str, r: float, sinkage, pressure) -> PlateTest:
-    return PlateTest(
-        f"{pair}_{key.replace('=', '')}",
-        r,
-        "circular",
-        sinkage.copy(),
-        np.round(pressure, 2),
-        metadata={"pair": pair, "plate": key, "data": LABEL},
-    )
+    id_, meta = f"{pair}_{key.replace('=', '')}", {"pair": pair, "plate": key, "data": LABEL}
+    return PlateTest(id_, r, "circular", sinkage.copy(), np.round(pressure, 2), metadata=meta)
 
 
 def _lete_data(spec: _CaseSpec, pub: list[dict[str, Any]], quick: bool) -> _Case:
@@ -333,12 +315,6 @@ def _rows(evals: Sequence[PlateEvaluation], where) -> list[dict[str, Any]]:
     return out
 
 
-def _write_json(path: Path, obj: Any) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(dumps(obj, indent=1) + "\n")
-    return path
-
-
 def _predict_doc(
     results: Sequence[PredictionResult],
     *,
@@ -359,24 +335,15 @@ def _predict_doc(
         if r.ok and not r.plate_curves:
             r.plate_curves = plate_curves(r.params, radii, s, c.plate_pair if c else None)
     settings = {"model": model, "solver": "exact", "bounds": Bounds(), "calibration": calibration}
+    doc_settings = settings_dict(settings, "si")
     return to_document(
-        results,
-        "si",
-        input=input_file,
-        settings=settings_dict(settings, "si"),
-        samples=False,
-        synthetic=True,
-        note=SYNTHETIC_TEXT,
+        results, "si", input=input_file, settings=doc_settings, samples=False, **_SYNTH
     )
 
 
 def _learn_doc(res: LearnResult, terrain: str) -> dict[str, Any]:
-    return {
-        **res.as_dict("si"),
-        "terrain": terrain,
-        "terracone": __version__,
-        "command": "learn",
-    } | _SYNTH
+    d = res.as_dict("si") | {"terrain": terrain, "terracone": __version__, "command": "learn"}
+    return d | _SYNTH
 
 
 def _evaluate_doc(case: _Case) -> dict[str, Any]:
@@ -433,14 +400,13 @@ class _Out:
         self.files.append(p)
         return p
 
+    def json(self, p: Path, obj: Any) -> None:
+        self.file(p).write_text(dumps(obj, indent=1) + "\n")
+
     def table(self, t: Table, max_rows: int | None = None) -> dict[str, Any]:
-        csv_path = self.root / "tables" / f"{t.key}.csv"
+        self.tables[t.key] = csv_path = self.file(self.root / "tables" / f"{t.key}.csv")
         t.to_csv(csv_path)
-        html_path = self.root / "tables" / f"{t.key}.html"
-        html_path.write_text(t.to_html() + "\n")
-        self.file(csv_path)
-        self.file(html_path)
-        self.tables[t.key] = csv_path
+        self.file(self.root / "tables" / f"{t.key}.html").write_text(t.to_html() + "\n")
         return {"type": "table", "table": t.to_dict(), "max_rows": max_rows}
 
     def figure(self, fig: Callable[[], Any], key: str, caption: str) -> dict[str, Any]:
@@ -450,13 +416,8 @@ class _Out:
         for p in paths.values():
             self.file(p)
         self.figures[key] = paths
-        return {
-            "type": "figure",
-            "png": self.rel(paths["png"]),
-            "svg": self.rel(paths["svg"]),
-            "caption": caption,
-            "alt": caption.split(".")[0],
-        }
+        files = {f: self.rel(p) for f, p in paths.items()}
+        return {"type": "figure", **files, "caption": caption, "alt": caption.split(".")[0]}
 
     def render(self, mapper: Callable[..., Any]) -> None:
         """Draw the queued figures with ``mapper`` (a pool's map)."""
@@ -682,23 +643,16 @@ def _write_results(out: _Out, case: _Case, ci_file: Path) -> None:
     else:
         (learn_doc,) = docs.values()
         (calibration,) = (c.terrain for c in case.cals.values())
-    _write_json(out.file(res / f"{spec.slug}_learn.json"), learn_doc)
+    out.json(res / f"{spec.slug}_learn.json", learn_doc)
     common = {"input_file": out.rel(ci_file), "radii": list(spec.plates.values())}
-    _write_json(
-        out.file(res / f"{spec.slug}_predict.json"),
-        _predict_doc(
-            case.cal_res,
-            cal_of={p.id: case.cal_of(p.id) for p in case.profiles},
-            calibration=calibration,
-            model=next(iter(case.cals.values())).model,
-            **common,
-        ),
+    cal_of = {p.id: case.cal_of(p.id) for p in case.profiles}
+    model = next(iter(case.cals.values())).model
+    predicted = _predict_doc(
+        case.cal_res, cal_of=cal_of, calibration=calibration, model=model, **common
     )
-    _write_json(
-        out.file(res / f"{spec.slug}_predict_ci_only.json"),
-        _predict_doc(case.free_res, **common),
-    )
-    _write_json(out.file(res / f"{spec.slug}_evaluate.json"), _evaluate_doc(case))
+    out.json(res / f"{spec.slug}_predict.json", predicted)
+    out.json(res / f"{spec.slug}_predict_ci_only.json", _predict_doc(case.free_res, **common))
+    out.json(res / f"{spec.slug}_evaluate.json", _evaluate_doc(case))
 
 
 def _write_report(out: _Out, sections: list[dict[str, Any]], *, quick: bool, seconds: float):
@@ -726,7 +680,7 @@ def _write_report(out: _Out, sections: list[dict[str, Any]], *, quick: bool, sec
         "noise_model": NOISE_MODEL,
         "document": document,
     }
-    _write_json(out.file(out.root / "reproduce.json"), manifest)
+    out.json(out.root / "reproduce.json", manifest)
     return report
 
 
@@ -892,9 +846,7 @@ def _bands(post: dict[str, Any] | None, id_: str) -> list[dict[str, Any]]:
             "id": id_,
             "label": f"{id_} 90% band, r = {b['radius'] * 100:.3g} cm",
             "radius": b["radius"],
-            "sinkage": np.asarray(b["sinkage"]),
-            "lo": np.asarray(b["lo"]),
-            "hi": np.asarray(b["hi"]),
+            **{k: np.asarray(b[k]) for k in ("sinkage", "lo", "hi")},
         }
         for b in post.get("plate_bands", [])
     ]
@@ -932,7 +884,7 @@ def _parameters_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
             ("R2 of CI", "", lambda r: r["r2"]),
         ),
         synthetic=True,
-        **case.spec.tables[name],
+        **case.spec.texts[name],
     )
     mark_bounds(t, [_si(r.params, r.id) for r in ok])
     return [out.table(t)]
@@ -945,7 +897,7 @@ def _parameters_vs_published_part(out: _Out, case: _Case, name: str) -> list[dic
         ("ours, with calibration", [_si(r.params, r.id) for r in case.cal_res if r.ok]),
         ("ours, CI alone", [_si(r.params, r.id) for r in case.free_res if r.ok]),
     ]
-    t = parameter_comparison_table(sets, synthetic=True, **case.spec.tables[name])
+    t = parameter_comparison_table(sets, synthetic=True, **case.spec.texts[name])
     return [out.table(t)]
 
 
@@ -957,26 +909,26 @@ def _identifiability_part(
         profiles, fixed = _ident_profiles(case.cal_res, case.posts), {"fixed": ("phic", "cc")}
     else:
         profiles, fixed = _ident_profiles(case.free_res, None), {}
-    t = identifiability_table(profiles, synthetic=True, **fixed, **case.spec.tables[name])
+    t = identifiability_table(profiles, synthetic=True, **fixed, **case.spec.texts[name])
     return [out.table(t)]
 
 
 def _agreement_part(out: _Out, case: _Case, name: str, *, rows: str) -> list[dict[str, Any]]:
     """Table 4-2/4-4 analogue of the rows ``rows_cal``, ``rows_free`` or ``rows_ctrl``."""
     t = agreement_table(
-        getattr(case, rows), plates=list(case.spec.plates), synthetic=True, **case.spec.tables[name]
+        getattr(case, rows), plates=list(case.spec.plates), synthetic=True, **case.spec.texts[name]
     )
     return [out.table(t)]
 
 
 def _agreement_vs_published_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Our agreement (with the calibration) beside the paper's, row by row."""
-    return [out.table(comparison_table(case.rows_cal, case.published, **case.spec.tables[name]))]
+    return [out.table(comparison_table(case.rows_cal, case.published, **case.spec.texts[name]))]
 
 
 def _ridge_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Not in the paper: the ridge of equally good fits of the first profile."""
-    f = case.spec.figures[name]
+    f = case.spec.texts[name]
     p0, pub0 = case.profiles[0], case.pub[0]
     fig = partial(
         F.fig_ridge,
@@ -995,7 +947,7 @@ def _ridge_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
 def _lete_learning_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """LETE: the one calibration learned on all data, beside Wong's values."""
     (lr,) = case.learned.values()
-    spec = case.spec.tables[name]
+    spec = case.spec.texts[name]
     rows = [
         _si(lr.params, "learned (LETE, all data)"),
         {
@@ -1028,8 +980,8 @@ def _learning_datasets_part(out: _Out, case: _Case, name: str) -> list[dict[str,
     ]
     c = lr.criteria
     t = Table(
-        case.spec.tables[name]["key"],
-        case.spec.tables[name]["title"],
+        case.spec.texts[name]["key"],
+        case.spec.texts[name]["title"],
         [("Data set", ""), ("Kind", ""), ("Plate radius", "cm"), ("RMSD", "kPa"), ("CV", "")],
         rows,
         notes=[
@@ -1051,7 +1003,7 @@ def _site_learning_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any
             ("left free", "", lambda r: ", ".join(case.learned[r["id"]].undetermined) or "-"),
         ),
         synthetic=True,
-        **case.spec.tables[name],
+        **case.spec.texts[name],
     )
     mark_bounds(t, rows, rmin_col=9, rmin_range=(5e-4, 3 * max(case.spec.plates.values())))
     return [out.table(t)]
@@ -1059,7 +1011,7 @@ def _site_learning_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any
 
 def _janosi_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Figure 2-1 analogue: the CI against the Janosi equation with Wong's values."""
-    f = case.spec.figures[name]
+    f = case.spec.texts[name]
     (lr,) = case.learned.values()
     (cal,) = case.cals.values()
     learned = {k: getattr(lr.params, k) for k in ("cc", "phic_deg", "model", "r_min")}
@@ -1078,14 +1030,14 @@ def _janosi_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
 
 def _ci_fit_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Figure 4-1 analogue: measured and predicted CI."""
-    f = case.spec.figures[name]
+    f = case.spec.texts[name]
     fig = partial(F.fig_ci_fit, _fitted_ci(case.cal_res), title=f["title"], synthetic=True)
     return [out.figure(fig, f["key"], f["caption"])]
 
 
 def _plates_part(out: _Out, case: _Case, name: str, *, calibrated: bool) -> list[dict[str, Any]]:
     """Figure 4-2 analogue: every plate test against every profile's prediction."""
-    f = case.spec.figures[name]
+    f = case.spec.texts[name]
     (cal,) = case.cals.values()
     results, pair = (case.cal_res, cal.plate_pair) if calibrated else (case.free_res, None)
     measured = [
@@ -1115,7 +1067,7 @@ def _plates_part(out: _Out, case: _Case, name: str, *, calibrated: bool) -> list
 
 def _site_figures_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Figures 4-3 to 4-10 analogues: each site's CI and plates, measured and predicted."""
-    f = case.spec.figures[name]
+    f = case.spec.texts[name]
     parts = []
     for rc in case.cal_res:
         if not rc.ok:
@@ -1147,7 +1099,7 @@ def _site_figures_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]
 
 #: Part name -> builder(out, case, name) -> report parts.  A case study's
 #: spec lists part names per section; the builder takes its text from
-#: ``spec.tables[name]`` or ``spec.figures[name]``.
+#: ``spec.texts[name]``.
 _PARTS: dict[str, Callable[[_Out, _Case, str], list[dict[str, Any]]]] = {
     "learning": _lete_learning_part,
     "learning_datasets": _learning_datasets_part,
@@ -1190,8 +1142,8 @@ _LETE_SECTIONS = (
     _Section("lete-ridge", "LETE sand: the ridge of equally good fits", "fig_ridge"),
 )
 
-#: LETE sand: keyword arguments of each table part (key, title, notes, ...).
-_LETE_TABLES: dict[str, dict[str, Any]] = {
+#: LETE sand: the text of each part: a table's keyword arguments (key, title, notes, ...).
+_LETE_TEXTS: dict[str, dict[str, Any]] = {
     "learning": {
         "key": "lete_learning",
         "title": "LETE sand: learning process (section 3.3.1) on all CI profiles and plate tests",
@@ -1263,10 +1215,7 @@ _LETE_TABLES: dict[str, dict[str, Any]] = {
         "key": "table_4_2_lete_ci_only",
         "title": "LETE sand, CI alone (no calibration): R, R2, RMSD, CV against the plate tests",
     },
-}
-
-#: LETE sand: key, title and caption of each figure part.
-_LETE_FIGURES: dict[str, dict[str, Any]] = {
+    # figures: key, title and caption
     "fig_janosi": {
         "key": "fig_2_1_lete_janosi",
         "title": "Figure 2-1 analogue: LETE sand CI and the Janosi equation",
@@ -1323,8 +1272,8 @@ _KRC_SECTIONS = (
     _Section("krc-ridge", "KRC: the ridge of equally good fits", "fig_ridge", full_only=True),
 )
 
-#: KRC: keyword arguments of each table part (key, title, notes, ...).
-_KRC_TABLES: dict[str, dict[str, Any]] = {
+#: KRC: the text of each part: a table's keyword arguments (key, title, notes, ...).
+_KRC_TEXTS: dict[str, dict[str, Any]] = {
     "learning_per_site": {
         "key": "krc_learning",
         "title": "KRC: learning process per site (CI and the site's plate pair)",
@@ -1365,10 +1314,7 @@ _KRC_TABLES: dict[str, dict[str, Any]] = {
         "title": "KRC, CI alone (no calibration): R, R2, RMSD, CV against the site's plates",
         "same_site": True,
     },
-}
-
-#: KRC: key, title and caption of each figure part.
-_KRC_FIGURES: dict[str, dict[str, Any]] = {
+    # figures: key, title and caption
     "fig_sites": {
         "numbers": KRC_FIGURE,
         "key": "fig_{number}_{lower}",
@@ -1416,8 +1362,7 @@ _CASE_TABLE: dict[str, tuple[Any, Any]] = {
         "paper (Table 4-3; generated CI and plates)",
     ),
     "sections": (_LETE_SECTIONS, _KRC_SECTIONS),
-    "tables": (_LETE_TABLES, _KRC_TABLES),
-    "figures": (_LETE_FIGURES, _KRC_FIGURES),
+    "texts": (_LETE_TEXTS, _KRC_TEXTS),
 }
 _CASES = tuple(_CaseSpec(**{name: row[i] for name, row in _CASE_TABLE.items()}) for i in range(2))
 
