@@ -77,16 +77,7 @@ KRC_PLATES = {"D=10cm": 2.0 * u.INCH, "D=15cm": 3.0 * u.INCH}  # 4 in and 6 in d
 KRC_FORCE_LIMIT = 1500.0 * u.LBF  # [N]
 #: Wong's LETE sand values (section 2 of the paper; Wong, 1981), SI.
 WONG_LETE = {"kc": 102.0, "kphi": 5301.0, "n": 0.79}
-KRC_FIGURE = {
-    "KRC_1": "4-3",
-    "KRC_2": "4-4",
-    "KRC_3": "4-5",
-    "KRC_4": "4-6",
-    "KRC_7": "4-7",
-    "KRC_9": "4-8",
-    "KRC_24": "4-9",
-    "KRC_25": "4-10",
-}
+KRC_FIGURE = {f"KRC_{site}": f"4-{k}" for k, site in enumerate((1, 2, 3, 4, 7, 9, 24, 25), 3)}
 LABEL = "SYNTHETIC"
 SYNTHETIC_TEXT = (
     "Every curve, table and figure computed here comes from data that terracone generated "
@@ -947,25 +938,16 @@ def _ridge_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
 def _lete_learning_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """LETE: the one calibration learned on all data, beside Wong's values."""
     (lr,) = case.learned.values()
-    spec = case.spec.texts[name]
-    rows = [
-        _si(lr.params, "learned (LETE, all data)"),
-        {
-            "id": "Wong's LETE sand values (plates' truth)",
-            **WONG_LETE,
-            "cc": None,
-            "phic_deg": None,
-        },
-    ]
+    text = dict(case.spec.texts[name])
+    wong = {"id": "Wong's LETE sand values (plates' truth)", **WONG_LETE}
+    rows = [_si(lr.params, "learned (LETE, all data)"), wong | {"cc": None, "phic_deg": None}]
+    free = "Left free by the learning data: " + (", ".join(lr.undetermined) or "none")
     t = parameters_table(
         rows,
-        key=spec["key"],
-        title=spec["title"],
-        first=spec["first"],
         extra=(("model", "", lambda r: r.get("model")), ("r_min", "mm", _rmin_mm)),
-        notes=["Left free by the learning data: " + (", ".join(lr.undetermined) or "none")]
-        + spec["notes"],
+        notes=[free, *text.pop("notes")],
         synthetic=True,
+        **text,
     )
     mark_bounds(t, rows, rmin_col=10, rmin_range=(5e-4, 3 * max(case.spec.plates.values())))
     return [out.table(t)]
@@ -978,16 +960,14 @@ def _learning_datasets_part(out: _Out, case: _Case, name: str) -> list[dict[str,
         [d["id"], d["kind"], None if d.get("b") is None else d["b"] * 100, d["rmsd"], d["cv"]]
         for d in lr.datasets
     ]
-    c = lr.criteria
+    c, text = lr.criteria, case.spec.texts[name]
+    ok = "satisfied" if c["satisfied"] else "NOT satisfied"
     t = Table(
-        case.spec.texts[name]["key"],
-        case.spec.texts[name]["title"],
+        text["key"],
+        text["title"],
         [("Data set", ""), ("Kind", ""), ("Plate radius", "cm"), ("RMSD", "kPa"), ("CV", "")],
         rows,
-        notes=[
-            f"Fit criterion CV <= {c['max_cv']:g}: "
-            + ("satisfied" if c["satisfied"] else "NOT satisfied")
-        ],
+        notes=[f"Fit criterion CV <= {c['max_cv']:g}: {ok}"],
         synthetic=True,
     )
     return [out.table(t)]

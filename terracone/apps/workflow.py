@@ -141,14 +141,8 @@ class PredictRun:
     ) -> dict[str, Any]:
         """The ``terracone predict --json`` document; ``extra`` settings are recorded as given."""
         s = self.settings
-        recorded = {
-            "model": s.model,
-            "r_min": s.r_min,
-            "solver": s.solver,
-            "seed": s.seed,
-            "bounds": s.bounds,
-            "calibration": s.calibration.terrain if s.calibration else None,
-        }
+        recorded = {k: getattr(s, k) for k in ("model", "r_min", "solver", "seed", "bounds")}
+        recorded["calibration"] = s.calibration.terrain if s.calibration else None
         doc_settings = settings_dict(recorded, units, **extra)
         return to_document(self.results, units, input=input, settings=doc_settings)
 
