@@ -157,15 +157,9 @@ def learn_html(res: Any) -> str:
     rows = _param_rows(res.params)
     rows += [_kpa_row("RMSD of CI", res.rmsd_ci), _kpa_row("RMSD of plates", res.rmsd_plates)]
     if res.plate_pair:
-        rows.append(
-            [
-                "plate radii",
-                ", ".join(fmt_value(r * 100.0, 4) for r in res.plate_pair),
-                "cm",
-                ", ".join(fmt_value(r / u.INCH, 4) for r in res.plate_pair),
-                "in",
-            ]
-        )
+        cm = ", ".join(fmt_value(r * 100.0, 4) for r in res.plate_pair)
+        inch = ", ".join(fmt_value(r / u.INCH, 4) for r in res.plate_pair)
+        rows.append(["plate radii", cm, "cm", inch, "in"])
     if res.undetermined:
         rows.append(["undetermined", ", ".join(res.undetermined), "", "", ""])
     crit: Mapping[str, Any] = res.criteria or {}

@@ -93,10 +93,9 @@ def write_example(directory: str | Path) -> None:
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
     profiles, plates = make_example()
-    write_ci_profiles(d / CI_FILE, profiles, length_unit="m", pressure_unit="kpa", comment=_HEADER)
-    write_plate_tests(
-        d / PLATES_FILE, plates, length_unit="m", pressure_unit="kpa", comment=_HEADER
-    )
+    units = {"length_unit": "m", "pressure_unit": "kpa", "comment": _HEADER}
+    write_ci_profiles(d / CI_FILE, profiles, **units)
+    write_plate_tests(d / PLATES_FILE, plates, **units)
 
 
 @dataclass

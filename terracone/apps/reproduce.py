@@ -165,12 +165,10 @@ class _Section(NamedTuple):
 
 @dataclass(frozen=True)
 class _CaseSpec:
-    """What differs between the two case studies, as data (one column of ``_CASE_TABLE``).
+    """What differs between the two case studies (one column of ``_CASE_TABLE``).
 
-    Every table and figure the two case studies share is built by one part
-    builder (``_PARTS``) from these fields; ``texts[part]`` holds the
-    keyword arguments of a report table (key, title, notes, ...) or a
-    figure's key, title and caption.
+    The part builders (``_PARTS``) read it; ``texts[part]`` holds a table's
+    keyword arguments (key, title, notes, ...) or a figure's key, title, caption.
     """
 
     slug: str  # file names and table keys: "lete", "krc"

@@ -97,16 +97,10 @@ class Reading:
 
         ``units`` is the unit system of the notes.
         """
-        items = read_ci_profiles(
-            path,
-            cone=self.cone,
-            depth_ref=self.depth_ref,
-            format=self.format,
-            on_error=on_error,
-            units=self.file_units,
-            depth_unit=self.depth_unit,
-            ci_unit=self.ci_unit,
-        )
+        how = {
+            k: getattr(self, k) for k in ("cone", "depth_ref", "format", "depth_unit", "ci_unit")
+        }
+        items = read_ci_profiles(path, on_error=on_error, units=self.file_units, **how)
         lo, hi = self.depth_range
         if lo is None and hi is None:
             return items
