@@ -1,10 +1,7 @@
 """HTML tables of result objects, for Jupyter (``_repr_html_``).
 
-A notebook shows an object by calling its ``_repr_html_``; the result
-classes of terracone delegate to the functions here, so a prediction, a
-list of predictions, a learned calibration, a layered fit or a batch run
-shows as a small table with the parameters in SI and US customary units
-(kc and kphi convert with n, :mod:`terracone.physics.units`).
+The result classes' ``_repr_html_`` delegate here: each shows as a small
+table with the parameters in SI and US customary units.
 
 References
 ----------

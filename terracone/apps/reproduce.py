@@ -886,8 +886,10 @@ def _parameters_vs_published_part(out: _Out, case: _Case, name: str) -> list[dic
         ("ours, with calibration", [_si(r.params, r.id) for r in case.cal_res if r.ok]),
         ("ours, CI alone", [_si(r.params, r.id) for r in case.free_res if r.ok]),
     ]
-    t = parameter_comparison_table(sets, synthetic=True, **case.spec.texts[name])
-    return [out.table(t)]
+    tab = case.spec.parameter_table
+    title = f"{case.spec.name} parameters: published (Table {tab}) beside ours"
+    text = {"key": _vs_published_key(case, tab), "title": title} | case.spec.texts.get(name, {})
+    return [out.table(parameter_comparison_table(sets, synthetic=True, **text))]
 
 
 def _identifiability_part(
@@ -912,7 +914,21 @@ def _agreement_part(out: _Out, case: _Case, name: str, *, rows: str) -> list[dic
 
 def _agreement_vs_published_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Our agreement (with the calibration) beside the paper's, row by row."""
-    return [out.table(comparison_table(case.rows_cal, case.published, **case.spec.texts[name]))]
+    tab = case.spec.agreement_table
+    csv = f"terracone/data/paper/table_{tab.replace('-', '_')}.csv"
+    t = comparison_table(
+        case.rows_cal,
+        case.published,
+        key=_vs_published_key(case, tab),
+        title=f"Table {tab}: ours (with calibration) beside the paper",
+        notes=[f"paper: Table {tab} as published (package data {csv})."],
+    )
+    return [out.table(t)]
+
+
+def _vs_published_key(case: _Case, tab: str) -> str:
+    """Key of the table of ours beside the paper's Table ``tab`` ("4-1" .. "4-4")."""
+    return f"table_{tab.replace('-', '_')}_{case.spec.slug}_vs_published"
 
 
 def _ridge_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
@@ -1147,8 +1163,6 @@ _LETE_TEXTS: dict[str, dict[str, Any]] = {
         ],
     },
     "parameters_vs_published": {
-        "key": "table_4_1_lete_vs_published",
-        "title": "LETE sand parameters: published (Table 4-1) beside ours",
         "notes": [
             "The published rows are the truth of the synthetic CI; 'CI alone' reports phic "
             "at the middle of the interval that fits equally well.",
@@ -1173,13 +1187,6 @@ _LETE_TEXTS: dict[str, dict[str, Any]] = {
         "title": "Table 4-2 analogue: R, R2, RMSD, CV between the LETE sand plate curves "
         "and those predicted from the CI (with the calibration)",
         "notes": ["r=3.75cm: plate radius 3.75 cm (1.5 in); r=5cm: radius 5 cm (1.97 in)."],
-    },
-    "agreement_vs_published": {
-        "key": "table_4_2_lete_vs_published",
-        "title": "Table 4-2: ours (with calibration) beside the paper",
-        "notes": [
-            "paper: Table 4-2 as published (package data terracone/data/paper/table_4_2.csv)."
-        ],
     },
     "agreement_control": {
         "key": "table_4_2_lete_published_parameters",
@@ -1261,10 +1268,6 @@ _KRC_TEXTS: dict[str, dict[str, Any]] = {
         "title": "Table 4-3 analogue: parameters predicted from the KRC CI (with each "
         "site's calibration)",
     },
-    "parameters_vs_published": {
-        "key": "table_4_3_krc_vs_published",
-        "title": "KRC parameters: published (Table 4-3) beside ours",
-    },
     "identifiability": {
         "key": "krc_identifiability",
         "title": "KRC: what each CI profile determines (with the site's calibration)",
@@ -1279,13 +1282,6 @@ _KRC_TEXTS: dict[str, dict[str, Any]] = {
         "those predicted from the CI (with each site's calibration)",
         "same_site": True,
         "notes": ["D=10cm: the 4 in (10.16 cm) plate; D=15cm: the 6 in (15.24 cm) plate."],
-    },
-    "agreement_vs_published": {
-        "key": "table_4_4_krc_vs_published",
-        "title": "Table 4-4: ours (with calibration) beside the paper",
-        "notes": [
-            "paper: Table 4-4 as published (package data terracone/data/paper/table_4_4.csv)."
-        ],
     },
     "agreement_ci_only": {
         "key": "table_4_4_krc_ci_only",
@@ -1359,8 +1355,8 @@ def _fmt(v: float, d: int = 3) -> str:
     return "-" if not math.isfinite(v) else f"{v:.{d}g}"
 
 
-def _median(rows, key, plate=None):
-    v = [r[key] for r in rows if (plate is None or r["plate"] == plate) and r[key] is not None]
+def _median(rows, key):
+    v = [r[key] for r in rows if r[key] is not None]
     return float(np.median(v)) if v else float("nan")
 
 
