@@ -1,12 +1,8 @@
 """Global sensitivity of the cone index to the terrain parameters (Sobol indices).
 
-Section 3.3 of [1]_ remarks that the cone-terrain shear deformation parameter
-Kc "has been found to have little effect".  :func:`sobol_ci` puts a number on
-that: first-order and total Sobol indices [2]_ of cone-index outputs (the
-mean CI over a depth range, the CI at a few depths) with respect to kc, kphi,
-n, cc, phic (uniform) and Kc (log-uniform) over a box (:data:`BOXES`: the
-search bounds, or LETE sand +-50%), by Saltelli's scheme in SALib [3]_.
-Results: ``docs/uncertainty.md`` (Sensitivity: does Kc matter?).
+Does Kc matter (section 3.3 of [1]_)?  :func:`sobol_ci` gives first-order and
+total Sobol indices [2]_ of the CI over a box of parameters (:data:`BOXES`),
+by Saltelli's scheme in SALib [3]_; ``docs/uncertainty.md`` has the results.
 
 References
 ----------
