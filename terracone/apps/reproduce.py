@@ -343,6 +343,10 @@ def _evaluate_doc(case: _Case) -> dict[str, Any]:
     return {"command": "evaluate", **_SYNTH, "units": "si", "plates": plates}
 
 
+def _section(id_: str, heading: str, parts: list[dict[str, Any]]) -> dict[str, Any]:
+    return {"id": id_, "heading": heading, "parts": parts}
+
+
 def _text(s: str) -> dict[str, Any]:
     return {"type": "text", "text": s}
 
@@ -359,11 +363,6 @@ def _list(items: Sequence[str]) -> dict[str, Any]:
 def _call(task: Callable[[], Any]) -> Any:
     """Run one task, a ``partial`` (in a worker of the pool, or here)."""
     return task()
-
-
-def _mapper(pool: Any) -> Callable[..., Any]:
-    """``pool.map``, or ``pool`` itself when it is a map function (builtin ``map``)."""
-    return pool.map if hasattr(pool, "map") else pool
 
 
 def _render(fig: Callable[[], Any], directory: Path, key: str) -> dict[str, Path]:
@@ -453,7 +452,8 @@ def reproduce(
     t0 = time.perf_counter()
     root = _prepare_output(Path(out_dir))
     if pool is not None:
-        return _run(root, quick=quick, mapper=_mapper(pool), t0=t0, workers="given pool")
+        mapper = pool.map if hasattr(pool, "map") else pool  # or the builtin map itself
+        return _run(root, quick=quick, mapper=mapper, t0=t0, workers="given pool")
     workers = workers if workers is not None else min(2, os.cpu_count() or 1)
     if workers <= 1:
         return _run(root, quick=quick, mapper=map, t0=t0, workers=workers)
@@ -673,11 +673,11 @@ def _document_sections(
             if sec.full_only and quick:  # one ridge figure (LETE) is enough for a quick run
                 continue
             parts = [p for name in sec.parts.split() for p in _PARTS[name](out, case, name)]
-            sections.append({"id": sec.id, "heading": sec.heading, "parts": parts})
+            sections.append(_section(sec.id, sec.heading, parts))
     sections.append(_side_by_side_section(out, cases, quick))
     sections.append(_published_section(out))
     if notes:
-        sections.append({"id": "notes", "heading": "Notes from the run", "parts": [_list(notes)]})
+        sections.append(_section("notes", "Notes from the run", [_list(notes)]))
     return sections
 
 
@@ -709,7 +709,7 @@ def _about_section() -> dict[str, Any]:
         "15.24 cm): its recommendation G gives 1,500 lb as 119 and 53 psi, "
         "which holds for 4 in and 6 in diameters.",
     ]
-    return {"id": "about", "heading": "What this is", "parts": [_text(about), _list(points)]}
+    return _section("about", "What this is", [_text(about), _list(points)])
 
 
 def _data_section(cases: Sequence[_Case]) -> dict[str, Any]:
@@ -720,11 +720,7 @@ def _data_section(cases: Sequence[_Case]) -> dict[str, Any]:
         + ". Results as JSON in results/ (learn, predict, evaluate, calibrations); "
         "any of them can be turned into its own report with terracone report."
     )
-    return {
-        "id": "data",
-        "heading": "Synthetic data and noise model",
-        "parts": [_list(NOISE_MODEL), _text(inputs)],
-    }
+    return _section("data", "Synthetic data and noise model", [_list(NOISE_MODEL), _text(inputs)])
 
 
 def _side_by_side_section(out: _Out, cases: Sequence[_Case], quick: bool) -> dict[str, Any]:
@@ -747,12 +743,8 @@ def _side_by_side_section(out: _Out, cases: Sequence[_Case], quick: bool) -> dic
             else "All rows of each table."
         ],
     )
-    lete, krc = cases
-    return {
-        "id": "side-by-side",
-        "heading": "Ours beside the paper: where and why they differ",
-        "parts": [out.table(t_sum)] + [_text(x) for x in _reading(lete, krc, quick)],
-    }
+    parts = [out.table(t_sum)] + [_text(x) for x in _reading(*cases, quick)]
+    return _section("side-by-side", "Ours beside the paper: where and why they differ", parts)
 
 
 def _published_section(out: _Out) -> dict[str, Any]:
@@ -790,26 +782,13 @@ def _published_section(out: _Out) -> dict[str, Any]:
             for b in bad
         )
     )
-    return {
-        "id": "published",
-        "heading": "The published tables",
-        "parts": [_text(check)] + [out.table(t) for t in tables],
-    }
+    parts = [_text(check)] + [out.table(t) for t in tables]
+    return _section("published", "The published tables", parts)
 
 
 # ---------------------------------------------------------------------------
 # the report: parts of a case study (one builder per table or figure kind)
 # ---------------------------------------------------------------------------
-
-
-def _measured_ci(profiles):
-    return [{"id": p.id, "depth": p.depth, "ci": p.ci} for p in profiles]
-
-
-def _fitted_ci(results):
-    return [
-        {"id": r.id, "depth": r.depth, "ci": r.ci, "ci_model": r.ci_model} for r in results if r.ok
-    ]
 
 
 def _bands(post: dict[str, Any] | None, id_: str) -> list[dict[str, Any]]:
@@ -995,9 +974,10 @@ def _janosi_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     (cal,) = case.cals.values()
     learned = {k: getattr(lr.params, k) for k in ("cc", "phic_deg", "model", "r_min")}
     improved = WONG_LETE | learned | {"plate_pair": cal.plate_pair, "label": f["improved_label"]}
+    measured = [{"id": p.id, "depth": p.depth, "ci": p.ci} for p in case.profiles]
     fig = partial(
         F.fig_janosi,
-        _measured_ci(case.profiles),
+        measured,
         WONG_LETE,
         improved_params=improved,
         params_label=f["params_label"],
@@ -1010,7 +990,12 @@ def _janosi_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
 def _ci_fit_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Figure 4-1 analogue: measured and predicted CI."""
     f = case.spec.texts[name]
-    fig = partial(F.fig_ci_fit, _fitted_ci(case.cal_res), title=f["title"], synthetic=True)
+    fitted = [
+        {"id": r.id, "depth": r.depth, "ci": r.ci, "ci_model": r.ci_model}
+        for r in case.cal_res
+        if r.ok
+    ]
+    fig = partial(F.fig_ci_fit, fitted, title=f["title"], synthetic=True)
     return [out.figure(fig, f["key"], f["caption"])]
 
 
@@ -1030,12 +1015,10 @@ def _plates_part(out: _Out, case: _Case, name: str, *, calibrated: bool) -> list
         if r.ok
         for b in case.spec.plates.values()
     ]
-    args: tuple = (measured, predicted)
-    bands = []
-    if calibrated:  # the posterior band of the first profile
-        bands = [b for r in case.cal_res[:1] for b in _bands(case.posts.get(r.id), r.id)]
-        args += (bands,)
-    fig = partial(F.fig_plate_fit, *args, title=f["title"], synthetic=True)
+    # calibrated: the posterior band of the first profile
+    bands = [b for r in case.cal_res[:1] for b in _bands(case.posts.get(r.id), r.id)]
+    bands = bands if calibrated else []
+    fig = partial(F.fig_plate_fit, measured, predicted, bands, title=f["title"], synthetic=True)
     caption = f["caption"].format(
         pairs=_span(sorted({t.metadata["pair"] for t in case.plates})),
         profiles=_span([p.id for p in case.profiles]),

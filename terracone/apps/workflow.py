@@ -104,8 +104,7 @@ class Reading:
         lo, hi = self.depth_range
         if lo is None and hi is None:
             return items
-        a = "-" if lo is None else f"{float(u.length_from_si(lo, units)):g}"
-        b = "-" if hi is None else f"{float(u.length_from_si(hi, units)):g}"
+        a, b = ("-" if x is None else f"{float(u.length_from_si(x, units)):g}" for x in (lo, hi))
         span = f"depth window {a}:{b} {u.length_unit(units)}"
         out = []
         for it in items:  # the package's one depth window (terracone.data.depth_window)
