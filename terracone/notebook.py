@@ -43,12 +43,9 @@ def fmt_value(v: Any, digits: int = 5) -> str:
             return "-"
         if v == 0:
             return "0"
-        a = abs(v)
-        if 1e-3 <= a < 1e6:
+        if 1e-3 <= abs(v) < 1e6:
             s = f"{v:.{digits}g}"
-            if "e" in s:  # e.g. 1.235e+05 -> plain
-                s = f"{v:.0f}"
-            return s
+            return f"{v:.0f}" if "e" in s else s  # e.g. 1.235e+05 -> plain
         return f"{v:.{digits - 1}e}"
     return str(v)
 

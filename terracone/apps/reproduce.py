@@ -186,11 +186,6 @@ class _CaseSpec:
     sections: tuple[_Section, ...]
     texts: dict[str, dict[str, Any]]
 
-    @property
-    def short(self) -> str:
-        """Label of the summary rows: "LETE", "KRC"."""
-        return self.name.split()[0]
-
 
 @dataclass
 class _Case:
@@ -587,15 +582,12 @@ def _predict_all(
 
 def _evaluate(case: _Case) -> None:
     """Each group's predictions against its plates: calibrated, CI alone, published (control)."""
-    pub = {p["id"]: p for p in case.pub}
+    pub = {p["id"]: TerrainParameters(p["kc"], p["kphi"], p["n"]) for p in case.pub}
     for g in case.groups:
         ids = {p.id for p in g.profiles}
         cal = [(r.id, r.params) for r in case.cal_res if r.id in ids and r.ok]
         free = [(r.id, r.params) for r in case.free_res if r.id in ids and r.ok]
-        control = [
-            (p.id, TerrainParameters(pub[p.id]["kc"], pub[p.id]["kphi"], pub[p.id]["n"]))
-            for p in g.profiles
-        ]
+        control = [(p.id, pub[p.id]) for p in g.profiles]
         evals = cross_table(cal, g.plates, case.cals[g.id].plate_pair)
         case.evals_cal += evals
         case.rows_cal += _rows(evals, case.where)
@@ -642,9 +634,8 @@ def _write_report(out: _Out, sections: list[dict[str, Any]], *, quick: bool, sec
         "meta": {"output directory": str(out.root), "mode": "quick" if quick else "full"},
         "sections": sections,
     }
-    report = out.root / "report.html"
+    report = out.file(out.root / "report.html")
     report.write_text(render_document(document, out.root), encoding="utf-8")
-    out.file(report)
     manifest = {
         "kind": "terracone-reproduce",
         "terracone": __version__,
@@ -726,7 +717,7 @@ def _data_section(cases: Sequence[_Case]) -> dict[str, Any]:
 def _side_by_side_section(out: _Out, cases: Sequence[_Case], quick: bool) -> dict[str, Any]:
     groups = []
     for case in cases:
-        s = case.spec.short
+        s = case.spec.name.split()[0]  # "LETE", "KRC"
         groups += [
             (f"{s} ours, with calibration", case.rows_cal),
             (f"{s} ours, CI alone", case.rows_free),
@@ -748,28 +739,19 @@ def _side_by_side_section(out: _Out, cases: Sequence[_Case], quick: bool) -> dic
 
 
 def _published_section(out: _Out) -> dict[str, Any]:
-    tables = []
-    for tab_id in ("4-1", "4-3"):
-        tables.append(
-            parameters_table(
-                published_parameters(tab_id),
-                key=f"published_table_{tab_id.replace('-', '_')}",
-                title=f"Published Table {tab_id} (package data)",
-                notes=[f"Source: {CITATION}, Table {tab_id}."],
-            )
-        )
-    for tab_id, same_site in (("4-2", False), ("4-4", True)):
-        rows = published_agreement(tab_id)
-        tables.append(
-            agreement_table(
-                rows,
-                plates=list(dict.fromkeys(r["plate"] for r in rows)),
-                key=f"published_table_{tab_id.replace('-', '_')}",
-                title=f"Published Table {tab_id} (package data)",
-                same_site=same_site,
-                notes=[f"Source: {CITATION}, Table {tab_id}. psi columns recomputed from kPa."],
-            )
-        )
+    def text(tab: str, note: str = "") -> dict[str, Any]:
+        return {
+            "key": f"published_table_{tab.replace('-', '_')}",
+            "title": f"Published Table {tab} (package data)",
+            "notes": [f"Source: {CITATION}, Table {tab}.{note}"],
+        }
+
+    tables = [parameters_table(published_parameters(tab), **text(tab)) for tab in ("4-1", "4-3")]
+    for tab, same_site in (("4-2", False), ("4-4", True)):
+        rows = published_agreement(tab)
+        plates = list(dict.fromkeys(r["plate"] for r in rows))
+        note = " psi columns recomputed from kPa."
+        tables.append(agreement_table(rows, plates=plates, same_site=same_site, **text(tab, note)))
     bad = us_column_check()
     check = (
         "The printed US columns of Tables 4-1 and 4-3 agree with the SI columns converted by "
@@ -806,13 +788,11 @@ def _bands(post: dict[str, Any] | None, id_: str) -> list[dict[str, Any]]:
 
 
 def _ident_profiles(results, posts):
-    out = []
-    for r in results:
-        d = r.as_dict("si", curves=False, samples=False)
-        if posts and posts.get(r.id):
-            d["identifiability"] = posts[r.id].get("identifiability")
-            d["intervals"] = posts[r.id].get("intervals")
-        out.append(d)
+    """Result dicts (SI) with their posterior's identifiability and intervals, if any."""
+    out = [r.as_dict("si", curves=False, samples=False) for r in results]
+    for d in out:
+        if post := (posts or {}).get(d["id"]):
+            d |= {k: post.get(k) for k in ("identifiability", "intervals")}
     return out
 
 

@@ -44,12 +44,9 @@ _INDICES = ("S1", "S1_conf", "ST", "ST_conf")  # SALib's keys and SobolResult's 
 
 @dataclass(frozen=True, eq=False)
 class SobolBox(Mapping):
-    """A box of terrain parameters: its lower and upper corners, SI.
+    """A box of terrain parameters: lower and upper corners (TerrainParameters, SI).
 
-    Both corners are :class:`~terracone.data.TerrainParameters`; the box
-    reads like the dict of ranges it replaces, ``box["kc"] == (lo, hi)``
-    with the keys :data:`SOBOL_NAMES` (``"phic"`` [deg], ``"Kc"`` [m],
-    log-uniform in :func:`sobol_ci`).
+    Reads as a dict of ranges, ``box["kc"] == (lo, hi)``, keys :data:`SOBOL_NAMES`.
     """
 
     lo: TerrainParameters
