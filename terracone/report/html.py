@@ -18,8 +18,8 @@ from __future__ import annotations
 import base64
 import html
 import json
-import math
 from collections.abc import Mapping, Sequence
+from dataclasses import asdict, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -334,23 +334,6 @@ def _units_of(doc: Mapping[str, Any], default: str = "si") -> str:
     return un if un in ("si", "us") else default
 
 
-def _si_params(d: Mapping[str, Any], units: str) -> dict[str, Any] | None:
-    """SI parameters of a profile / learn dict (None when not fitted)."""
-    if d.get("n") is None:
-        return None
-    p = TerrainParameters.from_dict(d, units=d.get("units") or units)
-    return {
-        "id": d.get("id", d.get("terrain", "parameters")),
-        "kc": p.kc,
-        "kphi": p.kphi,
-        "n": p.n,
-        "cc": p.cc,
-        "phic_deg": p.phic_deg,
-        "model": p.model,
-        "r_min": p.r_min,
-    }
-
-
 def _synthetic(doc: Mapping[str, Any]) -> dict[str, Any]:
     """Banner keys for results that say they come from synthetic data."""
     if not doc.get("synthetic"):
@@ -376,47 +359,16 @@ def _mark_settings_bounds(tab, rows, settings: Mapping[str, Any], units: str) ->
     mark_bounds(tab, rows, cc=cc_si, phic_deg=phic, n=n)
 
 
-def _chunks(seq: Sequence[Any], k: int) -> list[Sequence[Any]]:
-    return [seq[i : i + k] for i in range(0, len(seq), k)]
-
-
-def _si_curve_profile(d: Mapping[str, Any], units: str) -> dict[str, Any] | None:
-    if not d.get("depth") or not d.get("ci"):
-        return None
-    un = d.get("units") or units
-    return {
-        "id": str(d.get("id")),
-        "depth": u.length_to_si(d["depth"], un),
-        "ci": u.pressure_to_si(d["ci"], un),
-        "ci_model": None if d.get("ci_model") is None else u.pressure_to_si(d["ci_model"], un),
-    }
-
-
 def _settings_pairs(settings: Mapping[str, Any]) -> dict[str, Any]:
+    """Settings flattened one level: a nested ``{"bounds": {"n": ...}}`` becomes ``bounds.n``."""
     out: dict[str, Any] = {}
     for k, v in settings.items():
-        if isinstance(v, Mapping):
-            for k2, v2 in v.items():
-                out[f"{k}.{k2}"] = v2
-        else:
-            out[k] = v
+        out.update({f"{k}.{k2}": v2 for k2, v2 in v.items()} if isinstance(v, Mapping) else {k: v})
     return out
 
 
-def _profile_rows_si(profiles: Sequence[Mapping[str, Any]], units: str) -> list[dict[str, Any]]:
-    rows = []
-    for d in profiles:
-        un = d.get("units") or units
-        row: dict[str, Any] = {"id": d.get("id")}
-        p = _si_params(d, un) if d.get("status", "ok") == "ok" else None
-        if p:
-            row.update(p)
-        rm = d.get("rmsd")
-        row["rmsd"] = None if rm is None else float(u.pressure_to_si(rm, un))
-        row["r2_ci"] = d.get("r2_ci")
-        row["status"] = d.get("status", "ok")
-        rows.append(row)
-    return rows
+def _mm(r: Mapping[str, Any]) -> float | None:
+    return None if r.get("r_min") is None else r["r_min"] * 1000.0
 
 
 _FIT_EXTRA = (
@@ -428,11 +380,7 @@ _FIT_EXTRA = (
     ),
     ("R2 of CI", "", lambda r: r.get("r2_ci")),
     ("model", "", lambda r: r.get("model")),
-    (
-        "r_min",
-        "mm",
-        lambda r: None if r.get("r_min") is None else r["r_min"] * 1000.0,
-    ),
+    ("r_min", "mm", _mm),
 )
 
 
@@ -451,19 +399,16 @@ def predict_document(
     """
     units = _units_of(doc)
     profiles = list(doc.get("profiles") or [])
-    ok = [p for p in profiles if p.get("status", "ok") == "ok"]
-    bad = [p for p in profiles if p.get("status", "ok") != "ok"]
     settings = dict(doc.get("settings") or {})
-    calibrated = bool(settings.get("calibration"))
-    sections: list[dict[str, Any]] = FL.field_sections(
-        FL.records_from_predict(profiles, units), units=units, map_by=map_by
-    )
-
-    sections += _predict_input_sections(doc, profiles, ok, bad, settings, units, source)
-    sections += _predict_table_sections(profiles, settings, units, calibrated)
-    figs = _predict_ci_figures(ok, units)
-    figs += _predict_plate_figures(ok, units)
-    figs += _predict_ridge_figure(ok, units)
+    recs = FL.records_from_predict(profiles, units)
+    sections = FL.field_sections(recs, units=units, map_by=map_by)
+    sections += _predict_input_sections(doc, profiles, settings, units, source)
+    sections += _predict_table_sections(profiles, recs, settings, units)
+    # fitted profiles with measured points, as field records (SI) beside their JSON
+    drawn = [(r, p) for r, p in zip(recs, profiles) if r["status"] == "ok" and "depth" in r]
+    figs = _predict_ci_figures([r for r, _ in drawn])
+    figs += _predict_plate_figures([p for p in profiles if p.get("status", "ok") == "ok"], units)
+    figs += _predict_ridge_figure(drawn[0] if drawn else None)
     sections.append({"id": "figures", "heading": "Figures", "parts": figs})
     return {
         "title": "terracone report: prediction from cone index",
@@ -474,27 +419,20 @@ def predict_document(
     }
 
 
-# ---------------------------------------------------------------------------
-# learn
-# ---------------------------------------------------------------------------
-
-
 def _predict_input_sections(
     doc: Mapping[str, Any],
     profiles: list[Any],
-    ok: list[Any],
-    bad: list[Any],
     settings: dict[str, Any],
     units: str,
     source: str | None,
 ) -> list[dict[str, Any]]:
     """The Inputs and Settings sections of :func:`predict_document`."""
-    sections: list[dict[str, Any]] = []
+    bad = [p for p in profiles if p.get("status", "ok") != "ok"]
     inputs = {
         "results file": source,
         "CI input": doc.get("input"),
         "profiles": len(profiles),
-        "fitted": len(ok),
+        "fitted": len(profiles) - len(bad),
         "not fitted": len(bad),
         "results written by": f"terracone {doc.get('terracone', '?')}",
     }
@@ -502,34 +440,28 @@ def _predict_input_sections(
     if bad:
         parts.append(text_part("Profiles that could not be fitted:"))
         parts.append(list_part([f"{p.get('id')}: {p.get('error')}" for p in bad]))
-    sections.append({"id": "inputs", "heading": "Inputs", "parts": parts})
-    sections.append(
-        {
-            "id": "settings",
-            "heading": "Settings",
-            "parts": [
-                kv_part(_settings_pairs(settings) or {"settings": "(none recorded)"}),
-                text_part(
-                    "Units of the results file: "
-                    + units
-                    + ". Tables below give SI and US customary columns; kc and kphi convert "
-                    "with n (their units carry n)."
-                ),
-            ],
-        }
-    )
-
-    return sections
+    settings_parts = [
+        kv_part(_settings_pairs(settings) or {"settings": "(none recorded)"}),
+        text_part(
+            "Units of the results file: "
+            + units
+            + ". Tables below give SI and US customary columns; kc and kphi convert "
+            "with n (their units carry n)."
+        ),
+    ]
+    return [
+        {"id": "inputs", "heading": "Inputs", "parts": parts},
+        {"id": "settings", "heading": "Settings", "parts": settings_parts},
+    ]
 
 
 def _predict_table_sections(
-    profiles: list[Any], settings: dict[str, Any], units: str, calibrated: bool
+    profiles: list[Any], recs: list[dict[str, Any]], settings: dict[str, Any], units: str
 ) -> list[dict[str, Any]]:
     """The Parameters and Identifiability sections of :func:`predict_document`."""
-    sections: list[dict[str, Any]] = []
-    rows = _profile_rows_si(profiles, units)
+    fitted = [r for r in recs if r.get("n") is not None]
     tab = parameters_table(
-        [r for r in rows if r.get("n") is not None],
+        fitted,
         key="parameters",
         title="Predicted Bekker P-S and cone-terrain shear parameters (as Tables 4-1, 4-3)",
         first="Profile",
@@ -541,16 +473,12 @@ def _predict_table_sections(
             "fits equally well (see the identifiability table and the ridge figure).",
         ],
     )
-    _mark_settings_bounds(tab, [r for r in rows if r.get("n") is not None], settings, units)
-    sections.append(
-        {"id": "parameters", "heading": "Parameters", "parts": [table_part(tab, max_rows=500)]}
-    )
-    fixed = ("phic", "cc") if calibrated else ()
+    _mark_settings_bounds(tab, fitted, settings, units)
     ident = identifiability_table(
         profiles,
         key="identifiability",
         title="What each CI profile determines",
-        fixed=fixed,
+        fixed=("phic", "cc") if settings.get("calibration") else (),
         notes=[
             '"undetermined": the approximate 95% profile interval covers half the search '
             'range or more (from "undetermined"); "determined", "weakly determined", "set by '
@@ -558,21 +486,22 @@ def _predict_table_sections(
             "phic~scale(kc,kphi): phic and the common scale of kc and kphi trade exactly.",
         ],
     )
-    sections.append(
+    return [
+        {"id": "parameters", "heading": "Parameters", "parts": [table_part(tab, max_rows=500)]},
         {
             "id": "identifiability",
             "heading": "Identifiability",
             "parts": [table_part(ident, max_rows=500)],
-        }
-    )
-
-    return sections
+        },
+    ]
 
 
-def _predict_ci_figures(ok: list[Any], units: str) -> list[dict[str, Any]]:
-    """CI fits (Figure 4-1) and the Janosi comparison (Figure 2-1) of the first profile."""
+def _predict_ci_figures(curves: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """CI fits (Figure 4-1) and the Janosi comparison (Figure 2-1) of the first profile.
+
+    ``curves``: field records of the fitted profiles with measured points.
+    """
     figs: list[dict[str, Any]] = []
-    curves = [c for c in (_si_curve_profile(p, units) for p in ok) if c is not None]
     if 0 < len(curves) <= _PER_FIGURE:
         fig = F.fig_ci_fit(curves, title="Measured and predicted CI-sinkage curves")
         figs.append(
@@ -590,138 +519,118 @@ def _predict_ci_figures(ok: list[Any], units: str) -> list[dict[str, Any]]:
                 f"{_PER_FIGURE} profiles)."
             )
         )
-    first = next((p for p in ok if _si_curve_profile(p, units) is not None), None)
-    if first is not None:
-        c = _si_curve_profile(first, units)
-        sp = _si_params(first, units)
-        zpos = c["depth"] >= 0
-        if sp and zpos.sum() >= 2:
-            cj = {
-                "id": c["id"],
-                "depth": c["depth"][zpos],
-                "ci": c["ci"][zpos],
-            }
-            fig = F.fig_janosi(
-                [cj],
-                sp,
-                improved_params={**sp, "label": "improved model eq. (2-7), predicted parameters"},
-                params_label="predicted kc, kphi, n",
-                title=f"{c['id']}: measured CI and the Janosi equation (2-1)",
-            )
-            figs.append(
-                figure_part(
-                    fig,
-                    f"As Figure 2-1 of the paper: measured CI of {c['id']} against the Janosi "
-                    "equation (2-1) evaluated with the kc, kphi and n predicted by the improved "
-                    "model. The gap is what the improved model adds: shear on the cone "
-                    "surface and kc over the local radius rather than the base diameter.",
-                )
-            )
-    return figs
-
-
-def _predict_plate_figures(ok: list[Any], units: str) -> list[dict[str, Any]]:
-    """Predicted plate curves and posterior bands (Figures 4-2, 4-3(b))."""
-    figs: list[dict[str, Any]] = []
-    plate_pred, plate_bands = [], []
-    for p in ok[:MAX_FIGURE_PROFILES]:
-        un = p.get("units") or units
-        for pl in p.get("plates") or []:
-            plate_pred.append(
-                {
-                    "id": str(p.get("id")),
-                    "radius": float(u.length_to_si(pl["radius"], un)),
-                    "sinkage": u.length_to_si(pl["sinkage"], un),
-                    "pressure": u.pressure_to_si(pl["pressure"], un),
-                }
-            )
-        for b in p.get("plate_bands") or []:
-            plate_bands.append(
-                {
-                    "id": str(p.get("id")),
-                    "label": f"{p.get('id')} band",
-                    "radius": float(u.length_to_si(b["radius"], un)),
-                    "sinkage": u.length_to_si(b["sinkage"], un),
-                    "lo": u.pressure_to_si(b["lo"], un),
-                    "hi": u.pressure_to_si(b["hi"], un),
-                    "median": None
-                    if b.get("median") is None
-                    else u.pressure_to_si(b["median"], un),
-                }
-            )
-    if plate_pred or plate_bands:
-        ids = list(dict.fromkeys(s["id"] for s in plate_pred + plate_bands))
-        for k, chunk in enumerate(_chunks(ids, _PER_FIGURE)):
-            sel = set(chunk)
-            fig = F.fig_plate_fit(
-                [],
-                [s for s in plate_pred if s["id"] in sel],
-                [b for b in plate_bands if b["id"] in sel],
-                title="Predicted plate pressure-sinkage curves"
-                + (f" ({k + 1})" if len(ids) > _PER_FIGURE else ""),
-            )
-            figs.append(
-                figure_part(
-                    fig,
-                    "Plate pressure-sinkage curves predicted from the parameters (Bekker "
-                    "equation, or RM1 below r_min), one panel per plate size, as Figures 4-2 "
-                    "and 4-3(b) of the paper"
-                    + (
-                        "; hatched: the posterior band of predict --uncertainty"
-                        if plate_bands
-                        else ""
-                    )
-                    + ". The results file holds no measured plate curves.",
-                )
-            )
-    else:
+    c = curves[0] if curves else None
+    zpos = None if c is None else c["depth"] >= 0
+    if c is not None and c.get("n") is not None and zpos.sum() >= 2:
+        fig = F.fig_janosi(
+            [{"id": c["id"], "depth": c["depth"][zpos], "ci": c["ci"][zpos]}],
+            c,
+            improved_params={**c, "label": "improved model eq. (2-7), predicted parameters"},
+            params_label="predicted kc, kphi, n",
+            title=f"{c['id']}: measured CI and the Janosi equation (2-1)",
+        )
         figs.append(
-            text_part(
-                "No plate curves in the results: run predict with --plates R1,R2 (and "
-                "--uncertainty for bands) to draw them."
+            figure_part(
+                fig,
+                f"As Figure 2-1 of the paper: measured CI of {c['id']} against the Janosi "
+                "equation (2-1) evaluated with the kc, kphi and n predicted by the improved "
+                "model. The gap is what the improved model adds: shear on the cone "
+                "surface and kc over the local radius rather than the base diameter.",
             )
         )
     return figs
 
 
-def _predict_ridge_figure(ok: list[Any], units: str) -> list[dict[str, Any]]:
-    """The ridge of equally good fits of the first drawable profile."""
+def _si_plate(pid: str, c: Mapping[str, Any], un: str, pressures: Sequence[str]) -> dict:
+    """A plate curve or band of a predict JSON profile in SI (radius, sinkage [m]; kPa)."""
+    out = {"id": pid, "radius": float(u.length_to_si(c["radius"], un))}
+    out["sinkage"] = u.length_to_si(c["sinkage"], un)
+    out.update({k: None if c.get(k) is None else u.pressure_to_si(c[k], un) for k in pressures})
+    return out
+
+
+def _predict_plate_figures(ok: list[Any], units: str) -> list[dict[str, Any]]:
+    """Predicted plate curves and posterior bands (Figures 4-2, 4-3(b))."""
+    plate_pred, plate_bands = [], []
+    for p in ok[:MAX_FIGURE_PROFILES]:
+        pid, un = str(p.get("id")), p.get("units") or units
+        plate_pred += [_si_plate(pid, pl, un, ["pressure"]) for pl in p.get("plates") or []]
+        for b in p.get("plate_bands") or []:
+            band = _si_plate(pid, b, un, ["lo", "hi", "median"])
+            plate_bands.append({**band, "label": f"{p.get('id')} band"})
+    if not (plate_pred or plate_bands):
+        return [
+            text_part(
+                "No plate curves in the results: run predict with --plates R1,R2 (and "
+                "--uncertainty for bands) to draw them."
+            )
+        ]
     figs: list[dict[str, Any]] = []
-    first = next((p for p in ok if _si_curve_profile(p, units) is not None), None)
-    if first is not None:
-        c = _si_curve_profile(first, units)
-        sp = _si_params(first, units) or {}
-        try:
-            fig = F.fig_ridge(
-                c["depth"],
-                c["ci"],
-                profile_id=c["id"],
-                cone=str(first.get("cone") or "asabe-large"),
-                model=sp.get("model") or "rm0",
-                r_min=sp.get("r_min"),
-                reference={"n": sp.get("n"), "phic_deg": sp.get("phic_deg")},
-                reference_label="reported",
+    ids = list(dict.fromkeys(s["id"] for s in plate_pred + plate_bands))
+    for k in range(0, len(ids), _PER_FIGURE):
+        sel = set(ids[k : k + _PER_FIGURE])
+        fig = F.fig_plate_fit(
+            [],
+            [s for s in plate_pred if s["id"] in sel],
+            [b for b in plate_bands if b["id"] in sel],
+            title="Predicted plate pressure-sinkage curves"
+            + (f" ({k // _PER_FIGURE + 1})" if len(ids) > _PER_FIGURE else ""),
+        )
+        figs.append(
+            figure_part(
+                fig,
+                "Plate pressure-sinkage curves predicted from the parameters (Bekker "
+                "equation, or RM1 below r_min), one panel per plate size, as Figures 4-2 "
+                "and 4-3(b) of the paper"
+                + ("; hatched: the posterior band of predict --uncertainty" if plate_bands else "")
+                + ". The results file holds no measured plate curves.",
             )
-            figs.append(
-                figure_part(
-                    fig,
-                    f"The ridge of equally good fits for {c['id']} (not in the paper): with "
-                    "fully mobilised shear, phic and a common scale of kc and kphi trade "
-                    "exactly, so the CI alone fixes n but not phic. Contours give the RMSD as "
-                    "a multiple of its minimum; kc, kphi and cc are re-fitted exactly at each "
-                    "point (bounded least squares). Default search bounds.",
-                )
-            )
-        except (ValueError, FloatingPointError) as exc:  # pragma: no cover - defensive
-            figs.append(text_part(f"Ridge figure not drawn: {exc}"))
+        )
     return figs
+
+
+def _predict_ridge_figure(first: tuple[dict[str, Any], Any] | None) -> list[dict[str, Any]]:
+    """The ridge of equally good fits of the first drawable profile (its record and JSON)."""
+    if first is None:
+        return []
+    c, profile = first
+    try:
+        fig = F.fig_ridge(
+            c["depth"],
+            c["ci"],
+            profile_id=c["id"],
+            cone=str(profile.get("cone") or "asabe-large"),
+            model=c.get("model") or "rm0",
+            r_min=c.get("r_min"),
+            reference={"n": c.get("n"), "phic_deg": c.get("phic_deg")},
+            reference_label="reported",
+        )
+    except (ValueError, FloatingPointError) as exc:  # pragma: no cover - defensive
+        return [text_part(f"Ridge figure not drawn: {exc}")]
+    return [
+        figure_part(
+            fig,
+            f"The ridge of equally good fits for {c['id']} (not in the paper): with "
+            "fully mobilised shear, phic and a common scale of kc and kphi trade "
+            "exactly, so the CI alone fixes n but not phic. Contours give the RMSD as "
+            "a multiple of its minimum; kc, kphi and cc are re-fitted exactly at each "
+            "point (bounded least squares). Default search bounds.",
+        )
+    ]
+
+
+# ---------------------------------------------------------------------------
+# learn
+# ---------------------------------------------------------------------------
 
 
 def learn_document(doc: Mapping[str, Any], *, source: str | None = None) -> dict[str, Any]:
     """Report document of a ``terracone learn --json`` result."""
     units = _units_of(doc)
-    sp = _si_params(doc, units) or {}
-    sp["id"] = doc.get("terrain", "learned")
+    tp = None
+    if doc.get("n") is not None:
+        tp = replace(TerrainParameters.from_dict(doc, units=doc.get("units") or units), K_cone=None)
+    sp = {"id": doc.get("terrain", "learned"), **(asdict(tp) if tp else {})}
     crit = doc.get("criteria") or {}
     inputs = {
         "results file": source,
@@ -737,7 +646,7 @@ def learn_document(doc: Mapping[str, Any], *, source: str | None = None) -> dict
         + f" (worst {fmt_value(crit.get('worst_cv'))})",
     }
     parts = [table_part(t) for t in _learn_tables(doc, sp, units)]
-    parts += _learn_figures(doc, sp, units)
+    parts += _learn_figures(doc, tp, units)
     return {
         "title": "terracone report: learning from cone and plate tests",
         **_synthetic(doc),
@@ -757,10 +666,7 @@ def _learn_tables(doc: Mapping[str, Any], sp: dict[str, Any], units: str) -> lis
         key="learned",
         title="Learned parameters (learning process, section 3.3.1)",
         first="Terrain",
-        extra=(
-            ("model", "", lambda r: r.get("model")),
-            ("r_min", "mm", lambda r: None if r.get("r_min") is None else r["r_min"] * 1000),
-        ),
+        extra=_FIT_EXTRA[3:],
     )
     und = list(doc.get("undetermined") or [])
     iv = doc.get("profile_intervals") or {}
@@ -779,40 +685,27 @@ def _learn_tables(doc: Mapping[str, Any], sp: dict[str, Any], units: str) -> lis
             "kphi are not profiled by learn; they follow n and the plates."
         ],
     )
-    ds = list(doc.get("datasets") or [])
     ds_rows = []
-    for x in ds:
-        rm = x.get("rmsd")
+    for x in doc.get("datasets") or []:
+        rm, b = x.get("rmsd"), x.get("b")
         rm_si = None if rm is None else float(u.pressure_to_si(rm, units))
-        b = x.get("b")
-        ds_rows.append(
-            [
-                x.get("id"),
-                x.get("kind"),
-                None if b is None else float(b) * 100,
-                rm_si,
-                None if rm_si is None else float(u.pressure_from_si(rm_si, "us")),
-                x.get("cv"),
-            ]
-        )
+        rm_us = None if rm_si is None else float(u.pressure_from_si(rm_si, "us"))
+        b_cm = None if b is None else float(b) * 100
+        ds_rows.append([x.get("id"), x.get("kind"), b_cm, rm_si, rm_us, x.get("cv")])
     ds_tab = Table(
         "datasets",
         "Fit per data set",
-        [
-            ("Data set", ""),
-            ("Kind", ""),
-            ("Plate size b", "cm"),
-            ("RMSD", "kPa"),
-            ("RMSD", "psi"),
-            ("CV", ""),
-        ],
+        [("Data set", ""), ("Kind", ""), ("Plate size b", "cm")]
+        + [("RMSD", "kPa"), ("RMSD", "psi"), ("CV", "")],
         ds_rows,
         notes=["CV = RMSD / mean measured value; the objective sums it over the data sets."],
     )
     return [tab, ident, ds_tab]
 
 
-def _learn_figures(doc: Mapping[str, Any], sp: dict[str, Any], units: str) -> list[dict[str, Any]]:
+def _learn_figures(
+    doc: Mapping[str, Any], params: TerrainParameters | None, units: str
+) -> list[dict[str, Any]]:
     """The CV per data set, and the plate curves of the learned parameters."""
     ds = list(doc.get("datasets") or [])
     crit = doc.get("criteria") or {}
@@ -829,18 +722,15 @@ def _learn_figures(doc: Mapping[str, Any], sp: dict[str, Any], units: str) -> li
         parts.append(
             figure_part(fig, "CV of each CI profile and plate test at the learned parameters.")
         )
-    if sp.get("n") is not None:
+    if params is not None:
         pair = doc.get("plate_pair")
         radii = [float(v) for v in u.length_to_si(pair, units)] if pair else [0.0375, 0.05]
         from terracone.inverse.evaluate import predicted_plate_pressure
 
-        params = TerrainParameters(
-            sp["kc"], sp["kphi"], sp["n"], sp["cc"], sp["phic_deg"], None, sp["model"], sp["r_min"]
-        )
         s = np.linspace(0.0, 0.1, 41)
         pred = [
             {
-                "id": str(sp["id"]),
+                "id": str(doc.get("terrain", "learned")),
                 "radius": r,
                 "sinkage": s,
                 "pressure": predicted_plate_pressure(params, s, r, tuple(radii) if pair else None),
@@ -930,13 +820,8 @@ def batch_document(results: Any, path: str | Path, *, map_by: str = "n") -> dict
     settings = {"units": _units_of(summary), **results.settings}
     n_total = len(results)
     ok = [r for r in results if r.ok]
-    sections: list[dict[str, Any]] = (
-        FL.field_sections(
-            FL.records_from_table(results, settings), units=settings["units"], map_by=map_by
-        )
-        if n_total
-        else []
-    )
+    recs = FL.records_from_table(results, settings) if n_total else []
+    sections = FL.field_sections(recs, units=settings["units"], map_by=map_by) if n_total else []
     meta_pairs = {
         "directory" if d.is_dir() else "file": str(d),
         "part files": n_parts,
@@ -952,16 +837,15 @@ def batch_document(results: Any, path: str | Path, *, map_by: str = "n") -> dict
         parts.append(text_part("From _summary.json:"))
         parts.append(kv_part(_settings_pairs(summary)))
     sections.append({"id": "inputs", "heading": "Inputs and settings", "parts": parts})
-    rows = [_table_row(r) for r in results]
+    fitted = [x for x in recs if x.get("n") is not None]
     tab = parameters_table(
-        [x for x in rows if x.get("n") is not None],
+        fitted,
         key="parameters",
         title="Predicted parameters per profile (as Tables 4-1, 4-3)",
         first="Profile",
         extra=_FIT_EXTRA[:3],
     )
-    fitted_rows = [x for x in rows if x.get("n") is not None]
-    _mark_settings_bounds(tab, fitted_rows, summary.get("settings") or {}, _units_of(summary))
+    _mark_settings_bounds(tab, fitted, summary.get("settings") or {}, _units_of(summary))
     tparts = [table_part(tab, max_rows=200)]
     errs = [r for r in results if not r.ok]
     if errs:
@@ -985,16 +869,6 @@ def _batch_summary(directory: Path) -> dict[str, Any]:
         return json.loads((directory / "_summary.json").read_text())
     except (OSError, json.JSONDecodeError):
         return {}
-
-
-def _table_row(r: Any) -> dict[str, Any]:
-    """One result of a prediction table as a parameters-table record (SI)."""
-    row: dict[str, Any] = {"id": r.id}
-    if r.ok and r.params is not None:
-        p = r.params
-        row.update(kc=p.kc, kphi=p.kphi, n=p.n, cc=p.cc, phic_deg=p.phic_deg)
-    row["rmsd"], row["r2_ci"] = _nan_none(r.rmsd), _nan_none(r.r2_ci)
-    return row
 
 
 def _table_identifiability(results: Any, settings: Mapping[str, Any]) -> dict[str, Any]:
@@ -1022,13 +896,3 @@ def _table_identifiability(results: Any, settings: Mapping[str, Any]) -> dict[st
         ],
     )
     return {"id": "identifiability", "heading": "Identifiability", "parts": [table_part(ident)]}
-
-
-def _nan_none(v: Any) -> Any:
-    if v is None:
-        return None
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        return None
-    return f if math.isfinite(f) else None
