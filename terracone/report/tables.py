@@ -347,14 +347,7 @@ def shear_table(
     for label, sh in rows:
         us = sh.as_dict("us")
         body.append(
-            [
-                label,
-                sh.c,
-                us["c"],
-                sh.phi_deg,
-                None if sh.K is None else sh.K * 100.0,
-                us["K"],
-            ]
+            [label, sh.c, us["c"], sh.phi_deg, None if sh.K is None else sh.K * 100.0, us["K"]]
         )
     return Table(key, title, cols, body, list(notes), synthetic)
 
@@ -402,13 +395,8 @@ def mark_bounds(
                 hits.append((i, rmin_col))
     if hits:
         table.highlight = sorted(set(table.highlight) | set(hits))
-        rng = []
-        if cc:
-            rng.append(f"cc {cc[0]:g} to {cc[1]:g} kPa")
-        if phic_deg:
-            rng.append(f"phic {phic_deg[0]:g} to {phic_deg[1]:g} deg")
-        if n:
-            rng.append(f"n {n[0]:g} to {n[1]:g}")
+        named = (("cc", cc, " kPa"), ("phic", phic_deg, " deg"), ("n", n, ""))
+        rng = [f"{name} {b[0]:g} to {b[1]:g}{unit}" for name, b, unit in named if b]
         if rmin_range:
             rng.append(f"r_min {rmin_range[0] * 1000:g} to {rmin_range[1] * 1000:g} mm")
         table.notes.append(
@@ -526,38 +514,19 @@ def flat_agreement_table(
     ``rows``: the ``plates`` entries of the evaluate JSON (lengths and RMSD in
     ``units``).
     """
-    cols = [
-        ("Prediction", ""),
-        ("Plate test", ""),
-        ("Plate size b", "cm"),
-        ("Plate size b", "in"),
-        ("R", ""),
-        ("R2", ""),
-        ("RMSD", "kPa"),
-        ("RMSD", "psi"),
-        ("CV", ""),
-        ("Points", ""),
-    ]
+    cols = [("Prediction", ""), ("Plate test", ""), ("Plate size b", "cm"), ("Plate size b", "in")]
+    cols += [("R", ""), ("R2", ""), ("RMSD", "kPa"), ("RMSD", "psi"), ("CV", ""), ("Points", "")]
     body = []
     for r in rows:
         b = num_or_none(r.get("plate_radius", r.get("plate_width")))
         b_si = None if b is None else float(u.length_to_si(b, units))
         rm = num_or_none(r.get("RMSD"))
         rm_si = None if rm is None else float(u.pressure_to_si(rm, units))
-        body.append(
-            [
-                r.get("prediction"),
-                r.get("test"),
-                None if b_si is None else b_si * 100,
-                None if b_si is None else b_si / u.INCH,
-                num_or_none(r.get("R")),
-                num_or_none(r.get("R2")),
-                rm_si,
-                None if rm_si is None else float(u.pressure_from_si(rm_si, "us")),
-                num_or_none(r.get("CV")),
-                r.get("n_points"),
-            ]
-        )
+        rm_us = None if rm_si is None else float(u.pressure_from_si(rm_si, "us"))
+        b_cells = [None, None] if b_si is None else [b_si * 100, b_si / u.INCH]
+        r_cells = [num_or_none(r.get("R")), num_or_none(r.get("R2")), rm_si, rm_us]
+        cells = [r.get("prediction"), r.get("test"), *b_cells, *r_cells, num_or_none(r.get("CV"))]
+        body.append(cells + [r.get("n_points")])
     return Table(key, title, cols, body, list(notes))
 
 
