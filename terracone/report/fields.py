@@ -67,6 +67,8 @@ _PARAMS = (
     ("rmsd", "RMSD of CI", "kPa"),
     ("r2_ci", "R2 of CI", "-"),
 )
+#: Axis and colour-bar labels of the record keys, with units ("n [-]", "phic [deg]").
+_LABELS = {k: f"{name} [{unit}]" for k, name, unit in _PARAMS}
 
 
 def coordinates(meta: Mapping[str, Any] | None) -> tuple[float, float] | None:
@@ -126,7 +128,7 @@ def records_from_predict(
 
     Each record: ``id``, ``label``, ``status``, ``error``, ``kc``
     [kN/m^(n+1)], ``kphi`` [kN/m^(n+2)], ``n`` [-], ``cc`` [kPa],
-    ``phic_deg`` [deg], ``rmsd`` [kPa], ``r2_ci`` [-], ``flagged`` (bool),
+    ``phic_deg`` [deg], ``model``, ``r_min`` [m], ``rmsd`` [kPa], ``r2_ci`` [-], ``flagged``,
     ``lack_of_fit`` (text), ``lon``/``lat`` [deg] or None, ``depth`` [m],
     ``ci``, ``ci_model`` [kPa], and the layered fit where predict ran with
     ``--layers``: ``layers_preferred``, ``interfaces`` [m], ``r2_layered``,
@@ -353,14 +355,8 @@ def summary_section(recs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         )
     parts.append(table_part(_distribution_table(ok), sortable=False))
     if len(ok) >= 3:
-        cols = {
-            "n [-]": [r["n"] for r in ok],
-            "kc [kN/m^(n+1)]": [r["kc"] for r in ok],
-            "kphi [kN/m^(n+2)]": [r["kphi"] for r in ok],
-            "phic [deg]": [r["phic_deg"] for r in ok],
-            "RMSD of CI [kPa]": [r["rmsd"] for r in ok if r.get("rmsd") is not None],
-            "R2 of CI [-]": [r["r2_ci"] for r in ok if r.get("r2_ci") is not None],
-        }
+        keys = ("n", "kc", "kphi", "phic_deg", "rmsd", "r2_ci")
+        cols = {_LABELS[k]: [r[k] for r in ok if r.get(k) is not None] for k in keys}
         fig = F.fig_histograms(cols, title="Distribution over the field")
         parts.append(
             figure_part(
@@ -382,7 +378,7 @@ def map_section(recs: Sequence[Mapping[str, Any]], *, colour_by: str = "n") -> d
     loc = [r for r in recs if r.get("lon") is not None and r.get("lat") is not None]
     if not loc:
         return None
-    name = dict((k, f"{nm} [{un}]") for k, nm, un in _PARAMS)[colour_by]
+    name = _LABELS[colour_by]
     fig = F.fig_map(
         [r["lon"] for r in loc],
         [r["lat"] for r in loc],
