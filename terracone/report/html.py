@@ -1,10 +1,7 @@
 """Self-contained HTML reports of terracone results.
 
-One file, no request to any other host: figures are PNG data URIs, the CSS
-and the small self-check script are inline, and a Content-Security-Policy
-meta tag forbids the browser to load anything else (``default-src 'none'``,
-images from ``data:`` only).  The layout is responsive: images never exceed
-the column, tables scroll sideways on narrow screens.
+One file, no request to any other host (PNG data URIs, inline CSS and script,
+a Content-Security-Policy; the layout: ``docs/report.md``).
 
 A report is a *document*: a title, metadata and sections, each a list of
 parts (``text``, ``list``, ``kv``, ``figure``, ``table``, ``html``).  The
