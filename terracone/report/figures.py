@@ -493,14 +493,8 @@ def _ridge_map_scale(ax: Any, r: dict[str, Any], rmin: float, levels: list[float
     ridge = (1 + math.tan(math.radians(best["phic"])) / ta) / (
         1 + np.tan(np.radians(r["phic"])) / ta
     )
-    ax.plot(
-        r["phic"],
-        ridge,
-        linestyle="--",
-        color="#D55E00",
-        linewidth=2,
-        label="scale (1 + tan phic / tan 15 deg) = const",
-    )
+    label = "scale (1 + tan phic / tan 15 deg) = const"
+    ax.plot(r["phic"], ridge, linestyle="--", color="#D55E00", linewidth=2, label=label)
     ax.set_yscale("log")
     ax.set_ylim(r["scale"][0], r["scale"][-1])
     ticks = [0.4, 0.5, 0.7, 1.0, 1.4, 2.0, 2.5]
@@ -514,16 +508,18 @@ def _ridge_map_scale(ax: Any, r: dict[str, Any], rmin: float, levels: list[float
 
 def _ridge_profiles(axes: Any, r: dict[str, Any], d: Any) -> None:
     """Panels (c) and (d) of :func:`fig_ridge`: profiles of the RMSD over n and over phic."""
-    # (c) profile over n
+    prof_n, prof_p = r["rmsd"].min(axis=1), r["rmsd"].min(axis=0)
+    # (c) over n, (d) over phic: the best RMSD at each value, and the 95% threshold
+    for ax, x, prof, fmt, colour in (
+        (axes[1, 0], "n", prof_n, "-o", "#0072B2"),
+        (axes[1, 1], "phic", prof_p, "-s", "#CC79A7"),
+    ):
+        label = f"best RMSD at {x}"
+        ax.plot(r[x], d.pressure(prof), fmt, color=colour, markersize=3, label=label)
+        thr = d.pressure(r["threshold"])
+        ax.axhline(thr, color="black", linestyle="--", label="approx. 95% threshold")
+        ax.set_ylabel(f"RMSD of CI [{d.P}]")
     ax = axes[1, 0]
-    prof_n = r["rmsd"].min(axis=1)
-    ax.plot(r["n"], d.pressure(prof_n), "-o", color="#0072B2", markersize=3, label="best RMSD at n")
-    ax.axhline(
-        d.pressure(r["threshold"]),
-        color="black",
-        linestyle="--",
-        label="approx. 95% threshold",
-    )
     inside = r["n"][prof_n <= r["threshold"]]
     if inside.size:
         ax.axvspan(
@@ -532,26 +528,11 @@ def _ridge_profiles(axes: Any, r: dict[str, Any], d: Any) -> None:
     top = float(np.quantile(prof_n, 0.6))
     ax.set_ylim(0, max(top, 3 * r["threshold"]) * d.pf)
     ax.set_xlabel("exponent n [-]")
-    ax.set_ylabel(f"RMSD of CI [{d.P}]")
     ax.set_title("(c) profile over n (all else re-fitted)", fontsize=9.5)
     ax.legend(fontsize=7.5)
-    # (d) profile over phic
     ax = axes[1, 1]
-    prof_p = r["rmsd"].min(axis=0)
-    ax.plot(
-        r["phic"],
-        d.pressure(prof_p),
-        "-s",
-        color="#CC79A7",
-        markersize=3,
-        label="best RMSD at phic",
-    )
-    ax.axhline(
-        d.pressure(r["threshold"]), color="black", linestyle="--", label="approx. 95% threshold"
-    )
     ax.set_ylim(0, max(float(prof_p.max()), 2 * r["threshold"]) * d.pf * 1.1)
     ax.set_xlabel("cone-terrain friction angle phic [deg]")
-    ax.set_ylabel(f"RMSD of CI [{d.P}]")
     flat = float(prof_p.max() - prof_p.min()) <= 0.01 * float(prof_p.min())
     ax.set_title(
         "(d) profile over phic" + (" (flat: CI alone leaves phic free)" if flat else ""),

@@ -760,10 +760,7 @@ def evaluate_document(doc: Mapping[str, Any], *, source: str | None = None) -> d
         labels = [f"{r.get('prediction')} / {r.get('test')}" for r in rows[:40]]
         fig = F.fig_bars(
             labels,
-            {
-                "R2": [float(r.get("R2") or 0.0) for r in rows[:40]],
-                "CV": [float(r.get("CV") or 0.0) for r in rows[:40]],
-            },
+            {k: [float(r.get(k) or 0.0) for r in rows[:40]] for k in ("R2", "CV")},
             ylabel="R2 and CV [-]",
             title="Agreement of predicted and measured plate curves",
         )

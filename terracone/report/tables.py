@@ -23,6 +23,7 @@ import io
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from itertools import groupby
 from pathlib import Path
 from typing import Any
 
@@ -151,22 +152,17 @@ class Table:
             )
 
         groups = [g for g, _ in self.columns]
-        has_sub = any(s for _, s in self.columns)
         out.append("<thead>")
-        if has_sub:
+        if any(s for _, s in self.columns):
             out.append("<tr>")
-            i = 0
-            while i < len(self.columns):
-                g, s = self.columns[i]
-                if not s:
-                    out.append(head(g, i, ' rowspan="2"'))
-                    i += 1
-                    continue
-                j = i
-                while j < len(self.columns) and groups[j] == g and self.columns[j][1]:
-                    j += 1
-                out.append(f'<th colspan="{j - i}" scope="colgroup">{e(g)}</th>')
-                i = j
+            # a run of one group's columns with sub-headings shares a cell; others span both rows
+            runs = groupby(enumerate(self.columns), lambda jc: (jc[1][0], bool(jc[1][1])))
+            for (g, sub), run in runs:
+                js = [j for j, _ in run]
+                if sub:
+                    out.append(f'<th colspan="{len(js)}" scope="colgroup">{e(g)}</th>')
+                else:
+                    out += [head(g, j, ' rowspan="2"') for j in js]
             out.append("</tr><tr>")
             for j, (_g, s) in enumerate(self.columns):
                 if s:
