@@ -192,14 +192,8 @@ def check_fit_fast(depth: ArrayLike, measured: ArrayLike, model: ArrayLike) -> F
     return FitCheck(float(r2), int(best), float(z_runs), None)
 
 
-def _fit_limits() -> tuple:
-    import inspect
-
-    d = {k: v.default for k, v in inspect.signature(check_fit).parameters.items()}
-    return (d["min_r2"], d["max_runs_z"], d["max_drop"], d["min_cv"], d["monotone_model"])
-
-
-_FIT_LIMITS = _fit_limits()
+#: check_fit's default limits, in the order of fit_stats' arguments.
+_FIT_LIMITS = tuple(check_fit.__kwdefaults__.values())
 
 
 @njit(error_model="numpy")

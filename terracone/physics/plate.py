@@ -1,19 +1,9 @@
 """Plate pressure-sinkage: the Bekker equation and the RM1 variant of [1]_.
 
-Bekker's equation p = (kc/b + kphi) z^n (eq. (2-2) in [1]_, with b the radius
-of a circular plate or the smaller side of a rectangular one) tends to
-infinity as b -> 0.  Section 3.2 of [1]_ defines RM1: below a transition
-size r_min the pressure changes linearly with size, along the tangent to the
-Bekker curve at r_min; when r_min exceeds the larger plate of a plate pair
-(r1, r2), along the line through the two plates' Bekker pressures.
-
-Both branches have the form p = [kc (alpha - beta b) + kphi] z^n, so a
-:class:`PressureLaw` is described by (r_t, alpha, beta):
-
-* RM0: r_t = 0 (the linear branch never applies);
-* RM1, tangent at r_min: r_t = r_min, alpha = 2/r_min, beta = 1/r_min^2;
-* RM1, secant through (r1, p1), (r2, p2) when r_min > r2: r_t = r_min,
-  alpha = (r1 + r2)/(r1 r2), beta = 1/(r1 r2).
+Bekker's p = (kc/b + kphi) z^n (eq. (2-2) in [1]_) and RM1 (section 3.2)
+both have the form p = [kc (alpha - beta b) + kphi] z^n, so a
+:class:`PressureLaw` is described by (r_t, alpha, beta); ``docs/physics.md``
+gives them for RM0, the RM1 tangent and the RM1 secant.
 
 References
 ----------
