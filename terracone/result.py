@@ -1,26 +1,10 @@
 """The result model of the prediction process and its one versioned schema.
 
-One profile's fit is a :class:`PredictionResult`: the parameters of the
-improved cone model (eqs. (2-2) to (2-7) of [1]_) that minimise the RMSD
-between measured and model CI (section 3.3.2 of [1]_), with the fields of
-:class:`scipy.optimize.OptimizeResult` (``params`` in place of ``x``,
-``success``, ``status``, ``message``, ``nfev``, ``nit``) and what terracone
-adds: the fit's statistics, the identifiability analysis, and, when asked
-for, the posterior, the layered fit and the predicted plate curves.
-
-Many results (:class:`PredictionResults`) are written by one JSON writer
-(:func:`to_document`, :func:`to_json`, :func:`write_json`) and one Parquet
-writer (:func:`to_table`, :func:`write_parquet`), both following the schema
-:data:`SCHEMA` (``"terracone.prediction/1"``), documented field by field in
-``docs/results.md``.  ``terracone predict --json`` and ``--parquet``,
-:func:`terracone.apps.reproduce.reproduce`, ``terracone demo --out`` and
-``terracone batch`` write through them, and ``terracone report`` tells a
-prediction document by its ``schema`` key (:func:`check_schema`).
-
-``status`` keeps its values "ok" and "error" (a JSON contract since the
-first release); :attr:`PredictionResult.success` is ``status == "ok"``, and
-``message`` says why the solver stopped or, for an error, why the profile
-could not be fitted.
+One profile's fit is a :class:`PredictionResult` (the fields of
+:class:`scipy.optimize.OptimizeResult` and terracone's own); many are
+:class:`PredictionResults`, written by one JSON writer (:func:`to_document`)
+and one Parquet writer (:func:`to_table`) following :data:`SCHEMA`.
+``docs/results.md`` lists the writers and documents the schema field by field.
 
 References
 ----------
@@ -156,14 +140,10 @@ class PlateCurve:
     sinkage : ndarray
         Sinkages [m].
     pressure : ndarray
-        Predicted pressure [kPa]: Bekker's eq. (2-2) of [1]_, or RM1 below
-        r_min (section 3.2 of [1]_).
+        Predicted pressure [kPa]: Bekker's eq. (2-2), or RM1 below r_min
+        (section 3.2).
 
     ``curve["radius"]`` reads a field too (plate curves used to be dicts).
-
-    References
-    ----------
-    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, as in :mod:`terracone.result`.
     """
 
     radius: float
@@ -233,12 +213,7 @@ class PosteriorSummary:
         """The draws as ``{"names", "units", "values"}`` (each converted with its own n)."""
         if self.samples is None:
             return None
-        s = np.array(self.samples, dtype=float)
-        if units != "si":
-            n = s[:, 2]
-            s[:, 0] = u.kc_from_si(s[:, 0], n, units)
-            s[:, 1] = u.kphi_from_si(s[:, 1], n, units)
-            s[:, 3] = u.pressure_from_si(s[:, 3], units)
+        s = _convert_samples(self.samples, units, to_si=False)
         return {"names": list(UQ_PARAMS), "units": units, "values": s.tolist()}
 
 
@@ -521,14 +496,6 @@ class PredictionResults(list):
 
         return predictions_html(self)
 
-    def to_document(self, units: str = "si", **kwargs: Any) -> dict[str, Any]:
-        """:func:`to_document` of these results."""
-        return to_document(self, units, **kwargs)
-
-    def to_table(self, units: str = "si") -> pa.Table:
-        """:func:`to_table` of these results."""
-        return to_table(self, units)
-
 
 def _num(v: Any) -> float | None:
     v = float(v)
@@ -542,6 +509,16 @@ def _intervals(iv: Mapping[str, Sequence[float]], n: float, units: str, to_si: b
     conv = {"kc": lambda v: kc(v, n, units), "kphi": lambda v: kphi(v, n, units)}
     conv["cc"] = lambda v: p(v, units)
     return {k: [float(conv.get(k, float)(v)) for v in lohi] for k, lohi in iv.items()}
+
+
+def _convert_samples(samples: Any, units: str, to_si: bool) -> np.ndarray:
+    """Draws (kc, kphi, n, cc, phic_deg) to or from SI, kc and kphi each with its own n."""
+    s = np.array(samples, dtype=float)
+    if units != "si":
+        kc, kphi = (u.kc_to_si, u.kphi_to_si) if to_si else (u.kc_from_si, u.kphi_from_si)
+        s[:, 0], s[:, 1] = kc(s[:, 0], s[:, 2], units), kphi(s[:, 1], s[:, 2], units)
+        s[:, 3] = (u.pressure_to_si if to_si else u.pressure_from_si)(s[:, 3], units)
+    return s
 
 
 def _intervals_from_si(iv: Mapping[str, Sequence[float]], n: float, units: str) -> dict:
@@ -698,14 +675,8 @@ def _samples_to_si(block: Mapping[str, Any]) -> np.ndarray:
     names = list(block.get("names", []))
     if names != list(UQ_PARAMS):
         raise ValueError(f"samples: expected columns {list(UQ_PARAMS)} (got {names})")
-    s = np.array(block["values"], dtype=float).reshape(-1, len(UQ_PARAMS))
-    units = u.check_system(block.get("units", "si"))
-    if units != "si":
-        n = s[:, 2]
-        s[:, 0] = u.kc_to_si(s[:, 0], n, units)
-        s[:, 1] = u.kphi_to_si(s[:, 1], n, units)
-        s[:, 3] = u.pressure_to_si(s[:, 3], units)
-    return s
+    s = np.reshape(block["values"], (-1, len(UQ_PARAMS)))
+    return _convert_samples(s, u.check_system(block.get("units", "si")), to_si=True)
 
 
 def _posterior_from_dict(
