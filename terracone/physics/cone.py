@@ -169,13 +169,9 @@ def _tail_moments(eps: np.ndarray, n: np.ndarray, second: bool = True):
         sm = np.broadcast_to(small, shape)
         e = np.broadcast_to(eps, shape)[sm]
         nn = np.broadcast_to(n, shape)[sm]
-        # terms needed for 1e-17 at the largest eps of the subset
-        emax = float(e.max()) if e.size else 0.0
-        terms = (
-            _SERIES_TERMS
-            if emax <= 0
-            else min(_SERIES_TERMS, max(2, int(math.ceil(-17 / math.log10(max(emax, 1e-300)))) + 1))
-        )
+        emax = float(e.max())  # terms needed for 1e-17 at the largest eps of the subset
+        need = int(math.ceil(-17 / math.log10(emax))) + 1 if emax > 0 else _SERIES_TERMS
+        terms = min(_SERIES_TERMS, max(2, need))
         s0 = np.zeros_like(e)
         s1 = np.zeros_like(e)
         s2 = np.zeros_like(e) if second else None
@@ -187,13 +183,11 @@ def _tail_moments(eps: np.ndarray, n: np.ndarray, second: bool = True):
             if second:
                 s2 += ce * e / (jj + 3)
             cp = ce * ((jj - nn) / (jj + 1))
-        g0 = np.array(np.broadcast_to(g0, shape), dtype=float)
-        g1 = np.array(np.broadcast_to(g1, shape), dtype=float)
-        g0[sm] = s0
-        g1[sm] = s1
-        if second:
-            g2 = np.array(np.broadcast_to(g2, shape), dtype=float)
-            g2[sm] = s2
+        g = [g0, g1, g2]
+        for k, sk in enumerate((s0, s1, s2) if second else (s0, s1)):
+            g[k] = np.array(np.broadcast_to(g[k], shape), dtype=float)
+            g[k][sm] = sk
+        g0, g1, g2 = g
     return g0, g1, g2
 
 
@@ -654,14 +648,7 @@ def cone_index(
         if K_cone is not None or np.any(np.asarray(cc) != 0) or np.any(np.asarray(phic_deg) != 0):
             raise ValueError("cc, phic and Kc are not parameters of the Janosi equation (2-1)")
         return _janosi_in(depth, kc, kphi, n_arr, units)
-    pair = (
-        None if plate_pair is None else tuple(float(v) for v in u.length_to_si(plate_pair, units))
-    )
-    law = pressure_law(
-        model,
-        r_min=None if r_min is None else u.length_to_si(r_min, units),
-        plate_pair=pair,
-    )
+    law = pressure_law(model, r_min=r_min, plate_pair=plate_pair, units=units)
     cone = get_cone(cone)
     # checked once here, then the unchecked SI core
     ci = _improved(
