@@ -205,7 +205,7 @@ class PosteriorSummary:
         n = self.intervals.get("n", (1.0, 1.0))
         mid = 0.5 * (n[0] + n[1])
         return {
-            "intervals": _intervals_from_si(self.intervals, mid, units),
+            "intervals": _intervals(self.intervals, mid, units, False),
             "identifiability": dict(self.identifiability),
         }
 
@@ -453,9 +453,7 @@ class PredictionResult:
         d["undetermined"] = list(self.undetermined)
         d["phic_range_deg"] = list(self.phic_range) if self.phic_range else None
         if self.ok and self.params is not None:
-            d["profile_intervals"] = _intervals_from_si(
-                self.profile_intervals, self.params.n, units
-            )
+            d["profile_intervals"] = _intervals(self.profile_intervals, self.params.n, units, False)
         d["solver"] = self.solver
         d["diagnostics"] = {
             "nfev": self.nfev,
@@ -503,7 +501,7 @@ def _num(v: Any) -> float | None:
 
 
 def _intervals(iv: Mapping[str, Sequence[float]], n: float, units: str, to_si: bool) -> dict:
-    """Intervals of kc, kphi (with n), cc and the unitless rest, to or from SI."""
+    """Intervals of kc, kphi (with n), cc and the unitless rest, to or from SI (lists)."""
     kc, kphi = (u.kc_to_si, u.kphi_to_si) if to_si else (u.kc_from_si, u.kphi_from_si)
     p = u.pressure_to_si if to_si else u.pressure_from_si
     conv = {"kc": lambda v: kc(v, n, units), "kphi": lambda v: kphi(v, n, units)}
@@ -519,10 +517,6 @@ def _convert_samples(samples: Any, units: str, to_si: bool) -> np.ndarray:
         s[:, 0], s[:, 1] = kc(s[:, 0], s[:, 2], units), kphi(s[:, 1], s[:, 2], units)
         s[:, 3] = (u.pressure_to_si if to_si else u.pressure_from_si)(s[:, 3], units)
     return s
-
-
-def _intervals_from_si(iv: Mapping[str, Sequence[float]], n: float, units: str) -> dict:
-    return _intervals(iv, n, units, to_si=False)
 
 
 def _intervals_to_si(iv: Mapping[str, Sequence[float]], n: float, units: str) -> dict:
@@ -660,15 +654,14 @@ def check_schema(doc: Any, source: str | None = None) -> int:
     return version
 
 
-_FIT_KEYS = {
+#: Keys of a document profile that _result_from_dict reads (the others go to ``extra``).
+_READ_KEYS = {
     *("id", "status", "error", "kc", "kphi", "n", "cc", "phic_deg", "Kc", "model", "r_min"),
     *("rmsd", "r2_ci", "longest_run", "lack_of_fit", "units", "undetermined"),
     *("phic_range_deg", "profile_intervals", "solver", "diagnostics", "cone", "metadata"),
     *("notes", "source", "depth", "ci", "ci_model", "plates", "error_row", "error_column"),
+    *("intervals", "identifiability", "samples"),  # the posterior
 }
-
-
-_POSTERIOR_KEYS = {"intervals", "identifiability", "samples"}
 
 
 def _samples_to_si(block: Mapping[str, Any]) -> np.ndarray:
@@ -743,7 +736,7 @@ def _result_from_dict(p: Mapping[str, Any], units: str) -> PredictionResult:
         metadata=dict(p.get("metadata") or {}),
         notes=list(p.get("notes") or []),
         source=p.get("source"),
-        extra={k: v for k, v in p.items() if k not in _FIT_KEYS | _POSTERIOR_KEYS},
+        extra={k: v for k, v in p.items() if k not in _READ_KEYS},
         error_row=p.get("error_row"),
         posterior=posterior,
         error_column=p.get("error_column"),
@@ -910,19 +903,15 @@ def result_columns(results: Sequence[PredictionResult], units: str = "si") -> di
     units = u.check_system(units)
     P = len(results)
     cols: dict[str, Any] = empty_columns(P)
+    for k in ("status", "error", "error_row", "error_column", "cone", "source"):
+        cols[k] = _objects([getattr(r, k) for r in results])
     cols.update(
         profile=_objects([r.id for r in results]),
-        status=_objects([r.status for r in results]),
-        error=_objects([r.error for r in results]),
-        error_row=_objects([r.error_row for r in results]),
-        error_column=_objects([r.error_column for r in results]),
         n_points=_objects([None if r.depth is None else len(r.depth) for r in results]),
         undetermined=_objects([";".join(r.undetermined) if r.ok else None for r in results]),
         model=_objects([None if r.params is None else r.params.model for r in results]),
         r_min=np.full(P, np.nan),
         units=_objects([units] * P),
-        cone=_objects([r.cone for r in results]),
-        source=_objects([r.source for r in results]),
         fit_time_s=np.array([r.time_s for r in results], dtype=float),
     )
     fitted = np.array([r.params is not None for r in results], dtype=bool)
@@ -1036,13 +1025,10 @@ def _row_params(row: Mapping[str, Any], units: str) -> TerrainParameters | None:
 
 
 def _row_posterior(row: Mapping[str, Any], units: str, n: float) -> PosteriorSummary | None:
-    if all(_cell(row, f"{p}_q05") is None for p in UQ_PARAMS):
+    iv = {p: [_cell(row, f"{p}_q05"), _cell(row, f"{p}_q95")] for p in UQ_PARAMS}
+    iv = {p: lohi for p, lohi in iv.items() if lohi[0] is not None}
+    if not iv:
         return None
-    iv = {
-        p: [_cell(row, f"{p}_q05"), _cell(row, f"{p}_q95")]
-        for p in UQ_PARAMS
-        if _cell(row, f"{p}_q05") is not None
-    }
     ident = {p: _cell(row, f"ident_{p}") for p in UQ_PARAMS if _cell(row, f"ident_{p}")}
     return PosteriorSummary(_intervals_to_si(iv, n, units), ident)
 
