@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 from pathlib import Path
@@ -11,7 +12,6 @@ import click
 import numpy as np
 
 from terracone.apps.workflow import Reading
-from terracone.data import InputError
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.predict import PredictSettings
 from terracone.physics import units as u
@@ -128,13 +128,11 @@ class Group(click.Group):
             return super().invoke(ctx)
         except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort):
             raise
-        except InputError as exc:
-            raise click.ClickException(str(exc)) from None
         except KeyError as exc:
             raise click.ClickException(str(exc.args[0]) if exc.args else repr(exc)) from None
         except OSError as exc:
             raise click.ClickException(os_error_text(exc)) from None
-        except ValueError as exc:
+        except ValueError as exc:  # InputError too
             raise click.ClickException(str(exc)) from None
         except Exception as exc:  # pragma: no cover - a bug, but no traceback for users
             if os.environ.get("TERRACONE_DEBUG"):
@@ -146,29 +144,7 @@ class Group(click.Group):
 
 def shared(*decorators):
     """Apply several click decorators as one (options common to predict and batch)."""
-
-    def apply(f):
-        for d in reversed(decorators):
-            f = d(f)
-        return f
-
-    return apply
-
-
-wide_options = (
-    click.option(
-        "--depth-unit",
-        type=click.Choice(list(u.LENGTH_UNITS)),
-        default=None,
-        help="Wide tables: unit of depth headers written as bare numbers.",
-    ),
-    click.option(
-        "--ci-unit",
-        type=click.Choice(["kpa", "mpa", "psi"]),
-        default=None,
-        help="Wide tables: unit of the readings, unless the file states it.",
-    ),
-)
+    return lambda f: functools.reduce(lambda g, d: d(g), reversed(decorators), f)
 
 
 #: --out and --json of a command that writes one JSON document.
@@ -196,7 +172,18 @@ reading_options = (
         default=None,
         help="Input format (detected by default); wide: one row per push, one column per depth.",
     ),
-    *wide_options,
+    click.option(
+        "--depth-unit",
+        type=click.Choice(list(u.LENGTH_UNITS)),
+        default=None,
+        help="Wide tables: unit of depth headers written as bare numbers.",
+    ),
+    click.option(
+        "--ci-unit",
+        type=click.Choice(["kpa", "mpa", "psi"]),
+        default=None,
+        help="Wide tables: unit of the readings, unless the file states it.",
+    ),
     click.option(
         "--depth-ref",
         type=click.Choice(["base", "tip"]),

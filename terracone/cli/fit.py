@@ -66,9 +66,7 @@ from terracone.result import write_parquet
     show_default=True,
     help="Prior with --uncertainty: bounds (uniform) or terrain:NAME (a stored calibration).",
 )
-@click.option(
-    "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
-)
+@json_options[0]  # --out
 @click.option(
     "--parquet",
     "parquet_path",
@@ -76,7 +74,7 @@ from terracone.result import write_parquet
     default=None,
     help="Also write the results as a Parquet table, with batch's columns (docs/results.md).",
 )
-@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@json_options[1]  # --json
 def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts):
     """Predict kc, kphi, n, cc, phic from CI profiles (section 3.3.2)."""
     from terracone.apps.workflow import predict_profiles, sinkage_grid
@@ -351,7 +349,7 @@ def sites_cmd(
     show_default=True,
     help="Relative error of one plate reading.",
 )
-@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@json_options[1]  # --json
 def design_cmd(ci_file, prior, plates, candidates, plate_noise, as_json, **opts):
     """Value of information: which one extra test narrows the predicted plate pressure most."""
     from terracone.inverse.sites.design import parse_candidates, plan_test
