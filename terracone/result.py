@@ -381,13 +381,10 @@ class PredictionResult:
 
     @property
     def ok(self) -> bool:
-        """True when fitted (``status == "ok"``)."""
+        """True when fitted (``status == "ok"``); ``success`` is OptimizeResult's name for it."""
         return self.status == "ok"
 
-    @property
-    def success(self) -> bool:
-        """OptimizeResult's ``success``: ``status == "ok"``."""
-        return self.status == "ok"
+    success = ok
 
     @property
     def fun(self) -> float:
