@@ -1,29 +1,19 @@
 """Optional compilation of hot kernels with numba.
 
-Every compiled kernel in terracone has a plain numpy twin that stays the tested
-reference.  ``njit`` here is numba's ``njit(cache=True)`` when numba is usable
-and compilation is enabled, and the identity otherwise, so the same Python
-source runs either way.
-
-Nothing here imports numba at import time (importing numba alone costs about
-0.4 s): :func:`njit` returns a lazy kernel that imports numba and builds the
-dispatcher on its first call, and :func:`enabled` imports numba only when it
-is asked.  So ``terracone --help`` or a command that never reaches a kernel
-neither imports numba nor compiles anything; the first call of a kernel loads
-it from the on-disk cache (or compiles it once, when the cache is cold).
+``njit`` is numba's ``njit(cache=True)`` when numba is usable and compilation
+is enabled, the identity otherwise; every compiled kernel has a plain numpy
+twin that stays the tested reference.  numba is imported on a kernel's first
+call (importing it costs about 0.4 s), not at import time.
 
 Environment
 -----------
 TERRACONE_NUMBA
-    ``0`` disables compilation (the kernels run as plain Python/numpy and the
-    solvers take their numpy paths).  CI runs the kernel and solver tests once
-    more with it set, so results with and without the compiled kernels are
-    checked to agree.
+    ``0`` disables compilation (kernels run as plain Python/numpy, solvers
+    take their numpy paths).
 NUMBA_CACHE_DIR
-    Where compiled kernels are cached.  When it is unset and the package
-    directory is not writable (a system or read-only install, or a Dask worker
-    with another user), it is set to ``~/.cache/terracone/numba`` (or
-    ``$XDG_CACHE_HOME/terracone/numba``) before numba is imported.
+    Where compiled kernels are cached.  Unset while the package directory is
+    not writable: set to ``$XDG_CACHE_HOME/terracone/numba`` (default
+    ``~/.cache/terracone/numba``) before numba is imported.
 """
 
 from __future__ import annotations
@@ -36,16 +26,10 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
-__all__ = ["njit", "cache_dir", "enabled", "disabled"]
+__all__ = ["njit", "enabled", "disabled"]
 
 _state: dict[str, Any] = {"enabled": None, "forced_off": 0}
 _lazy: list[_LazyKernel] = []
-
-
-def cache_dir() -> Path:
-    """The user cache directory for compiled kernels."""
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "terracone" / "numba"
 
 
 def _setup_cache() -> None:
@@ -54,7 +38,8 @@ def _setup_cache() -> None:
     pkg = Path(__file__).resolve().parent
     probe = pkg / "__pycache__"
     if not (os.access(pkg, os.W_OK) and (not probe.exists() or os.access(probe, os.W_OK))):
-        d = cache_dir()
+        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        d = Path(base) / "terracone" / "numba"
         d.mkdir(parents=True, exist_ok=True)
         os.environ["NUMBA_CACHE_DIR"] = str(d)
 
@@ -137,22 +122,15 @@ class _LazyKernel:
         return self._build()(*args, **kwargs)
 
 
-def njit(*args: Any, **kwargs: Any) -> Callable[..., Any]:
+def njit(func: Callable[..., Any] | None = None, **options: Any) -> Any:
     """``numba.njit(cache=True, ...)`` when enabled, else the identity decorator.
 
     Use as ``@njit`` or ``@njit(error_model="numpy")``.  numba is imported on
     the kernel's first call, not here.
     """
-    if not _switch_on():
-        if args and callable(args[0]) and len(args) == 1 and not kwargs:
-            return args[0]
-        return lambda f: f
-    kwargs.setdefault("cache", True)
-    if args and callable(args[0]) and len(args) == 1:
-        return _LazyKernel(args[0], dict(kwargs))
-    if args:  # explicit signatures: eager, as numba does
-        import numba
+    options.setdefault("cache", True)
 
-        _setup_cache()
-        return numba.njit(*args, **kwargs)
-    return lambda f: _LazyKernel(f, dict(kwargs))
+    def wrap(f: Callable[..., Any]) -> Callable[..., Any]:
+        return _LazyKernel(f, options) if _switch_on() else f
+
+    return wrap if func is None else wrap(func)
