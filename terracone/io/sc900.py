@@ -25,8 +25,6 @@ from terracone.io.tables import (
     collect,
     push_profile,
     read_lines,
-    to_numbers,
-    validated,
 )
 from terracone.physics import units as u
 from terracone.physics.cone import CONES
@@ -176,36 +174,21 @@ def _push(cols: _Columns, push: _Push) -> CIProfile:
             if cell_problem(f[k]) is not None:
                 raise fail(f"{key} {f[k]!r} is not a number", key.title())
             metadata[key] = float(f[k])
-    readings = to_numbers(f[3 : 3 + nd])
-    if readings.bad.any():
-        k = int(np.flatnonzero(readings.bad)[0])
-        raise fail(readings.reasons[k], labels[k])
     metadata["pressure_unit"] = cols.ci_unit
     metadata["length_unit"] = cols.length_unit
-    factor = u.PRESSURE_UNITS[cols.ci_unit]
-    profile, keep, dropped = push_profile(
+    return push_profile(
         pid,
+        labels,
+        f[3 : 3 + nd],
         cols.depths,
-        readings.values * factor,
+        u.PRESSURE_UNITS[cols.ci_unit],
         push_cone,
         cols.depth_ref,
         metadata,
         cols.path,
         push.line,
         [],
-        lambda k: str(labels[k]),
     )
-
-    def locate(k: int | None, column: str | None) -> tuple[int | None, str | None, str]:
-        if k is None:  # too few points
-            more = f" after dropping {dropped} trailing zero readings" if dropped else ""
-            return push.line, labels[keep] if dropped else labels[0], more
-        more = f" (reading {f[3 + k]!r})"
-        if column == "depth" and cols.depth_ref == "tip":
-            more = f" (a tip depth; base depth = tip depth - H, H = {push_cone.height:.4g} m)"
-        return push.line, labels[k], more
-
-    return validated(profile, locate)
 
 
 def read_sc900(

@@ -461,32 +461,39 @@ def validated(
 
 def push_profile(
     pid: str,
+    labels: Sequence[str],
+    cells: Sequence[str],
     depth: np.ndarray,
-    ci: np.ndarray,
+    factor: float,
     cone: Cone,
     depth_ref: str,
     metadata: dict[str, Any],
     source: str,
     line: int,
     notes: list[str],
-    stop_label: Callable[[int], str],
-) -> tuple[CIProfile, int, int]:
-    """One instrument push (a row of an SC900 export or a wide table) as a CIProfile.
+    stop_format: str = "{}",
+) -> CIProfile:
+    """One instrument push (a row of an SC900 export or a wide table) as a validated CIProfile.
 
-    ``depth`` [m] and ``ci`` [kPa] are the push's readings in depth order.  Trailing
-    zero readings mean the push stopped: they are dropped, noted (``stop_label(k)``
-    names where the k-th reading stood) and counted in
-    ``metadata["trailing_zeros_dropped"]``; with ``depth_ref="tip"`` the cone base is
-    H above the tip.  Returns the profile, the readings kept and the readings dropped.
+    ``cells`` are the push's readings as text (``factor`` to kPa), ``labels`` their
+    file columns and ``depth`` [m] their depths.  Trailing zero readings mean the push
+    stopped: they are dropped, noted (``stop_format`` words the label where the push
+    stopped) and counted in ``metadata["trailing_zeros_dropped"]``; with
+    ``depth_ref="tip"`` the cone base is H above the tip.  Every point has the push's
+    file ``line`` as its row.
     """
+    readings = to_numbers(cells)
+    if readings.bad.any():
+        k = int(np.flatnonzero(readings.bad)[0])
+        raise InputError(readings.reasons[k], file=source, profile=pid, row=line, column=labels[k])
+    ci = readings.values * factor
     nonzero = np.flatnonzero(ci != 0)
     keep = int(nonzero[-1]) + 1 if nonzero.size else 0
     dropped = ci.size - keep
     if dropped:
         s = "" if dropped == 1 else "s"
-        notes.append(
-            f"dropped {dropped} trailing zero reading{s} (push stopped at {stop_label(keep)})"
-        )
+        stop = stop_format.format(labels[keep])
+        notes.append(f"dropped {dropped} trailing zero reading{s} (push stopped at {stop})")
     metadata["trailing_zeros_dropped"] = dropped
     z = depth[:keep] - cone.height if depth_ref == "tip" else depth[:keep]
     profile = CIProfile(
@@ -499,4 +506,14 @@ def push_profile(
         notes=notes,
         rows=np.full(keep, line, dtype=int),
     )
-    return profile, keep, dropped
+
+    def locate(k: int | None, column: str | None) -> tuple[int | None, str | None, str]:
+        if k is None:  # too few points
+            more = f" after dropping {dropped} trailing zero readings" if dropped else ""
+            return line, labels[keep] if dropped else labels[0], more
+        more = f" (reading {cells[k]!r})"
+        if column == "depth" and depth_ref == "tip":
+            more = f" (a tip depth; base depth = tip depth - H, H = {cone.height:.4g} m)"
+        return line, labels[k], more
+
+    return validated(profile, locate)

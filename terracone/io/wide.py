@@ -9,7 +9,7 @@ from __future__ import annotations
 import csv
 import os
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -25,8 +25,6 @@ from terracone.io.tables import (
     collect,
     push_profile,
     read_lines,
-    to_numbers,
-    validated,
 )
 from terracone.physics import units as u
 from terracone.physics.cone import Cone, get_cone
@@ -405,38 +403,7 @@ def _wide_row(
             push_cone = get_cone(cells[cols.cone_j].strip())
         except ValueError as exc:
             raise fail(str(exc), cols.cone_j) from None
-    return _wide_push(
-        cols.source,
-        pid,
-        line,
-        cells,
-        head,
-        cols.depths,
-        cols.factor,
-        cols.comma,
-        push_cone,
-        cols.depth_ref,
-        {**metadata, **cols.common, "line": line},
-        fail,
-    )
-
-
-def _wide_push(
-    source: str,
-    pid: str,
-    line: int,
-    cells: list[str],
-    head: _WideHeader,
-    depths: np.ndarray,
-    factor: float,
-    comma: bool,
-    push_cone: Cone,
-    depth_ref: str,
-    metadata: dict[str, Any],
-    fail: Callable[[str, int | None], InputError],
-) -> CIProfile:
-    """One push of a wide table: readings, empty cells, trailing zeros."""
-    raw = [_wide_number(cells[j], comma) for j in head.depth_cols]
+    raw = [_wide_number(cells[j], cols.comma) for j in head.depth_cols]
     filled = np.flatnonzero([bool(c) for c in raw])
     if not filled.size:
         raise fail("no readings (every depth cell is empty)", head.depth_cols[0])
@@ -448,33 +415,20 @@ def _wide_push(
                 f"{head.depth_labels[int(filled[filled > k][0])]!r} have readings)",
                 head.depth_cols[k],
             )
-    readings = to_numbers(raw[a:b])
-    if readings.bad.any():
-        k = int(np.flatnonzero(readings.bad)[0])
-        raise fail(readings.reasons[k], head.depth_cols[a + k])
     notes = []
     if a:
         notes.append(f"first reading at {head.depth_labels[a]} (the cells before it are empty)")
-    profile, keep, dropped = push_profile(
+    return push_profile(
         pid,
-        depths[a:b],
-        readings.values * factor,
+        head.depth_labels[a:b],
+        raw[a:b],
+        cols.depths[a:b],
+        cols.factor,
         push_cone,
-        depth_ref,
-        metadata,
-        source,
+        cols.depth_ref,
+        {**metadata, **cols.common, "line": line},
+        cols.source,
         line,
         notes,
-        lambda k: f"depth column {head.depth_labels[a + k]!r}",
+        "depth column {!r}",
     )
-
-    def locate(k: int | None, column: str | None) -> tuple[int | None, str | None, str]:
-        if k is None:
-            more = f" after dropping {dropped} trailing zero readings" if dropped else ""
-            return line, head.depth_labels[a + keep] if dropped else head.depth_labels[a], more
-        more = f" (reading {raw[a + k]!r})"
-        if column == "depth" and depth_ref == "tip":
-            more = f" (a tip depth; base depth = tip depth - H, H = {push_cone.height:.4g} m)"
-        return line, head.depth_labels[a + k], more
-
-    return validated(profile, locate)
