@@ -25,10 +25,6 @@ from terracone.io.tables import (
     to_numbers,
 )
 
-# ---------------------------------------------------------------------------
-# plate and shear tests
-# ---------------------------------------------------------------------------
-
 
 def read_plate_tests(
     path: PathLike, *, on_error: OnError = "raise"
@@ -76,14 +72,7 @@ def read_plate_tests(
         if halve:
             b /= 2.0
         if not b > 0:
-            raise InputError(
-                "plate size must be > 0",
-                file=source,
-                profile=tid,
-                item="test",
-                row=int(table.lines[idx[0]]),
-                column=scol.name,
-            )
+            raise _error("plate size must be > 0", source, table, tid, int(idx[0]), scol.name)
         return PlateTest(
             id=tid,
             b=b,
@@ -155,17 +144,12 @@ def _check_cells(
 ) -> None:
     """Raise the located InputError of a test's empty id or first bad cell."""
     if layout.id_col is not None and not tid:
-        raise InputError(
-            "empty test id",
-            file=source,
-            profile=tid,
-            item="test",
-            row=int(table.lines[idx[0]]),
-            column=layout.id_col.name,
-        )
+        raise _error("empty test id", source, table, tid, int(idx[0]), layout.id_col.name)
     bad = first_bad(idx, cols)
     if bad is not None:
-        i, col, why = bad
-        raise InputError(
-            why, file=source, profile=tid, item="test", row=int(table.lines[i]), column=col.name
-        )
+        raise _error(bad[2], source, table, tid, bad[0], bad[1].name)
+
+
+def _error(why: str, source: str, table: Table, tid: str, i: int, column: str) -> InputError:
+    line = int(table.lines[i])
+    return InputError(why, file=source, profile=tid, item="test", row=line, column=column)
