@@ -1,10 +1,4 @@
-"""FieldScout SC900 exports: one cone index profile per push.
-
-The text export of the Spectrum FieldScout SC900 logger: a few header lines
-(logger name, serial number, datum, the pressure unit), a column line
-``Longitude,Latitude,Number,0.0 cm,2.5 cm,...,Cone Size``, "Logger Started"
-lines and one ``N= k , ...`` line per push.
-"""
+"""FieldScout SC900 exports: one cone index profile per push (``docs/instruments.md``)."""
 
 from __future__ import annotations
 
@@ -31,10 +25,6 @@ from terracone.physics.cone import CONES
 
 #: Cone sizes of the SC900 export (normalised to lower case) and their cones.
 SC900_CONES: dict[str, str] = {"1/2 inch": "asabe-small", "3/4 inch": "asabe-large"}
-
-# ---------------------------------------------------------------------------
-# FieldScout SC900 export
-# ---------------------------------------------------------------------------
 
 _SC900_DEPTH = re.compile(r"^\s*([+-]?(?:\d+\.?\d*|\.\d+))\s*([a-zA-Z]+)\s*$")
 _SC900_UNIT = re.compile(r"\bIn\s+(KPa|PSI)\s*$", re.IGNORECASE)
@@ -130,67 +120,6 @@ def _export_depths(path: str, ex: _Export) -> tuple[list[str], np.ndarray, list[
     return labels, depths, depth_units
 
 
-@dataclass
-class _Columns:
-    """The file-wide facts every push of an export shares."""
-
-    path: str
-    stem: str
-    header: dict[str, Any]
-    labels: list[str]
-    depths: np.ndarray  # [m]
-    length_unit: str
-    ci_unit: str
-    depth_ref: str
-
-
-def _push(cols: _Columns, push: _Push) -> CIProfile:
-    """One push line as a validated profile (raises a located InputError)."""
-    f, labels, nd = push.fields, cols.labels, len(cols.labels)
-    m = _SC900_PUSH.match(f[2].replace(" ", ""))
-    number = int(m.group(1)) if m else None
-    pid = f"{cols.stem}/{push.ordinal:04d}-N{number if number is not None else '?'}"
-
-    def fail(msg: str, column: str | None) -> InputError:
-        return InputError(msg, file=cols.path, profile=pid, row=push.line, column=column)
-
-    if number is None:
-        raise fail(f"push number {f[2]!r} is not 'N= <integer>'", "Number")
-    if len(f) != nd + 4:
-        got = len(f) - 4
-        column = labels[got] if got < nd else "Cone Size"
-        raise fail(f"{max(got, 0)} readings but the column line has {nd} depths", column)
-    size = f[-1]
-    cone_name = SC900_CONES.get(" ".join(size.lower().split()))
-    if cone_name is None:
-        known = ", ".join(repr(s.title()) for s in SC900_CONES)
-        raise fail(f"unknown cone size {size!r} (known: {known})", "Cone Size")
-    push_cone = CONES[cone_name]
-    metadata: dict[str, Any] = dict(cols.header)
-    metadata["push"] = number
-    metadata["line"] = push.line
-    for k, key in ((0, "longitude"), (1, "latitude")):
-        if f[k]:
-            if cell_problem(f[k]) is not None:
-                raise fail(f"{key} {f[k]!r} is not a number", key.title())
-            metadata[key] = float(f[k])
-    metadata["pressure_unit"] = cols.ci_unit
-    metadata["length_unit"] = cols.length_unit
-    return push_profile(
-        pid,
-        labels,
-        f[3 : 3 + nd],
-        cols.depths,
-        u.PRESSURE_UNITS[cols.ci_unit],
-        push_cone,
-        cols.depth_ref,
-        metadata,
-        cols.path,
-        push.line,
-        [],
-    )
-
-
 def read_sc900(
     path: PathLike,
     *,
@@ -234,14 +163,53 @@ def read_sc900(
                 file=source,
             )
         ci_unit = u.pressure_unit(units).lower()
-    cols = _Columns(
-        source,
-        Path(source).stem,
-        ex.header,
-        labels,
-        depths,
-        depth_units[0] if len(depth_units) == 1 else ",".join(depth_units),
-        ci_unit,
-        depth_ref,
-    )
-    return collect(ex.pushes, lambda push: _push(cols, push), on_error)
+    stem = Path(source).stem
+    length_unit = ",".join(depth_units)
+
+    def one(push: _Push) -> CIProfile:
+        """One push line as a validated profile (raises a located InputError)."""
+        f, nd = push.fields, len(labels)
+        m = _SC900_PUSH.match(f[2].replace(" ", ""))
+        number = int(m.group(1)) if m else None
+        pid = f"{stem}/{push.ordinal:04d}-N{number if number is not None else '?'}"
+
+        def fail(msg: str, column: str | None) -> InputError:
+            return InputError(msg, file=source, profile=pid, row=push.line, column=column)
+
+        if number is None:
+            raise fail(f"push number {f[2]!r} is not 'N= <integer>'", "Number")
+        if len(f) != nd + 4:
+            got = len(f) - 4
+            column = labels[got] if got < nd else "Cone Size"
+            raise fail(f"{max(got, 0)} readings but the column line has {nd} depths", column)
+        size = f[-1]
+        cone_name = SC900_CONES.get(" ".join(size.lower().split()))
+        if cone_name is None:
+            known = ", ".join(repr(s.title()) for s in SC900_CONES)
+            raise fail(f"unknown cone size {size!r} (known: {known})", "Cone Size")
+        push_cone = CONES[cone_name]
+        metadata: dict[str, Any] = dict(ex.header)
+        metadata["push"] = number
+        metadata["line"] = push.line
+        for k, key in ((0, "longitude"), (1, "latitude")):
+            if f[k]:
+                if cell_problem(f[k]) is not None:
+                    raise fail(f"{key} {f[k]!r} is not a number", key.title())
+                metadata[key] = float(f[k])
+        metadata["pressure_unit"] = ci_unit
+        metadata["length_unit"] = length_unit
+        return push_profile(
+            pid,
+            labels,
+            f[3 : 3 + nd],
+            depths,
+            u.PRESSURE_UNITS[ci_unit],
+            push_cone,
+            depth_ref,
+            metadata,
+            source,
+            push.line,
+            [],
+        )
+
+    return collect(ex.pushes, one, on_error)

@@ -1,17 +1,6 @@
 """CSV tables, column schemas and cell conversion: what every reader of :mod:`terracone.io` shares.
 
-A CSV file is read into a :class:`Table` (header, cells by column, the file
-line of every record), its header classified against a :class:`Schema`
-(:func:`column_layout`: quantity columns with their unit, the id column,
-metadata), and its cells converted by :func:`to_numbers`, which says why a
-cell is not a finite number.  :func:`validated` runs
-:meth:`~terracone.data.CIProfile.validate` and locates its error in the file;
-:func:`push_profile` turns one instrument push into a profile.
-
-References
-----------
-Huang, Wong, Preston-Thomas, Jayakumar: the cone index data model of
-:mod:`terracone.data` (depth of the cone base, eq. (2-3)).
+Depths are those of the cone base (eq. (2-3)); the formats: ``docs/instruments.md``.
 """
 
 from __future__ import annotations
@@ -43,11 +32,6 @@ UNIT_TABLES: dict[str, dict[str, float]] = {
 # decimal numbers only: float() would also take "2018_13" (a plot id) as 201813
 DECIMAL = re.compile(r"^\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*$")
 SPECIAL_FLOAT = re.compile(r"^\s*[+-]?(?:nan|inf|infinity)\s*$", re.IGNORECASE)
-
-
-# ---------------------------------------------------------------------------
-# small helpers
-# ---------------------------------------------------------------------------
 
 
 def check_on_error(on_error: str) -> None:
@@ -138,11 +122,6 @@ def read_lines(path: str) -> list[str]:
             return f.read().splitlines()
         except UnicodeDecodeError as exc:
             raise InputError(f"not a UTF-8 text file ({exc.reason})", file=path) from None
-
-
-# ---------------------------------------------------------------------------
-# CSV tables
-# ---------------------------------------------------------------------------
 
 
 @dataclass
@@ -299,21 +278,19 @@ def unit_choices(kind: str) -> str:
 
 def column_layout(table: Table, schema: Schema, units: str | None = None) -> Layout:
     """Classify the header of a table; raise InputError for header problems."""
-    path, row = table.path, table.header_line
     seen: dict[str, str] = {}
     groups: dict[str, Column] = {}
     id_col: Column | None = None
     extra: dict[str, Column] = {}
     metadata: list[Column] = []
+
+    def fail(why: str, column: str) -> InputError:
+        return InputError(why, file=table.path, row=table.header_line, column=column)
+
     for j, name in enumerate(table.header):
         lower = name.lower()
         if lower in seen:
-            raise InputError(
-                f"duplicate column name ({seen[lower]} is already a column)",
-                file=path,
-                row=row,
-                column=name,
-            )
+            raise fail(f"duplicate column name ({seen[lower]} is already a column)", name)
         seen[lower] = name
         if lower == schema.id_column:
             id_col = Column(j, name)
@@ -326,39 +303,24 @@ def column_layout(table: Table, schema: Schema, units: str | None = None) -> Lay
             metadata.append(Column(j, name))
             continue
         fld, unit = match
-        table_units = UNIT_TABLES[fld.kind]
+        spelled = f"{fld.name}_<{unit_choices(fld.kind)}>"
         if unit is None:
             if units is None:
-                raise InputError(
-                    f"no unit in the column name: write {fld.name}_<{unit_choices(fld.kind)}>",
-                    file=path,
-                    row=row,
-                    column=name,
-                )
+                raise fail(f"no unit in the column name: write {spelled}", name)
             sys_unit = u.length_unit(units) if fld.kind == LENGTH else u.pressure_unit(units)
             unit = sys_unit.lower()
-        if unit not in table_units:
-            raise InputError(
-                f"unknown {fld.kind} unit {unit!r} (use {fld.name}_<{unit_choices(fld.kind)}>)",
-                file=path,
-                row=row,
-                column=name,
-            )
+        if unit not in UNIT_TABLES[fld.kind]:
+            raise fail(f"unknown {fld.kind} unit {unit!r} (use {spelled})", name)
         if fld.group in groups:
             other = groups[fld.group].name
-            raise InputError(
-                f"more than one {fld.group} column ({other} is already one)",
-                file=path,
-                row=row,
-                column=name,
-            )
-        groups[fld.group] = Column(j, name, fld, table_units[unit])
+            raise fail(f"more than one {fld.group} column ({other} is already one)", name)
+        groups[fld.group] = Column(j, name, fld, UNIT_TABLES[fld.kind][unit])
     for group in schema.required:
         if group not in groups:
             names = " or ".join(
                 f"{f.name}_<{unit_choices(f.kind)}>" for f in schema.fields if f.group == group
             )
-            raise InputError(f"missing required column {names}", file=path, row=row, column=names)
+            raise fail(f"missing required column {names}", names)
     return Layout(groups, id_col, extra, metadata)
 
 
@@ -427,11 +389,6 @@ def check_constant(
             column=col.name,
         )
     return float(vals[0])
-
-
-# ---------------------------------------------------------------------------
-# profiles built from cells
-# ---------------------------------------------------------------------------
 
 
 def validated(
