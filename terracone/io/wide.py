@@ -1,16 +1,12 @@
-"""Wide tables of cone index: one row per push, one column per depth.
-
-Penetrologger exports opened in a spreadsheet, published tables.  Depth and
-cone index units are never guessed.
-"""
+"""Wide tables of cone index: one row per push, one column per depth (``docs/instruments.md``)."""
 
 from __future__ import annotations
 
 import csv
 import os
 import re
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
@@ -28,10 +24,6 @@ from terracone.io.tables import (
 )
 from terracone.physics import units as u
 from terracone.physics.cone import Cone, get_cone
-
-# ---------------------------------------------------------------------------
-# wide tables: one row per push, one column per depth
-# ---------------------------------------------------------------------------
 
 #: Header cells that name the push (lower case, in order of preference).
 WIDE_ID_COLUMNS = ("profile", "id", "point", "number", "push", "name", "no", "nr", "label")
@@ -298,54 +290,102 @@ def read_wide_ci(
     text = read_lines(source)
     head = _wide_header(source, text, delimiter)
     depths, ci_u, depth_units = _wide_units(source, head, depth_unit, ci_unit)
-    cols = _wide_columns(source, head, depths, default_cone, depth_ref)
-    cols.factor = u.PRESSURE_UNITS[ci_u]
-    cols.common = {"pressure_unit": ci_u, "length_unit": ",".join(depth_units)}
-    rows = _wide_rows(source, text, head)
-    seen: dict[str, int] = {}
-    return collect(list(enumerate(rows, 1)), lambda item: _wide_row(cols, *item, seen), on_error)
+    one = _push_reader(source, head, depths, ci_u, depth_units, default_cone, depth_ref)
+    return collect(list(enumerate(_wide_rows(source, text, head), 1)), one, on_error)
 
 
-@dataclass
-class _WideColumns:
-    """What every row of a wide table shares: its header and the columns' roles."""
-
-    source: str
-    head: _WideHeader
-    depths: np.ndarray  # [m]
-    comma: bool  # decimal commas accepted
-    id_j: int | None
-    lat_j: int | None
-    lon_j: int | None
-    cone_j: int | None
-    meta_cols: list[int]
-    default_cone: Cone
-    depth_ref: str
-    factor: float = 1.0  # CI unit to kPa
-    common: dict[str, Any] = field(default_factory=dict)  # metadata of every push
-
-
-def _wide_columns(
-    source: str, head: _WideHeader, depths: np.ndarray, default_cone: Cone, depth_ref: str
-) -> _WideColumns:
-    """Find the id, coordinate, cone and metadata columns of a wide table."""
+def _push_reader(
+    source: str,
+    head: _WideHeader,
+    depths: np.ndarray,
+    ci_u: str,
+    depth_units: list[str],
+    default_cone: Cone,
+    depth_ref: str,
+) -> Callable[[tuple[int, tuple[int, list[str]]]], CIProfile]:
+    """What reads a data row of a wide table: its roles of columns found once."""
+    factor = u.PRESSURE_UNITS[ci_u]
+    common = {"pressure_unit": ci_u, "length_unit": ",".join(depth_units)}
     lower = [c.lower() for c in head.cells]
-    depth_set = set(head.depth_cols)
 
     def first(names: Sequence[str]) -> int | None:
         for name in names:
-            if name in lower and lower.index(name) not in depth_set:
+            if name in lower and lower.index(name) not in head.depth_cols:
                 return lower.index(name)
         return None
 
     id_j, lat_j, lon_j = first(WIDE_ID_COLUMNS), first(WIDE_LAT_COLUMNS), first(WIDE_LON_COLUMNS)
     cone_j = first(("cone",))
-    special = {j for j in (id_j, lat_j, lon_j, cone_j) if j is not None}
-    meta_cols = [j for j in range(len(head.cells)) if j not in depth_set and j not in special]
+    special = {*head.depth_cols, *(j for j in (id_j, lat_j, lon_j, cone_j) if j is not None)}
+    meta_cols = [j for j in range(len(head.cells)) if j not in special]
     comma = head.delimiter in (";", "\t")
-    return _WideColumns(
-        source, head, depths, comma, id_j, lat_j, lon_j, cone_j, meta_cols, default_cone, depth_ref
-    )
+    seen: dict[str, int] = {}
+
+    def one(item: tuple[int, tuple[int, list[str]]]) -> CIProfile:
+        """The k-th data row (1-based) as a validated profile."""
+        k, (line, cells) = item
+        pid = cells[id_j].strip() if id_j is not None else f"{Path(source).stem}/{k}"
+
+        def fail(msg: str, j: int | None) -> InputError:
+            column = head.cells[j] if j is not None else None
+            return InputError(msg, file=source, profile=pid, row=line, column=column)
+
+        if id_j is not None:
+            if not pid:
+                raise fail("empty id", id_j)
+            if pid in seen:
+                raise fail(f"duplicate id (also on line {seen[pid]})", id_j)
+        seen.setdefault(pid, line)
+        metadata: dict[str, Any] = {}
+        for j in meta_cols:
+            cell = cells[j]
+            num = _wide_number(cell, comma)
+            metadata[head.cells[j]] = float(num) if DECIMAL.match(num) else cell.strip()
+        for j, key in ((lat_j, "lat"), (lon_j, "lon")):
+            if j is not None:
+                try:
+                    value = parse_coordinate(cells[j], key)  # type: ignore[arg-type]
+                except ValueError as exc:
+                    raise fail(str(exc), j) from None
+                if value is not None:
+                    metadata[key] = value
+        push_cone = default_cone
+        if cone_j is not None and cells[cone_j].strip():
+            try:
+                push_cone = get_cone(cells[cone_j].strip())
+            except ValueError as exc:
+                raise fail(str(exc), cone_j) from None
+        raw = [_wide_number(cells[j], comma) for j in head.depth_cols]
+        filled = np.flatnonzero([bool(c) for c in raw])
+        if not filled.size:
+            raise fail("no readings (every depth cell is empty)", head.depth_cols[0])
+        a, b = int(filled[0]), int(filled[-1]) + 1
+        for k in range(a, b):
+            if not raw[k]:
+                raise fail(
+                    f"empty cell between readings ({head.depth_labels[k - 1]!r} and "
+                    f"{head.depth_labels[int(filled[filled > k][0])]!r} have readings)",
+                    head.depth_cols[k],
+                )
+        notes = []
+        if a:
+            notes.append(f"first reading at {head.depth_labels[a]} (the cells before it are empty)")
+        return push_profile(
+            pid,
+            head.depth_labels[a:b],
+            raw[a:b],
+            depths[a:b],
+            factor,
+            push_cone,
+            depth_ref,
+            {**metadata, **common, "line": line},
+            source,
+            line,
+            notes,
+            "depth column {!r}",
+        )
+
+    return one
 
 
 def _wide_rows(source: str, text: list[str], head: _WideHeader) -> list[tuple[int, list[str]]]:
@@ -364,71 +404,3 @@ def _wide_rows(source: str, text: list[str], head: _WideHeader) -> list[tuple[in
     if not rows:
         raise InputError("no data rows", file=source, row=head.line)
     return rows
-
-
-def _wide_row(
-    cols: _WideColumns, k: int, row: tuple[int, list[str]], seen: dict[str, int]
-) -> CIProfile:
-    """The k-th data row (1-based) of a wide table as a validated profile."""
-    line, cells = row
-    head = cols.head
-    pid = cells[cols.id_j].strip() if cols.id_j is not None else f"{Path(cols.source).stem}/{k}"
-
-    def fail(msg: str, j: int | None) -> InputError:
-        column = head.cells[j] if j is not None else None
-        return InputError(msg, file=cols.source, profile=pid, row=line, column=column)
-
-    if cols.id_j is not None:
-        if not pid:
-            raise fail("empty id", cols.id_j)
-        if pid in seen:
-            raise fail(f"duplicate id (also on line {seen[pid]})", cols.id_j)
-    seen.setdefault(pid, line)
-    metadata: dict[str, Any] = {}
-    for j in cols.meta_cols:
-        cell = cells[j]
-        num = _wide_number(cell, cols.comma)
-        metadata[head.cells[j]] = float(num) if DECIMAL.match(num) else cell.strip()
-    for j, key in ((cols.lat_j, "lat"), (cols.lon_j, "lon")):
-        if j is not None:
-            try:
-                value = parse_coordinate(cells[j], key)  # type: ignore[arg-type]
-            except ValueError as exc:
-                raise fail(str(exc), j) from None
-            if value is not None:
-                metadata[key] = value
-    push_cone = cols.default_cone
-    if cols.cone_j is not None and cells[cols.cone_j].strip():
-        try:
-            push_cone = get_cone(cells[cols.cone_j].strip())
-        except ValueError as exc:
-            raise fail(str(exc), cols.cone_j) from None
-    raw = [_wide_number(cells[j], cols.comma) for j in head.depth_cols]
-    filled = np.flatnonzero([bool(c) for c in raw])
-    if not filled.size:
-        raise fail("no readings (every depth cell is empty)", head.depth_cols[0])
-    a, b = int(filled[0]), int(filled[-1]) + 1
-    for k in range(a, b):
-        if not raw[k]:
-            raise fail(
-                f"empty cell between readings ({head.depth_labels[k - 1]!r} and "
-                f"{head.depth_labels[int(filled[filled > k][0])]!r} have readings)",
-                head.depth_cols[k],
-            )
-    notes = []
-    if a:
-        notes.append(f"first reading at {head.depth_labels[a]} (the cells before it are empty)")
-    return push_profile(
-        pid,
-        head.depth_labels[a:b],
-        raw[a:b],
-        cols.depths[a:b],
-        cols.factor,
-        push_cone,
-        cols.depth_ref,
-        {**metadata, **cols.common, "line": line},
-        cols.source,
-        line,
-        notes,
-        "depth column {!r}",
-    )
