@@ -1,12 +1,6 @@
 """Cone index profiles from a file: format detection, long CSV files, profile sets.
 
-:func:`read_ci_profiles` reads one file (long CSV, FieldScout SC900 export or
-wide table, :func:`detect_format`) into a list of profiles;
-:func:`read_profile_set` reads any CI file, Parquet included, into one
-:class:`~terracone.data.ProfileSet`; :func:`iter_profile_sets` streams any
-of them in chunks (long CSV and Parquet through :mod:`terracone.io.stream`,
-whose pyarrow and pandas are imported on first use); :func:`instrument_to_parquet`
-writes an instrument file as Parquet for the batch.
+pyarrow and pandas (:mod:`terracone.io.stream`) are imported on first use.
 """
 
 from __future__ import annotations
@@ -42,21 +36,6 @@ from terracone.io.wide import read_wide_ci, wide_depth_header
 from terracone.physics.cone import Cone, get_cone
 
 
-def _sniff_format(path: str) -> str:
-    """``"sc900"`` if the file starts like a FieldScout SC900 export, else ``"csv"``."""
-    try:
-        with open(path, encoding="utf-8-sig", errors="replace") as f:
-            head = [f.readline() for _ in range(12)]
-    except OSError:
-        return "csv"  # the CSV reader reports the problem
-    lines = [ln.strip() for ln in head if ln.strip()]
-    if lines and re.match(r"^Name\s*:", lines[0], re.IGNORECASE):
-        return "sc900"
-    if any(re.match(r"^Longitude\s*,\s*Latitude\s*,\s*Number\s*,", ln, re.I) for ln in lines):
-        return "sc900"
-    return "csv"
-
-
 def detect_format(path: PathLike) -> Literal["csv", "sc900", "wide"]:
     """The format of a cone index file: ``"sc900"``, ``"wide"`` or ``"csv"``.
 
@@ -67,14 +46,15 @@ def detect_format(path: PathLike) -> Literal["csv", "sc900", "wide"]:
     column; anything else is read as a long CSV file, whose reader reports
     what is wrong.
     """
-    source = os.fspath(path)
-    if _sniff_format(source) == "sc900":
-        return "sc900"
     try:
-        with open(source, encoding="utf-8-sig", errors="replace") as f:
+        with open(os.fspath(path), encoding="utf-8-sig", errors="replace") as f:
             head = [f.readline() for _ in range(50)]
     except OSError:
-        return "csv"
+        return "csv"  # the CSV reader reports the problem
+    lines = [ln.strip() for ln in head[:12] if ln.strip()]
+    column_line = re.compile(r"^Longitude\s*,\s*Latitude\s*,\s*Number\s*,", re.I)
+    if (lines and re.match(r"^Name\s*:", lines[0], re.I)) or any(map(column_line.match, lines)):
+        return "sc900"
     for raw in head:
         line = raw.strip()
         if not line or line.startswith("#"):
@@ -530,46 +510,24 @@ def instrument_to_parquet(path: Path, out: Path, cone: Cone, **reader: Any) -> P
     reader.setdefault("format", "sc900")
     items = read_ci_profiles(path, on_error="collect", cone=cone, **reader)
     target.parent.mkdir(parents=True, exist_ok=True)  # after the file-level checks
-    rows: dict[str, list] = {
-        "profile": [],
-        "cone": [],
-        "reader_error": [],
-        "reader_error_row": [],
-        "reader_error_column": [],
-        "depth_m": [],
-        "ci_kpa": [],
-    }
-    meta_keys: list[str] = []
+    fixed = ("profile", "cone", "reader_error", "reader_error_row", "reader_error_column")
+    rows: dict[str, list] = {k: [] for k in (*fixed, "depth_m", "ci_kpa")}
+    keys = dict.fromkeys(k for it in items if isinstance(it, CIProfile) for k in it.metadata)
+    meta_keys = [k for k in keys if k not in rows]
+    rows.update((k, []) for k in meta_keys)
     for it in items:
         if isinstance(it, CIProfile):
-            for k in it.metadata:
-                if k not in meta_keys and k not in rows:
-                    meta_keys.append(k)
-    for k in meta_keys:
-        rows[k] = []
-    for it in items:
-        if isinstance(it, CIProfile):
-            k = len(it)
-            rows["profile"] += [it.id] * k
-            rows["cone"] += [it.cone.name] * k
-            rows["reader_error"] += [None] * k
-            rows["reader_error_row"] += [None] * k
-            rows["reader_error_column"] += [None] * k
-            rows["depth_m"] += list(it.depth)
-            rows["ci_kpa"] += list(it.ci)
-            for mk in meta_keys:
-                v = it.metadata.get(mk)
-                rows[mk] += [None if v is None else str(v)] * k
+            n, depth, ci = len(it), list(it.depth), list(it.ci)
+            lead = [it.id, it.cone.name, None, None, None]
+            meta = [None if (v := it.metadata.get(k)) is None else str(v) for k in meta_keys]
         else:  # rejected by the reader: one row without a reading, the reason alongside
-            rows["profile"].append(str(it.profile))
-            rows["cone"].append(cone.name)
-            rows["reader_error"].append(str(it))
-            rows["reader_error_row"].append(it.row)
-            rows["reader_error_column"].append(it.column)
-            rows["depth_m"].append(float("nan"))
-            rows["ci_kpa"].append(float("nan"))
-            for mk in meta_keys:
-                rows[mk].append(None)
+            n, depth, ci = 1, [float("nan")], [float("nan")]
+            lead = [str(it.profile), cone.name, str(it), it.row, it.column]
+            meta = [None] * len(meta_keys)
+        for k, v in zip((*fixed, *meta_keys), lead + meta):
+            rows[k] += [v] * n
+        rows["depth_m"] += depth
+        rows["ci_kpa"] += ci
     tmp = target.with_name("." + target.name + ".tmp")
     pq.write_table(pa.table(rows), tmp)
     os.replace(tmp, target)
