@@ -10,11 +10,12 @@ from terracone.data import InputError, PlateTest, ShearTest
 from terracone.io.tables import (
     PLATE_SCHEMA,
     SHEAR_SCHEMA,
+    Column,
     Layout,
+    Numbers,
     OnError,
     PathLike,
     Table,
-    check_constant,
     check_on_error,
     collect,
     column_layout,
@@ -68,7 +69,7 @@ def read_plate_tests(
     def build(group: tuple[str, np.ndarray]) -> PlateTest:
         tid, idx = group
         _check_cells(source, table, layout, tid, idx, [(scol, size), (zcol, sink), (pcol, pres)])
-        b = check_constant(source, tid, table, idx, scol, size, "plate size") * scol.factor
+        b = _constant(source, tid, table, idx, scol, size, "plate size") * scol.factor
         if halve:
             b /= 2.0
         if not b > 0:
@@ -125,7 +126,7 @@ def read_shear_tests(
         _check_cells(
             source, table, layout, tid, idx, [(ncol, normal), (jcol, disp), (tcol, stress)]
         )
-        sigma = check_constant(source, tid, table, idx, ncol, normal, "normal pressure")
+        sigma = _constant(source, tid, table, idx, ncol, normal, "normal pressure")
         return ShearTest(
             id=tid,
             normal_pressure=sigma * ncol.factor,
@@ -153,3 +154,20 @@ def _check_cells(
 def _error(why: str, source: str, table: Table, tid: str, i: int, column: str) -> InputError:
     line = int(table.lines[i])
     return InputError(why, file=source, profile=tid, item="test", row=line, column=column)
+
+
+def _constant(
+    source: str, tid: str, table: Table, idx: np.ndarray, col: Column, num: Numbers, what: str
+) -> float:
+    """The value of a column that must not change within a test."""
+    vals = num.values[idx]
+    diff = np.flatnonzero(vals != vals[0])
+    if diff.size:
+        i = int(idx[diff[0]])
+        cells = table.columns[col.index]
+        why = (
+            f"{what} changes within the test ({cells[i].strip()} here, "
+            f"{cells[int(idx[0])].strip()} on line {int(table.lines[idx[0]])})"
+        )
+        raise _error(why, source, table, tid, i, col.name)
+    return float(vals[0])

@@ -131,18 +131,8 @@ def read_ci_profiles(
 
     Notes
     -----
-    SC900 exports give one profile per push with id
-    ``"{file stem}/{ordinal:04d}-N{push}"`` (ordinal: 1-based count of push
-    lines in the file, as push numbers restart after each "Logger Started"
-    line).  Trailing zero readings mean that the push stopped; they are
-    dropped and recorded in ``notes`` and in ``metadata["trailing_zeros_dropped"]``.
-    The cone comes from the ``Cone Size`` column (``SC900_CONES``), the
-    pressure unit from the "... In KPa" / "... In PSI" line, the depths from
-    the depth column labels; every point of a push has the push line as
-    its row.  Metadata: ``logger``, ``serial``, ``datum``, ``push``,
-    ``line``, ``longitude`` and ``latitude`` (when present),
-    ``pressure_unit`` and ``length_unit`` (the file's CI and depth units)
-    and ``trailing_zeros_dropped``; none of these names reads as a data
+    SC900 exports and wide tables (ids, cones, trailing zeros, metadata):
+    ``docs/instruments.md``.  The metadata of neither reads back as a data
     column, so :func:`write_ci_profiles` can write the profiles to CSV.
 
     Examples

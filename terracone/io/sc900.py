@@ -143,8 +143,8 @@ def read_sc900(
     Returns
     -------
     list of CIProfile or InputError
-        One item per push, in file order; see the Notes of
-        :func:`terracone.io.read_ci_profiles` for ids, cones and metadata.
+        One item per push, in file order (ids, cones and metadata:
+        ``docs/instruments.md``).
 
     References
     ----------

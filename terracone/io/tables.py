@@ -49,13 +49,6 @@ def check_options(on_error: str, depth_ref: str, units: str | None = None) -> No
         u.check_system(units)
 
 
-def metadata_value(cell: str) -> float | str:
-    """A metadata cell: float when it reads as a number, else the stripped text."""
-    if DECIMAL.match(cell) or SPECIAL_FLOAT.match(cell):
-        return float(cell)
-    return cell.strip()
-
-
 @dataclass
 class Numbers:
     """A column of cells converted to float; ``bad`` marks unusable cells."""
@@ -134,10 +127,6 @@ class Table:
     header_line: int
     columns: list[list[str]]
     lines: np.ndarray  # file line number of each data row
-
-    @property
-    def n_rows(self) -> int:
-        return int(self.lines.size)
 
 
 def read_table(path: str) -> Table:
@@ -327,7 +316,7 @@ def column_layout(table: Table, schema: Schema, units: str | None = None) -> Lay
 def table_groups(table: Table, id_col: Column | None) -> list[tuple[str, np.ndarray]]:
     """(id, row indices) of each profile or test, in order of first appearance."""
     if id_col is None:
-        return [(Path(table.path).stem, np.arange(table.n_rows))]
+        return [(Path(table.path).stem, np.arange(table.lines.size))]
     index: dict[str, list[int]] = {}
     for i, cell in enumerate(table.columns[id_col.index]):
         index.setdefault(cell.strip(), []).append(i)
@@ -338,23 +327,21 @@ def first_bad(
     idx: np.ndarray, checks: Sequence[tuple[Column, Numbers]]
 ) -> tuple[int, Column, str] | None:
     """The earliest unusable cell of a group (row order, then column order)."""
-    best: tuple[tuple[int, int], Column, str] | None = None
-    for order, (col, num) in enumerate(checks):
-        hits = np.flatnonzero(num.bad[idx])
-        if hits.size:
-            key = (int(hits[0]), order)
-            if best is None or key < best[0]:
-                i = int(idx[hits[0]])
-                best = (key, col, num.reasons[i])
-    if best is None:
+    hits = [(np.flatnonzero(num.bad[idx]), k) for k, (_, num) in enumerate(checks)]
+    found = [(int(h[0]), k) for h, k in hits if h.size]
+    if not found:
         return None
-    (k, _), col, why = best
-    return int(idx[k]), col, why
+    r, k = min(found)
+    col, num = checks[k]
+    i = int(idx[r])
+    return i, col, num.reasons[i]
 
 
 def row_metadata(table: Table, layout: Layout, i: int) -> dict[str, Any]:
-    """The metadata cells of table row ``i`` (numbers as floats)."""
-    return {c.name: metadata_value(table.columns[c.index][i]) for c in layout.metadata}
+    """The metadata cells of table row ``i``: floats when they read as numbers, else stripped text."""
+    cells = {c.name: table.columns[c.index][i] for c in layout.metadata}
+    number = DECIMAL.match, SPECIAL_FLOAT.match
+    return {k: float(v) if any(m(v) for m in number) else v.strip() for k, v in cells.items()}
 
 
 def collect(items: Sequence[Any], build: Callable[[Any], Any], on_error: str) -> list[Any]:
@@ -368,27 +355,6 @@ def collect(items: Sequence[Any], build: Callable[[Any], Any], on_error: str) ->
                 raise
             out.append(exc)
     return out
-
-
-def check_constant(
-    path: str, gid: str, table: Table, idx: np.ndarray, col: Column, num: Numbers, what: str
-) -> float:
-    """The value of a column that must not change within a test."""
-    vals = num.values[idx]
-    diff = np.flatnonzero(vals != vals[0])
-    if diff.size:
-        i = int(idx[diff[0]])
-        first = table.columns[col.index][int(idx[0])].strip()
-        raise InputError(
-            f"{what} changes within the test ({table.columns[col.index][i].strip()} "
-            f"here, {first} on line {int(table.lines[idx[0]])})",
-            file=path,
-            profile=gid,
-            item="test",
-            row=int(table.lines[i]),
-            column=col.name,
-        )
-    return float(vals[0])
 
 
 def validated(
@@ -406,13 +372,8 @@ def validated(
         probe.validate()
     except InputError as exc:
         row, column, more = locate(exc.row, exc.column)
-        raise InputError(
-            exc.reason + more,
-            file=profile.source,
-            profile=profile.id,
-            row=row,
-            column=column,
-        ) from None
+        where = dict(file=profile.source, profile=profile.id, row=row, column=column)
+        raise InputError(exc.reason + more, **where) from None
     return profile
 
 

@@ -264,21 +264,10 @@ def read_wide_ci(
 
     Notes
     -----
-    * The push id is the cell of the first id column found among
-      :data:`WIDE_ID_COLUMNS` (``profile``, ``id``, ``point``, ``number``, ...,
-      case-insensitive), else ``"{file stem}/{k}"`` with k the 1-based data row.
-    * Latitude and longitude columns (:data:`WIDE_LAT_COLUMNS`,
-      :data:`WIDE_LON_COLUMNS`: ``lat``/``lon``, ``latitude``/``longitude``,
-      ``COORD_Y``/``COORD_X``, ...) are read by :func:`parse_coordinate` into
-      ``metadata["lat"]`` and ``metadata["lon"]`` (decimal degrees).
-    * The readings of a push run from its first to its last non-empty depth
-      cell: empty cells after the last reading end the push (as do empty
-      cells before the first, noted); an empty cell between two readings is an
-      error naming its column.  Trailing zero readings mean the push stopped:
-      they are dropped, noted in ``notes`` and counted in
-      ``metadata["trailing_zeros_dropped"]``, as for SC900 exports.
-    * Any other column is metadata (numbers as floats).  Metadata also holds
-      ``pressure_unit``, ``length_unit`` and ``line``.
+    The push id (:data:`WIDE_ID_COLUMNS`, else ``"{file stem}/{k}"``), the
+    coordinates (:data:`WIDE_LAT_COLUMNS`, :data:`WIDE_LON_COLUMNS`, read by
+    :func:`parse_coordinate` into ``metadata["lat"]``, ``["lon"]``), empty
+    cells, trailing zeros and the metadata: ``docs/instruments.md``.
 
     Examples
     --------
