@@ -192,14 +192,10 @@ def _read_ci_csv(
             except ValueError as exc:
                 why = "empty cell" if not name else str(exc)
                 raise fail(why, int(idx[0]), cone_col.name) from None
-            for i in idx[1:]:
-                if cells[int(i)].strip() != name:
-                    raise fail(
-                        f"cone changes within the profile ({cells[int(i)].strip()!r} here, "
-                        f"{name!r} on line {int(lines[idx[0]])})",
-                        int(i),
-                        cone_col.name,
-                    )
+            other = next((int(i) for i in idx[1:] if cells[int(i)].strip() != name), None)
+            if other is not None:
+                why = f"{cells[other].strip()!r} here, {name!r} on line {int(lines[idx[0]])}"
+                raise fail(f"cone changes within the profile ({why})", other, cone_col.name)
         z = depth.values[idx] * dcol.factor
         if depth_ref == "tip":
             z = z - prof_cone.height
@@ -288,32 +284,13 @@ def read_profile_set(
     >>> profiles[0].depth, profiles.errors  # doctest: +SKIP
     """
     source = os.fspath(path)
+    options: dict[str, Any] = dict(cone=cone, depth_ref=depth_ref, units=units, on_error=on_error)
     if format is None:
         format = "parquet" if is_parquet(source) else detect_format(source)
     if format == "parquet":
-        check_options(on_error, depth_ref, units)
-        sets = list(
-            iter_profile_sets(
-                [source],
-                chunk_size=None,
-                cone=cone,
-                depth_ref=depth_ref,
-                units=units,
-                on_error=on_error,
-            )
-        )
-        return ProfileSet.concat(sets)
-    items = read_ci_profiles(
-        source,
-        cone=cone,
-        depth_ref=depth_ref,
-        units=units,
-        on_error=on_error,
-        format=format,
-        depth_unit=depth_unit,
-        ci_unit=ci_unit,
-    )
-    return gather_profiles(items)
+        return ProfileSet.concat(list(iter_profile_sets([source], chunk_size=None, **options)))
+    wide = dict(depth_unit=depth_unit, ci_unit=ci_unit)
+    return gather_profiles(read_ci_profiles(source, format=format, **wide, **options))
 
 
 def is_parquet(path: PathLike) -> bool:
@@ -399,9 +376,7 @@ def iter_profile_sets(
     Notes
     -----
     The rows of a profile must be contiguous (a profile id seen again later
-    is a second profile).  Errors name the file, profile, row and column;
-    a depth that does not increase is reported as ``"depth is not strictly
-    increasing (previous depth on line 7)"``.
+    is a second profile); the errors: ``docs/instruments.md``.
 
     References
     ----------

@@ -194,19 +194,15 @@ class Field:
 
 @dataclass(frozen=True)
 class Schema:
-    """The columns of a file type: its id column, quantity fields and required groups."""
+    """The columns of a file type: its id column and quantity fields (one of each group required)."""
 
     id_column: str
     fields: tuple[Field, ...]
-    required: tuple[str, ...]  # groups
     extra: tuple[str, ...] = ()  # other reserved plain columns (e.g. "cone")
 
 
 CI_SCHEMA = Schema(
-    "profile",
-    (Field("depth", LENGTH, "depth"), Field("ci", PRESSURE, "ci")),
-    ("depth", "ci"),
-    ("cone",),
+    "profile", (Field("depth", LENGTH, "depth"), Field("ci", PRESSURE, "ci")), ("cone",)
 )
 PLATE_SCHEMA = Schema(
     "test",
@@ -217,7 +213,6 @@ PLATE_SCHEMA = Schema(
         Field("sinkage", LENGTH, "sinkage"),
         Field("pressure", PRESSURE, "pressure"),
     ),
-    ("size", "sinkage", "pressure"),
 )
 SHEAR_SCHEMA = Schema(
     "test",
@@ -226,7 +221,6 @@ SHEAR_SCHEMA = Schema(
         Field("shear_displacement", LENGTH, "displacement"),
         Field("shear_stress", PRESSURE, "stress"),
     ),
-    ("normal_pressure", "displacement", "stress"),
 )
 
 
@@ -304,7 +298,7 @@ def column_layout(table: Table, schema: Schema, units: str | None = None) -> Lay
             other = groups[fld.group].name
             raise fail(f"more than one {fld.group} column ({other} is already one)", name)
         groups[fld.group] = Column(j, name, fld, UNIT_TABLES[fld.kind][unit])
-    for group in schema.required:
+    for group in dict.fromkeys(f.group for f in schema.fields):
         if group not in groups:
             names = " or ".join(
                 f"{f.name}_<{unit_choices(f.kind)}>" for f in schema.fields if f.group == group

@@ -53,11 +53,13 @@ class _WideHeader:
     line: int  # file line of the header
     cells: list[str]
     depth_cols: list[int]
-    depth_labels: list[str]
-    depth_values: list[float]
-    depth_units: list[str | None]
+    depths: list[tuple[float, str | None]]  # (value, unit or None) of each depth column
     stated_ci_unit: str | None
     stated_line: int | None
+
+    @property
+    def depth_labels(self) -> list[str]:
+        return [self.cells[j] for j in self.depth_cols]
 
 
 def wide_depth_header(cell: str) -> tuple[float, str | None] | None:
@@ -131,17 +133,8 @@ def _wide_header(path: str, text: list[str], delimiter: str | None) -> _WideHead
             while cells and not cells[-1]:  # trailing separators (spreadsheet exports)
                 cells.pop()
             cells = [c or f"column{j + 1}" for j, c in enumerate(cells)]  # unnamed columns
-            return _WideHeader(
-                delim,
-                lineno,
-                cells,
-                [j for j, _ in found],
-                [cells[j] for j, _ in found],
-                [d[0] for _, d in found],
-                [d[1] for _, d in found],
-                stated,
-                stated_line,
-            )
+            cols, depths = [j for j, _ in found], [d for _, d in found]
+            return _WideHeader(delim, lineno, cells, cols, depths, stated, stated_line)
         m = _WIDE_UNIT_STATED.search(line)
         if m:
             unit = m.group(1).lower()
@@ -164,7 +157,7 @@ def _wide_units(
 ) -> tuple[np.ndarray, str, list[str]]:
     """Depths [m] of the depth columns, the CI unit and the depth units used."""
     missing = []
-    bare = [lab for lab, un in zip(head.depth_labels, head.depth_units) if un is None]
+    bare = [lab for lab, (_, un) in zip(head.depth_labels, head.depths) if un is None]
     if bare and depth_unit is None:
         missing.append(
             f"--depth-unit {'|'.join(u.LENGTH_UNITS)} (depth_unit= in Python): "
@@ -192,8 +185,8 @@ def _wide_units(
             file=path,
             row=head.stated_line,
         )
-    units = [(un or depth_unit.lower()) for un in head.depth_units]  # type: ignore[union-attr]
-    depths = np.array([v * u.LENGTH_UNITS[un] for v, un in zip(head.depth_values, units)])
+    units = [(un or depth_unit.lower()) for _, un in head.depths]  # type: ignore[union-attr]
+    depths = np.array([v * u.LENGTH_UNITS[un] for (v, _), un in zip(head.depths, units)])
     bad = np.flatnonzero(np.diff(depths) <= 0)
     if bad.size:
         k = int(bad[0]) + 1
