@@ -16,7 +16,7 @@ from terracone.io.tables import (
     OnError,
     PathLike,
     Table,
-    check_on_error,
+    check_options,
     collect,
     column_layout,
     first_bad,
@@ -57,7 +57,7 @@ def read_plate_tests(
     test or is not > 0, and the file-level problems of
     :func:`read_ci_profiles`.
     """
-    check_on_error(on_error)
+    check_options(on_error)
     source = os.fspath(path)
     table = read_table(source)
     layout = column_layout(table, PLATE_SCHEMA)
@@ -114,7 +114,7 @@ def read_shear_tests(
     a non-numeric, NaN or empty cell, a normal pressure that changes
     within a test and the file-level problems of :func:`read_ci_profiles`.
     """
-    check_on_error(on_error)
+    check_options(on_error)
     source = os.fspath(path)
     table = read_table(source)
     layout = column_layout(table, SHEAR_SCHEMA)

@@ -394,17 +394,11 @@ def iter_profile_sets(
     from terracone.io.stream import ConeCache, chunk_set, iter_chunks
 
     default = get_cone(cone)
+    options: dict[str, Any] = dict(depth_ref=depth_ref, units=units)
+    wide = dict(depth_unit=depth_unit, ci_unit=ci_unit)
     for group, kind in _file_groups(paths, format):
         if kind in ("sc900", "wide"):
-            one = read_profile_set(
-                group[0][0],
-                cone=default,
-                depth_ref=depth_ref,
-                units=units,
-                format=kind,  # type: ignore[arg-type]
-                depth_unit=depth_unit,
-                ci_unit=ci_unit,
-            )
+            one = read_profile_set(group[0][0], cone=default, format=kind, **options, **wide)
             sets: Iterable[ProfileSet] = _cut(one, chunk_size)
         else:
             plan = scan_inputs(group, units=units)

@@ -15,7 +15,7 @@ from terracone.io.tables import (
     OnError,
     PathLike,
     cell_problem,
-    check_on_error,
+    check_options,
     collect,
     push_profile,
     read_lines,
@@ -151,7 +151,7 @@ def read_sc900(
     Spectrum Technologies, FieldScout SC900 Soil Compaction Meter, product
     manual (the text export).
     """
-    check_on_error(on_error)
+    check_options(on_error)
     source = os.fspath(path)
     ex = _export_lines(source, read_lines(source))
     labels, depths, depth_units = _export_depths(source, ex)

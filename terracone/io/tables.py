@@ -34,15 +34,10 @@ DECIMAL = re.compile(r"^\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*$")
 SPECIAL_FLOAT = re.compile(r"^\s*[+-]?(?:nan|inf|infinity)\s*$", re.IGNORECASE)
 
 
-def check_on_error(on_error: str) -> None:
-    """Refuse an ``on_error`` other than ``raise`` or ``collect``."""
+def check_options(on_error: str, depth_ref: str = "base", units: str | None = None) -> None:
+    """Refuse bad reader options (ValueError naming the option)."""
     if on_error not in ("raise", "collect"):
         raise ValueError(f"on_error must be 'raise' or 'collect' (got {on_error!r})")
-
-
-def check_options(on_error: str, depth_ref: str, units: str | None = None) -> None:
-    """Refuse bad reader options (ValueError naming the option)."""
-    check_on_error(on_error)
     if depth_ref not in ("base", "tip"):
         raise ValueError(f"depth_ref must be 'base' or 'tip' (got {depth_ref!r})")
     if units is not None:
@@ -254,9 +249,9 @@ def match_field(lower: str, schema: Schema) -> tuple[Field, str | None] | None:
     return None
 
 
-def unit_choices(kind: str) -> str:
-    """The unit suffixes of a kind of quantity, as ``m|cm|mm|in``."""
-    return "|".join(UNIT_TABLES[kind])
+def spelled(fld: Field) -> str:
+    """A field's column name with its unit choices, as ``depth_<m|cm|mm|in>``."""
+    return f"{fld.name}_<{'|'.join(UNIT_TABLES[fld.kind])}>"
 
 
 def column_layout(table: Table, schema: Schema, units: str | None = None) -> Layout:
@@ -286,23 +281,20 @@ def column_layout(table: Table, schema: Schema, units: str | None = None) -> Lay
             metadata.append(Column(j, name))
             continue
         fld, unit = match
-        spelled = f"{fld.name}_<{unit_choices(fld.kind)}>"
         if unit is None:
             if units is None:
-                raise fail(f"no unit in the column name: write {spelled}", name)
+                raise fail(f"no unit in the column name: write {spelled(fld)}", name)
             sys_unit = u.length_unit(units) if fld.kind == LENGTH else u.pressure_unit(units)
             unit = sys_unit.lower()
         if unit not in UNIT_TABLES[fld.kind]:
-            raise fail(f"unknown {fld.kind} unit {unit!r} (use {spelled})", name)
+            raise fail(f"unknown {fld.kind} unit {unit!r} (use {spelled(fld)})", name)
         if fld.group in groups:
             other = groups[fld.group].name
             raise fail(f"more than one {fld.group} column ({other} is already one)", name)
         groups[fld.group] = Column(j, name, fld, UNIT_TABLES[fld.kind][unit])
     for group in dict.fromkeys(f.group for f in schema.fields):
         if group not in groups:
-            names = " or ".join(
-                f"{f.name}_<{unit_choices(f.kind)}>" for f in schema.fields if f.group == group
-            )
+            names = " or ".join(spelled(f) for f in schema.fields if f.group == group)
             raise fail(f"missing required column {names}", names)
     return Layout(groups, id_col, extra, metadata)
 
