@@ -1,14 +1,9 @@
-"""Scanning cone index inputs before they are streamed (batch's first pass).
+"""Scanning cone index inputs before they are streamed (batch's first pass, eq. (2-3)).
 
-:func:`scan_inputs` opens every CSV or Parquet input once, checks its header
-against :data:`terracone.io.tables.CI_SCHEMA`, counts its profiles and fixes the
-type of every metadata column, so that a bad file is refused before anything is
-computed; :class:`CsvLines` and :func:`csv_blocks` read CSV through pyarrow with
-the file line of every row kept.  :mod:`terracone.io.stream` reads the rows.
-
-References
-----------
-Huang, Wong, Preston-Thomas, Jayakumar: the cone index profile, eq. (2-3).
+:func:`scan_inputs` checks every CSV or Parquet header, counts the profiles and
+fixes the type of every metadata column before anything is computed;
+:class:`CsvLines` and :func:`csv_blocks` read CSV through pyarrow, keeping the
+file line of every row.  :mod:`terracone.io.stream` reads the rows.
 """
 
 from __future__ import annotations
