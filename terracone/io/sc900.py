@@ -188,9 +188,7 @@ def read_sc900(
             known = ", ".join(repr(s.title()) for s in SC900_CONES)
             raise fail(f"unknown cone size {size!r} (known: {known})", "Cone Size")
         push_cone = CONES[cone_name]
-        metadata: dict[str, Any] = dict(ex.header)
-        metadata["push"] = number
-        metadata["line"] = push.line
+        metadata: dict[str, Any] = {**ex.header, "push": number, "line": push.line}
         for k, key in ((0, "longitude"), (1, "latitude")):
             if f[k]:
                 if cell_problem(f[k]) is not None:

@@ -68,27 +68,18 @@ def to_numbers(cells: Sequence[str]) -> Numbers:
     """Convert cells to floats (vectorised when every cell is a plain number)."""
     n = len(cells)
     joined = "".join(cells)
-    values: np.ndarray | None = None
     if joined.isascii() and "_" not in joined:
         try:
             values = np.array(cells, dtype=float).reshape(n)
         except ValueError:
-            values = None
-    if values is not None:
-        bad = ~np.isfinite(values)
-        reasons = {int(i): cell_problem(cells[i]) or "bad cell" for i in np.flatnonzero(bad)}
-        return Numbers(values, bad, reasons)
-    values = np.full(n, np.nan)
-    bad = np.zeros(n, dtype=bool)
-    reasons: dict[int, str] = {}
-    for i, cell in enumerate(cells):
-        why = cell_problem(cell)
-        if why is None:
-            values[i] = float(cell)
+            pass
         else:
-            bad[i] = True
-            reasons[i] = why
-    return Numbers(values, bad, reasons)
+            bad = ~np.isfinite(values)
+            reasons = {int(i): cell_problem(cells[i]) or "bad cell" for i in np.flatnonzero(bad)}
+            return Numbers(values, bad, reasons)
+    reasons = {i: why for i, cell in enumerate(cells) if (why := cell_problem(cell)) is not None}
+    values = np.array([np.nan if i in reasons else float(c) for i, c in enumerate(cells)])
+    return Numbers(values.reshape(n), np.isin(np.arange(n), list(reasons)), reasons)
 
 
 def open_text(path: str) -> TextIO:
@@ -166,14 +157,9 @@ def read_table(path: str) -> Table:
     if not body:
         raise InputError("no data rows", file=path, row=starts[0])
     for rec, line in zip(body, starts[1:]):
-        if len(rec) < width:
-            rec.extend([""] * (width - len(rec)))
-        elif len(rec) > width:
-            if any(c.strip() for c in rec[width:]):
-                raise InputError(
-                    f"{len(rec)} fields but the header has {width}", file=path, row=line
-                )
-            del rec[width:]
+        if any(c.strip() for c in rec[width:]):
+            raise InputError(f"{len(rec)} fields but the header has {width}", file=path, row=line)
+        rec[width:] = [""] * (width - len(rec))  # pad short rows, cut empty extra fields
     columns = [list(col) for col in zip(*body)]
     return Table(path, header, starts[0], columns, np.asarray(starts[1:], dtype=int))
 

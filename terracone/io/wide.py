@@ -320,9 +320,8 @@ def _push_reader(
         seen.setdefault(pid, line)
         metadata: dict[str, Any] = {}
         for j in meta_cols:
-            cell = cells[j]
-            num = _wide_number(cell, comma)
-            metadata[head.cells[j]] = float(num) if DECIMAL.match(num) else cell.strip()
+            num = _wide_number(cells[j], comma)
+            metadata[head.cells[j]] = float(num) if DECIMAL.match(num) else cells[j].strip()
         for j, key in ((lat_j, "lat"), (lon_j, "lon")):
             if j is not None:
                 try:
