@@ -60,7 +60,7 @@ def read_plate_tests(
     check_options(on_error)
     source = os.fspath(path)
     table = read_table(source)
-    layout = column_layout(table, PLATE_SCHEMA)
+    layout = column_layout(source, table.header, table.header_line, PLATE_SCHEMA)
     scol, zcol, pcol = (layout.groups[g] for g in ("size", "sinkage", "pressure"))
     size, sink, pres = (to_numbers(table.columns[c.index]) for c in (scol, zcol, pcol))
     circular = scol.field is not None and scol.field.name != "plate_width"
@@ -117,7 +117,7 @@ def read_shear_tests(
     check_options(on_error)
     source = os.fspath(path)
     table = read_table(source)
-    layout = column_layout(table, SHEAR_SCHEMA)
+    layout = column_layout(source, table.header, table.header_line, SHEAR_SCHEMA)
     ncol, jcol, tcol = (layout.groups[g] for g in ("normal_pressure", "displacement", "stress"))
     normal, disp, stress = (to_numbers(table.columns[c.index]) for c in (ncol, jcol, tcol))
 

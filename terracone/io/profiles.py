@@ -25,6 +25,7 @@ from terracone.io.tables import (
     collect,
     column_layout,
     first_bad,
+    is_parquet,
     match_field,
     read_table,
     row_metadata,
@@ -164,7 +165,7 @@ def _read_ci_csv(
     path: str, default_cone: Cone, depth_ref: str, units: str | None, on_error: str
 ) -> list[CIProfile | InputError]:
     table = read_table(path)
-    layout = column_layout(table, CI_SCHEMA, units)
+    layout = column_layout(path, table.header, table.header_line, CI_SCHEMA, units)
     dcol, ccol = layout.groups["depth"], layout.groups["ci"]
     depth = to_numbers(table.columns[dcol.index])
     ci = to_numbers(table.columns[ccol.index])
@@ -291,18 +292,6 @@ def read_profile_set(
         return ProfileSet.concat(list(iter_profile_sets([source], chunk_size=None, **options)))
     wide = dict(depth_unit=depth_unit, ci_unit=ci_unit)
     return gather_profiles(read_ci_profiles(source, format=format, **wide, **options))
-
-
-def is_parquet(path: PathLike) -> bool:
-    """Whether a file is Parquet: a ``.parquet`` / ``.pq`` name or the ``PAR1`` magic number."""
-    name = os.fspath(path).lower()
-    if name.endswith((".parquet", ".pq")):
-        return True
-    try:
-        with open(path, "rb") as f:
-            return f.read(4) == b"PAR1"
-    except OSError:
-        return False
 
 
 def gather_profiles(items: Sequence[CIProfile | InputError]) -> ProfileSet:

@@ -26,7 +26,14 @@ import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
 from terracone.data import InputError
-from terracone.io.tables import CI_SCHEMA, DECIMAL, SPECIAL_FLOAT, PathLike, Table, column_layout
+from terracone.io.tables import (
+    CI_SCHEMA,
+    DECIMAL,
+    SPECIAL_FLOAT,
+    PathLike,
+    column_layout,
+    is_parquet,
+)
 
 #: Rows read per block (CSV / Parquet); memory per block, not per profile.
 CSV_BLOCK_BYTES = 1 << 22
@@ -45,15 +52,9 @@ def kind_of(path: Path, strict: bool) -> str | None:
     name = path.name.lower()
     if name.endswith((".csv", ".csv.gz")):
         return "csv"
-    if name.endswith((".parquet", ".pq")):
-        return "parquet"
-    if strict:
+    if strict and not name.endswith((".parquet", ".pq")):
         return None
-    try:  # a single file with another name: sniff the Parquet magic number
-        with open(path, "rb") as f:
-            return "parquet" if f.read(4) == b"PAR1" else "csv"
-    except OSError:
-        return "csv"
+    return "parquet" if is_parquet(path) else "csv"  # another name: the magic number
 
 
 def input_files(input: PathLike) -> list[tuple[Path, str]]:
@@ -390,15 +391,11 @@ class ScanPlan:
         return pa.schema(fields)
 
 
-def _header_table(path: str, header: list[str], line: int | None) -> Table:
-    return Table(path, header, line, [], np.empty(0, dtype=int))  # type: ignore[arg-type]
-
-
 def file_layout(
     path: str, kind: str, header: list[str], line: int | None, units: str | None = None
 ) -> FileInfo:
     """The columns of a CI file from its header (raises a located InputError)."""
-    layout = column_layout(_header_table(path, header, line), CI_SCHEMA, units)
+    layout = column_layout(path, header, line, CI_SCHEMA, units)
     d, c = layout.groups["depth"], layout.groups["ci"]
     cone = layout.extra.get("cone")
     return FileInfo(

@@ -82,6 +82,18 @@ def to_numbers(cells: Sequence[str]) -> Numbers:
     return Numbers(values.reshape(n), np.isin(np.arange(n), list(reasons)), reasons)
 
 
+def is_parquet(path: PathLike) -> bool:
+    """Whether a file is Parquet: a ``.parquet`` / ``.pq`` name or the ``PAR1`` magic number."""
+    name = os.fspath(path).lower()
+    if name.endswith((".parquet", ".pq")):
+        return True
+    try:
+        with open(path, "rb") as f:
+            return f.read(4) == b"PAR1"
+    except OSError:
+        return False
+
+
 def open_text(path: str) -> TextIO:
     """Open a text file (UTF-8, byte order mark accepted); a located InputError if it cannot be."""
     try:
@@ -240,8 +252,10 @@ def spelled(fld: Field) -> str:
     return f"{fld.name}_<{'|'.join(UNIT_TABLES[fld.kind])}>"
 
 
-def column_layout(table: Table, schema: Schema, units: str | None = None) -> Layout:
-    """Classify the header of a table; raise InputError for header problems."""
+def column_layout(
+    path: str, header: list[str], row: int | None, schema: Schema, units: str | None = None
+) -> Layout:
+    """Classify a header (the file's line ``row``); raise InputError for header problems."""
     seen: dict[str, str] = {}
     groups: dict[str, Column] = {}
     id_col: Column | None = None
@@ -249,9 +263,9 @@ def column_layout(table: Table, schema: Schema, units: str | None = None) -> Lay
     metadata: list[Column] = []
 
     def fail(why: str, column: str) -> InputError:
-        return InputError(why, file=table.path, row=table.header_line, column=column)
+        return InputError(why, file=path, row=row, column=column)
 
-    for j, name in enumerate(table.header):
+    for j, name in enumerate(header):
         lower = name.lower()
         if lower in seen:
             raise fail(f"duplicate column name ({seen[lower]} is already a column)", name)
