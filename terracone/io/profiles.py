@@ -213,9 +213,8 @@ def _read_ci_csv(
         def locate(k: int | None, column: str | None) -> tuple[int | None, str | None, str]:
             col = dcol if column == "depth" else ccol
             if k is None:  # too few points
-                span = f"line {int(lines[idx[0]])}"
-                if idx.size > 1:
-                    span = f"lines {int(lines[idx[0]])}-{int(lines[idx[-1]])}"
+                first, last = int(lines[idx[0]]), int(lines[idx[-1]])
+                span = f"lines {first}-{last}" if idx.size > 1 else f"line {first}"
                 return int(lines[idx[0]]), col.name, f" (the profile is on {span})"
             i = int(idx[k])
             more = f" (cell {table.columns[col.index][i].strip()!r}"
@@ -269,11 +268,8 @@ def read_profile_set(
 
     Notes
     -----
-    Text formats go through :func:`read_ci_profiles` (the profiles of a set
-    equal its list one by one); Parquet through
-    :func:`iter_profile_sets` in one chunk.  A metadata
-    column holding both numbers and text (CSV cells are typed cell by cell)
-    becomes a text column.
+    Text formats go through :func:`read_ci_profiles`, Parquet through
+    :func:`iter_profile_sets` in one chunk (``docs/instruments.md``).
 
     References
     ----------

@@ -32,13 +32,6 @@ _SC900_PUSH = re.compile(r"^N\s*=\s*(\d+)$", re.IGNORECASE)
 
 
 @dataclass
-class _Push:
-    ordinal: int
-    line: int
-    fields: list[str]
-
-
-@dataclass
 class _Export:
     """What the lines of an SC900 export hold, before the pushes are read."""
 
@@ -46,7 +39,7 @@ class _Export:
     ci_unit: str | None  # "kpa" or "psi" from the unit line
     labels: list[str] | None  # the column line's cells after Longitude,Latitude,Number
     column_line: int
-    pushes: list[_Push]
+    pushes: list[tuple[int, int, list[str]]]  # (ordinal, file line, fields)
 
 
 def _export_lines(path: str, text: list[str]) -> _Export:
@@ -75,7 +68,7 @@ def _export_lines(path: str, text: list[str]) -> _Export:
         if len(fields) >= 3 and fields[2].lower() == "logger started":
             continue
         if len(fields) >= 3 and fields[2].upper().startswith("N="):
-            ex.pushes.append(_Push(len(ex.pushes) + 1, lineno, fields))
+            ex.pushes.append((len(ex.pushes) + 1, lineno, fields))
             continue
         raise InputError(
             "not a push line (expected 'lon,lat,N= k , readings..., cone size') "
@@ -166,15 +159,16 @@ def read_sc900(
     stem = Path(source).stem
     length_unit = ",".join(depth_units)
 
-    def one(push: _Push) -> CIProfile:
+    def one(push: tuple[int, int, list[str]]) -> CIProfile:
         """One push line as a validated profile (raises a located InputError)."""
-        f, nd = push.fields, len(labels)
+        ordinal, line, f = push
+        nd = len(labels)
         m = _SC900_PUSH.match(f[2].replace(" ", ""))
         number = int(m.group(1)) if m else None
-        pid = f"{stem}/{push.ordinal:04d}-N{number if number is not None else '?'}"
+        pid = f"{stem}/{ordinal:04d}-N{number if number is not None else '?'}"
 
         def fail(msg: str, column: str | None) -> InputError:
-            return InputError(msg, file=source, profile=pid, row=push.line, column=column)
+            return InputError(msg, file=source, profile=pid, row=line, column=column)
 
         if number is None:
             raise fail(f"push number {f[2]!r} is not 'N= <integer>'", "Number")
@@ -188,7 +182,7 @@ def read_sc900(
             known = ", ".join(repr(s.title()) for s in SC900_CONES)
             raise fail(f"unknown cone size {size!r} (known: {known})", "Cone Size")
         push_cone = CONES[cone_name]
-        metadata: dict[str, Any] = {**ex.header, "push": number, "line": push.line}
+        metadata: dict[str, Any] = {**ex.header, "push": number, "line": line}
         for k, key in ((0, "longitude"), (1, "latitude")):
             if f[k]:
                 if cell_problem(f[k]) is not None:
@@ -206,7 +200,7 @@ def read_sc900(
             depth_ref,
             metadata,
             source,
-            push.line,
+            line,
             [],
         )
 

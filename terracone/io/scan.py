@@ -99,12 +99,9 @@ _SKIP_FIRST = re.compile(rb"[ \t\r\f\v]*[#\n]")
 class CsvLines(io.RawIOBase):
     """Binary, read-only file object: a CSV file without comment and blank lines.
 
-    Follows the conventions of :mod:`terracone.io`: a line whose first
-    non-blank character is ``#`` is a comment, blank lines are skipped.  The
-    physical line numbers of the dropped lines are kept (only those not yet
-    needed to number the rows already handed out), so every data row maps
-    back to its line in the file (exact as long as no quoted field holds a
-    line break).  Handles ``.gz`` files and a UTF-8 byte order mark.
+    The dropped lines' numbers are kept until no longer needed, so every data row
+    maps back to its file line (exact unless a quoted field holds a line break).
+    Handles ``.gz`` files and a UTF-8 byte order mark.
     """
 
     BLOCK = 1 << 20
@@ -501,14 +498,9 @@ def plain_type(t: pa.DataType) -> pa.DataType | None:
 
 
 def _number_column_ok(t: pa.DataType) -> bool:
-    t = plain_type(t) or pa.null()
-    return (
-        pa.types.is_integer(t)
-        or pa.types.is_floating(t)
-        or pa.types.is_decimal(t)
-        or pa.types.is_string(t)
-        or pa.types.is_null(t)
-    )
+    t = plain_type(t)  # None: a null column
+    kinds = (pa.types.is_integer, pa.types.is_floating, pa.types.is_decimal, pa.types.is_string)
+    return t is None or any(is_kind(t) for is_kind in kinds)
 
 
 def parquet_file(path: str) -> pq.ParquetFile:

@@ -347,12 +347,8 @@ def validated(
     profile: CIProfile,
     locate: Callable[[int | None, str | None], tuple[int | None, str | None, str]],
 ) -> CIProfile:
-    """Run :meth:`CIProfile.validate` and relocate its error in the file.
-
-    ``locate(index, column)`` maps the point index and the model's column
-    name (``"depth"``, ``"ci"`` or None) to (file row, file column, extra
-    text for the message).
-    """
+    """Run :meth:`CIProfile.validate` and relocate its error in the file: ``locate(index,
+    column)`` maps a point and a model column to (file row, file column, text to add)."""
     probe = replace(profile, rows=np.arange(len(profile)))
     try:
         probe.validate()
@@ -379,12 +375,9 @@ def push_profile(
 ) -> CIProfile:
     """One instrument push (a row of an SC900 export or a wide table) as a validated CIProfile.
 
-    ``cells`` are the push's readings as text (``factor`` to kPa), ``labels`` their
-    file columns and ``depth`` [m] their depths.  Trailing zero readings mean the push
-    stopped: they are dropped, noted (``stop_format`` words the label where the push
-    stopped) and counted in ``metadata["trailing_zeros_dropped"]``; with
-    ``depth_ref="tip"`` the cone base is H above the tip.  Every point has the push's
-    file ``line`` as its row.
+    ``cells``: the readings as text (``factor`` to kPa), ``labels`` their columns,
+    ``depth`` [m]; trailing zeros are dropped and noted (``stop_format`` words the label
+    where the push stopped).  Every point has the push's file ``line`` as its row.
     """
     readings = to_numbers(cells)
     if readings.bad.any():

@@ -249,11 +249,9 @@ def read_wide_ci(
     Raises
     ------
     InputError
-        File-level problems: no header with 3 or more depth columns, a depth
-        unit or CI unit that is neither stated nor given (the message names the
-        missing option), depths not increasing.  Per push (raised, or
-        collected): a non-numeric reading, an empty cell between readings, a bad
-        coordinate, a duplicate id, and the checks of :meth:`CIProfile.validate`.
+        No header with 3 or more depth columns, units neither stated nor given
+        (the message names the option), depths not increasing; per push (raised
+        or collected) the problems of ``docs/instruments.md``.
 
     Notes
     -----

@@ -225,9 +225,7 @@ def write_shear_tests(
 
 def json_default(o: Any) -> Any:
     """``default=`` for :func:`json.dumps` of terracone results (numpy, tuples, paths)."""
-    if isinstance(o, np.floating | np.integer):
-        return o.item()
-    if isinstance(o, np.ndarray):
+    if isinstance(o, np.floating | np.integer | np.ndarray):
         return o.tolist()
     if isinstance(o, tuple):
         return list(o)
