@@ -11,15 +11,14 @@ from terracone.io.tables import (
     PLATE_SCHEMA,
     SHEAR_SCHEMA,
     Column,
-    Layout,
     Numbers,
     OnError,
     PathLike,
     Table,
+    check_group,
     check_options,
     collect,
     column_layout,
-    first_bad,
     read_table,
     row_metadata,
     table_groups,
@@ -68,12 +67,12 @@ def read_plate_tests(
 
     def build(group: tuple[str, np.ndarray]) -> PlateTest:
         tid, idx = group
-        _check_cells(source, table, layout, tid, idx, [(scol, size), (zcol, sink), (pcol, pres)])
-        b = _constant(source, tid, table, idx, scol, size, "plate size") * scol.factor
+        check_group(table, layout, tid, idx, [(scol, size), (zcol, sink), (pcol, pres)], "test")
+        b = _constant(tid, table, idx, scol, size, "plate size") * scol.factor
         if halve:
             b /= 2.0
         if not b > 0:
-            raise _error("plate size must be > 0", source, table, tid, int(idx[0]), scol.name)
+            raise _error("plate size must be > 0", table, tid, int(idx[0]), scol.name)
         return PlateTest(
             id=tid,
             b=b,
@@ -123,10 +122,8 @@ def read_shear_tests(
 
     def build(group: tuple[str, np.ndarray]) -> ShearTest:
         tid, idx = group
-        _check_cells(
-            source, table, layout, tid, idx, [(ncol, normal), (jcol, disp), (tcol, stress)]
-        )
-        sigma = _constant(source, tid, table, idx, ncol, normal, "normal pressure")
+        check_group(table, layout, tid, idx, [(ncol, normal), (jcol, disp), (tcol, stress)], "test")
+        sigma = _constant(tid, table, idx, ncol, normal, "normal pressure")
         return ShearTest(
             id=tid,
             normal_pressure=sigma * ncol.factor,
@@ -140,24 +137,13 @@ def read_shear_tests(
     return collect(table_groups(table, layout.id_col), build, on_error)
 
 
-def _check_cells(
-    source: str, table: Table, layout: Layout, tid: str, idx: np.ndarray, cols: list
-) -> None:
-    """Raise the located InputError of a test's empty id or first bad cell."""
-    if layout.id_col is not None and not tid:
-        raise _error("empty test id", source, table, tid, int(idx[0]), layout.id_col.name)
-    bad = first_bad(idx, cols)
-    if bad is not None:
-        raise _error(bad[2], source, table, tid, bad[0], bad[1].name)
-
-
-def _error(why: str, source: str, table: Table, tid: str, i: int, column: str) -> InputError:
+def _error(why: str, table: Table, tid: str, i: int, column: str) -> InputError:
     line = int(table.lines[i])
-    return InputError(why, file=source, profile=tid, item="test", row=line, column=column)
+    return InputError(why, file=table.path, profile=tid, item="test", row=line, column=column)
 
 
 def _constant(
-    source: str, tid: str, table: Table, idx: np.ndarray, col: Column, num: Numbers, what: str
+    tid: str, table: Table, idx: np.ndarray, col: Column, num: Numbers, what: str
 ) -> float:
     """The value of a column that must not change within a test."""
     vals = num.values[idx]
@@ -169,5 +155,5 @@ def _constant(
             f"{what} changes within the test ({cells[i].strip()} here, "
             f"{cells[int(idx[0])].strip()} on line {int(table.lines[idx[0]])})"
         )
-        raise _error(why, source, table, tid, i, col.name)
+        raise _error(why, table, tid, i, col.name)
     return float(vals[0])

@@ -21,10 +21,10 @@ from terracone.io.tables import (
     CI_SCHEMA,
     OnError,
     PathLike,
+    check_group,
     check_options,
     collect,
     column_layout,
-    first_bad,
     is_parquet,
     match_field,
     read_table,
@@ -178,12 +178,7 @@ def _read_ci_csv(
         def fail(msg: str, i: int, column: str | None) -> InputError:
             return InputError(msg, file=path, profile=pid, row=int(lines[i]), column=column)
 
-        if layout.id_col is not None and not pid:
-            raise fail("empty profile id", int(idx[0]), layout.id_col.name)
-        bad = first_bad(idx, [(dcol, depth), (ccol, ci)])
-        if bad is not None:
-            i, col, why = bad
-            raise fail(why, i, col.name)
+        check_group(table, layout, pid, idx, [(dcol, depth), (ccol, ci)])
         prof_cone = default_cone
         if cone_col is not None:
             cells = table.columns[cone_col.index]

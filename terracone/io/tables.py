@@ -309,18 +309,29 @@ def table_groups(table: Table, id_col: Column | None) -> list[tuple[str, np.ndar
     return [(key, np.asarray(rows, dtype=int)) for key, rows in index.items()]
 
 
-def first_bad(
-    idx: np.ndarray, checks: Sequence[tuple[Column, Numbers]]
-) -> tuple[int, Column, str] | None:
-    """The earliest unusable cell of a group (row order, then column order)."""
+def check_group(
+    table: Table,
+    layout: Layout,
+    gid: str,
+    idx: np.ndarray,
+    checks: Sequence[tuple[Column, Numbers]],
+    item: str = "profile",
+) -> None:
+    """Raise the located InputError of a group's empty id or earliest unusable cell
+    (row order, then column order)."""
+
+    def fail(why: str, i: int, column: str) -> InputError:
+        row = int(table.lines[i])
+        return InputError(why, file=table.path, profile=gid, item=item, row=row, column=column)
+
+    if layout.id_col is not None and not gid:
+        raise fail(f"empty {item} id", int(idx[0]), layout.id_col.name)
     hits = [(np.flatnonzero(num.bad[idx]), k) for k, (_, num) in enumerate(checks)]
     found = [(int(h[0]), k) for h, k in hits if h.size]
-    if not found:
-        return None
-    r, k = min(found)
-    col, num = checks[k]
-    i = int(idx[r])
-    return i, col, num.reasons[i]
+    if found:
+        r, k = min(found)
+        col, num = checks[k]
+        raise fail(num.reasons[int(idx[r])], int(idx[r]), col.name)
 
 
 def row_metadata(table: Table, layout: Layout, i: int) -> dict[str, Any]:
