@@ -87,30 +87,22 @@ def _export_depths(path: str, ex: _Export) -> tuple[list[str], np.ndarray, list[
             "no column line 'Longitude,Latitude,Number,<depths>,Cone Size' (not an SC900 export?)",
             file=path,
         )
+    where = dict(file=path, row=ex.column_line)
     if not labels or labels[-1].lower() != "cone size":
-        raise InputError(
-            "the column line does not end with 'Cone Size'",
-            file=path,
-            row=ex.column_line,
-            column=labels[-1] if labels else None,
-        )
+        column = labels[-1] if labels else None
+        raise InputError("the column line does not end with 'Cone Size'", column=column, **where)
     labels = labels[:-1]
     depths = np.empty(len(labels))
-    depth_units: list[str] = []
+    units: list[str] = []
     for k, label in enumerate(labels):
         m = _SC900_DEPTH.match(label)
-        unit = m.group(2).lower() if m else None
+        unit = m.group(2).lower() if m else ""
         if m is None or unit not in u.LENGTH_UNITS:
-            raise InputError(
-                f"not a depth label like '2.5 cm' (units {', '.join(u.LENGTH_UNITS)})",
-                file=path,
-                row=ex.column_line,
-                column=label,
-            )
+            why = f"not a depth label like '2.5 cm' (units {', '.join(u.LENGTH_UNITS)})"
+            raise InputError(why, column=label, **where)
         depths[k] = float(m.group(1)) * u.LENGTH_UNITS[unit]
-        if unit not in depth_units:
-            depth_units.append(unit)
-    return labels, depths, depth_units
+        units.append(unit)
+    return labels, depths, list(dict.fromkeys(units))
 
 
 def read_sc900(

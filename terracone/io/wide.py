@@ -139,11 +139,8 @@ def _wide_header(path: str, text: list[str], delimiter: str | None) -> _WideHead
         if m:
             unit = m.group(1).lower()
             if stated is not None and unit != stated:
-                raise InputError(
-                    f"the file states two cone index units ({stated} on line {stated_line}, {unit} here)",
-                    file=path,
-                    row=lineno,
-                )
+                why = f"the file states two cone index units ({stated} on line {stated_line}, {unit} here)"
+                raise InputError(why, file=path, row=lineno)
             stated, stated_line = unit, lineno
     raise InputError(
         "no header line with at least 3 depth columns (e.g. '0;5;10' or '0 cm,2.5 cm,5 cm'): "
@@ -180,22 +177,16 @@ def _wide_units(
     if ci_unit is not None and ci_unit.lower() not in WIDE_CI_UNITS:
         raise ValueError(f"ci_unit must be one of {', '.join(WIDE_CI_UNITS)} (got {ci_unit!r})")
     if stated is not None and ci_unit is not None and ci_unit.lower() != stated:
-        raise InputError(
-            f"the file states cone index in {stated} but ci_unit (--ci-unit) is {ci_unit.lower()}",
-            file=path,
-            row=head.stated_line,
-        )
+        why = f"the file states cone index in {stated} but ci_unit (--ci-unit) is {ci_unit.lower()}"
+        raise InputError(why, file=path, row=head.stated_line)
     units = [(un or depth_unit.lower()) for _, un in head.depths]  # type: ignore[union-attr]
     depths = np.array([v * u.LENGTH_UNITS[un] for (v, _), un in zip(head.depths, units)])
     bad = np.flatnonzero(np.diff(depths) <= 0)
     if bad.size:
         k = int(bad[0]) + 1
-        raise InputError(
-            f"depth columns are not strictly increasing ({head.depth_labels[k - 1]!r} before this one)",
-            file=path,
-            row=head.line,
-            column=head.depth_labels[k],
-        )
+        labels = head.depth_labels
+        why = f"depth columns are not strictly increasing ({labels[k - 1]!r} before this one)"
+        raise InputError(why, file=path, row=head.line, column=labels[k])
     used = list(dict.fromkeys(units))
     return depths, stated or ci_unit.lower(), used  # type: ignore[union-attr]
 
