@@ -121,9 +121,7 @@ def box_lsq3_reference(
         G.shape[:-2], g.shape[:-1], lo.shape[:-1], hi.shape[:-1], np.shape(yy)
     )
     G = np.broadcast_to(G, shape + (3, 3))
-    g = np.broadcast_to(g, shape + (3,))
-    lo = np.broadcast_to(lo, shape + (3,))
-    hi = np.broadcast_to(hi, shape + (3,))
+    g, lo, hi = (np.broadcast_to(a, shape + (3,)) for a in (g, lo, hi))
     yy = np.broadcast_to(np.asarray(yy, dtype=float), shape)
     if math.prod(shape) <= _SMALL:
         return _box_lsq3_stacked(G, g, yy, lo, hi)
@@ -139,21 +137,9 @@ def box_lsq3_reference(
     H = [hi[..., i] * d[i] for i in range(3)]
     best, bx, bstate = _best_face(S, diag, b, L, H, shape)
     # variables held at a bound get the bound itself, not a rescaled copy of it
-    xs = np.stack(
-        [
-            np.clip(
-                np.where(
-                    bstate[i] == 1, lo[..., i], np.where(bstate[i] == 2, hi[..., i], bx[i] / d[i])
-                ),
-                lo[..., i],
-                hi[..., i],
-            )
-            for i in range(3)
-        ],
-        axis=-1,
-    )
-    sse = best + yy
-    return xs, np.maximum(sse, 0.0)
+    state, x = np.stack(bstate, axis=-1), np.stack(bx, axis=-1) / np.stack(d, axis=-1)
+    xs = np.clip(np.where(state == 1, lo, np.where(state == 2, hi, x)), lo, hi)
+    return xs, np.maximum(best + yy, 0.0)
 
 
 def _best_face(S, diag, b, L, H, shape):

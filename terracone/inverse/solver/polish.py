@@ -157,9 +157,8 @@ def mgs_lstsq(
     x = np.zeros((P, k))
     with np.errstate(all="ignore"):
         for i in range(k - 1, -1, -1):  # back substitution, R x = Q'b
-            x[:, i] = (qb[:, i] - np.einsum("pj,pj->p", R[:, i, i + 1 :], x[:, i + 1 :])) / R[
-                :, i, i
-            ]
+            rest = np.einsum("pj,pj->p", R[:, i, i + 1 :], x[:, i + 1 :])
+            x[:, i] = (qb[:, i] - rest) / R[:, i, i]
     return np.where(full[:, None], x, 0.0), full
 
 
@@ -173,13 +172,8 @@ def _bvls(X, y, lo, hi, x0) -> np.ndarray:
     try:
         from scipy.optimize import lsq_linear  # on first use (0.3 s import)
 
-        res = lsq_linear(
-            Xf / scale,
-            y - X @ xf,
-            bounds=(lo[free] * scale, hi[free] * scale),
-            method="bvls",
-            tol=1e-15,
-        )  # noqa: E501
+        bnd = (lo[free] * scale, hi[free] * scale)
+        res = lsq_linear(Xf / scale, y - X @ xf, bounds=bnd, method="bvls", tol=1e-15)
     except (ValueError, np.linalg.LinAlgError):
         return x0
     xf[free] = np.clip(res.x / scale, lo[free], hi[free])
