@@ -23,7 +23,6 @@ References
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -36,9 +35,8 @@ from terracone.data import CIProfile
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.evaluate import predicted_plate_pressure
 from terracone.inverse.predict import predict
-from terracone.inverse.sites.statistics import NOISE_FLOOR, default_sinkages
-from terracone.inverse.uncertainty.noise import estimate_correlation
-from terracone.inverse.uncertainty.priors import CalibrationPrior
+from terracone.inverse.sites.statistics import ci_error_covariance, default_sinkages
+from terracone.inverse.uncertainty.priors import CalibrationPrior, as_calibration_prior
 from terracone.physics import units as u
 from terracone.physics.cone import cone_index_huang
 from terracone.physics.plate import pressure_law
@@ -210,19 +208,9 @@ def _jacobian(f, theta: np.ndarray, free: np.ndarray) -> np.ndarray:
 
 def _ci_precision(profile: CIProfile, model_ci, J, ci_noise: float | None) -> np.ndarray:
     """J^T S^-1 J for the CI noise: given (independent) or estimated as in the site model."""
-    z, y = profile.depth, profile.ci
     if ci_noise is not None:
         return J.T @ J / ci_noise**2
-    m = model_ci
-    w = np.sqrt(m * m + (NOISE_FLOOR * np.max(np.abs(m))) ** 2)
-    w = w / math.sqrt(np.mean(w * w))
-    e = (y - m) / w
-    N, k = J.shape
-    sigma2 = max(float(e @ e) / max(N - k, 1), 1e-12)
-    rho = estimate_correlation(e, z, design=J / w[:, None])[0]
-    dz0 = float(np.median(np.diff(z)))
-    R = rho ** (np.abs(z[:, None] - z[None, :]) / dz0) if rho > 0 else np.eye(N)
-    S = sigma2 * w[:, None] * R * w[None, :]
+    S = ci_error_covariance(profile.depth, profile.ci, model_ci, J, floor=1e-12)[0]
     return J.T @ np.linalg.solve(S, J)
 
 
@@ -250,17 +238,6 @@ def _candidate(cand, widths, I0, I_ci, current, theta, free, law, plate_noise, s
         note = "internal shear (c, phi, K) enters neither eq. (2-2) nor eq. (2-7): no information"
     ratio = float(np.mean(w / np.maximum(current, 1e-300)))
     return CandidateResult(label, kind, r, w, ratio, note=note)
-
-
-def _as_prior(prior: Any) -> CalibrationPrior | None:
-    """None for the bounds prior, else a CalibrationPrior."""
-    from terracone.inverse.learning.learn import Calibration
-
-    cal = CalibrationPrior(prior) if isinstance(prior, Calibration) else prior
-    cal = None if isinstance(cal, str) and cal == "bounds" else cal
-    if cal is not None and not isinstance(cal, CalibrationPrior):
-        raise ValueError(f"prior must be 'bounds' or a calibration (got {prior!r})")
-    return cal
 
 
 def _information(
@@ -352,7 +329,7 @@ def plan_test(
     if not plates:
         raise ValueError("give at least one target plate radius")
     bounds = bounds or Bounds()
-    cal = _as_prior(prior)
+    cal = as_calibration_prior(prior)
     c = cal.calibration if cal is not None else None
     res = predict(profile, model=model, r_min=r_min, bounds=bounds, calibration=c)
     label = "bounds" if c is None else f"calibration:{c.terrain}"
