@@ -228,7 +228,6 @@ def estimate_correlation(
     depth: ArrayLike,
     *,
     design: np.ndarray | None = None,
-    n_params: int = 4,
 ) -> tuple[float, float]:
     """AR(1) coefficient of the CI error from best-fit (weighted) residuals.
 
@@ -245,9 +244,9 @@ def estimate_correlation(
     residual maker of the linearised fit (``P`` the projector on the columns
     of ``design`` and a constant) and ``D`` the lag-1 neighbour matrix
     (1/2 on both off-diagonals): ``rho = f^-1(r1)``, clipped to [0, 0.95].
-    Without ``design`` the fallback ``r1 + (1 + (3 + 2 n_params) r1+) / N``
-    (small-sample bias plus absorption, calibrated on 31-61 point profiles)
-    is used.
+    Without ``design`` the fallback ``r1 + (1 + 11 r1+) / N`` (small-sample
+    bias plus absorption of 4 parameters, calibrated on 31-61 point
+    profiles) is used.
 
     Parameters
     ----------
@@ -258,8 +257,6 @@ def estimate_correlation(
     design : ndarray, shape (N, p), optional
         Weighted Jacobian of the model at the fit with respect to the
         parameters that are free there (not at a bound).
-    n_params : int
-        Number of fitted parameters for the fallback.
 
     Returns
     -------
@@ -279,7 +276,7 @@ def estimate_correlation(
     r1 = float(e[1:] @ e[:-1]) / den
     dz0 = float(np.median(np.diff(z)))
     if design is None or dz0 <= 0:
-        rho = r1 + (1.0 + (3.0 + 2.0 * n_params) * max(r1, 0.0)) / N
+        rho = r1 + (1.0 + 11.0 * max(r1, 0.0)) / N  # (3 + 2 n_params) with 4 parameters
         return float(np.clip(rho, 0.0, RHO_MAX)), r1
     X = np.column_stack([np.ones(N), np.asarray(design, dtype=float).reshape(N, -1)])
     X = X / np.maximum(np.linalg.norm(X, axis=0), 1e-300)

@@ -45,34 +45,18 @@ class SamplerCoordinates:
     """Map between sampler coordinates x (free subset) and parameters (SI).
 
     Scaled coordinates (fully mobilised shear, phic free): x = (s kc, s kphi,
-    n, cc, phic), s = 1 + tan(phic)/tan(half angle), in which the exact phic
-    ridge is a coordinate direction; plain (kc, kphi, n, cc, phic) otherwise.
-    (Whitening the linear coordinates conditionally on n was tried and did
-    not shorten the autocorrelation: the posterior is mostly bounded by the
-    prior box in the directions the data leave free.)
+    n, cc, phic), s = 1 + tan(phic)/tan(half angle); plain (kc, kphi, n, cc,
+    phic) otherwise (docs/uncertainty.md, Coordinates).
     """
 
     def __init__(self, prior: Prior, cone: Cone, K_cone: float | None, fixed_values: np.ndarray):
         self.prior = prior
         self.t = math.tan(cone.half_angle)
         nb = np.array(prior.b.n, dtype=float)
-        kc_nonzero_fixed = prior.kc_fixed and not np.all(prior.kc_fixed_value(nb) == 0)
-        kphi_nonzero_fixed = prior.kphi_fixed and not np.all(prior.kphi_fixed_value(nb) == 0)
-        self.scaled = (
-            K_cone is None
-            and not prior.phic_fixed
-            and not kc_nonzero_fixed
-            and not kphi_nonzero_fixed
-        )
-        self.free = np.array(
-            [
-                not prior.kc_fixed,
-                not prior.kphi_fixed,
-                not prior.n_fixed,
-                not prior.cc_fixed,
-                not prior.phic_fixed,
-            ]
-        )
+        fixed = (prior.kc_fixed, prior.kphi_fixed, prior.n_fixed, prior.cc_fixed, prior.phic_fixed)
+        nonzero = [fixed[j] and not np.all(prior.fixed_value(j, nb) == 0) for j in (0, 1)]
+        self.scaled = K_cone is None and not prior.phic_fixed and not any(nonzero)
+        self.free = ~np.array(fixed)
         self.nscale = int(self.free[0]) + int(self.free[1])
         self.fixed_values = np.asarray(fixed_values, dtype=float)
         self.names = [
@@ -97,10 +81,8 @@ class SamplerCoordinates:
             P[:, 0] /= s
             P[:, 1] /= s
             logj = -self.nscale * np.log(s)
-        if self.prior.kc_fixed:
-            P[:, 0] = self.prior.kc_fixed_value(P[:, 2])
-        if self.prior.kphi_fixed:
-            P[:, 1] = self.prior.kphi_fixed_value(P[:, 2])
+        for j in np.flatnonzero(~self.free[:2]):  # kc, kphi held
+            P[:, j] = self.prior.fixed_value(j, P[:, 2])
         return P, logj
 
     def from_params(self, params: np.ndarray) -> np.ndarray:
@@ -175,12 +157,7 @@ def start_walkers(
     notes: list[str],
 ) -> tuple[np.ndarray, list[str]]:
     """Initial walkers (Laplace approximation at the best fit) and the coordinate names."""
-    P0 = x0.copy()
-    if pri.kc_fixed:
-        P0[0] = float(pri.kc_fixed_value(np.array([P0[2]]))[0])
-    if pri.kphi_fixed:
-        P0[1] = float(pri.kphi_fixed_value(np.array([P0[2]]))[0])
-    x_hat = coords.from_params(P0[None, :])[0]
+    x_hat = coords.from_params(x0[None, :])[0]
     if not np.isfinite(target.at_rho(x_hat[None, :])[0]):
         # the start lies outside the prior's support (e.g. a given start): use the prior median
         x_hat = np.median(coords.from_params(prior_draws), axis=0)
@@ -197,13 +174,8 @@ def start_walkers(
 
 
 def _moves() -> list:
-    """Differential-evolution moves (80%) mixed with stretch moves (20%).
-
-    On these posteriors (flat in the directions the data leave free, cut by
-    the prior box) DE roughly halves the integrated autocorrelation time of
-    the stretch move alone (about 20-30 steps instead of 50-70 for 64
-    walkers).
-    """
+    """Differential-evolution moves (80%) mixed with stretch moves (20%): DE roughly halves
+    the autocorrelation time of stretch moves alone here (20-30 steps, not 50-70)."""
     return [(emcee.moves.DEMove(), 0.8), (emcee.moves.StretchMove(), 0.2)]
 
 
@@ -278,11 +250,6 @@ def integrated_time(chain: np.ndarray, c: float = 5.0) -> np.ndarray:
     -------
     ndarray, shape (ndim,)
         tau [steps]; nan for a coordinate that never moves.
-
-    References
-    ----------
-    .. [2] Foreman-Mackey, D., Hogg, D.W., Lang, D., Goodman, J. (2013).
-       emcee: the MCMC hammer. PASP 125, 306-312.
     """
     x = np.asarray(chain, dtype=float)
     T = x.shape[0]
