@@ -116,10 +116,11 @@ def cross_table(
     plate_pair: tuple[float, float] | None = None,
 ) -> list[PlateEvaluation]:
     """Every prediction against every plate test (Table 4-2 of [1]_)."""
-    rows: list[PlateEvaluation] = []
-    for label, params in predictions:
-        rows.extend(evaluate(params, plates, label=label, plate_pair=plate_pair))
-    return rows
+    return [
+        row
+        for label, params in predictions
+        for row in evaluate(params, plates, label=label, plate_pair=plate_pair)
+    ]
 
 
 def parameters_from_json(path: str | os.PathLike[str]) -> list[tuple[str, TerrainParameters]]:

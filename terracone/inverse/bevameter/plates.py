@@ -2,14 +2,9 @@
 
 A plate of size b (radius of a circular plate, smaller side of a rectangular
 one) follows Bekker's equation, p = (kc/b + kphi) z^n = k z^n (eq. (2-2) in
-[1]_; the forward model is :mod:`terracone.physics.plate`).  This module fits
-``p = k z^n`` to the loading branch of each test by one of three methods:
-``"loglog"`` (ordinary regression of ln p on ln z), ``"wong"`` (Wong's
-weighted least squares with weights p^2 [2]_, the default) and
-``"nonlinear"`` (least squares on p).  With two or more plate sizes
-:func:`fit_plates` splits k into kc and kphi: a common-n fit of all tests,
-then the regression of ``k_i = kc / b_i + kphi`` over the tests, whose 95%
-intervals reflect the scatter between tests.  With one plate size kc and
+[1]_).  This module fits ``p = k z^n`` to the loading branch of each test
+(``"loglog"``, ``"wong"`` [2]_ or ``"nonlinear"``) and, with two or more plate
+sizes, splits k into kc and kphi over the tests; with one plate size kc and
 kphi are undetermined (None), not an error.  SI throughout.  The methods and
 examples: ``docs/bevameter.md``.
 

@@ -3,11 +3,10 @@
 The terrain's internal shear follows tau = (c + sigma tan(phi)) (1 -
 exp(-j/K)) [1]_ (:func:`terracone.physics.shear.shear_stress_janosi_hanamoto`,
 the form of eq. (2-4) of [2]_ for the terrain's own shear, not the cone-metal
-cc, phic).  :func:`fit_shear` fits each test's tau_max and K on the points up
-to the last one within ``peak_tolerance`` of the test's peak (and j <=
-``j_max``), then the Mohr-Coulomb line ``tau_max = c + sigma tan(phi)`` over
-the tests and a common K [3]_.  With a single normal pressure c and phi are
-undetermined (None).  Details: ``docs/bevameter.md``.
+cc, phic).  :func:`fit_shear` fits each test's tau_max and K, then the
+Mohr-Coulomb line ``tau_max = c + sigma tan(phi)`` over the tests and a common
+K [3]_; with a single normal pressure c and phi are undetermined (None).
+Details: ``docs/bevameter.md``.
 
 References
 ----------

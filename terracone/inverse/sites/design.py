@@ -241,12 +241,7 @@ def _candidate(cand, widths, I0, I_ci, current, theta, free, law, plate_noise, s
 
 
 def _information(
-    profile: CIProfile,
-    res: Any,
-    law: Any,
-    bounds: Bounds,
-    cal: CalibrationPrior | None,
-    ci_noise: float | None,
+    profile: CIProfile, res: Any, law: Any, bounds: Bounds, cal: CalibrationPrior | None, ci_noise
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The fitted parameters, which of them are free, and the Fisher information of
     the CI data alone and of the CI data with the prior (free parameters only)."""
@@ -265,14 +260,6 @@ def _information(
     J = _jacobian(ci_of, theta, free)
     I_ci = _ci_precision(profile, res.ci_model, J, ci_noise)
     return theta, free, I_ci, _prior_precision(theta, free, bounds, cal) + I_ci
-
-
-def _ranked(candidates: list[CandidateResult]) -> list[CandidateResult]:
-    """The candidates by expected width ratio, best first, with their ranks set."""
-    out = sorted(candidates, key=lambda cnd: cnd.width_ratio)
-    for i, cnd in enumerate(out):
-        cnd.rank = i + 1
-    return out
 
 
 def plan_test(
@@ -319,10 +306,6 @@ def plan_test(
     -------
     DesignResult
         Candidates ranked by expected width (mean ratio over the plates).
-
-    References
-    ----------
-    Raiffa and Schlaifer (1961); eqs. (2-2), (2-7) of Huang et al.
     """
     if isinstance(candidates, str):
         candidates = parse_candidates(candidates)
@@ -352,25 +335,17 @@ def plan_test(
         [float(predicted_plate_pressure(prm, s_mid, r, law.plate_pair)) for r in plates]
     )
     s_test = np.linspace(0.005, 0.05, 10) if plate_sinkages is None else np.asarray(plate_sinkages)
-    out = _ranked(
-        [
-            _candidate(c, widths, I0, I_ci, current, theta, free, law, plate_noise, s_test)
-            for c in candidates
-        ]
-    )
+    out = [
+        _candidate(c, widths, I0, I_ci, current, theta, free, law, plate_noise, s_test)
+        for c in candidates
+    ]
+    out.sort(key=lambda cnd: cnd.width_ratio)  # best first
+    for i, cnd in enumerate(out):
+        cnd.rank = i + 1
     notes = list(res.notes)
     if res.undetermined:
         notes.append("left free by the CI: " + ", ".join(res.undetermined))
     return DesignResult(
-        profile.id,
-        "ok",
-        None,
-        label,
-        list(plates),
-        s_mid,
-        median,
-        current,
-        out,
-        res.lack_of_fit,
-        notes,
-    )
+        profile.id, "ok", None, label, list(plates), s_mid, median, current, out,
+        res.lack_of_fit, notes,
+    )  # fmt: skip

@@ -156,20 +156,7 @@ def random_effects(
         tq = np.where(
             k > 1, stats.t.ppf(0.5 + level / 2, np.maximum(df, 1)), stats.norm.ppf(0.5 + level / 2)
         )
-    tau2 = np.where(k > 1, tau2, np.nan)
-    tau2_lo = np.where(k > 1, tau2_lo, np.nan)
-    tau2_hi = np.where(k > 1, tau2_hi, np.nan)
+    tau2, tau2_lo, tau2_hi = (np.where(k > 1, t, np.nan) for t in (tau2, tau2_lo, tau2_hi))
     mu = np.where(k > 0, mu, np.nan)
-    return RandomEffects(
-        mu=mu,
-        tau2=tau2,
-        tau2_lo=tau2_lo,
-        tau2_hi=tau2_hi,
-        se=se,
-        df=df,
-        lo=mu - tq * se,
-        hi=mu + tq * se,
-        k=k,
-        sample_var=sample_var,
-        mean_v=mean_v,
-    )
+    lo, hi = mu - tq * se, mu + tq * se
+    return RandomEffects(mu, tau2, tau2_lo, tau2_hi, se, df, lo, hi, k, sample_var, mean_v)

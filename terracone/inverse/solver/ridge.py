@@ -68,13 +68,6 @@ def ridge_profile(
     The n grid spans ``n_window`` either side of the best n of a coarse
     pass (within the bounds), where the detail is.  Drawn by
     :func:`terracone.report.figures.fig_ridge`.
-
-    References
-    ----------
-    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eqs. (2-5) to (2-7): with
-       fully mobilised shear, phic enters only through the factor
-       1 + tan(phic)/tan(alpha), so it trades exactly against a common scale of
-       kc and kphi.
     """
     z = np.asarray(depth, dtype=float)
     y = np.asarray(ci, dtype=float)
