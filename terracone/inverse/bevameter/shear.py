@@ -189,28 +189,10 @@ def _start_K(j: np.ndarray, tau: np.ndarray, tau0: float) -> float:
     return K0 if K0 > 0 else float(np.max(j)) / 10.0
 
 
-def _fit_one(j: np.ndarray, tau: np.ndarray) -> tuple[float, float]:
-    """(tau_max, K) minimising sum (tau - tau_max (1 - exp(-j/K)))^2."""
-    tau0 = float(tau.max())
-    x0 = np.array([tau0, _start_K(j, tau, tau0)])
-
-    def fun(x):
-        return shear_stress_janosi_hanamoto(j, x[0], x[1]) - tau
-
-    def jac(x):
-        e = np.exp(-j / x[1])
-        return np.column_stack([1.0 - e, -x[0] * e * j / x[1] ** 2])
-
-    res = optimize.least_squares(
-        fun, x0, jac=jac, bounds=([0.0, 1e-12], [np.inf, np.inf]), x_scale=x0, xtol=1e-14
-    )
-    return float(res.x[0]), float(res.x[1])
-
-
 def _fit_common_K(
     data: list[tuple[np.ndarray, np.ndarray]], tau0: np.ndarray, K0: float
 ) -> tuple[np.ndarray, float]:
-    """One tau_max per test and one shared K, least squares on all stresses."""
+    """One tau_max per test and one shared K, least squares on all stresses (from tau0, K0)."""
     m = len(data)
     j = np.concatenate([d[0] for d in data])
     tau = np.concatenate([d[1] for d in data])
@@ -262,7 +244,9 @@ def fit_shear_test(
     if not 0 <= peak_tolerance < 1:
         raise ValueError("peak_tolerance must be in [0, 1)")
     j, tau = _points(test, peak_tolerance, j_max)
-    tau_max, K = _fit_one(j, tau)
+    tau0 = float(tau.max())
+    tau_max, K = _fit_common_K([(j, tau)], np.array([tau0]), _start_K(j, tau, tau0))
+    tau_max = float(tau_max[0])
     res = tau - shear_stress_janosi_hanamoto(j, tau_max, K)
     ss_tot = float(np.sum((tau - tau.mean()) ** 2))
     return ShearTestFit(

@@ -220,18 +220,7 @@ def _solve_finite(
     resid = X @ x - y
     if ratio is not None:
         x[0] = ratio * x[1]
-    sol = ExactSolution(
-        kc=float(x[0]),
-        kphi=float(x[1]),
-        n=float(n_best),
-        cc=float(x[2]),
-        phic_deg=float(phi_best),
-        K_cone=Kc_out,
-        sse=float(resid @ resid),
-        nfev=nfev,
-        nit=nit,
-        phic_range=(phi_best, phi_best),
-    )
+    sol = _solution(x, n_best, phi_best, Kc_out, resid, nfev, nit, (phi_best, phi_best))
     if profiles:
         _identify(
             sol, z, y, ns, sse_grid.min(axis=(1, 2)), bounds, fp.cone, fp.law, noise_floor, ratio
@@ -269,6 +258,14 @@ def _polish(X: np.ndarray, y: np.ndarray, lo, hi, x0) -> np.ndarray:
     return polish_many(X[None], y[None], lo[None], hi[None], np.asarray(x0, dtype=float)[None])[0]
 
 
+def _solution(x, n, phic, K_cone, resid, nfev, nit, phic_range) -> ExactSolution:
+    """The ExactSolution of (kc, kphi, cc) = x at (n, phic, K_cone), its SSE from ``resid``."""
+    x, sse = [float(v) for v in x], float(resid @ resid)
+    return ExactSolution(
+        x[0], x[1], float(n), x[2], float(phic), K_cone, sse, nfev, nit, phic_range
+    )
+
+
 def _solve_mobilised(
     z, y, cone, law, bounds, n_grid, noise_floor, profiles, ratio
 ) -> ExactSolution:
@@ -287,18 +284,8 @@ def _solve_mobilised(
     if ratio is not None:
         x[0] = ratio * x[1]
     resid = X @ x - y
-    sol = ExactSolution(
-        kc=float(x[0]),
-        kphi=float(x[1]),
-        n=float(ms.n[0]),
-        cc=float(x[2]),
-        phic_deg=float(ms.phic_deg[0]),
-        K_cone=None,
-        sse=float(resid @ resid),
-        nfev=int(ms.nfev),
-        nit=1,
-        phic_range=(float(ms.phic_lo[0]), float(ms.phic_hi[0])),
-    )
+    phic_range = (float(ms.phic_lo[0]), float(ms.phic_hi[0]))
+    sol = _solution(x, ms.n[0], ms.phic_deg[0], None, resid, int(ms.nfev), 1, phic_range)
     if profiles:
         _identify(sol, z, y, ms.n_grid, ms.sse_n[0], bounds, cone, law, noise_floor, ratio)
     return sol

@@ -425,24 +425,21 @@ def noise_setup(
     dz = np.diff(z)
     dz0 = float(np.median(dz)) if dz.size else 0.0
     rho_raw, rho_sampled = None, False
-    if isinstance(correlation, str):
-        if correlation in ("estimate", "sample"):
-            X = _fit_design(z, p0, bounds, cal, law, K_cone, profile.cone) / w[:, None]
-            rho, rho_raw = estimate_correlation((y - m0) / w, z, design=X)
-            rho_est = True
-            rho_sampled = correlation == "sample" and N > 2
-        elif correlation == "none":
-            rho, rho_est = 0.0, False
-        else:
-            raise ValueError(
-                "correlation must be 'estimate', 'sample', 'none' or a number "
-                f"(got {correlation!r})"
-            )
+    rho_est = isinstance(correlation, str) and correlation in ("estimate", "sample")
+    if rho_est:
+        X = _fit_design(z, p0, bounds, cal, law, K_cone, profile.cone) / w[:, None]
+        rho, rho_raw = estimate_correlation((y - m0) / w, z, design=X)
+        rho_sampled = correlation == "sample" and N > 2
+    elif correlation == "none":
+        rho = 0.0
+    elif isinstance(correlation, str):
+        raise ValueError(
+            f"correlation must be 'estimate', 'sample', 'none' or a number (got {correlation!r})"
+        )
     else:
         rho = float(correlation)
         if not 0 <= rho <= RHO_MAX:
             raise ValueError(f"correlation must lie in [0, {RHO_MAX}] (got {rho})")
-        rho_est = False
     phi = ar1_coefficients(z, rho, dz0) if N > 1 else np.zeros(0)
     if rho_raw is not None and not math.isfinite(rho_raw):
         rho_raw = None

@@ -187,26 +187,21 @@ class Prior:
             inside &= (cc >= b.cc[0]) & (cc <= b.cc[1])
         if not self.phic_fixed:
             inside &= (phic_deg >= b.phic_deg[0]) & (phic_deg <= b.phic_deg[1])
-        if self.cal is None:
-            if not self.kc_fixed and not ref:
-                lp = lp - np.log(kc_hi - kc_lo)
-        else:
-            c = self.cal
-            if self.ratio:
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    z = (np.log(kc) - np.log(kphi) - self.log_q0) / c.ratio_log_sd
-                    lp += -0.5 * z * z - np.log(kc)
-                inside &= (kc > 0) & (kphi > 0)
-            elif not self.kc_fixed:
-                lp = lp - np.log(kc_hi - kc_lo)
-            if not self.cc_fixed:
-                z = (cc - c.calibration.cc) / c.cc_width
-                lp += -0.5 * z * z
-            if not self.phic_fixed:
-                z = (phic_deg - c.calibration.phic_deg) / c.phic_sd
-                lp += -0.5 * z * z
-        lp = np.where(inside & np.isfinite(lp), lp, -np.inf)
-        return lp
+        c = self.cal
+        if self.ratio:  # a calibration's ratio prior (ref is off with a calibration)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                z = (np.log(kc) - np.log(kphi) - self.log_q0) / c.ratio_log_sd
+                lp += -0.5 * z * z - np.log(kc)
+            inside &= (kc > 0) & (kphi > 0)
+        elif not self.kc_fixed and not ref:
+            lp = lp - np.log(kc_hi - kc_lo)
+        if c is not None and not self.cc_fixed:
+            z = (cc - c.calibration.cc) / c.cc_width
+            lp += -0.5 * z * z
+        if c is not None and not self.phic_fixed:
+            z = (phic_deg - c.calibration.phic_deg) / c.phic_sd
+            lp += -0.5 * z * z
+        return np.where(inside & np.isfinite(lp), lp, -np.inf)
 
     def sample(self, rng: np.random.Generator, size: int) -> np.ndarray:
         """Draws (size, 5) from the prior, SI."""

@@ -205,17 +205,11 @@ def _initial_ensemble(x_hat, coords, lik, log_prob, prior_draws, nwalkers, rng, 
     if not np.all(np.isfinite(L)):
         L = np.diag(np.sqrt(pvar) * 1e-3)
     good = np.empty((0, k))
-    for scale in (1.0, 1.0, 0.3, 0.1, 0.03, 0.01, 1e-3):
-        cand = x_hat + scale * rng.standard_normal((4 * nwalkers, k)) @ L.T
-        lp = log_prob(cand)
-        good = np.concatenate([good, cand[np.isfinite(lp)]])
-        if good.shape[0] >= nwalkers:
-            return good[:nwalkers]
-    # last resort: tiny jitter, reflected into the support by trial
-    for _ in range(100):
-        cand = x_hat + 1e-6 * (np.abs(x_hat) + 1e-3) * rng.standard_normal((4 * nwalkers, k))
-        lp = log_prob(cand)
-        good = np.concatenate([good, cand[np.isfinite(lp)]])
+    for scale in (1.0, 1.0, 0.3, 0.1, 0.03, 0.01, 1e-3) + (None,) * 100:
+        u = rng.standard_normal((4 * nwalkers, k))
+        # the Laplace spread, narrowing; last resort (None): a tiny jitter, kept where inside
+        cand = x_hat + (1e-6 * (np.abs(x_hat) + 1e-3) * u if scale is None else scale * u @ L.T)
+        good = np.concatenate([good, cand[np.isfinite(log_prob(cand))]])
         if good.shape[0] >= nwalkers:
             return good[:nwalkers]
     raise ValueError("could not place the walkers inside the prior's support")
