@@ -178,11 +178,10 @@ class PlatesFit:
         def conv_ci(ci, f):
             return None if ci is None else [conv(ci[0], f), conv(ci[1], f)]
 
-        tests = []
-        for t, kcom in zip(self.tests, self.k_common):
-            d = t.as_dict(units)
-            d["k_common"] = conv(kcom, u.kphi_from_si)
-            tests.append(d)
+        tests = [
+            {**t.as_dict(units), "k_common": conv(kcom, u.kphi_from_si)}
+            for t, kcom in zip(self.tests, self.k_common)
+        ]
         return {
             "kc": conv(self.kc, u.kc_from_si),
             "kphi": conv(self.kphi, u.kphi_from_si),

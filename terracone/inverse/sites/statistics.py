@@ -170,11 +170,9 @@ def group_profiles(
             if len(keep) > 1
             else np.array([1])
         )
-        order: dict[int, int] = {}
-        for lab in labels:
-            order.setdefault(int(lab), len(order) + 1)
-        for i, lab in zip(keep, labels):
-            name = f"site-{order[int(lab)]}" if by is None else f"{key}/{order[int(lab)]}"
+        order = {lab: r + 1 for r, lab in enumerate(dict.fromkeys(labels.tolist()))}
+        for i, lab in zip(keep, labels.tolist()):
+            name = f"site-{order[lab]}" if by is None else f"{key}/{order[lab]}"
             out.setdefault(name, []).append(i)
     return Grouping(out, unassigned)
 
@@ -352,24 +350,15 @@ def fit_pushes(
             continue
         by_cone.setdefault(p.cone.name, []).append(i)
     for idx in by_cone.values():
-        cone = profiles[idx[0]].cone
+        zs, ys = [profiles[i].depth for i in idx], [profiles[i].ci for i in idx]
         try:
-            sol = solve_exact_many(
-                [profiles[i].depth for i in idx],
-                [profiles[i].ci for i in idx],
-                cone=cone,
-                law=law,
-                bounds=b,
-                kc_over_kphi=ratio,
-            )
+            sol, th = _solve_primed(zs, ys, profiles[idx[0]].cone, law, b, ratio)
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
             for i in idx:
                 out.error[i] = f"solver failed: {exc}"
             continue
-        s = 1.0 + np.tan(np.radians(sol.phic_deg)) / math.tan(cone.half_angle)  # eq. (2-6)
         for j, i in enumerate(idx):
-            p = profiles[i]
-            theta = np.array([sol.kc[j] * s[j], sol.kphi[j] * s[j], sol.cc[j], sol.n[j]])
+            p, theta = profiles[i], th[j]
             cov, m, out.rho[i], out.residuals[i] = _push_covariance(
                 p, theta, law, b, ratio, sol.kc[j], sol.kphi[j]
             )
@@ -431,11 +420,15 @@ def bootstrap_pushes(
             sim = np.maximum(centers[k][None, :] + sigma * w[None, :] * u, 0.0)
             zs += [z] * B
             ys += list(sim)
-        sol = solve_exact_many(zs, ys, cone=cone, law=law, bounds=b, kc_over_kphi=ratio)
-        s = 1.0 + np.tan(np.radians(sol.phic_deg)) / math.tan(cone.half_angle)  # eq. (2-6)
-        th = np.stack([sol.kc * s, sol.kphi * s, sol.cc, sol.n], -1).reshape(len(ks), B, 4)
-        out[ks] = th
+        out[ks] = _solve_primed(zs, ys, cone, law, b, ratio)[1].reshape(len(ks), B, 4)
     return out
+
+
+def _solve_primed(zs, ys, cone, law, b, ratio):
+    """:func:`solve_exact_many` and its primed ``(s kc, s kphi, cc, n)`` (P, 4), eq. (2-6)."""
+    sol = solve_exact_many(zs, ys, cone=cone, law=law, bounds=b, kc_over_kphi=ratio)
+    s = 1.0 + np.tan(np.radians(sol.phic_deg)) / math.tan(cone.half_angle)
+    return sol, np.stack([sol.kc * s, sol.kphi * s, sol.cc, sol.n], -1)
 
 
 # ---------------------------------------------------------------------------
@@ -874,10 +867,7 @@ def site_terrain(
     y = np.concatenate([profiles[i].ci / gk for i, gk in zip(idx, g)])
     o = np.argsort(z, kind="stable")
     cone = profiles[idx[0]].cone
-    sol = solve_exact_many([z[o]], [y[o]], cone=cone, law=law, bounds=bounds, kc_over_kphi=ratio)
-    s = 1.0 + math.tan(math.radians(float(sol.phic_deg[0]))) / math.tan(cone.half_angle)
-    theta = np.array([sol.kc[0] * s, sol.kphi[0] * s, sol.cc[0], sol.n[0]])  # eq. (2-6)
-    return theta, g
+    return _solve_primed([z[o]], [y[o]], cone, law, bounds, ratio)[1][0], g
 
 
 def site_centers(

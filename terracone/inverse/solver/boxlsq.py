@@ -1,12 +1,9 @@
 """Bounded linear least squares in three variables, vectorised.
 
 For fixed n and phic the improved cone model (eq. (2-7) in [1]_) is linear
-in (kc, kphi, cc).  Minimising a convex quadratic over a box is done exactly
-by enumerating the 3^3 = 27 faces of the box (each variable free, at its
-lower or at its upper bound): the minimiser of the quadratic on each face's
-affine hull is a closed-form 3x3 solve, and the best feasible one is the
-global optimum.  All of it broadcasts over leading dimensions, so thousands
-of (n, phic, profile) cells are solved in one numpy call.
+in (kc, kphi, cc); the convex quadratic is minimised over the box exactly by
+a closed-form solve on each of its 27 faces (docs/predict.md, Solvers),
+broadcast over leading dimensions.
 
 References
 ----------

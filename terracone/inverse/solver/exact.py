@@ -160,10 +160,6 @@ class _Finite:
         Xv = self.design(np.array(nv), np.array(pv), Kv if self.fit_K_cone else self.K_cone)
         return Xv @ x_[0] - self.y
 
-    def f_res(self, v):
-        r = self.resid_v(v)
-        return float(r @ r)
-
 
 def _grid_starts(sse_grid: np.ndarray) -> np.ndarray:
     """Starts of the joint refinement: flat indices of the grid's local minima and the best
@@ -188,7 +184,7 @@ def _solve_finite(
     phis = grid(*bounds.phic_deg, phic_grid)
     Kcs = np.exp(grid(*np.log(bounds.K_cone), 7)) if fp.fit_K_cone else np.array([np.nan])
     N, P, K = np.meshgrid(ns, phis, Kcs, indexing="ij")
-    x_grid, sse_grid = fp.cell_sse(N, P, K)
+    sse_grid = fp.cell_sse(N, P, K)[1]
     nfev = sse_grid.size
 
     # joint refinement of all parameters (Gauss-Newton, bounded) from the grid's best
@@ -200,7 +196,7 @@ def _solve_finite(
     for flat_i in _grid_starts(sse_grid):
         ii, jj, kk = np.unravel_index(flat_i, sse_grid.shape)
         v0 = fp.scaled(ns[ii], phis[jj], Kcs[kk])
-        v, fv, ne = _joint_refine(v0, fp.resid_v, fp.f_res)
+        v, fv, ne = _joint_refine(v0, fp.resid_v)
         nfev += ne
         nit += 1
         if fv < best_f * (1 - 1e-12):
@@ -209,8 +205,7 @@ def _solve_finite(
             break
     n_best, phi_best, best_K = fp.unpack(best_v)
 
-    x, sse = fp.cell_sse(np.array([n_best]), np.array([phi_best]), np.array([best_K]))
-    x = x[0].copy()
+    x = fp.cell_sse(np.array([n_best]), np.array([phi_best]), np.array([best_K]))[0][0].copy()
     Kc_out = float(best_K) if fp.fit_K_cone else fp.K_cone
     # report the SSE from the residuals themselves
     X = fp.design(np.array(n_best), np.array(phi_best), Kc_out)
@@ -228,7 +223,7 @@ def _solve_finite(
     return sol
 
 
-def _joint_refine(v0, resid_v, f_res):
+def _joint_refine(v0, resid_v):
     """Bounded Gauss-Newton on the scaled (n, phic[, log Kc]), variable projection.
 
     The residual at each outer point has the linear parameters (kc, kphi,
@@ -249,7 +244,7 @@ def _joint_refine(v0, resid_v, f_res):
         gtol=1e-14,
         max_nfev=200,
     )
-    f0, f1 = f_res(v0), f_res(res.x)
+    f0, f1 = (float(r @ r) for r in (resid_v(v0), resid_v(res.x)))
     return (res.x, f1, int(res.nfev)) if f1 <= f0 else (v0, f0, int(res.nfev))
 
 

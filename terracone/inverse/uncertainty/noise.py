@@ -231,22 +231,12 @@ def estimate_correlation(
 ) -> tuple[float, float]:
     """AR(1) coefficient of the CI error from best-fit (weighted) residuals.
 
-    The lag-1 autocorrelation of the (mean-removed) residuals,
-    ``r1 = sum e_i e_(i-1) / sum e_i^2``, underestimates the correlation of
-    the errors: the fit absorbs the smooth part of a correlated error (a
-    correlated error looks like a slightly different terrain).  The
-    correction inverts the expected r1 of the fitted residuals,
-
-        f(rho) = tr(D M S(rho) M) / tr(M S(rho) M),
-
-    with ``S(rho)_ij = rho**(|z_i - z_j| / dz0)`` the AR(1) correlation at the
-    actual depths (so irregular spacing is accounted for), ``M = I - P`` the
-    residual maker of the linearised fit (``P`` the projector on the columns
-    of ``design`` and a constant) and ``D`` the lag-1 neighbour matrix
-    (1/2 on both off-diagonals): ``rho = f^-1(r1)``, clipped to [0, 0.95].
-    Without ``design`` the fallback ``r1 + (1 + 11 r1+) / N`` (small-sample
-    bias plus absorption of 4 parameters, calibrated on 31-61 point
-    profiles) is used.
+    The lag-1 autocorrelation r1 of the residuals, corrected for what the fit
+    absorbs: ``rho = f^-1(r1)``, ``f(rho) = tr(D M S(rho) M) / tr(M S(rho) M)``
+    with ``M`` the residual maker of the columns of ``design`` and a constant
+    (docs/uncertainty.md, The noise model), clipped to [0, 0.95].  Without
+    ``design`` the fallback ``r1 + (1 + 11 r1+) / N`` (small-sample bias plus
+    absorption of 4 parameters, calibrated on 31-61 point profiles).
 
     Parameters
     ----------
