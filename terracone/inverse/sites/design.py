@@ -175,13 +175,8 @@ def parse_candidates(text: str, units: str = "si") -> list[tuple[str, str, float
 def _prior_precision(theta, free, bounds: Bounds, cal: CalibrationPrior | None) -> np.ndarray:
     """Prior precision over the free parameters (normal approximation)."""
     kc, kphi, n = theta[0], theta[1], theta[2]
-    rng = [
-        np.subtract(*bounds.kc_si(n)[::-1]),
-        np.subtract(*bounds.kphi_si(n)[::-1]),
-        bounds.n[1] - bounds.n[0],
-        bounds.cc[1] - bounds.cc[0],
-        bounds.phic_deg[1] - bounds.phic_deg[0],
-    ]
+    boxes = (bounds.kc_si(n), bounds.kphi_si(n), bounds.n, bounds.cc, bounds.phic_deg)
+    rng = [hi - lo for lo, hi in boxes]
     P = np.diag([12.0 / max(float(r), 1e-9) ** 2 for r in rng])  # variance of a uniform
     if cal is not None:
         c = cal.calibration

@@ -49,15 +49,11 @@ def polish_many(
 def polish_many_numpy(
     X: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray
 ) -> np.ndarray:
-    """The numpy reference of :func:`polish_many`, vectorised over profiles.
+    """The numpy reference of :func:`polish_many` (same arguments), vectorised over profiles.
 
-    ``X`` (P, Z, 3) and ``y`` (P, Z) (padded rows zero), box ``lo``, ``hi``
-    and start ``x0`` (P, 3).  The normal equations the vectorised solver
-    uses lose about cond(X) digits near a perfect fit; a QR solve does not.
     On x0's face of the box (the variables strictly inside re-solved, the
     others held) one stacked QR per face pattern; where that leaves the box
-    or breaks the optimality signs, scipy's BVLS.  A profile keeps x0
-    unless its sum of squares drops.
+    or breaks the optimality signs, scipy's BVLS.
     """
     free = hi > lo
     act = free & (x0 > lo) & (x0 < hi)

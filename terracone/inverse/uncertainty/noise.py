@@ -310,15 +310,14 @@ def _fit_design(
         tol = 1e-9 * max(abs(lo), abs(hi), 1.0)
         return lo + tol < v < hi - tol
 
-    kc_lo, kc_hi = (float(v) for v in bounds.kc_si(p0.n))
-    kp_lo, kp_hi = (float(v) for v in bounds.kphi_si(p0.n))
+    kc_box, kphi_box = ([float(v) for v in f(p0.n)] for f in (bounds.kc_si, bounds.kphi_si))
     if cal is not None and cal.kphi > 0 and cal.kc > 0:
-        if inside(p0.kphi, kp_lo, kp_hi):
+        if inside(p0.kphi, *kphi_box):
             cols.append((cal.kc / cal.kphi) * A + B)
     else:
-        if inside(p0.kc, kc_lo, kc_hi):
+        if inside(p0.kc, *kc_box):
             cols.append(A)
-        if inside(p0.kphi, kp_lo, kp_hi):
+        if inside(p0.kphi, *kphi_box):
             cols.append(B)
         if cal is None and inside(p0.cc, *bounds.cc):
             cols.append(C)

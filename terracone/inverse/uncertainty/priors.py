@@ -210,16 +210,14 @@ class Prior:
         for _ in range(200):
             m = 2 * size
             n = np.full(m, b.n[0]) if self.n_fixed else self._sample_n(rng, m)
-            kp_lo, kp_hi = b.kphi_si(n)
-            kc_lo, kc_hi = b.kc_si(n)
-            kphi = self.fixed_value(1, n) if self.kphi_fixed else rng.uniform(kp_lo, kp_hi)
+            kphi = self.fixed_value(1, n) if self.kphi_fixed else rng.uniform(*b.kphi_si(n))
             if self.ratio:
                 q = np.exp(self.log_q0 + self.cal.ratio_log_sd * rng.standard_normal(m))
                 kc = q * kphi
             elif self.kc_fixed:
                 kc = self.fixed_value(0, n)
             else:
-                kc = rng.uniform(kc_lo, kc_hi)
+                kc = rng.uniform(*b.kc_si(n))
             if self.cc_fixed:
                 cc = np.full(m, self.cc_value)
             elif self.cal is None:
