@@ -625,15 +625,10 @@ def _combine(re, log_s: np.ndarray, log: bool, level: float = 0.9):
         stats.t.ppf(q[None, :], np.maximum(df, 1)[:, None]),
         stats.norm.ppf(q)[None, :],
     )
-    x = mu[:, None] + se[:, None] * tq  # (Q, G)
-    if log:
-        v = x[:, :, None] - log_s[None, None, :]
-    else:
-        v = x[:, :, None] / np.exp(log_s)[None, None, :]
-    v = v.reshape(v.shape[0], -1)
-    med, lo, hi = (np.quantile(v, p, axis=1) for p in (0.5, a, 1 - a))
-    if log:
-        med, lo, hi = np.exp(med), np.exp(lo), np.exp(hi)
+    x = (mu[:, None] + se[:, None] * tq)[:, :, None]  # (Q, G, 1)
+    v = (x - log_s if log else x / np.exp(log_s)).reshape(x.shape[0], -1)
+    qs = [np.quantile(v, p, axis=1) for p in (0.5, a, 1 - a)]
+    med, lo, hi = (np.exp(q) for q in qs) if log else qs
     return med, lo, hi
 
 
@@ -964,8 +959,7 @@ def shape_pushes(
     cone = profiles[idx[0]].cone
     law = fits.law
     R, K = len(radii), sinkage.size
-    y = np.empty((R, len(idx), K))
-    v = np.empty((R, len(idx), K))
+    y, v = np.empty((2, R, len(idx), K))
     pb = [plate_basis(sinkage[None, :], n=_SHAPE_N[:, None], b=r, law=law) for r in radii]
     plate = np.stack([theta[0] * A + theta[1] * B for A, B in pb])  # (R, G, K), eq. (2-2)
     for j, i in enumerate(idx):
@@ -994,9 +988,8 @@ def _interp_rows(table: np.ndarray, n: np.ndarray) -> np.ndarray:
     return table[k] * (1 - f) + table[k + 1] * f
 
 
-def _pool_all(fits: PushFits, members_ok, reps, plates, sinkage, level, shapes=None):
+def _pool_all(fits: PushFits, members_ok, reps, plates, sinkage, level, shapes):
     """Per-site estimates and one random-effects call over (site, quantity, push), padded."""
-    shapes = shapes or [None] * len(members_ok)
     est = [
         _site_estimates(fits, idx, plates, sinkage, reps[k], shapes[k]) if idx else None
         for k, idx in enumerate(members_ok)

@@ -239,14 +239,12 @@ class Prior:
 
 
 def as_calibration_prior(prior: Any) -> CalibrationPrior | None:
+    if prior is None or prior == "bounds":
+        return None
     if isinstance(prior, str):
-        if prior != "bounds":
-            raise ValueError(
-                f"prior must be 'bounds', a Calibration or a CalibrationPrior (got {prior!r})"
-            )
-        return None
-    if prior is None:
-        return None
+        raise ValueError(
+            f"prior must be 'bounds', a Calibration or a CalibrationPrior (got {prior!r})"
+        )
     if isinstance(prior, CalibrationPrior):
         return prior
     if isinstance(prior, Calibration):

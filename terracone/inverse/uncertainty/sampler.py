@@ -59,11 +59,8 @@ class SamplerCoordinates:
         self.free = ~np.array(fixed)
         self.nscale = int(self.free[0]) + int(self.free[1])
         self.fixed_values = np.asarray(fixed_values, dtype=float)
-        self.names = [
-            (("s*" if self.scaled and i < 2 else "") + PARAM_NAMES[i])
-            for i in range(5)
-            if self.free[i]
-        ]
+        pre = ("s*", "s*", "", "", "") if self.scaled else ("",) * 5
+        self.names = [p + name for p, name, f in zip(pre, PARAM_NAMES, self.free) if f]
 
     @property
     def ndim(self) -> int:
@@ -78,8 +75,7 @@ class SamplerCoordinates:
         logj = np.zeros(xf.shape[0])
         if self.scaled:
             s = 1.0 + np.tan(np.radians(P[:, 4])) / self.t
-            P[:, 0] /= s
-            P[:, 1] /= s
+            P[:, :2] /= s[:, None]
             logj = -self.nscale * np.log(s)
         for j in np.flatnonzero(~self.free[:2]):  # kc, kphi held
             P[:, j] = self.prior.fixed_value(j, P[:, 2])
@@ -90,8 +86,7 @@ class SamplerCoordinates:
         X = np.array(np.atleast_2d(params), dtype=float, copy=True)
         if self.scaled:
             s = 1.0 + np.tan(np.radians(X[:, 4])) / self.t
-            X[:, 0] *= s
-            X[:, 1] *= s
+            X[:, :2] *= s[:, None]
         return X[:, self.free]
 
 
