@@ -230,8 +230,7 @@ class PushFits:
 
 def _settings(model: str, r_min: float | None, calibration: Any, bounds: Bounds | None):
     bounds = bounds or Bounds()
-    plate_pair = None
-    ratio = None
+    plate_pair = ratio = None
     if calibration is not None:
         model, r_min, plate_pair = calibration.model, calibration.r_min, calibration.plate_pair
         bounds = bounds.fixed(phic_deg=calibration.phic_deg, cc=calibration.cc)
@@ -402,7 +401,6 @@ def bootstrap_pushes(
         Replicates of ``theta``: each center plus noise of the push's own
         model (weights, sigma, ``fits.rho``), refitted by the exact solver.
     """
-    law = fits.law
     rng = np.random.default_rng(seed)
     B = int(replicates)
     out = np.full((len(idx), B, 4), np.nan)
@@ -420,7 +418,7 @@ def bootstrap_pushes(
             sim = np.maximum(centers[k][None, :] + sigma * w[None, :] * u, 0.0)
             zs += [z] * B
             ys += list(sim)
-        out[ks] = _solve_primed(zs, ys, cone, law, b, ratio)[1].reshape(len(ks), B, 4)
+        out[ks] = _solve_primed(zs, ys, cone, fits.law, b, ratio)[1].reshape(len(ks), B, 4)
     return out
 
 
@@ -861,8 +859,7 @@ def site_terrain(
     z = np.concatenate([profiles[i].depth for i in idx])
     y = np.concatenate([profiles[i].ci / gk for i, gk in zip(idx, g)])
     o = np.argsort(z, kind="stable")
-    cone = profiles[idx[0]].cone
-    return _solve_primed([z[o]], [y[o]], cone, law, bounds, ratio)[1][0], g
+    return _solve_primed([z[o]], [y[o]], profiles[idx[0]].cone, law, bounds, ratio)[1][0], g
 
 
 def site_centers(

@@ -35,11 +35,7 @@ def gram(X: np.ndarray, y: np.ndarray, w: np.ndarray | None = None):
     X : (..., N, 3), y : (..., N), w : (..., N) or None.
     Returns G (..., 3, 3), g (..., 3), yy (...).
     """
-    if w is not None:
-        Xw = X * w[..., None]
-        yw = y * w
-    else:
-        Xw, yw = X, y
+    Xw, yw = (X, y) if w is None else (X * w[..., None], y * w)
     G = np.einsum("...ni,...nj->...ij", Xw, X)
     g = np.einsum("...ni,...n->...i", Xw, y)
     yy = np.einsum("...n,...n->...", yw, y)

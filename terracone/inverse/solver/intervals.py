@@ -235,8 +235,7 @@ def scan_extents(sse: np.ndarray, thr: float) -> tuple[np.ndarray, np.ndarray]:
 
     -1 where no value is within thr, -2 for a variable fixed at every n (NaN rows).
     """
-    jlo = np.full(3, -1, dtype=np.int64)
-    jhi = np.full(3, -1, dtype=np.int64)
+    jlo, jhi = np.full((2, 3), -1, dtype=np.int64)
     for idx in range(3):
         if np.all(np.isnan(sse[idx])):
             jlo[idx] = jhi[idx] = -2

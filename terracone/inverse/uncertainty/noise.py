@@ -187,12 +187,10 @@ def ar1_noise(
     z = np.asarray(depth, dtype=float)
     phi = ar1_coefficients(z, rho, spacing)
     m = 1 if size is None else int(size)
-    w = rng.standard_normal((m, z.size))
-    e = np.empty_like(w)
-    e[:, 0] = w[:, 0]
+    e = rng.standard_normal((m, z.size))  # white, made AR(1) in place along depth
     c = np.sqrt(1.0 - phi * phi)
     for i in range(1, z.size):
-        e[:, i] = phi[i - 1] * e[:, i - 1] + c[i - 1] * w[:, i]
+        e[:, i] = phi[i - 1] * e[:, i - 1] + c[i - 1] * e[:, i]
     return e[0] if size is None else e
 
 
