@@ -142,7 +142,6 @@ class LogPosterior:
 
 def start_walkers(
     x0: np.ndarray,
-    pri: Prior,
     coords: SamplerCoordinates,
     target: LogPosterior,
     lik: Likelihood,
