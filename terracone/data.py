@@ -72,16 +72,9 @@ class InputError(ValueError):
         super().__init__(self._format())
 
     def _format(self) -> str:
-        where = []
-        if self.file is not None:
-            where.append(f"file {self.file}")
-        if self.profile is not None:
-            where.append(f"{self.item} {self.profile}")
-        if self.row is not None:
-            where.append(f"row {self.row}")
-        if self.column is not None:
-            where.append(f"column {self.column}")
-        return (", ".join(where) + ": " if where else "") + self.reason
+        where = {"file": self.file, self.item: self.profile, "row": self.row, "column": self.column}
+        text = ", ".join(f"{k} {v}" for k, v in where.items() if v is not None)
+        return (text + ": " if text else "") + self.reason
 
 
 @dataclass
@@ -359,8 +352,12 @@ class ProfileSet:
             notes=None if self.notes is None else [self.notes[int(i)] for i in index],
         )
 
-    def keep_points(self, keep: np.ndarray) -> ProfileSet:
-        """The set with only the points where ``keep`` (shape (N,)) is True."""
+    def window(self, lo: float | None = None, hi: float | None = None) -> ProfileSet:
+        """Every profile restricted to lo <= depth <= hi [m] (:func:`depth_window`).
+
+        A profile the window empties keeps no points; callers report it.
+        """
+        keep = depth_window(self.depth, lo, hi)
         per = np.repeat(np.arange(len(self)), self.counts)
         kept = np.bincount(per[keep], minlength=len(self))
         return replace(
@@ -374,13 +371,6 @@ class ProfileSet:
     def heights(self) -> np.ndarray:
         """Cone height H of each profile [m], shape (P,)."""
         return np.array([c.height for c in self.cones], dtype=float).reshape(-1)[self.cone_idx]
-
-    def window(self, lo: float | None = None, hi: float | None = None) -> ProfileSet:
-        """Every profile restricted to lo <= depth <= hi [m] (:func:`depth_window`).
-
-        A profile the window empties keeps no points; callers report it.
-        """
-        return self.keep_points(depth_window(self.depth, lo, hi))
 
     def screen(self) -> dict[int, InputError]:
         """The profiles of a set that cannot be fitted, each with its located error.
@@ -422,16 +412,8 @@ class ProfileSet:
             bad[has] |= z[starts[has]] < -self.heights()[has] * (1 + 1e-9)
         errors = {}
         for j in np.flatnonzero(bad):
-            s, e = int(off[j]), int(off[j + 1])
-            prof = CIProfile(
-                str(self.ids[j]),
-                z[s:e],
-                y[s:e],
-                cone=self.cones[int(self.cone_idx[j])],
-                rows=np.arange(e - s),
-            )
             try:
-                prof.validate()
+                replace(self[j], rows=np.arange(counts[j])).validate()
             except InputError as exc:
                 errors[int(j)] = self.locate(int(j), exc)
         return errors
@@ -685,9 +667,7 @@ class TerrainParameters:
 
     References
     ----------
-    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
-       terrain parameters for physics-based vehicle mobility models from cone
-       index data. Eqs. (2-2) to (2-7), section 3.2.
+    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eqs. (2-2) to (2-7), section 3.2.
     """
 
     kc: float
@@ -744,35 +724,15 @@ class TerrainParameters:
         )
 
     def library_params(self) -> dict[str, Any]:
-        """The terrain-library keys (SI): kc, kphi, n, cc, phic_deg, Kc, model, r_min (None dropped)."""
-        d = {
-            "kc": self.kc,
-            "kphi": self.kphi,
-            "n": self.n,
-            "cc": self.cc,
-            "phic_deg": self.phic_deg,
-            "Kc": self.K_cone,
-            "model": self.model,
-            "r_min": self.r_min,
-        }
-        return {k: v for k, v in d.items() if v is not None}
+        """The terrain-library keys (SI): those of :meth:`as_dict` but units, None dropped."""
+        return {k: v for k, v in self.as_dict().items() if v is not None and k != "units"}
 
     @classmethod
     def from_library_params(cls, params: dict[str, Any]) -> TerrainParameters | None:
         """From terrain-library keys; None without kc, kphi or n (cc, phic_deg 0, model rm0)."""
-        p = params
-        if any(p.get(k) is None for k in ("kc", "kphi", "n")):
+        if any(params.get(k) is None for k in ("kc", "kphi", "n")):
             return None
-        return cls(
-            kc=float(p["kc"]),
-            kphi=float(p["kphi"]),
-            n=float(p["n"]),
-            cc=float(p.get("cc", 0.0)),
-            phic_deg=float(p.get("phic_deg", 0.0)),
-            K_cone=None if p.get("Kc") is None else float(p["Kc"]),
-            model=str(p.get("model", "rm0")),
-            r_min=None if p.get("r_min") is None else float(p["r_min"]),
-        )
+        return cls.from_dict(params, "si")
 
 
 @dataclass(frozen=True)
@@ -798,9 +758,7 @@ class TerrainShear:
 
     References
     ----------
-    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
-       terrain parameters for physics-based vehicle mobility models from cone
-       index data. Eq. (2-4).
+    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eq. (2-4).
     .. [2] Janosi, Z., Hanamoto, B. (1961). The analytical determination of
        drawbar pull as a function of slip for tracked vehicles in deformable
        soils. Proc. 1st Int. Conf. on Terrain-Vehicle Systems, Turin.

@@ -1,10 +1,7 @@
 """HTML tables of result objects, for Jupyter (``_repr_html_``).
 
-A notebook shows an object by calling its ``_repr_html_``; the result
-classes of terracone delegate to the functions here, so a prediction, a
-list of predictions, a learned calibration, a layered fit or a batch run
-shows as a small table with the parameters in SI and US customary units
-(kc and kphi convert with n, :mod:`terracone.physics.units`).
+The result classes' ``_repr_html_`` delegate here: each shows as a small
+table with the parameters in SI and US customary units.
 
 References
 ----------
@@ -46,12 +43,9 @@ def fmt_value(v: Any, digits: int = 5) -> str:
             return "-"
         if v == 0:
             return "0"
-        a = abs(v)
-        if 1e-3 <= a < 1e6:
+        if 1e-3 <= abs(v) < 1e6:
             s = f"{v:.{digits}g}"
-            if "e" in s:  # e.g. 1.235e+05 -> plain
-                s = f"{v:.0f}"
-            return s
+            return f"{v:.0f}" if "e" in s else s  # e.g. 1.235e+05 -> plain
         return f"{v:.{digits - 1}e}"
     return str(v)
 
@@ -89,20 +83,21 @@ def _f(v: Any) -> float | None:
     return x if math.isfinite(x) else None
 
 
+def _kpa_row(name: str, v: float) -> list[Any]:
+    """A row of a pressure [kPa] with its value in psi."""
+    return [name, _f(v), "kPa", _f(u.pressure_from_si(v, "us")), "psi"]
+
+
 def _param_rows(p: Any) -> list[list[Any]]:
     """kc, kphi, n, cc, phic (and r_min) rows: name, SI value, SI unit, US value, US unit."""
-    n = p.n
+    moduli = (("kc", u.kc_from_si, u.kc_unit), ("kphi", u.kphi_from_si, u.kphi_unit))
     rows = [
-        ["kc", p.kc, u.kc_unit("si"), float(u.kc_from_si(p.kc, n, "us")), u.kc_unit("us")],
-        [
-            "kphi",
-            p.kphi,
-            u.kphi_unit("si"),
-            float(u.kphi_from_si(p.kphi, n, "us")),
-            u.kphi_unit("us"),
-        ],
-        ["n", n, "-", n, "-"],
-        ["cc", p.cc, "kPa", float(u.pressure_from_si(p.cc, "us")), "psi"],
+        [k, getattr(p, k), unit("si"), float(to(getattr(p, k), p.n, "us")), unit("us")]
+        for k, to, unit in moduli
+    ]
+    rows += [
+        ["n", p.n, "-", p.n, "-"],
+        _kpa_row("cc", p.cc),
         ["phic", p.phic_deg, "deg", p.phic_deg, "deg"],
     ]
     if getattr(p, "r_min", None) is not None:
@@ -111,19 +106,13 @@ def _param_rows(p: Any) -> list[list[Any]]:
 
 
 _HEAD = ["Parameter", "SI", "unit", "US", "unit"]
+#: Columns of the parameters in tables of one row per profile or layer (SI).
+_PARAM_COLUMNS = ["kc [kN/m^(n+1)]", "kphi [kN/m^(n+2)]", "n [-]", "cc [kPa]", "phic [deg]"]
 
 
 def parameters_html(params: Any, caption: str = "Terrain parameters") -> str:
     """Table of a :class:`terracone.TerrainParameters` (SI and US columns)."""
     return _table(f"{caption} (model {params.model})", _HEAD, _param_rows(params))
-
-
-def _fit_rows(rmsd: float, r2: float, lack: str | None) -> list[list[Any]]:
-    return [
-        ["RMSD of CI", _f(rmsd), "kPa", _f(u.pressure_from_si(rmsd, "us")), "psi"],
-        ["R2 of CI", _f(r2), "-", _f(r2), "-"],
-        ["lack of fit", lack or "none found", "", "", ""],
-    ]
 
 
 def prediction_html(res: Any) -> str:
@@ -132,7 +121,11 @@ def prediction_html(res: Any) -> str:
         return _table(
             f"Prediction {res.id}: not fitted", ["Profile", "error"], [[res.id, res.error]]
         )
-    rows = _param_rows(res.params) + _fit_rows(res.rmsd, res.r2_ci, res.lack_of_fit)
+    rows = _param_rows(res.params) + [
+        _kpa_row("RMSD of CI", res.rmsd),
+        ["R2 of CI", _f(res.r2_ci), "-", _f(res.r2_ci), "-"],
+        ["lack of fit", res.lack_of_fit or "none found", "", "", ""],
+    ]
     if res.undetermined:
         rows.append(["undetermined", ", ".join(res.undetermined), "", "", ""])
     return _table(f"Prediction {res.id} (cone {res.cone})", _HEAD, rows)
@@ -140,35 +133,15 @@ def prediction_html(res: Any) -> str:
 
 def predictions_html(results: Sequence[Any]) -> str:
     """One row per profile of a list of :class:`PredictionResult` (SI)."""
-    header = [
-        "Profile",
-        "status",
-        "kc [kN/m^(n+1)]",
-        "kphi [kN/m^(n+2)]",
-        "n [-]",
-        "cc [kPa]",
-        "phic [deg]",
-        "RMSD [kPa]",
-        "R2 [-]",
-        "lack of fit",
-    ]
+    header = ["Profile", "status", *_PARAM_COLUMNS, "RMSD [kPa]", "R2 [-]", "lack of fit"]
     rows = []
     for r in results:
-        p = r.params if r.ok else None
-        rows.append(
-            [
-                r.id,
-                r.status,
-                None if p is None else p.kc,
-                None if p is None else p.kphi,
-                None if p is None else p.n,
-                None if p is None else p.cc,
-                None if p is None else p.phic_deg,
-                _f(r.rmsd) if r.ok else None,
-                _f(r.r2_ci) if r.ok else None,
-                ("yes" if r.lack_of_fit else "no") if r.ok else r.error,
-            ]
-        )
+        if r.ok:
+            p, fit = r.params, "yes" if r.lack_of_fit else "no"
+            cells = [p.kc, p.kphi, p.n, p.cc, p.phic_deg, _f(r.rmsd), _f(r.r2_ci), fit]
+        else:
+            cells = [None] * 7 + [r.error]
+        rows.append([r.id, r.status, *cells])
     n_ok = sum(1 for r in results if r.ok)
     return _table(f"{len(rows)} predictions ({n_ok} fitted)", header, rows)
 
@@ -176,28 +149,11 @@ def predictions_html(results: Sequence[Any]) -> str:
 def learn_html(res: Any) -> str:
     """Table of a :class:`terracone.inverse.LearnResult`."""
     rows = _param_rows(res.params)
-    rows.append(
-        ["RMSD of CI", res.rmsd_ci, "kPa", float(u.pressure_from_si(res.rmsd_ci, "us")), "psi"]
-    )
-    rows.append(
-        [
-            "RMSD of plates",
-            res.rmsd_plates,
-            "kPa",
-            float(u.pressure_from_si(res.rmsd_plates, "us")),
-            "psi",
-        ]
-    )
+    rows += [_kpa_row("RMSD of CI", res.rmsd_ci), _kpa_row("RMSD of plates", res.rmsd_plates)]
     if res.plate_pair:
-        rows.append(
-            [
-                "plate radii",
-                ", ".join(fmt_value(r * 100.0, 4) for r in res.plate_pair),
-                "cm",
-                ", ".join(fmt_value(r / u.INCH, 4) for r in res.plate_pair),
-                "in",
-            ]
-        )
+        cm = ", ".join(fmt_value(r * 100.0, 4) for r in res.plate_pair)
+        inch = ", ".join(fmt_value(r / u.INCH, 4) for r in res.plate_pair)
+        rows.append(["plate radii", cm, "cm", inch, "in"])
     if res.undetermined:
         rows.append(["undetermined", ", ".join(res.undetermined), "", "", ""])
     crit: Mapping[str, Any] = res.criteria or {}
@@ -213,15 +169,7 @@ def layered_html(res: Any) -> str:
         return _table(
             f"Layered fit {res.id}: not fitted", ["Profile", "error"], [[res.id, res.error]]
         )
-    header = [
-        "Layer",
-        "top [cm]",
-        "kc [kN/m^(n+1)]",
-        "kphi [kN/m^(n+2)]",
-        "n [-]",
-        "cc [kPa]",
-        "phic [deg]",
-    ]
+    header = ["Layer", "top [cm]", *_PARAM_COLUMNS]
     tops = [0.0, *res.interfaces]
     rows = [
         [str(k + 1), tops[k] * 100.0, p.kc, p.kphi, p.n, p.cc, p.phic_deg]

@@ -1,26 +1,10 @@
 """The result model of the prediction process and its one versioned schema.
 
-One profile's fit is a :class:`PredictionResult`: the parameters of the
-improved cone model (eqs. (2-2) to (2-7) of [1]_) that minimise the RMSD
-between measured and model CI (section 3.3.2 of [1]_), with the fields of
-:class:`scipy.optimize.OptimizeResult` (``params`` in place of ``x``,
-``success``, ``status``, ``message``, ``nfev``, ``nit``) and what terracone
-adds: the fit's statistics, the identifiability analysis, and, when asked
-for, the posterior, the layered fit and the predicted plate curves.
-
-Many results (:class:`PredictionResults`) are written by one JSON writer
-(:func:`to_document`, :func:`to_json`, :func:`write_json`) and one Parquet
-writer (:func:`to_table`, :func:`write_parquet`), both following the schema
-:data:`SCHEMA` (``"terracone.prediction/1"``), documented field by field in
-``docs/results.md``.  ``terracone predict --json`` and ``--parquet``,
-:func:`terracone.apps.reproduce.reproduce`, ``terracone demo --out`` and
-``terracone batch`` write through them, and ``terracone report`` tells a
-prediction document by its ``schema`` key (:func:`check_schema`).
-
-``status`` keeps its values "ok" and "error" (a JSON contract since the
-first release); :attr:`PredictionResult.success` is ``status == "ok"``, and
-``message`` says why the solver stopped or, for an error, why the profile
-could not be fitted.
+One profile's fit is a :class:`PredictionResult` (the fields of
+:class:`scipy.optimize.OptimizeResult` and terracone's own); many are
+:class:`PredictionResults`, written by one JSON writer (:func:`to_document`)
+and one Parquet writer (:func:`to_table`) following :data:`SCHEMA`.
+``docs/results.md`` lists the writers and documents the schema field by field.
 
 References
 ----------
@@ -156,14 +140,10 @@ class PlateCurve:
     sinkage : ndarray
         Sinkages [m].
     pressure : ndarray
-        Predicted pressure [kPa]: Bekker's eq. (2-2) of [1]_, or RM1 below
-        r_min (section 3.2 of [1]_).
+        Predicted pressure [kPa]: Bekker's eq. (2-2), or RM1 below r_min
+        (section 3.2).
 
     ``curve["radius"]`` reads a field too (plate curves used to be dicts).
-
-    References
-    ----------
-    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, as in :mod:`terracone.result`.
     """
 
     radius: float
@@ -225,7 +205,7 @@ class PosteriorSummary:
         n = self.intervals.get("n", (1.0, 1.0))
         mid = 0.5 * (n[0] + n[1])
         return {
-            "intervals": _intervals_from_si(self.intervals, mid, units),
+            "intervals": _intervals(self.intervals, mid, units, False),
             "identifiability": dict(self.identifiability),
         }
 
@@ -233,12 +213,7 @@ class PosteriorSummary:
         """The draws as ``{"names", "units", "values"}`` (each converted with its own n)."""
         if self.samples is None:
             return None
-        s = np.array(self.samples, dtype=float)
-        if units != "si":
-            n = s[:, 2]
-            s[:, 0] = u.kc_from_si(s[:, 0], n, units)
-            s[:, 1] = u.kphi_from_si(s[:, 1], n, units)
-            s[:, 3] = u.pressure_from_si(s[:, 3], units)
+        s = _convert_samples(self.samples, units, to_si=False)
         return {"names": list(UQ_PARAMS), "units": units, "values": s.tolist()}
 
 
@@ -406,13 +381,10 @@ class PredictionResult:
 
     @property
     def ok(self) -> bool:
-        """True when fitted (``status == "ok"``)."""
+        """True when fitted (``status == "ok"``); ``success`` is OptimizeResult's name for it."""
         return self.status == "ok"
 
-    @property
-    def success(self) -> bool:
-        """OptimizeResult's ``success``: ``status == "ok"``."""
-        return self.status == "ok"
+    success = ok
 
     @property
     def fun(self) -> float:
@@ -478,9 +450,7 @@ class PredictionResult:
         d["undetermined"] = list(self.undetermined)
         d["phic_range_deg"] = list(self.phic_range) if self.phic_range else None
         if self.ok and self.params is not None:
-            d["profile_intervals"] = _intervals_from_si(
-                self.profile_intervals, self.params.n, units
-            )
+            d["profile_intervals"] = _intervals(self.profile_intervals, self.params.n, units, False)
         d["solver"] = self.solver
         d["diagnostics"] = {
             "nfev": self.nfev,
@@ -521,14 +491,6 @@ class PredictionResults(list):
 
         return predictions_html(self)
 
-    def to_document(self, units: str = "si", **kwargs: Any) -> dict[str, Any]:
-        """:func:`to_document` of these results."""
-        return to_document(self, units, **kwargs)
-
-    def to_table(self, units: str = "si") -> pa.Table:
-        """:func:`to_table` of these results."""
-        return to_table(self, units)
-
 
 def _num(v: Any) -> float | None:
     v = float(v)
@@ -536,7 +498,7 @@ def _num(v: Any) -> float | None:
 
 
 def _intervals(iv: Mapping[str, Sequence[float]], n: float, units: str, to_si: bool) -> dict:
-    """Intervals of kc, kphi (with n), cc and the unitless rest, to or from SI."""
+    """Intervals of kc, kphi (with n), cc and the unitless rest, to or from SI (lists)."""
     kc, kphi = (u.kc_to_si, u.kphi_to_si) if to_si else (u.kc_from_si, u.kphi_from_si)
     p = u.pressure_to_si if to_si else u.pressure_from_si
     conv = {"kc": lambda v: kc(v, n, units), "kphi": lambda v: kphi(v, n, units)}
@@ -544,8 +506,14 @@ def _intervals(iv: Mapping[str, Sequence[float]], n: float, units: str, to_si: b
     return {k: [float(conv.get(k, float)(v)) for v in lohi] for k, lohi in iv.items()}
 
 
-def _intervals_from_si(iv: Mapping[str, Sequence[float]], n: float, units: str) -> dict:
-    return _intervals(iv, n, units, to_si=False)
+def _convert_samples(samples: Any, units: str, to_si: bool) -> np.ndarray:
+    """Draws (kc, kphi, n, cc, phic_deg) to or from SI, kc and kphi each with its own n."""
+    s = np.array(samples, dtype=float)
+    if units != "si":
+        kc, kphi = (u.kc_to_si, u.kphi_to_si) if to_si else (u.kc_from_si, u.kphi_from_si)
+        s[:, 0], s[:, 1] = kc(s[:, 0], s[:, 2], units), kphi(s[:, 1], s[:, 2], units)
+        s[:, 3] = (u.pressure_to_si if to_si else u.pressure_from_si)(s[:, 3], units)
+    return s
 
 
 def _intervals_to_si(iv: Mapping[str, Sequence[float]], n: float, units: str) -> dict:
@@ -683,29 +651,22 @@ def check_schema(doc: Any, source: str | None = None) -> int:
     return version
 
 
-_FIT_KEYS = {
+#: Keys of a document profile that _result_from_dict reads (the others go to ``extra``).
+_READ_KEYS = {
     *("id", "status", "error", "kc", "kphi", "n", "cc", "phic_deg", "Kc", "model", "r_min"),
     *("rmsd", "r2_ci", "longest_run", "lack_of_fit", "units", "undetermined"),
     *("phic_range_deg", "profile_intervals", "solver", "diagnostics", "cone", "metadata"),
     *("notes", "source", "depth", "ci", "ci_model", "plates", "error_row", "error_column"),
+    *("intervals", "identifiability", "samples"),  # the posterior
 }
-
-
-_POSTERIOR_KEYS = {"intervals", "identifiability", "samples"}
 
 
 def _samples_to_si(block: Mapping[str, Any]) -> np.ndarray:
     names = list(block.get("names", []))
     if names != list(UQ_PARAMS):
         raise ValueError(f"samples: expected columns {list(UQ_PARAMS)} (got {names})")
-    s = np.array(block["values"], dtype=float).reshape(-1, len(UQ_PARAMS))
-    units = u.check_system(block.get("units", "si"))
-    if units != "si":
-        n = s[:, 2]
-        s[:, 0] = u.kc_to_si(s[:, 0], n, units)
-        s[:, 1] = u.kphi_to_si(s[:, 1], n, units)
-        s[:, 3] = u.pressure_to_si(s[:, 3], units)
-    return s
+    s = np.reshape(block["values"], (-1, len(UQ_PARAMS)))
+    return _convert_samples(s, u.check_system(block.get("units", "si")), to_si=True)
 
 
 def _posterior_from_dict(
@@ -772,7 +733,7 @@ def _result_from_dict(p: Mapping[str, Any], units: str) -> PredictionResult:
         metadata=dict(p.get("metadata") or {}),
         notes=list(p.get("notes") or []),
         source=p.get("source"),
-        extra={k: v for k, v in p.items() if k not in _FIT_KEYS | _POSTERIOR_KEYS},
+        extra={k: v for k, v in p.items() if k not in _READ_KEYS},
         error_row=p.get("error_row"),
         posterior=posterior,
         error_column=p.get("error_column"),
@@ -939,19 +900,15 @@ def result_columns(results: Sequence[PredictionResult], units: str = "si") -> di
     units = u.check_system(units)
     P = len(results)
     cols: dict[str, Any] = empty_columns(P)
+    for k in ("status", "error", "error_row", "error_column", "cone", "source"):
+        cols[k] = _objects([getattr(r, k) for r in results])
     cols.update(
         profile=_objects([r.id for r in results]),
-        status=_objects([r.status for r in results]),
-        error=_objects([r.error for r in results]),
-        error_row=_objects([r.error_row for r in results]),
-        error_column=_objects([r.error_column for r in results]),
         n_points=_objects([None if r.depth is None else len(r.depth) for r in results]),
         undetermined=_objects([";".join(r.undetermined) if r.ok else None for r in results]),
         model=_objects([None if r.params is None else r.params.model for r in results]),
         r_min=np.full(P, np.nan),
         units=_objects([units] * P),
-        cone=_objects([r.cone for r in results]),
-        source=_objects([r.source for r in results]),
         fit_time_s=np.array([r.time_s for r in results], dtype=float),
     )
     fitted = np.array([r.params is not None for r in results], dtype=bool)
@@ -1065,13 +1022,10 @@ def _row_params(row: Mapping[str, Any], units: str) -> TerrainParameters | None:
 
 
 def _row_posterior(row: Mapping[str, Any], units: str, n: float) -> PosteriorSummary | None:
-    if all(_cell(row, f"{p}_q05") is None for p in UQ_PARAMS):
+    iv = {p: [_cell(row, f"{p}_q05"), _cell(row, f"{p}_q95")] for p in UQ_PARAMS}
+    iv = {p: lohi for p, lohi in iv.items() if lohi[0] is not None}
+    if not iv:
         return None
-    iv = {
-        p: [_cell(row, f"{p}_q05"), _cell(row, f"{p}_q95")]
-        for p in UQ_PARAMS
-        if _cell(row, f"{p}_q05") is not None
-    }
     ident = {p: _cell(row, f"ident_{p}") for p in UQ_PARAMS if _cell(row, f"ident_{p}")}
     return PosteriorSummary(_intervals_to_si(iv, n, units), ident)
 

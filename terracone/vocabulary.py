@@ -1,18 +1,8 @@
 """One name per concept: the parameter vocabulary of terracone.
 
-Every terrain parameter has one name in the Python API, and the JSON keys,
-CLI flags and terrain-library keys that earlier releases fixed (contracts,
-kept as they are).  :data:`NAMES` is that table; ``docs/physics.md`` shows
-it.
-
-Rules of the Python names:
-
-* angles carry their unit, ``_deg`` (``phic_deg``, ``phi_deg``), as the JSON
-  keys always did;
-* the cone (metal)-terrain shear parameters carry ``c`` or ``_cone``
-  (``cc``, ``phic_deg``, ``K_cone``), the terrain's internal shear none
-  (``c``, ``phi_deg``, ``K`` of :class:`terracone.data.TerrainShear`);
-* the held ratio kc/kphi [m] is ``kc_over_kphi``.
+Every terrain parameter has one name in the Python API beside the JSON keys,
+CLI flags and terrain-library keys that earlier releases fixed (contracts).
+:data:`NAMES` is that table; ``docs/physics.md`` shows it with the naming rules.
 
 References
 ----------
@@ -58,76 +48,23 @@ class Name:
     unit: str
 
 
-#: The vocabulary (see ``docs/physics.md``).
-NAMES: tuple[Name, ...] = (
-    Name(
-        "Bekker cohesive modulus",
-        "k_c",
-        "kc",
-        "kc",
-        "--kc; --bounds kc=LO:HI",
-        "kc",
-        "kN/m^(n+1) (lb/in^(n+1))",
-    ),
-    Name(
-        "Bekker frictional modulus",
-        "k_phi",
-        "kphi",
-        "kphi",
-        "--kphi; --bounds kphi=LO:HI",
-        "kphi",
-        "kN/m^(n+2) (lb/in^(n+2))",
-    ),
-    Name("sinkage exponent", "n", "n", "n", "--n; --bounds n=LO:HI", "n", "-"),
-    Name(
-        "cone (metal)-terrain adhesion",
-        "c_c",
-        "cc",
-        "cc",
-        "--cc; --bounds cc=LO:HI",
-        "cc",
-        "kPa (psi)",
-    ),
-    Name(
-        "cone (metal)-terrain friction angle",
-        "phi_c",
-        "phic_deg",
-        "phic_deg",
-        "--phic; --bounds phic=LO:HI",
-        "phic_deg",
-        "deg",
-    ),
-    Name(
-        "cone (metal)-terrain shear deformation parameter",
-        "K_c",
-        "K_cone",
-        "Kc",
-        "--Kc; --bounds Kc=LO:HI",
-        "Kc",
-        "m (in)",
-    ),
-    Name("terrain cohesion", "c", "c", "c", "--cohesion", "c_kpa", "kPa (psi)"),
-    Name("terrain internal friction angle", "phi", "phi_deg", "phi_deg", "", "phi_deg", "deg"),
-    Name("terrain shear deformation modulus", "K", "K", "K", "--janosi", "K_m", "m (in)"),
-    Name(
-        "ratio kc/kphi held from a calibration",
-        "k_c/k_phi",
-        "kc_over_kphi",
-        "",
-        "",
-        "",
-        "m",
-    ),
-    Name("pressure law", "RM0, RM1", "model", "model", "--model", "model", "-"),
-    Name(
-        "RM1 transition radius",
-        "r_min",
-        "r_min",
-        "r_min",
-        "--r-min",
-        "r_min",
-        "m (in)",
-    ),
+#: The vocabulary (see ``docs/physics.md``): concept | symbol | python | json | cli | library | unit.
+_TABLE = """
+Bekker cohesive modulus | k_c | kc | kc | --kc; --bounds kc=LO:HI | kc | kN/m^(n+1) (lb/in^(n+1))
+Bekker frictional modulus | k_phi | kphi | kphi | --kphi; --bounds kphi=LO:HI | kphi | kN/m^(n+2) (lb/in^(n+2))
+sinkage exponent | n | n | n | --n; --bounds n=LO:HI | n | -
+cone (metal)-terrain adhesion | c_c | cc | cc | --cc; --bounds cc=LO:HI | cc | kPa (psi)
+cone (metal)-terrain friction angle | phi_c | phic_deg | phic_deg | --phic; --bounds phic=LO:HI | phic_deg | deg
+cone (metal)-terrain shear deformation parameter | K_c | K_cone | Kc | --Kc; --bounds Kc=LO:HI | Kc | m (in)
+terrain cohesion | c | c | c | --cohesion | c_kpa | kPa (psi)
+terrain internal friction angle | phi | phi_deg | phi_deg |  | phi_deg | deg
+terrain shear deformation modulus | K | K | K | --janosi | K_m | m (in)
+ratio kc/kphi held from a calibration | k_c/k_phi | kc_over_kphi |  |  |  | m
+pressure law | RM0, RM1 | model | model | --model | model | -
+RM1 transition radius | r_min | r_min | r_min | --r-min | r_min | m (in)
+"""
+NAMES: tuple[Name, ...] = tuple(
+    Name(*(cell.strip() for cell in line.split("|"))) for line in _TABLE.strip().splitlines()
 )
 
 

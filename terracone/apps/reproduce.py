@@ -1,21 +1,12 @@
 """Re-create the paper's two case studies on synthetic data and report them.
 
-SYNTHETIC DATA.  The paper's measured curves (LETE sand, 1981; KRC, 2018)
-were never published, only the parameters fitted to them (Tables 4-1 and
-4-3) and the agreement statistics (Tables 4-2 and 4-4).  :func:`reproduce`
-therefore generates data from the published parameters with terracone's
-forward models (seeded, with the noise model :data:`NOISE_MODEL`), runs them
-through the learning, prediction and evaluation processes (posterior bands
-through :func:`terracone.apps.workflow.attach_fits`), and sets the results
-beside the published tables.  ``docs/report.md`` describes the data, the
-noise model and how to read the comparison.
-
-Layout: each case study is one spec (its data generator, file names, and
-per report section the tables and figures with their keys, titles, notes
-and captions); one builder per kind of table or figure reads it, so what
-LETE and KRC share is written once.  The learning runs, the posteriors and
-the figures go through a ``pool`` with a ``map`` method (as in emcee): a
-process pool by default, the builtin ``map`` with ``workers=1``.
+SYNTHETIC DATA: generated from the published parameters (Tables 4-1 and
+4-3) with the noise model :data:`NOISE_MODEL`, then learned, predicted and
+evaluated beside the published tables; ``docs/report.md`` explains the data
+and how to read the comparison.  Each case study is one spec (``_CASES``)
+read by one builder per kind of table or figure; the learning runs,
+posteriors and figures go through a ``pool`` with a ``map`` method (as in
+emcee).
 
 References
 ----------
@@ -86,16 +77,7 @@ KRC_PLATES = {"D=10cm": 2.0 * u.INCH, "D=15cm": 3.0 * u.INCH}  # 4 in and 6 in d
 KRC_FORCE_LIMIT = 1500.0 * u.LBF  # [N]
 #: Wong's LETE sand values (section 2 of the paper; Wong, 1981), SI.
 WONG_LETE = {"kc": 102.0, "kphi": 5301.0, "n": 0.79}
-KRC_FIGURE = {
-    "KRC_1": "4-3",
-    "KRC_2": "4-4",
-    "KRC_3": "4-5",
-    "KRC_4": "4-6",
-    "KRC_7": "4-7",
-    "KRC_9": "4-8",
-    "KRC_24": "4-9",
-    "KRC_25": "4-10",
-}
+KRC_FIGURE = {f"KRC_{site}": f"4-{k}" for k, site in enumerate((1, 2, 3, 4, 7, 9, 24, 25), 3)}
 LABEL = "SYNTHETIC"
 SYNTHETIC_TEXT = (
     "Every curve, table and figure computed here comes from data that terracone generated "
@@ -103,6 +85,7 @@ SYNTHETIC_TEXT = (
     "with a stated noise model. They are not the paper's measurements, which were never "
     "published. Columns marked 'paper' are the published values."
 )
+_SYNTH = {"synthetic": True, "note": SYNTHETIC_TEXT}  # in every JSON document written
 
 NOISE_MODEL = [
     f"CI: each reading x (1 + {CI_NOISE:g} e), e ~ N(0, 1) independent; cone-base depths 0 to "
@@ -157,20 +140,6 @@ class ReproduceSummary:
     figures: dict[str, dict[str, Path]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
 
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "out_dir": str(self.out_dir),
-            "report": str(self.report),
-            "quick": self.quick,
-            "seconds": self.seconds,
-            "files": [str(f) for f in self.files],
-            "lete_learned": self.lete_learned,
-            "krc_learned": self.krc_learned,
-            "tables": {k: str(v) for k, v in self.tables.items()},
-            "figures": {k: {f: str(p) for f, p in v.items()} for k, v in self.figures.items()},
-            "notes": list(self.notes),
-        }
-
 
 # ---------------------------------------------------------------------------
 # the case studies as data
@@ -190,18 +159,16 @@ class _Section(NamedTuple):
 
     id: str
     heading: str
-    parts: tuple[str, ...]
+    parts: str  # names of the parts (keys of ``_PARTS``), separated by spaces
     full_only: bool = False  # left out of a quick run
 
 
 @dataclass(frozen=True)
 class _CaseSpec:
-    """What differs between the two case studies, as data (one column of ``_CASE_TABLE``).
+    """What differs between the two case studies (one column of ``_CASE_TABLE``).
 
-    Every table and figure the two case studies share is built by one part
-    builder (``_PARTS``) from these fields; ``tables[part]`` holds the
-    keyword arguments of the report table (key, title, notes, ...),
-    ``figures[part]`` the figure's key, title and caption.
+    The part builders (``_PARTS``) read it; ``texts[part]`` holds a table's
+    keyword arguments (key, title, notes, ...) or a figure's key, title, caption.
     """
 
     slug: str  # file names and table keys: "lete", "krc"
@@ -217,13 +184,7 @@ class _CaseSpec:
     comments: tuple[str, str]  # what each data file holds (its header)
     published_label: str
     sections: tuple[_Section, ...]
-    tables: dict[str, dict[str, Any]]
-    figures: dict[str, dict[str, Any]]
-
-    @property
-    def short(self) -> str:
-        """Label of the summary rows: "LETE", "KRC"."""
-        return self.name.split()[0]
+    texts: dict[str, dict[str, Any]]
 
 
 @dataclass
@@ -268,33 +229,16 @@ class _Case:
 
 
 def _ci_profile(site: str, p: dict[str, Any], rng: np.random.Generator, case: str) -> CIProfile:
-    ci = cone_index(
-        CI_DEPTHS,
-        kc=p["kc"],
-        kphi=p["kphi"],
-        n=p["n"],
-        cc=p["cc"],
-        phic_deg=p["phic_deg"],
-        model=GENERATING_MODEL,
-    )
+    params = {k: p[k] for k in ("kc", "kphi", "n", "cc", "phic_deg")}
+    ci = cone_index(CI_DEPTHS, **params, model=GENERATING_MODEL)
     ci = ci * (1.0 + CI_NOISE * rng.standard_normal(CI_DEPTHS.size))
-    return CIProfile(
-        site,
-        CI_DEPTHS.copy(),
-        np.round(ci, 2),
-        metadata={"case": case, "data": LABEL},
-    )
+    meta = {"case": case, "data": LABEL}
+    return CIProfile(site, CI_DEPTHS.copy(), np.round(ci, 2), metadata=meta)
 
 
 def _plate_test(pair: str, key: str, r: float, sinkage, pressure) -> PlateTest:
-    return PlateTest(
-        f"{pair}_{key.replace('=', '')}",
-        r,
-        "circular",
-        sinkage.copy(),
-        np.round(pressure, 2),
-        metadata={"pair": pair, "plate": key, "data": LABEL},
-    )
+    id_, meta = f"{pair}_{key.replace('=', '')}", {"pair": pair, "plate": key, "data": LABEL}
+    return PlateTest(id_, r, "circular", sinkage.copy(), np.round(pressure, 2), metadata=meta)
 
 
 def _lete_data(spec: _CaseSpec, pub: list[dict[str, Any]], quick: bool) -> _Case:
@@ -341,42 +285,18 @@ def _krc_data(spec: _CaseSpec, pub: list[dict[str, Any]], quick: bool) -> _Case:
 
 
 def _si(params: TerrainParameters, id_: str) -> dict[str, Any]:
-    return {
-        "id": id_,
-        "kc": params.kc,
-        "kphi": params.kphi,
-        "n": params.n,
-        "cc": params.cc,
-        "phic_deg": params.phic_deg,
-        "model": params.model,
-        "r_min": params.r_min,
-    }
+    return {"id": id_, **params.as_dict("si")}
 
 
-def _rows(evals, where, prediction: str | None = None) -> list[dict[str, Any]]:
+def _rows(evals: Sequence[PlateEvaluation], where) -> list[dict[str, Any]]:
+    """Agreement rows: prediction, plate pair (or site) and plate of the test, R .. n_points."""
+    keys = ("R", "R2", "RMSD", "CV", "n_points")
     out = []
     for e in evals:
         pair, plate = where[e.test]
-        a = e.agreement
-        out.append(
-            {
-                "prediction": prediction or e.prediction,
-                "pair": pair,
-                "plate": plate,
-                "R": a.R,
-                "R2": a.R2,
-                "RMSD": a.RMSD,
-                "CV": a.CV,
-                "n_points": a.n_points,
-            }
-        )
+        row = {"prediction": e.prediction, "pair": pair, "plate": plate}
+        out.append(row | {k: getattr(e.agreement, k) for k in keys})
     return out
-
-
-def _write_json(path: Path, obj: Any) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(dumps(obj, indent=1) + "\n")
-    return path
 
 
 def _predict_doc(
@@ -388,10 +308,9 @@ def _predict_doc(
     calibration: str | None = None,
     model: str = "rm0",
 ) -> dict[str, Any]:
-    """Prediction document of ``results`` (terracone.result's schema), plate curves attached.
+    """Prediction document of ``results``, plate curves (0 to 10 cm) attached.
 
-    ``cal_of``: profile id -> its calibration, if any (its plate pair makes
-    the RM1 secant of the predicted plate curves, 0 to 10 cm).
+    ``cal_of``: profile id -> its calibration (its plate pair makes the RM1 secant).
     """
     s = np.linspace(0.0, 0.1, 41)
     for r in results:
@@ -399,29 +318,15 @@ def _predict_doc(
         if r.ok and not r.plate_curves:
             r.plate_curves = plate_curves(r.params, radii, s, c.plate_pair if c else None)
     settings = {"model": model, "solver": "exact", "bounds": Bounds(), "calibration": calibration}
+    doc_settings = settings_dict(settings, "si")
     return to_document(
-        results,
-        "si",
-        input=input_file,
-        settings=settings_dict(settings, "si"),
-        samples=False,
-        synthetic=True,
-        note=SYNTHETIC_TEXT,
+        results, "si", input=input_file, settings=doc_settings, samples=False, **_SYNTH
     )
 
 
 def _learn_doc(res: LearnResult, terrain: str) -> dict[str, Any]:
-    d = res.as_dict("si")
-    d.update(
-        {
-            "terrain": terrain,
-            "terracone": __version__,
-            "command": "learn",
-            "synthetic": True,
-            "note": SYNTHETIC_TEXT,
-        }
-    )
-    return d
+    d = res.as_dict("si") | {"terrain": terrain, "terracone": __version__, "command": "learn"}
+    return d | _SYNTH
 
 
 def _evaluate_doc(case: _Case) -> dict[str, Any]:
@@ -430,13 +335,11 @@ def _evaluate_doc(case: _Case) -> dict[str, Any]:
         plates = [{**r, "test": f"{r['pair']} {r['plate']}", "units": "si"} for r in case.rows_cal]
     else:
         plates = [e.as_dict("si") for e in case.evals_cal]
-    return {
-        "command": "evaluate",
-        "synthetic": True,
-        "note": SYNTHETIC_TEXT,
-        "units": "si",
-        "plates": plates,
-    }
+    return {"command": "evaluate", **_SYNTH, "units": "si", "plates": plates}
+
+
+def _section(id_: str, heading: str, parts: list[dict[str, Any]]) -> dict[str, Any]:
+    return {"id": id_, "heading": heading, "parts": parts}
 
 
 def _text(s: str) -> dict[str, Any]:
@@ -447,40 +350,19 @@ def _list(items: Sequence[str]) -> dict[str, Any]:
     return {"type": "list", "items": list(items)}
 
 
-def _kv(pairs: dict[str, Any]) -> dict[str, Any]:
-    return {"type": "kv", "pairs": pairs}
-
-
 # ---------------------------------------------------------------------------
 # the pool: anything with a ``map`` (emcee's pattern)
 # ---------------------------------------------------------------------------
 
 
-def _call(task: tuple[Callable[..., Any], tuple]) -> Any:
-    """Run one ``(function, args)`` task (in a worker of the pool, or here)."""
-    fn, args = task
-    return fn(*args)
+def _call(task: Callable[[], Any]) -> Any:
+    """Run one task, a ``partial`` (in a worker of the pool, or here)."""
+    return task()
 
 
-def _mapper(pool: Any) -> Callable[..., Any]:
-    """``pool.map``, or ``pool`` itself when it is a map function (builtin ``map``)."""
-    return pool.map if hasattr(pool, "map") else pool
-
-
-def _learn_task(profiles, plates, grid):
-    return learn(profiles, plates, model="rm1", grid=grid)
-
-
-def _deferred(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> tuple:
-    """A figure to draw later: (function, args, kwargs)."""
-    return fn, args, kwargs
-
-
-def _render(spec: tuple, directory: Path, key: str) -> dict[str, Path]:
+def _render(fig: Callable[[], Any], directory: Path, key: str) -> dict[str, Path]:
     """Draw one figure and write its PNG and SVG (runs in a worker)."""
-    fn, args, kwargs = spec
-    fig = fn(*args, **kwargs)
-    return F.save_figure(fig, directory, key)
+    return F.save_figure(fig(), directory, key)
 
 
 class _Out:
@@ -491,7 +373,7 @@ class _Out:
         self.files: list[Path] = []
         self.tables: dict[str, Path] = {}
         self.figures: dict[str, dict[str, Path]] = {}
-        self.pending: list[tuple] = []
+        self.pending: list[partial] = []
 
     def rel(self, p: Path) -> str:
         return p.relative_to(self.root).as_posix()
@@ -500,30 +382,24 @@ class _Out:
         self.files.append(p)
         return p
 
+    def json(self, p: Path, obj: Any) -> None:
+        self.file(p).write_text(dumps(obj, indent=1) + "\n")
+
     def table(self, t: Table, max_rows: int | None = None) -> dict[str, Any]:
-        csv_path = self.root / "tables" / f"{t.key}.csv"
+        self.tables[t.key] = csv_path = self.file(self.root / "tables" / f"{t.key}.csv")
         t.to_csv(csv_path)
-        html_path = self.root / "tables" / f"{t.key}.html"
-        html_path.write_text(t.to_html() + "\n")
-        self.file(csv_path)
-        self.file(html_path)
-        self.tables[t.key] = csv_path
+        self.file(self.root / "tables" / f"{t.key}.html").write_text(t.to_html() + "\n")
         return {"type": "table", "table": t.to_dict(), "max_rows": max_rows}
 
-    def figure(self, spec: tuple, key: str, caption: str) -> dict[str, Any]:
-        """Queue figure ``spec`` (from :func:`_deferred`) as ``figures/key.png`` and ``.svg``."""
-        self.pending.append((_render, (spec, self.root / "figures", key)))
+    def figure(self, fig: Callable[[], Any], key: str, caption: str) -> dict[str, Any]:
+        """Queue figure ``fig`` (a ``partial``) as ``figures/key.png`` and ``.svg``."""
+        self.pending.append(partial(_render, fig, self.root / "figures", key))
         paths = {f: self.root / "figures" / f"{key}.{f}" for f in ("png", "svg")}
         for p in paths.values():
             self.file(p)
         self.figures[key] = paths
-        return {
-            "type": "figure",
-            "png": self.rel(paths["png"]),
-            "svg": self.rel(paths["svg"]),
-            "caption": caption,
-            "alt": caption.split(".")[0],
-        }
+        files = {f: self.rel(p) for f, p in paths.items()}
+        return {"type": "figure", **files, "caption": caption, "alt": caption.split(".")[0]}
 
     def render(self, mapper: Callable[..., Any]) -> None:
         """Draw the queued figures with ``mapper`` (a pool's map)."""
@@ -548,29 +424,21 @@ def reproduce(
     Parameters
     ----------
     out_dir : str or Path
-        Output folder (created; the sub-folders of an earlier run, one with
-        ``reproduce.json``, are replaced; a folder whose ``data/``,
-        ``figures/``, ``tables/`` or ``results/`` hold anything else is
-        refused with ValueError).  Written: ``data/`` (the synthetic CSV inputs),
-        ``results/`` (JSON of learn, predict and evaluate, calibrations),
-        ``figures/`` (PNG and SVG), ``tables/`` (CSV and HTML fragments),
-        ``report.html`` and ``reproduce.json`` (what ``terracone report
-        OUT_DIR`` reads).
+        Output folder, laid out as ``docs/report.md`` describes (an earlier
+        run's sub-folders are replaced; a folder with other files in
+        ``data/``, ``figures/``, ``tables/`` or ``results/`` is refused with
+        ValueError).
     quick : bool
         A small run for tests: LETE profiles LS_1, LS_2 and pairs LS_A to
         LS_C, KRC sites KRC_1 and KRC_3, a coarser learning grid, fewer
         posterior draws.
     workers : int, optional
-        Worker processes for the learning runs, the predictions and the
-        figures when no ``pool`` is given (default: 2, or 1 on a one-core
-        machine; 1 runs everything in this process with the builtin
-        ``map``).  The results do not depend on it.
+        Worker processes when no ``pool`` is given (default: 2, or 1 on a
+        one-core machine; 1: the builtin ``map`` here).  Results do not depend on it.
     pool : object with a ``map`` method, optional
-        Runs the learning runs, the predictions and the figures, as in
-        emcee: a ``concurrent.futures`` executor, a ``multiprocessing``
-        pool, or the builtin ``map`` itself.  ``pool.map(fn, tasks)`` must
-        return the results in order; the caller owns the pool (it is not
-        shut down here).  Overrides ``workers``.
+        Runs the learning runs, the predictions and the figures, as in emcee
+        (an executor, a ``multiprocessing`` pool, or ``map``); results in
+        order; the caller owns it.  Overrides ``workers``.
 
     Returns
     -------
@@ -579,7 +447,8 @@ def reproduce(
     t0 = time.perf_counter()
     root = _prepare_output(Path(out_dir))
     if pool is not None:
-        return _run(root, quick=quick, mapper=_mapper(pool), t0=t0, workers="given pool")
+        mapper = pool.map if hasattr(pool, "map") else pool  # or the builtin map itself
+        return _run(root, quick=quick, mapper=mapper, t0=t0, workers="given pool")
     workers = workers if workers is not None else min(2, os.cpu_count() or 1)
     if workers <= 1:
         return _run(root, quick=quick, mapper=map, t0=t0, workers=workers)
@@ -640,7 +509,7 @@ def _run(
         "posterior draws per profile": draws,
         "terracone": __version__,
     }
-    sections[1]["parts"] += [_text("Run:"), _kv(run)]
+    sections[1]["parts"] += [_text("Run:"), {"type": "kv", "pairs": run}]
     report = _write_report(out, sections, quick=quick, seconds=seconds)
     lete, krc = cases
     return ReproduceSummary(
@@ -663,19 +532,17 @@ def _write_inputs(out: _Out, case: _Case) -> Path:
         f"{LABEL} DATA generated by terracone.apps.reproduce; not measurements.",
         f"From the published parameters of {CITATION}.",
     ]
-    ci_name, plates_name = case.spec.files
-    ci_comment, plates_comment = case.spec.comments
-    ci_file = out.file(out.root / "data" / ci_name)
-    write_ci_profiles(ci_file, case.profiles, comment=header + [ci_comment])
-    plates_file = out.file(out.root / "data" / plates_name)
-    write_plate_tests(plates_file, case.plates, comment=header + [plates_comment])
-    return ci_file
+    data = (write_ci_profiles, case.profiles), (write_plate_tests, case.plates)
+    files = [out.file(out.root / "data" / name) for name in case.spec.files]
+    for (write, items), path, comment in zip(data, files, case.spec.comments):
+        write(path, items, comment=[*header, comment])
+    return files[0]
 
 
 def _learn_all(cases: Sequence[_Case], mapper: Callable[..., Any], grid: tuple) -> None:
     """The learning process (section 3.3.1), one run per group of every case, in the pool."""
     groups = [(case, g) for case in cases for g in case.groups]
-    tasks = [(_learn_task, (g.profiles, g.plates, grid)) for _, g in groups]
+    tasks = [partial(learn, g.profiles, g.plates, model="rm1", grid=grid) for _, g in groups]
     for (case, g), lr in zip(groups, mapper(_call, tasks)):
         case.learned[g.id] = lr
         case.cals[g.id] = lr.calibration(f"{g.id} ({LABEL})", data=LABEL)
@@ -686,11 +553,7 @@ def _predict_all(
 ) -> None:
     """Every profile predicted with and without its calibration, then posteriors in the pool.
 
-    The fits go through :func:`terracone.inverse.predict_many` (one call per
-    group's calibration and one without); each calibrated fit's posterior
-    (prior: the calibration, a second or so each) is attached by
-    :func:`terracone.apps.workflow.attach_fits`, mapped over the pool with a
-    seed per profile.
+    Posteriors (prior: the calibration) through :func:`attach_fits`, a seed per profile.
     """
     tasks = []
     for case in cases:
@@ -702,11 +565,11 @@ def _predict_all(
             s = PredictSettings(calibration=cal, prior=cal, uncertainty=True, draws=draws)
             mine = [p for p in case.profiles if case.group_of(p.id) is g]
             rc.update((p.id, (r, s)) for p, r in zip(mine, predict_many(mine, s)))
+        case.free_res += rf
         for i, p in enumerate(case.profiles):
-            case.free_res.append(rf[i])
             r, s = rc[p.id]
             s = dataclasses.replace(s, seed=case.spec.seed + i)
-            tasks.append((partial(attach_fits, plates=radii), (PredictionResults([r]), [p], s)))
+            tasks.append(partial(attach_fits, PredictionResults([r]), [p], s, plates=radii))
     attached = iter(mapper(_call, tasks))
     for case in cases:
         for p in case.profiles:
@@ -719,15 +582,12 @@ def _predict_all(
 
 def _evaluate(case: _Case) -> None:
     """Each group's predictions against its plates: calibrated, CI alone, published (control)."""
-    pub = {p["id"]: p for p in case.pub}
+    pub = {p["id"]: TerrainParameters(p["kc"], p["kphi"], p["n"]) for p in case.pub}
     for g in case.groups:
         ids = {p.id for p in g.profiles}
         cal = [(r.id, r.params) for r in case.cal_res if r.id in ids and r.ok]
         free = [(r.id, r.params) for r in case.free_res if r.id in ids and r.ok]
-        control = [
-            (p.id, TerrainParameters(pub[p.id]["kc"], pub[p.id]["kphi"], pub[p.id]["n"]))
-            for p in g.profiles
-        ]
+        control = [(p.id, pub[p.id]) for p in g.profiles]
         evals = cross_table(cal, g.plates, case.cals[g.id].plate_pair)
         case.evals_cal += evals
         case.rows_cal += _rows(evals, case.where)
@@ -744,28 +604,21 @@ def _write_results(out: _Out, case: _Case, ci_file: Path) -> None:
         cal.save(out.file(res / f"{spec.slug}_calibration{name}.json"))
     docs = {gid: _learn_doc(lr, f"{gid} ({LABEL})") for gid, lr in case.learned.items()}
     if spec.per_site:
-        learn_doc = {"synthetic": True, "note": SYNTHETIC_TEXT, "sites": docs}
+        learn_doc = {**_SYNTH, "sites": docs}
         calibration = "per site (learned on each site's CI and plates)"
     else:
         (learn_doc,) = docs.values()
         (calibration,) = (c.terrain for c in case.cals.values())
-    _write_json(out.file(res / f"{spec.slug}_learn.json"), learn_doc)
+    out.json(res / f"{spec.slug}_learn.json", learn_doc)
     common = {"input_file": out.rel(ci_file), "radii": list(spec.plates.values())}
-    _write_json(
-        out.file(res / f"{spec.slug}_predict.json"),
-        _predict_doc(
-            case.cal_res,
-            cal_of={p.id: case.cal_of(p.id) for p in case.profiles},
-            calibration=calibration,
-            model=next(iter(case.cals.values())).model,
-            **common,
-        ),
+    cal_of = {p.id: case.cal_of(p.id) for p in case.profiles}
+    model = next(iter(case.cals.values())).model
+    predicted = _predict_doc(
+        case.cal_res, cal_of=cal_of, calibration=calibration, model=model, **common
     )
-    _write_json(
-        out.file(res / f"{spec.slug}_predict_ci_only.json"),
-        _predict_doc(case.free_res, **common),
-    )
-    _write_json(out.file(res / f"{spec.slug}_evaluate.json"), _evaluate_doc(case))
+    out.json(res / f"{spec.slug}_predict.json", predicted)
+    out.json(res / f"{spec.slug}_predict_ci_only.json", _predict_doc(case.free_res, **common))
+    out.json(res / f"{spec.slug}_evaluate.json", _evaluate_doc(case))
 
 
 def _write_report(out: _Out, sections: list[dict[str, Any]], *, quick: bool, seconds: float):
@@ -781,20 +634,18 @@ def _write_report(out: _Out, sections: list[dict[str, Any]], *, quick: bool, sec
         "meta": {"output directory": str(out.root), "mode": "quick" if quick else "full"},
         "sections": sections,
     }
-    report = out.root / "report.html"
+    report = out.file(out.root / "report.html")
     report.write_text(render_document(document, out.root), encoding="utf-8")
-    out.file(report)
     manifest = {
         "kind": "terracone-reproduce",
         "terracone": __version__,
-        "synthetic": True,
-        "note": SYNTHETIC_TEXT,
+        **_SYNTH,
         "quick": quick,
         "seconds": seconds,
         "noise_model": NOISE_MODEL,
         "document": document,
     }
-    _write_json(out.file(out.root / "reproduce.json"), manifest)
+    out.json(out.root / "reproduce.json", manifest)
     return report
 
 
@@ -812,12 +663,12 @@ def _document_sections(
         for sec in case.spec.sections:
             if sec.full_only and quick:  # one ridge figure (LETE) is enough for a quick run
                 continue
-            parts = [p for name in sec.parts for p in _PARTS[name](out, case, name)]
-            sections.append({"id": sec.id, "heading": sec.heading, "parts": parts})
+            parts = [p for name in sec.parts.split() for p in _PARTS[name](out, case, name)]
+            sections.append(_section(sec.id, sec.heading, parts))
     sections.append(_side_by_side_section(out, cases, quick))
     sections.append(_published_section(out))
     if notes:
-        sections.append({"id": "notes", "heading": "Notes from the run", "parts": [_list(notes)]})
+        sections.append(_section("notes", "Notes from the run", [_list(notes)]))
     return sections
 
 
@@ -849,7 +700,7 @@ def _about_section() -> dict[str, Any]:
         "15.24 cm): its recommendation G gives 1,500 lb as 119 and 53 psi, "
         "which holds for 4 in and 6 in diameters.",
     ]
-    return {"id": "about", "heading": "What this is", "parts": [_text(about), _list(points)]}
+    return _section("about", "What this is", [_text(about), _list(points)])
 
 
 def _data_section(cases: Sequence[_Case]) -> dict[str, Any]:
@@ -860,17 +711,13 @@ def _data_section(cases: Sequence[_Case]) -> dict[str, Any]:
         + ". Results as JSON in results/ (learn, predict, evaluate, calibrations); "
         "any of them can be turned into its own report with terracone report."
     )
-    return {
-        "id": "data",
-        "heading": "Synthetic data and noise model",
-        "parts": [_list(NOISE_MODEL), _text(inputs)],
-    }
+    return _section("data", "Synthetic data and noise model", [_list(NOISE_MODEL), _text(inputs)])
 
 
 def _side_by_side_section(out: _Out, cases: Sequence[_Case], quick: bool) -> dict[str, Any]:
     groups = []
     for case in cases:
-        s = case.spec.short
+        s = case.spec.name.split()[0]  # "LETE", "KRC"
         groups += [
             (f"{s} ours, with calibration", case.rows_cal),
             (f"{s} ours, CI alone", case.rows_free),
@@ -887,37 +734,24 @@ def _side_by_side_section(out: _Out, cases: Sequence[_Case], quick: bool) -> dic
             else "All rows of each table."
         ],
     )
-    lete, krc = cases
-    return {
-        "id": "side-by-side",
-        "heading": "Ours beside the paper: where and why they differ",
-        "parts": [out.table(t_sum)] + [_text(x) for x in _reading(lete, krc, quick)],
-    }
+    parts = [out.table(t_sum)] + [_text(x) for x in _reading(*cases, quick)]
+    return _section("side-by-side", "Ours beside the paper: where and why they differ", parts)
 
 
 def _published_section(out: _Out) -> dict[str, Any]:
-    tables = []
-    for tab_id in ("4-1", "4-3"):
-        tables.append(
-            parameters_table(
-                published_parameters(tab_id),
-                key=f"published_table_{tab_id.replace('-', '_')}",
-                title=f"Published Table {tab_id} (package data)",
-                notes=[f"Source: {CITATION}, Table {tab_id}."],
-            )
-        )
-    for tab_id, same_site in (("4-2", False), ("4-4", True)):
-        rows = published_agreement(tab_id)
-        tables.append(
-            agreement_table(
-                rows,
-                plates=list(dict.fromkeys(r["plate"] for r in rows)),
-                key=f"published_table_{tab_id.replace('-', '_')}",
-                title=f"Published Table {tab_id} (package data)",
-                same_site=same_site,
-                notes=[f"Source: {CITATION}, Table {tab_id}. psi columns recomputed from kPa."],
-            )
-        )
+    def text(tab: str, note: str = "") -> dict[str, Any]:
+        return {
+            "key": f"published_table_{tab.replace('-', '_')}",
+            "title": f"Published Table {tab} (package data)",
+            "notes": [f"Source: {CITATION}, Table {tab}.{note}"],
+        }
+
+    tables = [parameters_table(published_parameters(tab), **text(tab)) for tab in ("4-1", "4-3")]
+    for tab, same_site in (("4-2", False), ("4-4", True)):
+        rows = published_agreement(tab)
+        plates = list(dict.fromkeys(r["plate"] for r in rows))
+        note = " psi columns recomputed from kPa."
+        tables.append(agreement_table(rows, plates=plates, same_site=same_site, **text(tab, note)))
     bad = us_column_check()
     check = (
         "The printed US columns of Tables 4-1 and 4-3 agree with the SI columns converted by "
@@ -930,26 +764,13 @@ def _published_section(out: _Out) -> dict[str, Any]:
             for b in bad
         )
     )
-    return {
-        "id": "published",
-        "heading": "The published tables",
-        "parts": [_text(check)] + [out.table(t) for t in tables],
-    }
+    parts = [_text(check)] + [out.table(t) for t in tables]
+    return _section("published", "The published tables", parts)
 
 
 # ---------------------------------------------------------------------------
 # the report: parts of a case study (one builder per table or figure kind)
 # ---------------------------------------------------------------------------
-
-
-def _measured_ci(profiles):
-    return [{"id": p.id, "depth": p.depth, "ci": p.ci} for p in profiles]
-
-
-def _fitted_ci(results):
-    return [
-        {"id": r.id, "depth": r.depth, "ci": r.ci, "ci_model": r.ci_model} for r in results if r.ok
-    ]
 
 
 def _bands(post: dict[str, Any] | None, id_: str) -> list[dict[str, Any]]:
@@ -960,23 +781,26 @@ def _bands(post: dict[str, Any] | None, id_: str) -> list[dict[str, Any]]:
             "id": id_,
             "label": f"{id_} 90% band, r = {b['radius'] * 100:.3g} cm",
             "radius": b["radius"],
-            "sinkage": np.asarray(b["sinkage"]),
-            "lo": np.asarray(b["lo"]),
-            "hi": np.asarray(b["hi"]),
+            **{k: np.asarray(b[k]) for k in ("sinkage", "lo", "hi")},
         }
         for b in post.get("plate_bands", [])
     ]
 
 
 def _ident_profiles(results, posts):
-    out = []
-    for r in results:
-        d = r.as_dict("si", curves=False, samples=False)
-        if posts and posts.get(r.id):
-            d["identifiability"] = posts[r.id].get("identifiability")
-            d["intervals"] = posts[r.id].get("intervals")
-        out.append(d)
+    """Result dicts (SI) with their posterior's identifiability and intervals, if any."""
+    out = [r.as_dict("si", curves=False, samples=False) for r in results]
+    for d in out:
+        if post := (posts or {}).get(d["id"]):
+            d |= {k: post.get(k) for k in ("identifiability", "intervals")}
     return out
+
+
+def _curve(id_: str, b: float, sinkage, pressure, label: str | None = None) -> dict[str, Any]:
+    """A plate curve of the figures: id, radius [m], sinkage [m], pressure [kPa], label."""
+    return {"id": id_, "radius": b, "sinkage": sinkage, "pressure": pressure} | (
+        {"label": label} if label else {}
+    )
 
 
 def _rmin_mm(r: dict[str, Any]) -> float | None:
@@ -993,9 +817,9 @@ def _parameters_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
             ("R2 of CI", "", lambda r: r["r2"]),
         ),
         synthetic=True,
-        **case.spec.tables[name],
+        **case.spec.texts[name],
     )
-    _mark_bounds(t, [_si(r.params, r.id) for r in ok])
+    mark_bounds(t, [_si(r.params, r.id) for r in ok])
     return [out.table(t)]
 
 
@@ -1006,8 +830,10 @@ def _parameters_vs_published_part(out: _Out, case: _Case, name: str) -> list[dic
         ("ours, with calibration", [_si(r.params, r.id) for r in case.cal_res if r.ok]),
         ("ours, CI alone", [_si(r.params, r.id) for r in case.free_res if r.ok]),
     ]
-    t = parameter_comparison_table(sets, synthetic=True, **case.spec.tables[name])
-    return [out.table(t)]
+    tab = case.spec.parameter_table
+    title = f"{case.spec.name} parameters: published (Table {tab}) beside ours"
+    text = {"key": _vs_published_key(case, tab), "title": title} | case.spec.texts.get(name, {})
+    return [out.table(parameter_comparison_table(sets, synthetic=True, **text))]
 
 
 def _identifiability_part(
@@ -1018,28 +844,42 @@ def _identifiability_part(
         profiles, fixed = _ident_profiles(case.cal_res, case.posts), {"fixed": ("phic", "cc")}
     else:
         profiles, fixed = _ident_profiles(case.free_res, None), {}
-    t = identifiability_table(profiles, synthetic=True, **fixed, **case.spec.tables[name])
+    t = identifiability_table(profiles, synthetic=True, **fixed, **case.spec.texts[name])
     return [out.table(t)]
 
 
 def _agreement_part(out: _Out, case: _Case, name: str, *, rows: str) -> list[dict[str, Any]]:
     """Table 4-2/4-4 analogue of the rows ``rows_cal``, ``rows_free`` or ``rows_ctrl``."""
     t = agreement_table(
-        getattr(case, rows), plates=list(case.spec.plates), synthetic=True, **case.spec.tables[name]
+        getattr(case, rows), plates=list(case.spec.plates), synthetic=True, **case.spec.texts[name]
     )
     return [out.table(t)]
 
 
 def _agreement_vs_published_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Our agreement (with the calibration) beside the paper's, row by row."""
-    return [out.table(comparison_table(case.rows_cal, case.published, **case.spec.tables[name]))]
+    tab = case.spec.agreement_table
+    csv = f"terracone/data/paper/table_{tab.replace('-', '_')}.csv"
+    t = comparison_table(
+        case.rows_cal,
+        case.published,
+        key=_vs_published_key(case, tab),
+        title=f"Table {tab}: ours (with calibration) beside the paper",
+        notes=[f"paper: Table {tab} as published (package data {csv})."],
+    )
+    return [out.table(t)]
+
+
+def _vs_published_key(case: _Case, tab: str) -> str:
+    """Key of the table of ours beside the paper's Table ``tab`` ("4-1" .. "4-4")."""
+    return f"table_{tab.replace('-', '_')}_{case.spec.slug}_vs_published"
 
 
 def _ridge_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Not in the paper: the ridge of equally good fits of the first profile."""
-    f = case.spec.figures[name]
+    f = case.spec.texts[name]
     p0, pub0 = case.profiles[0], case.pub[0]
-    fig = _deferred(
+    fig = partial(
         F.fig_ridge,
         p0.depth,
         p0.ci,
@@ -1056,27 +896,18 @@ def _ridge_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
 def _lete_learning_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """LETE: the one calibration learned on all data, beside Wong's values."""
     (lr,) = case.learned.values()
-    spec = case.spec.tables[name]
-    rows = [
-        _si(lr.params, "learned (LETE, all data)"),
-        {
-            "id": "Wong's LETE sand values (plates' truth)",
-            **WONG_LETE,
-            "cc": None,
-            "phic_deg": None,
-        },
-    ]
+    text = dict(case.spec.texts[name])
+    wong = {"id": "Wong's LETE sand values (plates' truth)", **WONG_LETE}
+    rows = [_si(lr.params, "learned (LETE, all data)"), wong | {"cc": None, "phic_deg": None}]
+    free = "Left free by the learning data: " + (", ".join(lr.undetermined) or "none")
     t = parameters_table(
         rows,
-        key=spec["key"],
-        title=spec["title"],
-        first=spec["first"],
         extra=(("model", "", lambda r: r.get("model")), ("r_min", "mm", _rmin_mm)),
-        notes=["Left free by the learning data: " + (", ".join(lr.undetermined) or "none")]
-        + spec["notes"],
+        notes=[free, *text.pop("notes")],
         synthetic=True,
+        **text,
     )
-    _mark_bounds(t, rows, rmin_col=10, rmin_range=(5e-4, 3 * max(case.spec.plates.values())))
+    mark_bounds(t, rows, rmin_col=10, rmin_range=(5e-4, 3 * max(case.spec.plates.values())))
     return [out.table(t)]
 
 
@@ -1087,16 +918,14 @@ def _learning_datasets_part(out: _Out, case: _Case, name: str) -> list[dict[str,
         [d["id"], d["kind"], None if d.get("b") is None else d["b"] * 100, d["rmsd"], d["cv"]]
         for d in lr.datasets
     ]
-    c = lr.criteria
+    c, text = lr.criteria, case.spec.texts[name]
+    ok = "satisfied" if c["satisfied"] else "NOT satisfied"
     t = Table(
-        case.spec.tables[name]["key"],
-        case.spec.tables[name]["title"],
+        text["key"],
+        text["title"],
         [("Data set", ""), ("Kind", ""), ("Plate radius", "cm"), ("RMSD", "kPa"), ("CV", "")],
         rows,
-        notes=[
-            f"Fit criterion CV <= {c['max_cv']:g}: "
-            + ("satisfied" if c["satisfied"] else "NOT satisfied")
-        ],
+        notes=[f"Fit criterion CV <= {c['max_cv']:g}: {ok}"],
         synthetic=True,
     )
     return [out.table(t)]
@@ -1112,31 +941,25 @@ def _site_learning_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any
             ("left free", "", lambda r: ", ".join(case.learned[r["id"]].undetermined) or "-"),
         ),
         synthetic=True,
-        **case.spec.tables[name],
+        **case.spec.texts[name],
     )
-    _mark_bounds(t, rows, rmin_col=9, rmin_range=(5e-4, 3 * max(case.spec.plates.values())))
+    mark_bounds(t, rows, rmin_col=9, rmin_range=(5e-4, 3 * max(case.spec.plates.values())))
     return [out.table(t)]
 
 
 def _janosi_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Figure 2-1 analogue: the CI against the Janosi equation with Wong's values."""
-    f = case.spec.figures[name]
+    f = case.spec.texts[name]
     (lr,) = case.learned.values()
     (cal,) = case.cals.values()
-    lp = lr.params
-    fig = _deferred(
+    learned = {k: getattr(lr.params, k) for k in ("cc", "phic_deg", "model", "r_min")}
+    improved = WONG_LETE | learned | {"plate_pair": cal.plate_pair, "label": f["improved_label"]}
+    measured = [{"id": p.id, "depth": p.depth, "ci": p.ci} for p in case.profiles]
+    fig = partial(
         F.fig_janosi,
-        _measured_ci(case.profiles),
+        measured,
         WONG_LETE,
-        improved_params={
-            **WONG_LETE,
-            "cc": lp.cc,
-            "phic_deg": lp.phic_deg,
-            "model": lp.model,
-            "r_min": lp.r_min,
-            "plate_pair": cal.plate_pair,
-            "label": f["improved_label"],
-        },
+        improved_params=improved,
         params_label=f["params_label"],
         title=f["title"],
         synthetic=True,
@@ -1146,45 +969,36 @@ def _janosi_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
 
 def _ci_fit_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Figure 4-1 analogue: measured and predicted CI."""
-    f = case.spec.figures[name]
-    fig = _deferred(F.fig_ci_fit, _fitted_ci(case.cal_res), title=f["title"], synthetic=True)
+    f = case.spec.texts[name]
+    fitted = [
+        {"id": r.id, "depth": r.depth, "ci": r.ci, "ci_model": r.ci_model}
+        for r in case.cal_res
+        if r.ok
+    ]
+    fig = partial(F.fig_ci_fit, fitted, title=f["title"], synthetic=True)
     return [out.figure(fig, f["key"], f["caption"])]
 
 
 def _plates_part(out: _Out, case: _Case, name: str, *, calibrated: bool) -> list[dict[str, Any]]:
     """Figure 4-2 analogue: every plate test against every profile's prediction."""
-    f = case.spec.figures[name]
+    f = case.spec.texts[name]
     (cal,) = case.cals.values()
     results, pair = (case.cal_res, cal.plate_pair) if calibrated else (case.free_res, None)
     measured = [
-        {
-            "id": t.metadata["pair"],
-            "radius": t.b,
-            "sinkage": t.sinkage,
-            "pressure": t.pressure,
-            "label": f"{t.metadata['pair']} measured",
-        }
+        _curve(t.metadata["pair"], t.b, t.sinkage, t.pressure, f"{t.metadata['pair']} measured")
         for t in case.plates
     ]
     s = np.linspace(0.0, 0.1, 41)
     predicted = [
-        {
-            "id": r.id,
-            "radius": b,
-            "sinkage": s,
-            "pressure": predicted_plate_pressure(r.params, s, b, pair),
-            "label": f"{r.id} predicted",
-        }
+        _curve(r.id, b, s, predicted_plate_pressure(r.params, s, b, pair), f"{r.id} predicted")
         for r in results
         if r.ok
         for b in case.spec.plates.values()
     ]
-    args: tuple = (measured, predicted)
-    bands = []
-    if calibrated:  # the posterior band of the first profile
-        bands = [b for r in case.cal_res[:1] for b in _bands(case.posts.get(r.id), r.id)]
-        args += (bands,)
-    fig = _deferred(F.fig_plate_fit, *args, title=f["title"], synthetic=True)
+    # calibrated: the posterior band of the first profile
+    bands = [b for r in case.cal_res[:1] for b in _bands(case.posts.get(r.id), r.id)]
+    bands = bands if calibrated else []
+    fig = partial(F.fig_plate_fit, measured, predicted, bands, title=f["title"], synthetic=True)
     caption = f["caption"].format(
         pairs=_span(sorted({t.metadata["pair"] for t in case.plates})),
         profiles=_span([p.id for p in case.profiles]),
@@ -1195,24 +1009,21 @@ def _plates_part(out: _Out, case: _Case, name: str, *, calibrated: bool) -> list
 
 def _site_figures_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]]:
     """Figures 4-3 to 4-10 analogues: each site's CI and plates, measured and predicted."""
-    f = case.spec.figures[name]
+    f = case.spec.texts[name]
     parts = []
     for rc in case.cal_res:
         if not rc.ok:
             parts.append(_text(f"{rc.id}: not fitted ({rc.error})"))
             continue
         plates, pair = case.group_of(rc.id).plates, case.cal_of(rc.id).plate_pair
-        measured = [
-            {"id": t.id, "radius": t.b, "sinkage": t.sinkage, "pressure": t.pressure}
-            for t in plates
+        measured = [_curve(t.id, t.b, t.sinkage, t.pressure) for t in plates]
+        sinkages = [np.linspace(0.0, float(t.sinkage.max()), 41) for t in plates]
+        predicted = [
+            _curve(t.id, t.b, sk, predicted_plate_pressure(rc.params, sk, t.b, pair))
+            for t, sk in zip(plates, sinkages)
         ]
-        predicted = []
-        for t in plates:
-            sk = np.linspace(0.0, float(t.sinkage.max()), 41)
-            pressure = predicted_plate_pressure(rc.params, sk, t.b, pair)
-            predicted.append({"id": t.id, "radius": t.b, "sinkage": sk, "pressure": pressure})
         number = f["numbers"][rc.id]
-        fig = _deferred(
+        fig = partial(
             F.fig_site,
             {"id": rc.id, "depth": rc.depth, "ci": rc.ci, "ci_model": rc.ci_model},
             measured,
@@ -1230,7 +1041,7 @@ def _site_figures_part(out: _Out, case: _Case, name: str) -> list[dict[str, Any]
 
 #: Part name -> builder(out, case, name) -> report parts.  A case study's
 #: spec lists part names per section; the builder takes its text from
-#: ``spec.tables[name]`` or ``spec.figures[name]``.
+#: ``spec.texts[name]``.
 _PARTS: dict[str, Callable[[_Out, _Case, str], list[dict[str, Any]]]] = {
     "learning": _lete_learning_part,
     "learning_datasets": _learning_datasets_part,
@@ -1257,36 +1068,24 @@ _LETE_SECTIONS = (
     _Section(
         "lete-learning",
         "LETE sand: learning and Figure 2-1",
-        ("learning", "learning_datasets", "fig_janosi"),
+        "learning learning_datasets fig_janosi",
     ),
     _Section(
         "lete-prediction",
         "LETE sand: prediction (Table 4-1, Figure 4-1)",
-        (
-            "parameters",
-            "parameters_vs_published",
-            "fig_ci",
-            "identifiability",
-            "identifiability_ci_only",
-        ),
+        "parameters parameters_vs_published fig_ci identifiability identifiability_ci_only",
     ),
     _Section(
         "lete-plates",
         "LETE sand: plates (Figure 4-2, Table 4-2)",
-        (
-            "fig_plates",
-            "agreement",
-            "agreement_vs_published",
-            "agreement_control",
-            "fig_plates_ci_only",
-            "agreement_ci_only",
-        ),
+        "fig_plates agreement agreement_vs_published agreement_control fig_plates_ci_only "
+        "agreement_ci_only",
     ),
-    _Section("lete-ridge", "LETE sand: the ridge of equally good fits", ("fig_ridge",)),
+    _Section("lete-ridge", "LETE sand: the ridge of equally good fits", "fig_ridge"),
 )
 
-#: LETE sand: keyword arguments of each table part (key, title, notes, ...).
-_LETE_TABLES: dict[str, dict[str, Any]] = {
+#: LETE sand: the text of each part: a table's keyword arguments (key, title, notes, ...).
+_LETE_TEXTS: dict[str, dict[str, Any]] = {
     "learning": {
         "key": "lete_learning",
         "title": "LETE sand: learning process (section 3.3.1) on all CI profiles and plate tests",
@@ -1312,8 +1111,6 @@ _LETE_TABLES: dict[str, dict[str, Any]] = {
         ],
     },
     "parameters_vs_published": {
-        "key": "table_4_1_lete_vs_published",
-        "title": "LETE sand parameters: published (Table 4-1) beside ours",
         "notes": [
             "The published rows are the truth of the synthetic CI; 'CI alone' reports phic "
             "at the middle of the interval that fits equally well.",
@@ -1339,13 +1136,6 @@ _LETE_TABLES: dict[str, dict[str, Any]] = {
         "and those predicted from the CI (with the calibration)",
         "notes": ["r=3.75cm: plate radius 3.75 cm (1.5 in); r=5cm: radius 5 cm (1.97 in)."],
     },
-    "agreement_vs_published": {
-        "key": "table_4_2_lete_vs_published",
-        "title": "Table 4-2: ours (with calibration) beside the paper",
-        "notes": [
-            "paper: Table 4-2 as published (package data terracone/data/paper/table_4_2.csv)."
-        ],
-    },
     "agreement_control": {
         "key": "table_4_2_lete_published_parameters",
         "title": "Control: the published Table 4-1 parameters against our synthetic plate tests",
@@ -1358,10 +1148,7 @@ _LETE_TABLES: dict[str, dict[str, Any]] = {
         "key": "table_4_2_lete_ci_only",
         "title": "LETE sand, CI alone (no calibration): R, R2, RMSD, CV against the plate tests",
     },
-}
-
-#: LETE sand: key, title and caption of each figure part.
-_LETE_FIGURES: dict[str, dict[str, Any]] = {
+    # figures: key, title and caption
     "fig_janosi": {
         "key": "fig_2_1_lete_janosi",
         "title": "Figure 2-1 analogue: LETE sand CI and the Janosi equation",
@@ -1408,25 +1195,18 @@ _KRC_SECTIONS = (
     _Section(
         "krc-prediction",
         "KRC: learning and prediction (Table 4-3)",
-        (
-            "learning_per_site",
-            "parameters",
-            "parameters_vs_published",
-            "identifiability",
-            "identifiability_ci_only",
-        ),
+        "learning_per_site parameters parameters_vs_published identifiability "
+        "identifiability_ci_only",
     ),
-    _Section("krc-figures", "KRC: Figures 4-3 to 4-10", ("fig_sites",)),
+    _Section("krc-figures", "KRC: Figures 4-3 to 4-10", "fig_sites"),
     _Section(
-        "krc-agreement",
-        "KRC: Table 4-4",
-        ("agreement", "agreement_vs_published", "agreement_ci_only"),
+        "krc-agreement", "KRC: Table 4-4", "agreement agreement_vs_published agreement_ci_only"
     ),
-    _Section("krc-ridge", "KRC: the ridge of equally good fits", ("fig_ridge",), full_only=True),
+    _Section("krc-ridge", "KRC: the ridge of equally good fits", "fig_ridge", full_only=True),
 )
 
-#: KRC: keyword arguments of each table part (key, title, notes, ...).
-_KRC_TABLES: dict[str, dict[str, Any]] = {
+#: KRC: the text of each part: a table's keyword arguments (key, title, notes, ...).
+_KRC_TEXTS: dict[str, dict[str, Any]] = {
     "learning_per_site": {
         "key": "krc_learning",
         "title": "KRC: learning process per site (CI and the site's plate pair)",
@@ -1435,10 +1215,6 @@ _KRC_TABLES: dict[str, dict[str, Any]] = {
         "key": "table_4_3_krc_parameters",
         "title": "Table 4-3 analogue: parameters predicted from the KRC CI (with each "
         "site's calibration)",
-    },
-    "parameters_vs_published": {
-        "key": "table_4_3_krc_vs_published",
-        "title": "KRC parameters: published (Table 4-3) beside ours",
     },
     "identifiability": {
         "key": "krc_identifiability",
@@ -1455,22 +1231,12 @@ _KRC_TABLES: dict[str, dict[str, Any]] = {
         "same_site": True,
         "notes": ["D=10cm: the 4 in (10.16 cm) plate; D=15cm: the 6 in (15.24 cm) plate."],
     },
-    "agreement_vs_published": {
-        "key": "table_4_4_krc_vs_published",
-        "title": "Table 4-4: ours (with calibration) beside the paper",
-        "notes": [
-            "paper: Table 4-4 as published (package data terracone/data/paper/table_4_4.csv)."
-        ],
-    },
     "agreement_ci_only": {
         "key": "table_4_4_krc_ci_only",
         "title": "KRC, CI alone (no calibration): R, R2, RMSD, CV against the site's plates",
         "same_site": True,
     },
-}
-
-#: KRC: key, title and caption of each figure part.
-_KRC_FIGURES: dict[str, dict[str, Any]] = {
+    # figures: key, title and caption
     "fig_sites": {
         "numbers": KRC_FIGURE,
         "key": "fig_{number}_{lower}",
@@ -1518,8 +1284,7 @@ _CASE_TABLE: dict[str, tuple[Any, Any]] = {
         "paper (Table 4-3; generated CI and plates)",
     ),
     "sections": (_LETE_SECTIONS, _KRC_SECTIONS),
-    "tables": (_LETE_TABLES, _KRC_TABLES),
-    "figures": (_LETE_FIGURES, _KRC_FIGURES),
+    "texts": (_LETE_TEXTS, _KRC_TEXTS),
 }
 _CASES = tuple(_CaseSpec(**{name: row[i] for name, row in _CASE_TABLE.items()}) for i in range(2))
 
@@ -1534,26 +1299,12 @@ def _span(ids: Sequence[str]) -> str:
     return ids[0] if len(ids) == 1 else f"{ids[0]} to {ids[-1]}"
 
 
-def _mark_bounds(
-    table: Table,
-    rows: Sequence[dict[str, Any]],
-    *,
-    rmin_col: int | None = None,
-    rmin_range: tuple[float, float] | None = None,
-) -> Table:
-    """Highlight parameters on a bound of the default search (parameters_table layout)."""
-    b = Bounds()
-    return mark_bounds(
-        table, rows, cc=b.cc, phic_deg=b.phic_deg, n=b.n, rmin_col=rmin_col, rmin_range=rmin_range
-    )
-
-
 def _fmt(v: float, d: int = 3) -> str:
     return "-" if not math.isfinite(v) else f"{v:.{d}g}"
 
 
-def _median(rows, key, plate=None):
-    v = [r[key] for r in rows if (plate is None or r["plate"] == plate) and r[key] is not None]
+def _median(rows, key):
+    v = [r[key] for r in rows if r[key] is not None]
     return float(np.median(v)) if v else float("nan")
 
 
@@ -1565,14 +1316,10 @@ def _corr(a, b):
 
 
 def _paired(ours, published, key):
+    """Values of ``key`` in ours and in the paper's table, of the rows both have."""
     pub = {(r["prediction"], r["pair"], r["plate"]): r[key] for r in published}
-    a, b = [], []
-    for r in ours:
-        k = (r["prediction"], r["pair"], r["plate"])
-        if k in pub:
-            a.append(r[key])
-            b.append(pub[k])
-    return a, b
+    ids = [(r["prediction"], r["pair"], r["plate"]) for r in ours]
+    return [r[key] for r, k in zip(ours, ids) if k in pub], [pub[k] for k in ids if k in pub]
 
 
 def _reading(lete: _Case, krc: _Case, quick: bool) -> list[str]:
@@ -1581,64 +1328,66 @@ def _reading(lete: _Case, krc: _Case, quick: bool) -> list[str]:
     lc, lf, lk, lp = lete.rows_cal, lete.rows_free, lete.rows_ctrl, lete.published
     kc_, kf, kk, kpub = krc.rows_cal, krc.rows_free, krc.rows_ctrl, krc.published
     a, b = _paired(lk, lp, "CV")
+
+    def med(rows: list[dict[str, Any]], key: str = "CV") -> str:
+        return _fmt(_median(rows, key))
+
+    def top(rows: list[dict[str, Any]], key: str = "CV") -> str:
+        return _fmt(max((r[key] for r in rows), default=float("nan")))
+
     out.append(
-        f"LETE sand, R and R2. Ours (with calibration) have median R2 {_fmt(_median(lc, 'R2'))}, "
-        f"the paper {_fmt(_median(lp, 'R2'))} (range {_fmt(min(r['R2'] for r in lp))} to "
-        f"{_fmt(max(r['R2'] for r in lp))}). Our 'measured' plate curves are exact Bekker curves "
-        "with 2% white noise, so any Bekker-shaped prediction correlates almost perfectly with "
-        "them; R measures shape, and the real LETE plate curves departed from the Bekker shape "
-        "in ways nobody can re-create without the measurements. R2 is therefore higher in ours "
-        "by construction, not because the method does better."
+        f"LETE sand, R and R2. Ours (with calibration) have median R2 {med(lc, 'R2')}, the paper "
+        f"{med(lp, 'R2')} (range {_fmt(min(r['R2'] for r in lp))} to {top(lp, 'R2')}). Our "
+        "'measured' plate curves are exact Bekker curves with 2% white noise, so any Bekker-shaped "
+        "prediction correlates almost perfectly with them; R measures shape, and the real LETE "
+        "plate curves departed from the Bekker shape in ways nobody can re-create without the "
+        "measurements. R2 is therefore higher in ours by construction, not because the method does "
+        "better."
     )
     out.append(
-        f"LETE sand, RMSD and CV. These measure the level of the predicted curves against the "
-        f"plates. Ours: median CV {_fmt(_median(lc, 'CV'))} (RMSD {_fmt(_median(lc, 'RMSD'))} "
-        f"kPa); paper: median CV {_fmt(_median(lp, 'CV'))} (RMSD {_fmt(_median(lp, 'RMSD'))} "
-        f"kPa). The control row (the paper's own Table 4-1 parameters against our synthetic "
-        f"plates, no inversion) has median CV {_fmt(_median(lk, 'CV'))}; its CVs correlate with "
-        f"the paper's row by row at r = {_fmt(_corr(a, b), 2)}. The mismatch the paper reports is "
-        "mostly the gap between the parameters the CI implies (Table 4-1) and those the plates "
-        "imply (Wong's values), which our synthetic setup carries over by construction; where "
-        "ours and the paper differ in level, the cause is the plates: Wong's Bekker fit to them "
-        "stands in for the unpublished curves, and our pair-to-pair spread (10%) is assumed."
+        "LETE sand, RMSD and CV. These measure the level of the predicted curves against the "
+        f"plates. Ours: median CV {med(lc, 'CV')} (RMSD {med(lc, 'RMSD')} kPa); paper: median CV "
+        f"{med(lp, 'CV')} (RMSD {med(lp, 'RMSD')} kPa). The control row (the paper's own Table 4-1 "
+        f"parameters against our synthetic plates, no inversion) has median CV {med(lk, 'CV')}; "
+        f"its CVs correlate with the paper's row by row at r = {_fmt(_corr(a, b), 2)}. The "
+        "mismatch the paper reports is mostly the gap between the parameters the CI implies (Table "
+        "4-1) and those the plates imply (Wong's values), which our synthetic setup carries over "
+        "by construction; where ours and the paper differ in level, the cause is the plates: "
+        "Wong's Bekker fit to them stands in for the unpublished curves, and our pair-to-pair "
+        "spread (10%) is assumed."
     )
     out.append(
-        f"LETE sand, CI alone. Without the learned calibration the median CV is "
-        f"{_fmt(_median(lf, 'CV'))} (up to {_fmt(max((r['CV'] for r in lf), default=float('nan')))}"
-        "): the cone barely separates kc from kphi (their columns in eq. (2-7) are nearly "
-        "collinear) and phic trades exactly against their common scale, so a CI profile alone "
-        "does not fix the plate pressure. The paper's Table 4-1 phic values (10 to 12.5 deg) are "
-        "one point each on a flat valley (ridge figure); the learning with plates is what "
-        "pins them."
+        f"LETE sand, CI alone. Without the learned calibration the median CV is {med(lf, 'CV')} "
+        f"(up to {top(lf)}): the cone barely separates kc from kphi (their columns in eq. (2-7) "
+        "are nearly collinear) and phic trades exactly against their common scale, so a CI profile "
+        "alone does not fix the plate pressure. The paper's Table 4-1 phic values (10 to 12.5 deg) "
+        "are one point each on a flat valley (ridge figure); the learning with plates is what pins "
+        "them."
     )
     out.append(
-        f"KRC. Our plates were generated from the same Table 4-3 parameters as the CI (the "
-        f"KRC plate measurements were never published), so our Table 4-4 analogue tests only "
-        f"whether the inversion recovers its own truth: median R2 {_fmt(_median(kc_, 'R2'))}, "
-        f"median CV {_fmt(_median(kc_, 'CV'))}, near the 2% plate noise (the published "
-        f"parameters themselves reach median CV {_fmt(_median(kk, 'CV'))} against these "
-        f"plates). The paper's Table 4-4 "
-        f"(median R2 {_fmt(_median(kpub, 'R2'))}, CV {_fmt(_median(kpub, 'CV'))}, up to "
-        f"{_fmt(max(r['CV'] for r in kpub))} for KRC_9 with the 15 cm plate) measures real "
-        "disagreement between cone and plates: layered soil (KRC_9 is two-layered), plate "
-        "curves that are not Bekker-shaped, the 6 in plate stopped at 53 psi. None of that "
-        "exists in synthetic data from one parameter set, so the KRC comparison is a "
+        "KRC. Our plates were generated from the same Table 4-3 parameters as the CI (the KRC "
+        "plate measurements were never published), so our Table 4-4 analogue tests only whether "
+        f"the inversion recovers its own truth: median R2 {med(kc_, 'R2')}, median CV "
+        f"{med(kc_, 'CV')}, near the 2% plate noise (the published parameters themselves reach "
+        f"median CV {med(kk, 'CV')} against these plates). The paper's Table 4-4 (median R2 "
+        f"{med(kpub, 'R2')}, CV {med(kpub, 'CV')}, up to {top(kpub)} for KRC_9 with the 15 cm "
+        "plate) measures real disagreement between cone and plates: layered soil (KRC_9 is "
+        "two-layered), plate curves that are not Bekker-shaped, the 6 in plate stopped at 53 psi. "
+        "None of that exists in synthetic data from one parameter set, so the KRC comparison is a "
         "self-consistency check, not a reproduction of the paper's agreement."
     )
     out.append(
-        f"KRC, CI alone: median CV {_fmt(_median(kf, 'CV'))}, up to "
-        f"{_fmt(max((r['CV'] for r in kf), default=float('nan')))}. Even with plates and CI "
-        "from one parameter set, the CI alone leaves the kc-kphi split and phic free; the "
-        "site's plate pair (through the calibration) fixes them. The paper predicted each "
-        "KRC site from its CI with r_min from learning; how it fixed phic on the ridge is not "
-        "stated."
+        f"KRC, CI alone: median CV {med(kf, 'CV')}, up to {top(kf)}. Even with plates and CI from "
+        "one parameter set, the CI alone leaves the kc-kphi split and phic free; the site's plate "
+        "pair (through the calibration) fixes them. The paper predicted each KRC site from its CI "
+        "with r_min from learning; how it fixed phic on the ridge is not stated."
     )
     out.append(
-        "What the data leave undetermined (identifiability tables): from a CI profile alone, "
-        "phic and the common scale of kc and kphi (exactly), and usually kphi or cc; with the "
-        "calibration, kc, kphi and n are determined and phic and cc are set by the "
-        "calibration. In learning, r_min and cc are often left free: a few CI profiles and two "
-        "plate sizes do not separate them."
+        "What the data leave undetermined (identifiability tables): from a CI profile alone, phic "
+        "and the common scale of kc and kphi (exactly), and usually kphi or cc; with the "
+        "calibration, kc, kphi and n are determined and phic and cc are set by the calibration. In "
+        "learning, r_min and cc are often left free: a few CI profiles and two plate sizes do not "
+        "separate them."
     )
     if quick:
         out.append(

@@ -1,12 +1,8 @@
 """Global sensitivity of the cone index to the terrain parameters (Sobol indices).
 
-Section 3.3 of [1]_ remarks that the cone-terrain shear deformation parameter
-Kc "has been found to have little effect".  :func:`sobol_ci` puts a number on
-that: first-order and total Sobol indices [2]_ of cone-index outputs (the
-mean CI over a depth range, the CI at a few depths) with respect to kc, kphi,
-n, cc, phic (uniform) and Kc (log-uniform) over a box (:data:`BOXES`: the
-search bounds, or LETE sand +-50%), by Saltelli's scheme in SALib [3]_.
-Results: ``docs/uncertainty.md`` (Sensitivity: does Kc matter?).
+Does Kc matter (section 3.3 of [1]_)?  :func:`sobol_ci` gives first-order and
+total Sobol indices [2]_ of the CI over a box of parameters (:data:`BOXES`),
+by Saltelli's scheme in SALib [3]_; ``docs/uncertainty.md`` has the results.
 
 References
 ----------
@@ -23,6 +19,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -42,16 +39,14 @@ __all__ = ["BOXES", "SOBOL_NAMES", "SobolBox", "SobolResult", "sobol_ci"]
 #: :attr:`TerrainParameters.phic_deg`, ``Kc`` is :attr:`TerrainParameters.K_cone`).
 SOBOL_NAMES = ("kc", "kphi", "n", "cc", "phic", "Kc")
 _FIELDS = ("kc", "kphi", "n", "cc", "phic_deg", "K_cone")
+_INDICES = ("S1", "S1_conf", "ST", "ST_conf")  # SALib's keys and SobolResult's fields
 
 
 @dataclass(frozen=True, eq=False)
 class SobolBox(Mapping):
-    """A box of terrain parameters: its lower and upper corners, SI.
+    """A box of terrain parameters: lower and upper corners (TerrainParameters, SI).
 
-    Both corners are :class:`~terracone.data.TerrainParameters`; the box
-    reads like the dict of ranges it replaces, ``box["kc"] == (lo, hi)``
-    with the keys :data:`SOBOL_NAMES` (``"phic"`` [deg], ``"Kc"`` [m],
-    log-uniform in :func:`sobol_ci`).
+    Reads as a dict of ranges, ``box["kc"] == (lo, hi)``, keys :data:`SOBOL_NAMES`.
     """
 
     lo: TerrainParameters
@@ -131,20 +126,9 @@ class SobolResult:
     time_s: float
 
     def as_dict(self) -> dict[str, Any]:
-        return {
-            "names": list(self.names),
-            "outputs": list(self.outputs),
-            "S1": self.S1,
-            "S1_conf": self.S1_conf,
-            "ST": self.ST,
-            "ST_conf": self.ST_conf,
-            "box": {k: list(v) for k, v in self.box.items()},
-            "Kc_distribution": "log-uniform",
-            "log": self.log,
-            "n_base": self.n_base,
-            "n_evals": self.n_evals,
-            "time_s": self.time_s,
-        }
+        d = dataclasses.asdict(self) | {"names": list(self.names), "outputs": list(self.outputs)}
+        box = {k: list(v) for k, v in self.box.items()}
+        return d | {"box": box, "Kc_distribution": "log-uniform"}
 
     def table(self, digits: int = 3) -> str:
         """Plain-text table: one row per output, S1 / ST per parameter."""
@@ -171,19 +155,8 @@ def _evaluate(
     law = pressure_law(model, r_min=r_min)
     out = np.empty((X.shape[0], depths.size))
     for a in range(0, X.shape[0], chunk):
-        x = X[a : a + chunk]
-        col = [x[:, j : j + 1] for j in range(6)]
-        out[a : a + chunk] = cone_index_huang(
-            depths,
-            kc=col[0],
-            kphi=col[1],
-            n=col[2],
-            cc=col[3],
-            phic_deg=col[4],
-            K_cone=col[5],
-            law=law,
-            cone=cone,
-        )
+        cols = {f: X[a : a + chunk, j : j + 1] for j, f in enumerate(_FIELDS)}
+        out[a : a + chunk] = cone_index_huang(depths, **cols, law=law, cone=cone)
     return out
 
 
@@ -238,26 +211,18 @@ def sobol_ci(
     SobolResult
     """
     t0 = time.perf_counter()
-    b = dict(BOXES[box]) if isinstance(box, str) else dict(box)
+    b = BOXES[box] if isinstance(box, str) else SobolBox.from_ranges(box)
     problem, X = _sample(b, n_base, seed)
     mean_z = np.arange(mean_range[0], mean_range[1] + mean_step / 2, mean_step)
     z = np.concatenate([mean_z, np.asarray(depths, dtype=float)])
     ci = _evaluate(X, z, cone=get_cone(cone), model=model, r_min=r_min, chunk=chunk)
-    outs = {
-        f"mean CI {100 * mean_range[0]:g}-{100 * mean_range[1]:g} cm": ci[:, : mean_z.size].mean(
-            axis=1
-        )
-    }
-    for j, d in enumerate(depths):
-        outs[f"CI at {100 * d:g} cm"] = ci[:, mean_z.size + j]
-    S1, S1c, ST, STc = _analyse(problem, outs, log, num_resamples, seed)
+    mean = f"mean CI {100 * mean_range[0]:g}-{100 * mean_range[1]:g} cm"
+    outs = {mean: ci[:, : mean_z.size].mean(axis=1)}
+    outs |= {f"CI at {100 * d:g} cm": ci[:, mean_z.size + j] for j, d in enumerate(depths)}
     return SobolResult(
         names=SOBOL_NAMES,
         outputs=tuple(outs),
-        S1=S1,
-        S1_conf=S1c,
-        ST=ST,
-        ST_conf=STc,
+        **_analyse(problem, outs, log, num_resamples, seed),
         box={k: tuple(float(v) for v in b[k]) for k in SOBOL_NAMES},
         log=log,
         n_base=n_base,
@@ -270,13 +235,9 @@ def _sample(
     b: Mapping[str, tuple[float, float]], n_base: int, seed: int | None
 ) -> tuple[dict[str, Any], np.ndarray]:
     """SALib problem and Saltelli sample (S, 6) of a box; Kc log-uniform."""
-    missing = [k for k in SOBOL_NAMES if k not in b]
-    if missing:
-        raise ValueError(f"box lacks {missing}")
     if b["Kc"][0] <= 0:
         raise ValueError("Kc range must be > 0 (log-uniform)")
-    bounds = [list(b[k]) for k in SOBOL_NAMES]
-    bounds[5] = [float(np.log10(b["Kc"][0])), float(np.log10(b["Kc"][1]))]
+    bounds = [list(b[k]) for k in SOBOL_NAMES[:5]] + [list(np.log10(b["Kc"]))]
     problem = {"num_vars": 6, "names": list(SOBOL_NAMES), "bounds": bounds}
     X = np.array(sobol_sample.sample(problem, n_base, calc_second_order=False, seed=seed), float)
     X[:, 5] = 10.0 ** X[:, 5]
@@ -284,8 +245,8 @@ def _sample(
 
 
 def _analyse(problem: dict[str, Any], outs: dict[str, np.ndarray], log, num_resamples, seed):
-    """S1, S1_conf, ST, ST_conf per output ``{output: {parameter: value}}`` (Saltelli)."""
-    S1, S1c, ST, STc = {}, {}, {}, {}
+    """{S1, S1_conf, ST, ST_conf: {output: {parameter: value}}} (Saltelli)."""
+    indices: dict[str, dict[str, dict[str, float]]] = {k: {} for k in _INDICES}
     for name, Y in outs.items():
         Yv = np.log(np.maximum(Y, 1e-300)) if log else Y
         res = sobol_analyze.analyze(
@@ -296,8 +257,6 @@ def _analyse(problem: dict[str, Any], outs: dict[str, np.ndarray], log, num_resa
             seed=seed,
             print_to_console=False,
         )
-        S1[name] = {k: float(v) for k, v in zip(SOBOL_NAMES, res["S1"])}
-        S1c[name] = {k: float(v) for k, v in zip(SOBOL_NAMES, res["S1_conf"])}
-        ST[name] = {k: float(v) for k, v in zip(SOBOL_NAMES, res["ST"])}
-        STc[name] = {k: float(v) for k, v in zip(SOBOL_NAMES, res["ST_conf"])}
-    return S1, S1c, ST, STc
+        for k in _INDICES:
+            indices[k][name] = {p: float(v) for p, v in zip(SOBOL_NAMES, res[k])}
+    return indices

@@ -1,12 +1,9 @@
 """What ``terracone predict`` computes, as one library call, and what it adds to a fit.
 
-:func:`predict_profiles` fits a set of CI profiles (section 3.3.2 of [1]_) with
-one :class:`~terracone.inverse.predict.PredictSettings` and attaches what was
-asked: predicted plate curves (eq. (2-2), RM1 of section 3.2) and, through
-:func:`attach_fits` (which ``terracone batch`` and ``reproduce`` call too),
-each fit's posterior and layered fit.  :class:`PredictRun` writes the
-``predict --json`` document and the ``--parquet`` table through
-:mod:`terracone.result`.  :class:`Reading` is how the commands read CI files.
+:func:`predict_profiles` fits CI profiles (section 3.3.2 of [1]_) with one
+:class:`~terracone.inverse.predict.PredictSettings` and attaches predicted
+plate curves (eq. (2-2), RM1 of section 3.2) and, through :func:`attach_fits`
+(shared with ``batch`` and ``reproduce``), posteriors and layered fits.
 
 References
 ----------
@@ -100,21 +97,14 @@ class Reading:
 
         ``units`` is the unit system of the notes.
         """
-        items = read_ci_profiles(
-            path,
-            cone=self.cone,
-            depth_ref=self.depth_ref,
-            format=self.format,
-            on_error=on_error,
-            units=self.file_units,
-            depth_unit=self.depth_unit,
-            ci_unit=self.ci_unit,
-        )
+        how = {
+            k: getattr(self, k) for k in ("cone", "depth_ref", "format", "depth_unit", "ci_unit")
+        }
+        items = read_ci_profiles(path, on_error=on_error, units=self.file_units, **how)
         lo, hi = self.depth_range
         if lo is None and hi is None:
             return items
-        a = "-" if lo is None else f"{float(u.length_from_si(lo, units)):g}"
-        b = "-" if hi is None else f"{float(u.length_from_si(hi, units)):g}"
+        a, b = ("-" if x is None else f"{float(u.length_from_si(x, units)):g}" for x in (lo, hi))
         span = f"depth window {a}:{b} {u.length_unit(units)}"
         out = []
         for it in items:  # the package's one depth window (terracone.data.depth_window)
@@ -144,14 +134,8 @@ class PredictRun:
     ) -> dict[str, Any]:
         """The ``terracone predict --json`` document; ``extra`` settings are recorded as given."""
         s = self.settings
-        recorded = {
-            "model": s.model,
-            "r_min": s.r_min,
-            "solver": s.solver,
-            "seed": s.seed,
-            "bounds": s.bounds,
-            "calibration": s.calibration.terrain if s.calibration else None,
-        }
+        recorded = {k: getattr(s, k) for k in ("model", "r_min", "solver", "seed", "bounds")}
+        recorded["calibration"] = s.calibration.terrain if s.calibration else None
         doc_settings = settings_dict(recorded, units, **extra)
         return to_document(self.results, units, input=input, settings=doc_settings)
 

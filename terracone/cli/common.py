@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 from pathlib import Path
@@ -11,7 +12,6 @@ import click
 import numpy as np
 
 from terracone.apps.workflow import Reading
-from terracone.data import InputError
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.predict import PredictSettings
 from terracone.physics import units as u
@@ -52,15 +52,21 @@ def parse_lengths(text: str | None, units: str, what: str) -> list[float]:
     return [parse_length(s, units, what) for s in text.split(",") if s.strip()]
 
 
+def _length_range(text: str, units: str, what: str, both: bool = False) -> list[float | None]:
+    """'LO:HI' -> [lo, hi] in m, None for an empty side (an error when ``both``)."""
+    if ":" not in text:
+        raise click.BadParameter(f"{what}: expected LO:HI, got {text!r}")
+    sides = text.split(":", 1)
+    if both and not all(s.strip() for s in sides):
+        raise click.BadParameter(f"{what}: give both LO and HI, got {text!r}")
+    return [parse_length(s, units, what) if s.strip() else None for s in sides]
+
+
 def parse_depth_range(text: str | None, units: str) -> tuple[float | None, float | None]:
     """'LO:HI' (either side may be empty; numbers with a unit suffix or in --units) -> m."""
     if not text:
         return None, None
-    if ":" not in text:
-        raise click.BadParameter(f"--depth-range: expected LO:HI, got {text!r}")
-    lo_s, hi_s = text.split(":", 1)
-    lo = parse_length(lo_s, units, "--depth-range") if lo_s.strip() else None
-    hi = parse_length(hi_s, units, "--depth-range") if hi_s.strip() else None
+    lo, hi = _length_range(text, units, "--depth-range")
     if lo is not None and hi is not None and lo >= hi:
         raise click.BadParameter(f"--depth-range: LO must be below HI, got {text!r}")
     return lo, hi
@@ -70,13 +76,7 @@ def parse_r_min_range(text: str | None, units: str) -> tuple[float, float] | Non
     """'LO:HI' of r_min (numbers with a unit suffix or in --units) -> m."""
     if not text:
         return None
-    if ":" not in text:
-        raise click.BadParameter(f"--r-min-range: expected LO:HI, got {text!r}")
-    lo_s, hi_s = text.split(":", 1)
-    if not lo_s.strip() or not hi_s.strip():
-        raise click.BadParameter(f"--r-min-range: give both LO and HI, got {text!r}")
-    lo = parse_length(lo_s, units, "--r-min-range")
-    hi = parse_length(hi_s, units, "--r-min-range")
+    lo, hi = _length_range(text, units, "--r-min-range", both=True)
     if not (0 < lo <= hi):
         raise click.BadParameter(f"--r-min-range: need 0 < LO <= HI, got {text!r}")
     return lo, hi
@@ -128,13 +128,11 @@ class Group(click.Group):
             return super().invoke(ctx)
         except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort):
             raise
-        except InputError as exc:
-            raise click.ClickException(str(exc)) from None
         except KeyError as exc:
             raise click.ClickException(str(exc.args[0]) if exc.args else repr(exc)) from None
         except OSError as exc:
             raise click.ClickException(os_error_text(exc)) from None
-        except ValueError as exc:
+        except ValueError as exc:  # InputError too
             raise click.ClickException(str(exc)) from None
         except Exception as exc:  # pragma: no cover - a bug, but no traceback for users
             if os.environ.get("TERRACONE_DEBUG"):
@@ -146,29 +144,7 @@ class Group(click.Group):
 
 def shared(*decorators):
     """Apply several click decorators as one (options common to predict and batch)."""
-
-    def apply(f):
-        for d in reversed(decorators):
-            f = d(f)
-        return f
-
-    return apply
-
-
-wide_options = (
-    click.option(
-        "--depth-unit",
-        type=click.Choice(list(u.LENGTH_UNITS)),
-        default=None,
-        help="Wide tables: unit of depth headers written as bare numbers.",
-    ),
-    click.option(
-        "--ci-unit",
-        type=click.Choice(["kpa", "mpa", "psi"]),
-        default=None,
-        help="Wide tables: unit of the readings, unless the file states it.",
-    ),
-)
+    return lambda f: functools.reduce(lambda g, d: d(g), reversed(decorators), f)
 
 
 #: --out and --json of a command that writes one JSON document.
@@ -196,7 +172,18 @@ reading_options = (
         default=None,
         help="Input format (detected by default); wide: one row per push, one column per depth.",
     ),
-    *wide_options,
+    click.option(
+        "--depth-unit",
+        type=click.Choice(list(u.LENGTH_UNITS)),
+        default=None,
+        help="Wide tables: unit of depth headers written as bare numbers.",
+    ),
+    click.option(
+        "--ci-unit",
+        type=click.Choice(["kpa", "mpa", "psi"]),
+        default=None,
+        help="Wide tables: unit of the readings, unless the file states it.",
+    ),
     click.option(
         "--depth-ref",
         type=click.Choice(["base", "tip"]),
@@ -287,6 +274,8 @@ def settings_from(opts: dict[str, Any], **fields: Any) -> PredictSettings:
 
 
 def load_calibration(calibration: str | None, terrain: str | None, library: str | None):
+    """The calibration of --calibration FILE or --terrain NAME (from the library), or None."""
+    from terracone.apps.library import Library
     from terracone.inverse.learning.learn import Calibration
 
     if calibration and terrain:
@@ -294,23 +283,17 @@ def load_calibration(calibration: str | None, terrain: str | None, library: str 
     if calibration:
         return Calibration.load(calibration)
     if terrain:
-        from terracone.apps.library import Library
-
-        rec = Library(library).get(terrain)
-        return Calibration.from_library_record(rec)
+        with Library(library) as lib:
+            return Calibration.from_library_record(lib.get(terrain))
     return None
 
 
 def load_prior(prior: str, library: str | None):
     """--prior: "bounds", or the calibration stored in the library as terrain:NAME."""
-    from terracone.apps.library import Library
-    from terracone.inverse.learning.learn import Calibration
-
     if prior == "bounds":
         return "bounds"
     if prior.startswith("terrain:"):
-        with Library(library) as lib:
-            return Calibration.from_library_record(lib.get(prior.split(":", 1)[1]))
+        return load_calibration(None, prior.split(":", 1)[1], library)
     raise click.BadParameter(f"--prior: expected bounds or terrain:NAME, got {prior!r}")
 
 

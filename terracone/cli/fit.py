@@ -66,9 +66,7 @@ from terracone.result import write_parquet
     show_default=True,
     help="Prior with --uncertainty: bounds (uniform) or terrain:NAME (a stored calibration).",
 )
-@click.option(
-    "--out", type=click.Path(dir_okay=False), default=None, help="Write the JSON here too."
-)
+@json_options[0]  # --out
 @click.option(
     "--parquet",
     "parquet_path",
@@ -76,7 +74,7 @@ from terracone.result import write_parquet
     default=None,
     help="Also write the results as a Parquet table, with batch's columns (docs/results.md).",
 )
-@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@json_options[1]  # --json
 def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts):
     """Predict kc, kphi, n, cc, phic from CI profiles (section 3.3.2)."""
     from terracone.apps.workflow import predict_profiles, sinkage_grid
@@ -100,8 +98,9 @@ def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts)
         band_sinkage=sinkage_grid(units, 21),
     )
     results = run.results
-    depth = {"depth_ref": opts["depth_ref"], "depth_range": opts["depth_range"]}
-    doc = run.as_dict(units, input=str(ci_file), **depth)
+    doc = run.as_dict(
+        units, input=str(ci_file), depth_ref=opts["depth_ref"], depth_range=opts["depth_range"]
+    )
     if out:
         emit_json(doc, out)
     if parquet_path:
@@ -228,27 +227,6 @@ def evaluate_cmd(plates_file, kc, kphi, n, params_file, units, as_json):
     click.echo(evaluate_text(rows, units))
 
 
-def _sites_doc(ci_file, by, L, cal, model, b, depth_range, target_cv, bootstrap, seed, units):
-    """The head of the ``terracone sites --json`` document (command, input, settings)."""
-    return {
-        "terracone": __version__,
-        "command": "sites",
-        "input": str(ci_file),
-        "settings": {
-            "by": by,
-            "radius": None if L is None else float(u.length_from_si(L, units)),
-            "model": cal.model if cal else model,
-            "calibration": cal.terrain if cal else None,
-            "bounds": b.as_dict(units),
-            "depth_range": depth_range,
-            "target_cv": target_cv,
-            "bootstrap": bootstrap if bootstrap is not None else (0 if cal else 40),
-            "seed": seed,
-            "units": units,
-        },
-    }
-
-
 @click.command("sites")
 @click.argument("ci_file", type=click.Path(dir_okay=False))
 @fit_options
@@ -320,19 +298,19 @@ def sites_cmd(
         bootstrap=bootstrap,
         seed=seed,
     )
-    doc = _sites_doc(
-        ci_file,
-        by,
-        L,
-        cal,
-        s.model,
-        s.bounds,
-        opts["depth_range"],
-        target_cv,
-        bootstrap,
-        seed,
-        units,
-    )
+    doc = {"terracone": __version__, "command": "sites", "input": str(ci_file)}
+    doc["settings"] = {
+        "by": by,
+        "radius": None if L is None else float(u.length_from_si(L, units)),
+        "model": cal.model if cal else s.model,
+        "calibration": cal.terrain if cal else None,
+        "bounds": s.bounds.as_dict(units),
+        "depth_range": opts["depth_range"],
+        "target_cv": target_cv,
+        "bootstrap": bootstrap if bootstrap is not None else (0 if cal else 40),
+        "seed": seed,
+        "units": units,
+    }
     doc.update(run.as_dict(units))
     if out:
         emit_json(doc, out)
@@ -371,7 +349,7 @@ def sites_cmd(
     show_default=True,
     help="Relative error of one plate reading.",
 )
-@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@json_options[1]  # --json
 def design_cmd(ci_file, prior, plates, candidates, plate_noise, as_json, **opts):
     """Value of information: which one extra test narrows the predicted plate pressure most."""
     from terracone.inverse.sites.design import parse_candidates, plan_test

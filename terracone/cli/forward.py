@@ -4,19 +4,20 @@ from __future__ import annotations
 
 import click
 
-from terracone.cli.common import (
-    UNITS,
-    echo_curve,
-    parse_floats,
-)
+from terracone.cli.common import UNITS, echo_curve, parse_floats, shared
 from terracone.physics.cone import CONES, cone_index
 from terracone.physics.plate import plate_pressure
 
+#: --kc, --kphi and --n of both commands.
+bekker_options = shared(
+    click.option("--kc", type=float, required=True, help="kc [kN/m^(n+1) or lb/in^(n+1)]."),
+    click.option("--kphi", type=float, required=True, help="kphi [kN/m^(n+2) or lb/in^(n+2)]."),
+    click.option("--n", "n", type=float, required=True, help="Sinkage exponent n [-]."),
+)
+
 
 @click.command("ci")
-@click.option("--kc", type=float, required=True, help="kc [kN/m^(n+1) or lb/in^(n+1)].")
-@click.option("--kphi", type=float, required=True, help="kphi [kN/m^(n+2) or lb/in^(n+2)].")
-@click.option("--n", "n", type=float, required=True, help="Sinkage exponent n [-].")
+@bekker_options
 @click.option(
     "--cc", type=float, default=0.0, show_default=True, help="Cone-terrain adhesion [kPa or psi]."
 )
@@ -43,29 +44,15 @@ from terracone.physics.plate import plate_pressure
 @click.option("--units", type=UNITS, default="si", show_default=True)
 @click.option("--depths", required=True, help="Cone-base depths, comma separated [m or in].")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-def ci_cmd(kc, kphi, n, cc, phic, Kc, model, r_min, cone, units, depths, as_json):
+def ci_cmd(phic, Kc, depths, as_json, **params):
     """Cone index at given depths (eqs. (2-1) to (2-7))."""
     z = parse_floats(depths, "--depths")
-    ci = cone_index(
-        z,
-        kc=kc,
-        kphi=kphi,
-        n=n,
-        cc=cc,
-        phic_deg=phic,
-        K_cone=Kc,
-        model=model,
-        r_min=r_min,
-        cone=cone,
-        units=units,
-    )
-    echo_curve(("depth", "depth"), z, ("ci", "CI"), ci, units, as_json)
+    ci = cone_index(z, phic_deg=phic, K_cone=Kc, **params)
+    echo_curve(("depth", "depth"), z, ("ci", "CI"), ci, params["units"], as_json)
 
 
 @click.command("plate")
-@click.option("--kc", type=float, required=True, help="kc [kN/m^(n+1) or lb/in^(n+1)].")
-@click.option("--kphi", type=float, required=True, help="kphi [kN/m^(n+2) or lb/in^(n+2)].")
-@click.option("--n", "n", type=float, required=True, help="Sinkage exponent n [-].")
+@bekker_options
 @click.option("--radius", type=float, default=None, help="Circular plate radius [m or in].")
 @click.option(
     "--width", type=float, default=None, help="Rectangular plate, smaller side [m or in]."
@@ -80,24 +67,13 @@ def ci_cmd(kc, kphi, n, cc, phic, Kc, model, r_min, cone, units, depths, as_json
 @click.option("--units", type=UNITS, default="si", show_default=True)
 @click.option("--sinkages", required=True, help="Sinkages, comma separated [m or in].")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-def plate_cmd(kc, kphi, n, radius, width, model, r_min, plate_pair, units, sinkages, as_json):
+def plate_cmd(plate_pair, sinkages, as_json, **params):
     """Plate pressure at given sinkages (Bekker, or RM1 of section 3.2)."""
-    if (radius is None) == (width is None):
+    if (params["radius"] is None) == (params["width"] is None):
         raise click.UsageError("give exactly one of --radius and --width")
     s = parse_floats(sinkages, "--sinkages")
     pair = tuple(parse_floats(plate_pair, "--plate-pair")) if plate_pair else None
     if pair is not None and len(pair) != 2:
         raise click.BadParameter("--plate-pair: expected two radii R1,R2")
-    p = plate_pressure(
-        s,
-        kc=kc,
-        kphi=kphi,
-        n=n,
-        radius=radius,
-        width=width,
-        model=model,
-        r_min=r_min,
-        units=units,
-        plate_pair=pair,
-    )
-    echo_curve(("sinkage", "sinkage"), s, ("pressure", "pressure"), p, units, as_json)
+    p = plate_pressure(s, plate_pair=pair, **params)
+    echo_curve(("sinkage", "sinkage"), s, ("pressure", "pressure"), p, params["units"], as_json)

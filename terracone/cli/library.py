@@ -6,13 +6,8 @@ from typing import Any
 
 import click
 
-from terracone.cli.common import (
-    Group,
-    emit_json,
-)
-from terracone.report.text import (
-    library_text,
-)
+from terracone.cli.common import Group, emit_json
+from terracone.report.text import library_text
 
 
 @click.group("library", cls=Group)
@@ -28,6 +23,13 @@ def library_grp(ctx, library_path):
     ctx.obj = {"library": library_path}
 
 
+def _open(ctx: click.Context):
+    """The library of ``--library``, imported on use (``terracone --help`` stays fast)."""
+    from terracone.apps.library import Library
+
+    return Library(ctx.obj["library"])
+
+
 @library_grp.command("list")
 @click.option(
     "--kind", default=None, help="Only this kind (reference, calibration, bevameter-fit)."
@@ -36,9 +38,7 @@ def library_grp(ctx, library_path):
 @click.pass_context
 def library_list(ctx, kind, as_json):
     """List the stored terrains."""
-    from terracone.apps.library import Library
-
-    with Library(ctx.obj["library"]) as lib:
+    with _open(ctx) as lib:
         recs = lib.list(kind)
     if as_json:
         emit_json([r.to_dict() for r in recs])
@@ -51,9 +51,7 @@ def library_list(ctx, kind, as_json):
 @click.pass_context
 def library_show(ctx, name):
     """Show one terrain (JSON, SI)."""
-    from terracone.apps.library import Library
-
-    with Library(ctx.obj["library"]) as lib:
+    with _open(ctx) as lib:
         emit_json(lib.get(name).to_dict())
 
 
@@ -77,7 +75,7 @@ def library_show(ctx, name):
 @click.pass_context
 def library_add(ctx, name, kind, params, from_json, source, replace):
     """Add a terrain."""
-    from terracone.apps.library import Library, check_params, make_provenance
+    from terracone.apps.library import check_params, make_provenance
     from terracone.io.jsonkeys import read_json
 
     p: dict[str, Any] = {}
@@ -91,7 +89,7 @@ def library_add(ctx, name, kind, params, from_json, source, replace):
             p[k.strip()] = float(v)
         except ValueError:
             p[k.strip()] = v.strip()
-    with Library(ctx.obj["library"]) as lib:
+    with _open(ctx) as lib:
         rec = lib.add(
             name, kind, p, make_provenance(source=source, method="library add"), replace=replace
         )
@@ -103,9 +101,7 @@ def library_add(ctx, name, kind, params, from_json, source, replace):
 @click.pass_context
 def library_remove(ctx, name):
     """Remove a terrain (reference terrains cannot be removed)."""
-    from terracone.apps.library import Library
-
-    with Library(ctx.obj["library"]) as lib:
+    with _open(ctx) as lib:
         lib.remove(name)
     click.echo(f"removed {name!r}")
 
@@ -116,9 +112,7 @@ def library_remove(ctx, name):
 @click.pass_context
 def library_import(ctx, path, replace):
     """Import terrains from a JSON file written by `library export`."""
-    from terracone.apps.library import Library
-
-    with Library(ctx.obj["library"]) as lib:
+    with _open(ctx) as lib:
         rep = lib.import_(path, replace=replace)
     click.echo(f"imported {len(rep.imported)}, skipped {len(rep.skipped)}")
     for name, why in rep.skipped:
@@ -131,8 +125,6 @@ def library_import(ctx, path, replace):
 @click.pass_context
 def library_export(ctx, path, include_builtin):
     """Export terrains to a JSON file."""
-    from terracone.apps.library import Library
-
-    with Library(ctx.obj["library"]) as lib:
+    with _open(ctx) as lib:
         k = lib.export(path, include_builtin=include_builtin)
     click.echo(f"exported {k} terrains to {path}")

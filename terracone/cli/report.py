@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import click
 
-from terracone.cli.common import (
-    UNITS,
-)
+from terracone.cli.common import UNITS
 
 
 @click.command("demo")

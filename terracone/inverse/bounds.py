@@ -14,26 +14,17 @@ import numpy as np
 
 from terracone.physics import units as u
 
-__all__ = ["Bounds", "DEFAULT_BOUNDS_SI"]
+__all__ = ["Bounds"]
 
 #: Key of ``--bounds`` (a CLI contract) -> field of :class:`Bounds`; the
 #: Python names are accepted as keys too.
 KEYS = {"kc": "kc", "kphi": "kphi", "n": "n", "cc": "cc", "phic": "phic_deg", "Kc": "K_cone"}
 _KEY_OF = {f: k for k, f in KEYS.items()}
 
-#: Default bounds in SI (kc kN/m^(n+1), kphi kN/m^(n+2), n, cc kPa, phic_deg deg).
-DEFAULT_BOUNDS_SI = {
-    "kc": (0.0, 1000.0),
-    "kphi": (0.0, 20000.0),
-    "n": (0.05, 2.0),
-    "cc": (0.0, 100.0),
-    "phic_deg": (0.0, 45.0),
-}
-
 
 @dataclass(frozen=True)
 class Bounds:
-    """Lower and upper bounds of the searched parameters.
+    """Lower and upper bounds of the searched parameters (defaults in SI).
 
     Attributes
     ----------
@@ -48,11 +39,11 @@ class Bounds:
         [m], used only when K_cone is fitted (``--bounds`` key ``Kc``).
     """
 
-    kc: tuple[float, float] = DEFAULT_BOUNDS_SI["kc"]
-    kphi: tuple[float, float] = DEFAULT_BOUNDS_SI["kphi"]
-    n: tuple[float, float] = DEFAULT_BOUNDS_SI["n"]
-    cc: tuple[float, float] = DEFAULT_BOUNDS_SI["cc"]
-    phic_deg: tuple[float, float] = DEFAULT_BOUNDS_SI["phic_deg"]
+    kc: tuple[float, float] = (0.0, 1000.0)
+    kphi: tuple[float, float] = (0.0, 20000.0)
+    n: tuple[float, float] = (0.05, 2.0)
+    cc: tuple[float, float] = (0.0, 100.0)
+    phic_deg: tuple[float, float] = (0.0, 45.0)
     K_cone: tuple[float, float] = (1e-4, 0.1)
     kc_units: str = "si"
     kphi_units: str = "si"
@@ -109,16 +100,12 @@ class Bounds:
     def kc_si(self, n: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) of kc in kN/m^(n+1) at exponent n."""
         n = np.asarray(n, dtype=float)
-        return u.kc_to_si(self.kc[0] + 0 * n, n, self.kc_units), u.kc_to_si(
-            self.kc[1] + 0 * n, n, self.kc_units
-        )
+        return tuple(u.kc_to_si(v + 0 * n, n, self.kc_units) for v in self.kc)
 
     def kphi_si(self, n: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) of kphi in kN/m^(n+2) at exponent n."""
         n = np.asarray(n, dtype=float)
-        return u.kphi_to_si(self.kphi[0] + 0 * n, n, self.kphi_units), u.kphi_to_si(
-            self.kphi[1] + 0 * n, n, self.kphi_units
-        )
+        return tuple(u.kphi_to_si(v + 0 * n, n, self.kphi_units) for v in self.kphi)
 
     def fixed(self, **values: float) -> Bounds:
         """Copy with some of n, cc [kPa], phic_deg [deg] pinned (LO = HI)."""

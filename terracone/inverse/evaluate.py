@@ -116,10 +116,11 @@ def cross_table(
     plate_pair: tuple[float, float] | None = None,
 ) -> list[PlateEvaluation]:
     """Every prediction against every plate test (Table 4-2 of [1]_)."""
-    rows: list[PlateEvaluation] = []
-    for label, params in predictions:
-        rows.extend(evaluate(params, plates, label=label, plate_pair=plate_pair))
-    return rows
+    return [
+        row
+        for label, params in predictions
+        for row in evaluate(params, plates, label=label, plate_pair=plate_pair)
+    ]
 
 
 def parameters_from_json(path: str | os.PathLike[str]) -> list[tuple[str, TerrainParameters]]:
@@ -158,9 +159,8 @@ def parameters_from_json(path: str | os.PathLike[str]) -> list[tuple[str, Terrai
 
     out = []
     if isinstance(doc, dict) and "profiles" in doc:
-        for p in doc["profiles"]:
-            if p.get("status") == "ok":
-                out.append((str(p["id"]), params(p, f"profile {p['id']}")))
+        oks = [p for p in doc["profiles"] if p.get("status") == "ok"]
+        out = [(str(p["id"]), params(p, f"profile {p['id']}")) for p in oks]
     elif isinstance(doc, dict) and "kc" in doc:
         name = str(doc.get("terrain", Path(path).stem))
         out.append((name, params(doc, f"terrain {name}")))

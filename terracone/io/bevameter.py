@@ -10,24 +10,20 @@ from terracone.data import InputError, PlateTest, ShearTest
 from terracone.io.tables import (
     PLATE_SCHEMA,
     SHEAR_SCHEMA,
-    Layout,
+    Column,
+    Numbers,
     OnError,
     PathLike,
     Table,
-    check_constant,
-    check_on_error,
+    check_group,
+    check_options,
     collect,
     column_layout,
-    first_bad,
     read_table,
     row_metadata,
     table_groups,
     to_numbers,
 )
-
-# ---------------------------------------------------------------------------
-# plate and shear tests
-# ---------------------------------------------------------------------------
 
 
 def read_plate_tests(
@@ -60,10 +56,10 @@ def read_plate_tests(
     test or is not > 0, and the file-level problems of
     :func:`read_ci_profiles`.
     """
-    check_on_error(on_error)
+    check_options(on_error)
     source = os.fspath(path)
     table = read_table(source)
-    layout = column_layout(table, PLATE_SCHEMA)
+    layout = column_layout(source, table.header, table.header_line, PLATE_SCHEMA)
     scol, zcol, pcol = (layout.groups[g] for g in ("size", "sinkage", "pressure"))
     size, sink, pres = (to_numbers(table.columns[c.index]) for c in (scol, zcol, pcol))
     circular = scol.field is not None and scol.field.name != "plate_width"
@@ -71,19 +67,12 @@ def read_plate_tests(
 
     def build(group: tuple[str, np.ndarray]) -> PlateTest:
         tid, idx = group
-        _check_cells(source, table, layout, tid, idx, [(scol, size), (zcol, sink), (pcol, pres)])
-        b = check_constant(source, tid, table, idx, scol, size, "plate size") * scol.factor
+        check_group(table, layout, tid, idx, [(scol, size), (zcol, sink), (pcol, pres)], "test")
+        b = _constant(tid, table, idx, scol, size, "plate size") * scol.factor
         if halve:
             b /= 2.0
         if not b > 0:
-            raise InputError(
-                "plate size must be > 0",
-                file=source,
-                profile=tid,
-                item="test",
-                row=int(table.lines[idx[0]]),
-                column=scol.name,
-            )
+            raise _error("plate size must be > 0", table, tid, int(idx[0]), scol.name)
         return PlateTest(
             id=tid,
             b=b,
@@ -124,19 +113,17 @@ def read_shear_tests(
     a non-numeric, NaN or empty cell, a normal pressure that changes
     within a test and the file-level problems of :func:`read_ci_profiles`.
     """
-    check_on_error(on_error)
+    check_options(on_error)
     source = os.fspath(path)
     table = read_table(source)
-    layout = column_layout(table, SHEAR_SCHEMA)
+    layout = column_layout(source, table.header, table.header_line, SHEAR_SCHEMA)
     ncol, jcol, tcol = (layout.groups[g] for g in ("normal_pressure", "displacement", "stress"))
     normal, disp, stress = (to_numbers(table.columns[c.index]) for c in (ncol, jcol, tcol))
 
     def build(group: tuple[str, np.ndarray]) -> ShearTest:
         tid, idx = group
-        _check_cells(
-            source, table, layout, tid, idx, [(ncol, normal), (jcol, disp), (tcol, stress)]
-        )
-        sigma = check_constant(source, tid, table, idx, ncol, normal, "normal pressure")
+        check_group(table, layout, tid, idx, [(ncol, normal), (jcol, disp), (tcol, stress)], "test")
+        sigma = _constant(tid, table, idx, ncol, normal, "normal pressure")
         return ShearTest(
             id=tid,
             normal_pressure=sigma * ncol.factor,
@@ -150,22 +137,23 @@ def read_shear_tests(
     return collect(table_groups(table, layout.id_col), build, on_error)
 
 
-def _check_cells(
-    source: str, table: Table, layout: Layout, tid: str, idx: np.ndarray, cols: list
-) -> None:
-    """Raise the located InputError of a test's empty id or first bad cell."""
-    if layout.id_col is not None and not tid:
-        raise InputError(
-            "empty test id",
-            file=source,
-            profile=tid,
-            item="test",
-            row=int(table.lines[idx[0]]),
-            column=layout.id_col.name,
+def _error(why: str, table: Table, tid: str, i: int, column: str) -> InputError:
+    line = int(table.lines[i])
+    return InputError(why, file=table.path, profile=tid, item="test", row=line, column=column)
+
+
+def _constant(
+    tid: str, table: Table, idx: np.ndarray, col: Column, num: Numbers, what: str
+) -> float:
+    """The value of a column that must not change within a test."""
+    vals = num.values[idx]
+    diff = np.flatnonzero(vals != vals[0])
+    if diff.size:
+        i = int(idx[diff[0]])
+        cells = table.columns[col.index]
+        why = (
+            f"{what} changes within the test ({cells[i].strip()} here, "
+            f"{cells[int(idx[0])].strip()} on line {int(table.lines[idx[0]])})"
         )
-    bad = first_bad(idx, cols)
-    if bad is not None:
-        i, col, why = bad
-        raise InputError(
-            why, file=source, profile=tid, item="test", row=int(table.lines[i]), column=col.name
-        )
+        raise _error(why, table, tid, i, col.name)
+    return float(vals[0])

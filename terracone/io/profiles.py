@@ -1,12 +1,6 @@
 """Cone index profiles from a file: format detection, long CSV files, profile sets.
 
-:func:`read_ci_profiles` reads one file (long CSV, FieldScout SC900 export or
-wide table, :func:`detect_format`) into a list of profiles;
-:func:`read_profile_set` reads any CI file, Parquet included, into one
-:class:`~terracone.data.ProfileSet`; :func:`iter_profile_sets` streams any
-of them in chunks (long CSV and Parquet through :mod:`terracone.io.stream`,
-whose pyarrow and pandas are imported on first use); :func:`instrument_to_parquet`
-writes an instrument file as Parquet for the batch.
+pyarrow and pandas (:mod:`terracone.io.stream`) are imported on first use.
 """
 
 from __future__ import annotations
@@ -27,10 +21,11 @@ from terracone.io.tables import (
     CI_SCHEMA,
     OnError,
     PathLike,
+    check_group,
     check_options,
     collect,
     column_layout,
-    first_bad,
+    is_parquet,
     match_field,
     read_table,
     row_metadata,
@@ -40,21 +35,6 @@ from terracone.io.tables import (
 )
 from terracone.io.wide import read_wide_ci, wide_depth_header
 from terracone.physics.cone import Cone, get_cone
-
-
-def _sniff_format(path: str) -> str:
-    """``"sc900"`` if the file starts like a FieldScout SC900 export, else ``"csv"``."""
-    try:
-        with open(path, encoding="utf-8-sig", errors="replace") as f:
-            head = [f.readline() for _ in range(12)]
-    except OSError:
-        return "csv"  # the CSV reader reports the problem
-    lines = [ln.strip() for ln in head if ln.strip()]
-    if lines and re.match(r"^Name\s*:", lines[0], re.IGNORECASE):
-        return "sc900"
-    if any(re.match(r"^Longitude\s*,\s*Latitude\s*,\s*Number\s*,", ln, re.I) for ln in lines):
-        return "sc900"
-    return "csv"
 
 
 def detect_format(path: PathLike) -> Literal["csv", "sc900", "wide"]:
@@ -67,14 +47,15 @@ def detect_format(path: PathLike) -> Literal["csv", "sc900", "wide"]:
     column; anything else is read as a long CSV file, whose reader reports
     what is wrong.
     """
-    source = os.fspath(path)
-    if _sniff_format(source) == "sc900":
-        return "sc900"
     try:
-        with open(source, encoding="utf-8-sig", errors="replace") as f:
+        with open(os.fspath(path), encoding="utf-8-sig", errors="replace") as f:
             head = [f.readline() for _ in range(50)]
     except OSError:
-        return "csv"
+        return "csv"  # the CSV reader reports the problem
+    lines = [ln.strip() for ln in head[:12] if ln.strip()]
+    column_line = re.compile(r"^Longitude\s*,\s*Latitude\s*,\s*Number\s*,", re.I)
+    if (lines and re.match(r"^Name\s*:", lines[0], re.I)) or any(map(column_line.match, lines)):
+        return "sc900"
     for raw in head:
         line = raw.strip()
         if not line or line.startswith("#"):
@@ -151,18 +132,8 @@ def read_ci_profiles(
 
     Notes
     -----
-    SC900 exports give one profile per push with id
-    ``"{file stem}/{ordinal:04d}-N{push}"`` (ordinal: 1-based count of push
-    lines in the file, as push numbers restart after each "Logger Started"
-    line).  Trailing zero readings mean that the push stopped; they are
-    dropped and recorded in ``notes`` and in ``metadata["trailing_zeros_dropped"]``.
-    The cone comes from the ``Cone Size`` column (``SC900_CONES``), the
-    pressure unit from the "... In KPa" / "... In PSI" line, the depths from
-    the depth column labels; every point of a push has the push line as
-    its row.  Metadata: ``logger``, ``serial``, ``datum``, ``push``,
-    ``line``, ``longitude`` and ``latitude`` (when present),
-    ``pressure_unit`` and ``length_unit`` (the file's CI and depth units)
-    and ``trailing_zeros_dropped``; none of these names reads as a data
+    SC900 exports and wide tables (ids, cones, trailing zeros, metadata):
+    ``docs/instruments.md``.  The metadata of neither reads back as a data
     column, so :func:`write_ci_profiles` can write the profiles to CSV.
 
     Examples
@@ -194,7 +165,7 @@ def _read_ci_csv(
     path: str, default_cone: Cone, depth_ref: str, units: str | None, on_error: str
 ) -> list[CIProfile | InputError]:
     table = read_table(path)
-    layout = column_layout(table, CI_SCHEMA, units)
+    layout = column_layout(path, table.header, table.header_line, CI_SCHEMA, units)
     dcol, ccol = layout.groups["depth"], layout.groups["ci"]
     depth = to_numbers(table.columns[dcol.index])
     ci = to_numbers(table.columns[ccol.index])
@@ -207,12 +178,7 @@ def _read_ci_csv(
         def fail(msg: str, i: int, column: str | None) -> InputError:
             return InputError(msg, file=path, profile=pid, row=int(lines[i]), column=column)
 
-        if layout.id_col is not None and not pid:
-            raise fail("empty profile id", int(idx[0]), layout.id_col.name)
-        bad = first_bad(idx, [(dcol, depth), (ccol, ci)])
-        if bad is not None:
-            i, col, why = bad
-            raise fail(why, i, col.name)
+        check_group(table, layout, pid, idx, [(dcol, depth), (ccol, ci)])
         prof_cone = default_cone
         if cone_col is not None:
             cells = table.columns[cone_col.index]
@@ -222,14 +188,10 @@ def _read_ci_csv(
             except ValueError as exc:
                 why = "empty cell" if not name else str(exc)
                 raise fail(why, int(idx[0]), cone_col.name) from None
-            for i in idx[1:]:
-                if cells[int(i)].strip() != name:
-                    raise fail(
-                        f"cone changes within the profile ({cells[int(i)].strip()!r} here, "
-                        f"{name!r} on line {int(lines[idx[0]])})",
-                        int(i),
-                        cone_col.name,
-                    )
+            other = next((int(i) for i in idx[1:] if cells[int(i)].strip() != name), None)
+            if other is not None:
+                why = f"{cells[other].strip()!r} here, {name!r} on line {int(lines[idx[0]])}"
+                raise fail(f"cone changes within the profile ({why})", other, cone_col.name)
         z = depth.values[idx] * dcol.factor
         if depth_ref == "tip":
             z = z - prof_cone.height
@@ -246,9 +208,8 @@ def _read_ci_csv(
         def locate(k: int | None, column: str | None) -> tuple[int | None, str | None, str]:
             col = dcol if column == "depth" else ccol
             if k is None:  # too few points
-                span = f"line {int(lines[idx[0]])}"
-                if idx.size > 1:
-                    span = f"lines {int(lines[idx[0]])}-{int(lines[idx[-1]])}"
+                first, last = int(lines[idx[0]]), int(lines[idx[-1]])
+                span = f"lines {first}-{last}" if idx.size > 1 else f"line {first}"
                 return int(lines[idx[0]]), col.name, f" (the profile is on {span})"
             i = int(idx[k])
             more = f" (cell {table.columns[col.index][i].strip()!r}"
@@ -302,11 +263,8 @@ def read_profile_set(
 
     Notes
     -----
-    Text formats go through :func:`read_ci_profiles` (the profiles of a set
-    equal its list one by one); Parquet through
-    :func:`iter_profile_sets` in one chunk.  A metadata
-    column holding both numbers and text (CSV cells are typed cell by cell)
-    becomes a text column.
+    Text formats go through :func:`read_ci_profiles`, Parquet through
+    :func:`iter_profile_sets` in one chunk (``docs/instruments.md``).
 
     References
     ----------
@@ -318,44 +276,13 @@ def read_profile_set(
     >>> profiles[0].depth, profiles.errors  # doctest: +SKIP
     """
     source = os.fspath(path)
+    options: dict[str, Any] = dict(cone=cone, depth_ref=depth_ref, units=units, on_error=on_error)
     if format is None:
         format = "parquet" if is_parquet(source) else detect_format(source)
     if format == "parquet":
-        check_options(on_error, depth_ref, units)
-        sets = list(
-            iter_profile_sets(
-                [source],
-                chunk_size=None,
-                cone=cone,
-                depth_ref=depth_ref,
-                units=units,
-                on_error=on_error,
-            )
-        )
-        return ProfileSet.concat(sets)
-    items = read_ci_profiles(
-        source,
-        cone=cone,
-        depth_ref=depth_ref,
-        units=units,
-        on_error=on_error,
-        format=format,
-        depth_unit=depth_unit,
-        ci_unit=ci_unit,
-    )
-    return gather_profiles(items)
-
-
-def is_parquet(path: PathLike) -> bool:
-    """Whether a file is Parquet: a ``.parquet`` / ``.pq`` name or the ``PAR1`` magic number."""
-    name = os.fspath(path).lower()
-    if name.endswith((".parquet", ".pq")):
-        return True
-    try:
-        with open(path, "rb") as f:
-            return f.read(4) == b"PAR1"
-    except OSError:
-        return False
+        return ProfileSet.concat(list(iter_profile_sets([source], chunk_size=None, **options)))
+    wide = dict(depth_unit=depth_unit, ci_unit=ci_unit)
+    return gather_profiles(read_ci_profiles(source, format=format, **wide, **options))
 
 
 def gather_profiles(items: Sequence[CIProfile | InputError]) -> ProfileSet:
@@ -429,9 +356,7 @@ def iter_profile_sets(
     Notes
     -----
     The rows of a profile must be contiguous (a profile id seen again later
-    is a second profile).  Errors name the file, profile, row and column;
-    a depth that does not increase is reported as ``"depth is not strictly
-    increasing (previous depth on line 7)"``.
+    is a second profile); the errors: ``docs/instruments.md``.
 
     References
     ----------
@@ -449,17 +374,11 @@ def iter_profile_sets(
     from terracone.io.stream import ConeCache, chunk_set, iter_chunks
 
     default = get_cone(cone)
+    options: dict[str, Any] = dict(depth_ref=depth_ref, units=units)
+    wide = dict(depth_unit=depth_unit, ci_unit=ci_unit)
     for group, kind in _file_groups(paths, format):
         if kind in ("sc900", "wide"):
-            one = read_profile_set(
-                group[0][0],
-                cone=default,
-                depth_ref=depth_ref,
-                units=units,
-                format=kind,  # type: ignore[arg-type]
-                depth_unit=depth_unit,
-                ci_unit=ci_unit,
-            )
+            one = read_profile_set(group[0][0], cone=default, format=kind, **options, **wide)
             sets: Iterable[ProfileSet] = _cut(one, chunk_size)
         else:
             plan = scan_inputs(group, units=units)
@@ -530,46 +449,24 @@ def instrument_to_parquet(path: Path, out: Path, cone: Cone, **reader: Any) -> P
     reader.setdefault("format", "sc900")
     items = read_ci_profiles(path, on_error="collect", cone=cone, **reader)
     target.parent.mkdir(parents=True, exist_ok=True)  # after the file-level checks
-    rows: dict[str, list] = {
-        "profile": [],
-        "cone": [],
-        "reader_error": [],
-        "reader_error_row": [],
-        "reader_error_column": [],
-        "depth_m": [],
-        "ci_kpa": [],
-    }
-    meta_keys: list[str] = []
+    fixed = ("profile", "cone", "reader_error", "reader_error_row", "reader_error_column")
+    rows: dict[str, list] = {k: [] for k in (*fixed, "depth_m", "ci_kpa")}
+    keys = dict.fromkeys(k for it in items if isinstance(it, CIProfile) for k in it.metadata)
+    meta_keys = [k for k in keys if k not in rows]
+    rows.update((k, []) for k in meta_keys)
     for it in items:
         if isinstance(it, CIProfile):
-            for k in it.metadata:
-                if k not in meta_keys and k not in rows:
-                    meta_keys.append(k)
-    for k in meta_keys:
-        rows[k] = []
-    for it in items:
-        if isinstance(it, CIProfile):
-            k = len(it)
-            rows["profile"] += [it.id] * k
-            rows["cone"] += [it.cone.name] * k
-            rows["reader_error"] += [None] * k
-            rows["reader_error_row"] += [None] * k
-            rows["reader_error_column"] += [None] * k
-            rows["depth_m"] += list(it.depth)
-            rows["ci_kpa"] += list(it.ci)
-            for mk in meta_keys:
-                v = it.metadata.get(mk)
-                rows[mk] += [None if v is None else str(v)] * k
+            n, depth, ci = len(it), list(it.depth), list(it.ci)
+            lead = [it.id, it.cone.name, None, None, None]
+            meta = [None if (v := it.metadata.get(k)) is None else str(v) for k in meta_keys]
         else:  # rejected by the reader: one row without a reading, the reason alongside
-            rows["profile"].append(str(it.profile))
-            rows["cone"].append(cone.name)
-            rows["reader_error"].append(str(it))
-            rows["reader_error_row"].append(it.row)
-            rows["reader_error_column"].append(it.column)
-            rows["depth_m"].append(float("nan"))
-            rows["ci_kpa"].append(float("nan"))
-            for mk in meta_keys:
-                rows[mk].append(None)
+            n, depth, ci = 1, [float("nan")], [float("nan")]
+            lead = [str(it.profile), cone.name, str(it), it.row, it.column]
+            meta = [None] * len(meta_keys)
+        for k, v in zip((*fixed, *meta_keys), lead + meta):
+            rows[k] += [v] * n
+        rows["depth_m"] += depth
+        rows["ci_kpa"] += ci
     tmp = target.with_name("." + target.name + ".tmp")
     pq.write_table(pa.table(rows), tmp)
     os.replace(tmp, target)

@@ -1,10 +1,4 @@
-"""FieldScout SC900 exports: one cone index profile per push.
-
-The text export of the Spectrum FieldScout SC900 logger: a few header lines
-(logger name, serial number, datum, the pressure unit), a column line
-``Longitude,Latitude,Number,0.0 cm,2.5 cm,...,Cone Size``, "Logger Started"
-lines and one ``N= k , ...`` line per push.
-"""
+"""FieldScout SC900 exports: one cone index profile per push (``docs/instruments.md``)."""
 
 from __future__ import annotations
 
@@ -21,12 +15,10 @@ from terracone.io.tables import (
     OnError,
     PathLike,
     cell_problem,
-    check_on_error,
+    check_options,
     collect,
     push_profile,
     read_lines,
-    to_numbers,
-    validated,
 )
 from terracone.physics import units as u
 from terracone.physics.cone import CONES
@@ -34,20 +26,9 @@ from terracone.physics.cone import CONES
 #: Cone sizes of the SC900 export (normalised to lower case) and their cones.
 SC900_CONES: dict[str, str] = {"1/2 inch": "asabe-small", "3/4 inch": "asabe-large"}
 
-# ---------------------------------------------------------------------------
-# FieldScout SC900 export
-# ---------------------------------------------------------------------------
-
 _SC900_DEPTH = re.compile(r"^\s*([+-]?(?:\d+\.?\d*|\.\d+))\s*([a-zA-Z]+)\s*$")
 _SC900_UNIT = re.compile(r"\bIn\s+(KPa|PSI)\s*$", re.IGNORECASE)
 _SC900_PUSH = re.compile(r"^N\s*=\s*(\d+)$", re.IGNORECASE)
-
-
-@dataclass
-class _Push:
-    ordinal: int
-    line: int
-    fields: list[str]
 
 
 @dataclass
@@ -58,7 +39,7 @@ class _Export:
     ci_unit: str | None  # "kpa" or "psi" from the unit line
     labels: list[str] | None  # the column line's cells after Longitude,Latitude,Number
     column_line: int
-    pushes: list[_Push]
+    pushes: list[tuple[int, int, list[str]]]  # (ordinal, file line, fields)
 
 
 def _export_lines(path: str, text: list[str]) -> _Export:
@@ -87,7 +68,7 @@ def _export_lines(path: str, text: list[str]) -> _Export:
         if len(fields) >= 3 and fields[2].lower() == "logger started":
             continue
         if len(fields) >= 3 and fields[2].upper().startswith("N="):
-            ex.pushes.append(_Push(len(ex.pushes) + 1, lineno, fields))
+            ex.pushes.append((len(ex.pushes) + 1, lineno, fields))
             continue
         raise InputError(
             "not a push line (expected 'lon,lat,N= k , readings..., cone size') "
@@ -106,106 +87,22 @@ def _export_depths(path: str, ex: _Export) -> tuple[list[str], np.ndarray, list[
             "no column line 'Longitude,Latitude,Number,<depths>,Cone Size' (not an SC900 export?)",
             file=path,
         )
+    where = dict(file=path, row=ex.column_line)
     if not labels or labels[-1].lower() != "cone size":
-        raise InputError(
-            "the column line does not end with 'Cone Size'",
-            file=path,
-            row=ex.column_line,
-            column=labels[-1] if labels else None,
-        )
+        column = labels[-1] if labels else None
+        raise InputError("the column line does not end with 'Cone Size'", column=column, **where)
     labels = labels[:-1]
     depths = np.empty(len(labels))
-    depth_units: list[str] = []
+    units: list[str] = []
     for k, label in enumerate(labels):
         m = _SC900_DEPTH.match(label)
-        unit = m.group(2).lower() if m else None
+        unit = m.group(2).lower() if m else ""
         if m is None or unit not in u.LENGTH_UNITS:
-            raise InputError(
-                f"not a depth label like '2.5 cm' (units {', '.join(u.LENGTH_UNITS)})",
-                file=path,
-                row=ex.column_line,
-                column=label,
-            )
+            why = f"not a depth label like '2.5 cm' (units {', '.join(u.LENGTH_UNITS)})"
+            raise InputError(why, column=label, **where)
         depths[k] = float(m.group(1)) * u.LENGTH_UNITS[unit]
-        if unit not in depth_units:
-            depth_units.append(unit)
-    return labels, depths, depth_units
-
-
-@dataclass
-class _Columns:
-    """The file-wide facts every push of an export shares."""
-
-    path: str
-    stem: str
-    header: dict[str, Any]
-    labels: list[str]
-    depths: np.ndarray  # [m]
-    length_unit: str
-    ci_unit: str
-    depth_ref: str
-
-
-def _push(cols: _Columns, push: _Push) -> CIProfile:
-    """One push line as a validated profile (raises a located InputError)."""
-    f, labels, nd = push.fields, cols.labels, len(cols.labels)
-    m = _SC900_PUSH.match(f[2].replace(" ", ""))
-    number = int(m.group(1)) if m else None
-    pid = f"{cols.stem}/{push.ordinal:04d}-N{number if number is not None else '?'}"
-
-    def fail(msg: str, column: str | None) -> InputError:
-        return InputError(msg, file=cols.path, profile=pid, row=push.line, column=column)
-
-    if number is None:
-        raise fail(f"push number {f[2]!r} is not 'N= <integer>'", "Number")
-    if len(f) != nd + 4:
-        got = len(f) - 4
-        column = labels[got] if got < nd else "Cone Size"
-        raise fail(f"{max(got, 0)} readings but the column line has {nd} depths", column)
-    size = f[-1]
-    cone_name = SC900_CONES.get(" ".join(size.lower().split()))
-    if cone_name is None:
-        known = ", ".join(repr(s.title()) for s in SC900_CONES)
-        raise fail(f"unknown cone size {size!r} (known: {known})", "Cone Size")
-    push_cone = CONES[cone_name]
-    metadata: dict[str, Any] = dict(cols.header)
-    metadata["push"] = number
-    metadata["line"] = push.line
-    for k, key in ((0, "longitude"), (1, "latitude")):
-        if f[k]:
-            if cell_problem(f[k]) is not None:
-                raise fail(f"{key} {f[k]!r} is not a number", key.title())
-            metadata[key] = float(f[k])
-    readings = to_numbers(f[3 : 3 + nd])
-    if readings.bad.any():
-        k = int(np.flatnonzero(readings.bad)[0])
-        raise fail(readings.reasons[k], labels[k])
-    metadata["pressure_unit"] = cols.ci_unit
-    metadata["length_unit"] = cols.length_unit
-    factor = u.PRESSURE_UNITS[cols.ci_unit]
-    profile, keep, dropped = push_profile(
-        pid,
-        cols.depths,
-        readings.values * factor,
-        push_cone,
-        cols.depth_ref,
-        metadata,
-        cols.path,
-        push.line,
-        [],
-        lambda k: str(labels[k]),
-    )
-
-    def locate(k: int | None, column: str | None) -> tuple[int | None, str | None, str]:
-        if k is None:  # too few points
-            more = f" after dropping {dropped} trailing zero readings" if dropped else ""
-            return push.line, labels[keep] if dropped else labels[0], more
-        more = f" (reading {f[3 + k]!r})"
-        if column == "depth" and cols.depth_ref == "tip":
-            more = f" (a tip depth; base depth = tip depth - H, H = {push_cone.height:.4g} m)"
-        return push.line, labels[k], more
-
-    return validated(profile, locate)
+        units.append(unit)
+    return labels, depths, list(dict.fromkeys(units))
 
 
 def read_sc900(
@@ -231,15 +128,15 @@ def read_sc900(
     Returns
     -------
     list of CIProfile or InputError
-        One item per push, in file order; see the Notes of
-        :func:`terracone.io.read_ci_profiles` for ids, cones and metadata.
+        One item per push, in file order (ids, cones and metadata:
+        ``docs/instruments.md``).
 
     References
     ----------
     Spectrum Technologies, FieldScout SC900 Soil Compaction Meter, product
     manual (the text export).
     """
-    check_on_error(on_error)
+    check_options(on_error)
     source = os.fspath(path)
     ex = _export_lines(source, read_lines(source))
     labels, depths, depth_units = _export_depths(source, ex)
@@ -251,14 +148,52 @@ def read_sc900(
                 file=source,
             )
         ci_unit = u.pressure_unit(units).lower()
-    cols = _Columns(
-        source,
-        Path(source).stem,
-        ex.header,
-        labels,
-        depths,
-        depth_units[0] if len(depth_units) == 1 else ",".join(depth_units),
-        ci_unit,
-        depth_ref,
-    )
-    return collect(ex.pushes, lambda push: _push(cols, push), on_error)
+    stem = Path(source).stem
+    length_unit = ",".join(depth_units)
+
+    def one(push: tuple[int, int, list[str]]) -> CIProfile:
+        """One push line as a validated profile (raises a located InputError)."""
+        ordinal, line, f = push
+        nd = len(labels)
+        m = _SC900_PUSH.match(f[2].replace(" ", ""))
+        number = int(m.group(1)) if m else None
+        pid = f"{stem}/{ordinal:04d}-N{number if number is not None else '?'}"
+
+        def fail(msg: str, column: str | None) -> InputError:
+            return InputError(msg, file=source, profile=pid, row=line, column=column)
+
+        if number is None:
+            raise fail(f"push number {f[2]!r} is not 'N= <integer>'", "Number")
+        if len(f) != nd + 4:
+            got = len(f) - 4
+            column = labels[got] if got < nd else "Cone Size"
+            raise fail(f"{max(got, 0)} readings but the column line has {nd} depths", column)
+        size = f[-1]
+        cone_name = SC900_CONES.get(" ".join(size.lower().split()))
+        if cone_name is None:
+            known = ", ".join(repr(s.title()) for s in SC900_CONES)
+            raise fail(f"unknown cone size {size!r} (known: {known})", "Cone Size")
+        push_cone = CONES[cone_name]
+        metadata: dict[str, Any] = {**ex.header, "push": number, "line": line}
+        for k, key in ((0, "longitude"), (1, "latitude")):
+            if f[k]:
+                if cell_problem(f[k]) is not None:
+                    raise fail(f"{key} {f[k]!r} is not a number", key.title())
+                metadata[key] = float(f[k])
+        metadata["pressure_unit"] = ci_unit
+        metadata["length_unit"] = length_unit
+        return push_profile(
+            pid,
+            labels,
+            f[3 : 3 + nd],
+            depths,
+            u.PRESSURE_UNITS[ci_unit],
+            push_cone,
+            depth_ref,
+            metadata,
+            source,
+            line,
+            [],
+        )
+
+    return collect(ex.pushes, one, on_error)

@@ -1,14 +1,9 @@
-"""Scanning cone index inputs before they are streamed (batch's first pass).
+"""Scanning cone index inputs before they are streamed (batch's first pass, eq. (2-3)).
 
-:func:`scan_inputs` opens every CSV or Parquet input once, checks its header
-against :data:`terracone.io.tables.CI_SCHEMA`, counts its profiles and fixes the
-type of every metadata column, so that a bad file is refused before anything is
-computed; :class:`CsvLines` and :func:`csv_blocks` read CSV through pyarrow with
-the file line of every row kept.  :mod:`terracone.io.stream` reads the rows.
-
-References
-----------
-Huang, Wong, Preston-Thomas, Jayakumar: the cone index profile, eq. (2-3).
+:func:`scan_inputs` checks every CSV or Parquet header, counts the profiles and
+fixes the type of every metadata column before anything is computed;
+:class:`CsvLines` and :func:`csv_blocks` read CSV through pyarrow, keeping the
+file line of every row.  :mod:`terracone.io.stream` reads the rows.
 """
 
 from __future__ import annotations
@@ -31,7 +26,14 @@ import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
 from terracone.data import InputError
-from terracone.io.tables import CI_SCHEMA, DECIMAL, SPECIAL_FLOAT, PathLike, Table, column_layout
+from terracone.io.tables import (
+    CI_SCHEMA,
+    DECIMAL,
+    SPECIAL_FLOAT,
+    PathLike,
+    column_layout,
+    is_parquet,
+)
 
 #: Rows read per block (CSV / Parquet); memory per block, not per profile.
 CSV_BLOCK_BYTES = 1 << 22
@@ -50,15 +52,9 @@ def kind_of(path: Path, strict: bool) -> str | None:
     name = path.name.lower()
     if name.endswith((".csv", ".csv.gz")):
         return "csv"
-    if name.endswith((".parquet", ".pq")):
-        return "parquet"
-    if strict:
+    if strict and not name.endswith((".parquet", ".pq")):
         return None
-    try:  # a single file with another name: sniff the Parquet magic number
-        with open(path, "rb") as f:
-            return "parquet" if f.read(4) == b"PAR1" else "csv"
-    except OSError:
-        return "csv"
+    return "parquet" if is_parquet(path) else "csv"  # another name: the magic number
 
 
 def input_files(input: PathLike) -> list[tuple[Path, str]]:
@@ -103,12 +99,9 @@ _SKIP_FIRST = re.compile(rb"[ \t\r\f\v]*[#\n]")
 class CsvLines(io.RawIOBase):
     """Binary, read-only file object: a CSV file without comment and blank lines.
 
-    Follows the conventions of :mod:`terracone.io`: a line whose first
-    non-blank character is ``#`` is a comment, blank lines are skipped.  The
-    physical line numbers of the dropped lines are kept (only those not yet
-    needed to number the rows already handed out), so every data row maps
-    back to its line in the file (exact as long as no quoted field holds a
-    line break).  Handles ``.gz`` files and a UTF-8 byte order mark.
+    The dropped lines' numbers are kept until no longer needed, so every data row
+    maps back to its file line (exact unless a quoted field holds a line break).
+    Handles ``.gz`` files and a UTF-8 byte order mark.
     """
 
     BLOCK = 1 << 20
@@ -399,15 +392,11 @@ class ScanPlan:
         return pa.schema(fields)
 
 
-def _header_table(path: str, header: list[str], line: int | None) -> Table:
-    return Table(path, header, line, [], np.empty(0, dtype=int))  # type: ignore[arg-type]
-
-
 def file_layout(
     path: str, kind: str, header: list[str], line: int | None, units: str | None = None
 ) -> FileInfo:
     """The columns of a CI file from its header (raises a located InputError)."""
-    layout = column_layout(_header_table(path, header, line), CI_SCHEMA, units)
+    layout = column_layout(path, header, line, CI_SCHEMA, units)
     d, c = layout.groups["depth"], layout.groups["ci"]
     cone = layout.extra.get("cone")
     return FileInfo(
@@ -515,14 +504,9 @@ def plain_type(t: pa.DataType) -> pa.DataType | None:
 
 
 def _number_column_ok(t: pa.DataType) -> bool:
-    t = plain_type(t) or pa.null()
-    return (
-        pa.types.is_integer(t)
-        or pa.types.is_floating(t)
-        or pa.types.is_decimal(t)
-        or pa.types.is_string(t)
-        or pa.types.is_null(t)
-    )
+    t = plain_type(t)  # None: a null column
+    kinds = (pa.types.is_integer, pa.types.is_floating, pa.types.is_decimal, pa.types.is_string)
+    return t is None or any(is_kind(t) for is_kind in kinds)
 
 
 def parquet_file(path: str) -> pq.ParquetFile:

@@ -1,19 +1,9 @@
 """Streaming profile sets: long CSV and Parquet inputs larger than memory.
 
-A first, cheap pass (:func:`terracone.io.scan.scan_inputs`) checks every
-header, counts the profiles and fixes the type of every metadata column;
-then :func:`iter_chunks` reads the files block by block through pyarrow
-(:func:`pyarrow.csv.open_csv`, :meth:`pyarrow.parquet.ParquetFile.iter_batches`)
-and cuts them into :class:`Chunk` objects: the per-profile facts the output
-needs and a :class:`~terracone.data.ProfileSet` of the profiles that can be
-fitted (:func:`chunk_set`).  A profile's rows must be contiguous; the last
-profile of a block is carried over to the next, so a profile is never split.
-:func:`terracone.io.iter_profile_sets` and
-:func:`terracone.apps.batch.run_batch` read through this stream.
-
-References
-----------
-Huang, Wong, Preston-Thomas, Jayakumar: the cone index profile, eq. (2-3).
+After the first pass (:func:`terracone.io.scan.scan_inputs`), :func:`iter_chunks`
+reads the files block by block through pyarrow into :class:`Chunk` objects, whose
+fittable profiles :func:`chunk_set` gives as a ProfileSet (eq. (2-3)); a profile's
+rows must be contiguous and are never split (``docs/instruments.md``).
 """
 
 from __future__ import annotations
@@ -45,9 +35,6 @@ from terracone.io.tables import to_numbers
 from terracone.physics.cone import Cone, get_cone
 
 __all__ = ["iter_chunks", "chunk_set", "Chunk", "ConeCache"]
-
-#: Same tolerance as CIProfile.validate for a base depth above -H.
-H_TOL = 1e-9
 
 
 # ---------------------------------------------------------------------------

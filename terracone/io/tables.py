@@ -1,17 +1,6 @@
 """CSV tables, column schemas and cell conversion: what every reader of :mod:`terracone.io` shares.
 
-A CSV file is read into a :class:`Table` (header, cells by column, the file
-line of every record), its header classified against a :class:`Schema`
-(:func:`column_layout`: quantity columns with their unit, the id column,
-metadata), and its cells converted by :func:`to_numbers`, which says why a
-cell is not a finite number.  :func:`validated` runs
-:meth:`~terracone.data.CIProfile.validate` and locates its error in the file;
-:func:`push_profile` turns one instrument push into a profile.
-
-References
-----------
-Huang, Wong, Preston-Thomas, Jayakumar: the cone index data model of
-:mod:`terracone.data` (depth of the cone base, eq. (2-3)).
+Depths are those of the cone base (eq. (2-3)); the formats: ``docs/instruments.md``.
 """
 
 from __future__ import annotations
@@ -45,31 +34,14 @@ DECIMAL = re.compile(r"^\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*$")
 SPECIAL_FLOAT = re.compile(r"^\s*[+-]?(?:nan|inf|infinity)\s*$", re.IGNORECASE)
 
 
-# ---------------------------------------------------------------------------
-# small helpers
-# ---------------------------------------------------------------------------
-
-
-def check_on_error(on_error: str) -> None:
-    """Refuse an ``on_error`` other than ``raise`` or ``collect``."""
+def check_options(on_error: str, depth_ref: str = "base", units: str | None = None) -> None:
+    """Refuse bad reader options (ValueError naming the option)."""
     if on_error not in ("raise", "collect"):
         raise ValueError(f"on_error must be 'raise' or 'collect' (got {on_error!r})")
-
-
-def check_options(on_error: str, depth_ref: str, units: str | None = None) -> None:
-    """Refuse bad reader options (ValueError naming the option)."""
-    check_on_error(on_error)
     if depth_ref not in ("base", "tip"):
         raise ValueError(f"depth_ref must be 'base' or 'tip' (got {depth_ref!r})")
     if units is not None:
         u.check_system(units)
-
-
-def metadata_value(cell: str) -> float | str:
-    """A metadata cell: float when it reads as a number, else the stripped text."""
-    if DECIMAL.match(cell) or SPECIAL_FLOAT.match(cell):
-        return float(cell)
-    return cell.strip()
 
 
 @dataclass
@@ -96,27 +68,30 @@ def to_numbers(cells: Sequence[str]) -> Numbers:
     """Convert cells to floats (vectorised when every cell is a plain number)."""
     n = len(cells)
     joined = "".join(cells)
-    values: np.ndarray | None = None
     if joined.isascii() and "_" not in joined:
         try:
             values = np.array(cells, dtype=float).reshape(n)
         except ValueError:
-            values = None
-    if values is not None:
-        bad = ~np.isfinite(values)
-        reasons = {int(i): cell_problem(cells[i]) or "bad cell" for i in np.flatnonzero(bad)}
-        return Numbers(values, bad, reasons)
-    values = np.full(n, np.nan)
-    bad = np.zeros(n, dtype=bool)
-    reasons: dict[int, str] = {}
-    for i, cell in enumerate(cells):
-        why = cell_problem(cell)
-        if why is None:
-            values[i] = float(cell)
+            pass
         else:
-            bad[i] = True
-            reasons[i] = why
-    return Numbers(values, bad, reasons)
+            bad = ~np.isfinite(values)
+            reasons = {int(i): cell_problem(cells[i]) or "bad cell" for i in np.flatnonzero(bad)}
+            return Numbers(values, bad, reasons)
+    reasons = {i: why for i, cell in enumerate(cells) if (why := cell_problem(cell)) is not None}
+    values = np.array([np.nan if i in reasons else float(c) for i, c in enumerate(cells)])
+    return Numbers(values.reshape(n), np.isin(np.arange(n), list(reasons)), reasons)
+
+
+def is_parquet(path: PathLike) -> bool:
+    """Whether a file is Parquet: a ``.parquet`` / ``.pq`` name or the ``PAR1`` magic number."""
+    name = os.fspath(path).lower()
+    if name.endswith((".parquet", ".pq")):
+        return True
+    try:
+        with open(path, "rb") as f:
+            return f.read(4) == b"PAR1"
+    except OSError:
+        return False
 
 
 def open_text(path: str) -> TextIO:
@@ -140,11 +115,6 @@ def read_lines(path: str) -> list[str]:
             raise InputError(f"not a UTF-8 text file ({exc.reason})", file=path) from None
 
 
-# ---------------------------------------------------------------------------
-# CSV tables
-# ---------------------------------------------------------------------------
-
-
 @dataclass
 class Table:
     """A CSV table as read: header, its file line, columns of cells and the file line of
@@ -155,10 +125,6 @@ class Table:
     header_line: int
     columns: list[list[str]]
     lines: np.ndarray  # file line number of each data row
-
-    @property
-    def n_rows(self) -> int:
-        return int(self.lines.size)
 
 
 def read_table(path: str) -> Table:
@@ -203,14 +169,9 @@ def read_table(path: str) -> Table:
     if not body:
         raise InputError("no data rows", file=path, row=starts[0])
     for rec, line in zip(body, starts[1:]):
-        if len(rec) < width:
-            rec.extend([""] * (width - len(rec)))
-        elif len(rec) > width:
-            if any(c.strip() for c in rec[width:]):
-                raise InputError(
-                    f"{len(rec)} fields but the header has {width}", file=path, row=line
-                )
-            del rec[width:]
+        if any(c.strip() for c in rec[width:]):
+            raise InputError(f"{len(rec)} fields but the header has {width}", file=path, row=line)
+        rec[width:] = [""] * (width - len(rec))  # pad short rows, cut empty extra fields
     columns = [list(col) for col in zip(*body)]
     return Table(path, header, starts[0], columns, np.asarray(starts[1:], dtype=int))
 
@@ -226,19 +187,15 @@ class Field:
 
 @dataclass(frozen=True)
 class Schema:
-    """The columns of a file type: its id column, quantity fields and required groups."""
+    """The columns of a file type: its id column and quantity fields (one of each group required)."""
 
     id_column: str
     fields: tuple[Field, ...]
-    required: tuple[str, ...]  # groups
     extra: tuple[str, ...] = ()  # other reserved plain columns (e.g. "cone")
 
 
 CI_SCHEMA = Schema(
-    "profile",
-    (Field("depth", LENGTH, "depth"), Field("ci", PRESSURE, "ci")),
-    ("depth", "ci"),
-    ("cone",),
+    "profile", (Field("depth", LENGTH, "depth"), Field("ci", PRESSURE, "ci")), ("cone",)
 )
 PLATE_SCHEMA = Schema(
     "test",
@@ -249,7 +206,6 @@ PLATE_SCHEMA = Schema(
         Field("sinkage", LENGTH, "sinkage"),
         Field("pressure", PRESSURE, "pressure"),
     ),
-    ("size", "sinkage", "pressure"),
 )
 SHEAR_SCHEMA = Schema(
     "test",
@@ -258,7 +214,6 @@ SHEAR_SCHEMA = Schema(
         Field("shear_displacement", LENGTH, "displacement"),
         Field("shear_stress", PRESSURE, "stress"),
     ),
-    ("normal_pressure", "displacement", "stress"),
 )
 
 
@@ -292,28 +247,28 @@ def match_field(lower: str, schema: Schema) -> tuple[Field, str | None] | None:
     return None
 
 
-def unit_choices(kind: str) -> str:
-    """The unit suffixes of a kind of quantity, as ``m|cm|mm|in``."""
-    return "|".join(UNIT_TABLES[kind])
+def spelled(fld: Field) -> str:
+    """A field's column name with its unit choices, as ``depth_<m|cm|mm|in>``."""
+    return f"{fld.name}_<{'|'.join(UNIT_TABLES[fld.kind])}>"
 
 
-def column_layout(table: Table, schema: Schema, units: str | None = None) -> Layout:
-    """Classify the header of a table; raise InputError for header problems."""
-    path, row = table.path, table.header_line
+def column_layout(
+    path: str, header: list[str], row: int | None, schema: Schema, units: str | None = None
+) -> Layout:
+    """Classify a header (the file's line ``row``); raise InputError for header problems."""
     seen: dict[str, str] = {}
     groups: dict[str, Column] = {}
     id_col: Column | None = None
     extra: dict[str, Column] = {}
     metadata: list[Column] = []
-    for j, name in enumerate(table.header):
+
+    def fail(why: str, column: str) -> InputError:
+        return InputError(why, file=path, row=row, column=column)
+
+    for j, name in enumerate(header):
         lower = name.lower()
         if lower in seen:
-            raise InputError(
-                f"duplicate column name ({seen[lower]} is already a column)",
-                file=path,
-                row=row,
-                column=name,
-            )
+            raise fail(f"duplicate column name ({seen[lower]} is already a column)", name)
         seen[lower] = name
         if lower == schema.id_column:
             id_col = Column(j, name)
@@ -326,73 +281,64 @@ def column_layout(table: Table, schema: Schema, units: str | None = None) -> Lay
             metadata.append(Column(j, name))
             continue
         fld, unit = match
-        table_units = UNIT_TABLES[fld.kind]
         if unit is None:
             if units is None:
-                raise InputError(
-                    f"no unit in the column name: write {fld.name}_<{unit_choices(fld.kind)}>",
-                    file=path,
-                    row=row,
-                    column=name,
-                )
+                raise fail(f"no unit in the column name: write {spelled(fld)}", name)
             sys_unit = u.length_unit(units) if fld.kind == LENGTH else u.pressure_unit(units)
             unit = sys_unit.lower()
-        if unit not in table_units:
-            raise InputError(
-                f"unknown {fld.kind} unit {unit!r} (use {fld.name}_<{unit_choices(fld.kind)}>)",
-                file=path,
-                row=row,
-                column=name,
-            )
+        if unit not in UNIT_TABLES[fld.kind]:
+            raise fail(f"unknown {fld.kind} unit {unit!r} (use {spelled(fld)})", name)
         if fld.group in groups:
             other = groups[fld.group].name
-            raise InputError(
-                f"more than one {fld.group} column ({other} is already one)",
-                file=path,
-                row=row,
-                column=name,
-            )
-        groups[fld.group] = Column(j, name, fld, table_units[unit])
-    for group in schema.required:
+            raise fail(f"more than one {fld.group} column ({other} is already one)", name)
+        groups[fld.group] = Column(j, name, fld, UNIT_TABLES[fld.kind][unit])
+    for group in dict.fromkeys(f.group for f in schema.fields):
         if group not in groups:
-            names = " or ".join(
-                f"{f.name}_<{unit_choices(f.kind)}>" for f in schema.fields if f.group == group
-            )
-            raise InputError(f"missing required column {names}", file=path, row=row, column=names)
+            names = " or ".join(spelled(f) for f in schema.fields if f.group == group)
+            raise fail(f"missing required column {names}", names)
     return Layout(groups, id_col, extra, metadata)
 
 
 def table_groups(table: Table, id_col: Column | None) -> list[tuple[str, np.ndarray]]:
     """(id, row indices) of each profile or test, in order of first appearance."""
     if id_col is None:
-        return [(Path(table.path).stem, np.arange(table.n_rows))]
+        return [(Path(table.path).stem, np.arange(table.lines.size))]
     index: dict[str, list[int]] = {}
     for i, cell in enumerate(table.columns[id_col.index]):
         index.setdefault(cell.strip(), []).append(i)
     return [(key, np.asarray(rows, dtype=int)) for key, rows in index.items()]
 
 
-def first_bad(
-    idx: np.ndarray, checks: Sequence[tuple[Column, Numbers]]
-) -> tuple[int, Column, str] | None:
-    """The earliest unusable cell of a group (row order, then column order)."""
-    best: tuple[tuple[int, int], Column, str] | None = None
-    for order, (col, num) in enumerate(checks):
-        hits = np.flatnonzero(num.bad[idx])
-        if hits.size:
-            key = (int(hits[0]), order)
-            if best is None or key < best[0]:
-                i = int(idx[hits[0]])
-                best = (key, col, num.reasons[i])
-    if best is None:
-        return None
-    (k, _), col, why = best
-    return int(idx[k]), col, why
+def check_group(
+    table: Table,
+    layout: Layout,
+    gid: str,
+    idx: np.ndarray,
+    checks: Sequence[tuple[Column, Numbers]],
+    item: str = "profile",
+) -> None:
+    """Raise the located InputError of a group's empty id or earliest unusable cell
+    (row order, then column order)."""
+
+    def fail(why: str, i: int, column: str) -> InputError:
+        row = int(table.lines[i])
+        return InputError(why, file=table.path, profile=gid, item=item, row=row, column=column)
+
+    if layout.id_col is not None and not gid:
+        raise fail(f"empty {item} id", int(idx[0]), layout.id_col.name)
+    hits = [(np.flatnonzero(num.bad[idx]), k) for k, (_, num) in enumerate(checks)]
+    found = [(int(h[0]), k) for h, k in hits if h.size]
+    if found:
+        r, k = min(found)
+        col, num = checks[k]
+        raise fail(num.reasons[int(idx[r])], int(idx[r]), col.name)
 
 
 def row_metadata(table: Table, layout: Layout, i: int) -> dict[str, Any]:
-    """The metadata cells of table row ``i`` (numbers as floats)."""
-    return {c.name: metadata_value(table.columns[c.index][i]) for c in layout.metadata}
+    """The metadata cells of table row ``i``: floats when they read as numbers, else stripped text."""
+    cells = {c.name: table.columns[c.index][i] for c in layout.metadata}
+    number = DECIMAL.match, SPECIAL_FLOAT.match
+    return {k: float(v) if any(m(v) for m in number) else v.strip() for k, v in cells.items()}
 
 
 def collect(items: Sequence[Any], build: Callable[[Any], Any], on_error: str) -> list[Any]:
@@ -408,85 +354,54 @@ def collect(items: Sequence[Any], build: Callable[[Any], Any], on_error: str) ->
     return out
 
 
-def check_constant(
-    path: str, gid: str, table: Table, idx: np.ndarray, col: Column, num: Numbers, what: str
-) -> float:
-    """The value of a column that must not change within a test."""
-    vals = num.values[idx]
-    diff = np.flatnonzero(vals != vals[0])
-    if diff.size:
-        i = int(idx[diff[0]])
-        first = table.columns[col.index][int(idx[0])].strip()
-        raise InputError(
-            f"{what} changes within the test ({table.columns[col.index][i].strip()} "
-            f"here, {first} on line {int(table.lines[idx[0]])})",
-            file=path,
-            profile=gid,
-            item="test",
-            row=int(table.lines[i]),
-            column=col.name,
-        )
-    return float(vals[0])
-
-
-# ---------------------------------------------------------------------------
-# profiles built from cells
-# ---------------------------------------------------------------------------
-
-
 def validated(
     profile: CIProfile,
     locate: Callable[[int | None, str | None], tuple[int | None, str | None, str]],
 ) -> CIProfile:
-    """Run :meth:`CIProfile.validate` and relocate its error in the file.
-
-    ``locate(index, column)`` maps the point index and the model's column
-    name (``"depth"``, ``"ci"`` or None) to (file row, file column, extra
-    text for the message).
-    """
+    """Run :meth:`CIProfile.validate` and relocate its error in the file: ``locate(index,
+    column)`` maps a point and a model column to (file row, file column, text to add)."""
     probe = replace(profile, rows=np.arange(len(profile)))
     try:
         probe.validate()
     except InputError as exc:
         row, column, more = locate(exc.row, exc.column)
-        raise InputError(
-            exc.reason + more,
-            file=profile.source,
-            profile=profile.id,
-            row=row,
-            column=column,
-        ) from None
+        where = dict(file=profile.source, profile=profile.id, row=row, column=column)
+        raise InputError(exc.reason + more, **where) from None
     return profile
 
 
 def push_profile(
     pid: str,
+    labels: Sequence[str],
+    cells: Sequence[str],
     depth: np.ndarray,
-    ci: np.ndarray,
+    factor: float,
     cone: Cone,
     depth_ref: str,
     metadata: dict[str, Any],
     source: str,
     line: int,
     notes: list[str],
-    stop_label: Callable[[int], str],
-) -> tuple[CIProfile, int, int]:
-    """One instrument push (a row of an SC900 export or a wide table) as a CIProfile.
+    stop_format: str = "{}",
+) -> CIProfile:
+    """One instrument push (a row of an SC900 export or a wide table) as a validated CIProfile.
 
-    ``depth`` [m] and ``ci`` [kPa] are the push's readings in depth order.  Trailing
-    zero readings mean the push stopped: they are dropped, noted (``stop_label(k)``
-    names where the k-th reading stood) and counted in
-    ``metadata["trailing_zeros_dropped"]``; with ``depth_ref="tip"`` the cone base is
-    H above the tip.  Returns the profile, the readings kept and the readings dropped.
+    ``cells``: the readings as text (``factor`` to kPa), ``labels`` their columns,
+    ``depth`` [m]; trailing zeros are dropped and noted (``stop_format`` words the label
+    where the push stopped).  Every point has the push's file ``line`` as its row.
     """
+    readings = to_numbers(cells)
+    if readings.bad.any():
+        k = int(np.flatnonzero(readings.bad)[0])
+        raise InputError(readings.reasons[k], file=source, profile=pid, row=line, column=labels[k])
+    ci = readings.values * factor
     nonzero = np.flatnonzero(ci != 0)
     keep = int(nonzero[-1]) + 1 if nonzero.size else 0
     dropped = ci.size - keep
     if dropped:
         s = "" if dropped == 1 else "s"
-        notes.append(
-            f"dropped {dropped} trailing zero reading{s} (push stopped at {stop_label(keep)})"
-        )
+        stop = stop_format.format(labels[keep])
+        notes.append(f"dropped {dropped} trailing zero reading{s} (push stopped at {stop})")
     metadata["trailing_zeros_dropped"] = dropped
     z = depth[:keep] - cone.height if depth_ref == "tip" else depth[:keep]
     profile = CIProfile(
@@ -499,4 +414,14 @@ def push_profile(
         notes=notes,
         rows=np.full(keep, line, dtype=int),
     )
-    return profile, keep, dropped
+
+    def locate(k: int | None, column: str | None) -> tuple[int | None, str | None, str]:
+        if k is None:  # too few points
+            more = f" after dropping {dropped} trailing zero readings" if dropped else ""
+            return line, labels[keep] if dropped else labels[0], more
+        more = f" (reading {cells[k]!r})"
+        if column == "depth" and depth_ref == "tip":
+            more = f" (a tip depth; base depth = tip depth - H, H = {cone.height:.4g} m)"
+        return line, labels[k], more
+
+    return validated(profile, locate)

@@ -1,8 +1,4 @@
-"""Wide tables of cone index: one row per push, one column per depth.
-
-Penetrologger exports opened in a spreadsheet, published tables.  Depth and
-cone index units are never guessed.
-"""
+"""Wide tables of cone index: one row per push, one column per depth (``docs/instruments.md``)."""
 
 from __future__ import annotations
 
@@ -10,7 +6,7 @@ import csv
 import os
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
@@ -25,15 +21,9 @@ from terracone.io.tables import (
     collect,
     push_profile,
     read_lines,
-    to_numbers,
-    validated,
 )
 from terracone.physics import units as u
 from terracone.physics.cone import Cone, get_cone
-
-# ---------------------------------------------------------------------------
-# wide tables: one row per push, one column per depth
-# ---------------------------------------------------------------------------
 
 #: Header cells that name the push (lower case, in order of preference).
 WIDE_ID_COLUMNS = ("profile", "id", "point", "number", "push", "name", "no", "nr", "label")
@@ -63,11 +53,13 @@ class _WideHeader:
     line: int  # file line of the header
     cells: list[str]
     depth_cols: list[int]
-    depth_labels: list[str]
-    depth_values: list[float]
-    depth_units: list[str | None]
+    depths: list[tuple[float, str | None]]  # (value, unit or None) of each depth column
     stated_ci_unit: str | None
     stated_line: int | None
+
+    @property
+    def depth_labels(self) -> list[str]:
+        return [self.cells[j] for j in self.depth_cols]
 
 
 def wide_depth_header(cell: str) -> tuple[float, str | None] | None:
@@ -141,26 +133,14 @@ def _wide_header(path: str, text: list[str], delimiter: str | None) -> _WideHead
             while cells and not cells[-1]:  # trailing separators (spreadsheet exports)
                 cells.pop()
             cells = [c or f"column{j + 1}" for j, c in enumerate(cells)]  # unnamed columns
-            return _WideHeader(
-                delim,
-                lineno,
-                cells,
-                [j for j, _ in found],
-                [cells[j] for j, _ in found],
-                [d[0] for _, d in found],
-                [d[1] for _, d in found],
-                stated,
-                stated_line,
-            )
+            cols, depths = [j for j, _ in found], [d for _, d in found]
+            return _WideHeader(delim, lineno, cells, cols, depths, stated, stated_line)
         m = _WIDE_UNIT_STATED.search(line)
         if m:
             unit = m.group(1).lower()
             if stated is not None and unit != stated:
-                raise InputError(
-                    f"the file states two cone index units ({stated} on line {stated_line}, {unit} here)",
-                    file=path,
-                    row=lineno,
-                )
+                why = f"the file states two cone index units ({stated} on line {stated_line}, {unit} here)"
+                raise InputError(why, file=path, row=lineno)
             stated, stated_line = unit, lineno
     raise InputError(
         "no header line with at least 3 depth columns (e.g. '0;5;10' or '0 cm,2.5 cm,5 cm'): "
@@ -174,7 +154,7 @@ def _wide_units(
 ) -> tuple[np.ndarray, str, list[str]]:
     """Depths [m] of the depth columns, the CI unit and the depth units used."""
     missing = []
-    bare = [lab for lab, un in zip(head.depth_labels, head.depth_units) if un is None]
+    bare = [lab for lab, (_, un) in zip(head.depth_labels, head.depths) if un is None]
     if bare and depth_unit is None:
         missing.append(
             f"--depth-unit {'|'.join(u.LENGTH_UNITS)} (depth_unit= in Python): "
@@ -197,22 +177,16 @@ def _wide_units(
     if ci_unit is not None and ci_unit.lower() not in WIDE_CI_UNITS:
         raise ValueError(f"ci_unit must be one of {', '.join(WIDE_CI_UNITS)} (got {ci_unit!r})")
     if stated is not None and ci_unit is not None and ci_unit.lower() != stated:
-        raise InputError(
-            f"the file states cone index in {stated} but ci_unit (--ci-unit) is {ci_unit.lower()}",
-            file=path,
-            row=head.stated_line,
-        )
-    units = [(un or depth_unit.lower()) for un in head.depth_units]  # type: ignore[union-attr]
-    depths = np.array([v * u.LENGTH_UNITS[un] for v, un in zip(head.depth_values, units)])
+        why = f"the file states cone index in {stated} but ci_unit (--ci-unit) is {ci_unit.lower()}"
+        raise InputError(why, file=path, row=head.stated_line)
+    units = [(un or depth_unit.lower()) for _, un in head.depths]  # type: ignore[union-attr]
+    depths = np.array([v * u.LENGTH_UNITS[un] for (v, _), un in zip(head.depths, units)])
     bad = np.flatnonzero(np.diff(depths) <= 0)
     if bad.size:
         k = int(bad[0]) + 1
-        raise InputError(
-            f"depth columns are not strictly increasing ({head.depth_labels[k - 1]!r} before this one)",
-            file=path,
-            row=head.line,
-            column=head.depth_labels[k],
-        )
+        labels = head.depth_labels
+        why = f"depth columns are not strictly increasing ({labels[k - 1]!r} before this one)"
+        raise InputError(why, file=path, row=head.line, column=labels[k])
     used = list(dict.fromkeys(units))
     return depths, stated or ci_unit.lower(), used  # type: ignore[union-attr]
 
@@ -266,29 +240,16 @@ def read_wide_ci(
     Raises
     ------
     InputError
-        File-level problems: no header with 3 or more depth columns, a depth
-        unit or CI unit that is neither stated nor given (the message names the
-        missing option), depths not increasing.  Per push (raised, or
-        collected): a non-numeric reading, an empty cell between readings, a bad
-        coordinate, a duplicate id, and the checks of :meth:`CIProfile.validate`.
+        No header with 3 or more depth columns, units neither stated nor given
+        (the message names the option), depths not increasing; per push (raised
+        or collected) the problems of ``docs/instruments.md``.
 
     Notes
     -----
-    * The push id is the cell of the first id column found among
-      :data:`WIDE_ID_COLUMNS` (``profile``, ``id``, ``point``, ``number``, ...,
-      case-insensitive), else ``"{file stem}/{k}"`` with k the 1-based data row.
-    * Latitude and longitude columns (:data:`WIDE_LAT_COLUMNS`,
-      :data:`WIDE_LON_COLUMNS`: ``lat``/``lon``, ``latitude``/``longitude``,
-      ``COORD_Y``/``COORD_X``, ...) are read by :func:`parse_coordinate` into
-      ``metadata["lat"]`` and ``metadata["lon"]`` (decimal degrees).
-    * The readings of a push run from its first to its last non-empty depth
-      cell: empty cells after the last reading end the push (as do empty
-      cells before the first, noted); an empty cell between two readings is an
-      error naming its column.  Trailing zero readings mean the push stopped:
-      they are dropped, noted in ``notes`` and counted in
-      ``metadata["trailing_zeros_dropped"]``, as for SC900 exports.
-    * Any other column is metadata (numbers as floats).  Metadata also holds
-      ``pressure_unit``, ``length_unit`` and ``line``.
+    The push id (:data:`WIDE_ID_COLUMNS`, else ``"{file stem}/{k}"``), the
+    coordinates (:data:`WIDE_LAT_COLUMNS`, :data:`WIDE_LON_COLUMNS`, read by
+    :func:`parse_coordinate` into ``metadata["lat"]``, ``["lon"]``), empty
+    cells, trailing zeros and the metadata: ``docs/instruments.md``.
 
     Examples
     --------
@@ -300,54 +261,101 @@ def read_wide_ci(
     text = read_lines(source)
     head = _wide_header(source, text, delimiter)
     depths, ci_u, depth_units = _wide_units(source, head, depth_unit, ci_unit)
-    cols = _wide_columns(source, head, depths, default_cone, depth_ref)
-    cols.factor = u.PRESSURE_UNITS[ci_u]
-    cols.common = {"pressure_unit": ci_u, "length_unit": ",".join(depth_units)}
-    rows = _wide_rows(source, text, head)
-    seen: dict[str, int] = {}
-    return collect(list(enumerate(rows, 1)), lambda item: _wide_row(cols, *item, seen), on_error)
+    one = _push_reader(source, head, depths, ci_u, depth_units, default_cone, depth_ref)
+    return collect(list(enumerate(_wide_rows(source, text, head), 1)), one, on_error)
 
 
-@dataclass
-class _WideColumns:
-    """What every row of a wide table shares: its header and the columns' roles."""
-
-    source: str
-    head: _WideHeader
-    depths: np.ndarray  # [m]
-    comma: bool  # decimal commas accepted
-    id_j: int | None
-    lat_j: int | None
-    lon_j: int | None
-    cone_j: int | None
-    meta_cols: list[int]
-    default_cone: Cone
-    depth_ref: str
-    factor: float = 1.0  # CI unit to kPa
-    common: dict[str, Any] = field(default_factory=dict)  # metadata of every push
-
-
-def _wide_columns(
-    source: str, head: _WideHeader, depths: np.ndarray, default_cone: Cone, depth_ref: str
-) -> _WideColumns:
-    """Find the id, coordinate, cone and metadata columns of a wide table."""
+def _push_reader(
+    source: str,
+    head: _WideHeader,
+    depths: np.ndarray,
+    ci_u: str,
+    depth_units: list[str],
+    default_cone: Cone,
+    depth_ref: str,
+) -> Callable[[tuple[int, tuple[int, list[str]]]], CIProfile]:
+    """What reads a data row of a wide table: its roles of columns found once."""
+    factor = u.PRESSURE_UNITS[ci_u]
+    common = {"pressure_unit": ci_u, "length_unit": ",".join(depth_units)}
     lower = [c.lower() for c in head.cells]
-    depth_set = set(head.depth_cols)
 
     def first(names: Sequence[str]) -> int | None:
         for name in names:
-            if name in lower and lower.index(name) not in depth_set:
+            if name in lower and lower.index(name) not in head.depth_cols:
                 return lower.index(name)
         return None
 
     id_j, lat_j, lon_j = first(WIDE_ID_COLUMNS), first(WIDE_LAT_COLUMNS), first(WIDE_LON_COLUMNS)
     cone_j = first(("cone",))
-    special = {j for j in (id_j, lat_j, lon_j, cone_j) if j is not None}
-    meta_cols = [j for j in range(len(head.cells)) if j not in depth_set and j not in special]
+    special = {*head.depth_cols, *(j for j in (id_j, lat_j, lon_j, cone_j) if j is not None)}
+    meta_cols = [j for j in range(len(head.cells)) if j not in special]
     comma = head.delimiter in (";", "\t")
-    return _WideColumns(
-        source, head, depths, comma, id_j, lat_j, lon_j, cone_j, meta_cols, default_cone, depth_ref
-    )
+    seen: dict[str, int] = {}
+
+    def one(item: tuple[int, tuple[int, list[str]]]) -> CIProfile:
+        """The k-th data row (1-based) as a validated profile."""
+        k, (line, cells) = item
+        pid = cells[id_j].strip() if id_j is not None else f"{Path(source).stem}/{k}"
+
+        def fail(msg: str, j: int | None) -> InputError:
+            column = head.cells[j] if j is not None else None
+            return InputError(msg, file=source, profile=pid, row=line, column=column)
+
+        if id_j is not None:
+            if not pid:
+                raise fail("empty id", id_j)
+            if pid in seen:
+                raise fail(f"duplicate id (also on line {seen[pid]})", id_j)
+        seen.setdefault(pid, line)
+        metadata: dict[str, Any] = {}
+        for j in meta_cols:
+            num = _wide_number(cells[j], comma)
+            metadata[head.cells[j]] = float(num) if DECIMAL.match(num) else cells[j].strip()
+        for j, key in ((lat_j, "lat"), (lon_j, "lon")):
+            if j is not None:
+                try:
+                    value = parse_coordinate(cells[j], key)  # type: ignore[arg-type]
+                except ValueError as exc:
+                    raise fail(str(exc), j) from None
+                if value is not None:
+                    metadata[key] = value
+        push_cone = default_cone
+        if cone_j is not None and cells[cone_j].strip():
+            try:
+                push_cone = get_cone(cells[cone_j].strip())
+            except ValueError as exc:
+                raise fail(str(exc), cone_j) from None
+        raw = [_wide_number(cells[j], comma) for j in head.depth_cols]
+        filled = np.flatnonzero([bool(c) for c in raw])
+        if not filled.size:
+            raise fail("no readings (every depth cell is empty)", head.depth_cols[0])
+        a, b = int(filled[0]), int(filled[-1]) + 1
+        for k in range(a, b):
+            if not raw[k]:
+                raise fail(
+                    f"empty cell between readings ({head.depth_labels[k - 1]!r} and "
+                    f"{head.depth_labels[int(filled[filled > k][0])]!r} have readings)",
+                    head.depth_cols[k],
+                )
+        notes = []
+        if a:
+            notes.append(f"first reading at {head.depth_labels[a]} (the cells before it are empty)")
+        return push_profile(
+            pid,
+            head.depth_labels[a:b],
+            raw[a:b],
+            depths[a:b],
+            factor,
+            push_cone,
+            depth_ref,
+            {**metadata, **common, "line": line},
+            source,
+            line,
+            notes,
+            "depth column {!r}",
+        )
+
+    return one
 
 
 def _wide_rows(source: str, text: list[str], head: _WideHeader) -> list[tuple[int, list[str]]]:
@@ -366,115 +374,3 @@ def _wide_rows(source: str, text: list[str], head: _WideHeader) -> list[tuple[in
     if not rows:
         raise InputError("no data rows", file=source, row=head.line)
     return rows
-
-
-def _wide_row(
-    cols: _WideColumns, k: int, row: tuple[int, list[str]], seen: dict[str, int]
-) -> CIProfile:
-    """The k-th data row (1-based) of a wide table as a validated profile."""
-    line, cells = row
-    head = cols.head
-    pid = cells[cols.id_j].strip() if cols.id_j is not None else f"{Path(cols.source).stem}/{k}"
-
-    def fail(msg: str, j: int | None) -> InputError:
-        column = head.cells[j] if j is not None else None
-        return InputError(msg, file=cols.source, profile=pid, row=line, column=column)
-
-    if cols.id_j is not None:
-        if not pid:
-            raise fail("empty id", cols.id_j)
-        if pid in seen:
-            raise fail(f"duplicate id (also on line {seen[pid]})", cols.id_j)
-    seen.setdefault(pid, line)
-    metadata: dict[str, Any] = {}
-    for j in cols.meta_cols:
-        cell = cells[j]
-        num = _wide_number(cell, cols.comma)
-        metadata[head.cells[j]] = float(num) if DECIMAL.match(num) else cell.strip()
-    for j, key in ((cols.lat_j, "lat"), (cols.lon_j, "lon")):
-        if j is not None:
-            try:
-                value = parse_coordinate(cells[j], key)  # type: ignore[arg-type]
-            except ValueError as exc:
-                raise fail(str(exc), j) from None
-            if value is not None:
-                metadata[key] = value
-    push_cone = cols.default_cone
-    if cols.cone_j is not None and cells[cols.cone_j].strip():
-        try:
-            push_cone = get_cone(cells[cols.cone_j].strip())
-        except ValueError as exc:
-            raise fail(str(exc), cols.cone_j) from None
-    return _wide_push(
-        cols.source,
-        pid,
-        line,
-        cells,
-        head,
-        cols.depths,
-        cols.factor,
-        cols.comma,
-        push_cone,
-        cols.depth_ref,
-        {**metadata, **cols.common, "line": line},
-        fail,
-    )
-
-
-def _wide_push(
-    source: str,
-    pid: str,
-    line: int,
-    cells: list[str],
-    head: _WideHeader,
-    depths: np.ndarray,
-    factor: float,
-    comma: bool,
-    push_cone: Cone,
-    depth_ref: str,
-    metadata: dict[str, Any],
-    fail: Callable[[str, int | None], InputError],
-) -> CIProfile:
-    """One push of a wide table: readings, empty cells, trailing zeros."""
-    raw = [_wide_number(cells[j], comma) for j in head.depth_cols]
-    filled = np.flatnonzero([bool(c) for c in raw])
-    if not filled.size:
-        raise fail("no readings (every depth cell is empty)", head.depth_cols[0])
-    a, b = int(filled[0]), int(filled[-1]) + 1
-    for k in range(a, b):
-        if not raw[k]:
-            raise fail(
-                f"empty cell between readings ({head.depth_labels[k - 1]!r} and "
-                f"{head.depth_labels[int(filled[filled > k][0])]!r} have readings)",
-                head.depth_cols[k],
-            )
-    readings = to_numbers(raw[a:b])
-    if readings.bad.any():
-        k = int(np.flatnonzero(readings.bad)[0])
-        raise fail(readings.reasons[k], head.depth_cols[a + k])
-    notes = []
-    if a:
-        notes.append(f"first reading at {head.depth_labels[a]} (the cells before it are empty)")
-    profile, keep, dropped = push_profile(
-        pid,
-        depths[a:b],
-        readings.values * factor,
-        push_cone,
-        depth_ref,
-        metadata,
-        source,
-        line,
-        notes,
-        lambda k: f"depth column {head.depth_labels[a + k]!r}",
-    )
-
-    def locate(k: int | None, column: str | None) -> tuple[int | None, str | None, str]:
-        if k is None:
-            more = f" after dropping {dropped} trailing zero readings" if dropped else ""
-            return line, head.depth_labels[a + keep] if dropped else head.depth_labels[a], more
-        more = f" (reading {raw[a + k]!r})"
-        if column == "depth" and depth_ref == "tip":
-            more = f" (a tip depth; base depth = tip depth - H, H = {push_cone.height:.4g} m)"
-        return line, head.depth_labels[a + k], more
-
-    return validated(profile, locate)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import csv
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -23,10 +23,6 @@ from terracone.io.tables import (
 )
 from terracone.physics.cone import Cone, get_cone
 
-# ---------------------------------------------------------------------------
-# writers
-# ---------------------------------------------------------------------------
-
 
 def _unit(name: str, kind: str) -> tuple[str, float]:
     key = str(name).lower()
@@ -43,10 +39,6 @@ def _fmt(value: Any) -> str:
     if isinstance(value, float | np.floating):
         return repr(float(value))
     return str(value)
-
-
-def _numbers(values: np.ndarray, factor: float) -> list[str]:
-    return [repr(v) for v in (np.asarray(values, dtype=float) / factor).tolist()]
 
 
 def _metadata_columns(items: Sequence[Any], schema: Schema, reserved: Sequence[str]) -> list[str]:
@@ -68,12 +60,30 @@ def _metadata_columns(items: Sequence[Any], schema: Schema, reserved: Sequence[s
     return list(keys.values())
 
 
-def _write_rows(
+def _write_items(
     path: PathLike,
-    header: list[str],
-    rows: Iterator[list[str]],
+    items: Sequence[Any],
+    schema: Schema,
+    head: Sequence[str],
+    lead: Callable[[Any, float, float], list[str]],
+    series: tuple[str, str],
+    units: tuple[str, str],
     comment: str | Sequence[str] | None,
 ) -> None:
+    """One row per point of the ``series`` (a length, a pressure) of items with unique ids.
+
+    ``head``: the columns but metadata, ``{lu}``/``{pu}`` the units; ``lead``: the leading cells.
+    """
+    (lu, lf), (pu, pf) = _unit(units[0], LENGTH), _unit(units[1], PRESSURE)
+    seen: set[str] = set()
+    for item in items:
+        if item.id in seen:
+            raise ValueError(
+                f"duplicate {schema.id_column} id {item.id!r}: they would merge on reading"
+            )
+        seen.add(item.id)
+    meta = _metadata_columns(items, schema, (schema.id_column, *schema.extra))
+    names = [h.format(lu=lu, pu=pu) for h in head]
     with open(os.fspath(path), "w", encoding="utf-8", newline="") as f:
         if comment is not None:
             lines = comment.splitlines() if isinstance(comment, str) else list(comment)
@@ -81,18 +91,13 @@ def _write_rows(
                 f.write(f"# {line}\n" if line else "#\n")
         plain = csv.writer(f, lineterminator="\n")
         quoted = csv.writer(f, lineterminator="\n", quoting=csv.QUOTE_ALL)
-        plain.writerow(header)
-        for row in rows:
-            # a record starting with '#' would read back as a comment: quote it
-            (quoted if row and row[0].lstrip().startswith("#") else plain).writerow(row)
-
-
-def _check_unique_ids(items: Sequence[Any], what: str) -> None:
-    seen: set[str] = set()
-    for item in items:
-        if item.id in seen:
-            raise ValueError(f"duplicate {what} id {item.id!r}: they would merge on reading")
-        seen.add(item.id)
+        plain.writerow([*names[:-2], *meta, *names[-2:]])
+        for item in items:
+            fixed = lead(item, lf, pf) + [_fmt(item.metadata.get(k)) for k in meta]
+            x, y = (np.asarray(getattr(item, a), dtype=float) / f for a, f in zip(series, (lf, pf)))
+            for row in zip(map(repr, x.tolist()), map(repr, y.tolist())):
+                # a record starting with '#' would read back as a comment: quote it
+                (quoted if fixed[0].lstrip().startswith("#") else plain).writerow([*fixed, *row])
 
 
 def _cone_spec(cone: Cone) -> str:
@@ -137,19 +142,16 @@ def write_ci_profiles(
     rows and source are not written.  A cone that is not a named cone is
     written as ``"<diameter>m:<angle>"``.
     """
-    lu, lf = _unit(length_unit, LENGTH)
-    pu, pf = _unit(pressure_unit, PRESSURE)
-    _check_unique_ids(profiles, "profile")
-    meta = _metadata_columns(profiles, CI_SCHEMA, ("profile", "cone"))
-    header = ["profile", "cone", *meta, f"depth_{lu}", f"ci_{pu}"]
-
-    def rows() -> Iterator[list[str]]:
-        for p in profiles:
-            fixed = [str(p.id), _cone_spec(p.cone)] + [_fmt(p.metadata.get(k)) for k in meta]
-            for z, c in zip(_numbers(p.depth, lf), _numbers(p.ci, pf)):
-                yield [*fixed, z, c]
-
-    _write_rows(path, header, rows(), comment)
+    _write_items(
+        path,
+        profiles,
+        CI_SCHEMA,
+        ["profile", "cone", "depth_{lu}", "ci_{pu}"],
+        lambda p, lf, pf: [str(p.id), _cone_spec(p.cone)],
+        ("depth", "ci"),
+        (length_unit, pressure_unit),
+        comment,
+    )
 
 
 def write_plate_tests(
@@ -169,30 +171,24 @@ def write_plate_tests(
     tests : sequence of PlateTest
         Tests with unique ids, all circular (written as ``plate_radius``)
         or all rectangular (``plate_width``).
-    length_unit : {"m", "cm", "mm", "in"}
-        Unit of the plate size and sinkage columns.
-    pressure_unit : {"kpa", "mpa", "psi", "pa"}
-        Unit of the pressure column.
-    comment : str or sequence of str, optional
-        Written first, one ``# `` line per line.
+    length_unit, pressure_unit, comment
+        As in :func:`write_ci_profiles` (the unit of the plate size and sinkage
+        columns, of the pressure column).
     """
-    lu, lf = _unit(length_unit, LENGTH)
-    pu, pf = _unit(pressure_unit, PRESSURE)
-    _check_unique_ids(tests, "test")
     shapes = {t.shape for t in tests}
     if len(shapes) > 1:
         raise ValueError("circular and rectangular plates cannot share a file (one size column)")
     size_col = "plate_width" if shapes == {"rectangular"} else "plate_radius"
-    meta = _metadata_columns(tests, PLATE_SCHEMA, ("test",))
-    header = ["test", f"{size_col}_{lu}", *meta, f"sinkage_{lu}", f"pressure_{pu}"]
-
-    def rows() -> Iterator[list[str]]:
-        for t in tests:
-            fixed = [str(t.id), repr(float(t.b) / lf)] + [_fmt(t.metadata.get(k)) for k in meta]
-            for z, p in zip(_numbers(t.sinkage, lf), _numbers(t.pressure, pf)):
-                yield [*fixed, z, p]
-
-    _write_rows(path, header, rows(), comment)
+    _write_items(
+        path,
+        tests,
+        PLATE_SCHEMA,
+        ["test", size_col + "_{lu}", "sinkage_{lu}", "pressure_{pu}"],
+        lambda t, lf, pf: [str(t.id), repr(float(t.b) / lf)],
+        ("sinkage", "pressure"),
+        (length_unit, pressure_unit),
+        comment,
+    )
 
 
 def write_shear_tests(
@@ -211,40 +207,25 @@ def write_shear_tests(
         Output file (overwritten).
     tests : sequence of ShearTest
         Tests with unique ids.
-    length_unit : {"m", "cm", "mm", "in"}
-        Unit of the shear displacement column.
-    pressure_unit : {"kpa", "mpa", "psi", "pa"}
-        Unit of the normal pressure and shear stress columns.
-    comment : str or sequence of str, optional
-        Written first, one ``# `` line per line.
+    length_unit, pressure_unit, comment
+        As in :func:`write_ci_profiles` (the unit of the shear displacement
+        column, of the normal pressure and shear stress columns).
     """
-    lu, lf = _unit(length_unit, LENGTH)
-    pu, pf = _unit(pressure_unit, PRESSURE)
-    _check_unique_ids(tests, "test")
-    meta = _metadata_columns(tests, SHEAR_SCHEMA, ("test",))
-    header = [
-        "test",
-        f"normal_pressure_{pu}",
-        *meta,
-        f"shear_displacement_{lu}",
-        f"shear_stress_{pu}",
-    ]
-
-    def rows() -> Iterator[list[str]]:
-        for t in tests:
-            fixed = [str(t.id), repr(float(t.normal_pressure) / pf)]
-            fixed += [_fmt(t.metadata.get(k)) for k in meta]
-            for j, s in zip(_numbers(t.displacement, lf), _numbers(t.stress, pf)):
-                yield [*fixed, j, s]
-
-    _write_rows(path, header, rows(), comment)
+    _write_items(
+        path,
+        tests,
+        SHEAR_SCHEMA,
+        ["test", "normal_pressure_{pu}", "shear_displacement_{lu}", "shear_stress_{pu}"],
+        lambda t, lf, pf: [str(t.id), repr(float(t.normal_pressure) / pf)],
+        ("displacement", "stress"),
+        (length_unit, pressure_unit),
+        comment,
+    )
 
 
 def json_default(o: Any) -> Any:
     """``default=`` for :func:`json.dumps` of terracone results (numpy, tuples, paths)."""
-    if isinstance(o, np.floating | np.integer):
-        return o.item()
-    if isinstance(o, np.ndarray):
+    if isinstance(o, np.floating | np.integer | np.ndarray):
         return o.tolist()
     if isinstance(o, tuple):
         return list(o)

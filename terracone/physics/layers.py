@@ -1,25 +1,9 @@
 """Layered terrain: the improved cone model with depth-dependent parameters.
 
-Real soils are layered (tillage pans, crusts, wet subsoils); the paper's
-model assumes a homogeneous terrain over the fitted depths (assumption (a),
-section 2 of [1]_).  This module extends eqs. (2-5) and (2-6) in the plainest
-consistent way: the terrain is a stack of layers, layer j between depths
-D_(j-1) and D_j (D_0 = 0, the last layer unbounded below), each with its own
-Bekker parameters kc_j, kphi_j, n_j and cone-metal adhesion cc_j; the
-cone-metal friction phic is common to all layers.  The cone's load is
-integrated element by element with the parameters of the layer at each
-element's depth, i.e. eq. (2-2) becomes p = (kc_j/r + kphi_j) u^(n_j) at
-depth u in layer j, with u still measured from the terrain surface.
-
-Limits of the assumption: a layer does not "feel" the layers below or above
-(no load spreading, no interface effect); the pressure in a layer grows with
-depth from the surface, not from the layer top; the shear is fully
-mobilised.  It is a description of the CI curve, not a soil-mechanics model
-of the interface.
-
-This module is the forward model.  The fit
-(:func:`~terracone.inverse.layered.fit_layered`, compared with the one-layer
-fit by BIC) lives in :mod:`terracone.inverse.layered`.
+Eqs. (2-5) and (2-6) of [1]_ integrated element by element with the kc_j,
+kphi_j, n_j, cc_j of the layer at each element's depth (phic common to all);
+``docs/instruments.md`` ("Layered fits") states the model and its limits.
+The fit lives in :mod:`terracone.inverse.layered`.
 
 References
 ----------
@@ -102,9 +86,7 @@ def layered_basis(
         Ic, Ip, Icc = normal_integrals(u1s, a, b, n[j], law, t)
         # eq. (2-7) with eq. (2-6) fully mobilised: CI = [2 (t + tan phic) I + 2 cc I_cc] / R^2
         cols += [
-            np.where(live, 2.0 * t * s * Ic / (R * R), 0.0),
-            np.where(live, 2.0 * t * s * Ip / (R * R), 0.0),
-            np.where(live, 2.0 * Icc / (R * R), 0.0),
+            np.where(live, v / (R * R), 0.0) for v in (2 * t * s * Ic, 2 * t * s * Ip, 2 * Icc)
         ]
     return np.stack(cols, axis=-1)
 
@@ -139,9 +121,7 @@ def layered_cone_index(
 
     References
     ----------
-    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P. Predicting
-       terrain parameters for physics-based vehicle mobility models from cone
-       index data. Eqs. (2-5) to (2-7).
+    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eqs. (2-5) to (2-7).
     """
     X = layered_basis(
         depth,

@@ -132,15 +132,11 @@ def check_fit(
     tiny = 1e-9 * float(np.sqrt(np.mean(y * y))) if y.size else 0.0
     s = np.where(np.abs(r) > tiny, np.sign(r), 0.0)
     s = s[s != 0]
-    best = run = 0
-    prev = 0.0
-    for v in s:
-        run = run + 1 if v == prev else 1
-        prev = v
-        best = max(best, run)
+    edges = np.concatenate([[0], np.flatnonzero(s[1:] != s[:-1]) + 1, [s.size]])
+    best = int(np.diff(edges).max()) if s.size else 0
     n_pos, n_neg = int(np.sum(s > 0)), int(np.sum(s < 0))
     N = n_pos + n_neg
-    runs = 1 + int(np.sum(s[1:] != s[:-1])) if N else 0
+    runs = edges.size - 1 if N else 0
     z_runs = float("nan")
     if N >= 2 and n_pos and n_neg:
         mu = 2.0 * n_pos * n_neg / N + 1.0
@@ -192,14 +188,8 @@ def check_fit_fast(depth: ArrayLike, measured: ArrayLike, model: ArrayLike) -> F
     return FitCheck(float(r2), int(best), float(z_runs), None)
 
 
-def _fit_limits() -> tuple:
-    import inspect
-
-    d = {k: v.default for k, v in inspect.signature(check_fit).parameters.items()}
-    return (d["min_r2"], d["max_runs_z"], d["max_drop"], d["min_cv"], d["monotone_model"])
-
-
-_FIT_LIMITS = _fit_limits()
+#: check_fit's default limits, in the order of fit_stats' arguments.
+_FIT_LIMITS = tuple(check_fit.__kwdefaults__.values())
 
 
 @njit(error_model="numpy")
@@ -257,11 +247,7 @@ def fit_stats(y, m, min_r2, max_runs_z, max_drop, min_cv, monotone):
         if var > 0:
             z_runs = (runs - mu) / math.sqrt(var)
     flagged = False
-    any_y = False
-    for q in range(N):
-        if y[q] != 0:
-            any_y = True
-    cv_fit = math.sqrt(rr / N) / (ay / N) if any_y else 0.0
+    cv_fit = math.sqrt(rr / N) / (ay / N) if ay > 0 else 0.0
     if (not math.isnan(r2)) and r2 < min_r2 + 1e-9 and cv_fit > min_cv - 1e-9:
         flagged = True
     if M >= 10 and (not math.isnan(z_runs)) and z_runs < max_runs_z + 1e-9:

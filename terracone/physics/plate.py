@@ -1,19 +1,9 @@
 """Plate pressure-sinkage: the Bekker equation and the RM1 variant of [1]_.
 
-Bekker's equation p = (kc/b + kphi) z^n (eq. (2-2) in [1]_, with b the radius
-of a circular plate or the smaller side of a rectangular one) tends to
-infinity as b -> 0.  Section 3.2 of [1]_ defines RM1: below a transition
-size r_min the pressure changes linearly with size, along the tangent to the
-Bekker curve at r_min; when r_min exceeds the larger plate of a plate pair
-(r1, r2), along the line through the two plates' Bekker pressures.
-
-Both branches have the form p = [kc (alpha - beta b) + kphi] z^n, so a
-:class:`PressureLaw` is described by (r_t, alpha, beta):
-
-* RM0: r_t = 0 (the linear branch never applies);
-* RM1, tangent at r_min: r_t = r_min, alpha = 2/r_min, beta = 1/r_min^2;
-* RM1, secant through (r1, p1), (r2, p2) when r_min > r2: r_t = r_min,
-  alpha = (r1 + r2)/(r1 r2), beta = 1/(r1 r2).
+Bekker's p = (kc/b + kphi) z^n (eq. (2-2) in [1]_) and RM1 (section 3.2)
+both have the form p = [kc (alpha - beta b) + kphi] z^n, so a
+:class:`PressureLaw` is described by (r_t, alpha, beta); ``docs/physics.md``
+gives them for RM0, the RM1 tangent and the RM1 secant.
 
 References
 ----------
@@ -93,19 +83,20 @@ def pressure_law(
     *,
     r_min: ArrayLike | None = None,
     plate_pair: tuple[float, float] | None = None,
+    units: str = "si",
 ) -> PressureLaw:
-    """Build and check a :class:`PressureLaw` (lengths in [m])."""
+    """Build and check a :class:`PressureLaw` (lengths r_min, plate_pair in [m] or [in] for us)."""
     if model not in ("rm0", "rm1"):
         raise ValueError(f"model must be 'rm0' or 'rm1' (got {model!r})")
     if model == "rm0":
         return PressureLaw("rm0")
     if r_min is None:
         raise ValueError("r_min is required with model 'rm1'")
-    rm = np.asarray(r_min, dtype=float)
+    rm = u.length_to_si(r_min, units)
     if not np.all(np.isfinite(rm)) or np.any(rm <= 0):
         raise ValueError("r_min must be > 0")
     if plate_pair is not None:
-        r1, r2 = (float(v) for v in plate_pair)
+        r1, r2 = (float(v) for v in u.length_to_si(plate_pair, units))
         if not (r1 > 0 and r2 > 0 and r1 != r2):
             raise ValueError("plate_pair must be two different positive radii")
         plate_pair = (min(r1, r2), max(r1, r2))
@@ -210,12 +201,7 @@ def plate_pressure(
     z = u.length_to_si(sinkage, units)
     if not np.all(np.isfinite(z)) or np.any(z < 0):
         raise ValueError("sinkage must be finite and >= 0")
-    pair = (
-        None if plate_pair is None else tuple(float(v) for v in u.length_to_si(plate_pair, units))
-    )
-    law = pressure_law(
-        model, r_min=None if r_min is None else u.length_to_si(r_min, units), plate_pair=pair
-    )
+    law = pressure_law(model, r_min=r_min, plate_pair=plate_pair, units=units)
     A, B = plate_basis(z, n=n_arr, b=b, law=law)
     p = u.kc_to_si(kc, n_arr, units) * A + u.kphi_to_si(kphi, n_arr, units) * B
     return u.pressure_from_si(p, units)

@@ -1,19 +1,7 @@
-"""Terrain internal shear: the Janosi-Hanamoto shear stress-displacement curve.
+"""Terrain internal shear: the Janosi-Hanamoto curve tau = (c + sigma tan phi)(1 - exp(-j/K)).
 
-The shear stress-displacement relationship of the terrain is described by the
-Janosi-Hanamoto equation [1]_ (the form used on the cone-metal interface in
-eq. (2-4) of [2]_; here it is the *internal* shear of the terrain measured
-with a shear ring or shear plate, not the cone-metal cc, phic):
-
-.. math:: \\tau = (c + \\sigma \\tan\\phi)(1 - e^{-j/K}) = \\tau_{max} (1 - e^{-j/K})
-
-with tau the shear stress [kPa], sigma the normal pressure [kPa], j the shear
-displacement [m], c the cohesion [kPa], phi the angle of internal friction
-and K the shear deformation modulus [m].
-
-This module is the forward model only.  The fits of shear tests
-(:func:`~terracone.inverse.bevameter.shear.fit_shear` and
-:func:`~terracone.inverse.bevameter.shear.fit_shear_test`) live in
+The form of eq. (2-4) of [2]_, here for the terrain's *internal* shear (shear
+ring or plate), not the cone-metal cc, phic.  The fits live in
 :mod:`terracone.inverse.bevameter.shear`.
 
 References

@@ -1,9 +1,5 @@
 """Unit systems and exact conversion factors.
 
-terracone computes internally in the paper's SI system and converts at the
-edges (files, command line, ``units=`` arguments of the API):
-
-=============  ======================  =========================
 quantity       SI (``"si"``)           US customary (``"us"``)
 =============  ======================  =========================
 length         m                       in
@@ -15,6 +11,11 @@ force          N                       lbf
 
 The factors are exact: 1 in = 0.0254 m and 1 lbf = 4.4482216152605 N.
 The factors of kc and kphi depend on the sinkage exponent n.
+=======
+terracone computes in the paper's SI system (m, kPa, kN/m^(n+1), kN/m^(n+2))
+and converts at the edges to US customary (in, psi, lb/in^(n+1),
+lb/in^(n+2)); 1 in = 0.0254 m and 1 lbf = 4.4482216152605 N exactly.  The
+factors of kc and kphi depend on the sinkage exponent n.
 
 Quantities written with their unit (``"10 kN"``, ``"40 in"``, ``"190 hp"``,
 as in a vehicle file) are read by :func:`quantity_to_si`.  Its factors are
@@ -137,37 +138,31 @@ def pressure_from_si(value: ArrayLike, units: str) -> np.ndarray:
     return np.asarray(value, dtype=float) / _SYSTEM_PRESSURE[check_system(units)]
 
 
-def _k_factor(n: ArrayLike, extra: int) -> np.ndarray:
-    # 1 lb/in^(n+extra) expressed in kN/m^(n+extra)
+def _k_factor(n: ArrayLike, extra: int, units: str) -> np.ndarray | float:
+    # 1 lb/in^(n+extra) expressed in kN/m^(n+extra); 1 in SI
+    if check_system(units) == "si":
+        return 1.0
     return _KN_PER_LBF / INCH ** (np.asarray(n, dtype=float) + extra)
 
 
 def kc_to_si(kc: ArrayLike, n: ArrayLike, units: str) -> np.ndarray:
     """kc in the system's unit to [kN/m^(n+1)]; lb/in^(n+1) for ``"us"``."""
-    if units == "si" or check_system(units) == "si":
-        return np.asarray(kc, dtype=float)
-    return np.asarray(kc, dtype=float) * _k_factor(n, 1)
+    return np.asarray(kc, dtype=float) * _k_factor(n, 1, units)
 
 
 def kc_from_si(kc: ArrayLike, n: ArrayLike, units: str) -> np.ndarray:
     """kc in [kN/m^(n+1)] to the system's unit."""
-    if check_system(units) == "si":
-        return np.asarray(kc, dtype=float)
-    return np.asarray(kc, dtype=float) / _k_factor(n, 1)
+    return np.asarray(kc, dtype=float) / _k_factor(n, 1, units)
 
 
 def kphi_to_si(kphi: ArrayLike, n: ArrayLike, units: str) -> np.ndarray:
     """kphi in the system's unit to [kN/m^(n+2)]; lb/in^(n+2) for ``"us"``."""
-    if check_system(units) == "si":
-        return np.asarray(kphi, dtype=float)
-    return np.asarray(kphi, dtype=float) * _k_factor(n, 2)
+    return np.asarray(kphi, dtype=float) * _k_factor(n, 2, units)
 
 
 def kphi_from_si(kphi: ArrayLike, n: ArrayLike, units: str) -> np.ndarray:
     """kphi in [kN/m^(n+2)] to the system's unit."""
-    if check_system(units) == "si":
-        return np.asarray(kphi, dtype=float)
-    return np.asarray(kphi, dtype=float) / _k_factor(n, 2)
+    return np.asarray(kphi, dtype=float) / _k_factor(n, 2, units)
 
 
 def length_unit(units: str) -> str:

@@ -1,19 +1,9 @@
 """Reports: figures and tables of the paper's section 4, and one self-contained HTML file.
 
-:func:`build_report` turns any terracone result into a single HTML file:
-
-* the JSON of ``terracone predict --json`` (``"schema":
-  "terracone.prediction/1"``, docs/results.md; older documents by
-  ``"command": "predict"``), the table of ``terracone predict --parquet``,
-  or the output directory of ``terracone batch`` (``part-*.parquet`` and
-  ``_summary.json``): all three read by :func:`terracone.result.read_results`;
-* the JSON of ``terracone learn --json`` or ``terracone evaluate --json``;
-* the output directory of :func:`terracone.apps.reproduce.reproduce`
-  (``reproduce.json``);
-* a directory holding several of the JSON documents above (e.g. the output
-  of ``terracone demo --out``): one report with a part per document.
-
-The file embeds its figures as PNG data URIs and loads nothing from any host.
+:func:`build_report` turns any terracone result (the JSON of predict, learn, evaluate
+or sites, a prediction table or batch directory read by
+:func:`terracone.result.read_results`, a reproduce directory, or a directory of such JSON
+files: the table in ``docs/report.md``) into one HTML file that loads nothing from any host.
 Figures: :mod:`terracone.report.figures`; tables: :mod:`terracone.report.tables`.
 """
 

@@ -30,7 +30,7 @@ from terracone.notebook import fmt_value
 from terracone.physics import units as u
 from terracone.report import figures as F
 from terracone.report.parts import figure_part, kv_part, table_part, text_part
-from terracone.report.tables import Table
+from terracone.report.tables import Table, num_or_none
 
 __all__ = [
     "MAX_MULTIPLES",
@@ -67,16 +67,8 @@ _PARAMS = (
     ("rmsd", "RMSD of CI", "kPa"),
     ("r2_ci", "R2 of CI", "-"),
 )
-
-
-def _num(v: Any) -> float | None:
-    if v is None or isinstance(v, bool):
-        return None
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        return None
-    return x if math.isfinite(x) else None
+#: Axis and colour-bar labels of the record keys, with units ("n [-]", "phic [deg]").
+_LABELS = {k: f"{name} [{unit}]" for k, name, unit in _PARAMS}
 
 
 def coordinates(meta: Mapping[str, Any] | None) -> tuple[float, float] | None:
@@ -88,8 +80,8 @@ def coordinates(meta: Mapping[str, Any] | None) -> tuple[float, float] | None:
     """
     if not meta:
         return None
-    lon = _num(meta.get("lon", meta.get("longitude")))
-    lat = _num(meta.get("lat", meta.get("latitude")))
+    lon = num_or_none(meta.get("lon", meta.get("longitude")))
+    lat = num_or_none(meta.get("lat", meta.get("latitude")))
     if lon is None or lat is None or abs(lon) > 180 or abs(lat) > 90 or lon == lat == 0:
         return None
     return lon, lat
@@ -120,9 +112,9 @@ def _layered_si(lay: Mapping[str, Any] | None, units: str) -> dict[str, Any]:
     out["layers_preferred"] = int(lay["preferred_layers"]) if lay.get("preferred_layers") else None
     out["n_layers"] = len(lay.get("layers") or [])
     out["interfaces"] = [float(x) for x in u.length_to_si(lay.get("interfaces") or [], un)]
-    out["r2_layered"] = _num(lay.get("r2_ci"))
+    out["r2_layered"] = num_or_none(lay.get("r2_ci"))
     out["layered_lack_of_fit"] = lay.get("lack_of_fit")
-    out["layer_n"] = [_num(p.get("n")) for p in lay.get("layers") or []]
+    out["layer_n"] = [num_or_none(p.get("n")) for p in lay.get("layers") or []]
     if lay.get("depth") and lay.get("ci_model"):
         out["depth_layered"] = u.length_to_si(lay["depth"], un)
         out["ci_layered"] = u.pressure_to_si(lay["ci_model"], un)
@@ -136,7 +128,7 @@ def records_from_predict(
 
     Each record: ``id``, ``label``, ``status``, ``error``, ``kc``
     [kN/m^(n+1)], ``kphi`` [kN/m^(n+2)], ``n`` [-], ``cc`` [kPa],
-    ``phic_deg`` [deg], ``rmsd`` [kPa], ``r2_ci`` [-], ``flagged`` (bool),
+    ``phic_deg`` [deg], ``model``, ``r_min`` [m], ``rmsd`` [kPa], ``r2_ci`` [-], ``flagged``,
     ``lack_of_fit`` (text), ``lon``/``lat`` [deg] or None, ``depth`` [m],
     ``ci``, ``ci_model`` [kPa], and the layered fit where predict ran with
     ``--layers``: ``layers_preferred``, ``interfaces`` [m], ``r2_layered``,
@@ -155,9 +147,10 @@ def records_from_predict(
         if rec["status"] == "ok" and p.get("n") is not None:
             tp = TerrainParameters.from_dict(p, units=un)
             rec.update(kc=tp.kc, kphi=tp.kphi, n=tp.n, cc=tp.cc, phic_deg=tp.phic_deg)
-        rm = _num(p.get("rmsd"))
+            rec.update(model=tp.model, r_min=tp.r_min)
+        rm = num_or_none(p.get("rmsd"))
         rec["rmsd"] = None if rm is None else float(u.pressure_to_si(rm, un))
-        rec["r2_ci"] = _num(p.get("r2_ci"))
+        rec["r2_ci"] = num_or_none(p.get("r2_ci"))
         rec["lack_of_fit"] = p.get("lack_of_fit") or None
         rec["flagged"] = bool(p.get("lack_of_fit"))
         xy = coordinates(p.get("metadata"))
@@ -274,7 +267,7 @@ def records_from_table(results: Sequence[Any], settings: Mapping[str, Any]) -> l
             p = r.params
             rec.update(kc=p.kc, kphi=p.kphi, n=p.n, cc=p.cc, phic_deg=p.phic_deg)
             rec.update(model=p.model, r_min=p.r_min)
-        rec["rmsd"], rec["r2_ci"] = _num(r.rmsd), _num(r.r2_ci)
+        rec["rmsd"], rec["r2_ci"] = num_or_none(r.rmsd), num_or_none(r.r2_ci)
         rec["lack_of_fit"] = r.lack_of_fit or None
         rec["flagged"] = rec["lack_of_fit"] is not None
         xy = coordinates(r.metadata)
@@ -286,7 +279,7 @@ def records_from_table(results: Sequence[Any], settings: Mapping[str, Any]) -> l
             rec["layered_error"] = f"layered fit not possible: {lay.error}"
         if lay is not None and lay.ok and lay.interfaces:
             rec["interfaces"] = list(lay.interfaces)
-        rec["r2_layered"] = _num(lay.r2_ci) if lay is not None and lay.ok else None
+        rec["r2_layered"] = num_or_none(lay.r2_ci) if lay is not None and lay.ok else None
         recs.append(rec)
     _table_curves(recs, results, settings)
     return recs
@@ -304,7 +297,7 @@ def _pct(k: int, n: int) -> str:
 def _distribution_table(recs: Sequence[Mapping[str, Any]]) -> Table:
     rows = []
     for key, name, unit in _PARAMS:
-        v = np.array([x for x in (_num(r.get(key)) for r in recs) if x is not None], float)
+        v = np.array([x for x in (num_or_none(r.get(key)) for r in recs) if x is not None], float)
         if v.size == 0:
             rows.append([name, unit, 0, None, None, None, None, None])
             continue
@@ -313,16 +306,7 @@ def _distribution_table(recs: Sequence[Mapping[str, Any]]) -> Table:
     return Table(
         "distribution",
         "Distribution of each parameter over the fitted profiles (one-layer fits, SI)",
-        [
-            ("Parameter", ""),
-            ("Unit", ""),
-            ("Profiles", ""),
-            ("min", ""),
-            ("25%", ""),
-            ("median", ""),
-            ("75%", ""),
-            ("max", ""),
-        ],
+        [(h, "") for h in ("Parameter", "Unit", "Profiles", "min", "25%", "median", "75%", "max")],
         rows,
         notes=[
             "The units of kc and kphi carry n, so their spread mixes units when n varies.",
@@ -371,14 +355,8 @@ def summary_section(recs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         )
     parts.append(table_part(_distribution_table(ok), sortable=False))
     if len(ok) >= 3:
-        cols = {
-            "n [-]": [r["n"] for r in ok],
-            "kc [kN/m^(n+1)]": [r["kc"] for r in ok],
-            "kphi [kN/m^(n+2)]": [r["kphi"] for r in ok],
-            "phic [deg]": [r["phic_deg"] for r in ok],
-            "RMSD of CI [kPa]": [r["rmsd"] for r in ok if r.get("rmsd") is not None],
-            "R2 of CI [-]": [r["r2_ci"] for r in ok if r.get("r2_ci") is not None],
-        }
+        keys = ("n", "kc", "kphi", "phic_deg", "rmsd", "r2_ci")
+        cols = {_LABELS[k]: [r[k] for r in ok if r.get(k) is not None] for k in keys}
         fig = F.fig_histograms(cols, title="Distribution over the field")
         parts.append(
             figure_part(
@@ -400,11 +378,11 @@ def map_section(recs: Sequence[Mapping[str, Any]], *, colour_by: str = "n") -> d
     loc = [r for r in recs if r.get("lon") is not None and r.get("lat") is not None]
     if not loc:
         return None
-    name = dict((k, f"{nm} [{un}]") for k, nm, un in _PARAMS)[colour_by]
+    name = _LABELS[colour_by]
     fig = F.fig_map(
         [r["lon"] for r in loc],
         [r["lat"] for r in loc],
-        [np.nan if _num(r.get(colour_by)) is None else r[colour_by] for r in loc],
+        [np.nan if num_or_none(r.get(colour_by)) is None else r[colour_by] for r in loc],
         label=name,
         layered=[(r.get("layers_preferred") or 1) >= 2 for r in loc],
         flagged=[bool(r.get("flagged")) for r in loc],
@@ -498,49 +476,23 @@ def multiples_section(recs: Sequence[Mapping[str, Any]], *, units: str = "si") -
 
 def profiles_table(recs: Sequence[Mapping[str, Any]], *, units: str = "si") -> Table:
     """One row per profile (SI), for the sortable, scrolling table of a field report."""
-    cols = [
-        ("Profile", ""),
-        ("Status", ""),
-        ("kc [kN/m^(n+1)]", ""),
-        ("kphi [kN/m^(n+2)]", ""),
-        ("n [-]", ""),
-        ("cc [kPa]", ""),
-        ("phic [deg]", ""),
-        ("RMSD [kPa]", ""),
-        ("R2 [-]", ""),
-        ("Lack of fit", ""),
-        ("Layers (BIC)", ""),
-        ("Interfaces [cm]", ""),
-        ("R2 layered [-]", ""),
-        ("lon [deg]", ""),
-        ("lat [deg]", ""),
-    ]
+    heads = ["Profile", "Status", "kc [kN/m^(n+1)]", "kphi [kN/m^(n+2)]", "n [-]", "cc [kPa]"]
+    heads += ["phic [deg]", "RMSD [kPa]", "R2 [-]", "Lack of fit", "Layers (BIC)"]
+    heads += ["Interfaces [cm]", "R2 layered [-]", "lon [deg]", "lat [deg]"]
     rows = []
     for r in recs:
         iface = r.get("interfaces") if (r.get("layers_preferred") or 1) >= 2 else None
+        fit = ("yes" if r.get("flagged") else "no") if r.get("status") == "ok" else None
         rows.append(
-            [
-                r["label"],
-                r.get("status"),
-                r.get("kc"),
-                r.get("kphi"),
-                r.get("n"),
-                r.get("cc"),
-                r.get("phic_deg"),
-                r.get("rmsd"),
-                r.get("r2_ci"),
-                ("yes" if r.get("flagged") else "no") if r.get("status") == "ok" else None,
-                r.get("layers_preferred"),
-                ", ".join(fmt_value(100.0 * z, 3) for z in iface) if iface else None,
-                r.get("r2_layered"),
-                r.get("lon"),
-                r.get("lat"),
-            ]
+            [r["label"], *(r.get(k) for k in ("status", "kc", "kphi", "n", "cc", "phic_deg"))]
+            + [r.get("rmsd"), r.get("r2_ci"), fit, r.get("layers_preferred")]
+            + [", ".join(fmt_value(100.0 * z, 3) for z in iface) if iface else None]
+            + [r.get("r2_layered"), r.get("lon"), r.get("lat")]
         )
     return Table(
         "profiles",
         f"Every profile ({len(rows)}): click a column heading to sort",
-        cols,
+        [(h, "") for h in heads],
         rows,
         notes=[
             "One-layer parameters in SI; 'Layers (BIC)': the number of layers the Bayesian "
@@ -589,15 +541,7 @@ def profiles_section(recs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
 
 
 #: ``--map-by`` choices and the record key each colours the map by.
-MAP_BY = {
-    "n": "n",
-    "kc": "kc",
-    "kphi": "kphi",
-    "cc": "cc",
-    "phic": "phic_deg",
-    "rmsd": "rmsd",
-    "r2": "r2_ci",
-}
+MAP_BY = dict(n="n", kc="kc", kphi="kphi", cc="cc", phic="phic_deg", rmsd="rmsd", r2="r2_ci")
 
 
 def field_sections(

@@ -6,17 +6,7 @@ pyplot, no global backend state); :func:`save_figure` writes PNG and SVG and
 :func:`png_bytes` gives the PNG for embedding.  Axes carry units (cm and kPa,
 or in and psi with ``units="us"``), every figure has a legend, and series
 differ by line style and marker as well as by colour, so the figures read in
-black and white.
-
-=====================  ====================================================
-function               analogue in [1]_
-=====================  ====================================================
-:func:`fig_janosi`     Figure 2-1: measured CI against the Janosi eq. (2-1)
-:func:`fig_ci_fit`     Figure 4-1: measured and predicted CI-sinkage curves
-:func:`fig_plate_fit`  Figure 4-2 (a), (b): measured and predicted plate P-S
-:func:`fig_site`       Figures 4-3 to 4-10 (a) CI and (b) P-S of one site
-:func:`fig_ridge`      (not in the paper) the ridge of equally good fits
-=====================  ====================================================
+black and white.  Which figure of [1]_ each re-draws: ``docs/report.md``.
 
 References
 ----------
@@ -319,20 +309,16 @@ def _plate_axes(ax, d: _Disp, measured, predicted, bands, *, by_series: bool):
             linewidth=0.0,
             label=b.get("label", f"{b.get('id', '')} band").strip(),
         )
-    for s in measured:
-        i = ids.index(s["id"]) if by_series else radii.index(_radius_key(s["radius"]))
-        c, m = _style(i)
-        z = np.asarray(s["sinkage"], float)
-        lab = s["id"] if by_series else f"measured {d.radius_label(s['radius'])}"
-        lab = s.get("label", lab + (" measured" if by_series else ""))
-        _measured(ax, d.length(z), d.pressure(s["pressure"]), c, m, lab)
-    for s in predicted:
-        i = ids.index(s["id"]) if by_series else radii.index(_radius_key(s["radius"]))
-        c, m = _style(i)
-        z = np.asarray(s["sinkage"], float)
-        lab = s["id"] if by_series else f"predicted {d.radius_label(s['radius'])}"
-        lab = s.get("label", lab + (" predicted" if by_series else ""))
-        _modelled(ax, d.length(z), d.pressure(s["pressure"]), c, m, lab)
+    for curves, kind, draw in (
+        (measured, "measured", _measured),
+        (predicted, "predicted", _modelled),
+    ):
+        for s in curves:
+            i = ids.index(s["id"]) if by_series else radii.index(_radius_key(s["radius"]))
+            c, m = _style(i)
+            z = np.asarray(s["sinkage"], float)
+            lab = f"{s['id']} {kind}" if by_series else f"{kind} {d.radius_label(s['radius'])}"
+            draw(ax, d.length(z), d.pressure(s["pressure"]), c, m, s.get("label", lab))
     ax.set_xlabel(f"sinkage z [{d.L}]")
     ax.set_ylabel(f"plate pressure p [{d.P}]")
     ax.set_xlim(left=0)
@@ -463,6 +449,14 @@ def fig_ridge(
     )
 
 
+def _ratio_map(ax: Any, x: Any, y: Any, ratio: Any, levels: list[float]) -> None:
+    """Grey bands and labelled contours of an RMSD ratio (capped at 10)."""
+    fill = np.minimum(ratio, 10.0)
+    ax.contourf(x, y, fill, levels=[1.0] + levels + [10.0], cmap="Greys_r", alpha=0.55)
+    cs = ax.contour(x, y, ratio, levels=levels, colors="black", linewidths=0.8)
+    ax.clabel(cs, fmt=lambda v: f"x{v:g}", fontsize=7)
+
+
 def _ridge_map_n(
     ax: Any,
     r: dict[str, Any],
@@ -473,17 +467,7 @@ def _ridge_map_n(
 ) -> None:
     """Panel (a) of :func:`fig_ridge`: RMSD ratio over (phic, n)."""
     best = r["best"]
-    # (a) phic-n map
-    ax.contourf(
-        r["phic"],
-        r["n"],
-        np.minimum(ratio, 10.0),
-        levels=[1.0] + levels + [10.0],
-        cmap="Greys_r",
-        alpha=0.55,
-    )
-    cs = ax.contour(r["phic"], r["n"], ratio, levels=levels, colors="black", linewidths=0.8)
-    ax.clabel(cs, fmt=lambda v: f"x{v:g}", fontsize=7)
+    _ratio_map(ax, r["phic"], r["n"], ratio, levels)
     ax.plot(best["phic"], best["n"], "o", color="#D55E00", markersize=8, label="best fit (middle)")
     if reference is not None:
         ax.plot(
@@ -504,30 +488,13 @@ def _ridge_map_n(
 def _ridge_map_scale(ax: Any, r: dict[str, Any], rmin: float, levels: list[float]) -> None:
     """Panel (b) of :func:`fig_ridge`: RMSD ratio over (phic, common scale of kc and kphi)."""
     best = r["best"]
-    # (b) phic-scale map
-    ratio_s = r["rmsd_scale"] / rmin
-    ax.contourf(
-        r["phic"],
-        r["scale"],
-        np.minimum(ratio_s, 10.0),
-        levels=[1.0] + levels + [10.0],
-        cmap="Greys_r",
-        alpha=0.55,
-    )
-    cs = ax.contour(r["phic"], r["scale"], ratio_s, levels=levels, colors="black", linewidths=0.8)
-    ax.clabel(cs, fmt=lambda v: f"x{v:g}", fontsize=7)
+    _ratio_map(ax, r["phic"], r["scale"], r["rmsd_scale"] / rmin, levels)
     ta = math.tan(r["half_angle"])
     ridge = (1 + math.tan(math.radians(best["phic"])) / ta) / (
         1 + np.tan(np.radians(r["phic"])) / ta
     )
-    ax.plot(
-        r["phic"],
-        ridge,
-        linestyle="--",
-        color="#D55E00",
-        linewidth=2,
-        label="scale (1 + tan phic / tan 15 deg) = const",
-    )
+    label = "scale (1 + tan phic / tan 15 deg) = const"
+    ax.plot(r["phic"], ridge, linestyle="--", color="#D55E00", linewidth=2, label=label)
     ax.set_yscale("log")
     ax.set_ylim(r["scale"][0], r["scale"][-1])
     ticks = [0.4, 0.5, 0.7, 1.0, 1.4, 2.0, 2.5]
@@ -541,16 +508,18 @@ def _ridge_map_scale(ax: Any, r: dict[str, Any], rmin: float, levels: list[float
 
 def _ridge_profiles(axes: Any, r: dict[str, Any], d: Any) -> None:
     """Panels (c) and (d) of :func:`fig_ridge`: profiles of the RMSD over n and over phic."""
-    # (c) profile over n
+    prof_n, prof_p = r["rmsd"].min(axis=1), r["rmsd"].min(axis=0)
+    # (c) over n, (d) over phic: the best RMSD at each value, and the 95% threshold
+    for ax, x, prof, fmt, colour in (
+        (axes[1, 0], "n", prof_n, "-o", "#0072B2"),
+        (axes[1, 1], "phic", prof_p, "-s", "#CC79A7"),
+    ):
+        label = f"best RMSD at {x}"
+        ax.plot(r[x], d.pressure(prof), fmt, color=colour, markersize=3, label=label)
+        thr = d.pressure(r["threshold"])
+        ax.axhline(thr, color="black", linestyle="--", label="approx. 95% threshold")
+        ax.set_ylabel(f"RMSD of CI [{d.P}]")
     ax = axes[1, 0]
-    prof_n = r["rmsd"].min(axis=1)
-    ax.plot(r["n"], d.pressure(prof_n), "-o", color="#0072B2", markersize=3, label="best RMSD at n")
-    ax.axhline(
-        d.pressure(r["threshold"]),
-        color="black",
-        linestyle="--",
-        label="approx. 95% threshold",
-    )
     inside = r["n"][prof_n <= r["threshold"]]
     if inside.size:
         ax.axvspan(
@@ -559,26 +528,11 @@ def _ridge_profiles(axes: Any, r: dict[str, Any], d: Any) -> None:
     top = float(np.quantile(prof_n, 0.6))
     ax.set_ylim(0, max(top, 3 * r["threshold"]) * d.pf)
     ax.set_xlabel("exponent n [-]")
-    ax.set_ylabel(f"RMSD of CI [{d.P}]")
     ax.set_title("(c) profile over n (all else re-fitted)", fontsize=9.5)
     ax.legend(fontsize=7.5)
-    # (d) profile over phic
     ax = axes[1, 1]
-    prof_p = r["rmsd"].min(axis=0)
-    ax.plot(
-        r["phic"],
-        d.pressure(prof_p),
-        "-s",
-        color="#CC79A7",
-        markersize=3,
-        label="best RMSD at phic",
-    )
-    ax.axhline(
-        d.pressure(r["threshold"]), color="black", linestyle="--", label="approx. 95% threshold"
-    )
     ax.set_ylim(0, max(float(prof_p.max()), 2 * r["threshold"]) * d.pf * 1.1)
     ax.set_xlabel("cone-terrain friction angle phic [deg]")
-    ax.set_ylabel(f"RMSD of CI [{d.P}]")
     flat = float(prof_p.max() - prof_p.min()) <= 0.01 * float(prof_p.min())
     ax.set_title(
         "(d) profile over phic" + (" (flat: CI alone leaves phic free)" if flat else ""),
@@ -890,14 +844,11 @@ def save_figure(
     paths: dict[str, Path] = {}
     meta_title = ("SYNTHETIC - " if getattr(fig, "_terracone_synthetic", False) else "") + stem
     for fmt in formats:
-        p = out / f"{stem}.{fmt}"
-        if fmt == "png":
-            fig.savefig(p, format="png", dpi=110, metadata={"Title": meta_title})
-        elif fmt == "svg":
-            fig.savefig(p, format="svg", metadata={"Title": meta_title})
-        else:
+        if fmt not in ("png", "svg"):
             raise ValueError(f"unknown figure format {fmt!r}")
-        paths[fmt] = p
+        paths[fmt] = p = out / f"{stem}.{fmt}"
+        dpi = {"dpi": 110} if fmt == "png" else {}
+        fig.savefig(p, format=fmt, metadata={"Title": meta_title}, **dpi)
         # the layout is settled by the first draw: keep it for the other formats
         fig.set_layout_engine("none")
     return paths

@@ -15,6 +15,7 @@ References
 from __future__ import annotations
 
 import csv
+from collections.abc import Mapping, Sequence
 from importlib.resources import files
 from pathlib import Path
 from typing import Any
@@ -34,8 +35,12 @@ CITATION = (
     'for physics-based vehicle mobility models from cone index data"'
 )
 
-_PARAM_FILES = {"4-1": "table_4_1.csv", "4-3": "table_4_3.csv"}
-_AGREE_FILES = {"4-2": "table_4_2.csv", "4-4": "table_4_4.csv"}
+# key -> CSV column of the parameter tables (4-1, 4-3) and the agreement tables (4-2, 4-4)
+_PARAM_COLUMNS = dict(kc="kc_kn_m", kphi="kphi_kn_m", n="n", cc="cc_kpa", phic_deg="phic_deg")
+_PARAM_COLUMNS.update(
+    kc_us_printed="kc_lb_in", kphi_us_printed="kphi_lb_in", cc_us_printed="cc_psi"
+)
+_AGREE_COLUMNS = dict(R="R", R2="R2", RMSD="RMSD_kpa", RMSD_psi="RMSD_psi", CV="CV")
 
 
 def paper_dir() -> Path:
@@ -43,10 +48,18 @@ def paper_dir() -> Path:
     return Path(str(files("terracone") / "data" / "paper"))
 
 
-def _read(name: str) -> list[dict[str, str]]:
-    with open(paper_dir() / name, newline="") as fh:
+def _read(
+    table: str, tables: Sequence[str], text: Mapping[str, str], numbers: Mapping[str, str]
+) -> list[dict[str, Any]]:
+    """Rows of ``table_4_N.csv``: ``text`` columns as read, ``numbers`` as floats."""
+    if table not in tables:
+        raise ValueError(f"table must be one of {sorted(tables)} (got {table!r})")
+    with open(paper_dir() / f"table_{table.replace('-', '_')}.csv", newline="") as fh:
         lines = [line for line in fh if line.strip() and not line.startswith("#")]
-    return list(csv.DictReader(lines))
+    return [
+        {**{k: r[c] for k, c in text.items()}, **{k: float(r[c]) for k, c in numbers.items()}}
+        for r in csv.DictReader(lines)
+    ]
 
 
 def published_parameters(table: str) -> list[dict[str, Any]]:
@@ -55,24 +68,7 @@ def published_parameters(table: str) -> list[dict[str, Any]]:
     The US columns as printed are kept as ``kc_us_printed``,
     ``kphi_us_printed``, ``cc_us_printed``.
     """
-    if table not in _PARAM_FILES:
-        raise ValueError(f"table must be one of {sorted(_PARAM_FILES)} (got {table!r})")
-    out = []
-    for r in _read(_PARAM_FILES[table]):
-        out.append(
-            {
-                "id": r["dataset"],
-                "kc": float(r["kc_kn_m"]),
-                "kphi": float(r["kphi_kn_m"]),
-                "n": float(r["n"]),
-                "cc": float(r["cc_kpa"]),
-                "phic_deg": float(r["phic_deg"]),
-                "kc_us_printed": float(r["kc_lb_in"]),
-                "kphi_us_printed": float(r["kphi_lb_in"]),
-                "cc_us_printed": float(r["cc_psi"]),
-            }
-        )
-    return out
+    return _read(table, ("4-1", "4-3"), {"id": "dataset"}, _PARAM_COLUMNS)
 
 
 def published_agreement(table: str) -> list[dict[str, Any]]:
@@ -82,23 +78,8 @@ def published_agreement(table: str) -> list[dict[str, Any]]:
     ``D=10cm``, ``D=15cm``), ``R``, ``R2``, ``RMSD`` [kPa], ``RMSD_psi``,
     ``CV``.
     """
-    if table not in _AGREE_FILES:
-        raise ValueError(f"table must be one of {sorted(_AGREE_FILES)} (got {table!r})")
-    out = []
-    for r in _read(_AGREE_FILES[table]):
-        out.append(
-            {
-                "prediction": r["ci_dataset"],
-                "pair": r["ps_dataset"],
-                "plate": r["plate"],
-                "R": float(r["R"]),
-                "R2": float(r["R2"]),
-                "RMSD": float(r["RMSD_kpa"]),
-                "RMSD_psi": float(r["RMSD_psi"]),
-                "CV": float(r["CV"]),
-            }
-        )
-    return out
+    text = {"prediction": "ci_dataset", "pair": "ps_dataset", "plate": "plate"}
+    return _read(table, ("4-2", "4-4"), text, _AGREE_COLUMNS)
 
 
 def us_column_check(tolerance: float = 0.02) -> list[dict[str, Any]]:
@@ -123,14 +104,6 @@ def us_column_check(tolerance: float = 0.02) -> list[dict[str, Any]]:
                 # the paper prints cc = 1 kPa as 0.15 psi: allow rounding to 2 decimals
                 tol = max(tolerance * abs(v), 0.006 if k == "cc" else 0.0)
                 if abs(printed - v) > tol:
-                    bad.append(
-                        {
-                            "table": table,
-                            "id": r["id"],
-                            "param": k,
-                            "si": r[k],
-                            "us_printed": printed,
-                            "us_computed": v,
-                        }
-                    )
+                    row = {"table": table, "id": r["id"], "param": k, "si": r[k]}
+                    bad.append({**row, "us_printed": printed, "us_computed": v})
     return bad

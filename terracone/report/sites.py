@@ -29,6 +29,10 @@ from terracone.report.tables import Table
 __all__ = ["sites_document"]
 
 
+#: Values of a site's plate pressure at the middle sinkage, in the table's column order.
+_AT_MID = ("median", "lo", "hi", "between_cv", "between_cv_lo", "between_cv_hi", "naive_cv")
+
+
 def _mid(pl: Mapping[str, Any]) -> int:
     return len(pl["sinkage"]) // 2
 
@@ -39,44 +43,20 @@ def _sites_table(sites: list[Mapping[str, Any]], units: str) -> Table:
     for s in sites:
         pl = s["plate_pressure"][0] if s["plate_pressure"] else None
         at = {key: pl[key][_mid(pl)] for key in pl if isinstance(pl[key], list)} if pl else {}
-        g = at.get
-        rows.append(
-            [
-                s["site"],
-                s["n_profiles"],
-                s["params"].get("n"),
-                g("median"),
-                g("lo"),
-                g("hi"),
-                g("between_cv"),
-                g("between_cv_lo"),
-                g("between_cv_hi"),
-                g("naive_cv"),
-                s.get("between", {}).get("ci_cv"),
-                s["profiles_needed"],
-                s.get("profiles_needed_hi"),
-                "lack of fit" if s["lack_of_fit"] else "ok",
-            ]
-        )
+        mid = [at.get(k) for k in _AT_MID]
+        needed = [s["profiles_needed"], s.get("profiles_needed_hi")]
+        fit = "lack of fit" if s["lack_of_fit"] else "ok"
+        ci_cv = s.get("between", {}).get("ci_cv")
+        rows.append([s["site"], s["n_profiles"], s["params"].get("n"), *mid, ci_cv, *needed, fit])
+    cols = [("site", ""), ("pushes", ""), ("n", "site median")]
+    cols += [("p", f"{q} [{pu}]") for q in ("median", "5%", "95%")]
+    cols += [("between-push CV", q) for q in ("estimate", "5%", "95%")]
+    cols += [("naive CV", "incl. estimation noise"), ("CI CV", "mean CI per push")]
+    cols += [("pushes needed", "estimate"), ("pushes needed", "at CV 95%"), ("fit", "")]
     return Table(
         key="sites",
         title="Site plate pressure at the middle sinkage and push-to-push variation",
-        columns=[
-            ("site", ""),
-            ("pushes", ""),
-            ("n", "site median"),
-            ("p", f"median [{pu}]"),
-            ("p", f"5% [{pu}]"),
-            ("p", f"95% [{pu}]"),
-            ("between-push CV", "estimate"),
-            ("between-push CV", "5%"),
-            ("between-push CV", "95%"),
-            ("naive CV", "incl. estimation noise"),
-            ("CI CV", "mean CI per push"),
-            ("pushes needed", "estimate"),
-            ("pushes needed", "at CV 95%"),
-            ("fit", ""),
-        ],
+        columns=cols,
         rows=rows,
         notes=[
             "between-push CV: random-effects (Paule-Mandel) estimate, estimation noise removed; "

@@ -23,6 +23,7 @@ import io
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from itertools import groupby
 from pathlib import Path
 from typing import Any
 
@@ -35,7 +36,7 @@ __all__ = [
     "PARAM_NAMES",
     "parameters_table",
     "shear_table",
-    "terrain_parameters_of",
+    "num_or_none",
     "agreement_table",
     "flat_agreement_table",
     "comparison_table",
@@ -151,22 +152,17 @@ class Table:
             )
 
         groups = [g for g, _ in self.columns]
-        has_sub = any(s for _, s in self.columns)
         out.append("<thead>")
-        if has_sub:
+        if any(s for _, s in self.columns):
             out.append("<tr>")
-            i = 0
-            while i < len(self.columns):
-                g, s = self.columns[i]
-                if not s:
-                    out.append(head(g, i, ' rowspan="2"'))
-                    i += 1
-                    continue
-                j = i
-                while j < len(self.columns) and groups[j] == g and self.columns[j][1]:
-                    j += 1
-                out.append(f'<th colspan="{j - i}" scope="colgroup">{e(g)}</th>')
-                i = j
+            # a run of one group's columns with sub-headings shares a cell; others span both rows
+            runs = groupby(enumerate(self.columns), lambda jc: (jc[1][0], bool(jc[1][1])))
+            for (g, sub), run in runs:
+                js = [j for j, _ in run]
+                if sub:
+                    out.append(f'<th colspan="{len(js)}" scope="colgroup">{e(g)}</th>')
+                else:
+                    out += [head(g, j, ' rowspan="2"') for j in js]
             out.append("</tr><tr>")
             for j, (_g, s) in enumerate(self.columns):
                 if s:
@@ -243,8 +239,9 @@ def _json_safe(v: Any) -> Any:
     return v
 
 
-def _f(v: Any) -> float | None:
-    if v is None:
+def num_or_none(v: Any) -> float | None:
+    """``v`` as a finite float, or None (None, a bool, text, NaN or infinite)."""
+    if v is None or isinstance(v, bool):
         return None
     try:
         x = float(v)
@@ -277,41 +274,11 @@ def _values(row: Mapping[str, Any]) -> Mapping[str, Any]:
     return row
 
 
-def terrain_parameters_of(row: Mapping[str, Any]) -> TerrainParameters | None:
-    """The TerrainParameters of a table row (SI), or None if a value is missing.
-
-    A row is a mapping with ``parameters`` (a TerrainParameters) or with the
-    values kc [kN/m^(n+1)], kphi [kN/m^(n+2)], n, cc [kPa] and phic_deg
-    (or phic) [deg].
-    """
-    tp = row.get("parameters")
-    if isinstance(tp, TerrainParameters):
-        return tp
-    v = [_f(row.get(k)) for k in ("kc", "kphi", "n", "cc")]
-    phic = _f(row.get("phic_deg", row.get("phic")))
-    if any(x is None for x in v) or phic is None:
-        return None
-    return TerrainParameters(v[0], v[1], v[2], v[3], phic)
-
-
 def _param_cells(p: Mapping[str, Any]) -> list[Any]:
-    """SI and US cells of one parameter set given in SI (kc, kphi, n, cc, phic_deg)."""
-    tp = terrain_parameters_of(p)
-    if tp is not None:  # the unit conversion of the parameter type (Tables 4-1, 4-3)
-        si, us = tp.as_dict("si"), tp.as_dict("us")
-        return [
-            si["kc"],
-            us["kc"],
-            si["kphi"],
-            us["kphi"],
-            si["n"],
-            si["cc"],
-            us["cc"],
-            si["phic_deg"],
-        ]
-    n = _f(p.get("n"))
-    kc, kphi, cc = _f(p.get("kc")), _f(p.get("kphi")), _f(p.get("cc"))
-    phic = _f(p.get("phic_deg", p.get("phic")))
+    """SI and US cells of one parameter set given in SI (US kc and kphi convert with n)."""
+    p = _values(p)
+    kc, kphi, n, cc = (num_or_none(p.get(k)) for k in ("kc", "kphi", "n", "cc"))
+    phic = num_or_none(p.get("phic_deg", p.get("phic")))
     if n is None:
         return [kc, None, kphi, None, None, cc, None, phic]
     return [
@@ -376,14 +343,7 @@ def shear_table(
     for label, sh in rows:
         us = sh.as_dict("us")
         body.append(
-            [
-                label,
-                sh.c,
-                us["c"],
-                sh.phi_deg,
-                None if sh.K is None else sh.K * 100.0,
-                us["K"],
-            ]
+            [label, sh.c, us["c"], sh.phi_deg, None if sh.K is None else sh.K * 100.0, us["K"]]
         )
     return Table(key, title, cols, body, list(notes), synthetic)
 
@@ -416,28 +376,23 @@ def mark_bounds(
     hits = []
     for i, r in enumerate(rows):
         r = _values(r)
-        if _f(r.get("n")) is None:
+        if num_or_none(r.get("n")) is None:
             continue
-        if on(_f(r.get("cc")), cc, upper_only=True):
+        if on(num_or_none(r.get("cc")), cc, upper_only=True):
             hits += [(i, 6), (i, 7)]
-        if on(_f(r.get("phic_deg", r.get("phic"))), phic_deg):
+        if on(num_or_none(r.get("phic_deg", r.get("phic"))), phic_deg):
             hits.append((i, 8))
-        if on(_f(r.get("n")), n):
+        if on(num_or_none(r.get("n")), n):
             hits.append((i, 5))
-        rm = _f(r.get("r_min"))
+        rm = num_or_none(r.get("r_min"))
         if rmin_col is not None and rmin_range and rm is not None:
             lo, hi = rmin_range
             if rm <= lo * (1 + 1e-6) or rm >= hi * (1 - 1e-6):
                 hits.append((i, rmin_col))
     if hits:
         table.highlight = sorted(set(table.highlight) | set(hits))
-        rng = []
-        if cc:
-            rng.append(f"cc {cc[0]:g} to {cc[1]:g} kPa")
-        if phic_deg:
-            rng.append(f"phic {phic_deg[0]:g} to {phic_deg[1]:g} deg")
-        if n:
-            rng.append(f"n {n[0]:g} to {n[1]:g}")
+        named = (("cc", cc, " kPa"), ("phic", phic_deg, " deg"), ("n", n, ""))
+        rng = [f"{name} {b[0]:g} to {b[1]:g}{unit}" for name, b, unit in named if b]
         if rmin_range:
             rng.append(f"r_min {rmin_range[0] * 1000:g} to {rmin_range[1] * 1000:g} mm")
         table.notes.append(
@@ -483,13 +438,13 @@ def parameter_comparison_table(
 def _agreement_cells(a: Mapping[str, Any] | None) -> list[Any]:
     if a is None:
         return [None] * 5
-    rmsd = _f(a.get("RMSD"))
+    rmsd = num_or_none(a.get("RMSD"))
     return [
-        _f(a.get("R")),
-        _f(a.get("R2")),
+        num_or_none(a.get("R")),
+        num_or_none(a.get("R2")),
         rmsd,
         None if rmsd is None else float(u.pressure_from_si(rmsd, "us")),
-        _f(a.get("CV")),
+        num_or_none(a.get("CV")),
     ]
 
 
@@ -555,38 +510,19 @@ def flat_agreement_table(
     ``rows``: the ``plates`` entries of the evaluate JSON (lengths and RMSD in
     ``units``).
     """
-    cols = [
-        ("Prediction", ""),
-        ("Plate test", ""),
-        ("Plate size b", "cm"),
-        ("Plate size b", "in"),
-        ("R", ""),
-        ("R2", ""),
-        ("RMSD", "kPa"),
-        ("RMSD", "psi"),
-        ("CV", ""),
-        ("Points", ""),
-    ]
+    cols = [("Prediction", ""), ("Plate test", ""), ("Plate size b", "cm"), ("Plate size b", "in")]
+    cols += [("R", ""), ("R2", ""), ("RMSD", "kPa"), ("RMSD", "psi"), ("CV", ""), ("Points", "")]
     body = []
     for r in rows:
-        b = _f(r.get("plate_radius", r.get("plate_width")))
+        b = num_or_none(r.get("plate_radius", r.get("plate_width")))
         b_si = None if b is None else float(u.length_to_si(b, units))
-        rm = _f(r.get("RMSD"))
+        rm = num_or_none(r.get("RMSD"))
         rm_si = None if rm is None else float(u.pressure_to_si(rm, units))
-        body.append(
-            [
-                r.get("prediction"),
-                r.get("test"),
-                None if b_si is None else b_si * 100,
-                None if b_si is None else b_si / u.INCH,
-                _f(r.get("R")),
-                _f(r.get("R2")),
-                rm_si,
-                None if rm_si is None else float(u.pressure_from_si(rm_si, "us")),
-                _f(r.get("CV")),
-                r.get("n_points"),
-            ]
-        )
+        rm_us = None if rm_si is None else float(u.pressure_from_si(rm_si, "us"))
+        b_cells = [None, None] if b_si is None else [b_si * 100, b_si / u.INCH]
+        r_cells = [num_or_none(r.get("R")), num_or_none(r.get("R2")), rm_si, rm_us]
+        cells = [r.get("prediction"), r.get("test"), *b_cells, *r_cells, num_or_none(r.get("CV"))]
+        body.append(cells + [r.get("n_points")])
     return Table(key, title, cols, body, list(notes))
 
 
@@ -605,37 +541,14 @@ def comparison_table(
     ``R2``, ``RMSD`` [kPa], ``CV``.  Rows are matched on the three keys.
     """
     pub = {(str(p["prediction"]), str(p["pair"]), str(p["plate"])): p for p in published}
-    cols = [
-        ("CI data", ""),
-        ("P-S data", ""),
-        ("Plate", ""),
-        ("R", "ours"),
-        ("R", "paper"),
-        ("R2", "ours"),
-        ("R2", "paper"),
-        ("RMSD [kPa]", "ours"),
-        ("RMSD [kPa]", "paper"),
-        ("CV", "ours"),
-        ("CV", "paper"),
-    ]
+    stats = (("R", "R"), ("R2", "R2"), ("RMSD [kPa]", "RMSD"), ("CV", "CV"))
+    cols = [("CI data", ""), ("P-S data", ""), ("Plate", "")]
+    cols += [(g, who) for g, _ in stats for who in ("ours", "paper")]
     body = []
     for r in ours:
         p = pub.get((str(r["prediction"]), str(r["pair"]), str(r["plate"])), {})
-        body.append(
-            [
-                r["prediction"],
-                r["pair"],
-                r["plate"],
-                _f(r.get("R")),
-                _f(p.get("R")),
-                _f(r.get("R2")),
-                _f(p.get("R2")),
-                _f(r.get("RMSD")),
-                _f(p.get("RMSD")),
-                _f(r.get("CV")),
-                _f(p.get("CV")),
-            ]
-        )
+        cells = [num_or_none(x.get(k)) for _, k in stats for x in (r, p)]
+        body.append([r["prediction"], r["pair"], r["plate"], *cells])
     return Table(key, title, cols, body, list(notes), synthetic)
 
 
@@ -650,39 +563,19 @@ def summary_statistics(
     """Median and range of R2, RMSD and CV per group of agreement rows."""
     import numpy as np
 
-    cols = [
-        ("Case", ""),
-        ("Comparisons", ""),
-        ("R2", "median"),
-        ("R2", "min"),
-        ("RMSD [kPa]", "median"),
-        ("RMSD [kPa]", "max"),
-        ("CV", "median"),
-        ("CV", "min"),
-        ("CV", "max"),
-    ]
+    stats = (
+        ("R2", "R2", ("median", "min")),
+        ("RMSD [kPa]", "RMSD", ("median", "max")),
+        ("CV", "CV", ("median", "min", "max")),
+    )
+    cols = [("Case", ""), ("Comparisons", "")] + [(g, f) for g, _, fs in stats for f in fs]
     body = []
     for name, rows in groups:
-        r2 = np.array([_f(r.get("R2")) for r in rows if _f(r.get("R2")) is not None])
-        rm = np.array([_f(r.get("RMSD")) for r in rows if _f(r.get("RMSD")) is not None])
-        cv = np.array([_f(r.get("CV")) for r in rows if _f(r.get("CV")) is not None])
-
-        def q(a, fn):
-            return float(fn(a)) if a.size else None
-
-        body.append(
-            [
-                name,
-                len(rows),
-                q(r2, np.median),
-                q(r2, np.min),
-                q(rm, np.median),
-                q(rm, np.max),
-                q(cv, np.median),
-                q(cv, np.min),
-                q(cv, np.max),
-            ]
-        )
+        cells: list[Any] = [name, len(rows)]
+        for _, k, fs in stats:
+            a = np.array([x for x in (num_or_none(r.get(k)) for r in rows) if x is not None])
+            cells += [float(getattr(np, f)(a)) if a.size else None for f in fs]
+        body.append(cells)
     return Table(key, title, cols, body, list(notes), synthetic)
 
 

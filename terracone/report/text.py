@@ -119,19 +119,9 @@ def predict_text(results: Sequence[PredictionResult], units: str) -> str:
             [d["id"], d["status"], d["kc"], d["kphi"], d["n"], d["cc"], d["phic_deg"]]
             + [d["rmsd"], d["r2_ci"], ",".join(d["undetermined"]) or "-", fit]
         )
-    heads = [
-        "profile",
-        "status",
-        f"kc [{u.kc_unit(units)}]",
-        f"kphi [{u.kphi_unit(units)}]",
-        "n",
-        f"cc [{u.pressure_unit(units)}]",
-        "phic [deg]",
-        f"RMSD [{u.pressure_unit(units)}]",
-        "R2 CI",
-        "undetermined",
-        "fit",
-    ]
+    P = u.pressure_unit(units)
+    heads = ["profile", "status", f"kc [{u.kc_unit(units)}]", f"kphi [{u.kphi_unit(units)}]", "n"]
+    heads += [f"cc [{P}]", "phic [deg]", f"RMSD [{P}]", "R2 CI", "undetermined", "fit"]
     text = table(heads, rows)
     lof = [r for r in results if r.ok and r.lack_of_fit]
     if lof:
@@ -212,28 +202,14 @@ def evaluate_text(rows: Sequence[PlateEvaluation], units: str) -> str:
     -------
     str
     """
-    tab = [
-        [
-            r.prediction,
-            r.test,
-            float(u.length_from_si(r.b, units)),
-            r.agreement.R,
-            r.agreement.R2,
-            float(u.pressure_from_si(r.agreement.RMSD, units)),
-            r.agreement.CV,
-        ]
-        for r in rows
-    ]
-    heads = [
-        "prediction",
-        "plate test",
-        f"b [{u.length_unit(units)}]",
-        "R",
-        "R2",
-        f"RMSD [{u.pressure_unit(units)}]",
-        "CV",
-    ]
-    return table(heads, tab)
+    tab = []
+    for r in rows:
+        a, b = r.agreement, float(u.length_from_si(r.b, units))
+        tab.append(
+            [r.prediction, r.test, b, a.R, a.R2, float(u.pressure_from_si(a.RMSD, units)), a.CV]
+        )
+    heads = ["prediction", "plate test", f"b [{u.length_unit(units)}]", "R", "R2"]
+    return table(heads + [f"RMSD [{u.pressure_unit(units)}]", "CV"], tab)
 
 
 def posterior_text(posts: Mapping[str, Any], units: str) -> str:
@@ -296,16 +272,8 @@ def layered_text(layered: Mapping[str, Any], units: str) -> str:
         iface = ",".join(f"{float(u.length_from_si(v, units)):.3g}" for v in lr.interfaces)
         ns = ",".join(f"{p.n:.3g}" for p in lr.layers)
         rows.append([pid, "ok", iface, ns, lr.r2_ci, lr.bic_single, lr.bic, lr.preferred_layers])
-    heads = [
-        "profile",
-        "status",
-        f"interfaces [{u.length_unit(units)}]",
-        "n per layer",
-        "R2 CI",
-        "BIC 1 layer",
-        "BIC layered",
-        "preferred layers",
-    ]
+    heads = ["profile", "status", f"interfaces [{u.length_unit(units)}]", "n per layer", "R2 CI"]
+    heads += ["BIC 1 layer", "BIC layered", "preferred layers"]
     return "\n\nLayered fits (element-wise integration; lower BIC wins):\n" + table(heads, rows)
 
 
@@ -390,23 +358,17 @@ def library_text(records: Sequence[Any]) -> str:
 
 
 def _site_row(d: Mapping[str, Any]) -> list[Any]:
-    pl = d["plate_pressure"][0] if d["plate_pressure"] else None
-    i = len(pl["sinkage"]) // 2 if pl else 0
-    return [
-        d["site"],
-        d["n_profiles"],
-        d["params"].get("n"),
-        pl["median"][i] if pl else None,
-        f"{format_value(pl['lo'][i])}-{format_value(pl['hi'][i])}" if pl else "-",
-        pl["between_cv"][i] if pl else None,
-        f"{format_value(pl['between_cv_lo'][i])}-{format_value(pl['between_cv_hi'][i])}"
-        if pl
-        else "-",
-        pl["naive_cv"][i] if pl else None,
-        d["profiles_needed"],
-        d["profiles_needed_hi"],
-        "LACK OF FIT" if d["lack_of_fit"] else "ok",
-    ]
+    """A site at the middle sinkage of its first plate: p, its 90% range, CVs, pushes needed."""
+    at: list[Any] = [None, "-", None, "-", None]
+    if d["plate_pressure"]:
+        pl = d["plate_pressure"][0]
+        v = {k: x[len(pl["sinkage"]) // 2] for k, x in pl.items() if isinstance(x, list)}
+        p90 = f"{format_value(v['lo'])}-{format_value(v['hi'])}"
+        cv90 = f"{format_value(v['between_cv_lo'])}-{format_value(v['between_cv_hi'])}"
+        at = [v["median"], p90, v["between_cv"], cv90, v["naive_cv"]]
+    needed = [d["profiles_needed"], d["profiles_needed_hi"]]
+    fit = "LACK OF FIT" if d["lack_of_fit"] else "ok"
+    return [d["site"], d["n_profiles"], d["params"].get("n"), *at, *needed, fit]
 
 
 def sites_text(sites: Sequence[Mapping[str, Any]], units: str) -> str:
@@ -439,11 +401,8 @@ def sites_text(sites: Sequence[Mapping[str, Any]], units: str) -> str:
         "p 90%",
         "between CV",
         "CV 90%",
-        "naive CV",
-        "needed",
-        "needed (CV hi)",
-        "fit",
     ]
+    heads += ["naive CV", "needed", "needed (CV hi)", "fit"]
     rows = [_site_row(d) for d in sites]
     text = f"Site plate pressure{at} {u.length_unit(units)}:\n" + table(heads, rows)
     for d in sites:

@@ -2,14 +2,9 @@
 
 A plate of size b (radius of a circular plate, smaller side of a rectangular
 one) follows Bekker's equation, p = (kc/b + kphi) z^n = k z^n (eq. (2-2) in
-[1]_; the forward model is :mod:`terracone.physics.plate`).  This module fits
-``p = k z^n`` to the loading branch of each test by one of three methods:
-``"loglog"`` (ordinary regression of ln p on ln z), ``"wong"`` (Wong's
-weighted least squares with weights p^2 [2]_, the default) and
-``"nonlinear"`` (least squares on p).  With two or more plate sizes
-:func:`fit_plates` splits k into kc and kphi: a common-n fit of all tests,
-then the regression of ``k_i = kc / b_i + kphi`` over the tests, whose 95%
-intervals reflect the scatter between tests.  With one plate size kc and
+[1]_).  This module fits ``p = k z^n`` to the loading branch of each test
+(``"loglog"``, ``"wong"`` [2]_ or ``"nonlinear"``) and, with two or more plate
+sizes, splits k into kc and kphi over the tests; with one plate size kc and
 kphi are undetermined (None), not an error.  SI throughout.  The methods and
 examples: ``docs/bevameter.md``.
 
@@ -38,7 +33,15 @@ from scipy import optimize, stats
 from terracone.data import InputError, PlateTest
 from terracone.physics import units as u
 
-__all__ = ["METHODS", "PlateFit", "PlatesFit", "fit_plate_test", "fit_plates"]
+__all__ = [
+    "METHODS",
+    "PlateFit",
+    "PlatesFit",
+    "fit_plate_test",
+    "fit_plates",
+    "line_fit",
+    "of_type",
+]
 
 #: Fitting methods of :func:`fit_plate_test` and :func:`fit_plates`.
 METHODS = ("wong", "loglog", "nonlinear")
@@ -94,14 +97,13 @@ class PlateFit:
     def as_dict(self, units: str = "si") -> dict[str, Any]:
         """The fit in a unit system (k converted with the fit's own n)."""
         units = u.check_system(units)
+        r = None if self.radius is None else float(u.length_from_si(self.radius, units))
         return {
             "test": self.test,
             "b": float(u.length_from_si(self.b, units)),
             "shape": self.shape,
-            "radius": None if self.radius is None else float(u.length_from_si(self.radius, units)),
-            "plate_radius": None
-            if self.radius is None
-            else float(u.length_from_si(self.radius, units)),
+            "radius": r,
+            "plate_radius": r,
             "k": float(u.kphi_from_si(self.k, self.n, units)),
             "n": float(self.n),
             "points_used": int(self.points_used),
@@ -176,11 +178,10 @@ class PlatesFit:
         def conv_ci(ci, f):
             return None if ci is None else [conv(ci[0], f), conv(ci[1], f)]
 
-        tests = []
-        for t, kcom in zip(self.tests, self.k_common):
-            d = t.as_dict(units)
-            d["k_common"] = conv(kcom, u.kphi_from_si)
-            tests.append(d)
+        tests = [
+            {**t.as_dict(units), "k_common": conv(kcom, u.kphi_from_si)}
+            for t, kcom in zip(self.tests, self.k_common)
+        ]
         return {
             "kc": conv(self.kc, u.kc_from_si),
             "kphi": conv(self.kphi, u.kphi_from_si),
@@ -270,12 +271,40 @@ def _fit_groups(
     return _nonlinear_common_n(z, p, g, m, n0, k0)
 
 
+def of_type(test: Any, kind: type) -> Any:
+    """``test`` if it is a ``kind``; raises it if it is an InputError, else a TypeError."""
+    if isinstance(test, InputError):
+        raise test
+    if not isinstance(test, kind):
+        raise TypeError(f"expected a {kind.__name__} (got {type(test).__name__})")
+    return test
+
+
+def line_fit(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """Ordinary least squares ``y ~ X @ coef`` over the tests, with 95% half widths.
+
+    Parameters
+    ----------
+    X : ndarray, shape (m, 2)
+    y : ndarray, shape (m,)
+
+    Returns
+    -------
+    coef : ndarray, shape (2,)
+    half : ndarray, shape (2,) or None
+        Half widths of the 95% intervals (t, m - 2 dof); None with fewer than 3 tests.
+    """
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    m = y.size
+    if m < 3:
+        return coef, None
+    resid = y - X @ coef
+    cov = float(resid @ resid) / (m - 2) * np.linalg.inv(X.T @ X)
+    return coef, stats.t.ppf(0.975, m - 2) * np.sqrt(np.diag(cov))
+
+
 def _branch(test: PlateTest) -> tuple[np.ndarray, np.ndarray]:
-    if not isinstance(test, PlateTest):
-        if isinstance(test, InputError):
-            raise test
-        raise TypeError(f"expected a PlateTest (got {type(test).__name__})")
-    br = test.loading_branch()
+    br = of_type(test, PlateTest).loading_branch()
     z, p = br.sinkage, br.pressure
     ok = np.isfinite(z) & np.isfinite(p)
     z, p = z[ok], p[ok]
@@ -323,12 +352,6 @@ def fit_plate_test(test: PlateTest, method: str = "wong") -> PlateFit:
     ------
     InputError
         Fewer than 2 usable loading-branch points.
-
-    References
-    ----------
-    .. [2] Wong, J.Y. (1980). Data processing methodology in the
-       characterization of the mechanical properties of terrain. Journal of
-       Terramechanics 17(1), 13-41.
     """
     _check_method(method)
     z, p = _branch(test)
@@ -346,12 +369,6 @@ def fit_plate_test(test: PlateTest, method: str = "wong") -> PlateFit:
         rmsd=rmsd,
         method=method,
     )
-
-
-def _distinct_sizes(b: np.ndarray) -> np.ndarray:
-    # plate sizes equal to 1e-9 relative are one size (values read from files)
-    key = np.round(np.log(b) * 1e9)
-    return np.unique(key)
 
 
 def fit_plates(tests: Iterable[PlateTest], method: str = "wong") -> PlatesFit:
@@ -381,15 +398,6 @@ def fit_plates(tests: Iterable[PlateTest], method: str = "wong") -> PlatesFit:
     method; stage 2 regresses the per-test k on 1/b (ordinary least squares,
     one point per test).  The intervals come from stage 2 (scatter between
     tests) and, for n, from the spread of the per-test exponents.
-
-    References
-    ----------
-    .. [1] Huang, W., Wong, J.Y., Preston-Thomas, J., Jayakumar, P.
-       Predicting terrain parameters for physics-based vehicle mobility
-       models from cone index data. Eq. (2-2).
-    .. [2] Wong, J.Y. (1980). Data processing methodology in the
-       characterization of the mechanical properties of terrain. Journal of
-       Terramechanics 17(1), 13-41.
     """
     _check_method(method)
     tests = list(tests)
@@ -406,33 +414,20 @@ def fit_plates(tests: Iterable[PlateTest], method: str = "wong") -> PlatesFit:
     n, k = _fit_groups(z, p, g, m, method)
 
     b = np.array([t.b for t in tests], dtype=float)
-    n_ci = _n_interval(n, per_test)
-    if _distinct_sizes(b).size < 2:
-        split = _SizeSplit(
-            undetermined=["kc", "kphi"],
-            notes=[
-                "one plate size: kc and kphi cannot be separated (k = kc/b + kphi); "
-                "k and n are given per test"
-            ],
+    # plate sizes equal to 1e-9 relative are one size (values read from files)
+    if np.unique(np.round(np.log(b) * 1e9)).size < 2:
+        split: dict[str, Any] = dict(
+            kc=None, kphi=None, kc_ci=None, kphi_ci=None, undetermined=["kc", "kphi"],
+            notes=["one plate size: kc and kphi cannot be separated (k = kc/b + kphi); "
+                   "k and n are given per test"],
             ci_note="the interval of n needs at least 3 tests" if m < 3 else None,
-        )
+        )  # fmt: skip
     else:
         split = _split_k(k, b)
-
     return PlatesFit(
-        kc=split.kc,
-        kphi=split.kphi,
-        n=n,
-        kc_ci=split.kc_ci,
-        kphi_ci=split.kphi_ci,
-        n_ci=n_ci,
-        tests=per_test,
-        undetermined=split.undetermined,
-        method=method,
-        k_common=[float(v) for v in k],
-        ci_note=split.ci_note,
-        notes=split.notes,
-    )
+        n=n, n_ci=_n_interval(n, per_test), tests=per_test, method=method,
+        k_common=[float(v) for v in k], **split,
+    )  # fmt: skip
 
 
 def _n_interval(n: float, per_test: list[PlateFit]) -> tuple[float, float] | None:
@@ -445,42 +440,18 @@ def _n_interval(n: float, per_test: list[PlateFit]) -> tuple[float, float] | Non
     return (n - half, n + half)
 
 
-@dataclass
-class _SizeSplit:
-    """Stage 2 of :func:`fit_plates`: kc, kphi and their intervals (None when undetermined)."""
-
-    kc: float | None = None
-    kphi: float | None = None
-    kc_ci: tuple[float, float] | None = None
-    kphi_ci: tuple[float, float] | None = None
-    undetermined: list[str] = field(default_factory=list)
-    notes: list[str] = field(default_factory=list)
-    ci_note: str | None = None
-
-
-def _split_k(k: np.ndarray, b: np.ndarray) -> _SizeSplit:
-    """Stage 2: k_i = kc (1/b_i) + kphi (Bekker, eq. (2-2)), OLS over the tests.
-
-    95 % intervals from the regression's covariance (t, m-2 dof) with at
-    least 3 tests; negative moduli are noted.
-    """
-    m = k.size
-    X = np.column_stack([1.0 / b, np.ones(m)])
-    coef, *_ = np.linalg.lstsq(X, k, rcond=None)
-    out = _SizeSplit(kc=float(coef[0]), kphi=float(coef[1]))
-    if m >= 3:
-        dof = m - 2
-        resid = k - X @ coef
-        s2 = float(resid @ resid) / dof
-        cov = s2 * np.linalg.inv(X.T @ X)
-        t = stats.t.ppf(0.975, dof)
-        hk, hp = t * math.sqrt(cov[0, 0]), t * math.sqrt(cov[1, 1])
-        out.kc_ci = (out.kc - hk, out.kc + hk)
-        out.kphi_ci = (out.kphi - hp, out.kphi + hp)
-    else:
-        out.ci_note = _CI_NOTE
-    if out.kc < 0:
-        out.notes.append(f"kc = {out.kc:.4g} < 0: k grows with plate size in these tests")
-    if out.kphi < 0:
-        out.notes.append(f"kphi = {out.kphi:.4g} < 0")
+def _split_k(k: np.ndarray, b: np.ndarray) -> dict[str, Any]:
+    """Stage 2: k_i = kc (1/b_i) + kphi (eq. (2-2)) by :func:`line_fit`; the PlatesFit fields."""
+    coef, half = line_fit(np.column_stack([1.0 / b, np.ones(k.size)]), k)
+    kc, kphi = float(coef[0]), float(coef[1])
+    out: dict[str, Any] = dict(kc=kc, kphi=kphi, kc_ci=None, kphi_ci=None, undetermined=[])
+    if half is not None:
+        out["kc_ci"] = (kc - half[0], kc + half[0])
+        out["kphi_ci"] = (kphi - half[1], kphi + half[1])
+    out["ci_note"] = _CI_NOTE if half is None else None
+    out["notes"] = []
+    if kc < 0:
+        out["notes"].append(f"kc = {kc:.4g} < 0: k grows with plate size in these tests")
+    if kphi < 0:
+        out["notes"].append(f"kphi = {kphi:.4g} < 0")
     return out

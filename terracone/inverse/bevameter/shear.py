@@ -3,11 +3,10 @@
 The terrain's internal shear follows tau = (c + sigma tan(phi)) (1 -
 exp(-j/K)) [1]_ (:func:`terracone.physics.shear.shear_stress_janosi_hanamoto`,
 the form of eq. (2-4) of [2]_ for the terrain's own shear, not the cone-metal
-cc, phic).  :func:`fit_shear` fits each test's tau_max and K on the points up
-to the last one within ``peak_tolerance`` of the test's peak (and j <=
-``j_max``), then the Mohr-Coulomb line ``tau_max = c + sigma tan(phi)`` over
-the tests and a common K [3]_.  With a single normal pressure c and phi are
-undetermined (None).  Details: ``docs/bevameter.md``.
+cc, phic).  :func:`fit_shear` fits each test's tau_max and K, then the
+Mohr-Coulomb line ``tau_max = c + sigma tan(phi)`` over the tests and a common
+K [3]_; with a single normal pressure c and phi are undetermined (None).
+Details: ``docs/bevameter.md``.
 
 References
 ----------
@@ -30,9 +29,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
 
 from terracone.data import InputError, ShearTest, TerrainShear
+from terracone.inverse.bevameter.plates import line_fit, of_type
 from terracone.physics import units as u
 from terracone.physics.shear import shear_stress_janosi_hanamoto
 
@@ -157,11 +157,7 @@ class ShearFit:
 
 
 def _points(test: ShearTest, peak_tolerance: float, j_max: float | None):
-    if not isinstance(test, ShearTest):
-        if isinstance(test, InputError):
-            raise test
-        raise TypeError(f"expected a ShearTest (got {type(test).__name__})")
-    j, tau = test.displacement, test.stress
+    j, tau = of_type(test, ShearTest).displacement, test.stress
     ok = np.isfinite(j) & np.isfinite(tau) & (j >= 0)
     if j_max is not None:
         ok &= j <= j_max
@@ -193,28 +189,10 @@ def _start_K(j: np.ndarray, tau: np.ndarray, tau0: float) -> float:
     return K0 if K0 > 0 else float(np.max(j)) / 10.0
 
 
-def _fit_one(j: np.ndarray, tau: np.ndarray) -> tuple[float, float]:
-    """(tau_max, K) minimising sum (tau - tau_max (1 - exp(-j/K)))^2."""
-    tau0 = float(tau.max())
-    x0 = np.array([tau0, _start_K(j, tau, tau0)])
-
-    def fun(x):
-        return shear_stress_janosi_hanamoto(j, x[0], x[1]) - tau
-
-    def jac(x):
-        e = np.exp(-j / x[1])
-        return np.column_stack([1.0 - e, -x[0] * e * j / x[1] ** 2])
-
-    res = optimize.least_squares(
-        fun, x0, jac=jac, bounds=([0.0, 1e-12], [np.inf, np.inf]), x_scale=x0, xtol=1e-14
-    )
-    return float(res.x[0]), float(res.x[1])
-
-
 def _fit_common_K(
     data: list[tuple[np.ndarray, np.ndarray]], tau0: np.ndarray, K0: float
 ) -> tuple[np.ndarray, float]:
-    """One tau_max per test and one shared K, least squares on all stresses."""
+    """One tau_max per test and one shared K, least squares on all stresses (from tau0, K0)."""
     m = len(data)
     j = np.concatenate([d[0] for d in data])
     tau = np.concatenate([d[1] for d in data])
@@ -262,17 +240,13 @@ def fit_shear_test(
     -------
     ShearTestFit
         tau_max [kPa], K [m], points used, RMSD [kPa].
-
-    References
-    ----------
-    .. [1] Janosi, Z., Hanamoto, B. (1961). The analytical determination of
-       drawbar pull as a function of slip for tracked vehicles in deformable
-       soils. Proc. 1st Int. Conf. on Terrain-Vehicle Systems, Turin.
     """
     if not 0 <= peak_tolerance < 1:
         raise ValueError("peak_tolerance must be in [0, 1)")
     j, tau = _points(test, peak_tolerance, j_max)
-    tau_max, K = _fit_one(j, tau)
+    tau0 = float(tau.max())
+    tau_max, K = _fit_common_K([(j, tau)], np.array([tau0]), _start_K(j, tau, tau0))
+    tau_max = float(tau_max[0])
     res = tau - shear_stress_janosi_hanamoto(j, tau_max, K)
     ss_tot = float(np.sum((tau - tau.mean()) ** 2))
     return ShearTestFit(
@@ -306,15 +280,6 @@ def fit_shear(
         c [kPa] and phi [deg] from ``tau_max = c + sigma tan(phi)`` when the
         tests cover two or more normal pressures (else None, listed in
         ``undetermined``), the common K [m] and the per-test fits.
-
-    References
-    ----------
-    .. [1] Janosi, Z., Hanamoto, B. (1961). The analytical determination of
-       drawbar pull as a function of slip for tracked vehicles in deformable
-       soils. Proc. 1st Int. Conf. on Terrain-Vehicle Systems, Turin.
-    .. [3] Wong, J.Y. (1980). Data processing methodology in the
-       characterization of the mechanical properties of terrain. Journal of
-       Terramechanics 17(1), 13-41.
     """
     tests = list(tests)
     if not tests:
@@ -328,42 +293,26 @@ def fit_shear(
     _, K = _fit_common_K(data, tau0, float(np.median([f.K for f in fits])))
 
     sigma = np.array([f.normal_pressure for f in fits])
-    notes: list[str] = []
-    c = phi = None
-    c_ci = phi_ci = None
-    undetermined: list[str] = []
     if np.unique(np.round(sigma, 9)).size < 2:
-        undetermined = ["c", "phi_deg"]
-        notes.append(
+        note = (
             f"one normal pressure ({sigma[0]:g} kPa): c and phi cannot be separated "
             "(tau_max = c + sigma tan(phi)); tau_max and K are given per test"
         )
+        return ShearFit(None, None, K, fits, ["c", "phi_deg"], notes=[note])
+    # Mohr-Coulomb: tau_max_i = c + sigma_i tan(phi), OLS over the tests
+    coef, half = line_fit(np.column_stack([np.ones(m), sigma]), tau0)
+    c, slope = float(coef[0]), float(coef[1])
+    c_ci = phi_ci = None
+    notes = []
+    if half is not None:
+        c_ci = (c - half[0], c + half[0])
+        # arctan is monotonic: the slope interval maps to a phi interval
+        phi_ci = (
+            math.degrees(math.atan(slope - half[1])),
+            math.degrees(math.atan(slope + half[1])),
+        )
     else:
-        # Mohr-Coulomb: tau_max_i = c + sigma_i tan(phi), OLS over the tests
-        X = np.column_stack([np.ones(m), sigma])
-        coef, *_ = np.linalg.lstsq(X, tau0, rcond=None)
-        c, slope = float(coef[0]), float(coef[1])
-        phi = math.degrees(math.atan(slope))
-        if m >= 3:
-            dof = m - 2
-            r = tau0 - X @ coef
-            cov = float(r @ r) / dof * np.linalg.inv(X.T @ X)
-            t = stats.t.ppf(0.975, dof)
-            hc, hs = t * math.sqrt(cov[0, 0]), t * math.sqrt(cov[1, 1])
-            c_ci = (c - hc, c + hc)
-            # arctan is monotonic: the slope interval maps to a phi interval
-            phi_ci = (math.degrees(math.atan(slope - hs)), math.degrees(math.atan(slope + hs)))
-        else:
-            notes.append("confidence intervals need at least 3 tests over 2 normal pressures")
-        if c < 0:
-            notes.append(f"c = {c:.4g} kPa < 0 (regression intercept)")
-    return ShearFit(
-        c=c,
-        phi_deg=phi,
-        K=K,
-        tests=fits,
-        undetermined=undetermined,
-        c_ci=c_ci,
-        phi_deg_ci=phi_ci,
-        notes=notes,
-    )
+        notes.append("confidence intervals need at least 3 tests over 2 normal pressures")
+    if c < 0:
+        notes.append(f"c = {c:.4g} kPa < 0 (regression intercept)")
+    return ShearFit(c, math.degrees(math.atan(slope)), K, fits, [], c_ci, phi_ci, notes)

@@ -23,7 +23,6 @@ References
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -36,9 +35,8 @@ from terracone.data import CIProfile
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.evaluate import predicted_plate_pressure
 from terracone.inverse.predict import predict
-from terracone.inverse.sites.statistics import NOISE_FLOOR, default_sinkages
-from terracone.inverse.uncertainty.noise import estimate_correlation
-from terracone.inverse.uncertainty.priors import CalibrationPrior
+from terracone.inverse.sites.statistics import ci_error_covariance, default_sinkages
+from terracone.inverse.uncertainty.priors import CalibrationPrior, as_calibration_prior
 from terracone.physics import units as u
 from terracone.physics.cone import cone_index_huang
 from terracone.physics.plate import pressure_law
@@ -177,13 +175,8 @@ def parse_candidates(text: str, units: str = "si") -> list[tuple[str, str, float
 def _prior_precision(theta, free, bounds: Bounds, cal: CalibrationPrior | None) -> np.ndarray:
     """Prior precision over the free parameters (normal approximation)."""
     kc, kphi, n = theta[0], theta[1], theta[2]
-    rng = [
-        np.subtract(*bounds.kc_si(n)[::-1]),
-        np.subtract(*bounds.kphi_si(n)[::-1]),
-        bounds.n[1] - bounds.n[0],
-        bounds.cc[1] - bounds.cc[0],
-        bounds.phic_deg[1] - bounds.phic_deg[0],
-    ]
+    boxes = (bounds.kc_si(n), bounds.kphi_si(n), bounds.n, bounds.cc, bounds.phic_deg)
+    rng = [hi - lo for lo, hi in boxes]
     P = np.diag([12.0 / max(float(r), 1e-9) ** 2 for r in rng])  # variance of a uniform
     if cal is not None:
         c = cal.calibration
@@ -210,19 +203,9 @@ def _jacobian(f, theta: np.ndarray, free: np.ndarray) -> np.ndarray:
 
 def _ci_precision(profile: CIProfile, model_ci, J, ci_noise: float | None) -> np.ndarray:
     """J^T S^-1 J for the CI noise: given (independent) or estimated as in the site model."""
-    z, y = profile.depth, profile.ci
     if ci_noise is not None:
         return J.T @ J / ci_noise**2
-    m = model_ci
-    w = np.sqrt(m * m + (NOISE_FLOOR * np.max(np.abs(m))) ** 2)
-    w = w / math.sqrt(np.mean(w * w))
-    e = (y - m) / w
-    N, k = J.shape
-    sigma2 = max(float(e @ e) / max(N - k, 1), 1e-12)
-    rho = estimate_correlation(e, z, design=J / w[:, None])[0]
-    dz0 = float(np.median(np.diff(z)))
-    R = rho ** (np.abs(z[:, None] - z[None, :]) / dz0) if rho > 0 else np.eye(N)
-    S = sigma2 * w[:, None] * R * w[None, :]
+    S = ci_error_covariance(profile.depth, profile.ci, model_ci, J, floor=1e-12)[0]
     return J.T @ np.linalg.solve(S, J)
 
 
@@ -252,24 +235,8 @@ def _candidate(cand, widths, I0, I_ci, current, theta, free, law, plate_noise, s
     return CandidateResult(label, kind, r, w, ratio, note=note)
 
 
-def _as_prior(prior: Any) -> CalibrationPrior | None:
-    """None for the bounds prior, else a CalibrationPrior."""
-    from terracone.inverse.learning.learn import Calibration
-
-    cal = CalibrationPrior(prior) if isinstance(prior, Calibration) else prior
-    cal = None if isinstance(cal, str) and cal == "bounds" else cal
-    if cal is not None and not isinstance(cal, CalibrationPrior):
-        raise ValueError(f"prior must be 'bounds' or a calibration (got {prior!r})")
-    return cal
-
-
 def _information(
-    profile: CIProfile,
-    res: Any,
-    law: Any,
-    bounds: Bounds,
-    cal: CalibrationPrior | None,
-    ci_noise: float | None,
+    profile: CIProfile, res: Any, law: Any, bounds: Bounds, cal: CalibrationPrior | None, ci_noise
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The fitted parameters, which of them are free, and the Fisher information of
     the CI data alone and of the CI data with the prior (free parameters only)."""
@@ -288,14 +255,6 @@ def _information(
     J = _jacobian(ci_of, theta, free)
     I_ci = _ci_precision(profile, res.ci_model, J, ci_noise)
     return theta, free, I_ci, _prior_precision(theta, free, bounds, cal) + I_ci
-
-
-def _ranked(candidates: list[CandidateResult]) -> list[CandidateResult]:
-    """The candidates by expected width ratio, best first, with their ranks set."""
-    out = sorted(candidates, key=lambda cnd: cnd.width_ratio)
-    for i, cnd in enumerate(out):
-        cnd.rank = i + 1
-    return out
 
 
 def plan_test(
@@ -342,17 +301,13 @@ def plan_test(
     -------
     DesignResult
         Candidates ranked by expected width (mean ratio over the plates).
-
-    References
-    ----------
-    Raiffa and Schlaifer (1961); eqs. (2-2), (2-7) of Huang et al.
     """
     if isinstance(candidates, str):
         candidates = parse_candidates(candidates)
     if not plates:
         raise ValueError("give at least one target plate radius")
     bounds = bounds or Bounds()
-    cal = _as_prior(prior)
+    cal = as_calibration_prior(prior)
     c = cal.calibration if cal is not None else None
     res = predict(profile, model=model, r_min=r_min, bounds=bounds, calibration=c)
     label = "bounds" if c is None else f"calibration:{c.terrain}"
@@ -375,25 +330,17 @@ def plan_test(
         [float(predicted_plate_pressure(prm, s_mid, r, law.plate_pair)) for r in plates]
     )
     s_test = np.linspace(0.005, 0.05, 10) if plate_sinkages is None else np.asarray(plate_sinkages)
-    out = _ranked(
-        [
-            _candidate(c, widths, I0, I_ci, current, theta, free, law, plate_noise, s_test)
-            for c in candidates
-        ]
-    )
+    out = [
+        _candidate(c, widths, I0, I_ci, current, theta, free, law, plate_noise, s_test)
+        for c in candidates
+    ]
+    out.sort(key=lambda cnd: cnd.width_ratio)  # best first
+    for i, cnd in enumerate(out):
+        cnd.rank = i + 1
     notes = list(res.notes)
     if res.undetermined:
         notes.append("left free by the CI: " + ", ".join(res.undetermined))
     return DesignResult(
-        profile.id,
-        "ok",
-        None,
-        label,
-        list(plates),
-        s_mid,
-        median,
-        current,
-        out,
-        res.lack_of_fit,
-        notes,
-    )
+        profile.id, "ok", None, label, list(plates), s_mid, median, current, out,
+        res.lack_of_fit, notes,
+    )  # fmt: skip

@@ -1,13 +1,10 @@
 """Random-effects pooling of per-push estimates: between-push variance apart from estimation noise.
 
-Each push j gives an estimate ``y_j`` with a known sampling variance ``v_j``;
-the model ``y_j = mu + b_j + e_j``, ``b_j ~ N(0, tau^2)``, ``e_j ~ N(0,
-v_j)`` separates the terrain's push-to-push variance ``tau^2`` from the
-estimation noise (the plain sample variance estimates ``tau^2 + mean(v_j)``).
-Vectorised over independent problems: ``tau^2`` by Paule-Mandel [1]_ (as
-[2]_ recommends for few studies), ``mu`` the weighted mean, its interval by
-Hartung-Knapp-Sidik-Jonkman [3]_ with a t quantile on k - 1 degrees of
-freedom, the interval of ``tau^2`` by the Q-profile method [4]_.
+``y_j = mu + b_j + e_j``, ``b_j ~ N(0, tau^2)``, ``e_j ~ N(0, v_j)`` with
+known ``v_j``, vectorised over independent problems: ``tau^2`` by
+Paule-Mandel [1]_ (as [2]_ recommends for few studies), the interval of ``mu``
+by Hartung-Knapp-Sidik-Jonkman [3]_, that of ``tau^2`` by the Q-profile
+method [4]_ (docs/sites.md, step 3).
 
 References
 ----------
@@ -156,20 +153,7 @@ def random_effects(
         tq = np.where(
             k > 1, stats.t.ppf(0.5 + level / 2, np.maximum(df, 1)), stats.norm.ppf(0.5 + level / 2)
         )
-    tau2 = np.where(k > 1, tau2, np.nan)
-    tau2_lo = np.where(k > 1, tau2_lo, np.nan)
-    tau2_hi = np.where(k > 1, tau2_hi, np.nan)
+    tau2, tau2_lo, tau2_hi = (np.where(k > 1, t, np.nan) for t in (tau2, tau2_lo, tau2_hi))
     mu = np.where(k > 0, mu, np.nan)
-    return RandomEffects(
-        mu=mu,
-        tau2=tau2,
-        tau2_lo=tau2_lo,
-        tau2_hi=tau2_hi,
-        se=se,
-        df=df,
-        lo=mu - tq * se,
-        hi=mu + tq * se,
-        k=k,
-        sample_var=sample_var,
-        mean_v=mean_v,
-    )
+    lo, hi = mu - tq * se, mu + tq * se
+    return RandomEffects(mu, tau2, tau2_lo, tau2_hi, se, df, lo, hi, k, sample_var, mean_v)

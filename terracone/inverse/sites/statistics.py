@@ -2,16 +2,9 @@
 
 Recommendation E of [1]_ asks for three or more pushes at each location and
 three or more locations per site.  :func:`fit_sites` turns the pushes of each
-site into one site terrain with its spread, separating the site-level terrain
-(its median over pushes), the push-to-push variation (between-push variance)
-and the estimation noise of each push, so that estimation noise is not
-reported as variability.  Every push is fitted by the exact solver; its
-estimation variance is a linearised sandwich (with a calibration) or a
-parametric bootstrap (:func:`bootstrap_pushes`, without); the per-push
-estimates are pooled by :mod:`terracone.inverse.sites.randeff`; the common
-scale of kc and kphi comes from phic, fixed or on the site's ridge; without a
-calibration the push-to-push CV comes from what the CI fixes
-(:func:`shape_pushes`).  The model, step by step, and its checks are in
+site into one site terrain (its median over pushes), the push-to-push
+variation and the estimation noise of each push, so that estimation noise is
+not reported as variability.  The model, step by step, and its checks are in
 ``docs/sites.md``.
 
 References
@@ -35,11 +28,11 @@ import numpy as np
 from scipy import stats
 from scipy.cluster.hierarchy import fcluster, linkage
 
-from terracone.data import CIProfile, InputError, TerrainParameters
+from terracone.data import CIProfile, InputError
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.sites.randeff import random_effects
 from terracone.inverse.solver.many import solve_exact_many
-from terracone.inverse.uncertainty.noise import estimate_correlation
+from terracone.inverse.uncertainty.noise import RHO_MAX, ar1_noise, estimate_correlation
 from terracone.physics import units as u
 from terracone.physics.cone import cone_index_basis
 from terracone.physics.metrics import check_fit
@@ -55,7 +48,7 @@ __all__ = [
     "fit_sites",
     "group_profiles",
     "bootstrap_pushes",
-    "push_log_pressure",
+    "ci_error_covariance",
     "pushes_needed",
     "shape_pushes",
     "site_centers",
@@ -177,11 +170,9 @@ def group_profiles(
             if len(keep) > 1
             else np.array([1])
         )
-        order: dict[int, int] = {}
-        for lab in labels:
-            order.setdefault(int(lab), len(order) + 1)
-        for i, lab in zip(keep, labels):
-            name = f"site-{order[int(lab)]}" if by is None else f"{key}/{order[int(lab)]}"
+        order = {lab: r + 1 for r, lab in enumerate(dict.fromkeys(labels.tolist()))}
+        for i, lab in zip(keep, labels.tolist()):
+            name = f"site-{order[lab]}" if by is None else f"{key}/{order[lab]}"
             out.setdefault(name, []).append(i)
     return Grouping(out, unassigned)
 
@@ -198,65 +189,94 @@ class PushFits:
     Attributes
     ----------
     ids : list of str
+    law : PressureLaw
     ok : ndarray of bool
-    error : list of str or None
-    params : list of TerrainParameters or None
+    error, lack_of_fit : list of str or None
+    kc, kphi : ndarray
+        Fitted kc [kN/m^(n+1)] and kphi [kN/m^(n+2)].
     theta : ndarray, shape (P, 4)
         ``(kc', kphi', cc, n)``: primed kc and kphi (``s`` times kc, kphi).
     cov : ndarray, shape (P, 4, 4)
         Linearised sampling covariance of ``theta`` (sandwich, AR(1)).
-    scale : ndarray
-        ``s = 1 + tan(phic)/tan(a)`` of the reported phic.
     phic_lo, phic_hi : ndarray
         The push's phic ridge [deg].
-    rmsd, r2_ci, rho, sigma_rel : ndarray
-        Fit RMSD [kPa], R^2 of CI, AR(1) coefficient and RMS relative noise.
-    lack_of_fit : list of str or None
-    law : PressureLaw
+    rmsd, r2_ci, rho : ndarray
+        Fit RMSD [kPa], R^2 of CI and AR(1) coefficient.
     ci_mean, npts : ndarray
         Mean CI [kPa] and number of readings of each push.
-    residuals : list of (ndarray, ndarray, ndarray) or None
+    residuals : list of (ndarray, ndarray, ndarray, ndarray) or None
         Per push: weighted residuals, depths, Jacobian of the free
         parameters and noise weights (for :func:`site_correlation`).
     """
 
     ids: list[str]
+    law: PressureLaw
     ok: np.ndarray
     error: list[str | None]
-    params: list[TerrainParameters | None]
+    lack_of_fit: list[str | None]
+    residuals: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None]
     theta: np.ndarray
     cov: np.ndarray
-    scale: np.ndarray
+    npts: np.ndarray
+    kc: np.ndarray
+    kphi: np.ndarray
     phic_lo: np.ndarray
     phic_hi: np.ndarray
     rmsd: np.ndarray
     r2_ci: np.ndarray
     rho: np.ndarray
-    sigma_rel: np.ndarray
-    lack_of_fit: list[str | None]
-    law: PressureLaw
-    ci_mean: np.ndarray | None = None
-    npts: np.ndarray | None = None
-    residuals: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None] = field(
-        default_factory=list
-    )
+    ci_mean: np.ndarray
 
 
 def _settings(model: str, r_min: float | None, calibration: Any, bounds: Bounds | None):
     bounds = bounds or Bounds()
-    plate_pair = None
-    ratio = None
+    plate_pair = ratio = None
     if calibration is not None:
         model, r_min, plate_pair = calibration.model, calibration.r_min, calibration.plate_pair
         bounds = bounds.fixed(phic_deg=calibration.phic_deg, cc=calibration.cc)
         if calibration.kphi > 0:
             ratio = calibration.kc / calibration.kphi
-    law = pressure_law(model, r_min=r_min, plate_pair=plate_pair)
-    return law, bounds, ratio, model, r_min
+    return pressure_law(model, r_min=r_min, plate_pair=plate_pair), bounds, ratio, model
+
+
+def ci_error_covariance(
+    z: np.ndarray, y: np.ndarray, m: np.ndarray, J: np.ndarray, rho=None, floor: float = 0.0
+) -> tuple[np.ndarray, float, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """CI error covariance ``S = sigma^2 W R W`` of one push at its model CI (docs/sites.md).
+
+    Parameters
+    ----------
+    z, y, m : ndarray
+        Depths [m], measured and model CI [kPa].
+    J : ndarray, shape (N, k)
+        Jacobian of the free parameters.
+    rho : float, optional
+        AR(1) coefficient; estimated from the residuals when None.
+    floor : float
+        Smallest sigma^2 [-].
+
+    Returns
+    -------
+    S : ndarray, shape (N, N)
+        [kPa^2]
+    rho : float
+    parts : (e, z, J, w)
+        Weighted residuals, depths, J and the noise weights (RMS 1).
+    """
+    w = np.sqrt(m * m + (NOISE_FLOOR * np.max(np.abs(m))) ** 2)
+    w = w / math.sqrt(np.mean(w * w)) if np.any(w > 0) else np.ones_like(w)
+    e = (y - m) / w
+    N, k = J.shape
+    sigma2 = max(float(e @ e) / max(N - k, 1), floor)
+    if rho is None:
+        rho = estimate_correlation(e, z, design=J / w[:, None])[0] if k else 0.0
+    dz0 = float(np.median(np.diff(z))) if N > 1 else 1.0
+    R = rho ** (np.abs(z[:, None] - z[None, :]) / dz0) if rho > 0 else np.eye(N)
+    return sigma2 * w[:, None] * R * w[None, :], rho, (e, z, J, w)
 
 
 def _push_covariance(p: CIProfile, theta, law, bounds: Bounds, ratio, kc, kphi, rho=None):
-    """Sandwich covariance of (kc', kphi', cc, n), the model CI and noise figures of one push."""
+    """Sandwich covariance of (kc', kphi', cc, n), the model CI, rho and residual parts."""
     z, y = p.depth, p.ci
     kcp, kpp, cc, n = theta
     h = 1e-4
@@ -284,42 +304,28 @@ def _push_covariance(p: CIProfile, theta, law, bounds: Bounds, ratio, kc, kphi, 
     free = np.array(free)
     J = np.column_stack(J)[:, free]
     T = T[:, free]
-    w = np.sqrt(m * m + (NOISE_FLOOR * np.max(np.abs(m))) ** 2)
-    w = w / math.sqrt(np.mean(w * w)) if np.any(w > 0) else np.ones_like(w)
-    e = (y - m) / w
-    N, k = J.shape
-    sigma2 = float(e @ e) / max(N - k, 1)
-    if rho is None:
-        rho = estimate_correlation(e, z, design=J / w[:, None])[0] if k else 0.0
-    dz0 = float(np.median(np.diff(z))) if N > 1 else 1.0
-    R = rho ** (np.abs(z[:, None] - z[None, :]) / dz0) if rho > 0 else np.eye(N)
-    S = sigma2 * w[:, None] * R * w[None, :]
+    S, rho, parts = ci_error_covariance(z, y, m, J, rho)
     cov = np.zeros((4, 4))
-    if k:
+    if J.shape[1]:
         sc = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
         Js = J / sc
         Gi = np.linalg.pinv(Js.T @ Js, rcond=1e-12)
         cf = (Gi @ Js.T @ S @ Js @ Gi) / np.outer(sc, sc)
         cov = T @ cf @ T.T
-    sig_rel = math.sqrt(sigma2) * float(np.sqrt(np.mean(w * w)) / max(np.mean(np.abs(m)), 1e-300))
-    return cov, m, rho, sig_rel, (e, z, J, w)
+    return cov, m, rho, parts
 
 
 def fit_pushes(
-    profiles: Sequence[CIProfile],
-    *,
-    model: str = "rm0",
-    r_min: float | None = None,
-    calibration: Any = None,
-    bounds: Bounds | None = None,
+    profiles: Sequence[CIProfile], law: PressureLaw, b: Bounds, ratio: float | None
 ) -> PushFits:
     """Fit each push (exact solver, vectorised per cone) and its sampling covariance.
 
     Parameters
     ----------
     profiles : sequence of CIProfile
-    model, r_min, calibration, bounds
-        As for :func:`terracone.inverse.predict` (fully mobilised shear).
+    law, b, ratio
+        Pressure law, bounds and kc/kphi [m] (None: free) of the fit
+        (fully mobilised shear).
 
     Returns
     -------
@@ -327,29 +333,13 @@ def fit_pushes(
         A profile that fails validation or the solver is marked not ok with
         its reason.
     """
-    law, b, ratio, model, r_min = _settings(model, r_min, calibration, bounds)
     P = len(profiles)
-    nan = np.full(P, np.nan)
+    nans = ("kc", "kphi", "phic_lo", "phic_hi", "rmsd", "r2_ci", "rho", "ci_mean")
     out = PushFits(
-        ids=[p.id for p in profiles],
-        ok=np.zeros(P, bool),
-        error=[None] * P,
-        params=[None] * P,
-        theta=np.full((P, 4), np.nan),
-        cov=np.full((P, 4, 4), np.nan),
-        scale=nan.copy(),
-        phic_lo=nan.copy(),
-        phic_hi=nan.copy(),
-        rmsd=nan.copy(),
-        r2_ci=nan.copy(),
-        rho=nan.copy(),
-        sigma_rel=nan.copy(),
-        lack_of_fit=[None] * P,
-        law=law,
-        ci_mean=nan.copy(),
-        npts=np.zeros(P, int),
-        residuals=[None] * P,
-    )
+        [p.id for p in profiles], law, np.zeros(P, bool), [None] * P, [None] * P, [None] * P,
+        np.full((P, 4), np.nan), np.full((P, 4, 4), np.nan), np.zeros(P, int),
+        **{k: np.full(P, np.nan) for k in nans},
+    )  # fmt: skip
     by_cone: dict[str, list[int]] = {}
     for i, p in enumerate(profiles):
         try:
@@ -359,48 +349,26 @@ def fit_pushes(
             continue
         by_cone.setdefault(p.cone.name, []).append(i)
     for idx in by_cone.values():
-        cone = profiles[idx[0]].cone
+        zs, ys = [profiles[i].depth for i in idx], [profiles[i].ci for i in idx]
         try:
-            sol = solve_exact_many(
-                [profiles[i].depth for i in idx],
-                [profiles[i].ci for i in idx],
-                cone=cone,
-                law=law,
-                bounds=b,
-                kc_over_kphi=ratio,
-            )
+            sol, th = _solve_primed(zs, ys, profiles[idx[0]].cone, law, b, ratio)
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
             for i in idx:
                 out.error[i] = f"solver failed: {exc}"
             continue
-        s = 1.0 + np.tan(np.radians(sol.phic_deg)) / math.tan(cone.half_angle)  # eq. (2-6)
         for j, i in enumerate(idx):
-            p = profiles[i]
-            theta = np.array([sol.kc[j] * s[j], sol.kphi[j] * s[j], sol.cc[j], sol.n[j]])
-            cov, m, rho, sig, parts = _push_covariance(
+            p, theta = profiles[i], th[j]
+            cov, m, out.rho[i], out.residuals[i] = _push_covariance(
                 p, theta, law, b, ratio, sol.kc[j], sol.kphi[j]
             )
-            out.residuals[i] = parts
             out.ci_mean[i], out.npts[i] = float(np.mean(p.ci)), p.ci.size
             chk = check_fit(p.depth, p.ci, m)
             out.ok[i] = True
-            out.params[i] = TerrainParameters(
-                float(sol.kc[j]),
-                float(sol.kphi[j]),
-                float(sol.n[j]),
-                float(sol.cc[j]),
-                float(sol.phic_deg[j]),
-                None,
-                model,
-                r_min,
-            )
+            out.kc[i], out.kphi[i] = sol.kc[j], sol.kphi[j]
             out.theta[i], out.cov[i] = theta, cov
-            out.scale[i] = s[j]
             out.phic_lo[i], out.phic_hi[i] = sol.phic_lo[j], sol.phic_hi[j]
             out.rmsd[i] = math.sqrt(float(np.mean((m - p.ci) ** 2)))
-            out.r2_ci[i] = chk.r2
-            out.rho[i], out.sigma_rel[i] = rho, sig
-            out.lack_of_fit[i] = chk.lack_of_fit
+            out.r2_ci[i], out.lack_of_fit[i] = chk.r2, chk.lack_of_fit
     return out
 
 
@@ -408,29 +376,31 @@ def bootstrap_pushes(
     profiles: Sequence[CIProfile],
     fits: PushFits,
     idx: Sequence[int],
+    centers: Sequence[np.ndarray],
+    b: Bounds,
+    ratio: float | None,
     *,
     replicates: int = 40,
     seed: int = 0,
-    centers: Sequence[np.ndarray] | None = None,
-    model: str = "rm0",
-    r_min: float | None = None,
-    calibration: Any = None,
-    bounds: Bounds | None = None,
 ) -> np.ndarray:
-    """Parametric bootstrap of the pushes' estimates: replicates (len(idx), B, 4) of theta.
+    """Parametric bootstrap of the pushes' estimates (step 2 of docs/sites.md).
 
-    Each replicate is the push's fitted CI plus simulated noise with the
-    push's own noise model (relative weights, sigma from the residuals, the
-    AR(1) coefficient in ``fits.rho``), refitted by the same exact solver
-    (vectorised over all replicates).  Unlike the linearised covariance, the
-    spread keeps what bounds and the near-collinear kc, kphi, cc columns do to
-    the estimates (without a calibration, most pushes sit at kc = 0 or cc = 0).
-    ``centers`` (one CI array per push, [kPa]) replaces the fitted CI as the
-    noise-free replicate: :func:`fit_sites` uses the site terrain scaled to
-    each push (:func:`site_centers`), so that the replicates also jump between
-    the corners of the box that different pushes of one terrain land in.
+    Parameters
+    ----------
+    profiles, fits, idx
+        The pushes and their fits (:func:`fit_pushes`); ``idx`` those to resample.
+    centers : sequence of ndarray
+        Noise-free CI of each push of ``idx`` [kPa] (:func:`site_centers`).
+    b, ratio
+        Bounds and kc/kphi [m] (None: free) of the refits.
+    replicates, seed : int
+
+    Returns
+    -------
+    ndarray, shape (len(idx), replicates, 4)
+        Replicates of ``theta``: each center plus noise of the push's own
+        model (weights, sigma, ``fits.rho``), refitted by the exact solver.
     """
-    law, b, ratio, _, _ = _settings(model, r_min, calibration, bounds)
     rng = np.random.default_rng(seed)
     B = int(replicates)
     out = np.full((len(idx), B, 4), np.nan)
@@ -443,44 +413,20 @@ def bootstrap_pushes(
         for k in ks:
             i = idx[k]
             e, z, J, w = fits.residuals[i]
-            N = z.size
-            m = profiles[i].ci - e * w if centers is None else centers[k]  # the fitted CI
-            sigma = math.sqrt(float(e @ e) / max(N - J.shape[1], 1))
-            phi = float(np.clip(fits.rho[i], 0.0, 0.95)) ** (
-                np.diff(z) / float(np.median(np.diff(z)))
-            )
-            u = rng.standard_normal((B, N))
-            for t in range(1, N):  # AR(1) along depth (exact for irregular spacing)
-                u[:, t] = phi[t - 1] * u[:, t - 1] + np.sqrt(1 - phi[t - 1] ** 2) * u[:, t]
-            sim = np.maximum(m[None, :] + sigma * w[None, :] * u, 0.0)
+            sigma = math.sqrt(float(e @ e) / max(z.size - J.shape[1], 1))
+            u = ar1_noise(z, float(np.clip(fits.rho[i], 0.0, RHO_MAX)), rng, size=B)
+            sim = np.maximum(centers[k][None, :] + sigma * w[None, :] * u, 0.0)
             zs += [z] * B
             ys += list(sim)
-        sol = solve_exact_many(zs, ys, cone=cone, law=law, bounds=b, kc_over_kphi=ratio)
-        s = 1.0 + np.tan(np.radians(sol.phic_deg)) / math.tan(cone.half_angle)  # eq. (2-6)
-        th = np.stack([sol.kc * s, sol.kphi * s, sol.cc, sol.n], -1).reshape(len(ks), B, 4)
-        out[ks] = th
+        out[ks] = _solve_primed(zs, ys, cone, fits.law, b, ratio)[1].reshape(len(ks), B, 4)
     return out
 
 
-def push_log_pressure(
-    fits: PushFits, idx: Sequence[int], radius: float, sinkage: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """log p' (primed plate pressure, eq. (2-2)) of pushes and its sampling variance.
-
-    Returns arrays of shape (len(idx), len(sinkage)): log p' [log kPa] and
-    its linearised variance from ``fits.cov``.
-    """
-    th = fits.theta[list(idx)]
-    cov = fits.cov[list(idx)]
-    n = th[:, 3:4]
-    A, B = plate_basis(sinkage[None, :], n=n, b=radius, law=fits.law)
-    p = th[:, 0:1] * A + th[:, 1:2] * B  # eq. (2-2) with primed kc, kphi
-    with np.errstate(divide="ignore", invalid="ignore"):
-        g = np.stack(
-            [A / p, B / p, np.zeros_like(p), np.broadcast_to(np.log(sinkage), p.shape)], -1
-        )
-        v = np.einsum("pki,pij,pkj->pk", g, cov, g)
-        return np.log(p), v
+def _solve_primed(zs, ys, cone, law, b, ratio):
+    """:func:`solve_exact_many` and its primed ``(s kc, s kphi, cc, n)`` (P, 4), eq. (2-6)."""
+    sol = solve_exact_many(zs, ys, cone=cone, law=law, bounds=b, kc_over_kphi=ratio)
+    s = 1.0 + np.tan(np.radians(sol.phic_deg)) / math.tan(cone.half_angle)
+    return sol, np.stack([sol.kc * s, sol.kphi * s, sol.cc, sol.n], -1)
 
 
 # ---------------------------------------------------------------------------
@@ -524,20 +470,15 @@ class SitePlate:
     estimation_cv: np.ndarray
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
-        def p(a):
-            return [_num(v) for v in u.pressure_from_si(a, units)]
-
+        cvs = ("between_cv", "between_cv_lo", "between_cv_hi", "naive_cv", "estimation_cv")
         return {
             "radius": float(u.length_from_si(self.radius, units)),
             "sinkage": [float(v) for v in u.length_from_si(self.sinkage, units)],
-            "median": p(self.median),
-            "lo": p(self.lo),
-            "hi": p(self.hi),
-            "between_cv": [_num(v) for v in self.between_cv],
-            "between_cv_lo": [_num(v) for v in self.between_cv_lo],
-            "between_cv_hi": [_num(v) for v in self.between_cv_hi],
-            "naive_cv": [_num(v) for v in self.naive_cv],
-            "estimation_cv": [_num(v) for v in self.estimation_cv],
+            **{
+                k: [_num(v) for v in u.pressure_from_si(getattr(self, k), units)]
+                for k in ("median", "lo", "hi")
+            },
+            **{k: [_num(v) for v in getattr(self, k)] for k in cvs},
         }
 
 
@@ -682,15 +623,10 @@ def _combine(re, log_s: np.ndarray, log: bool, level: float = 0.9):
         stats.t.ppf(q[None, :], np.maximum(df, 1)[:, None]),
         stats.norm.ppf(q)[None, :],
     )
-    x = mu[:, None] + se[:, None] * tq  # (Q, G)
-    if log:
-        v = x[:, :, None] - log_s[None, None, :]
-    else:
-        v = x[:, :, None] / np.exp(log_s)[None, None, :]
-    v = v.reshape(v.shape[0], -1)
-    med, lo, hi = (np.quantile(v, p, axis=1) for p in (0.5, a, 1 - a))
-    if log:
-        med, lo, hi = np.exp(med), np.exp(lo), np.exp(hi)
+    x = (mu[:, None] + se[:, None] * tq)[:, :, None]  # (Q, G, 1)
+    v = (x - log_s if log else x / np.exp(log_s)).reshape(x.shape[0], -1)
+    qs = [np.quantile(v, p, axis=1) for p in (0.5, a, 1 - a)]
+    med, lo, hi = (np.exp(q) for q in qs) if log else qs
     return med, lo, hi
 
 
@@ -704,10 +640,8 @@ def _site_estimates(fits: PushFits, idx: list[int], radii, sinkage, reps=None, s
     th = fits.theta[idx]
     cov = fits.cov[idx]
     if reps is not None:
-        cov = np.einsum(
-            "pbi,pbj->pij", reps - reps.mean(1, keepdims=True), reps - reps.mean(1, keepdims=True)
-        )
-        cov = cov / max(reps.shape[1] - 1, 1)
+        d = reps - reps.mean(1, keepdims=True)
+        cov = np.einsum("pbi,pbj->pij", d, d) / max(reps.shape[1] - 1, 1)
     ys, vs, logs = [], [], []
     for j in range(4):
         y, v = th[:, j], cov[:, j, j]
@@ -719,14 +653,19 @@ def _site_estimates(fits: PushFits, idx: list[int], radii, sinkage, reps=None, s
         logs.append(use_log)
     # the measurement itself: log of the push's mean CI; its noise from the fit residuals
     # (lack of fit included), AR(1)-inflated
-    rho = np.clip(fits.rho[idx], 0.0, 0.95)
+    rho = np.clip(fits.rho[idx], 0.0, RHO_MAX)
     cm = fits.ci_mean[idx]
     with np.errstate(divide="ignore", invalid="ignore"):
         ys.append(np.log(cm))
         vs.append((fits.rmsd[idx] / cm) ** 2 / fits.npts[idx] * (1 + rho) / (1 - rho))
     plate_rows = []
-    for r in radii:
-        y, v = push_log_pressure(fits, idx, r, sinkage)
+    for r in radii:  # log p' and its variance, linearised (eq. (2-2) with primed kc, kphi)
+        A, B = plate_basis(sinkage[None, :], n=th[:, 3:4], b=r, law=fits.law)
+        p = th[:, 0:1] * A + th[:, 1:2] * B
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lz = np.broadcast_to(np.log(sinkage), p.shape)
+            g = np.stack([A / p, B / p, np.zeros_like(p), lz], -1)
+            y, v = np.log(p), np.einsum("pki,pij,pkj->pk", g, cov, g)
         if reps is not None:
             A, Bp = plate_basis(sinkage[None, None, :], n=reps[..., 3:4], b=r, law=fits.law)
             p = reps[..., 0:1] * A + reps[..., 1:2] * Bp  # eq. (2-2), primed
@@ -735,12 +674,7 @@ def _site_estimates(fits: PushFits, idx: list[int], radii, sinkage, reps=None, s
         plate_rows.append((y, v))
     # the push-to-push variation of the plate pressure: from the shape-constrained fits when
     # given (no calibration), else the same rows again
-    for y, v in plate_rows:
-        ys += list(y.T)
-        vs += list(v.T)
-    for ir, (y, v) in enumerate(plate_rows):
-        if shape is not None:
-            y, v = shape[0][ir], shape[1][ir]
+    for y, v in plate_rows + (plate_rows if shape is None else list(zip(*shape))):
         ys += list(y.T)
         vs += list(v.T)
     return np.array(ys), np.array(vs), logs
@@ -806,21 +740,9 @@ def _pool_site(
         rs = _slice(re, slice(5 + ir * K, 5 + (ir + 1) * K))  # one problem per sinkage
         med, lo, hi = _combine(rs, log_s, True, level)
         off = 5 + (len(radii) + ir) * K
-        re_r = _slice(re, slice(off, off + K))  # push-to-push variation (module docstring, 5.)
-        plates.append(
-            SitePlate(
-                r,
-                sinkage,
-                med,
-                lo,
-                hi,
-                np.sqrt(np.expm1(re_r.tau2)),
-                np.sqrt(np.expm1(re_r.tau2_lo)),
-                np.sqrt(np.expm1(re_r.tau2_hi)),
-                np.sqrt(np.expm1(re_r.sample_var)),
-                np.sqrt(np.expm1(re_r.mean_v)),
-            )
-        )
+        re_r = _slice(re, slice(off, off + K))  # push-to-push variation (docs/sites.md, 5.)
+        cvs = (re_r.tau2, re_r.tau2_lo, re_r.tau2_hi, re_r.sample_var, re_r.mean_v)
+        plates.append(SitePlate(r, sinkage, med, lo, hi, *(np.sqrt(np.expm1(v)) for v in cvs)))
     needed = needed_hi = None
     cv_mid = plates[0].between_cv[mid] if plates else float("nan")
     if np.isfinite(cv_mid) and cv_mid > 2 * between["ci_cv"] + 0.1:
@@ -858,23 +780,9 @@ def _pool_site(
             "the site terrain averages a misfit and its intervals carry it"
         )
     return SiteResult(
-        name,
-        [fits.ids[i] for i in idx],
-        failed,
-        params,
-        intervals,
-        between,
-        plates,
-        needed,
-        target_cv,
-        float(sinkage[mid]),
-        pushes,
-        lof,
-        notes,
-        model,
-        needed_hi,
-        calibrated,
-    )
+        name, [fits.ids[i] for i in idx], failed, params, intervals, between, plates, needed,
+        target_cv, float(sinkage[mid]), pushes, lof, notes, model, needed_hi, calibrated,
+    )  # fmt: skip
 
 
 def site_correlation(
@@ -882,18 +790,11 @@ def site_correlation(
 ) -> float:
     """AR(1) coefficient of the CI error pooled over the pushes of a site.
 
-    One 10-20 point profile estimates the correlation poorly, and clipping
-    each estimate at 0 biases it up.  Pooled: the lag-1 autocorrelation
-    ``r1 = sum_j e_j' D e_j / sum_j e_j' e_j`` of all pushes' weighted
-    residuals is matched to its expectation
+    The pooled lag-1 autocorrelation ``r1 = sum_j e_j' D e_j / sum_j e_j' e_j``
+    is matched to its expectation
     ``sum_j tr(D M_j S_j(rho) M_j') / sum_j tr(M_j S_j(rho) M_j')``, clipped to
-    [0, 0.95].  ``S_j`` is the AR(1) correlation at push j's depths, ``D``
-    the lag-1 neighbour matrix and ``M_j = C W^-1 (I - J J^+) W`` maps white
-    noise to the centred weighted residuals of the *unweighted* least
-    squares the solver solves (``J`` its Jacobian, ``W`` the noise weights,
-    ``C`` the centring); the correction of
-    :func:`terracone.inverse.uncertainty.noise.estimate_correlation` applied to the
-    pooled statistic and to that estimator.
+    [0, 0.95], with ``M_j = C W^-1 (I - J J^+) W`` (the correction of
+    :func:`terracone.inverse.uncertainty.noise.estimate_correlation`).
 
     Parameters
     ----------
@@ -958,29 +859,31 @@ def site_terrain(
     z = np.concatenate([profiles[i].depth for i in idx])
     y = np.concatenate([profiles[i].ci / gk for i, gk in zip(idx, g)])
     o = np.argsort(z, kind="stable")
-    cone = profiles[idx[0]].cone
-    sol = solve_exact_many([z[o]], [y[o]], cone=cone, law=law, bounds=bounds, kc_over_kphi=ratio)
-    s = 1.0 + math.tan(math.radians(float(sol.phic_deg[0]))) / math.tan(cone.half_angle)
-    theta = np.array([sol.kc[0] * s, sol.kphi[0] * s, sol.cc[0], sol.n[0]])  # eq. (2-6)
-    return theta, g
+    return _solve_primed([z[o]], [y[o]], profiles[idx[0]].cone, law, bounds, ratio)[1][0], g
 
 
 def site_centers(
     profiles: Sequence[CIProfile],
-    fits: PushFits,
     idx: Sequence[int],
-    law,
-    bounds,
-    ratio,
-    terrain: tuple[np.ndarray, np.ndarray] | None = None,
+    law: PressureLaw,
+    terrain: tuple[np.ndarray, np.ndarray],
 ) -> list[np.ndarray]:
     """Each push's CI as the site terrain predicts it, scaled to the push's mean CI.
 
-    The site terrain is :func:`site_terrain` (or ``terrain``, its result);
-    a push's centre is that terrain's CI at the push's depths times the
-    push's strength factor.
+    Parameters
+    ----------
+    profiles, idx
+        The site's pushes.
+    law : PressureLaw
+    terrain : (theta, g)
+        The site terrain and the pushes' strength factors (:func:`site_terrain`).
+
+    Returns
+    -------
+    list of ndarray
+        The terrain's CI at each push's depths times its strength factor [kPa].
     """
-    theta, g = site_terrain(profiles, fits, idx, law, bounds, ratio) if terrain is None else terrain
+    theta, g = terrain
     cone = profiles[idx[0]].cone
     out = []
     for i, gk in zip(idx, g):
@@ -1026,17 +929,23 @@ def shape_pushes(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Plate pressures of the pushes from what the CI fixes without a calibration.
 
-    Without a calibration the CI of one push does not fix kc', kphi' and cc
-    apart (their columns of eq. (2-7) are nearly collinear), so a push's own
-    plate prediction scatters far more than the soil.  What it does fix is
-    its strength and its n given the shape: each push is fitted as ``g M(z;
-    n)``, ``M`` the site terrain's CI (``theta``, :func:`site_terrain`) with
-    n free, and its primed plate pressure is ``g (kc'/b + kphi') z^n``
-    (eq. (2-2)) with the site's kc' and kphi'.  Variation of the kc/kphi
-    ratio or of cc between pushes is not seen (the CI cannot see it).  The
-    estimation variance is a parametric bootstrap of that fit (noise of the
-    push's model: relative weights, sigma of the shape fit's residuals, the
-    AR(1) coefficient in ``fits.rho``).
+    Each push is fitted as ``g M(z; n)``, ``M`` the site terrain's CI
+    (``theta``, :func:`site_terrain`), and its primed plate pressure is
+    ``g (kc'/b + kphi') z^n`` (eq. (2-2)); the variance is a parametric
+    bootstrap of that fit (step 5 of docs/sites.md).
+
+    Parameters
+    ----------
+    profiles, fits, idx
+        The pushes, their fits (:func:`fit_pushes`) and the site's indices.
+    theta : ndarray
+        The site terrain's primed ``(kc', kphi', cc, n)``.
+    radii : sequence of float
+        Plate radii [m].
+    sinkage : ndarray
+        [m]
+    replicates : int
+    rng : numpy.random.Generator, optional
 
     Returns
     -------
@@ -1047,8 +956,7 @@ def shape_pushes(
     cone = profiles[idx[0]].cone
     law = fits.law
     R, K = len(radii), sinkage.size
-    y = np.empty((R, len(idx), K))
-    v = np.empty((R, len(idx), K))
+    y, v = np.empty((2, R, len(idx), K))
     pb = [plate_basis(sinkage[None, :], n=_SHAPE_N[:, None], b=r, law=law) for r in radii]
     plate = np.stack([theta[0] * A + theta[1] * B for A, B in pb])  # (R, G, K), eq. (2-2)
     for j, i in enumerate(idx):
@@ -1060,11 +968,7 @@ def shape_pushes(
         m = np.exp(lg[0]) * _interp_rows(M, n)[0]
         e = (ci - m) / w
         sigma = math.sqrt(float(e @ e) / max(z.size - 2, 1))
-        dz = np.diff(z)
-        phi = float(np.clip(fits.rho[i], 0.0, 0.95)) ** (dz / float(np.median(dz)))
-        u = rng.standard_normal((replicates, z.size))
-        for t in range(1, z.size):  # AR(1) along depth (exact for irregular spacing)
-            u[:, t] = phi[t - 1] * u[:, t - 1] + np.sqrt(1 - phi[t - 1] ** 2) * u[:, t]
+        u = ar1_noise(z, float(np.clip(fits.rho[i], 0.0, RHO_MAX)), rng, size=replicates)
         lgb, nb = _shape_fit(M, np.maximum(m[None, :] + sigma * w[None, :] * u, 0.0), w)
         for ir in range(R):
             lp = np.log(np.maximum(_interp_rows(plate[ir], np.concatenate([n, nb])), 1e-300))
@@ -1081,9 +985,8 @@ def _interp_rows(table: np.ndarray, n: np.ndarray) -> np.ndarray:
     return table[k] * (1 - f) + table[k + 1] * f
 
 
-def _pool_all(fits: PushFits, members_ok, reps, plates, sinkage, level, shapes=None):
+def _pool_all(fits: PushFits, members_ok, reps, plates, sinkage, level, shapes):
     """Per-site estimates and one random-effects call over (site, quantity, push), padded."""
-    shapes = shapes or [None] * len(members_ok)
     est = [
         _site_estimates(fits, idx, plates, sinkage, reps[k], shapes[k]) if idx else None
         for k, idx in enumerate(members_ok)
@@ -1101,12 +1004,7 @@ def _pool_all(fits: PushFits, members_ok, reps, plates, sinkage, level, shapes=N
 
 
 def _site_covariances(
-    profiles: Sequence[CIProfile],
-    grouping: Grouping,
-    fits: Any,
-    law: Any,
-    b: Bounds,
-    ratio: float | None,
+    profiles: Sequence[CIProfile], grouping: Grouping, fits: PushFits, b: Bounds, ratio
 ) -> list[list[int]]:
     """The fitted pushes of each site; sets their covariance under the site's one
     noise correlation (from all its pushes' residuals).  Returns their indices."""
@@ -1116,9 +1014,8 @@ def _site_covariances(
         if len(idx) > 1:
             rho = site_correlation([fits.residuals[i] for i in idx])
             for i in idx:
-                prm = fits.params[i]
                 fits.cov[i] = _push_covariance(
-                    profiles[i], fits.theta[i], law, b, ratio, prm.kc, prm.kphi, rho
+                    profiles[i], fits.theta[i], fits.law, b, ratio, fits.kc[i], fits.kphi[i], rho
                 )[0]
                 fits.rho[i] = rho
         members_ok.append(idx)
@@ -1127,10 +1024,11 @@ def _site_covariances(
 
 def _bootstrap_sites(
     profiles: Sequence[CIProfile],
-    fits: Any,
+    fits: PushFits,
     members_ok: list[list[int]],
-    pressure: tuple[Any, Bounds, float | None],
-    fit: dict[str, Any],
+    b: Bounds,
+    ratio: float | None,
+    calibrated: bool,
     plates: list[float],
     sinkage: np.ndarray,
     bootstrap: int,
@@ -1138,31 +1036,26 @@ def _bootstrap_sites(
 ) -> tuple[list[np.ndarray | None], list[tuple[np.ndarray, np.ndarray] | None]]:
     """Bootstrap replicates of each site's pushes (``reps``) and, without a
     calibration, the plate rows of what the CI fixes (``shapes``), per site."""
-    law, b, ratio = pressure
     shapes: list[tuple[np.ndarray, np.ndarray] | None] = [None] * len(members_ok)
     rng = np.random.default_rng([seed, 1])
-    flat = [i for idx in members_ok for i in idx]
     centers = []
     for k, idx in enumerate(members_ok):
         if len(idx) > 1:
-            terrain = site_terrain(profiles, fits, idx, law, b, ratio)
-            centers += site_centers(profiles, fits, idx, law, b, ratio, terrain)
-            if fit["calibration"] is None:  # plate rows from what the CI fixes (shape_pushes)
+            terrain = site_terrain(profiles, fits, idx, fits.law, b, ratio)
+            centers += site_centers(profiles, idx, fits.law, terrain)
+            if not calibrated:  # plate rows from what the CI fixes (shape_pushes)
                 shapes[k] = shape_pushes(
                     profiles, fits, idx, terrain[0], plates, sinkage, replicates=bootstrap, rng=rng
                 )
         elif idx:  # one push: its own fitted CI
             e, _, _, w = fits.residuals[idx[0]]
             centers.append(profiles[idx[0]].ci - e * w)
+    flat = [i for idx in members_ok for i in idx]
     allr = bootstrap_pushes(
-        profiles, fits, flat, replicates=bootstrap, seed=seed, centers=centers, **fit
+        profiles, fits, flat, centers, b, ratio, replicates=bootstrap, seed=seed
     )
-    reps: list[np.ndarray | None] = []
-    start = 0
-    for idx in members_ok:
-        reps.append(allr[start : start + len(idx)])
-        start += len(idx)
-    return reps, shapes
+    ends = np.cumsum([len(idx) for idx in members_ok])
+    return [allr[e - len(idx) : e] for e, idx in zip(ends, members_ok)], shapes
 
 
 def fit_sites(
@@ -1216,17 +1109,17 @@ def fit_sites(
     sinkage = default_sinkages() if sinkage is None else np.asarray(sinkage, float)
     if np.any(sinkage <= 0):
         raise ValueError("site sinkages must be > 0")
-    fits = fit_pushes(profiles, model=model, r_min=r_min, calibration=calibration, bounds=bounds)
-    law, b, ratio, model, _ = _settings(model, r_min, calibration, bounds)
-    members_ok = _site_covariances(profiles, grouping, fits, law, b, ratio)
+    law, b, ratio, model = _settings(model, r_min, calibration, bounds)
+    fits = fit_pushes(profiles, law, b, ratio)
+    members_ok = _site_covariances(profiles, grouping, fits, b, ratio)
+    calibrated = calibration is not None
     if bootstrap is None:
-        bootstrap = 0 if calibration is not None else 40
+        bootstrap = 0 if calibrated else 40
     reps: list[np.ndarray | None] = [None] * len(members_ok)
     shapes: list[tuple[np.ndarray, np.ndarray] | None] = [None] * len(members_ok)
     if bootstrap:
-        fit = {"model": model, "r_min": r_min, "calibration": calibration, "bounds": bounds}
         reps, shapes = _bootstrap_sites(
-            profiles, fits, members_ok, (law, b, ratio), fit, list(plates), sinkage, bootstrap, seed
+            profiles, fits, members_ok, b, ratio, calibrated, list(plates), sinkage, bootstrap, seed
         )
     est, re_all = _pool_all(fits, members_ok, reps, list(plates), sinkage, level, shapes)
     out = []
@@ -1238,7 +1131,7 @@ def fit_sites(
         out.append(
             _pool_site(
                 name, idx, failed, fits, b, tan_a, list(plates), sinkage, target_cv, level, model,
-                pooled, calibration is not None,
+                pooled, calibrated,
             )
         )  # fmt: skip
     return out

@@ -1,12 +1,9 @@
 """Bounded linear least squares in three variables, vectorised.
 
 For fixed n and phic the improved cone model (eq. (2-7) in [1]_) is linear
-in (kc, kphi, cc).  Minimising a convex quadratic over a box is done exactly
-by enumerating the 3^3 = 27 faces of the box (each variable free, at its
-lower or at its upper bound): the minimiser of the quadratic on each face's
-affine hull is a closed-form 3x3 solve, and the best feasible one is the
-global optimum.  All of it broadcasts over leading dimensions, so thousands
-of (n, phic, profile) cells are solved in one numpy call.
+in (kc, kphi, cc); the convex quadratic is minimised over the box exactly by
+a closed-form solve on each of its 27 faces (docs/predict.md, Solvers),
+broadcast over leading dimensions.
 
 References
 ----------
@@ -38,11 +35,7 @@ def gram(X: np.ndarray, y: np.ndarray, w: np.ndarray | None = None):
     X : (..., N, 3), y : (..., N), w : (..., N) or None.
     Returns G (..., 3, 3), g (..., 3), yy (...).
     """
-    if w is not None:
-        Xw = X * w[..., None]
-        yw = y * w
-    else:
-        Xw, yw = X, y
+    Xw, yw = (X, y) if w is None else (X * w[..., None], y * w)
     G = np.einsum("...ni,...nj->...ij", Xw, X)
     g = np.einsum("...ni,...n->...i", Xw, y)
     yy = np.einsum("...n,...n->...", yw, y)
@@ -121,9 +114,7 @@ def box_lsq3_reference(
         G.shape[:-2], g.shape[:-1], lo.shape[:-1], hi.shape[:-1], np.shape(yy)
     )
     G = np.broadcast_to(G, shape + (3, 3))
-    g = np.broadcast_to(g, shape + (3,))
-    lo = np.broadcast_to(lo, shape + (3,))
-    hi = np.broadcast_to(hi, shape + (3,))
+    g, lo, hi = (np.broadcast_to(a, shape + (3,)) for a in (g, lo, hi))
     yy = np.broadcast_to(np.asarray(yy, dtype=float), shape)
     if math.prod(shape) <= _SMALL:
         return _box_lsq3_stacked(G, g, yy, lo, hi)
@@ -139,21 +130,9 @@ def box_lsq3_reference(
     H = [hi[..., i] * d[i] for i in range(3)]
     best, bx, bstate = _best_face(S, diag, b, L, H, shape)
     # variables held at a bound get the bound itself, not a rescaled copy of it
-    xs = np.stack(
-        [
-            np.clip(
-                np.where(
-                    bstate[i] == 1, lo[..., i], np.where(bstate[i] == 2, hi[..., i], bx[i] / d[i])
-                ),
-                lo[..., i],
-                hi[..., i],
-            )
-            for i in range(3)
-        ],
-        axis=-1,
-    )
-    sse = best + yy
-    return xs, np.maximum(sse, 0.0)
+    state, x = np.stack(bstate, axis=-1), np.stack(bx, axis=-1) / np.stack(d, axis=-1)
+    xs = np.clip(np.where(state == 1, lo, np.where(state == 2, hi, x)), lo, hi)
+    return xs, np.maximum(best + yy, 0.0)
 
 
 def _best_face(S, diag, b, L, H, shape):

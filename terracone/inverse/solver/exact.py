@@ -30,7 +30,13 @@ import numpy as np
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.solver.boxlsq import box_lsq3, gram
 from terracone.inverse.solver.columns import bounds_arrays, design
-from terracone.inverse.solver.intervals import CHI2_1_95, identification, linear_intervals
+from terracone.inverse.solver.intervals import (
+    CHI2_1_95,
+    identification,
+    linear_intervals,
+    n_interval,
+)
+from terracone.inverse.solver.many import grid, solve_exact_many
 from terracone.inverse.solver.polish import polish_many
 from terracone.physics.cone import Cone
 from terracone.physics.plate import PressureLaw
@@ -55,10 +61,6 @@ class ExactSolution:
     profile_intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
     undetermined: list[str] = field(default_factory=list)
     sigma: float = float("nan")
-
-
-def _grid(lo: float, hi: float, k: int) -> np.ndarray:
-    return np.array([lo]) if lo == hi else np.linspace(lo, hi, k)
 
 
 def solve_exact(
@@ -158,10 +160,6 @@ class _Finite:
         Xv = self.design(np.array(nv), np.array(pv), Kv if self.fit_K_cone else self.K_cone)
         return Xv @ x_[0] - self.y
 
-    def f_res(self, v):
-        r = self.resid_v(v)
-        return float(r @ r)
-
 
 def _grid_starts(sse_grid: np.ndarray) -> np.ndarray:
     """Starts of the joint refinement: flat indices of the grid's local minima and the best
@@ -182,18 +180,11 @@ def _solve_finite(
 ) -> ExactSolution:
     """Finite Kc: grid over n, phic (and Kc), then a joint refinement from the best minima."""
     z, y, bounds, ratio = fp.z, fp.y, fp.bounds, fp.ratio
-    ns = _grid(*bounds.n, n_grid)
-    phis = _grid(*bounds.phic_deg, phic_grid)
-    if fp.fit_K_cone:
-        Kcs = (
-            np.exp(np.linspace(*np.log(bounds.K_cone), 7))
-            if bounds.K_cone[0] != bounds.K_cone[1]
-            else np.array([bounds.K_cone[0]])
-        )
-    else:
-        Kcs = np.array([np.nan])
+    ns = grid(*bounds.n, n_grid)
+    phis = grid(*bounds.phic_deg, phic_grid)
+    Kcs = np.exp(grid(*np.log(bounds.K_cone), 7)) if fp.fit_K_cone else np.array([np.nan])
     N, P, K = np.meshgrid(ns, phis, Kcs, indexing="ij")
-    x_grid, sse_grid = fp.cell_sse(N, P, K)
+    sse_grid = fp.cell_sse(N, P, K)[1]
     nfev = sse_grid.size
 
     # joint refinement of all parameters (Gauss-Newton, bounded) from the grid's best
@@ -205,7 +196,7 @@ def _solve_finite(
     for flat_i in _grid_starts(sse_grid):
         ii, jj, kk = np.unravel_index(flat_i, sse_grid.shape)
         v0 = fp.scaled(ns[ii], phis[jj], Kcs[kk])
-        v, fv, ne = _joint_refine(v0, fp.resid_v, fp.f_res)
+        v, fv, ne = _joint_refine(v0, fp.resid_v)
         nfev += ne
         nit += 1
         if fv < best_f * (1 - 1e-12):
@@ -214,8 +205,7 @@ def _solve_finite(
             break
     n_best, phi_best, best_K = fp.unpack(best_v)
 
-    x, sse = fp.cell_sse(np.array([n_best]), np.array([phi_best]), np.array([best_K]))
-    x = x[0].copy()
+    x = fp.cell_sse(np.array([n_best]), np.array([phi_best]), np.array([best_K]))[0][0].copy()
     Kc_out = float(best_K) if fp.fit_K_cone else fp.K_cone
     # report the SSE from the residuals themselves
     X = fp.design(np.array(n_best), np.array(phi_best), Kc_out)
@@ -225,18 +215,7 @@ def _solve_finite(
     resid = X @ x - y
     if ratio is not None:
         x[0] = ratio * x[1]
-    sol = ExactSolution(
-        kc=float(x[0]),
-        kphi=float(x[1]),
-        n=float(n_best),
-        cc=float(x[2]),
-        phic_deg=float(phi_best),
-        K_cone=Kc_out,
-        sse=float(resid @ resid),
-        nfev=nfev,
-        nit=nit,
-        phic_range=(phi_best, phi_best),
-    )
+    sol = _solution(x, n_best, phi_best, Kc_out, resid, nfev, nit, (phi_best, phi_best))
     if profiles:
         _identify(
             sol, z, y, ns, sse_grid.min(axis=(1, 2)), bounds, fp.cone, fp.law, noise_floor, ratio
@@ -244,7 +223,7 @@ def _solve_finite(
     return sol
 
 
-def _joint_refine(v0, resid_v, f_res):
+def _joint_refine(v0, resid_v):
     """Bounded Gauss-Newton on the scaled (n, phic[, log Kc]), variable projection.
 
     The residual at each outer point has the linear parameters (kc, kphi,
@@ -265,7 +244,7 @@ def _joint_refine(v0, resid_v, f_res):
         gtol=1e-14,
         max_nfev=200,
     )
-    f0, f1 = f_res(v0), f_res(res.x)
+    f0, f1 = (float(r @ r) for r in (resid_v(v0), resid_v(res.x)))
     return (res.x, f1, int(res.nfev)) if f1 <= f0 else (v0, f0, int(res.nfev))
 
 
@@ -274,86 +253,48 @@ def _polish(X: np.ndarray, y: np.ndarray, lo, hi, x0) -> np.ndarray:
     return polish_many(X[None], y[None], lo[None], hi[None], np.asarray(x0, dtype=float)[None])[0]
 
 
+def _solution(x, n, phic, K_cone, resid, nfev, nit, phic_range) -> ExactSolution:
+    """The ExactSolution of (kc, kphi, cc) = x at (n, phic, K_cone), its SSE from ``resid``."""
+    x, sse = [float(v) for v in x], float(resid @ resid)
+    return ExactSolution(
+        x[0], x[1], float(n), x[2], float(phic), K_cone, sse, nfev, nit, phic_range
+    )
+
+
 def _solve_mobilised(
     z, y, cone, law, bounds, n_grid, noise_floor, profiles, ratio
 ) -> ExactSolution:
     """Fully mobilised shear: the vectorised solver of :mod:`many` on one profile."""
-    from terracone.inverse.solver.many import solve_exact_many
-
     ms = solve_exact_many(
-        [z],
-        [y],
-        cone=cone,
-        law=law,
-        bounds=bounds,
-        n_grid=n_grid,
-        noise_floor=noise_floor,
+        [z], [y], cone=cone, law=law, bounds=bounds, n_grid=n_grid, noise_floor=noise_floor,
         kc_over_kphi=ratio,
-    )
+    )  # fmt: skip
     x = np.array([ms.kc[0], ms.kphi[0], ms.cc[0]])
-    X = design(z, np.array(ms.n[0]), np.array(ms.phic_deg[0]), cone=cone, law=law, K_cone=None)
-    lo, hi = bounds_arrays(bounds, np.array(ms.n[0]))
+    n, phic = np.array(ms.n[0]), np.array(ms.phic_deg[0])
+    if ratio is not None:  # kc = ratio * kphi: one column, and both bounds on kphi
+        x[0] = 0.0
+    X = design(z, n, phic, cone=cone, law=law, K_cone=None)
+    Xr = X if ratio is None else design(z, n, phic, cone=cone, law=law, K_cone=None, ratio=ratio)
+    x = _polish(Xr, y, *bounds_arrays(bounds, n, ratio), x)
     if ratio is not None:
-        # kc = ratio * kphi: one column, and both bounds on kphi
-        Xr = design(
-            z,
-            np.array(ms.n[0]),
-            np.array(ms.phic_deg[0]),
-            cone=cone,
-            law=law,
-            K_cone=None,
-            ratio=ratio,
-        )
-        lor, hir = bounds_arrays(bounds, np.array(ms.n[0]), ratio)
-        xr = _polish(Xr, y, lor, hir, np.array([0.0, x[1], x[2]]))
-        x = np.array([ratio * xr[1], xr[1], xr[2]])
-    else:
-        x = _polish(X, y, lo, hi, x)
+        x[0] = ratio * x[1]
     resid = X @ x - y
-    sol = ExactSolution(
-        kc=float(x[0]),
-        kphi=float(x[1]),
-        n=float(ms.n[0]),
-        cc=float(x[2]),
-        phic_deg=float(ms.phic_deg[0]),
-        K_cone=None,
-        sse=float(resid @ resid),
-        nfev=int(ms.nfev),
-        nit=1,
-        phic_range=(float(ms.phic_lo[0]), float(ms.phic_hi[0])),
-    )
+    phic_range = (float(ms.phic_lo[0]), float(ms.phic_hi[0]))
+    sol = _solution(x, ms.n[0], ms.phic_deg[0], None, resid, int(ms.nfev), 1, phic_range)
     if profiles:
         _identify(sol, z, y, ms.n_grid, ms.sse_n[0], bounds, cone, law, noise_floor, ratio)
     return sol
 
 
 def _identify(sol, z, y, ns, sse_n, bounds, cone, law, noise_floor, ratio) -> None:
-    """Approximate 95% profile-likelihood intervals and the undetermined list.
-
-    A parameter is called undetermined when its profile interval (the set of
-    values whose best fit raises the sum of squares by less than
-    3.84 sigma^2) covers half or more of its search range.  sigma is the
-    residual standard deviation, floored at ``noise_floor`` times the mean
-    CI because no penetrometer reads better than that.
-    """
-    N = y.size
-    dof = max(N - 5, 1)
-    sigma2 = max(sol.sse / dof, (noise_floor * float(np.mean(np.abs(y)))) ** 2)
+    """Approximate 95% profile-likelihood intervals and the undetermined list
+    (:func:`~terracone.inverse.solver.intervals.n_intervals` on one profile)."""
+    sigma2 = max(sol.sse / max(y.size - 5, 1), (noise_floor * float(np.mean(np.abs(y)))) ** 2)
     sol.sigma = math.sqrt(sigma2)
     thr = sol.sse + CHI2_1_95 * sigma2
 
     # n: profile from the global grid (min over phic, Kc and the linear parameters)
-    ok = sse_n <= thr
-    if ok.any():
-        n_lo, n_hi = float(ns[ok].min()), float(ns[ok].max())
-        step = (ns[1] - ns[0]) if ns.size > 1 else 0.0
-        n_lo, n_hi = (
-            max(bounds.n[0], min(n_lo - step, sol.n)),
-            min(bounds.n[1], max(n_hi + step, sol.n)),
-        )
-    else:
-        n_lo = n_hi = sol.n
-
+    n_lo, n_hi = (float(v[0]) for v in n_interval(ns, sse_n[None], np.array([thr]), sol.n, bounds))
     # kc, kphi, cc: pin one on a grid, re-fit the others and n (shared with the
     # vectorised path of predict_many)
     x = np.array([sol.kc, sol.kphi, sol.cc])

@@ -31,6 +31,7 @@ from terracone.physics.plate import PressureLaw
 
 __all__ = [
     "CHI2_1_95",
+    "n_interval",
     "n_intervals",
     "linear_intervals",
     "identification",
@@ -62,15 +63,21 @@ def n_intervals(
     mean_abs = np.where(mask, np.abs(yy), 0.0).sum(axis=1) / npts
     sigma2 = np.maximum(sse / np.maximum(npts - 5, 1), (noise_floor * mean_abs) ** 2)
     thr = sse + CHI2_1_95 * sigma2
-    ns, n = ms.n_grid, ms.n
-    ok = ms.sse_n <= thr[:, None]
+    return np.sqrt(sigma2), thr, *n_interval(ms.n_grid, ms.sse_n, thr, ms.n, bounds)
+
+
+def n_interval(
+    ns: np.ndarray, sse_n: np.ndarray, thr: np.ndarray, n: np.ndarray | float, bounds: Bounds
+) -> tuple[np.ndarray, np.ndarray]:
+    """The n interval of :func:`n_intervals` from the best SSE ``sse_n`` (P, Nn) at ``ns``."""
+    ok = sse_n <= thr[:, None]
     has = ok.any(axis=1)
     small = np.where(ok, ns[None, :], np.inf).min(axis=1)
     big = np.where(ok, ns[None, :], -np.inf).max(axis=1)
     step = (ns[1] - ns[0]) if ns.size > 1 else 0.0
     n_lo = np.where(has, np.maximum(bounds.n[0], np.minimum(small - step, n)), n)
     n_hi = np.where(has, np.minimum(bounds.n[1], np.maximum(big + step, n)), n)
-    return np.sqrt(sigma2), thr, n_lo, n_hi
+    return n_lo, n_hi
 
 
 def linear_intervals(
@@ -228,8 +235,7 @@ def scan_extents(sse: np.ndarray, thr: float) -> tuple[np.ndarray, np.ndarray]:
 
     -1 where no value is within thr, -2 for a variable fixed at every n (NaN rows).
     """
-    jlo = np.full(3, -1, dtype=np.int64)
-    jhi = np.full(3, -1, dtype=np.int64)
+    jlo, jhi = np.full((2, 3), -1, dtype=np.int64)
     for idx in range(3):
         if np.all(np.isnan(sse[idx])):
             jlo[idx] = jhi[idx] = -2

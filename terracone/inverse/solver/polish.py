@@ -49,15 +49,11 @@ def polish_many(
 def polish_many_numpy(
     X: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray
 ) -> np.ndarray:
-    """The numpy reference of :func:`polish_many`, vectorised over profiles.
+    """The numpy reference of :func:`polish_many` (same arguments), vectorised over profiles.
 
-    ``X`` (P, Z, 3) and ``y`` (P, Z) (padded rows zero), box ``lo``, ``hi``
-    and start ``x0`` (P, 3).  The normal equations the vectorised solver
-    uses lose about cond(X) digits near a perfect fit; a QR solve does not.
     On x0's face of the box (the variables strictly inside re-solved, the
     others held) one stacked QR per face pattern; where that leaves the box
-    or breaks the optimality signs, scipy's BVLS.  A profile keeps x0
-    unless its sum of squares drops.
+    or breaks the optimality signs, scipy's BVLS.
     """
     free = hi > lo
     act = free & (x0 > lo) & (x0 < hi)
@@ -157,9 +153,8 @@ def mgs_lstsq(
     x = np.zeros((P, k))
     with np.errstate(all="ignore"):
         for i in range(k - 1, -1, -1):  # back substitution, R x = Q'b
-            x[:, i] = (qb[:, i] - np.einsum("pj,pj->p", R[:, i, i + 1 :], x[:, i + 1 :])) / R[
-                :, i, i
-            ]
+            rest = np.einsum("pj,pj->p", R[:, i, i + 1 :], x[:, i + 1 :])
+            x[:, i] = (qb[:, i] - rest) / R[:, i, i]
     return np.where(full[:, None], x, 0.0), full
 
 
@@ -173,13 +168,8 @@ def _bvls(X, y, lo, hi, x0) -> np.ndarray:
     try:
         from scipy.optimize import lsq_linear  # on first use (0.3 s import)
 
-        res = lsq_linear(
-            Xf / scale,
-            y - X @ xf,
-            bounds=(lo[free] * scale, hi[free] * scale),
-            method="bvls",
-            tol=1e-15,
-        )  # noqa: E501
+        bnd = (lo[free] * scale, hi[free] * scale)
+        res = lsq_linear(Xf / scale, y - X @ xf, bounds=bnd, method="bvls", tol=1e-15)
     except (ValueError, np.linalg.LinAlgError):
         return x0
     xf[free] = np.clip(res.x / scale, lo[free], hi[free])

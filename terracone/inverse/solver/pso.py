@@ -1,12 +1,9 @@
 """Particle swarm optimisation, the search of the paper's processes.
 
 A global-best swarm (Kennedy and Eberhart [2]_) with the constriction
-coefficients of Clerc and Kennedy [3]_ (inertia 0.7298, cognitive and social
-1.49618), velocity clamping, reflecting bounds and a stopping rule on the
-improvement of the best value over a window of iterations, as in section 3.3
-of [1]_ ("the process stops when further searching does not yield
-significant improvements").  Vectorised over the swarm; seeded with numpy's
-Generator, so the same seed gives the same answer bit for bit.
+coefficients of Clerc and Kennedy [3]_ and a stopping rule on the improvement
+of the best value, as in section 3.3 of [1]_; settings: ``docs/predict.md``
+(Solvers).  Vectorised over the swarm; the same seed gives the same answer.
 
 References
 ----------

@@ -23,7 +23,7 @@ import numpy as np
 
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.solver.boxlsq import box_lsq3, gram
-from terracone.inverse.solver.columns import design
+from terracone.inverse.solver.columns import bounds_arrays, design
 from terracone.inverse.solver.intervals import CHI2_1_95
 from terracone.physics.cone import get_cone
 from terracone.physics.plate import pressure_law
@@ -68,13 +68,6 @@ def ridge_profile(
     The n grid spans ``n_window`` either side of the best n of a coarse
     pass (within the bounds), where the detail is.  Drawn by
     :func:`terracone.report.figures.fig_ridge`.
-
-    References
-    ----------
-    .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eqs. (2-5) to (2-7): with
-       fully mobilised shear, phic enters only through the factor
-       1 + tan(phic)/tan(alpha), so it trades exactly against a common scale of
-       kc and kphi.
     """
     z = np.asarray(depth, dtype=float)
     y = np.asarray(ci, dtype=float)
@@ -85,7 +78,7 @@ def ridge_profile(
     ns = _n_window(z, y, cone_obj, law, bounds, phis, n_points, n_window)
     X = design(z, ns[:, None, None], phis[None, :, None], cone=cone_obj, law=law, K_cone=None)
     G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
-    lo, hi = _box(bounds, ns)
+    lo, hi = bounds_arrays(bounds, ns)
     x, sse = box_lsq3(G, g, yy, lo[:, None, :], hi[:, None, :])
     Z = y.size
     rmsd = np.sqrt(sse / Z)
@@ -95,19 +88,12 @@ def ridge_profile(
     flat = np.flatnonzero(sse[i] <= smin * (1 + 1e-9) + 1e-12 * float(y @ y))
     j = int(flat[len(flat) // 2])
     kc, kphi, cc = (float(v) for v in x[i, j])
-    best = {
-        "n": float(ns[i]),
-        "phic": float(phis[j]),
-        "kc": kc,
-        "kphi": kphi,
-        "cc": cc,
-        "rmsd": float(rmsd[i, j]),
-    }
+    best = dict(
+        n=float(ns[i]), phic=float(phis[j]), kc=kc, kphi=kphi, cc=cc, rmsd=float(rmsd[i, j])
+    )
     # (phic, scale) at the best n: kc, kphi = scale * best, cc held
     scales = np.exp(np.linspace(math.log(0.4), math.log(2.5), scale_points))
-    Xn = design(
-        z, np.array(ns[i]), phis[:, None], cone=cone_obj, law=law, K_cone=None
-    )  # (Np, Z, 3)
+    Xn = design(z, np.array(ns[i]), phis[:, None], cone=cone_obj, law=law, K_cone=None)
     base = Xn[..., 0] * kc + Xn[..., 1] * kphi  # (Np, Z)
     model_ci = scales[:, None, None] * base[None] + (Xn[..., 2] * cc)[None]
     rmsd_scale = np.sqrt(np.mean((model_ci - y) ** 2, axis=-1))  # (Ns, Np)
@@ -126,20 +112,12 @@ def ridge_profile(
     }
 
 
-def _box(bounds: Bounds, ns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    kc_lo, kc_hi = bounds.kc_si(ns)
-    kp_lo, kp_hi = bounds.kphi_si(ns)
-    lo = np.stack([kc_lo, kp_lo, np.full(ns.shape, bounds.cc[0])], axis=-1)
-    hi = np.stack([kc_hi, kp_hi, np.full(ns.shape, bounds.cc[1])], axis=-1)
-    return lo, hi
-
-
 def _n_window(z, y, cone, law, bounds, phis, n_points, half) -> np.ndarray:
     """n grid around the best n of a coarse pass at the middle phic."""
     coarse = np.linspace(*bounds.n, 40)
     X = design(z, coarse[:, None], np.array(phis[len(phis) // 2]), cone=cone, law=law, K_cone=None)
     G, g, yy = gram(X, np.broadcast_to(y, X.shape[:-1]))
-    lo, hi = _box(bounds, coarse)
+    lo, hi = bounds_arrays(bounds, coarse)
     _, sse = box_lsq3(G, g, yy, lo, hi)
     nb = float(coarse[int(np.argmin(sse))])
     a, b = max(bounds.n[0], nb - half), min(bounds.n[1], nb + half)

@@ -187,12 +187,10 @@ def ar1_noise(
     z = np.asarray(depth, dtype=float)
     phi = ar1_coefficients(z, rho, spacing)
     m = 1 if size is None else int(size)
-    w = rng.standard_normal((m, z.size))
-    e = np.empty_like(w)
-    e[:, 0] = w[:, 0]
+    e = rng.standard_normal((m, z.size))  # white, made AR(1) in place along depth
     c = np.sqrt(1.0 - phi * phi)
     for i in range(1, z.size):
-        e[:, i] = phi[i - 1] * e[:, i - 1] + c[i - 1] * w[:, i]
+        e[:, i] = phi[i - 1] * e[:, i - 1] + c[i - 1] * e[:, i]
     return e[0] if size is None else e
 
 
@@ -228,26 +226,15 @@ def estimate_correlation(
     depth: ArrayLike,
     *,
     design: np.ndarray | None = None,
-    n_params: int = 4,
 ) -> tuple[float, float]:
     """AR(1) coefficient of the CI error from best-fit (weighted) residuals.
 
-    The lag-1 autocorrelation of the (mean-removed) residuals,
-    ``r1 = sum e_i e_(i-1) / sum e_i^2``, underestimates the correlation of
-    the errors: the fit absorbs the smooth part of a correlated error (a
-    correlated error looks like a slightly different terrain).  The
-    correction inverts the expected r1 of the fitted residuals,
-
-        f(rho) = tr(D M S(rho) M) / tr(M S(rho) M),
-
-    with ``S(rho)_ij = rho**(|z_i - z_j| / dz0)`` the AR(1) correlation at the
-    actual depths (so irregular spacing is accounted for), ``M = I - P`` the
-    residual maker of the linearised fit (``P`` the projector on the columns
-    of ``design`` and a constant) and ``D`` the lag-1 neighbour matrix
-    (1/2 on both off-diagonals): ``rho = f^-1(r1)``, clipped to [0, 0.95].
-    Without ``design`` the fallback ``r1 + (1 + (3 + 2 n_params) r1+) / N``
-    (small-sample bias plus absorption, calibrated on 31-61 point profiles)
-    is used.
+    The lag-1 autocorrelation r1 of the residuals, corrected for what the fit
+    absorbs: ``rho = f^-1(r1)``, ``f(rho) = tr(D M S(rho) M) / tr(M S(rho) M)``
+    with ``M`` the residual maker of the columns of ``design`` and a constant
+    (docs/uncertainty.md, The noise model), clipped to [0, 0.95].  Without
+    ``design`` the fallback ``r1 + (1 + 11 r1+) / N`` (small-sample bias plus
+    absorption of 4 parameters, calibrated on 31-61 point profiles).
 
     Parameters
     ----------
@@ -258,8 +245,6 @@ def estimate_correlation(
     design : ndarray, shape (N, p), optional
         Weighted Jacobian of the model at the fit with respect to the
         parameters that are free there (not at a bound).
-    n_params : int
-        Number of fitted parameters for the fallback.
 
     Returns
     -------
@@ -279,7 +264,7 @@ def estimate_correlation(
     r1 = float(e[1:] @ e[:-1]) / den
     dz0 = float(np.median(np.diff(z)))
     if design is None or dz0 <= 0:
-        rho = r1 + (1.0 + (3.0 + 2.0 * n_params) * max(r1, 0.0)) / N
+        rho = r1 + (1.0 + 11.0 * max(r1, 0.0)) / N  # (3 + 2 n_params) with 4 parameters
         return float(np.clip(rho, 0.0, RHO_MAX)), r1
     X = np.column_stack([np.ones(N), np.asarray(design, dtype=float).reshape(N, -1)])
     X = X / np.maximum(np.linalg.norm(X, axis=0), 1e-300)
@@ -323,15 +308,14 @@ def _fit_design(
         tol = 1e-9 * max(abs(lo), abs(hi), 1.0)
         return lo + tol < v < hi - tol
 
-    kc_lo, kc_hi = (float(v) for v in bounds.kc_si(p0.n))
-    kp_lo, kp_hi = (float(v) for v in bounds.kphi_si(p0.n))
+    kc_box, kphi_box = ([float(v) for v in f(p0.n)] for f in (bounds.kc_si, bounds.kphi_si))
     if cal is not None and cal.kphi > 0 and cal.kc > 0:
-        if inside(p0.kphi, kp_lo, kp_hi):
+        if inside(p0.kphi, *kphi_box):
             cols.append((cal.kc / cal.kphi) * A + B)
     else:
-        if inside(p0.kc, kc_lo, kc_hi):
+        if inside(p0.kc, *kc_box):
             cols.append(A)
-        if inside(p0.kphi, kp_lo, kp_hi):
+        if inside(p0.kphi, *kphi_box):
             cols.append(B)
         if cal is None and inside(p0.cc, *bounds.cc):
             cols.append(C)
@@ -428,24 +412,21 @@ def noise_setup(
     dz = np.diff(z)
     dz0 = float(np.median(dz)) if dz.size else 0.0
     rho_raw, rho_sampled = None, False
-    if isinstance(correlation, str):
-        if correlation in ("estimate", "sample"):
-            X = _fit_design(z, p0, bounds, cal, law, K_cone, profile.cone) / w[:, None]
-            rho, rho_raw = estimate_correlation((y - m0) / w, z, design=X)
-            rho_est = True
-            rho_sampled = correlation == "sample" and N > 2
-        elif correlation == "none":
-            rho, rho_est = 0.0, False
-        else:
-            raise ValueError(
-                "correlation must be 'estimate', 'sample', 'none' or a number "
-                f"(got {correlation!r})"
-            )
+    rho_est = isinstance(correlation, str) and correlation in ("estimate", "sample")
+    if rho_est:
+        X = _fit_design(z, p0, bounds, cal, law, K_cone, profile.cone) / w[:, None]
+        rho, rho_raw = estimate_correlation((y - m0) / w, z, design=X)
+        rho_sampled = correlation == "sample" and N > 2
+    elif correlation == "none":
+        rho = 0.0
+    elif isinstance(correlation, str):
+        raise ValueError(
+            f"correlation must be 'estimate', 'sample', 'none' or a number (got {correlation!r})"
+        )
     else:
         rho = float(correlation)
         if not 0 <= rho <= RHO_MAX:
             raise ValueError(f"correlation must lie in [0, {RHO_MAX}] (got {rho})")
-        rho_est = False
     phi = ar1_coefficients(z, rho, dz0) if N > 1 else np.zeros(0)
     if rho_raw is not None and not math.isfinite(rho_raw):
         rho_raw = None

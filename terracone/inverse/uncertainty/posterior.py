@@ -606,7 +606,7 @@ def _draw(
     """
     coords, nwalkers, burn, thin = st.coords, o.nwalkers, o.burn, o.thin
     walkers, names = start_walkers(
-        st.x0, st.prior, coords, st.target, st.lik, st.prior_draws, nwalkers, st.rng, st.notes
+        st.x0, coords, st.target, st.lik, st.prior_draws, nwalkers, st.rng, st.notes
     )
     steps = int(math.ceil(draws * thin / nwalkers))
     chain, acc = run_chain(st.target, walkers, burn, steps, st.rng)

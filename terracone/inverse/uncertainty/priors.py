@@ -1,18 +1,11 @@
 """Priors of the posterior over (kc, kphi, n, cc, phic): the bounds box or a calibration.
 
-* ``"bounds"``: uniform over the search box of :class:`Bounds` (in the units
-  the bounds were given in, so with US bounds the SI density of kc and kphi
-  depends on n).
-* a :class:`~terracone.inverse.learning.learn.Calibration` (or a
-  :class:`CalibrationPrior` to change the widths): model, r_min and the plate
-  pair are fixed to the calibration's; phic ~ Normal(phic_cal, 2 deg) and
-  cc ~ Normal(cc_cal, max(2 kPa, 0.25 cc_cal)), truncated to the bounds;
-  ln(kc/kphi) ~ Normal(ln(kc_cal/kphi_cal), 0.25) (a factor 1.5 either side
-  at 90%), with kphi uniform within its bounds and kc within its bounds; n
-  uniform within its bounds (the profile, not the calibration, sets n).
-  A calibration with kc = 0 fixes kc = 0.
-
-Used by :func:`terracone.inverse.uncertainty.posterior.posterior`.
+``"bounds"``: uniform over the search box of :class:`Bounds`; a
+:class:`~terracone.inverse.learning.learn.Calibration` (or a
+:class:`CalibrationPrior` to change the widths): normal priors of phic, cc and
+ln(kc/kphi) around the calibration's values, n uniform.  The densities:
+``docs/uncertainty.md`` (Priors).  Used by
+:func:`terracone.inverse.uncertainty.posterior.posterior`.
 
 References
 ----------
@@ -103,18 +96,15 @@ class Prior:
         )
         if self.ratio:
             self.log_q0 = math.log(c.kc / c.kphi)
-        if c is not None:
-            if self.cc_fixed and bounds.cc[0] != bounds.cc[1]:
-                self.cc_value = float(np.clip(c.cc, *bounds.cc))
-            else:
-                self.cc_value = float(bounds.cc[0])
-            if self.phic_fixed and bounds.phic_deg[0] != bounds.phic_deg[1]:
-                self.phic_value = float(np.clip(c.phic_deg, *bounds.phic_deg))
-            else:
-                self.phic_value = float(bounds.phic_deg[0])
-        else:
-            self.cc_value = float(bounds.cc[0])
-            self.phic_value = float(bounds.phic_deg[0])
+
+        def value(fixed: bool, b: tuple[float, float], name: str) -> float:
+            """Value of a fixed cc or phic: the calibration's (sd 0) in the bounds, else LO."""
+            if c is not None and fixed and b[0] != b[1]:
+                return float(np.clip(getattr(c, name), *b))
+            return float(b[0])
+
+        self.cc_value = value(self.cc_fixed, bounds.cc, "cc")
+        self.phic_value = value(self.phic_fixed, bounds.phic_deg, "phic_deg")
         self.n_grid: np.ndarray | None = None
         self.n_logw: np.ndarray | None = None
         if c is not None and c.kc <= 0 and bounds.kc[0] > 0:
@@ -163,15 +153,12 @@ class Prior:
         cdf = np.concatenate([[0.0], np.cumsum(0.5 * (d[1:] + d[:-1]) * np.diff(g))])
         return np.interp(rng.uniform(0, cdf[-1], m), cdf, g)
 
-    def kc_fixed_value(self, n: np.ndarray) -> np.ndarray:
-        if self.cal is not None and self.cal.calibration.kc <= 0:
+    def fixed_value(self, j: int, n: np.ndarray) -> np.ndarray:
+        """kc (j = 0) or kphi (j = 1) where fixed [SI] at n: 0 (a calibration's 0) or LO."""
+        name = ("kc", "kphi")[j]
+        if self.cal is not None and getattr(self.cal.calibration, name) <= 0:
             return np.zeros_like(n)
-        return self.b.kc_si(n)[0]
-
-    def kphi_fixed_value(self, n: np.ndarray) -> np.ndarray:
-        if self.cal is not None and self.cal.calibration.kphi <= 0:
-            return np.zeros_like(n)
-        return self.b.kphi_si(n)[0]
+        return getattr(self.b, f"{name}_si")(n)[0]
 
     def logpdf(self, kc, kphi, n, cc, phic_deg) -> np.ndarray:
         """Log prior density (up to a constant) of arrays of parameters."""
@@ -200,26 +187,21 @@ class Prior:
             inside &= (cc >= b.cc[0]) & (cc <= b.cc[1])
         if not self.phic_fixed:
             inside &= (phic_deg >= b.phic_deg[0]) & (phic_deg <= b.phic_deg[1])
-        if self.cal is None:
-            if not self.kc_fixed and not ref:
-                lp = lp - np.log(kc_hi - kc_lo)
-        else:
-            c = self.cal
-            if self.ratio:
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    z = (np.log(kc) - np.log(kphi) - self.log_q0) / c.ratio_log_sd
-                    lp += -0.5 * z * z - np.log(kc)
-                inside &= (kc > 0) & (kphi > 0)
-            elif not self.kc_fixed:
-                lp = lp - np.log(kc_hi - kc_lo)
-            if not self.cc_fixed:
-                z = (cc - c.calibration.cc) / c.cc_width
-                lp += -0.5 * z * z
-            if not self.phic_fixed:
-                z = (phic_deg - c.calibration.phic_deg) / c.phic_sd
-                lp += -0.5 * z * z
-        lp = np.where(inside & np.isfinite(lp), lp, -np.inf)
-        return lp
+        c = self.cal
+        if self.ratio:  # a calibration's ratio prior (ref is off with a calibration)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                z = (np.log(kc) - np.log(kphi) - self.log_q0) / c.ratio_log_sd
+                lp += -0.5 * z * z - np.log(kc)
+            inside &= (kc > 0) & (kphi > 0)
+        elif not self.kc_fixed and not ref:
+            lp = lp - np.log(kc_hi - kc_lo)
+        if c is not None and not self.cc_fixed:
+            z = (cc - c.calibration.cc) / c.cc_width
+            lp += -0.5 * z * z
+        if c is not None and not self.phic_fixed:
+            z = (phic_deg - c.calibration.phic_deg) / c.phic_sd
+            lp += -0.5 * z * z
+        return np.where(inside & np.isfinite(lp), lp, -np.inf)
 
     def sample(self, rng: np.random.Generator, size: int) -> np.ndarray:
         """Draws (size, 5) from the prior, SI."""
@@ -228,16 +210,14 @@ class Prior:
         for _ in range(200):
             m = 2 * size
             n = np.full(m, b.n[0]) if self.n_fixed else self._sample_n(rng, m)
-            kp_lo, kp_hi = b.kphi_si(n)
-            kc_lo, kc_hi = b.kc_si(n)
-            kphi = self.kphi_fixed_value(n) if self.kphi_fixed else rng.uniform(kp_lo, kp_hi)
+            kphi = self.fixed_value(1, n) if self.kphi_fixed else rng.uniform(*b.kphi_si(n))
             if self.ratio:
                 q = np.exp(self.log_q0 + self.cal.ratio_log_sd * rng.standard_normal(m))
                 kc = q * kphi
             elif self.kc_fixed:
-                kc = self.kc_fixed_value(n)
+                kc = self.fixed_value(0, n)
             else:
-                kc = rng.uniform(kc_lo, kc_hi)
+                kc = rng.uniform(*b.kc_si(n))
             if self.cc_fixed:
                 cc = np.full(m, self.cc_value)
             elif self.cal is None:
@@ -259,14 +239,12 @@ class Prior:
 
 
 def as_calibration_prior(prior: Any) -> CalibrationPrior | None:
+    if prior is None or prior == "bounds":
+        return None
     if isinstance(prior, str):
-        if prior != "bounds":
-            raise ValueError(
-                f"prior must be 'bounds', a Calibration or a CalibrationPrior (got {prior!r})"
-            )
-        return None
-    if prior is None:
-        return None
+        raise ValueError(
+            f"prior must be 'bounds', a Calibration or a CalibrationPrior (got {prior!r})"
+        )
     if isinstance(prior, CalibrationPrior):
         return prior
     if isinstance(prior, Calibration):

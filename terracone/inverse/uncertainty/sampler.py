@@ -45,41 +45,22 @@ class SamplerCoordinates:
     """Map between sampler coordinates x (free subset) and parameters (SI).
 
     Scaled coordinates (fully mobilised shear, phic free): x = (s kc, s kphi,
-    n, cc, phic), s = 1 + tan(phic)/tan(half angle), in which the exact phic
-    ridge is a coordinate direction; plain (kc, kphi, n, cc, phic) otherwise.
-    (Whitening the linear coordinates conditionally on n was tried and did
-    not shorten the autocorrelation: the posterior is mostly bounded by the
-    prior box in the directions the data leave free.)
+    n, cc, phic), s = 1 + tan(phic)/tan(half angle); plain (kc, kphi, n, cc,
+    phic) otherwise (docs/uncertainty.md, Coordinates).
     """
 
     def __init__(self, prior: Prior, cone: Cone, K_cone: float | None, fixed_values: np.ndarray):
         self.prior = prior
         self.t = math.tan(cone.half_angle)
         nb = np.array(prior.b.n, dtype=float)
-        kc_nonzero_fixed = prior.kc_fixed and not np.all(prior.kc_fixed_value(nb) == 0)
-        kphi_nonzero_fixed = prior.kphi_fixed and not np.all(prior.kphi_fixed_value(nb) == 0)
-        self.scaled = (
-            K_cone is None
-            and not prior.phic_fixed
-            and not kc_nonzero_fixed
-            and not kphi_nonzero_fixed
-        )
-        self.free = np.array(
-            [
-                not prior.kc_fixed,
-                not prior.kphi_fixed,
-                not prior.n_fixed,
-                not prior.cc_fixed,
-                not prior.phic_fixed,
-            ]
-        )
+        fixed = (prior.kc_fixed, prior.kphi_fixed, prior.n_fixed, prior.cc_fixed, prior.phic_fixed)
+        nonzero = [fixed[j] and not np.all(prior.fixed_value(j, nb) == 0) for j in (0, 1)]
+        self.scaled = K_cone is None and not prior.phic_fixed and not any(nonzero)
+        self.free = ~np.array(fixed)
         self.nscale = int(self.free[0]) + int(self.free[1])
         self.fixed_values = np.asarray(fixed_values, dtype=float)
-        self.names = [
-            (("s*" if self.scaled and i < 2 else "") + PARAM_NAMES[i])
-            for i in range(5)
-            if self.free[i]
-        ]
+        pre = ("s*", "s*", "", "", "") if self.scaled else ("",) * 5
+        self.names = [p + name for p, name, f in zip(pre, PARAM_NAMES, self.free) if f]
 
     @property
     def ndim(self) -> int:
@@ -94,13 +75,10 @@ class SamplerCoordinates:
         logj = np.zeros(xf.shape[0])
         if self.scaled:
             s = 1.0 + np.tan(np.radians(P[:, 4])) / self.t
-            P[:, 0] /= s
-            P[:, 1] /= s
+            P[:, :2] /= s[:, None]
             logj = -self.nscale * np.log(s)
-        if self.prior.kc_fixed:
-            P[:, 0] = self.prior.kc_fixed_value(P[:, 2])
-        if self.prior.kphi_fixed:
-            P[:, 1] = self.prior.kphi_fixed_value(P[:, 2])
+        for j in np.flatnonzero(~self.free[:2]):  # kc, kphi held
+            P[:, j] = self.prior.fixed_value(j, P[:, 2])
         return P, logj
 
     def from_params(self, params: np.ndarray) -> np.ndarray:
@@ -108,8 +86,7 @@ class SamplerCoordinates:
         X = np.array(np.atleast_2d(params), dtype=float, copy=True)
         if self.scaled:
             s = 1.0 + np.tan(np.radians(X[:, 4])) / self.t
-            X[:, 0] *= s
-            X[:, 1] *= s
+            X[:, :2] *= s[:, None]
         return X[:, self.free]
 
 
@@ -165,7 +142,6 @@ class LogPosterior:
 
 def start_walkers(
     x0: np.ndarray,
-    pri: Prior,
     coords: SamplerCoordinates,
     target: LogPosterior,
     lik: Likelihood,
@@ -175,12 +151,7 @@ def start_walkers(
     notes: list[str],
 ) -> tuple[np.ndarray, list[str]]:
     """Initial walkers (Laplace approximation at the best fit) and the coordinate names."""
-    P0 = x0.copy()
-    if pri.kc_fixed:
-        P0[0] = float(pri.kc_fixed_value(np.array([P0[2]]))[0])
-    if pri.kphi_fixed:
-        P0[1] = float(pri.kphi_fixed_value(np.array([P0[2]]))[0])
-    x_hat = coords.from_params(P0[None, :])[0]
+    x_hat = coords.from_params(x0[None, :])[0]
     if not np.isfinite(target.at_rho(x_hat[None, :])[0]):
         # the start lies outside the prior's support (e.g. a given start): use the prior median
         x_hat = np.median(coords.from_params(prior_draws), axis=0)
@@ -197,13 +168,8 @@ def start_walkers(
 
 
 def _moves() -> list:
-    """Differential-evolution moves (80%) mixed with stretch moves (20%).
-
-    On these posteriors (flat in the directions the data leave free, cut by
-    the prior box) DE roughly halves the integrated autocorrelation time of
-    the stretch move alone (about 20-30 steps instead of 50-70 for 64
-    walkers).
-    """
+    """Differential-evolution moves (80%) mixed with stretch moves (20%): DE roughly halves
+    the autocorrelation time of stretch moves alone here (20-30 steps, not 50-70)."""
     return [(emcee.moves.DEMove(), 0.8), (emcee.moves.StretchMove(), 0.2)]
 
 
@@ -233,17 +199,11 @@ def _initial_ensemble(x_hat, coords, lik, log_prob, prior_draws, nwalkers, rng, 
     if not np.all(np.isfinite(L)):
         L = np.diag(np.sqrt(pvar) * 1e-3)
     good = np.empty((0, k))
-    for scale in (1.0, 1.0, 0.3, 0.1, 0.03, 0.01, 1e-3):
-        cand = x_hat + scale * rng.standard_normal((4 * nwalkers, k)) @ L.T
-        lp = log_prob(cand)
-        good = np.concatenate([good, cand[np.isfinite(lp)]])
-        if good.shape[0] >= nwalkers:
-            return good[:nwalkers]
-    # last resort: tiny jitter, reflected into the support by trial
-    for _ in range(100):
-        cand = x_hat + 1e-6 * (np.abs(x_hat) + 1e-3) * rng.standard_normal((4 * nwalkers, k))
-        lp = log_prob(cand)
-        good = np.concatenate([good, cand[np.isfinite(lp)]])
+    for scale in (1.0, 1.0, 0.3, 0.1, 0.03, 0.01, 1e-3) + (None,) * 100:
+        u = rng.standard_normal((4 * nwalkers, k))
+        # the Laplace spread, narrowing; last resort (None): a tiny jitter, kept where inside
+        cand = x_hat + (1e-6 * (np.abs(x_hat) + 1e-3) * u if scale is None else scale * u @ L.T)
+        good = np.concatenate([good, cand[np.isfinite(log_prob(cand))]])
         if good.shape[0] >= nwalkers:
             return good[:nwalkers]
     raise ValueError("could not place the walkers inside the prior's support")
@@ -278,11 +238,6 @@ def integrated_time(chain: np.ndarray, c: float = 5.0) -> np.ndarray:
     -------
     ndarray, shape (ndim,)
         tau [steps]; nan for a coordinate that never moves.
-
-    References
-    ----------
-    .. [2] Foreman-Mackey, D., Hogg, D.W., Lang, D., Goodman, J. (2013).
-       emcee: the MCMC hammer. PASP 125, 306-312.
     """
     x = np.asarray(chain, dtype=float)
     T = x.shape[0]
