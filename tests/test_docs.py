@@ -349,6 +349,9 @@ def run_block(block: Block, folder: Path) -> subprocess.CompletedProcess:
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
     env["TERRACONE_LIBRARY"] = str(folder / "library.sqlite")
     env["TERRACONE_NUMBA"] = "0"  # small jobs: no kernel loading, whatever the cache holds
+    if "--layers" in block.code or "fit_layered" in block.code:
+        # the layered posterior is minutes on the numpy twins, seconds compiled
+        env["TERRACONE_NUMBA"] = "1"
     env["MPLBACKEND"] = "Agg"
     env["PYTHONPATH"] = str(ROOT / "tests")  # the report page's browser helper, tests/chromium.py
     env.pop("TERRACONE_WHEEL", None)
