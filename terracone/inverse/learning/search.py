@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import minimum_filter
-from scipy.optimize import least_squares
 
 from terracone.data import CIProfile, PlateTest
 from terracone.inverse.bounds import Bounds
@@ -174,129 +173,257 @@ class Refined:
     nfev: int
 
 
-def _pack(prob, x, theta, free_x, free_t):
-    return np.concatenate([x[free_x], theta[free_t]])
+def _search_box(prob: LearnProblem, theta0: np.ndarray):
+    """Bounds (lo, hi) of p = (kc, kphi, cc, n, phic, log r_min) and the free mask."""
+    lo_x, hi_x = prob.box(np.asarray(theta0[0]))
+    lo = np.concatenate([lo_x, prob.theta_lo])
+    hi = np.concatenate([hi_x, prob.theta_hi])
+    free = hi > lo
+    if prob.model == "rm0":
+        free[5] = False
+    return lo, hi, free
 
 
-def _irls_weights(prob: LearnProblem, x, theta) -> np.ndarray:
-    """sqrt(a_d / ||r_d||): sum_d w_d ||r_d||^2 majorises J at (x, theta)."""
-    norms = np.array([np.linalg.norm(r) for r in prob.residuals(x, theta)])
-    floor = 1e-14 * np.array([np.linalg.norm(y) for y in prob.ys])
-    return np.sqrt(prob.a / np.maximum(norms, floor))
+def objectives(prob: LearnProblem, P: np.ndarray, power: int = 1) -> np.ndarray:
+    """J = sum_d a_d ||r_d|| at many points P (K, 6) = (kc, kphi, cc, n, phic, log r_min),
+    in one vectorised call; with ``power`` 2 the least-squares cost sum_d a_d^2 ||r_d||^2."""
+    Xs = prob.designs(P[:, 3], P[:, 4], P[:, 5])
+    J = np.zeros(P.shape[0])
+    for X, y, a in zip(Xs, prob.ys, prob.a):
+        r = np.einsum("kij,kj->ki", X, P[:, :3]) - y
+        rr = np.einsum("ki,ki->k", r, r)
+        J += a * np.sqrt(rr) if power == 1 else a * a * rr
+    return J
 
 
-class _Space:
-    """The free variables of :func:`refine` packed in one vector p, with residuals and Jacobian."""
-
-    def __init__(self, prob: LearnProblem, theta0: np.ndarray) -> None:
-        self.prob = prob
-        self.theta0 = np.asarray(theta0, float)
-        self.lo_x, hi_x = prob.box(np.asarray(theta0[0]))
-        self.free_x = hi_x > self.lo_x
-        self.free_t = prob.theta_hi > prob.theta_lo
-        if prob.model == "rm0":
-            self.free_t[2] = False
-        self.lo = np.concatenate([self.lo_x[self.free_x], prob.theta_lo[self.free_t]])
-        self.hi = np.concatenate([hi_x[self.free_x], prob.theta_hi[self.free_t]])
-        self.nx = int(self.free_x.sum())
-        self.nfev = 0
-
-    def unpack(self, p):
-        x = self.lo_x.copy()
-        x[self.free_x] = p[: self.nx]
-        th = self.theta0.copy()
-        th[self.free_t] = p[self.nx :]
-        return x, th
-
-    def fun(self, p, sw):
-        self.nfev += 1
-        x, th = self.unpack(p)
-        return np.concatenate([s * r for s, r in zip(sw, self.prob.residuals(x, th))])
-
-    def jac(self, p, sw):
-        prob = self.prob
-        x, th = self.unpack(p)
-        ks = np.flatnonzero(self.free_t)
-        T = np.repeat(th[None, :], 1 + 2 * ks.size, axis=0)
-        for j, k in enumerate(ks):  # central differences, all points in one vectorised call
-            h = 1e-6 * max(1.0, abs(th[k]))
-            T[1 + 2 * j, k] = min(th[k] + h, prob.theta_hi[k])
-            T[2 + 2 * j, k] = max(th[k] - h, prob.theta_lo[k])
-        Xs = prob.designs(T[:, 0], T[:, 1], T[:, 2])  # (T, N_d, 3) each
-        cols = [np.concatenate([s * X[0][:, self.free_x] for s, X in zip(sw, Xs)])]
+def _local_model(prob: LearnProblem, p: np.ndarray, free: np.ndarray, lo, hi):
+    """Residuals r_d and Jacobians D_d (N_d, 6) at p, all design matrices in one vectorised
+    call: the theta columns by central differences of 1e-6 (relative), one-sided where
+    a difference would leave the box (log r_min's box is a stretch between RM1 branch
+    points, where J jumps)."""
+    x, th = p[:3], p[3:]
+    ks = [k for k in range(3) if free[3 + k]]
+    T = np.repeat(th[None, :], 1 + 2 * len(ks), axis=0)
+    for j, k in enumerate(ks):
+        h = 1e-6 * max(1.0, abs(th[k]))
+        T[1 + 2 * j, k] = min(th[k] + h, hi[3 + k])
+        T[2 + 2 * j, k] = max(th[k] - h, lo[3 + k])
+    rs, Ds = [], []
+    for X, y in zip(prob.designs(T[:, 0], T[:, 1], T[:, 2]), prob.ys):
+        D = np.zeros((y.size, 6))
+        D[:, :3] = X[0]
         for j, k in enumerate(ks):
-            dt = T[1 + 2 * j, k] - T[2 + 2 * j, k]
-            cols.append(
-                np.concatenate(
-                    [s * ((X[1 + 2 * j] - X[2 + 2 * j]) @ x) / dt for s, X in zip(sw, Xs)]
-                )[:, None]
-            )
-        return np.hstack(cols)
+            D[:, 3 + k] = (X[1 + 2 * j] - X[2 + 2 * j]) @ x / (T[1 + 2 * j, k] - T[2 + 2 * j, k])
+        rs.append(X[0] @ x - y)
+        Ds.append(D)
+    return rs, Ds
 
-    def snap(self, p, J, zero):
-        """Values within 1e-9 of their range from a bound go onto it when J does not rise: the
-        trust region stays strictly inside, the answer should not depend on how far."""
-        lo, hi = self.lo, self.hi
-        q = p.copy()
-        near_lo, near_hi = q - lo <= 1e-9 * (hi - lo), hi - q <= 1e-9 * (hi - lo)
-        q[near_lo], q[near_hi] = lo[near_lo], hi[near_hi]
-        Jq = self.prob.objective(*self.unpack(q))
-        return (q, Jq) if Jq <= J * (1 + 1e-12) + zero * 1e-3 else (p, J)
+
+#: Levenberg-Marquardt dampings of every iteration of :func:`refine`, times the last
+#: accepted damping (and no damping: Newton's step)
+DAMPINGS = (1.0 / 64.0, 1.0 / 8.0, 1.0, 8.0, 64.0)
+
+
+def _box_qp(A, g, ls, us, free) -> np.ndarray:
+    """Minimiser s of g's + s'As/2 over ls <= s <= us (ls <= 0 <= us; s = 0 where not
+    ``free``), by an active set: the free variables solved by Newton (pseudo-inverse),
+    those it takes out of the box held on the bound they cross, held ones released when
+    their multiplier says the model falls inwards; at most 12 rounds."""
+    at_lo = free & (ls >= 0) & (g > 0)
+    at_hi = free & (us <= 0) & (g < 0)
+    s = np.zeros(g.size)
+    for _ in range(12):
+        s[:] = 0.0
+        s[at_lo], s[at_hi] = ls[at_lo], us[at_hi]
+        F = free & ~at_lo & ~at_hi
+        if F.any():
+            e, V = np.linalg.eigh(A[np.ix_(F, F)])
+            tiny = 1e-13 * max(float(np.abs(e).max()), 1e-300)
+            rhs = V.T @ (g[F] + A[np.ix_(F, ~F)] @ s[~F])
+            s[F] = -(V @ np.where(e > tiny, rhs / np.where(e > tiny, e, 1.0), 0.0))
+        out_lo, out_hi = F & (s < ls), F & (s > us)
+        if out_lo.any() or out_hi.any():
+            at_lo, at_hi = at_lo | out_lo, at_hi | out_hi
+            continue
+        m = g + A @ s  # the model's gradient: inwards on a held variable, release it
+        wrong = np.where((at_lo & (m < 0)) | (at_hi & (m > 0)), np.abs(m), 0.0)
+        if not wrong.any():
+            break
+        k = int(np.argmax(wrong))
+        at_lo[k] = at_hi[k] = False
+    return np.clip(s, ls, us)
+
+
+def _lm_steps(H, g, p, lo, hi, free, scale, mu: float):
+    """Levenberg-Marquardt steps: minimisers of the model g's + s'(H + lambda m I)s/2 over the
+    box (:func:`_box_qp`) in variables scaled by ``scale`` (m the mean curvature,
+    lambda = 0 and ``mu`` times ``DAMPINGS``): (steps (L, 6), their lambda)."""
+    if not free.any():
+        return np.zeros((0, 6)), np.zeros(0)
+    Hs, gs = H * np.outer(scale, scale), g * scale
+    ls, us = (lo - p) / scale, (hi - p) / scale
+    m = max(float(np.trace(Hs[np.ix_(free, free)])) / int(free.sum()), 1e-300)
+    lams = np.array([0.0] + [mu * k for k in DAMPINGS])
+    steps = [_box_qp(Hs + lam * m * np.eye(6), gs, ls, us, free) * scale for lam in lams]
+    return np.array(steps), lams
+
+
+def _directions(prob: LearnProblem, p, lo, hi, free, scale, mu, power: int = 1):
+    """Search steps at p (:func:`_lm_steps`) of Newton on J with its Gauss-Newton Hessian
+    sum_d w_d (D_d'D_d - g_d g_d') (w_d = a_d/||r_d||, g_d = D_d'r_d/||r_d||), and of least
+    squares with weights a_d^2 (which reaches zero-residual data quadratically; with
+    ``power`` 2 only these): (steps, their damping)."""
+    rs, Ds = _local_model(prob, p, free, lo, hi)
+    floor = 1e-14 * np.array([np.linalg.norm(y) for y in prob.ys])
+    grad, g_ls = np.zeros(6), np.zeros(6)
+    H_J, H_ls = np.zeros((6, 6)), np.zeros((6, 6))
+    for D, r, a, fl in zip(Ds, rs, prob.a, floor):
+        wd = a / max(float(np.linalg.norm(r)), fl)
+        DtD, Dr = D.T @ D, D.T @ r
+        gd = Dr * (wd / a)
+        grad += wd * Dr
+        H_J += wd * (DtD - np.outer(gd, gd))
+        g_ls += a * a * Dr
+        H_ls += a * a * DtD
+    models = ((grad, H_J), (g_ls, H_ls)) if power == 1 else ((g_ls, H_ls),)
+    parts = [_lm_steps(H, g, p, lo, hi, free, scale, mu) for g, H in models]
+    return np.concatenate([s for s, _ in parts]), np.concatenate([m for _, m in parts])
+
+
+def _descend(prob: LearnProblem, p, lo, hi, free, max_iter: int, power=1, tol=1e-14):
+    """The iteration of :func:`refine` in one box: (p, J, evaluations, converged).
+
+    ``power`` 2 minimises the least-squares cost instead of J (and returns it); ``tol``
+    is the relative fall of the cost below which an iteration ends the search."""
+    scale = np.maximum(np.abs(p), np.where(hi > lo, hi - lo, 1.0) * 1e-3)
+    J = float(objectives(prob, p[None], power)[0])
+    zero = 1e-13 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
+    nfev, done, mu = 1, False, 1e-3
+    for _ in range(max_iter):
+        if J <= zero:  # zero residual: nothing left to gain
+            done = True
+            break
+        steps, lams = _directions(prob, p, lo, hi, free, scale, mu, power)
+        if steps.shape[0] == 0:
+            done = True
+            break
+        P = np.clip(p + steps, lo, hi)
+        Jc = objectives(prob, P, power)
+        nfev += 1 + P.shape[0]
+        k = int(np.argmin(Jc))
+        done = not (Jc[k] < J and J - Jc[k] > tol * J)
+        if Jc[k] < J:
+            mu = float(lams[k]) if lams[k] > 0 else max(mu / 64.0, 1e-12)
+            p, J = P[k], float(Jc[k])
+        else:
+            mu *= 4096.0
+        if done:
+            break
+    # values a hair from a bound go onto it when J does not rise
+    q = p.copy()
+    near_lo, near_hi = q - lo <= 1e-9 * (hi - lo), hi - q <= 1e-9 * (hi - lo)
+    q[near_lo], q[near_hi] = lo[near_lo], hi[near_hi]
+    Jq = float(objectives(prob, q[None], power)[0])
+    if Jq <= J * (1 + 1e-12) + zero * 1e-3:
+        p, J = q, Jq
+    return p, J, nfev + 1, done
+
+
+def _segment(prob: LearnProblem, t: float) -> tuple[float, float]:
+    """The stretch (a, b] of log r_min between RM1 branch points that holds t, as bounds."""
+    ks = [k for k in branch_points(prob) if prob.theta_lo[2] < k < prob.theta_hi[2]]
+    edges = [float(prob.theta_lo[2])] + ks + [float(prob.theta_hi[2])]
+    i = max(0, min(int(np.searchsorted(edges, t, side="left")) - 1, len(edges) - 2))
+    a = edges[i] + (1e-9 if i > 0 else 0.0)  # at a branch point the law is the lower branch's
+    return a, edges[i + 1]
+
+
+def _in_stretch(prob: LearnProblem, start, lo, hi, free, max_iter: int, first: int = 8):
+    """:func:`_descend` with log r_min in one stretch [lo[5], hi[5]] between branch points,
+    and the stretch's upper end (a branch point inside the range) searched with r_min
+    held on it when the search heads there: after ``first`` iterations if not converged
+    by then (the end is taken when J is lower there), and at the end.  (p, J, evaluations)."""
+    b = hi[5]
+    inner = b < prob.theta_hi[2]
+    held = free.copy()
+    held[5] = False
+
+    def at_end(q):
+        e = q.copy()
+        e[5] = b
+        return _descend(prob, e, lo, hi, held, max_iter)
+
+    q, J, nfev, done = _descend(prob, start, lo, hi, free, first)
+    if not done and inner and q[5] > start[5]:
+        e, Je, ne, _ = at_end(q)
+        nfev += ne
+        if Je < J:
+            return e, Je, nfev
+    if not done:
+        q, J, ne, done = _descend(prob, q, lo, hi, free, max_iter - first)
+        nfev += ne
+    if inner and q[5] > start[5] and (q[5] >= b or not done):
+        e, Je, ne, _ = at_end(q)
+        nfev += ne
+        if Je < J:
+            return e, Je, nfev
+    return q, J, nfev
 
 
 def refine(
-    prob: LearnProblem,
-    x0: np.ndarray,
-    theta0: np.ndarray,
-    *,
-    rounds: int = 12,
-    reweight_first: bool = False,
+    prob: LearnProblem, x0: np.ndarray, theta0: np.ndarray, *, max_iter: int = 40
 ) -> Refined:
-    """Minimise J jointly over (kc, kphi, cc, n, phic, log r_min) from a start.
+    """Minimise J jointly over (kc, kphi, cc, n, phic, log r_min) from a start, in the box.
 
-    Reweighted Gauss-Newton (trust-region reflective, bounded): each round
-    minimises sum_d w_d ||r_d||^2 with w_d = a_d / ||r_d|| at the current
-    point (a majoriser of J), the first round with w_d = a_d^2 (unless
-    ``reweight_first``, to continue an earlier refinement) so that
-    zero-residual data are reached quadratically.  Stops when J no longer
-    falls by 1e-12 relative.
+    Each iteration takes the residuals and their Jacobian at the current
+    point (one vectorised call of the design matrices) and three bounded
+    search directions (:func:`_directions`; each also with the variables it
+    pushes out of the box held on their bound); then J at every direction
+    times every step length of ``STEPS`` (one more vectorised call), and
+    moves to the candidate of least J.  Stops when no candidate lowers J by
+    1e-14 relative, on a zero-residual fit or after ``max_iter``
+    iterations.  Values within 1e-9 of their range from a bound then go
+    onto it when J does not rise.
+
+    RM1 changes branch where r_min crosses a cone or plate radius (section
+    3.2) and J jumps there, so log r_min is held within the stretch between
+    branch points that holds the start, where J is smooth.  When the search
+    there heads for a branch point (r_min moved towards it and either ends
+    on it or has not converged), the branch point itself is searched with
+    r_min held on it, and the stretch beyond it from there, and so on while
+    J falls.
     """
-    sp = _Space(prob, theta0)
-    lo, hi = sp.lo, sp.hi
-    p = np.clip(_pack(prob, x0, sp.theta0, sp.free_x, sp.free_t), lo, hi)
-    J = prob.objective(*sp.unpack(p))
-    sw = prob.a.copy()
-    if reweight_first:
-        sw = _irls_weights(prob, *sp.unpack(p))
-    zero = 1e-13 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
-    for _ in range(rounds):
-        if J <= zero:  # zero residual: nothing left to gain
+    lo, hi, free = _search_box(prob, theta0)
+    rm1 = prob.model == "rm1" and bool(free[5])
+    if rm1:
+        lo[5], hi[5] = _segment(prob, float(theta0[2]))
+    p = np.clip(np.concatenate([x0, theta0]), lo, hi)
+    # least squares first (weights a_d^2): zero-residual data are reached quadratically
+    p, _, nfev, _ = _descend(prob, p, lo, hi, free, max_iter, power=2, tol=1e-6)
+    if not rm1:
+        p, J, ne, _ = _descend(prob, p, lo, hi, free, max_iter)
+        return Refined(p[:3].copy(), p[3:].copy(), J, nfev + ne)
+    best, seen = None, set()
+    while True:
+        a, b = _segment(prob, float(p[5]))
+        seen.add(a)
+        lo[5], hi[5] = a, b
+        q, J, ne = _in_stretch(prob, np.clip(p, lo, hi), lo, hi, free, max_iter)
+        nfev += ne
+        if best is not None and not J < best[1]:
             break
-        res = least_squares(
-            sp.fun,
-            p,
-            jac=sp.jac,
-            bounds=(lo, hi),
-            args=(sw,),
-            method="trf",
-            x_scale="jac",
-            xtol=1e-12,
-            ftol=1e-12,
-            gtol=1e-12,
-            max_nfev=40,
-        )
-        J_new = prob.objective(*sp.unpack(res.x))
-        if J_new < J:
-            improved = J - J_new > 1e-12 * J
-            p, J = res.x, J_new
-            if not improved:
-                break
+        best = (q, J)
+        # on a branch point: go on into the stretch beyond it
+        if q[5] >= b and b < prob.theta_hi[2] and _segment(prob, b + 2e-9)[0] not in seen:
+            p = q.copy()
+            p[5] = b + 2e-9
+        elif q[5] <= a and a > prob.theta_lo[2] and _segment(prob, a - 2e-9)[0] not in seen:
+            p = q.copy()
+            p[5] = a - 1e-9
         else:
             break
-        sw = _irls_weights(prob, *sp.unpack(p))
-    p, J = sp.snap(p, J, zero)
-    x, th = sp.unpack(p)
-    return Refined(x, th, J, sp.nfev)
+    q, J = best
+    return Refined(q[:3].copy(), q[3:].copy(), J, nfev)
 
 
 def jacobians(prob: LearnProblem, x, theta) -> list[np.ndarray]:
