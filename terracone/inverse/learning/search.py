@@ -264,8 +264,24 @@ def _lm_steps(H, g, p, lo, hi, free, scale, mu: float):
     ls, us = (lo - p) / scale, (hi - p) / scale
     m = max(float(np.trace(Hs[np.ix_(free, free)])) / int(free.sum()), 1e-300)
     lams = np.array([0.0] + [mu * k for k in DAMPINGS])
-    steps = [_box_qp(Hs + lam * m * np.eye(6), gs, ls, us, free) * scale for lam in lams]
-    return np.array(steps), lams
+    # all dampings at once on the free set of the start (one eigen-decomposition); those
+    # whose step leaves the box, or pushes a held variable, go through the active set
+    f = free & ~(((ls >= 0) & (gs > 0)) | ((us <= 0) & (gs < 0)))
+    S = np.zeros((lams.size, 6))
+    if f.any():
+        e, V = np.linalg.eigh(Hs[np.ix_(f, f)])
+        tiny = 1e-13 * max(float(np.abs(e).max()), 1e-300)
+        d = e[None, :] + (lams * m)[:, None]
+        ok = d > tiny
+        S[:, f] = -(np.where(ok, (V.T @ gs[f]) / np.where(ok, d, 1.0), 0.0) @ V.T)
+    grad = gs + S @ Hs + (lams * m)[:, None] * S  # the model's gradient at each step
+    held = free & ~f
+    bad = np.any((S < ls) | (S > us), axis=1) | np.any(
+        held & (((ls >= 0) & (grad < 0)) | ((us <= 0) & (grad > 0))), axis=1
+    )
+    for i in np.flatnonzero(bad):
+        S[i] = _box_qp(Hs + lams[i] * m * np.eye(6), gs, ls, us, free)
+    return S * scale, lams
 
 
 def _directions(prob: LearnProblem, p, lo, hi, free, scale, mu, power: int = 1):
