@@ -759,16 +759,20 @@ def certify(
 
 def _halve(prob: LearnProblem, c: Cells, k: int, rtol: float) -> tuple[Cells, int]:
     """Halve cells along axis k: solve the 4 midpoints of the edges along k (the
-    corners are known), the new curvature along k from the 3 points of each edge."""
+    corners are known; each distinct point once), the new curvature along k from the
+    3 points of each edge."""
     mid = 0.5 * (c.lo[:, k] + c.hi[:, k])
     corner = [np.stack([c.lo[:, j], c.hi[:, j]], axis=-1) for j in range(3)]  # (K, 2)
     corner[k] = np.stack([mid, mid], axis=-1)
     G = np.broadcast_arrays(
         *[corner[j].reshape([-1] + [2 if i == j else 1 for i in range(3)]) for j in range(3)]
     )
-    sol = prob.solve_cells(G[0], G[1], G[2], rtol=rtol)
-    Um = np.take(sol.J, [0], axis=1 + k)  # the midpoints (equal along k)
-    Lm = np.take(sol.lower, [0], axis=1 + k)
+    # each distinct point once: the midpoints repeat along k, and edges shared by
+    # neighbouring cells (or a fixed axis, RM0's r_min) repeat them too
+    pts, inv = np.unique(np.stack([a.reshape(-1) for a in G], axis=-1), axis=0, return_inverse=True)
+    sol = prob.solve_cells(pts[:, 0], pts[:, 1], pts[:, 2], rtol=rtol)
+    Um = np.take(sol.J[inv.reshape(-1)].reshape(G[0].shape), [0], axis=1 + k)  # the midpoints
+    Lm = np.take(sol.lower[inv.reshape(-1)].reshape(G[0].shape), [0], axis=1 + k)
     half = 0.5 * (c.hi[:, k] - c.lo[:, k])
     U0, U1 = np.take(c.U, [0], axis=1 + k), np.take(c.U, [1], axis=1 + k)
     L0, L1 = np.take(c.L, [0], axis=1 + k), np.take(c.L, [1], axis=1 + k)
@@ -781,4 +785,4 @@ def _halve(prob: LearnProblem, c: Cells, k: int, rtol: float) -> tuple[Cells, in
     second = Cells(
         lo_mid, c.hi, M, np.concatenate([Um, U1], 1 + k), np.concatenate([Lm, L1], 1 + k)
     )
-    return Cells.join([first, second]), int(sol.J.size) // 2
+    return Cells.join([first, second]), int(sol.J.size)
