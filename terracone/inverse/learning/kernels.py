@@ -1,5 +1,7 @@
-"""Compiled kernel of the learning process's inner solve (numba, see :mod:`terracone.jit`).
+"""Compiled kernels of the learning process (numba, see :mod:`terracone.jit`).
 
+:func:`cone_columns` gives the cone's design columns at many (n, r_min) points
+at once (the numpy reference is :func:`terracone.physics.cone.cone_index_basis`).
 :func:`sum_norm_cells` is a scalar port of
 :func:`terracone.inverse.learning.sumnorm.sum_norm_box_reference`, looped over
 cells so that one call does per cell what the reference does in some hundred
@@ -9,9 +11,9 @@ values, cell by cell until each cell's duality gap is below its tolerance.
 The bounded 3-variable least squares is
 :func:`terracone.inverse.solver.kernels.box_lsq3_one`.
 
-The numpy implementation stays the reference: ``tests/test_learn_kernels.py``
-compares the two, and ``TERRACONE_NUMBA=0`` (or :func:`terracone.jit.disabled`)
-makes :func:`terracone.inverse.learning.sumnorm.sum_norm_box` take the numpy path.
+The numpy implementations stay the reference: ``tests/test_learn_kernels.py``
+compares each kernel with its twin, and ``TERRACONE_NUMBA=0`` (or :func:`terracone.jit.disabled`)
+makes the learning process take the numpy paths.
 
 References
 ----------
@@ -28,7 +30,7 @@ import numpy as np
 from terracone.inverse.solver import kernels as solver_kernels
 from terracone.jit import njit
 
-__all__ = ["sum_norm_cells"]
+__all__ = ["cone_columns", "sum_norm_cells"]
 
 #: step lengths of the Newton candidates (as :func:`sumnorm._newton_or_mm`)
 NEWTON_STEPS = (1.0, 0.5, 0.25, 0.125, 1.0 / 64.0)
@@ -197,3 +199,31 @@ def sum_norm_cells(G, g, yy, a, lo, hi, tol, max_iter, gram_res):
         steps[c] = it
         lower[c] = min(max(low, 0.0), J_best[c])
     return x_best, J_best, lower, sse_best, steps
+
+
+@njit(error_model="numpy")
+def cone_columns(z, n, H, R, rm1, r_t, alpha, beta):
+    """Columns A, B, C (K, Z) of eq. (2-7) at depths z (Z,) for K points, each with its own
+    exponent n and pressure law (r_t, alpha, beta), fully mobilised shear, phic = 0.
+
+    As :func:`terracone.physics.cone.cone_index_basis` at phic = 0: the depth
+    table and columns of :mod:`terracone.inverse.solver.kernels`
+    (:func:`~terracone.inverse.solver.kernels.depth_table`,
+    :func:`~terracone.inverse.solver.kernels.columns_at`) per point, since the
+    table depends on the law's r_t.
+    """
+    K = n.shape[0]
+    Z = z.shape[0]
+    A = np.empty((K, Z))
+    B = np.empty((K, Z))
+    C = np.empty((K, Z))
+    tab = np.empty((7, Z))
+    last = np.nan
+    for k in range(K):
+        if not r_t[k] == last:  # the table depends on the law only through r_t
+            solver_kernels.depth_table(z, H, R, r_t[k], tab)
+            last = r_t[k]
+        solver_kernels.columns_at(
+            z, tab, n[k], H, R, rm1, r_t[k], alpha[k], beta[k], z, False, A[k], B[k], C[k]
+        )
+    return A, B, C
