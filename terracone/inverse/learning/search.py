@@ -5,10 +5,12 @@ J(kc, kphi, n, cc, phic, r_min) = sum_d RMSD_d / mean_d over data sets d
 J is convex in x = (kc, kphi, cc) and is minimised with a certificate by
 :func:`terracone.inverse.learning.sumnorm.sum_norm_box`.  theta is searched on a
 vectorised grid (n, phic, log r_min); the best grid points that are local
-minima start a joint Gauss-Newton refinement of all six parameters
-(reweighted least squares, so that it minimises J itself and reaches J = 0
-on noise-free data), and the grid gives a bound on how far the answer can
-be from the global minimum.
+minima start a joint refinement of all six parameters (:func:`refine`: least
+squares first, which reaches J = 0 on noise-free data, then
+Levenberg-Marquardt steps on J itself, every candidate step of an iteration
+evaluated in one vectorised call), and the grid with a branch and bound
+(:func:`certify`) gives a bound on how far the answer can be from the global
+minimum.
 
 References
 ----------
@@ -187,7 +189,7 @@ def grid_starts(stage: GridStage, count: int) -> list[tuple[int, ...]]:
 
 @dataclass
 class Refined:
-    """A locally refined point: x = (kc, kphi, cc), theta, J and Jacobian data."""
+    """A locally refined point: x = (kc, kphi, cc), theta, J and the cost evaluations."""
 
     x: np.ndarray
     theta: np.ndarray
@@ -218,28 +220,69 @@ def objectives(prob: LearnProblem, P: np.ndarray, power: int = 1) -> np.ndarray:
     return J
 
 
-def _local_model(prob: LearnProblem, p: np.ndarray, free: np.ndarray, lo, hi):
-    """Residuals r_d and Jacobians D_d (N_d, 6) at p, all design matrices in one vectorised
-    call: the theta columns by central differences of 1e-6 (relative), one-sided where
-    a difference would leave the box (log r_min's box is a stretch between RM1 branch
-    points, where J jumps)."""
-    x, th = p[:3], p[3:]
-    ks = [k for k in range(3) if free[3 + k]]
-    T = np.repeat(th[None, :], 1 + 2 * len(ks), axis=0)
-    for j, k in enumerate(ks):
-        h = 1e-6 * max(1.0, abs(th[k]))
-        T[1 + 2 * j, k] = min(th[k] + h, hi[3 + k])
-        T[2 + 2 * j, k] = max(th[k] - h, lo[3 + k])
-    rs, Ds = [], []
-    for X, y in zip(prob.designs(T[:, 0], T[:, 1], T[:, 2]), prob.ys):
-        D = np.zeros((y.size, 6))
-        D[:, :3] = X[0]
-        for j, k in enumerate(ks):
-            D[:, 3 + k] = (X[1 + 2 * j] - X[2 + 2 * j]) @ x / (T[1 + 2 * j, k] - T[2 + 2 * j, k])
-        rs.append(X[0] @ x - y)
-        Ds.append(D)
-    return rs, Ds
+def _stencil(th: np.ndarray, free: np.ndarray, lo, hi):
+    """theta points of :func:`_local_model`'s central differences: (T, 3), the axes
+    differenced, their steps and the side of a one-sided log r_min difference (or 0).
 
+    Steps are 1e-4 relative (about the fourth root of the rounding unit, for
+    second differences).  log r_min within a step of its stretch's ends (RM1
+    branch points, where J jumps) is not differenced across them: it gets a
+    one-sided first difference of 1e-6 instead.
+    """
+    h = 1e-4 * np.maximum(1.0, np.abs(th))
+    ks = [k for k in range(3) if free[3 + k]]
+    side = 0.0
+    if 2 in ks and not (lo[5] + h[2] <= th[2] <= hi[5] - h[2]):
+        ks.remove(2)
+        side = -1.0 if th[2] + h[2] > hi[5] else 1.0
+    pts = [th.copy()]
+    for k in ks:
+        for sgn in (1.0, -1.0):
+            pts.append(th.copy())
+            pts[-1][k] += sgn * h[k]
+    for i, k in enumerate(ks):
+        for m in ks[i + 1 :]:
+            for sk, sm in ((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)):
+                pts.append(th.copy())
+                pts[-1][k] += sk * h[k]
+                pts[-1][m] += sm * h[m]
+    if side:
+        pts.append(th.copy())
+        pts[-1][2] += side * 1e-6 * max(1.0, abs(th[2]))
+    return np.array(pts), ks, h, side
+
+
+def _local_model(prob: LearnProblem, p: np.ndarray, free: np.ndarray, lo, hi):
+    """Residuals r_d, Jacobians D_d (N_d, 6) and second-order terms S_d = sum_i r_di
+    Hess(r_di) (6, 6) at p, by central differences in theta (:func:`_stencil`), all
+    design matrices in one vectorised call.  r is linear in x = (kc, kphi, cc), so S_d
+    has only its theta-x and theta-theta blocks."""
+    x, th = p[:3], p[3:]
+    T, ks, h, side = _stencil(th, free, lo, hi)
+    out = []
+    for X, y in zip(prob.designs(T[:, 0], T[:, 1], T[:, 2]), prob.ys):
+        r = X[0] @ x - y
+        D, S = np.zeros((y.size, 6)), np.zeros((6, 6))
+        D[:, :3] = X[0]
+        for i, k in enumerate(ks):
+            up, down = X[1 + 2 * i], X[2 + 2 * i]
+            dX = (up - down) / (2.0 * h[k])
+            D[:, 3 + k] = dX @ x
+            S[:3, 3 + k] = S[3 + k, :3] = dX.T @ r
+            S[3 + k, 3 + k] = r @ ((up - 2.0 * X[0] + down) @ x) / h[k] ** 2
+        j = 1 + 2 * len(ks)
+        for i, k in enumerate(ks):
+            for m in ks[i + 1 :]:
+                d2 = (X[j] - X[j + 1] - X[j + 2] + X[j + 3]) @ x / (4.0 * h[k] * h[m])
+                S[3 + k, 3 + m] = S[3 + m, 3 + k] = r @ d2
+                j += 4
+        if side:
+            D[:, 5] = (X[-1] - X[0]) @ x / (T[-1, 2] - th[2])
+        out.append((r, D, S))
+    return out
+
+
+LS_TOL = 1e-3
 
 #: Levenberg-Marquardt dampings of every iteration of :func:`refine`, times the last
 #: accepted damping (and no damping: Newton's step)
@@ -306,26 +349,45 @@ def _lm_steps(H, g, p, lo, hi, free, scale, mu: float):
     return S * scale, lams
 
 
-def _directions(prob: LearnProblem, p, lo, hi, free, scale, mu, power: int = 1):
-    """Search steps at p (:func:`_lm_steps`) of Newton on J with its Gauss-Newton Hessian
-    sum_d w_d (D_d'D_d - g_d g_d') (w_d = a_d/||r_d||, g_d = D_d'r_d/||r_d||), and of least
-    squares with weights a_d^2 (which reaches zero-residual data quadratically; with
-    ``power`` 2 only these): (steps, their damping)."""
-    rs, Ds = _local_model(prob, p, free, lo, hi)
+def _models(prob: LearnProblem, p, lo, hi, free, power: int = 1) -> list[tuple]:
+    """Quadratic models (gradient, Hessian) at p: of J with its Hessian and with its
+    Gauss-Newton part sum_d w_d (D_d'D_d - g_d g_d') (w_d = a_d/||r_d||,
+    g_d = D_d'r_d/||r_d||; positive semi-definite, but blind to the residuals'
+    curvature, which matters with noisy data), and of least squares with weights a_d^2
+    (which reaches zero-residual data quadratically; with ``power`` 2 only this)."""
     floor = 1e-14 * np.array([np.linalg.norm(y) for y in prob.ys])
     grad, g_ls = np.zeros(6), np.zeros(6)
-    H_J, H_ls = np.zeros((6, 6)), np.zeros((6, 6))
-    for D, r, a, fl in zip(Ds, rs, prob.a, floor):
+    H_J, H_S, H_ls = np.zeros((6, 6)), np.zeros((6, 6)), np.zeros((6, 6))
+    for (r, D, S), a, fl in zip(_local_model(prob, p, free, lo, hi), prob.a, floor):
         wd = a / max(float(np.linalg.norm(r)), fl)
         DtD, Dr = D.T @ D, D.T @ r
         gd = Dr * (wd / a)
         grad += wd * Dr
         H_J += wd * (DtD - np.outer(gd, gd))
+        H_S += wd * S
         g_ls += a * a * Dr
-        H_ls += a * a * DtD
-    models = ((grad, H_J), (g_ls, H_ls)) if power == 1 else ((g_ls, H_ls),)
-    parts = [_lm_steps(H, g, p, lo, hi, free, scale, mu) for g, H in models]
-    return np.concatenate([s for s, _ in parts]), np.concatenate([m for _, m in parts])
+        H_ls += a * a * (DtD + S)
+    if power == 2:
+        return [(g_ls, H_ls)]
+    return [(grad, H_J + H_S), (grad, H_J), (g_ls, H_ls)]
+
+
+EXTRAPOLATE = (1.0, 3.0, 7.0)
+
+
+def _extrapolated(prob: LearnProblem, hist, lo, hi):
+    """Points further along the path of the last iterates in theta (linear and quadratic
+    extrapolation by ``EXTRAPOLATE`` steps), each with x = (kc, kphi, cc) the certified
+    inner minimum there: (P (K, 6), J (K,))."""
+    d1 = hist[-1] - hist[-2]
+    acc = d1 - (hist[-2] - hist[-3]) if len(hist) == 3 else np.zeros(3)
+    T = [hist[-1] + m * d1 for m in EXTRAPOLATE]
+    if len(hist) == 3:
+        T += [hist[-1] + m * d1 + 0.5 * m * (m + 1) * acc for m in EXTRAPOLATE]
+    T = np.clip(np.array(T), lo[3:], hi[3:])
+    sol = prob.solve_cells(T[:, 0], T[:, 1], T[:, 2], rtol=1e-9, max_iter=60)
+    P = np.concatenate([sol.x, T], axis=1)
+    return P, objectives(prob, P)
 
 
 def _descend(prob: LearnProblem, p, lo, hi, free, max_iter: int, power=1, tol=1e-14):
@@ -337,24 +399,43 @@ def _descend(prob: LearnProblem, p, lo, hi, free, max_iter: int, power=1, tol=1e
     J = float(objectives(prob, p[None], power)[0])
     zero = 1e-13 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
     nfev, done, mu = 1, False, 1e-3
+    hist: list[np.ndarray] = []
     for _ in range(max_iter):
         if J <= zero:  # zero residual: nothing left to gain
             done = True
             break
-        steps, lams = _directions(prob, p, lo, hi, free, scale, mu, power)
-        if steps.shape[0] == 0:
+        hist = (hist + [p[3:].copy()])[-3:]
+        if power == 1 and len(hist) >= 2:
+            E, Je = _extrapolated(prob, hist, lo, hi)
+            k = int(np.argmin(Je)) if Je.size else -1
+            if k >= 0 and Je[k] < J:
+                done = J - Je[k] <= tol * J
+                p, J = E[k], float(Je[k])
+                nfev += E.shape[0]
+                if done:
+                    break
+                continue
+        models = _models(prob, p, lo, hi, free, power)
+        for _ in range(4):  # no step gains: more damping (shorter steps) on the same models
+            parts = [_lm_steps(H, g, p, lo, hi, free, scale, mu) for g, H in models]
+            steps = np.concatenate([st for st, _ in parts])
+            lams = np.concatenate([lm for _, lm in parts])
+            if steps.shape[0] == 0:
+                break
+            P = np.clip(p + steps, lo, hi)
+            Jc = objectives(prob, P, power)
+            nfev += P.shape[0]
+            k = int(np.argmin(Jc))
+            if Jc[k] < J:
+                break
+            mu *= 4096.0
+        nfev += 1
+        if steps.shape[0] == 0 or not Jc[k] < J:
             done = True
             break
-        P = np.clip(p + steps, lo, hi)
-        Jc = objectives(prob, P, power)
-        nfev += 1 + P.shape[0]
-        k = int(np.argmin(Jc))
-        done = not (Jc[k] < J and J - Jc[k] > tol * J)
-        if Jc[k] < J:
-            mu = float(lams[k]) if lams[k] > 0 else max(mu / 64.0, 1e-12)
-            p, J = P[k], float(Jc[k])
-        else:
-            mu *= 4096.0
+        done = J - Jc[k] <= tol * J
+        mu = float(lams[k]) if lams[k] > 0 else max(mu / 64.0, 1e-12)
+        p, J = P[k], float(Jc[k])
         if done:
             break
     # values a hair from a bound go onto it when J does not rise
@@ -368,40 +449,31 @@ def _descend(prob: LearnProblem, p, lo, hi, free, max_iter: int, power=1, tol=1e
 
 
 def _segment(prob: LearnProblem, t: float) -> tuple[float, float]:
-    """The stretch (a, b] of log r_min between RM1 branch points that holds t, as bounds."""
-    ks = [k for k in branch_points(prob) if prob.theta_lo[2] < k < prob.theta_hi[2]]
+    """The stretch (a, b] of log r_min that holds t, as bounds: J is continuous in r_min
+    except where it passes the larger plate of the pair (above it the RM1 law is the
+    secant through both plates', section 3.2; at the cone's and the smaller plate's
+    radius the tangent meets Bekker's law with its slope)."""
+    r2 = [math.log(max(prob.pair))] if prob.model == "rm1" and prob.pair else []
+    ks = [k for k in r2 if prob.theta_lo[2] < k < prob.theta_hi[2]]
     edges = [float(prob.theta_lo[2])] + ks + [float(prob.theta_hi[2])]
     i = max(0, min(int(np.searchsorted(edges, t, side="left")) - 1, len(edges) - 2))
     a = edges[i] + (1e-9 if i > 0 else 0.0)  # at a branch point the law is the lower branch's
     return a, edges[i + 1]
 
 
-def _in_stretch(prob: LearnProblem, start, lo, hi, free, max_iter: int, first: int = 8):
-    """:func:`_descend` with log r_min in one stretch [lo[5], hi[5]] between branch points,
-    and the stretch's upper end (a branch point inside the range) searched with r_min
-    held on it when the search heads there: after ``first`` iterations if not converged
-    by then (the end is taken when J is lower there), and at the end.  (p, J, evaluations)."""
+def _in_stretch(prob: LearnProblem, start, lo, hi, free, max_iter: int):
+    """:func:`_descend` with log r_min in one stretch [lo[5], hi[5]], and the stretch's
+    upper end (a branch point inside the range) searched with r_min held on it when the
+    search heads there and ends on it or does not converge; the better is taken.
+    (p, J, evaluations)."""
     b = hi[5]
-    inner = b < prob.theta_hi[2]
-    held = free.copy()
-    held[5] = False
-
-    def at_end(q):
+    q, J, nfev, done = _descend(prob, start, lo, hi, free, max_iter)
+    if b < prob.theta_hi[2] and q[5] > start[5] and (q[5] >= b or not done):
+        held = free.copy()
+        held[5] = False
         e = q.copy()
         e[5] = b
-        return _descend(prob, e, lo, hi, held, max_iter)
-
-    q, J, nfev, done = _descend(prob, start, lo, hi, free, first)
-    if not done and inner and q[5] > start[5]:
-        e, Je, ne, _ = at_end(q)
-        nfev += ne
-        if Je < J:
-            return e, Je, nfev
-    if not done:
-        q, J, ne, done = _descend(prob, q, lo, hi, free, max_iter - first)
-        nfev += ne
-    if inner and q[5] > start[5] and (q[5] >= b or not done):
-        e, Je, ne, _ = at_end(q)
+        e, Je, ne, _ = _descend(prob, e, lo, hi, held, max_iter)
         nfev += ne
         if Je < J:
             return e, Je, nfev
@@ -409,19 +481,23 @@ def _in_stretch(prob: LearnProblem, start, lo, hi, free, max_iter: int, first: i
 
 
 def refine(
-    prob: LearnProblem, x0: np.ndarray, theta0: np.ndarray, *, max_iter: int = 40
+    prob: LearnProblem, x0: np.ndarray, theta0: np.ndarray, *, max_iter: int = 100
 ) -> Refined:
     """Minimise J jointly over (kc, kphi, cc, n, phic, log r_min) from a start, in the box.
 
-    Each iteration takes the residuals and their Jacobian at the current
-    point (one vectorised call of the design matrices) and three bounded
-    search directions (:func:`_directions`; each also with the variables it
-    pushes out of the box held on their bound); then J at every direction
-    times every step length of ``STEPS`` (one more vectorised call), and
-    moves to the candidate of least J.  Stops when no candidate lowers J by
-    1e-14 relative, on a zero-residual fit or after ``max_iter``
-    iterations.  Values within 1e-9 of their range from a bound then go
-    onto it when J does not rise.
+    First the least-squares cost sum_d a_d^2 ||r_d||^2 (Gauss-Newton: on
+    noise-free data it reaches J = 0 quadratically, where J itself is not
+    smooth; on noisy data it ends when an iteration gains less than 1e-3),
+    then J.  Each iteration takes the residuals and their Jacobian at the
+    current point (one vectorised call of the design matrices), the
+    Levenberg-Marquardt steps of Newton on J (Gauss-Newton Hessian) and of
+    least squares at six dampings each, every one the exact minimiser of its
+    quadratic model over the box (:func:`_lm_steps`), then the cost at all
+    of them (one more vectorised call), and moves to the candidate of least
+    cost; the damping adapts to the one taken.  Stops when no candidate
+    lowers the cost by 1e-14 relative, on a zero-residual fit or after
+    ``max_iter`` iterations.  Values within 1e-9 of their range from a
+    bound then go onto it when J does not rise.
 
     RM1 changes branch where r_min crosses a cone or plate radius (section
     3.2) and J jumps there, so log r_min is held within the stretch between
@@ -438,7 +514,7 @@ def refine(
     p = np.clip(np.concatenate([x0, theta0]), lo, hi)
     # least squares first (weights a_d^2): zero-residual data are reached quadratically; on
     # noisy data it is a start for J, so it ends when an iteration gains less than 1e-3
-    p, _, nfev, _ = _descend(prob, p, lo, hi, free, max_iter, power=2, tol=1e-3)
+    p, _, nfev, _ = _descend(prob, p, lo, hi, free, max_iter, power=2, tol=LS_TOL)
     if not rm1:
         p, J, ne, _ = _descend(prob, p, lo, hi, free, max_iter)
         return Refined(p[:3].copy(), p[3:].copy(), J, nfev + ne)

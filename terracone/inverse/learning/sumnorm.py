@@ -193,31 +193,9 @@ def sum_norm_box_reference(
     rtol: float = 1e-7,
     max_iter: int = 200,
 ) -> SumNormResult:
-    """:func:`sum_norm_box` in numpy (the reference of the compiled kernel).
-
-    Parameters
-    ----------
-    G : (D, S..., 3, 3) ndarray
-        X_d' X_d per data set and cell.
-    g : (D, S..., 3) ndarray
-        X_d' y_d.
-    yy : (D, S...) ndarray
-        y_d' y_d.
-    a : (D,) ndarray
-        Data-set weights a_d > 0.
-    lo, hi : (S..., 3) ndarray
-        Bounds of x (lo == hi fixes a variable).
-    rtol : float
-        Stop when the duality gap is below rtol * sum_d a_d ||y_d|| in every
-        cell (the scale of J), or when a cell's J is at the Gram resolution.
-    max_iter : int
-        Most reweighting steps.
-
-    Returns
-    -------
-    SumNormResult
-        With ``gap`` the certified distance of J from the cell's minimum.
-    """
+    """:func:`sum_norm_box` in numpy, all cells at once: the reference of the compiled
+    kernel :func:`terracone.inverse.learning.kernels.sum_norm_cells` (same parameters,
+    same result to rounding)."""
     a = np.asarray(a, float)
     scale = np.einsum("d,d...->...", a, np.sqrt(yy))  # sum a_d ||y_d||
     tol = rtol * scale
