@@ -282,6 +282,8 @@ def _local_model(prob: LearnProblem, p: np.ndarray, free: np.ndarray, lo, hi):
     return out
 
 
+#: relative gain below which the least-squares start of :func:`refine` ends (on noisy
+#: data it is only a start for J; on noise-free data it converges quadratically)
 LS_TOL = 1e-3
 
 #: Levenberg-Marquardt dampings of every iteration of :func:`refine`, times the last
@@ -372,6 +374,7 @@ def _models(prob: LearnProblem, p, lo, hi, free, power: int = 1) -> list[tuple]:
     return [(grad, H_J + H_S), (grad, H_J), (g_ls, H_ls)]
 
 
+#: steps of the extrapolation along the last iterates of :func:`refine` (long flat valleys)
 EXTRAPOLATE = (1.0, 3.0, 7.0)
 
 
@@ -487,25 +490,29 @@ def refine(
 
     First the least-squares cost sum_d a_d^2 ||r_d||^2 (Gauss-Newton: on
     noise-free data it reaches J = 0 quadratically, where J itself is not
-    smooth; on noisy data it ends when an iteration gains less than 1e-3),
-    then J.  Each iteration takes the residuals and their Jacobian at the
-    current point (one vectorised call of the design matrices), the
-    Levenberg-Marquardt steps of Newton on J (Gauss-Newton Hessian) and of
-    least squares at six dampings each, every one the exact minimiser of its
-    quadratic model over the box (:func:`_lm_steps`), then the cost at all
-    of them (one more vectorised call), and moves to the candidate of least
-    cost; the damping adapts to the one taken.  Stops when no candidate
-    lowers the cost by 1e-14 relative, on a zero-residual fit or after
-    ``max_iter`` iterations.  Values within 1e-9 of their range from a
-    bound then go onto it when J does not rise.
+    smooth; on noisy data it ends when an iteration gains less than
+    ``LS_TOL``), then J.  Each iteration first tries points further along
+    the path of the last iterates in theta (:func:`_extrapolated`, x
+    re-solved there: noisy RM1 data often leave a long, flat, curved valley
+    in (phic, cc, r_min) that Newton steps follow only slowly) and moves to
+    the best if it lowers J; else it takes the residuals, their Jacobian and
+    second differences at the current point (one vectorised call of the
+    design matrices), the Levenberg-Marquardt steps of three quadratic
+    models (:func:`_models`: J with its Hessian, J with its Gauss-Newton
+    part, least squares) at six dampings each, every one the exact minimiser
+    of its model over the box (:func:`_lm_steps`), then the cost at all of
+    them (one more vectorised call), and moves to the candidate of least
+    cost (the damping adapts to it; when none gains, more damping on the
+    same models).  Stops when the cost falls by less than 1e-14 relative, on
+    a zero-residual fit or after ``max_iter`` iterations.  Values within
+    1e-9 of their range from a bound then go onto it when J does not rise.
 
-    RM1 changes branch where r_min crosses a cone or plate radius (section
-    3.2) and J jumps there, so log r_min is held within the stretch between
-    branch points that holds the start, where J is smooth.  When the search
-    there heads for a branch point (r_min moved towards it and either ends
-    on it or has not converged), the branch point itself is searched with
-    r_min held on it, and the stretch beyond it from there, and so on while
-    J falls.
+    J jumps where r_min passes the larger plate (above it the RM1 law is the
+    secant of section 3.2, and J no longer depends on r_min), so log r_min
+    is held on the side of it that holds the start (:func:`_segment`).  When
+    the search heads for the larger plate, r_min held on it is searched too
+    (on noisy data the best fit often sits there), and the other side from
+    there, while J falls.
     """
     lo, hi, free = _search_box(prob, theta0)
     rm1 = prob.model == "rm1" and bool(free[5])
