@@ -28,7 +28,7 @@ Run:  .venv/bin/python benchmarks/learn.py [--sites K] [--seed S] [--json OUT]
 Prints one line per site (regime, truth r_min, learn's time, DE's, their ratio,
 J of each by the forward models, learn's certificate gap relative to J) and
 the median ratio.  The sites of ``--seed`` 23 (the default) were not used while
-tuning learn (that used ``--seed 7``): they are held out.
+tuning learn (that used the sites of seeds 7, 8 and 9): they are held out.
 """
 
 from __future__ import annotations
