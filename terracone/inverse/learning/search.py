@@ -41,6 +41,7 @@ __all__ = [
     "certify",
     "Cells",
     "jacobians",
+    "objectives",
     "polish",
     "LearnProblem",
     "GridStage",
