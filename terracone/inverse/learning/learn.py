@@ -474,11 +474,11 @@ def _search(prob: LearnProblem, grid, starts: int, certify_levels: int, target: 
     stage = grid_stage(prob, grid)
     nfev = int(stage.cells.J.size)
     zero = 1e-12 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
-    # every start gets two rounds; only the best is refined to convergence
+    # every start is refined to convergence; the best is polished
     best = None
     for idx in grid_starts(stage, starts):
         theta = np.array([stage.axes[k][idx[k]] for k in range(3)])
-        r = refine(prob, stage.cells.x[idx], theta, rounds=2)
+        r = refine(prob, stage.cells.x[idx], theta)
         nfev += r.nfev
         # ties (equal J to 1e-12 relative) keep the earlier, better-ranked grid start
         if best is None or r.J < best.J * (1 - 1e-12) - 1e-300:
@@ -486,9 +486,6 @@ def _search(prob: LearnProblem, grid, starts: int, certify_levels: int, target: 
         if best.J <= zero:  # J >= 0: a zero-residual fit is the global minimum
             break
     if best.J > zero:
-        r = refine(prob, best.x, best.theta, rounds=12, reweight_first=True)
-        nfev += r.nfev
-        best = r if r.J < best.J else best
         best = polish(prob, best.x, best.theta)
     if best.J <= zero:  # J >= 0 certifies an exact fit
         lower, n_cells, n_cert = 0.0, 0, 0

@@ -5,10 +5,12 @@ J(kc, kphi, n, cc, phic, r_min) = sum_d RMSD_d / mean_d over data sets d
 J is convex in x = (kc, kphi, cc) and is minimised with a certificate by
 :func:`terracone.inverse.learning.sumnorm.sum_norm_box`.  theta is searched on a
 vectorised grid (n, phic, log r_min); the best grid points that are local
-minima start a joint Gauss-Newton refinement of all six parameters
-(reweighted least squares, so that it minimises J itself and reaches J = 0
-on noise-free data), and the grid gives a bound on how far the answer can
-be from the global minimum.
+minima start a joint refinement of all six parameters (:func:`refine`: least
+squares first, which reaches J = 0 on noise-free data, then
+Levenberg-Marquardt steps on J itself, every candidate step of an iteration
+evaluated in one vectorised call), and the grid with a branch and bound
+(:func:`certify`) gives a bound on how far the answer can be from the global
+minimum.
 
 References
 ----------
@@ -24,13 +26,14 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import minimum_filter
-from scipy.optimize import least_squares
 
 from terracone.data import CIProfile, PlateTest
 from terracone.inverse.bounds import Bounds
+from terracone.inverse.learning.kernels import cone_columns
 from terracone.inverse.learning.sumnorm import SumNormResult, sum_norm_box
 from terracone.inverse.solver.boxlsq import gram
 from terracone.inverse.solver.columns import design
+from terracone.jit import enabled
 from terracone.physics.plate import plate_basis, pressure_law
 
 __all__ = [
@@ -38,6 +41,7 @@ __all__ = [
     "certify",
     "Cells",
     "jacobians",
+    "objectives",
     "polish",
     "LearnProblem",
     "GridStage",
@@ -86,6 +90,9 @@ class LearnProblem:
         law = self.law(log_rm[..., None])
         out = []
         for p in self.profiles:
+            if self.K_cone is None and enabled():
+                out.append(self._cone_design(p, n, phi, law))
+                continue
             X = design(
                 p.depth, n[..., None], phi[..., None], cone=p.cone, law=law, K_cone=self.K_cone
             )
@@ -95,6 +102,23 @@ class LearnProblem:
             A, B = np.broadcast_arrays(A, B)
             out.append(np.stack([A, B, np.zeros_like(A)], axis=-1))
         return out
+
+    @staticmethod
+    def _cone_design(p: CIProfile, n, phi, law) -> np.ndarray:
+        """X of one CI profile at points of one shape S (fully mobilised shear), compiled:
+        (S..., Z, 3), as :func:`terracone.inverse.solver.columns.design`."""
+        coef = [np.broadcast_to(c, n.shape + (1,)).reshape(-1) for c in law.coefficients()]
+        A, B, C = cone_columns(
+            np.ascontiguousarray(p.depth, dtype=float),
+            np.ascontiguousarray(n, dtype=float).reshape(-1),
+            p.cone.height,
+            p.cone.radius,
+            not law.is_rm0,
+            *(np.ascontiguousarray(c, dtype=float) for c in coef),
+        )
+        # eq. (2-6) fully mobilised: phic only scales the kc and kphi columns
+        s = (1.0 + np.tan(np.radians(phi)) / math.tan(p.cone.half_angle)).reshape(-1, 1)
+        return np.stack([s * A, s * B, C], axis=-1).reshape(n.shape + (p.depth.size, 3))
 
     def grams(self, n, phi, log_rm):
         Gs, gs, yys = [], [], []
@@ -166,7 +190,7 @@ def grid_starts(stage: GridStage, count: int) -> list[tuple[int, ...]]:
 
 @dataclass
 class Refined:
-    """A locally refined point: x = (kc, kphi, cc), theta, J and Jacobian data."""
+    """A locally refined point: x = (kc, kphi, cc), theta, J and the cost evaluations."""
 
     x: np.ndarray
     theta: np.ndarray
@@ -174,129 +198,355 @@ class Refined:
     nfev: int
 
 
-def _pack(prob, x, theta, free_x, free_t):
-    return np.concatenate([x[free_x], theta[free_t]])
+def _search_box(prob: LearnProblem, theta0: np.ndarray):
+    """Bounds (lo, hi) of p = (kc, kphi, cc, n, phic, log r_min) and the free mask."""
+    lo_x, hi_x = prob.box(np.asarray(theta0[0]))
+    lo = np.concatenate([lo_x, prob.theta_lo])
+    hi = np.concatenate([hi_x, prob.theta_hi])
+    free = hi > lo
+    if prob.model == "rm0":
+        free[5] = False
+    return lo, hi, free
 
 
-def _irls_weights(prob: LearnProblem, x, theta) -> np.ndarray:
-    """sqrt(a_d / ||r_d||): sum_d w_d ||r_d||^2 majorises J at (x, theta)."""
-    norms = np.array([np.linalg.norm(r) for r in prob.residuals(x, theta)])
+def objectives(prob: LearnProblem, P: np.ndarray, power: int = 1) -> np.ndarray:
+    """J = sum_d a_d ||r_d|| at many points P (K, 6) = (kc, kphi, cc, n, phic, log r_min),
+    in one vectorised call; with ``power`` 2 the least-squares cost sum_d a_d^2 ||r_d||^2."""
+    Xs = prob.designs(P[:, 3], P[:, 4], P[:, 5])
+    J = np.zeros(P.shape[0])
+    for X, y, a in zip(Xs, prob.ys, prob.a):
+        r = np.einsum("kij,kj->ki", X, P[:, :3]) - y
+        rr = np.einsum("ki,ki->k", r, r)
+        J += a * np.sqrt(rr) if power == 1 else a * a * rr
+    return J
+
+
+def _stencil(th: np.ndarray, free: np.ndarray, lo, hi):
+    """theta points of :func:`_local_model`'s central differences: (T, 3), the axes
+    differenced, their steps and the side of a one-sided log r_min difference (or 0).
+
+    Steps are 1e-4 relative (about the fourth root of the rounding unit, for
+    second differences).  log r_min within a step of its stretch's ends (RM1
+    branch points, where J jumps) is not differenced across them: it gets a
+    one-sided first difference of 1e-6 instead.
+    """
+    h = 1e-4 * np.maximum(1.0, np.abs(th))
+    ks = [k for k in range(3) if free[3 + k]]
+    side = 0.0
+    if 2 in ks and not (lo[5] + h[2] <= th[2] <= hi[5] - h[2]):
+        ks.remove(2)
+        side = -1.0 if th[2] + h[2] > hi[5] else 1.0
+    pts = [th.copy()]
+    for k in ks:
+        for sgn in (1.0, -1.0):
+            pts.append(th.copy())
+            pts[-1][k] += sgn * h[k]
+    for i, k in enumerate(ks):
+        for m in ks[i + 1 :]:
+            for sk, sm in ((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)):
+                pts.append(th.copy())
+                pts[-1][k] += sk * h[k]
+                pts[-1][m] += sm * h[m]
+    if side:
+        pts.append(th.copy())
+        pts[-1][2] += side * 1e-6 * max(1.0, abs(th[2]))
+    return np.array(pts), ks, h, side
+
+
+def _local_model(prob: LearnProblem, p: np.ndarray, free: np.ndarray, lo, hi):
+    """Residuals r_d, Jacobians D_d (N_d, 6) and second-order terms S_d = sum_i r_di
+    Hess(r_di) (6, 6) at p, by central differences in theta (:func:`_stencil`), all
+    design matrices in one vectorised call.  r is linear in x = (kc, kphi, cc), so S_d
+    has only its theta-x and theta-theta blocks."""
+    x, th = p[:3], p[3:]
+    T, ks, h, side = _stencil(th, free, lo, hi)
+    out = []
+    for X, y in zip(prob.designs(T[:, 0], T[:, 1], T[:, 2]), prob.ys):
+        r = X[0] @ x - y
+        D, S = np.zeros((y.size, 6)), np.zeros((6, 6))
+        D[:, :3] = X[0]
+        for i, k in enumerate(ks):
+            up, down = X[1 + 2 * i], X[2 + 2 * i]
+            dX = (up - down) / (2.0 * h[k])
+            D[:, 3 + k] = dX @ x
+            S[:3, 3 + k] = S[3 + k, :3] = dX.T @ r
+            S[3 + k, 3 + k] = r @ ((up - 2.0 * X[0] + down) @ x) / h[k] ** 2
+        j = 1 + 2 * len(ks)
+        for i, k in enumerate(ks):
+            for m in ks[i + 1 :]:
+                d2 = (X[j] - X[j + 1] - X[j + 2] + X[j + 3]) @ x / (4.0 * h[k] * h[m])
+                S[3 + k, 3 + m] = S[3 + m, 3 + k] = r @ d2
+                j += 4
+        if side:
+            D[:, 5] = (X[-1] - X[0]) @ x / (T[-1, 2] - th[2])
+        out.append((r, D, S))
+    return out
+
+
+#: relative gain below which the least-squares start of :func:`refine` ends (on noisy
+#: data it is only a start for J; on noise-free data it converges quadratically)
+LS_TOL = 1e-3
+
+#: Levenberg-Marquardt dampings of every iteration of :func:`refine`, times the last
+#: accepted damping (and no damping: Newton's step)
+DAMPINGS = (1.0 / 64.0, 1.0 / 8.0, 1.0, 8.0, 64.0)
+
+
+def _box_qp(A, g, ls, us, free) -> np.ndarray:
+    """Minimiser s of g's + s'As/2 over ls <= s <= us (ls <= 0 <= us; s = 0 where not
+    ``free``), by an active set: the free variables solved by Newton (pseudo-inverse),
+    those it takes out of the box held on the bound they cross, held ones released when
+    their multiplier says the model falls inwards; at most 12 rounds."""
+    at_lo = free & (ls >= 0) & (g > 0)
+    at_hi = free & (us <= 0) & (g < 0)
+    s = np.zeros(g.size)
+    for _ in range(12):
+        s[:] = 0.0
+        s[at_lo], s[at_hi] = ls[at_lo], us[at_hi]
+        F = free & ~at_lo & ~at_hi
+        if F.any():
+            e, V = np.linalg.eigh(A[np.ix_(F, F)])
+            tiny = 1e-13 * max(float(np.abs(e).max()), 1e-300)
+            rhs = V.T @ (g[F] + A[np.ix_(F, ~F)] @ s[~F])
+            s[F] = -(V @ np.where(e > tiny, rhs / np.where(e > tiny, e, 1.0), 0.0))
+        out_lo, out_hi = F & (s < ls), F & (s > us)
+        if out_lo.any() or out_hi.any():
+            at_lo, at_hi = at_lo | out_lo, at_hi | out_hi
+            continue
+        m = g + A @ s  # the model's gradient: inwards on a held variable, release it
+        wrong = np.where((at_lo & (m < 0)) | (at_hi & (m > 0)), np.abs(m), 0.0)
+        if not wrong.any():
+            break
+        k = int(np.argmax(wrong))
+        at_lo[k] = at_hi[k] = False
+    return np.clip(s, ls, us)
+
+
+def _lm_steps(H, g, p, lo, hi, free, scale, mu: float):
+    """Levenberg-Marquardt steps: minimisers of the model g's + s'(H + lambda m I)s/2 over the
+    box (:func:`_box_qp`) in variables scaled by ``scale`` (m the mean curvature,
+    lambda = 0 and ``mu`` times ``DAMPINGS``): (steps (L, 6), their lambda)."""
+    if not free.any():
+        return np.zeros((0, 6)), np.zeros(0)
+    Hs, gs = H * np.outer(scale, scale), g * scale
+    ls, us = (lo - p) / scale, (hi - p) / scale
+    m = max(float(np.trace(Hs[np.ix_(free, free)])) / int(free.sum()), 1e-300)
+    lams = np.array([0.0] + [mu * k for k in DAMPINGS])
+    # all dampings at once on the free set of the start (one eigen-decomposition); those
+    # whose step leaves the box, or pushes a held variable, go through the active set
+    f = free & ~(((ls >= 0) & (gs > 0)) | ((us <= 0) & (gs < 0)))
+    S = np.zeros((lams.size, 6))
+    if f.any():
+        e, V = np.linalg.eigh(Hs[np.ix_(f, f)])
+        tiny = 1e-13 * max(float(np.abs(e).max()), 1e-300)
+        d = e[None, :] + (lams * m)[:, None]
+        ok = d > tiny
+        S[:, f] = -(np.where(ok, (V.T @ gs[f]) / np.where(ok, d, 1.0), 0.0) @ V.T)
+    grad = gs + S @ Hs + (lams * m)[:, None] * S  # the model's gradient at each step
+    held = free & ~f
+    bad = np.any((S < ls) | (S > us), axis=1) | np.any(
+        held & (((ls >= 0) & (grad < 0)) | ((us <= 0) & (grad > 0))), axis=1
+    )
+    for i in np.flatnonzero(bad):
+        S[i] = _box_qp(Hs + lams[i] * m * np.eye(6), gs, ls, us, free)
+    return S * scale, lams
+
+
+def _models(prob: LearnProblem, p, lo, hi, free, power: int = 1) -> list[tuple]:
+    """Quadratic models (gradient, Hessian) at p: of J with its Hessian and with its
+    Gauss-Newton part sum_d w_d (D_d'D_d - g_d g_d') (w_d = a_d/||r_d||,
+    g_d = D_d'r_d/||r_d||; positive semi-definite, but blind to the residuals'
+    curvature, which matters with noisy data), and of least squares with weights a_d^2
+    (which reaches zero-residual data quadratically; with ``power`` 2 only this)."""
     floor = 1e-14 * np.array([np.linalg.norm(y) for y in prob.ys])
-    return np.sqrt(prob.a / np.maximum(norms, floor))
+    grad, g_ls = np.zeros(6), np.zeros(6)
+    H_J, H_S, H_ls = np.zeros((6, 6)), np.zeros((6, 6)), np.zeros((6, 6))
+    for (r, D, S), a, fl in zip(_local_model(prob, p, free, lo, hi), prob.a, floor):
+        wd = a / max(float(np.linalg.norm(r)), fl)
+        DtD, Dr = D.T @ D, D.T @ r
+        gd = Dr * (wd / a)
+        grad += wd * Dr
+        H_J += wd * (DtD - np.outer(gd, gd))
+        H_S += wd * S
+        g_ls += a * a * Dr
+        H_ls += a * a * (DtD + S)
+    if power == 2:
+        return [(g_ls, H_ls)]
+    return [(grad, H_J + H_S), (grad, H_J), (g_ls, H_ls)]
 
 
-class _Space:
-    """The free variables of :func:`refine` packed in one vector p, with residuals and Jacobian."""
+#: steps of the extrapolation along the last iterates of :func:`refine` (long flat valleys)
+EXTRAPOLATE = (1.0, 3.0, 7.0)
 
-    def __init__(self, prob: LearnProblem, theta0: np.ndarray) -> None:
-        self.prob = prob
-        self.theta0 = np.asarray(theta0, float)
-        self.lo_x, hi_x = prob.box(np.asarray(theta0[0]))
-        self.free_x = hi_x > self.lo_x
-        self.free_t = prob.theta_hi > prob.theta_lo
-        if prob.model == "rm0":
-            self.free_t[2] = False
-        self.lo = np.concatenate([self.lo_x[self.free_x], prob.theta_lo[self.free_t]])
-        self.hi = np.concatenate([hi_x[self.free_x], prob.theta_hi[self.free_t]])
-        self.nx = int(self.free_x.sum())
-        self.nfev = 0
 
-    def unpack(self, p):
-        x = self.lo_x.copy()
-        x[self.free_x] = p[: self.nx]
-        th = self.theta0.copy()
-        th[self.free_t] = p[self.nx :]
-        return x, th
+def _extrapolated(prob: LearnProblem, hist, lo, hi):
+    """Points further along the path of the last iterates in theta (linear and quadratic
+    extrapolation by ``EXTRAPOLATE`` steps), each with x = (kc, kphi, cc) the certified
+    inner minimum there: (P (K, 6), J (K,))."""
+    d1 = hist[-1] - hist[-2]
+    acc = d1 - (hist[-2] - hist[-3]) if len(hist) == 3 else np.zeros(3)
+    T = [hist[-1] + m * d1 for m in EXTRAPOLATE]
+    if len(hist) == 3:
+        T += [hist[-1] + m * d1 + 0.5 * m * (m + 1) * acc for m in EXTRAPOLATE]
+    T = np.clip(np.array(T), lo[3:], hi[3:])
+    sol = prob.solve_cells(T[:, 0], T[:, 1], T[:, 2], rtol=1e-9, max_iter=60)
+    P = np.concatenate([sol.x, T], axis=1)
+    return P, objectives(prob, P)
 
-    def fun(self, p, sw):
-        self.nfev += 1
-        x, th = self.unpack(p)
-        return np.concatenate([s * r for s, r in zip(sw, self.prob.residuals(x, th))])
 
-    def jac(self, p, sw):
-        prob = self.prob
-        x, th = self.unpack(p)
-        ks = np.flatnonzero(self.free_t)
-        T = np.repeat(th[None, :], 1 + 2 * ks.size, axis=0)
-        for j, k in enumerate(ks):  # central differences, all points in one vectorised call
-            h = 1e-6 * max(1.0, abs(th[k]))
-            T[1 + 2 * j, k] = min(th[k] + h, prob.theta_hi[k])
-            T[2 + 2 * j, k] = max(th[k] - h, prob.theta_lo[k])
-        Xs = prob.designs(T[:, 0], T[:, 1], T[:, 2])  # (T, N_d, 3) each
-        cols = [np.concatenate([s * X[0][:, self.free_x] for s, X in zip(sw, Xs)])]
-        for j, k in enumerate(ks):
-            dt = T[1 + 2 * j, k] - T[2 + 2 * j, k]
-            cols.append(
-                np.concatenate(
-                    [s * ((X[1 + 2 * j] - X[2 + 2 * j]) @ x) / dt for s, X in zip(sw, Xs)]
-                )[:, None]
-            )
-        return np.hstack(cols)
+def _descend(prob: LearnProblem, p, lo, hi, free, max_iter: int, power=1, tol=1e-14):
+    """The iteration of :func:`refine` in one box: (p, J, evaluations, converged).
 
-    def snap(self, p, J, zero):
-        """Values within 1e-9 of their range from a bound go onto it when J does not rise: the
-        trust region stays strictly inside, the answer should not depend on how far."""
-        lo, hi = self.lo, self.hi
-        q = p.copy()
-        near_lo, near_hi = q - lo <= 1e-9 * (hi - lo), hi - q <= 1e-9 * (hi - lo)
-        q[near_lo], q[near_hi] = lo[near_lo], hi[near_hi]
-        Jq = self.prob.objective(*self.unpack(q))
-        return (q, Jq) if Jq <= J * (1 + 1e-12) + zero * 1e-3 else (p, J)
+    ``power`` 2 minimises the least-squares cost instead of J (and returns it); ``tol``
+    is the relative fall of the cost below which an iteration ends the search."""
+    scale = np.maximum(np.abs(p), np.where(hi > lo, hi - lo, 1.0) * 1e-3)
+    J = float(objectives(prob, p[None], power)[0])
+    zero = 1e-13 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
+    nfev, done, mu = 1, False, 1e-3
+    hist: list[np.ndarray] = []
+    for _ in range(max_iter):
+        if J <= zero:  # zero residual: nothing left to gain
+            done = True
+            break
+        hist = (hist + [p[3:].copy()])[-3:]
+        if power == 1 and len(hist) >= 2:
+            E, Je = _extrapolated(prob, hist, lo, hi)
+            k = int(np.argmin(Je)) if Je.size else -1
+            if k >= 0 and Je[k] < J:
+                done = J - Je[k] <= tol * J
+                p, J = E[k], float(Je[k])
+                nfev += E.shape[0]
+                if done:
+                    break
+                continue
+        models = _models(prob, p, lo, hi, free, power)
+        for _ in range(4):  # no step gains: more damping (shorter steps) on the same models
+            parts = [_lm_steps(H, g, p, lo, hi, free, scale, mu) for g, H in models]
+            steps = np.concatenate([st for st, _ in parts])
+            lams = np.concatenate([lm for _, lm in parts])
+            if steps.shape[0] == 0:
+                break
+            P = np.clip(p + steps, lo, hi)
+            Jc = objectives(prob, P, power)
+            nfev += P.shape[0]
+            k = int(np.argmin(Jc))
+            if Jc[k] < J:
+                break
+            mu *= 4096.0
+        nfev += 1
+        if steps.shape[0] == 0 or not Jc[k] < J:
+            done = True
+            break
+        done = J - Jc[k] <= tol * J
+        mu = float(lams[k]) if lams[k] > 0 else max(mu / 64.0, 1e-12)
+        p, J = P[k], float(Jc[k])
+        if done:
+            break
+    # values a hair from a bound go onto it when J does not rise
+    q = p.copy()
+    near_lo, near_hi = q - lo <= 1e-9 * (hi - lo), hi - q <= 1e-9 * (hi - lo)
+    q[near_lo], q[near_hi] = lo[near_lo], hi[near_hi]
+    Jq = float(objectives(prob, q[None], power)[0])
+    if Jq <= J * (1 + 1e-12) + zero * 1e-3:
+        p, J = q, Jq
+    return p, J, nfev + 1, done
+
+
+def _segment(prob: LearnProblem, t: float) -> tuple[float, float]:
+    """The stretch (a, b] of log r_min that holds t, as bounds: J is continuous in r_min
+    except where it passes the larger plate of the pair (above it the RM1 law is the
+    secant through both plates', section 3.2; at the cone's and the smaller plate's
+    radius the tangent meets Bekker's law with its slope)."""
+    r2 = [math.log(max(prob.pair))] if prob.model == "rm1" and prob.pair else []
+    ks = [k for k in r2 if prob.theta_lo[2] < k < prob.theta_hi[2]]
+    edges = [float(prob.theta_lo[2])] + ks + [float(prob.theta_hi[2])]
+    i = max(0, min(int(np.searchsorted(edges, t, side="left")) - 1, len(edges) - 2))
+    a = edges[i] + (1e-9 if i > 0 else 0.0)  # at a branch point the law is the lower branch's
+    return a, edges[i + 1]
+
+
+def _in_stretch(prob: LearnProblem, start, lo, hi, free, max_iter: int):
+    """:func:`_descend` with log r_min in one stretch [lo[5], hi[5]], and the stretch's
+    upper end (a branch point inside the range) searched with r_min held on it when the
+    search heads there and ends on it or does not converge; the better is taken.
+    (p, J, evaluations)."""
+    b = hi[5]
+    q, J, nfev, done = _descend(prob, start, lo, hi, free, max_iter)
+    if b < prob.theta_hi[2] and q[5] > start[5] and (q[5] >= b or not done):
+        held = free.copy()
+        held[5] = False
+        e = q.copy()
+        e[5] = b
+        e, Je, ne, _ = _descend(prob, e, lo, hi, held, max_iter)
+        nfev += ne
+        if Je < J:
+            return e, Je, nfev
+    return q, J, nfev
 
 
 def refine(
-    prob: LearnProblem,
-    x0: np.ndarray,
-    theta0: np.ndarray,
-    *,
-    rounds: int = 12,
-    reweight_first: bool = False,
+    prob: LearnProblem, x0: np.ndarray, theta0: np.ndarray, *, max_iter: int = 100
 ) -> Refined:
-    """Minimise J jointly over (kc, kphi, cc, n, phic, log r_min) from a start.
+    """Minimise J jointly over (kc, kphi, cc, n, phic, log r_min) from a start, in the box.
 
-    Reweighted Gauss-Newton (trust-region reflective, bounded): each round
-    minimises sum_d w_d ||r_d||^2 with w_d = a_d / ||r_d|| at the current
-    point (a majoriser of J), the first round with w_d = a_d^2 (unless
-    ``reweight_first``, to continue an earlier refinement) so that
-    zero-residual data are reached quadratically.  Stops when J no longer
-    falls by 1e-12 relative.
+    First the least-squares cost sum_d a_d^2 ||r_d||^2 (Gauss-Newton: on
+    noise-free data it reaches J = 0 quadratically, where J itself is not
+    smooth; on noisy data it ends when an iteration gains less than
+    ``LS_TOL``), then J.  Each iteration first tries points further along
+    the path of the last iterates in theta (:func:`_extrapolated`, x
+    re-solved there: noisy RM1 data often leave a long, flat, curved valley
+    in (phic, cc, r_min) that Newton steps follow only slowly) and moves to
+    the best if it lowers J; else it takes the residuals, their Jacobian and
+    second differences at the current point (one vectorised call of the
+    design matrices), the Levenberg-Marquardt steps of three quadratic
+    models (:func:`_models`: J with its Hessian, J with its Gauss-Newton
+    part, least squares) at six dampings each, every one the exact minimiser
+    of its model over the box (:func:`_lm_steps`), then the cost at all of
+    them (one more vectorised call), and moves to the candidate of least
+    cost (the damping adapts to it; when none gains, more damping on the
+    same models).  Stops when the cost falls by less than 1e-14 relative, on
+    a zero-residual fit or after ``max_iter`` iterations.  Values within
+    1e-9 of their range from a bound then go onto it when J does not rise.
+
+    J jumps where r_min passes the larger plate (above it the RM1 law is the
+    secant of section 3.2, and J no longer depends on r_min), so log r_min
+    is held on the side of it that holds the start (:func:`_segment`).  When
+    the search heads for the larger plate, r_min held on it is searched too
+    (on noisy data the best fit often sits there), and the other side from
+    there, while J falls.
     """
-    sp = _Space(prob, theta0)
-    lo, hi = sp.lo, sp.hi
-    p = np.clip(_pack(prob, x0, sp.theta0, sp.free_x, sp.free_t), lo, hi)
-    J = prob.objective(*sp.unpack(p))
-    sw = prob.a.copy()
-    if reweight_first:
-        sw = _irls_weights(prob, *sp.unpack(p))
-    zero = 1e-13 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
-    for _ in range(rounds):
-        if J <= zero:  # zero residual: nothing left to gain
+    lo, hi, free = _search_box(prob, theta0)
+    rm1 = prob.model == "rm1" and bool(free[5])
+    if rm1:
+        lo[5], hi[5] = _segment(prob, float(theta0[2]))
+    p = np.clip(np.concatenate([x0, theta0]), lo, hi)
+    # least squares first (weights a_d^2): zero-residual data are reached quadratically; on
+    # noisy data it is a start for J, so it ends when an iteration gains less than 1e-3
+    p, _, nfev, _ = _descend(prob, p, lo, hi, free, max_iter, power=2, tol=LS_TOL)
+    if not rm1:
+        p, J, ne, _ = _descend(prob, p, lo, hi, free, max_iter)
+        return Refined(p[:3].copy(), p[3:].copy(), J, nfev + ne)
+    best, seen = None, set()
+    while True:
+        a, b = _segment(prob, float(p[5]))
+        seen.add(a)
+        lo[5], hi[5] = a, b
+        q, J, ne = _in_stretch(prob, np.clip(p, lo, hi), lo, hi, free, max_iter)
+        nfev += ne
+        if best is not None and not J < best[1]:
             break
-        res = least_squares(
-            sp.fun,
-            p,
-            jac=sp.jac,
-            bounds=(lo, hi),
-            args=(sw,),
-            method="trf",
-            x_scale="jac",
-            xtol=1e-12,
-            ftol=1e-12,
-            gtol=1e-12,
-            max_nfev=40,
-        )
-        J_new = prob.objective(*sp.unpack(res.x))
-        if J_new < J:
-            improved = J - J_new > 1e-12 * J
-            p, J = res.x, J_new
-            if not improved:
-                break
+        best = (q, J)
+        # on a branch point: go on into the stretch beyond it
+        if q[5] >= b and b < prob.theta_hi[2] and _segment(prob, b + 2e-9)[0] not in seen:
+            p = q.copy()
+            p[5] = b + 2e-9
+        elif q[5] <= a and a > prob.theta_lo[2] and _segment(prob, a - 2e-9)[0] not in seen:
+            p = q.copy()
+            p[5] = a - 1e-9
         else:
             break
-        sw = _irls_weights(prob, *sp.unpack(p))
-    p, J = sp.snap(p, J, zero)
-    x, th = sp.unpack(p)
-    return Refined(x, th, J, sp.nfev)
+    q, J = best
+    return Refined(q[:3].copy(), q[3:].copy(), J, nfev)
 
 
 def jacobians(prob: LearnProblem, x, theta) -> list[np.ndarray]:
@@ -616,16 +866,20 @@ def certify(
 
 def _halve(prob: LearnProblem, c: Cells, k: int, rtol: float) -> tuple[Cells, int]:
     """Halve cells along axis k: solve the 4 midpoints of the edges along k (the
-    corners are known), the new curvature along k from the 3 points of each edge."""
+    corners are known; each distinct point once), the new curvature along k from the
+    3 points of each edge."""
     mid = 0.5 * (c.lo[:, k] + c.hi[:, k])
     corner = [np.stack([c.lo[:, j], c.hi[:, j]], axis=-1) for j in range(3)]  # (K, 2)
     corner[k] = np.stack([mid, mid], axis=-1)
     G = np.broadcast_arrays(
         *[corner[j].reshape([-1] + [2 if i == j else 1 for i in range(3)]) for j in range(3)]
     )
-    sol = prob.solve_cells(G[0], G[1], G[2], rtol=rtol)
-    Um = np.take(sol.J, [0], axis=1 + k)  # the midpoints (equal along k)
-    Lm = np.take(sol.lower, [0], axis=1 + k)
+    # each distinct point once: the midpoints repeat along k, and edges shared by
+    # neighbouring cells (or a fixed axis, RM0's r_min) repeat them too
+    pts, inv = np.unique(np.stack([a.reshape(-1) for a in G], axis=-1), axis=0, return_inverse=True)
+    sol = prob.solve_cells(pts[:, 0], pts[:, 1], pts[:, 2], rtol=rtol)
+    Um = np.take(sol.J[inv.reshape(-1)].reshape(G[0].shape), [0], axis=1 + k)  # the midpoints
+    Lm = np.take(sol.lower[inv.reshape(-1)].reshape(G[0].shape), [0], axis=1 + k)
     half = 0.5 * (c.hi[:, k] - c.lo[:, k])
     U0, U1 = np.take(c.U, [0], axis=1 + k), np.take(c.U, [1], axis=1 + k)
     L0, L1 = np.take(c.L, [0], axis=1 + k), np.take(c.L, [1], axis=1 + k)
@@ -638,4 +892,4 @@ def _halve(prob: LearnProblem, c: Cells, k: int, rtol: float) -> tuple[Cells, in
     second = Cells(
         lo_mid, c.hi, M, np.concatenate([Um, U1], 1 + k), np.concatenate([Lm, L1], 1 + k)
     )
-    return Cells.join([first, second]), int(sol.J.size) // 2
+    return Cells.join([first, second]), int(sol.J.size)

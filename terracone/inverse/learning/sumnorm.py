@@ -25,9 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from terracone.inverse.learning.kernels import sum_norm_cells
 from terracone.inverse.solver.boxlsq import box_lsq3
+from terracone.jit import enabled
 
-__all__ = ["SumNormResult", "sum_norm_box", "sum_norm_value"]
+__all__ = ["SumNormResult", "sum_norm_box", "sum_norm_box_reference", "sum_norm_value"]
 
 #: relative resolution of sqrt(SSE_d) in the Gram form (about sqrt of the rounding unit)
 GRAM_RESOLUTION = 1e-7
@@ -48,6 +50,7 @@ class SumNormResult:
     sse : (D, S...) ndarray
         Each data set's sum of squared residuals at x.
     iterations : int
+        Reweighting steps of the cell that took most.
     """
 
     x: np.ndarray
@@ -143,7 +146,56 @@ def sum_norm_box(
     -------
     SumNormResult
         With ``gap`` the certified distance of J from the cell's minimum.
+
+    Notes
+    -----
+    The compiled kernel :func:`terracone.inverse.learning.kernels.sum_norm_cells`
+    (cell by cell) when numba is enabled (:func:`terracone.jit.enabled`), else
+    the numpy reference :func:`sum_norm_box_reference` (all cells at once); the
+    same iteration, results equal to rounding.
     """
+    if not enabled():
+        return sum_norm_box_reference(G, g, yy, a, lo, hi, rtol=rtol, max_iter=max_iter)
+    a = np.asarray(a, float)
+    yy = np.asarray(yy, float)
+    D, S = yy.shape[0], yy.shape[1:]
+    M = int(np.prod(S, dtype=np.int64))
+    tol = rtol * np.einsum("d,d...->...", a, np.sqrt(yy)).reshape(M)
+
+    def flat(v, tail):
+        return np.ascontiguousarray(np.broadcast_to(v, S + tail), dtype=float).reshape((M,) + tail)
+
+    x, J, lower, sse, steps = sum_norm_cells(
+        np.ascontiguousarray(G, dtype=float).reshape(D, M, 3, 3),
+        np.ascontiguousarray(g, dtype=float).reshape(D, M, 3),
+        np.ascontiguousarray(yy).reshape(D, M),
+        a,
+        flat(lo, (3,)),
+        flat(hi, (3,)),
+        tol,
+        int(max_iter),
+        GRAM_RESOLUTION,
+    )
+    it = int(steps.max()) if M else 0
+    return SumNormResult(
+        x.reshape(S + (3,)), J.reshape(S), lower.reshape(S), sse.reshape((D,) + S), it
+    )
+
+
+def sum_norm_box_reference(
+    G: np.ndarray,
+    g: np.ndarray,
+    yy: np.ndarray,
+    a: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    *,
+    rtol: float = 1e-7,
+    max_iter: int = 200,
+) -> SumNormResult:
+    """:func:`sum_norm_box` in numpy, all cells at once: the reference of the compiled
+    kernel :func:`terracone.inverse.learning.kernels.sum_norm_cells` (same parameters,
+    same result to rounding)."""
     a = np.asarray(a, float)
     scale = np.einsum("d,d...->...", a, np.sqrt(yy))  # sum a_d ||y_d||
     tol = rtol * scale
@@ -174,10 +226,11 @@ def sum_norm_box(
     tolf = np.broadcast_to(tol, S).reshape(-1)
     act = np.flatnonzero(~(zero.reshape(-1) | (bJ - np.maximum(low, 0.0) <= tolf)))
     sse_a, xa = bsse[:, act], bx[act]
-    it = 0
+    steps = 0
     for it in range(1, max_iter + 1):
         if act.size == 0:
             break
+        steps = it
         Ga, ga, yya = Gf[:, act], gf[:, act], yyf[:, act]
         la, ha = lof[act], hif[act]
         eps2 = max(1e-3 * 0.3 ** (it - 1), GRAM_RESOLUTION) ** 2 * yya
@@ -202,4 +255,4 @@ def sum_norm_box(
     best_x, best_J = bx.reshape(S + (3,)), bJ.reshape(S)
     best_sse, lower = bsse.reshape((-1,) + S), low.reshape(S)
     lower = np.clip(lower, 0.0, best_J)
-    return SumNormResult(best_x, best_J, lower, best_sse, it)
+    return SumNormResult(best_x, best_J, lower, best_sse, steps)
