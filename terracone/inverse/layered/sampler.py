@@ -112,25 +112,34 @@ def log_box_volume(p, L, bp, lo, hi) -> float:
 
 
 @njit(error_model="numpy")
-def state_at(z, y, lu1, p, L, s, bp, geom, work) -> float:
-    """Design and best x at p into ``work`` (X in work[0], G, g in work[1], work[2], the best
-    x in work[5]); returns its SSE."""
-    return lk.layered_sse(z, y, lu1, p[: L - 1], p[L - 1 :], s, bp, geom, work)
+def state_at(z, y, lg, p, L, s, bp, geom, work, p0, X0, x0, st0) -> float:
+    """Design, box and best x at p into ``work`` (X in work[0], G, g in work[1], work[2], the
+    box in work[3], work[4], the best x in work[5] and its face in work[6]); returns the log
+    of the box's volume (:func:`log_box_volume`) and the SSE.  The columns of the layers that
+    p leaves as p0 has them are copied from X0, the design at p0; the solve starts from the
+    best x x0 at p0 and its face st0."""
+    D, ns = p[: L - 1], p[L - 1 :]
+    lk.design_rows_from(z, lg, D, ns, s, geom, work[0], p0[: L - 1], p0[L - 1 :], X0)
+    lv = log_box_volume(p, L, bp, work[3], work[4])
+    work[5][:] = x0
+    work[6][:] = st0
+    return lv, lk.design_sse(y, p[L - 1 :], bp, work, True)
 
 
 @njit(error_model="numpy")
-def line_update(x, v, G, g, lo, hi, sigma) -> None:
-    """x moved along v by an exact draw of the conditional N(., sigma^2 (v'Gv)^-1) on the line."""
+def line_update(x, v, G, gr, Gv, lo, hi, sigma) -> None:
+    """x moved along v by an exact draw of the conditional N(., sigma^2 (v'Gv)^-1) on the line;
+    gr = Gx - g (the gradient at x, kept up to date) and Gv (k,) scratch."""
     k = x.shape[0]
     vgv = 0.0
     grad = 0.0
     for i in range(k):
-        gi = -g[i]
+        acc = 0.0
         for j in range(k):
-            gi += G[i, j] * x[j]
-        grad += v[i] * gi
-        for j in range(k):
-            vgv += v[i] * G[i, j] * v[j]
+            acc += G[i, j] * v[j]
+        Gv[i] = acc
+        vgv += v[i] * acc
+        grad += v[i] * gr[i]
     ta, tb = -math.inf, math.inf
     for i in range(k):  # where the line meets the box
         if v[i] > 0.0:
@@ -148,8 +157,20 @@ def line_update(x, v, G, g, lo, hi, sigma) -> None:
         t = ta + (tb - ta) * np.random.random()
     else:
         return
-    for i in range(k):
+    for i in range(k):  # the clip only undoes rounding: the gradient moves by t Gv
         x[i] = min(max(x[i] + t * v[i], lo[i]), hi[i])
+        gr[i] += t * Gv[i]
+
+
+@njit(error_model="numpy")
+def gradient(G, g, x, gr) -> None:
+    """gr = G x - g."""
+    k = x.shape[0]
+    for i in range(k):
+        acc = -g[i]
+        for j in range(k):
+            acc += G[i, j] * x[j]
+        gr[i] = acc
 
 
 @njit(error_model="numpy")
@@ -172,7 +193,7 @@ def whitening(G, Lw, d, free) -> float:
     k = G.shape[0]
     for i in range(k):
         d[i] = math.sqrt(G[i, i]) if G[i, i] > 0.0 and free[i] else 1.0
-    logdet = 0.0
+    logdet, prod = 0.0, 1.0
     for a in range(k):
         for b in range(a + 1):
             if G[a, a] > 0.0 and G[b, b] > 0.0 and free[a] and free[b]:
@@ -185,16 +206,18 @@ def whitening(G, Lw, d, free) -> float:
                 Lw[a, a] = math.sqrt(max(v, 1e-300))
             else:
                 Lw[a, b] = v / Lw[b, b]
-        logdet -= math.log(d[a]) + math.log(Lw[a, a])
-    return logdet
+        prod *= d[a] * Lw[a, a]  # log det from products: a logarithm when it nears the limits
+        if not 1e-100 < prod < 1e100:
+            logdet -= math.log(prod)
+            prod = 1.0
+    return logdet - math.log(prod)
 
 
 @njit(error_model="numpy")
-def carry(x, xb, Lw, d, xb2, Lw2, d2, out) -> None:
+def carry(x, xb, Lw, d, xb2, Lw2, d2, out, w) -> None:
     """out = xb2 + D2^-1 Lw2^-T Lw^T D (x - xb): the offset from the best x, standardised at
-    one (D, n) and unstandardised at the other."""
+    one (D, n) and unstandardised at the other; w (k,) scratch."""
     k = x.shape[0]
-    w = np.empty(k)
     for a in range(k):  # w = Lw^T D (x - xb)
         acc = 0.0
         for c in range(a, k):
@@ -233,21 +256,38 @@ def propose(pn, pc, it, m, moves, L, chol, scale, cscale, space):
 
 
 @njit(error_model="numpy")
-def try_move(c, pn, st, sc, z, y, lu1, L, s, bp, geom, space) -> bool:
+def whitened(c, G, free, wc):
+    """The whitening of chain c's normal equations G over ``free`` (:func:`whitening`), from the
+    chain's cache wc = (Lw, d, log det, free, valid) when it holds that free set: the same
+    numbers, computed once per state."""
+    Lwc, dc, ldc, fc, valid = wc
+    same = valid[c]
+    for i in range(free.shape[0]):
+        if fc[c, i] != free[i]:
+            same = False
+    if not same:
+        ldc[c] = whitening(G, Lwc[c], dc[c], free)
+        fc[c] = free
+        valid[c] = True
+    return Lwc[c], dc[c], ldc[c]
+
+
+@njit(error_model="numpy")
+def try_move(c, pn, st, sc, z, y, lg, L, s, bp, geom, space) -> bool:
     """Metropolis step of chain c to pn with x carried (see the module); st, sc the chains'
     state and the scratch arrays of :func:`run_chains`.  True when accepted."""
     p, x, xb, Xs, Gs, gs, lo, hi, lvol, sig, sse, sts = st
-    work, lo2, hi2, xn, Lw1, d1, Lw2, d2, free = sc
+    work, xn, wv, Lw2, d2, free, wc = sc
     k = x.shape[1]
     if not feasible(pn, L, space[0], space[1], space[2], space[3], space[4]):
         return False
-    state_at(z, y, lu1, pn, L, s, bp, geom, work)
-    lv = log_box_volume(pn, L, bp, lo2, hi2)
+    lv = state_at(z, y, lg, pn, L, s, bp, geom, work, p[c], Xs[c], xb[c], sts[c])[0]
+    lo2, hi2 = work[3], work[4]
     for i in range(k):  # whitened over the variables free at both ends
         free[i] = sts[c, i] == 0 and work[6][i] == 0
-    ld1 = whitening(Gs[c], Lw1, d1, free)
+    Lw1, d1, ld1 = whitened(c, Gs[c], free, wc)
     ld2 = whitening(work[1], Lw2, d2, free)
-    carry(x[c], xb[c], Lw1, d1, work[5], Lw2, d2, xn)
+    carry(x[c], xb[c], Lw1, d1, work[5], Lw2, d2, xn, wv)
     for i in range(k):
         if not (lo2[i] <= xn[i] <= hi2[i]):
             return False
@@ -262,6 +302,8 @@ def try_move(c, pn, st, sc, z, y, lu1, L, s, bp, geom, space) -> bool:
     sts[c] = work[6]
     lo[c], hi[c] = lo2, hi2
     lvol[c], sse[c] = lv, s_new
+    wc[0][c], wc[1][c], wc[2][c], wc[3][c] = Lw2, d2, ld2, free  # the new state's whitening
+    wc[4][c] = True
     return True
 
 
@@ -278,7 +320,7 @@ def init_chains(z, y, lu1, p0, L, s, bp, geom, work):
     )  # fmt: skip
     p, x, xb, Xs, Gs, gs, lo, hi, lvol, sig, sse, sts = st
     for c in range(C):
-        sse[c] = state_at(z, y, lu1, p[c], L, s, bp, geom, work)
+        sse[c] = lk.layered_sse(z, y, lu1, p[c, : L - 1], p[c, L - 1 :], s, bp, geom, work)
         x[c], xb[c] = work[5], work[5]
         Xs[c], Gs[c], gs[c] = work[0], work[1], work[2]
         sts[c] = work[6]
@@ -301,15 +343,13 @@ def run_chains(z, y, p0, s, bp, geom, space, dirs, step, iters, burn, thin, seed
     L = (P + 1) // 2
     k = 3 * L
     Z = z.shape[0]
-    lu1 = np.empty(Z)
-    for q in range(Z):
-        u1 = z[q] + geom[0]
-        lu1[q] = math.log(u1) if u1 > 0.0 else 0.0
     K = (iters - burn) // thin
     out = np.empty((C, K, P + k + 1))
     acc = np.zeros(C)
     work = lk.new_work(Z, k)
-    st = init_chains(z, y, lu1, p0, L, s, bp, geom, work)
+    lg = np.empty((3, Z))
+    lk.embedded_logs(z, geom, lg)
+    st = init_chains(z, y, lg[0], p0, L, s, bp, geom, work)
     p, x, Xs, Gs, gs, lo, hi, sig, sse = (
         st[0],
         st[1],
@@ -321,9 +361,12 @@ def run_chains(z, y, p0, s, bp, geom, space, dirs, step, iters, burn, thin, seed
         st[9],
         st[10],
     )
-    sc = (work, np.empty(k), np.empty(k), np.empty(k), np.zeros((k, k)), np.empty(k),
-          np.zeros((k, k)), np.empty(k), np.empty(k, dtype=np.bool_))  # fmt: skip
+    wc = (np.zeros((C, k, k)), np.ones((C, k)), np.zeros(C), np.zeros((C, k), dtype=np.bool_),
+          np.zeros(C, dtype=np.bool_))  # whitening cache (see whitened)
+    sc = (work, np.empty(k), np.empty(k), np.zeros((k, k)), np.empty(k),
+          np.empty(k, dtype=np.bool_), wc)  # fmt: skip
     pn = np.empty(P)
+    gr, Gv = np.empty(k), np.empty(k)
     chol = np.diag(step.copy())
     scale, cscale = np.ones(C), np.empty((C, P))
     for c in range(C):
@@ -336,7 +379,7 @@ def run_chains(z, y, p0, s, bp, geom, space, dirs, step, iters, burn, thin, seed
         for c in range(C):
             for m in range(moves):  # (p, x) together: x carried with its best value
                 ci = propose(pn, p[c], it, m, moves, L, chol, scale[c], cscale[c], space)
-                ok = try_move(c, pn, st, sc, z, y, lu1, L, s, bp, geom, space)
+                ok = try_move(c, pn, st, sc, z, y, lg, L, s, bp, geom, space)
                 acc[c] += 1.0 / moves if ok and it >= burn else 0.0
                 if it < burn and ci >= 0:  # Robbins-Monro: one coordinate towards 0.44
                     cscale[c, ci] *= math.exp((0.56 if ok else -0.44) / math.sqrt(it + 1.0))
@@ -344,8 +387,9 @@ def run_chains(z, y, p0, s, bp, geom, space, dirs, step, iters, burn, thin, seed
                     scale[c] *= math.exp((0.7 if ok else -0.3) / math.sqrt(it + 1.0))
             # x given (p, sigma): exact draws along every other fixed direction (the other
             # half at the next iteration)
+            gradient(Gs[c], gs[c], x[c], gr)
             for d in range(it % 2, dirs.shape[0], 2):
-                line_update(x[c], dirs[d], Gs[c], gs[c], lo[c], hi[c], sig[c])
+                line_update(x[c], dirs[d], Gs[c], gr, Gv, lo[c], hi[c], sig[c])
             sse[c] = residual_sse(Xs[c], y, x[c])
             sig[c] = math.sqrt(max(sse[c], 1e-300) / np.random.chisquare(Z))  # sigma | rest
             if burn // 4 <= it < burn // 2 and nh < hist.shape[1]:

@@ -43,10 +43,14 @@ from terracone.jit import njit
 
 __all__ = [
     "part_columns",
+    "part_columns_log",
+    "embedded_logs",
     "layer_part",
     "design_rows",
     "boxqp",
     "layered_sse",
+    "design_rows_from",
+    "design_sse",
     "layered_sse_many",
     "full_columns",
     "segment_sse",
@@ -68,10 +72,22 @@ def part_columns(u1, lu1, a, b, n, s, t, R, rm1, r_t, alpha, beta):
     CI = kc A + kphi B + cc C for that part of the cone, as
     :func:`terracone.physics.cone.normal_integrals` (eqs. (2-2), (2-5), (2-7)).
     """
+    return part_columns_log(u1, lu1, a, b, n, s, t, R, rm1, r_t, alpha, beta, -1.0, 0.0, 0.0)
+
+
+@njit(error_model="numpy")
+def part_columns_log(u1, lu1, a, b, n, s, t, R, rm1, r_t, alpha, beta, emb, l1e, l1s):
+    """:func:`part_columns` with, when b == emb (the part reaches the cone's base), the n-free
+    logarithms log1p(-b/u1) = l1e and (RM1) log1p(-min(b, r_t/t)/u1) = l1s given (as
+    :func:`embedded_logs`): the same numbers, two logarithms fewer."""
     if not (b > a) or not (u1 > 0.0):
         return 0.0, 0.0, 0.0
+    base = b == emb
     eb = min(max(b / u1, 0.0), 1.0)
-    g0b, g1b, g2b = k3.tail_moments(eb, n)
+    if base:
+        g0b, g1b, g2b = k3.tail_moments_log(eb, l1e, n)
+    else:
+        g0b, g1b, g2b = k3.tail_moments(eb, n)
     g0a = g1a = g2a = 0.0
     if a > 0.0:
         g0a, g1a, g2a = k3.tail_moments(min(max(a / u1, 0.0), 1.0), n)
@@ -84,13 +100,37 @@ def part_columns(u1, lu1, a, b, n, s, t, R, rm1, r_t, alpha, beta):
     else:  # RM1 of section 3.2: the linear branch below r_t
         p3 = p2 * u1
         d_s = r_t / t
-        g0s, g1s, g2s = k3.tail_moments(min(max(min(b, d_s) / u1, 0.0), 1.0), n)
+        es = min(max(min(b, d_s) / u1, 0.0), 1.0)
+        if base:
+            g0s, g1s, g2s = k3.tail_moments_log(es, l1s, n)
+        else:
+            g0s, g1s, g2s = k3.tail_moments(es, n)
         if a < d_s:
             i_c = p1 * (g0b - g0s) + alpha * t * p2 * (g1s - g1a) - beta * t * t * p3 * (g2s - g2a)
         else:
             i_c = p1 * (g0b - g0a)
     rr = R * R
     return 2.0 * t * s * i_c / rr, 2.0 * t * s * i_phi / rr, 2.0 * i_cc / rr
+
+
+@njit(error_model="numpy")
+def embedded_logs(z, geom, lg) -> None:
+    """Per base depth z (Z,) the n-free logarithms of the design rows into lg (3, Z): log of
+    the tip depth u1, log1p(-emb/u1) and log1p(-min(emb, r_t/t)/u1) (emb the embedded
+    length; -inf where the ratio is 1), as :func:`part_columns` computes them."""
+    H, R, rm1, r_t, alpha, beta = geom
+    t = R / H
+    for q in range(z.shape[0]):
+        u1 = z[q] + H
+        lg[0, q], lg[1, q], lg[2, q] = 0.0, 0.0, 0.0
+        if not u1 > 0.0:
+            continue
+        lg[0, q] = math.log(u1)
+        emb = H if z[q] >= 0.0 else u1
+        eb = min(max(emb / u1, 0.0), 1.0)
+        es = min(max(min(emb, r_t / t) / u1, 0.0), 1.0)
+        lg[1, q] = math.log1p(-eb) if eb < 1.0 else -math.inf
+        lg[2, q] = math.log1p(-es) if es < 1.0 else -math.inf
 
 
 @njit(error_model="numpy")
@@ -130,19 +170,27 @@ def design_rows(z, lu1, D, ns, s, geom, X) -> None:
 
 
 @njit(error_model="numpy")
-def cholesky_free(S, st, C, idx) -> int:
+def cholesky_free(S, st, C, idx, valid=0) -> int:
     """Cholesky factor C of S restricted to the variables with st == 0 (their indices into idx).
 
-    S has unit diagonal plus :data:`RIDGE`.  Returns the number of free
-    variables, or -1 when a pivot is not positive (numerically singular).
+    S has unit diagonal plus :data:`RIDGE`.  The first ``valid`` rows of C and
+    idx may hold the factor of an earlier free set of the same S: the rows
+    up to the first free variable that differs are kept (they depend only on
+    the variables before them), the rest computed.  Returns the number of
+    free variables, or -1 when a pivot is not positive (numerically singular).
     """
     k = S.shape[0]
     m = 0
+    first = -1
     for i in range(k):
         if st[i] == 0:
+            if first < 0 and (m >= valid or idx[m] != i):
+                first = m
             idx[m] = i
             m += 1
-    for a in range(m):
+    if first < 0:
+        first = m
+    for a in range(first, m):
         for b in range(a + 1):
             acc = S[idx[a], idx[b]] + (RIDGE if a == b else 0.0)
             for c in range(b):
@@ -198,9 +246,10 @@ def boxqp(G, g, lo, hi, x, st, ws, C, idx) -> int:
         for j in range(k):
             S[i, j] = G[i, j] / (d[i] * d[j]) if st[i] != 3 and st[j] != 3 else 0.0
     it = 0
+    m = 0
     while it < 20 + 10 * k:
         it += 1
-        m = cholesky_free(S, st, C, idx)
+        m = cholesky_free(S, st, C, idx, m)  # the rows of the free variables kept are kept
         if m < 0:
             return -1
         # right-hand side of the free rows, held variables moved over
@@ -299,10 +348,47 @@ def layered_sse(z, y, lu1, D, ns, s, bp, geom, work) -> float:
     normal-equation form cancels near a perfect fit).  The solution is left
     in work[5] (x) and its face in work[6] (the next call starts there).
     """
+    design_rows(z, lu1, D, ns, s, geom, work[0])
+    return design_sse(y, ns, bp, work, False)
+
+
+@njit(error_model="numpy")
+def design_rows_from(z, lg, D, ns, s, geom, X, D0, ns0, X0) -> None:
+    """:func:`design_rows` into X, the columns of a layer whose top, bottom and n are those of
+    (D0, ns0) copied from X0 (the design there) instead of computed: the same numbers.  lg
+    (3, Z): the logarithms of :func:`embedded_logs`."""
+    H, R, rm1, r_t, alpha, beta = geom
+    L = ns.shape[0]
+    t = R / H
+    for j in range(L):
+        d_top = 0.0 if j == 0 else D[j - 1]
+        d_bot = math.inf if j == L - 1 else D[j]
+        same = ns[j] == ns0[j] and (j == 0 or D0[j - 1] == d_top) and (j == L - 1 or D0[j] == d_bot)
+        for q in range(z.shape[0]):
+            if same:
+                X[q, 3 * j], X[q, 3 * j + 1], X[q, 3 * j + 2] = X0[q, 3 * j], X0[q, 3 * j + 1], X0[q, 3 * j + 2]
+                continue
+            u1 = z[q] + H  # as layer_part
+            if not u1 > 0.0:
+                X[q, 3 * j], X[q, 3 * j + 1], X[q, 3 * j + 2] = 0.0, 0.0, 0.0
+                continue
+            emb = H if z[q] >= 0.0 else u1
+            a = min(max(u1 - d_bot, 0.0), emb)
+            b = min(max(u1 - d_top, 0.0), emb)
+            A, B, C = part_columns_log(
+                u1, lg[0, q], a, b, ns[j], s, t, R, rm1, r_t, alpha, beta, emb, lg[1, q], lg[2, q]
+            )
+            X[q, 3 * j], X[q, 3 * j + 1], X[q, 3 * j + 2] = A, B, C
+
+
+@njit(error_model="numpy")
+def design_sse(y, ns, bp, work, boxed) -> float:
+    """:func:`layered_sse` with the design already in work[0]: the normal equations into work[1]
+    and work[2], the box at ns into work[3] and work[4] (there already when ``boxed``), the best
+    x into work[5] (from the face in work[6] and the x in work[5]); returns its SSE."""
     X, G, g, lo, hi, x, st, ws, C, idx = work
-    Z = z.shape[0]
+    Z = X.shape[0]
     k = X.shape[1]
-    design_rows(z, lu1, D, ns, s, geom, X)
     for i in range(k):
         g[i] = 0.0
         for j in range(k):
@@ -318,7 +404,8 @@ def layered_sse(z, y, lu1, D, ns, s, bp, geom, work) -> float:
         for j in range(i):
             G[j, i] = G[i, j]
     for j in range(k // 3):
-        k3.kbounds(ns[j], bp, lo[3 * j : 3 * j + 3], hi[3 * j : 3 * j + 3])
+        if not boxed:
+            k3.kbounds(ns[j], bp, lo[3 * j : 3 * j + 3], hi[3 * j : 3 * j + 3])
     if boxqp(G, g, lo, hi, x, st, ws, C, idx) < 0:
         for i in range(k):  # a singular face: start again from nothing held
             st[i] = 0
