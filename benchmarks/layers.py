@@ -12,7 +12,8 @@ export, the SC900's small cone), in one run:
 2. the RMSD and BIC of every push against the fits recorded before issue 24
    (``tests/data/layered_rmsd_before.csv``): better, equal, worse; and how
    often two or three layers win by BIC, with the median R^2;
-3. the efficiency of ``terracone batch --layers 2`` (``run_batch``):
+3. the efficiency of ``terracone batch --layers 2`` beside one layer's
+   (``run_batch``), from alternating runs on the same warmed cluster:
    profiles per second end to end on W local workers divided by W times the
    per-core rate of the same work (``predict_many(..., detail="summary")``
    and ``fit_layered`` on a chunk of the same file, in this process);
@@ -144,30 +145,38 @@ def fits(data: dict[str, list]) -> None:
         )
 
 
-def batch(data: dict[str, list], copies: int, workers: tuple[int, ...]) -> None:
-    """Section 3: batch efficiency with --layers 2, and 1 for comparison.
+def batch(data: dict[str, list], copies: int, workers: tuple[int, ...], rounds: int = 2) -> None:
+    """Section 3: batch efficiency with --layers 2 beside one layer, from alternating runs.
 
-    Efficiency = end-to-end profiles/s of ``run_batch`` on W local workers /
-    (W x the per-core rate of the same work in this process: ``predict_many(...,
-    detail="summary")`` and, with layers, ``fit_layered`` per profile, on a chunk of
-    the same file).  Each run is on a Dask cluster started beforehand and warmed up
-    with a small batch (kernels loaded in the workers), so that the cluster's
-    start-up is not counted, as issue 20 measures it.  The one-layer runs use 20
-    times more copies and chunks 20 times larger (their work per profile is about
-    20 times less): the same number of chunks, of about the same duration.
+    Efficiency = profiles/s of ``run_batch`` on W local workers (the cluster that
+    ``terracone batch --workers W`` starts), end to end with its start-up removed
+    (``wall_s - startup_s``: cluster start and kernel loading, as issue 20 measures
+    it), divided by W x the per-core rate of the same work in this process
+    (``predict_many(..., detail="summary")`` and, with layers, ``fit_layered`` per
+    profile, on a chunk of the same file and of the batch's chunk size).  The runs alternate, one layer, two
+    layers, ``rounds`` times, and each setting keeps its best run (the per-core rates
+    likewise alternate, best of three).  The one-layer runs use 20 times more copies
+    and chunks 20 times larger (their work per profile is about 20 times less): the
+    same number of chunks, of about the same duration.
     """
-    import logging
-
-    import distributed
     import pandas as pd
 
     from terracone.apps.batch import run_batch
+    from terracone.apps.workflow import Reading
     from terracone.inverse import predict_many
     from terracone.inverse.layered import fit_layered
 
     src = pd.read_csv(DATA / "ci_profiles.csv")
     print("\n== 3. batch efficiency (copies of ci_profiles.csv, cone asabe-small)")
     chunk = data["ci_profiles.csv"]  # the file's 224 profiles: the batch fits copies of them
+    settings = (1, 2)
+
+    def work(items, layers):
+        predict_many(items, detail="summary")
+        if layers > 1:
+            for p in items:
+                fit_layered(p, layers=layers)
+
     with tempfile.TemporaryDirectory() as tmp:
 
         def copy_file(n: int) -> Path:
@@ -178,39 +187,35 @@ def batch(data: dict[str, list], copies: int, workers: tuple[int, ...]) -> None:
 
         files = {1: copy_file(20 * copies), 2: copy_file(copies)}
         chunk_size = {1: 2000, 2: 100}  # as many chunks for either (22 at 10 copies)
-        small = copy_file(1)
-        for layers in (1, 2):
-
-            def work(items, layers=layers):
-                predict_many(items, detail="summary")
-                if layers > 1:
-                    for p in items:
-                        fit_layered(p, layers=layers)
-
-            work(chunk[:5])
-            best = math.inf
-            for _ in range(3):  # the per-core rate: the best of three passes
+        reading = Reading(cone="asabe-small")
+        best = dict.fromkeys(settings, math.inf)
+        # a chunk of the batch's size (copies of the file's profiles, as the batch fits them)
+        first = {
+            L: (chunk * math.ceil(chunk_size[L] / len(chunk)))[: chunk_size[L]] for L in settings
+        }
+        for layers in settings:
+            work(chunk[:5], layers)
+        for _ in range(3):  # the per-core rates, alternating: the best of three passes
+            for layers in settings:
                 t0 = time.perf_counter()
-                work(chunk)
-                best = min(best, time.perf_counter() - t0)
-            rate = len(chunk) / best
-            line = f"--layers {layers}: per-core rate {rate:7.1f} profiles/s;"
-            for W in workers:
-                cluster = distributed.LocalCluster(
-                    n_workers=W, threads_per_worker=1, processes=True, host="127.0.0.1",
-                    dashboard_address=None, silence_logs=logging.ERROR,
-                )  # fmt: skip
-                with distributed.Client(cluster) as client:
-                    kw = dict(pool=client, layers=layers, cone="asabe-small", quiet=True)
-                    run_batch(small, Path(tmp) / f"warm{layers}_{W}", **kw)
-                    t0 = time.perf_counter()
-                    out = Path(tmp) / f"out{layers}_{W}"
-                    s = run_batch(files[layers], out, chunk_size=chunk_size[layers], **kw)
-                    wall = time.perf_counter() - t0
-                cluster.close()
-                eff = s.profiles / wall / (W * rate)
-                line += f" {W} worker(s): {s.profiles} profiles {s.profiles / wall:7.1f}/s, efficiency {eff:.2f};"
-            print(line)
+                work(first[layers], layers)
+                best[layers] = min(best[layers], time.perf_counter() - t0)
+        rate = {L: len(first[L]) / best[L] for L in settings}
+        print("   per-core rate: " + ", ".join(f"--layers {L} {rate[L]:.1f}/s" for L in settings))
+        for W in workers:
+            effs: dict[int, list[float]] = {L: [] for L in settings}
+            for r in range(rounds):
+                for layers in settings:
+                    s = run_batch(
+                        files[layers], Path(tmp) / f"out{layers}_{W}_{r}", layers=layers,
+                        workers=W, chunk_size=chunk_size[layers], reading=reading, progress=False,
+                    )  # fmt: skip
+                    effs[layers].append(s.profiles / (s.wall_s - s.startup_s) / (W * rate[layers]))
+            line = f"   {W} worker(s):"
+            for L in settings:
+                runs = ", ".join(f"{e:.2f}" for e in effs[L])
+                line += f" --layers {L} efficiency {max(effs[L]):.2f} (runs {runs});"
+            print(line + f" ratio {max(effs[2]) / max(effs[1]):.2f}", flush=True)
 
 
 def coverage(count: int) -> None:
@@ -234,6 +239,7 @@ def main() -> None:
     ap.add_argument("--before", type=int, default=12, help="pushes timed with the old fit")
     ap.add_argument("--copies", type=int, default=10, help="copies of the CSV for the batch")
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--rounds", type=int, default=2, help="alternating batch runs per setting")
     ap.add_argument("--coverage", type=int, default=0, help="profiles of the coverage table")
     ap.add_argument("--skip", nargs="*", default=[], choices=["speed", "fits", "batch"])
     args = ap.parse_args()
@@ -245,7 +251,7 @@ def main() -> None:
     if "fits" not in args.skip:
         fits(data)
     if "batch" not in args.skip:
-        batch(data, args.copies, tuple(args.workers))
+        batch(data, args.copies, tuple(args.workers), args.rounds)
     if args.coverage:
         coverage(args.coverage)
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())

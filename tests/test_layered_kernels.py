@@ -81,6 +81,29 @@ def test_design_rows_equal_layered_basis(law, D, ns):
     np.testing.assert_allclose(lnp.design_matrix(Z, D, ns, s, LAWS[law], CONE), ref, rtol=1e-15)
 
 
+@pytest.mark.parametrize("law", ["rm0", "rm1"])
+def test_design_rows_from_equals_design_rows(law):
+    """The sampler's design (the columns of unchanged layers copied from the design at another
+    point, the n-free logarithms given) is the design computed afresh, to the last bit: for a
+    move of one n, of one interface, and of everything."""
+    s, g = 1.37, geom(LAWS[law])
+    lg = np.empty((3, Z.size))
+    lk.embedded_logs(Z, g, lg)
+    np.testing.assert_array_equal(lg[0], lnp.log_tip(Z, H))
+    D0, n0 = np.array([0.11, 0.2]), np.array([0.4, 1.1, 0.8])
+    X0 = np.zeros((Z.size, 9))
+    lk.design_rows(Z, lg[0], D0, n0, s, g, X0)
+    for D, ns in (
+        (D0, np.array([0.4, 1.3, 0.8])),
+        (np.array([0.11, 0.26]), n0),
+        (np.array([0.05, 0.31]), np.array([0.9, 0.2, 1.7])),
+    ):
+        X, ref = np.full((Z.size, 9), np.nan), np.zeros((Z.size, 9))
+        lk.design_rows_from(Z, lg, D, ns, s, g, X, D0, n0, X0)
+        lk.design_rows(Z, lg[0], D, ns, s, g, ref)
+        np.testing.assert_array_equal(X, ref)
+
+
 def random_boxes(rng, M, k, binding=True):
     X = np.abs(rng.standard_normal((M, 24, k))) * rng.uniform(0.1, 10.0, (M, 1, k))
     X[:, :, 1] += 3.0 * X[:, :, 0]  # nearly collinear columns, as kc and kphi

@@ -361,8 +361,13 @@ def run_chains(z, y, p0, s, bp, geom, space, dirs, step, iters, burn, thin, seed
         st[9],
         st[10],
     )
-    wc = (np.zeros((C, k, k)), np.ones((C, k)), np.zeros(C), np.zeros((C, k), dtype=np.bool_),
-          np.zeros(C, dtype=np.bool_))  # whitening cache (see whitened)
+    wc = (
+        np.zeros((C, k, k)),
+        np.ones((C, k)),
+        np.zeros(C),
+        np.zeros((C, k), dtype=np.bool_),
+        np.zeros(C, dtype=np.bool_),
+    )  # whitening cache (see whitened)
     sc = (work, np.empty(k), np.empty(k), np.zeros((k, k)), np.empty(k),
           np.empty(k, dtype=np.bool_), wc)  # fmt: skip
     pn = np.empty(P)

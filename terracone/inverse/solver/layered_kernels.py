@@ -366,7 +366,11 @@ def design_rows_from(z, lg, D, ns, s, geom, X, D0, ns0, X0) -> None:
         same = ns[j] == ns0[j] and (j == 0 or D0[j - 1] == d_top) and (j == L - 1 or D0[j] == d_bot)
         for q in range(z.shape[0]):
             if same:
-                X[q, 3 * j], X[q, 3 * j + 1], X[q, 3 * j + 2] = X0[q, 3 * j], X0[q, 3 * j + 1], X0[q, 3 * j + 2]
+                X[q, 3 * j], X[q, 3 * j + 1], X[q, 3 * j + 2] = (
+                    X0[q, 3 * j],
+                    X0[q, 3 * j + 1],
+                    X0[q, 3 * j + 2],
+                )
                 continue
             u1 = z[q] + H  # as layer_part
             if not u1 > 0.0:
