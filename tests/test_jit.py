@@ -147,7 +147,7 @@ def test_cold_cache_runs_numpy_now_and_compiles_everything_in_the_background(tmp
     assert got["enabled"] and got["misses"] == {}, got
     # the kernels the commands call were used, loaded from the cache
     assert set(got["used"]) >= {
-        "box_lsq3_flat", "brent_refine", "cells_kernel", "fit_stats", "polish_kernel",
+        "sum_norm_cells", "brent_refine", "cells_kernel", "fit_stats", "polish_kernel",
         "spline_sse_compiled", "identify_extent", "cell_terms",
     }, got["used"]  # fmt: skip
     assert COLD_NOTE not in warm.stderr
