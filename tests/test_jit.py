@@ -208,6 +208,8 @@ def test_every_kernel_module_keys_the_marker():
 
     for name in (
         "terracone.inverse.solver.kernels",
+        "terracone.inverse.solver.layered_kernels",
+        "terracone.inverse.learning.kernels",
         "terracone.inverse.solver.polish",
         "terracone.inverse.uncertainty.likelihood",
         "terracone.inverse.predict",
