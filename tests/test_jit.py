@@ -147,7 +147,7 @@ def test_cold_cache_runs_numpy_now_and_compiles_everything_in_the_background(tmp
     assert got["enabled"] and got["misses"] == {}, got
     # the kernels the commands call were used, loaded from the cache
     assert set(got["used"]) >= {
-        "box_lsq3_flat", "brent_refine", "cells_kernel", "fit_stats", "polish_kernel",
+        "sum_norm_cells", "brent_refine", "cells_kernel", "fit_stats", "polish_kernel",
         "spline_sse_compiled", "identify_extent", "cell_terms",
     }, got["used"]  # fmt: skip
     assert COLD_NOTE not in warm.stderr
@@ -208,6 +208,8 @@ def test_every_kernel_module_keys_the_marker():
 
     for name in (
         "terracone.inverse.solver.kernels",
+        "terracone.inverse.solver.layered_kernels",
+        "terracone.inverse.learning.kernels",
         "terracone.inverse.solver.polish",
         "terracone.inverse.uncertainty.likelihood",
         "terracone.inverse.predict",

@@ -19,6 +19,7 @@ from scipy.stats import binom
 
 from terracone import CIProfile, TerrainParameters
 from terracone.cli import cli
+from terracone.data import CI_MAX_KPA
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.layered import fit_layered, layered_posterior
 from terracone.inverse.uncertainty.posterior import LABELS
@@ -110,8 +111,9 @@ def generated(i: int) -> tuple[CIProfile, dict[str, float]]:
     from the ends), each n uniform on the bounds, kc, kphi and cc uniform in
     the default box (phic 45 deg, held); Gaussian noise of a standard
     deviation log-uniform between 2 % and 10 % of the RMS cone index (the
-    1/sigma prior is log-uniform).  A draw with a negative cone index is
-    drawn again: the event depends on the data only, so the posterior of the
+    1/sigma prior is log-uniform).  A draw with a negative cone index, or one
+    above :data:`terracone.data.CI_MAX_KPA` (refused as no soil), is drawn
+    again: the event depends on the data only, so the posterior of the
     profiles kept, and its calibration, are unchanged.
     """
     rng = np.random.default_rng(1000 + i)
@@ -126,7 +128,7 @@ def generated(i: int) -> tuple[CIProfile, dict[str, float]]:
         ci = layered_cone_index(ZC, layers, [D], cone=SMALL)
         sigma = math.exp(rng.uniform(math.log(0.02), math.log(0.10))) * math.sqrt(np.mean(ci**2))
         y = ci + sigma * rng.standard_normal(ZC.size)
-        if np.all(y >= 0):
+        if np.all(y >= 0) and np.all(y <= CI_MAX_KPA):  # what the reader accepts as soil
             break
     truth = {"interface_1": D, "n_1": layers[0].n, "n_2": layers[1].n}
     return CIProfile(f"gen{i}", ZC, y, cone=SMALL), truth

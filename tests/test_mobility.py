@@ -435,7 +435,7 @@ def test_quantities_with_units_by_hand():
 # posterior bands
 # ---------------------------------------------------------------------------
 
-TRUTH = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.0, phic=11.0)  # LETE sand
+TRUTH = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.0, phic_deg=11.0)  # LETE sand
 DEPTH = np.round(np.arange(0.0, 0.3001, 0.01), 6)
 LETE = Calibration("LETE sand", "rm0", None, None, 11.0, 1.0, 102.0, 5301.0, 0.79)
 

@@ -13,7 +13,7 @@
 """
 
 from terracone.apps.maps.survey import MIN_PUSHES, Quantity, Survey, locate
-from terracone.apps.maps.workflow import MapResult, QuantityMap, map_survey
+from terracone.apps.maps.workflow import QuantityMap, TerrainMap, map_survey
 from terracone.apps.maps.writers import (
     MAP_SCHEMA,
     LocatedParameters,
@@ -26,7 +26,7 @@ __all__ = [
     "MAP_SCHEMA",
     "MIN_PUSHES",
     "LocatedParameters",
-    "MapResult",
+    "TerrainMap",
     "Quantity",
     "QuantityMap",
     "Survey",

@@ -1,7 +1,7 @@
 """Terrain maps from located pushes: what ``terracone map`` computes.
 
 :func:`map_survey` takes fitted, located pushes (:func:`terracone.result.read_results`)
-to a :class:`MapResult`: for each quantity (plate pressure, n, mean CI over
+to a :class:`TerrainMap`: for each quantity (plate pressure, n, mean CI over
 depth layers) a fitted variogram, the kriged median and 90% interval of
 every cell, the cells beyond the variogram's range masked, and the
 leave-one-out cross-validation (:mod:`terracone.apps.maps.geostat`).  The
@@ -44,7 +44,7 @@ __all__ = [
     "LEVEL",
     "REFERENCE_SIZE",
     "UNCALIBRATED_MAP_NOTE",
-    "MapResult",
+    "TerrainMap",
     "QuantityMap",
     "cell_parameters",
     "map_quantity",
@@ -126,7 +126,7 @@ class QuantityMap:
 
 
 @dataclass
-class MapResult:
+class TerrainMap:
     """A survey's maps: the grid, each quantity, the cells' parameters and the notes.
 
     Attributes
@@ -313,7 +313,7 @@ def map_survey(
     crs: str | None = None,
     units: str = "si",
     progress: Any = None,
-) -> MapResult:
+) -> TerrainMap:
     """Maps of plate pressure, n and mean CI from located, fitted pushes.
 
     Parameters
@@ -337,7 +337,7 @@ def map_survey(
 
     Returns
     -------
-    MapResult
+    TerrainMap
 
     Raises
     ------
@@ -355,7 +355,7 @@ def map_survey(
     n_map = next(m for m in maps if m.name == "n")
     params, s_map = cell_parameters(survey, grid, n_map, b, calibrated)
     params["strength"] = s_map
-    return MapResult(
+    return TerrainMap(
         survey,
         grid,
         grid_note,

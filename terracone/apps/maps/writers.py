@@ -28,7 +28,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from terracone.apps.maps.workflow import LEVEL, MapResult, QuantityMap
+from terracone.apps.maps.workflow import LEVEL, QuantityMap, TerrainMap
 from terracone.data import TerrainParameters
 from terracone.physics import units as u
 
@@ -98,7 +98,7 @@ def _quantity_dict(m: QuantityMap, units: str) -> dict[str, Any]:
     return d
 
 
-def map_document(result: MapResult, units: str = "si") -> dict[str, Any]:
+def map_document(result: TerrainMap, units: str = "si") -> dict[str, Any]:
     """``map.json``: the CRS, the grid, the pushes and each quantity's variogram and cross-validation.
 
     Values in ``units`` (pressures kPa or psi); lengths of the map (grid,
@@ -155,7 +155,7 @@ def map_document(result: MapResult, units: str = "si") -> dict[str, Any]:
     }
 
 
-def _write_tif(path: Path, m: QuantityMap, result: MapResult, units: str) -> None:
+def _write_tif(path: Path, m: QuantityMap, result: TerrainMap, units: str) -> None:
     import rasterio
     from rasterio.crs import CRS
     from rasterio.transform import Affine
@@ -193,7 +193,7 @@ def _write_tif(path: Path, m: QuantityMap, result: MapResult, units: str) -> Non
         )
 
 
-def _write_points(path: Path, result: MapResult, units: str) -> None:
+def _write_points(path: Path, result: TerrainMap, units: str) -> None:
     import geopandas as gpd
 
     s = result.survey
@@ -211,7 +211,7 @@ def _write_points(path: Path, result: MapResult, units: str) -> None:
     gdf.to_parquet(path)
 
 
-def _write_cells(path: Path, result: MapResult) -> None:
+def _write_cells(path: Path, result: TerrainMap) -> None:
     from pyproj import Transformer
 
     g, p = result.grid, result.parameters
@@ -243,7 +243,7 @@ def _write_cells(path: Path, result: MapResult) -> None:
     pq.write_table(table.replace_schema_metadata({_CELLS_KEY: json.dumps(meta).encode()}), path)
 
 
-def write_map(result: MapResult, directory: PathLike, units: str = "si") -> dict[str, Path]:
+def write_map(result: TerrainMap, directory: PathLike, units: str = "si") -> dict[str, Path]:
     """Write a map's rasters, ``points.parquet``, ``cells.parquet`` and ``map.json`` to ``directory``.
 
     Returns the written files by name (quantities by their name, then
