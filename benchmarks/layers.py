@@ -18,7 +18,9 @@ export, the SC900's small cone), in one run:
    per-core rate of the same work (``predict_many(..., detail="summary")``
    and ``fit_layered`` on a chunk of the same file, in this process);
 4. with ``--coverage N``, the coverage table of the layered posterior's 90%
-   intervals over N profiles drawn from its prior (the test's generator).
+   intervals over N profiles drawn from its prior (the test's generator);
+5. the cost of the layered posterior per push (2 and 3 layers) in one-layer
+   posteriors on the same SC900 pushes, CPU time, alternating runs.
 
 Wall-clock figures on a shared machine are noisy; the ratios are measured in
 one run.  Usage::
@@ -234,6 +236,51 @@ def coverage(count: int) -> None:
     print(f"   {(time.perf_counter() - t0) / count:.2f} s a profile (fit and posterior)")
 
 
+def posterior_cost(data: dict[str, list], count: int) -> None:
+    """Section 5: cost of the layered posterior per push in one-layer posteriors.
+
+    On ``count`` pushes of the SC900 export (15 depths or more), alternating twice:
+    the one-layer posterior (``posterior_for_result``, what ``predict --uncertainty``
+    adds) and the layered posterior (``layered_posterior``, what ``--layers N`` adds to
+    it) with 2 and 3 layers, default settings, fits done beforehand; CPU seconds of
+    this process (steadier than wall-clock on a shared machine), each setting's best.
+    """
+    from terracone.inverse import predict_many
+    from terracone.inverse.layered import fit_layered, layered_posterior
+    from terracone.inverse.predict import PredictSettings
+    from terracone.inverse.uncertainty.posterior import posterior_for_result
+
+    items = [p for p in data["sc900_export_2019-06-11.txt"] if p.depth.size >= 15]
+    items = items[:: max(1, len(items) // count)][:count]
+    settings = PredictSettings(uncertainty=True, seed=1)
+    one = predict_many(items)
+    fits = {L: [fit_layered(p, layers=L) for p in items] for L in (2, 3)}
+    posterior_for_result(items[0], one[0], settings)  # kernels loaded, not timed
+    for L in (2, 3):
+        layered_posterior(items[0], fits[L][0], seed=1)
+
+    def cost(L: int) -> float:
+        t0 = time.process_time()
+        for j, p in enumerate(items):
+            if L == 1:
+                posterior_for_result(p, one[j], settings)
+            elif fits[L][j].ok:
+                layered_posterior(p, fits[L][j], seed=1)
+        return (time.process_time() - t0) / len(items)
+
+    best = {1: math.inf, 2: math.inf, 3: math.inf}
+    for _ in range(2):
+        for L in (1, 2, 3):
+            best[L] = min(best[L], cost(L))
+    print(
+        f"\n== 5. posterior cost per push, {len(items)} SC900 pushes (CPU ms; in one-layer posteriors)"
+    )
+    print(
+        f"   one layer {best[1] * 1e3:.0f} ms; "
+        + "; ".join(f"{L} layers {best[L] * 1e3:.0f} ms = {best[L] / best[1]:.2f}" for L in (2, 3))
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--before", type=int, default=12, help="pushes timed with the old fit")
@@ -241,7 +288,10 @@ def main() -> None:
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--rounds", type=int, default=2, help="alternating batch runs per setting")
     ap.add_argument("--coverage", type=int, default=0, help="profiles of the coverage table")
-    ap.add_argument("--skip", nargs="*", default=[], choices=["speed", "fits", "batch"])
+    ap.add_argument("--posterior", type=int, default=20, help="pushes of the posterior cost")
+    ap.add_argument(
+        "--skip", nargs="*", default=[], choices=["speed", "fits", "batch", "posterior"]
+    )
     args = ap.parse_args()
     if not DATA.exists():
         sys.exit(f"{DATA} not found: the Marsden pushes live in ../shared beside the repository")
@@ -252,6 +302,8 @@ def main() -> None:
         fits(data)
     if "batch" not in args.skip:
         batch(data, args.copies, tuple(args.workers), args.rounds)
+    if "posterior" not in args.skip:
+        posterior_cost(data, args.posterior)
     if args.coverage:
         coverage(args.coverage)
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())

@@ -78,6 +78,7 @@ WARMUP_MODULE = "terracone.apps.warmup"
 #: The sources that define kernels, relative to the package (their size and time
 #: stamp key the marker, as they key numba's own cache).
 KERNEL_SOURCES = (
+    "inverse/layered/sampler.py",
     "inverse/learning/kernels.py",
     "inverse/solver/kernels.py",
     "inverse/solver/layered_kernels.py",

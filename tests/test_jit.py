@@ -209,6 +209,7 @@ def test_every_kernel_module_keys_the_marker():
     for name in (
         "terracone.inverse.solver.kernels",
         "terracone.inverse.solver.layered_kernels",
+        "terracone.inverse.layered.sampler",
         "terracone.inverse.learning.kernels",
         "terracone.inverse.solver.polish",
         "terracone.inverse.uncertainty.likelihood",
