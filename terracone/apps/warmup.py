@@ -39,7 +39,7 @@ def workload() -> None:
     run_demo()
     profiles = read_ci_profiles(example_dir() / "lete_sand_synthetic_ci.csv")
     predict_profiles(profiles[:1], uncertainty=True, draws=64, plates=[0.05])
-    predict_profiles(profiles[:1], layers=2)
+    predict_profiles(profiles[:1], layers=2, uncertainty=True, draws=64)  # the layered sampler too
     warm_kernels()
     many = profiles * 12  # a set of 36 (the many-profile refinements)
     for bounds in (Bounds(), Bounds(kc=(1.0, 500.0), phic_deg=(5.0, 30.0))):
