@@ -48,6 +48,8 @@ __all__ = [
     "layer_part",
     "design_rows",
     "boxqp",
+    "cholesky_solve",
+    "release_candidate",
     "layered_sse",
     "design_rows_from",
     "design_sse",
@@ -205,6 +207,44 @@ def cholesky_free(S, st, C, idx, valid=0) -> int:
 
 
 @njit(error_model="numpy")
+def cholesky_solve(C, w, m) -> None:
+    """Solve (C C') u = w in place for the leading m rows (C lower triangular)."""
+    for a in range(m):  # forward then back substitution
+        acc = w[a]
+        for c in range(a):
+            acc -= C[a, c] * w[c]
+        w[a] = acc / C[a, a]
+    for a in range(m - 1, -1, -1):
+        acc = w[a]
+        for c in range(a + 1, m):
+            acc -= C[c, a] * w[c]
+        w[a] = acc / C[a, a]
+
+
+@njit(error_model="numpy")
+def release_candidate(S, b, v, st, Lb, Ub, gr) -> int:
+    """The held variable of :func:`boxqp` whose gradient (stored in ``gr``) points most into
+    the box beyond a relative 1e-11, or -1 when every held variable is optimal."""
+    worst, viol = -1, 0.0
+    for i in range(S.shape[0]):
+        if st[i] == 1 or st[i] == 2:
+            if Lb[i] == Ub[i]:
+                continue
+            gi = -b[i]
+            size = abs(b[i])
+            for j in range(S.shape[0]):
+                gi += S[i, j] * v[j]
+                size += abs(S[i, j] * v[j])
+            gr[i] = gi
+            tol = 1e-11 * size + 1e-300
+            if st[i] == 1 and gi < -tol and -gi > viol:
+                worst, viol = i, -gi
+            elif st[i] == 2 and gi > tol and gi > viol:
+                worst, viol = i, gi
+    return worst
+
+
+@njit(error_model="numpy")
 def boxqp(G, g, lo, hi, x, st, ws, C, idx) -> int:
     """Minimise x'Gx - 2 g'x over lo <= x <= hi (G symmetric positive semi-definite, k variables).
 
@@ -260,16 +300,7 @@ def boxqp(G, g, lo, hi, x, st, ws, C, idx) -> int:
                 if st[j] != 0:
                     r -= S[i, j] * v[j]
             w[a] = r
-        for a in range(m):  # forward then back substitution
-            acc = w[a]
-            for c in range(a):
-                acc -= C[a, c] * w[c]
-            w[a] = acc / C[a, a]
-        for a in range(m - 1, -1, -1):
-            acc = w[a]
-            for c in range(a + 1, m):
-                acc -= C[c, a] * w[c]
-            w[a] = acc / C[a, a]
+        cholesky_solve(C, w, m)
         step, block, side = 1.0, -1, 0
         for a in range(m):
             i = idx[a]
@@ -290,22 +321,7 @@ def boxqp(G, g, lo, hi, x, st, ws, C, idx) -> int:
             v[block] = Lb[block] if side == 1 else Ub[block]
             continue
         # optimal on this face: release the held variable whose gradient points most inwards
-        worst, viol = -1, 0.0
-        for i in range(k):
-            if st[i] == 1 or st[i] == 2:
-                if Lb[i] == Ub[i]:
-                    continue
-                gi = -b[i]
-                size = abs(b[i])
-                for j in range(k):
-                    gi += S[i, j] * v[j]
-                    size += abs(S[i, j] * v[j])
-                gr[i] = gi
-                tol = 1e-11 * size + 1e-300
-                if st[i] == 1 and gi < -tol and -gi > viol:
-                    worst, viol = i, -gi
-                elif st[i] == 2 and gi > tol and gi > viol:
-                    worst, viol = i, gi
+        worst = release_candidate(S, b, v, st, Lb, Ub, gr)
         if worst < 0:
             break
         st[worst] = 0
