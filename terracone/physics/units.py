@@ -9,13 +9,9 @@ kphi           kN/m^(n+2)              lb/in^(n+2)
 force          N                       lbf
 =============  ======================  =========================
 
-The factors are exact: 1 in = 0.0254 m and 1 lbf = 4.4482216152605 N.
-The factors of kc and kphi depend on the sinkage exponent n.
-=======
-terracone computes in the paper's SI system (m, kPa, kN/m^(n+1), kN/m^(n+2))
-and converts at the edges to US customary (in, psi, lb/in^(n+1),
-lb/in^(n+2)); 1 in = 0.0254 m and 1 lbf = 4.4482216152605 N exactly.  The
-factors of kc and kphi depend on the sinkage exponent n.
+terracone computes in the paper's SI system and converts at the edges to US
+customary units.  The factors are exact: 1 in = 0.0254 m and 1 lbf =
+4.4482216152605 N.  The factors of kc and kphi depend on the sinkage exponent n.
 
 Quantities written with their unit (``"10 kN"``, ``"40 in"``, ``"190 hp"``,
 as in a vehicle file) are read by :func:`quantity_to_si`.  Its factors are
