@@ -324,7 +324,7 @@ class PredictionResult:
         The profile's cone, its metadata, notes of the readers and the fit,
         its file, and further keys of the JSON document.
     posterior : PosteriorResult or None
-        Posterior of the fit (:func:`terracone.inverse.uncertainty.posterior.posterior_for_result`).
+        Posterior of the fit (:func:`terracone.inverse.uncertainty.posterior.posterior`).
     layered : LayeredResult or None
         Layered fit of the profile (:func:`terracone.physics.layers.fit_layered`).
     layered_posterior : LayeredPosterior or None

@@ -5,7 +5,7 @@ export, or a directory of them), cuts it into chunks of ``chunk_size``
 profiles, fits each chunk on a worker with
 :func:`terracone.inverse.predict_many` (``detail="summary"``) and
 :func:`terracone.apps.workflow.attach_fits` under one
-:class:`~terracone.inverse.predict.PredictSettings`, and writes one Parquet
+:class:`~terracone.inverse.problem.Problem` and run settings, and writes one Parquet
 part file per chunk with :func:`terracone.result.result_columns` and
 :func:`terracone.result.arrow_table` (the table of ``predict --parquet``).
 Part files are written atomically; ``_run.json`` records the settings and the
@@ -48,7 +48,8 @@ from terracone import __version__
 from terracone.apps.workflow import Reading, attach_fits
 from terracone.data import CIProfile, InputError, ProfileSet
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.predict import PredictSettings, predict_many, settings_of
+from terracone.inverse.predict import RunSettings, predict_many, vectorised
+from terracone.inverse.problem import Problem
 from terracone.inverse.solver.many import solve_exact_many
 from terracone.io import detect_format, instrument_to_parquet
 from terracone.io.scan import ScanPlan, fingerprint, hash_ids, input_files, scan_inputs
@@ -176,7 +177,7 @@ def check_fits(
 
 
 def _fit_chunk(
-    task: ProfileSet, settings: PredictSettings, reading: Reading, units: str
+    task: ProfileSet, problem: Problem, settings: RunSettings, reading: Reading, units: str
 ) -> dict[str, Any]:
     """Fit the profiles of a chunk (on a worker): :data:`WORKER_COLUMNS` in ``units``.
 
@@ -188,7 +189,7 @@ def _fit_chunk(
     # cost time (its passes fell at random chunks); posteriors and layered fits keep it on
     plain = not settings.uncertainty and settings.layers < 2
     with _no_gc() if plain else contextlib.nullcontext():
-        return _fit_columns(task, settings, reading, units)
+        return _fit_columns(task, problem, settings, reading, units)
 
 
 @contextlib.contextmanager
@@ -203,7 +204,7 @@ def _no_gc() -> Iterator[None]:
 
 
 def _fit_columns(
-    task: ProfileSet, settings: PredictSettings, reading: Reading, units: str
+    task: ProfileSet, problem: Problem, settings: RunSettings, reading: Reading, units: str
 ) -> dict[str, Any]:
     t0, c0 = time.perf_counter(), time.process_time()
     pset = task
@@ -212,8 +213,9 @@ def _fit_columns(
     lo, hi = reading.depth_range
     if lo is not None or hi is not None:
         pset = pset.window(lo, hi)
-    results = predict_many(pset, settings, chunk_size=max(len(pset), 1))
-    attach_fits(results, pset, settings, layered_posterior=False)  # the table has no columns
+    results = predict_many(pset, problem, settings, chunk_size=max(len(pset), 1))
+    # the table has no columns of the layered posterior
+    attach_fits(results, pset, problem, settings, layered_posterior=False)
     cols = result_columns(results, units)
     out = {k: cols[k] for k in WORKER_COLUMNS}
     for j in np.flatnonzero(pset.counts == 0):  # emptied by the depth window
@@ -263,12 +265,12 @@ def _table(chunk: Chunk, res: dict[str, Any] | None, failure: str | None, sink: 
         for k in WORKER_COLUMNS:
             cols[k][idx] = res[k]
         fit_time = float(res["fit_time_s"])
-    s, units = sink.job["settings"], sink.job["units"]
-    r_min = None if s.r_min is None else float(u.length_from_si(s.r_min, units))
+    pb, units = sink.job["problem"], sink.job["units"]
+    r_min = None if pb.r_min is None else float(u.length_from_si(pb.r_min, units))
     cols.update(
         profile=pa.array(chunk.ids.tolist(), pa.string()),
         n_points=pa.array(chunk.counts, pa.int64()),
-        model=[s.model] * P,
+        model=[pb.model] * P,
         r_min=[r_min] * P,
         units=[units] * P,
         cone=chunk.cone,
@@ -324,36 +326,37 @@ def _part_meta(path: Path) -> dict[str, Any] | None:
 # ---------------------------------------------------------------------------
 
 
-def _batch_settings(settings: PredictSettings) -> PredictSettings:
+def _batch_settings(problem: Problem, settings: RunSettings) -> RunSettings:
     """The settings as batch fits them: summary detail, its n grid, seeded posteriors."""
-    if not settings.vectorised:
+    if not vectorised(problem, settings):
         raise ValueError("batch fits with the vectorised exact solver: solver 'exact' and no Kc")
     seed = 0 if settings.seed is None else settings.seed
     return dataclasses.replace(settings, detail="summary", n_grid=N_GRID, seed=seed)
 
 
 def _run_settings(
-    s: PredictSettings, reading: Reading, units: str, cone: Cone, chunk_size: int
+    pb: Problem, s: RunSettings, reading: Reading, units: str, cone: Cone, chunk_size: int
 ) -> dict[str, Any]:
     """The run's settings as ``_run.json`` records them (and resume compares them)."""
+    cal = pb.anchor
     record = {
-        "model": s.model,
-        "r_min_m": s.r_min,
-        "plate_pair_m": None if s.plate_pair is None else list(s.plate_pair),
-        "bounds": dataclasses.asdict(s.fit_bounds),
-        "calibration": None if s.calibration is None else s.calibration.to_json(),
-        "kc_over_kphi": s.ratio,
+        "model": pb.model,
+        "r_min_m": pb.r_min,
+        "plate_pair_m": None if pb.plate_pair is None else list(pb.plate_pair),
+        "bounds": dataclasses.asdict(pb.fit_bounds),
+        "calibration": None if cal is None else cal.to_json(),
+        "kc_over_kphi": pb.ratio,
         "units": units,
         "cone": {"name": cone.name, "base_area_m2": cone.base_area, "angle_deg": cone.angle_deg},
         "chunk_size": chunk_size,
-        "solver": "exact_many" + (" (kc/kphi ratio fixed)" if s.ratio else ""),
+        "solver": "exact_many" + (" (kc/kphi ratio fixed)" if pb.ratio else ""),
         "uncertainty": None,
         "n_grid": s.n_grid,
-        "noise_floor": s.noise_floor,
+        "noise_floor": pb.noise_floor,
         "terracone_version": __version__,
     }
     if s.uncertainty:
-        prior = "bounds" if isinstance(s.prior, str) else "calibration"
+        prior = "calibration" if pb.calibrated else "bounds"
         record["uncertainty"] = {"draws": s.draws, "prior": prior}
     # recorded only when set, so that runs written before these keys existed still resume
     wide = {"depth_unit": reading.depth_unit, "ci_unit": reading.ci_unit}
@@ -605,7 +608,7 @@ def warm_kernels(layers: int = 1) -> bool:
 
             zl = np.linspace(0.0, 0.3, 5 * layers + 3)  # enough depths for the layers
             yl = cone_index(zl, kc=10.0, kphi=1000.0, n=0.8)
-            fit_layered(CIProfile("warm", zl, yl, cone=cone), layers=layers)
+            fit_layered(CIProfile("warm", zl, yl, cone=cone), Problem(), layers=layers)
     gc.collect()
     gc.freeze()
     return compiled
@@ -885,7 +888,8 @@ def _check_args(chunk_size: int, workers: int | None, scheduler: str | None, poo
 def run_batch(
     input: PathLike,
     out_dir: PathLike,
-    settings: PredictSettings | None = None,
+    problem: Problem | None = None,
+    settings: RunSettings | None = None,
     *,
     reading: Reading | None = None,
     units: str = "si",
@@ -895,7 +899,6 @@ def run_batch(
     workers: int | None = None,
     scheduler: str | None = None,
     progress: bool | Callable[[int, int], None] | None = None,
-    **fields: Any,
 ) -> BatchSummary:
     """Fit every CI profile of a file or directory; write Parquet results (``docs/batch.md``).
 
@@ -907,11 +910,13 @@ def run_batch(
         ignored); a profile's rows contiguous.
     out_dir : path
         New or empty, or (``resume``) written by an earlier run of the same settings.
-    settings : PredictSettings, optional
-        What to fit (model, r_min [m], calibration, bounds) and attach
-        (``uncertainty``, ``draws``, ``prior``, ``layers``); ``fields`` are its
-        fields given here instead.  Batch fits with ``detail="summary"``, a
-        grid of :data:`N_GRID` over n and seed 0 unless given.
+    problem : Problem, optional
+        What to fit (model, r_min [m], calibration, bounds, prior); each
+        worker receives it as it is.
+    settings : RunSettings, optional
+        What to attach (``uncertainty``, ``draws``, ``layers``).  Batch fits
+        with ``detail="summary"``, a grid of :data:`N_GRID` over n and seed 0
+        unless given.
     reading : Reading, optional
         The cone of files without a ``cone`` column, a single file's format,
         a wide table's units, the depth reference and window.
@@ -942,11 +947,13 @@ def run_batch(
     t_start = time.perf_counter()
     _check_args(chunk_size, workers, scheduler, pool)
     units, reading = u.check_system(units), reading or Reading()
-    settings = _batch_settings(settings_of(settings, fields))
+    problem = problem or Problem()
+    settings = _batch_settings(problem, settings or RunSettings())
     default_cone = get_cone(reading.cone)
     files = input_files(input)
     source = fingerprint(input, files)
-    run = _run_record(_run_settings(settings, reading, units, default_cone, chunk_size), source)
+    record = _run_settings(problem, settings, reading, units, default_cone, chunk_size)
+    run = _run_record(record, source)
     out = Path(out_dir)
     in_dir = Path(input) if Path(input).is_dir() else None
     resuming = _prepare_out_dir(out, resume, run, in_dir)
@@ -955,7 +962,7 @@ def run_batch(
     with _lock(out):
         _remove_leftovers(out)
         plan, expected, done = _begin(out, readable, run, resuming, chunk_size, summary)
-        job = {"settings": settings, "reading": reading, "units": units}
+        job = {"problem": problem, "settings": settings, "reading": reading, "units": units}
         sink = _Sink(out, plan, job, run["run_key"], summary, sum(expected[i] for i in done))
         chunks = iter_chunks(plan, chunk_size, ConeCache(default_cone), done)
         where = {"pool": pool, "workers": workers, "scheduler": scheduler}

@@ -133,6 +133,7 @@ def run_demo(units: str = "si", out: str | None = None) -> Demo:
     from terracone.inverse.bounds import Bounds
     from terracone.inverse.evaluate import cross_table
     from terracone.inverse.learning.learn import learn
+    from terracone.inverse.problem import Problem
     from terracone.io import read_ci_profiles, read_plate_tests
     from terracone.result import dumps, settings_dict, write_json
 
@@ -142,7 +143,7 @@ def run_demo(units: str = "si", out: str | None = None) -> Demo:
     res = learn(profiles, plates, model="rm1")
     ld = res.as_dict(units) | {"terrain": "LETE sand (synthetic)"}
     cal = res.calibration(ld["terrain"])
-    results = predict_many(profiles, calibration=cal)
+    results = predict_many(profiles, Problem(calibration=cal))
     rows = cross_table(
         [(r.id, r.params) for r in results if r.ok], plates, plate_pair=cal.plate_pair
     )

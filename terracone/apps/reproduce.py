@@ -17,7 +17,6 @@ References
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import shutil
@@ -36,8 +35,9 @@ from terracone.apps.workflow import attach_fits, plate_curves
 from terracone.data import CIProfile, PlateTest, TerrainParameters
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.evaluate import PlateEvaluation, cross_table, predicted_plate_pressure
-from terracone.inverse.learning.learn import Calibration, LearnResult, learn
-from terracone.inverse.predict import PredictSettings, predict_many
+from terracone.inverse.learning.learn import LearnResult, learn
+from terracone.inverse.predict import RunSettings, predict_many
+from terracone.inverse.problem import Calibration, Problem
 from terracone.io import write_ci_profiles, write_plate_tests
 from terracone.physics import units as u
 from terracone.physics.cone import cone_index
@@ -561,15 +561,15 @@ def _predict_all(
         radii = list(case.spec.plates.values())
         rc: dict[str, Any] = {}
         for g in case.groups:
-            cal = case.cals[g.id]
-            s = PredictSettings(calibration=cal, prior=cal, uncertainty=True, draws=draws)
+            # the group's calibration as the prior: the fit at its values, the posterior around
+            pb = Problem(prior=case.cals[g.id])
             mine = [p for p in case.profiles if case.group_of(p.id) is g]
-            rc.update((p.id, (r, s)) for p, r in zip(mine, predict_many(mine, s)))
+            rc.update((p.id, (r, pb)) for p, r in zip(mine, predict_many(mine, pb)))
         case.free_res += rf
         for i, p in enumerate(case.profiles):
-            r, s = rc[p.id]
-            s = dataclasses.replace(s, seed=case.spec.seed + i)
-            tasks.append(partial(attach_fits, PredictionResults([r]), [p], s, plates=radii))
+            r, pb = rc[p.id]
+            s = RunSettings(uncertainty=True, draws=draws, seed=case.spec.seed + i)
+            tasks.append(partial(attach_fits, PredictionResults([r]), [p], pb, s, plates=radii))
     attached = iter(mapper(_call, tasks))
     for case in cases:
         for p in case.profiles:

@@ -33,20 +33,23 @@ def workload() -> None:
     from terracone.apps.example import example_dir, run_demo
     from terracone.apps.workflow import predict_profiles
     from terracone.inverse.bounds import Bounds
-    from terracone.inverse.predict import predict_many
+    from terracone.inverse.predict import RunSettings, predict_many
+    from terracone.inverse.problem import Problem
     from terracone.io import read_ci_profiles
 
     run_demo()
     profiles = read_ci_profiles(example_dir() / "lete_sand_synthetic_ci.csv")
-    predict_profiles(profiles[:1], uncertainty=True, draws=64, plates=[0.05])
-    predict_profiles(profiles[:1], layers=2, uncertainty=True, draws=64)  # the layered sampler too
+    posterior = RunSettings(uncertainty=True, draws=64)
+    predict_profiles(profiles[:1], settings=posterior, plates=[0.05])
+    # the layered sampler too
+    predict_profiles(profiles[:1], settings=RunSettings(layers=2, uncertainty=True, draws=64))
     warm_kernels()
     many = profiles * 12  # a set of 36 (the many-profile refinements)
     for bounds in (Bounds(), Bounds(kc=(1.0, 500.0), phic_deg=(5.0, 30.0))):
-        predict_many(many, bounds=bounds, detail="summary")
-        predict_many(profiles[:1], bounds=bounds)
+        predict_many(many, Problem(bounds=bounds), RunSettings(detail="summary"))
+        predict_many(profiles[:1], Problem(bounds=bounds))
     z = np.linspace(0.0, 0.3, 7)
-    predict_many([profiles[0].window(0.0, float(z[-1]))], model="rm1", r_min=0.01)
+    predict_many([profiles[0].window(0.0, float(z[-1]))], Problem(model="rm1", r_min=0.01))
 
 
 def main() -> int:

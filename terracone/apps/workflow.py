@@ -1,7 +1,8 @@
 """What ``terracone predict`` computes, as one library call, and what it adds to a fit.
 
-:func:`predict_profiles` fits CI profiles (section 3.3.2 of [1]_) with one
-:class:`~terracone.inverse.predict.PredictSettings` and attaches predicted
+:func:`predict_profiles` fits CI profiles (section 3.3.2 of [1]_) as one
+:class:`~terracone.inverse.problem.Problem` states and one
+:class:`~terracone.inverse.predict.RunSettings` asks, and attaches predicted
 plate curves (eq. (2-2), RM1 of section 3.2) and, through :func:`attach_fits`
 (shared with ``batch`` and ``reproduce``), posteriors and layered fits.
 
@@ -24,7 +25,8 @@ import pyarrow as pa
 
 from terracone.data import CIProfile, InputError, ProfileSet, TerrainParameters
 from terracone.inverse.evaluate import predicted_plate_pressure
-from terracone.inverse.predict import PredictSettings, predict_many, settings_of
+from terracone.inverse.predict import RunSettings, predict_many
+from terracone.inverse.problem import Problem
 from terracone.io import read_ci_profiles
 from terracone.physics import units as u
 from terracone.physics.cone import Cone
@@ -122,20 +124,21 @@ class PredictRun:
 
     ``results``: one :class:`~terracone.result.PredictionResult` per input
     item, in input order, with what was asked attached (``plate_curves``,
-    ``posterior``, ``layered``, ``layered_posterior``); ``settings``: what
-    was asked.
+    ``posterior``, ``layered``, ``layered_posterior``); ``problem``: what
+    was fitted; ``settings``: how.
     """
 
     results: PredictionResults
-    settings: PredictSettings
+    problem: Problem
+    settings: RunSettings
 
     def as_dict(
         self, units: str = "si", *, input: str | None = None, **extra: Any
     ) -> dict[str, Any]:
         """The ``terracone predict --json`` document; ``extra`` settings are recorded as given."""
-        s = self.settings
-        recorded = {k: getattr(s, k) for k in ("model", "r_min", "solver", "seed", "bounds")}
-        recorded["calibration"] = s.calibration.terrain if s.calibration else None
+        pb, s = self.problem, self.settings
+        recorded = {"model": pb.model, "r_min": pb.r_min, "solver": s.solver, "seed": s.seed}
+        recorded.update(bounds=pb.bounds, calibration=pb.record()["calibration"])
         doc_settings = settings_dict(recorded, units, **extra)
         return to_document(self.results, units, input=input, settings=doc_settings)
 
@@ -146,12 +149,12 @@ class PredictRun:
 
 def predict_profiles(
     items: Sequence[CIProfile | InputError],
-    settings: PredictSettings | None = None,
+    problem: Problem | None = None,
+    settings: RunSettings | None = None,
     *,
     plates: Sequence[float] = (),
     sinkage: np.ndarray | None = None,
     band_sinkage: np.ndarray | None = None,
-    **options: Any,
 ) -> PredictRun:
     """Predict terrain parameters for a set of CI profiles, with what predict adds on request.
 
@@ -160,27 +163,29 @@ def predict_profiles(
     items : sequence of CIProfile or InputError
         As readers return them; an :class:`InputError` is reported as that
         profile's error and the others are fitted.
-    settings : PredictSettings, optional
-        What to fit and attach (posterior with ``uncertainty``, layered fit
-        with ``layers`` > 1); ``options`` are its fields given here instead.
+    problem : Problem, optional
+        What to fit (pressure law, bounds, a calibration's held values).
+    settings : RunSettings, optional
+        How to run, and what to attach (posterior with ``uncertainty``,
+        layered fit with ``layers`` > 1).
     plates : sequence of float
         Plate radii [m] of predicted plate curves (and posterior bands).
     sinkage, band_sinkage : ndarray, optional
         Sinkages [m] of the plate curves (default :func:`sinkage_grid`) and
         of the posterior bands (default 21 points to 5 cm).
     """
-    settings = settings_of(settings, options)
-    results = predict_many(items, settings)
+    problem, settings = problem or Problem(), settings or RunSettings()
+    results = predict_many(items, problem, settings)
     for it, r in zip(items, results):  # a reader's error: its row and column for the table
         if isinstance(it, InputError) and r.error_row is None and r.error_column is None:
             r.error_row, r.error_column = it.row, it.column
     s = sinkage_grid() if sinkage is None else sinkage
     for r in results:
         if r.ok and plates:
-            r.plate_curves = plate_curves(r.params, plates, s, settings.plate_pair)
+            r.plate_curves = plate_curves(r.params, plates, s, problem.plate_pair)
     bands = np.linspace(0.0, 0.05, 21) if band_sinkage is None else band_sinkage
-    attach_fits(results, items, settings, plates=list(plates) or None, band_sinkage=bands)
-    return PredictRun(results, settings)
+    attach_fits(results, items, problem, settings, plates=list(plates) or None, band_sinkage=bands)
+    return PredictRun(results, problem, settings)
 
 
 def _cone_of(profiles: ProfileSet | Sequence[Any], j: int) -> Cone:
@@ -192,7 +197,8 @@ def _cone_of(profiles: ProfileSet | Sequence[Any], j: int) -> Cone:
 def attach_fits(
     results: PredictionResults,
     profiles: ProfileSet | Sequence[CIProfile | InputError],
-    settings: PredictSettings,
+    problem: Problem,
+    settings: RunSettings,
     *,
     plates: Sequence[float] | None = None,
     band_sinkage: np.ndarray | None = None,
@@ -200,12 +206,11 @@ def attach_fits(
 ) -> PredictionResults:
     """Attach to each fitted result its posterior and layered fit, as ``settings`` ask.
 
-    The one place where ``predict``, ``batch`` and ``reproduce`` add them:
-    with ``settings.uncertainty`` the posterior of the fit
-    (:func:`terracone.inverse.uncertainty.posterior.posterior_for_result`:
-    prior ``settings.prior`` over ``settings.bounds``, ``draws``, ``seed``;
-    plate bands at ``plates`` [m] and ``band_sinkage`` [m]); with
-    ``settings.layers`` > 1 a layered fit
+    The one place where ``predict``, ``batch`` and ``reproduce`` add them,
+    each under the same ``problem`` as the fit: with ``settings.uncertainty``
+    the posterior of the fit (:func:`terracone.inverse.uncertainty.posterior.posterior`,
+    started at the fit; ``draws``, ``seed``; plate bands at ``plates`` [m]
+    and ``band_sinkage`` [m]); with ``settings.layers`` > 1 a layered fit
     (:func:`terracone.inverse.layered.fit_layered`) and, with
     ``uncertainty`` and ``layered_posterior``, its posterior.  A profile
     whose posterior fails keeps its fit and says why in ``lack_of_fit``; a
@@ -217,36 +222,37 @@ def attach_fits(
     """
     if not settings.uncertainty and settings.layers < 2:
         return results
-    from terracone.inverse.uncertainty.posterior import posterior_for_result
+    from terracone.inverse.uncertainty.posterior import posterior
 
+    s = settings
     for j, r in enumerate(results):
         if not r.ok:
             continue
         prof = CIProfile(r.id, r.depth, r.ci, cone=_cone_of(profiles, j), metadata=r.metadata)
         with np.errstate(all="ignore"):
-            if settings.uncertainty:
+            if s.uncertainty:
                 try:
-                    r.posterior = posterior_for_result(
-                        prof, r, settings, plates=plates, plate_sinkages=band_sinkage
-                    )
+                    r.posterior = posterior(
+                        prof, problem, start=r, draws=s.draws, seed=s.seed, plates=plates,
+                        plate_sinkages=band_sinkage,
+                    )  # fmt: skip
                 except Exception as exc:  # noqa: BLE001 - recorded per profile, the rest goes on
                     r.lack_of_fit = "; ".join(
                         filter(None, [r.lack_of_fit, f"posterior failed: {exc}"])
                     )
-            if settings.layers > 1:
-                r.layered, r.layered_posterior = _layered(prof, settings, layered_posterior)
+            if s.layers > 1:
+                r.layered, r.layered_posterior = _layered(prof, problem, s, layered_posterior)
     return results
 
 
-def _layered(prof: CIProfile, settings: PredictSettings, sample: bool) -> tuple[Any, Any]:
+def _layered(prof: CIProfile, problem: Problem, s: RunSettings, sample: bool) -> tuple[Any, Any]:
     """The layered fit of a profile (an error result if it fails) and, if asked, its posterior."""
     from terracone.inverse.layered import LayeredResult, fit_layered, layered_posterior
 
-    s = settings
     try:
-        lr = fit_layered(prof, layers=s.layers, model=s.model, r_min=s.r_min, bounds=s.bounds)
+        lr = fit_layered(prof, problem, layers=s.layers)
     except Exception as exc:  # noqa: BLE001 - recorded per profile, the rest goes on
         return LayeredResult(prof.id, "error", f"{type(exc).__name__}: {exc}"), None
     if not (sample and s.uncertainty and lr.ok):
         return lr, None
-    return lr, layered_posterior(prof, lr, bounds=s.bounds, draws=s.draws, seed=s.seed)
+    return lr, layered_posterior(prof, lr, problem, draws=s.draws, seed=s.seed)

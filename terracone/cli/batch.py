@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from terracone.cli.common import fit_options, reading_from, settings_from
+from terracone.cli.common import fit_options, problem_from, reading_from, run_from
 
 
 @click.command("batch")
@@ -45,7 +45,8 @@ from terracone.cli.common import fit_options, reading_from, settings_from
     type=click.Choice(["bounds", "calibration"]),
     default="bounds",
     show_default=True,
-    help="Prior with --uncertainty.",
+    help="Prior with --uncertainty: the bounds, or the calibration's (its values held in every "
+    "draw, as in the fit; the same as bounds with --calibration).",
 )
 def batch_cmd(input_path, out_dir, workers, scheduler, resume, quiet, chunk_size, **opts):
     """Fit every profile of a CSV/Parquet file or directory on Dask; Parquet results per chunk."""
@@ -54,16 +55,11 @@ def batch_cmd(input_path, out_dir, workers, scheduler, resume, quiet, chunk_size
     uncertainty = opts.pop("uncertainty")
     if opts["prior"] == "calibration" and not (opts["calibration"] or opts["terrain"]):
         raise click.UsageError("--prior calibration needs --calibration or --terrain")
-    settings = settings_from(
-        opts,
-        uncertainty=uncertainty,
-        draws=opts["draws"],
-        prior=opts["prior"] if uncertainty else "bounds",
-    )
     s = run_batch(
         input_path,
         out_dir,
-        settings,
+        problem_from(opts, prior=opts["prior"]),
+        run_from(opts, uncertainty=uncertainty, draws=opts["draws"]),
         reading=reading_from(opts),
         units=opts["units"],
         chunk_size=chunk_size,

@@ -13,7 +13,8 @@ import numpy as np
 
 from terracone.apps.workflow import Reading
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.predict import PredictSettings
+from terracone.inverse.predict import RunSettings
+from terracone.inverse.problem import Calibration, Problem
 from terracone.physics import units as u
 from terracone.report.text import curve_text
 
@@ -249,34 +250,37 @@ def reading_from(opts: dict[str, Any], file_units: str | None = None) -> Reading
     )
 
 
-def settings_from(opts: dict[str, Any], **fields: Any) -> PredictSettings:
-    """The one :class:`PredictSettings` of a command's ``fit_options`` (lengths in --units).
+def problem_from(opts: dict[str, Any], prior: Any = "bounds") -> Problem:
+    """The one :class:`Problem` of a command's ``fit_options`` (lengths in --units).
 
-    ``fields`` are further fields (solver, seed, uncertainty, ...); a
-    ``calibration`` among them (design's prior) stands for --calibration.
+    ``prior``: "bounds", "calibration", or a calibration given as the prior
+    (``--prior terrain:NAME``, :func:`load_prior`).
     """
     units = opts["units"]
-    cal = fields.pop("calibration", None) or load_calibration(
-        opts["calibration"], opts["terrain"], opts["library"]
-    )
+    cal = load_calibration(opts["calibration"], opts["terrain"], opts["library"])
     r_min = parse_length(opts["r_min"], units, "--r-min") if opts["r_min"] else None
-    if opts["model"] == "rm1" and r_min is None and cal is None:
+    if opts["model"] == "rm1" and r_min is None and cal is None and isinstance(prior, str):
         raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
-    bounds = Bounds.parse(opts["bounds"], units)
-    return PredictSettings(
-        model=opts["model"],
-        r_min=r_min,
-        calibration=cal,
-        bounds=bounds,
-        layers=opts["layers"],
-        **fields,
-    )
+    try:
+        return Problem(
+            model=opts["model"],
+            r_min=r_min,
+            calibration=cal,
+            bounds=Bounds.parse(opts["bounds"], units),
+            prior=prior,
+        )
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
+
+
+def run_from(opts: dict[str, Any], **fields: Any) -> RunSettings:
+    """The :class:`RunSettings` of a command: ``--layers`` and ``fields`` (solver, seed, ...)."""
+    return RunSettings(layers=opts["layers"], **fields)
 
 
 def load_calibration(calibration: str | None, terrain: str | None, library: str | None):
     """The calibration of --calibration FILE or --terrain NAME (from the library), or None."""
     from terracone.apps.library import Library
-    from terracone.inverse.learning.learn import Calibration
 
     if calibration and terrain:
         raise click.UsageError("give at most one of --calibration and --terrain")

@@ -7,7 +7,6 @@ from pathlib import Path
 
 import click
 
-from terracone import __version__
 from terracone.cli.common import (
     UNITS,
     emit_json,
@@ -18,14 +17,13 @@ from terracone.cli.common import (
     parse_length,
     parse_lengths,
     parse_r_min_range,
+    problem_from,
     reading_from,
     reading_options,
-    settings_from,
+    run_from,
     shared,
-    store_in_library,
 )
-from terracone.data import InputError, TerrainParameters
-from terracone.physics import units as u
+from terracone.data import TerrainParameters
 from terracone.report.text import (
     design_text,
     evaluate_text,
@@ -64,7 +62,8 @@ from terracone.result import write_parquet
     "--prior",
     default="bounds",
     show_default=True,
-    help="Prior with --uncertainty: bounds (uniform) or terrain:NAME (a stored calibration).",
+    help="bounds (uniform), or terrain:NAME: a stored calibration as the prior (the fit at its "
+    "phic, cc and kc/kphi; with --uncertainty the posterior around them).",
 )
 @json_options[0]  # --out
 @click.option(
@@ -80,18 +79,15 @@ def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts)
     from terracone.apps.workflow import predict_profiles, sinkage_grid
 
     units, uncertainty = opts["units"], opts.pop("uncertainty")
-    settings = settings_from(
-        opts,
-        solver=opts["solver"],
-        seed=opts["seed"],
-        uncertainty=uncertainty,
-        draws=opts["draws"],
-        prior=load_prior(opts["prior"], opts["library"]) if uncertainty else "bounds",
+    problem = problem_from(opts, prior=load_prior(opts["prior"], opts["library"]))
+    settings = run_from(
+        opts, solver=opts["solver"], seed=opts["seed"], uncertainty=uncertainty, draws=opts["draws"]
     )
     radii = parse_lengths(plates, units, "--plates")
     items = reading_from(opts, file_units).read(ci_file, units)
     run = predict_profiles(
         items,
+        problem,
         settings,
         plates=radii,
         sinkage=sinkage_grid(units),
@@ -160,30 +156,27 @@ def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts)
 @click.option("--json", "as_json", is_flag=True)
 def learn_cmd(ci_file, plates_file, r_min_range, terrain_name, save, save_as, as_json, **opts):
     """Learn r_min, cc, phic and the P-S parameters from CI and plate tests (section 3.3.1)."""
+    from terracone.apps.calibrate import learn_calibration
     from terracone.inverse import Bounds
-    from terracone.inverse.learning.learn import learn
     from terracone.io import read_plate_tests
 
     units, model = opts["units"], opts["model"]
-    profiles = reading_from(opts).read(ci_file, units, on_error="raise")
-    plates = read_plate_tests(plates_file)
     rb = parse_r_min_range(r_min_range, units)
     if rb is not None and model != "rm1":
         raise click.BadParameter("--r-min-range: only with --model rm1")
-    bounds = Bounds.parse(opts["bounds"], units)
-    res = learn(profiles, plates, model=model, bounds=bounds, r_min_bounds=rb)
-    label = save_as or terrain_name or Path(ci_file).stem
-    cal = res.calibration(
-        label, cone=profiles[0].cone.name, ci_file=str(ci_file), plates_file=str(plates_file)
+    run = learn_calibration(
+        reading_from(opts).read(ci_file, units, on_error="raise"),
+        read_plate_tests(plates_file),
+        terrain=save_as or terrain_name or Path(ci_file).stem,
+        model=model,
+        bounds=Bounds.parse(opts["bounds"], units),
+        r_min_bounds=rb,
+        save=save,
+        save_as=save_as,
+        library=opts["library"],
+        sources={"ci_file": str(ci_file), "plates_file": str(plates_file)},
     )
-    if save:
-        cal.save(save)
-    if save_as:
-        store_in_library(
-            opts["library"], save_as, "calibration", cal.library_params(), cal.provenance
-        )
-    d = res.as_dict(units)
-    d.update(terrain=label, terracone=__version__, command="learn", saved=save, saved_as=save_as)
+    d = run.as_dict(units)
     if as_json:
         emit_json(d)
         return
@@ -272,7 +265,8 @@ def sites_cmd(
     ci_file, by, radius, plates, target_cv, bootstrap, seed, file_units, out, as_json, **opts
 ):
     """Site statistics: pushes pooled per site (median terrain, push-to-push CV, pushes needed)."""
-    from terracone.inverse.sites.statistics import default_sinkages, site_statistics
+    from terracone.apps.sites import DEFAULT_SITE_PLATES, pool_sites
+    from terracone.inverse.sites.statistics import default_sinkages
 
     if by is None and radius is None:
         raise click.UsageError("give --by COLUMN or --radius L to group the profiles into sites")
@@ -280,38 +274,21 @@ def sites_cmd(
         raise click.UsageError("sites pools one-layer fits; --layers is not supported here")
     if not target_cv > 0:
         raise click.BadParameter(f"--target-cv: must be > 0, got {target_cv}")
-    s, units = settings_from(opts), opts["units"]
-    cal = s.calibration
-    L = parse_length(radius, units, "--radius") if radius else None
-    run = site_statistics(
+    units = opts["units"]
+    run = pool_sites(
         reading_from(opts, file_units).read(ci_file, units),
+        problem_from(opts),
         by=by,
-        radius=L,
-        source=str(ci_file),
-        model=s.model,
-        r_min=s.r_min,
-        calibration=cal,
-        bounds=s.bounds,
-        plates=parse_lengths(plates, units, "--plates") or [0.0375, 0.05],
+        radius=parse_length(radius, units, "--radius") if radius else None,
+        plates=parse_lengths(plates, units, "--plates") or DEFAULT_SITE_PLATES,
         sinkage=default_sinkages(units),
         target_cv=target_cv,
         bootstrap=bootstrap,
         seed=seed,
+        depth_range=opts["depth_range"],
+        source=str(ci_file),
     )
-    doc = {"terracone": __version__, "command": "sites", "input": str(ci_file)}
-    doc["settings"] = {
-        "by": by,
-        "radius": None if L is None else float(u.length_from_si(L, units)),
-        "model": cal.model if cal else s.model,
-        "calibration": cal.terrain if cal else None,
-        "bounds": s.bounds.as_dict(units),
-        "depth_range": opts["depth_range"],
-        "target_cv": target_cv,
-        "bootstrap": bootstrap if bootstrap is not None else (0 if cal else 40),
-        "seed": seed,
-        "units": units,
-    }
-    doc.update(run.as_dict(units))
+    doc = run.as_dict(units, input=str(ci_file))
     if out:
         emit_json(doc, out)
     if as_json:
@@ -352,7 +329,8 @@ def sites_cmd(
 @json_options[1]  # --json
 def design_cmd(ci_file, prior, plates, candidates, plate_noise, as_json, **opts):
     """Value of information: which one extra test narrows the predicted plate pressure most."""
-    from terracone.inverse.sites.design import parse_candidates, plan_test
+    from terracone.apps.sites import plan_tests
+    from terracone.inverse.sites.design import parse_candidates
 
     if opts["layers"] > 1:
         raise click.UsageError("design works on one-layer fits; --layers is not supported here")
@@ -360,39 +338,23 @@ def design_cmd(ci_file, prior, plates, candidates, plate_noise, as_json, **opts)
         raise click.BadParameter(f"--plate-noise: must be > 0, got {plate_noise}")
     if prior.startswith("terrain:") and (opts["calibration"] or opts["terrain"]):
         raise click.UsageError("give the calibration once: --prior terrain:NAME or --calibration")
-    units, cal = opts["units"], load_prior(prior, opts["library"])
-    s = settings_from(opts, calibration=None if isinstance(cal, str) else cal)
-    radii = parse_lengths(plates, units, "--plates")
+    units = opts["units"]
     try:
         cands = parse_candidates(candidates, units)
     except ValueError as exc:
         raise click.BadParameter(str(exc)) from None
-    designs = []
-    for it in reading_from(opts).read(ci_file, units):
-        if isinstance(it, InputError):
-            designs.append({"id": str(it.profile), "status": "error", "error": str(it)})
-            continue
-        r = plan_test(
-            it,
-            candidates=cands,
-            plates=radii,
-            prior=s.calibration or "bounds",
-            bounds=s.bounds,
-            model=s.model,
-            r_min=s.r_min,
-            plate_noise=plate_noise,
-        )
-        designs.append(r.as_dict(units))
-    doc = {
-        "terracone": __version__,
-        "command": "design",
-        "input": str(ci_file),
-        "settings": {"candidates": candidates, "plate_noise": plate_noise, "units": units},
-        "designs": designs,
-    }
+    run = plan_tests(
+        reading_from(opts).read(ci_file, units),
+        problem_from(opts, prior=load_prior(prior, opts["library"])),
+        candidates=cands,
+        plates=parse_lengths(plates, units, "--plates"),
+        plate_noise=plate_noise,
+        asked={"candidates": candidates, "plate_noise": plate_noise},
+    )
+    doc = run.as_dict(units, input=str(ci_file))
     if as_json:
         emit_json(doc)
     else:
-        click.echo(design_text(designs, units))
-    if not any(d["status"] == "ok" for d in designs):
+        click.echo(design_text(doc["designs"], units))
+    if not run.planned_any:
         sys.exit(1)

@@ -1,7 +1,11 @@
 """Inverse problems: the prediction and learning processes of the paper.
 
+* :class:`Problem` states what a fit fits, once: the pressure law, the bounds,
+  the values a :class:`Calibration` holds and the prior (:mod:`.problem`);
+  every entry point below takes it;
 * :func:`predict` / :func:`predict_many` fit kc, kphi, n, cc, phic_deg to CI
   profiles (section 3.3.2; :mod:`.predict`, solvers in :mod:`.solver`);
+  :class:`RunSettings` says how (solver, detail) and what to attach;
 * :func:`learn` fits them jointly to CI profiles and plate tests and finds
   the RM1 transition radius r_min (section 3.3.1; :mod:`.learning`);
 * :func:`evaluate` compares predicted and measured plate pressure-sinkage
@@ -14,8 +18,9 @@
   :func:`fit_shear` / :func:`fit_shear_test` shear tests (:mod:`.bevameter`);
 * site statistics and the value of a test are in :mod:`.sites`.
 
-Everything but :class:`Bounds`, :func:`predict`, :func:`predict_many` and
-:func:`pso` is loaded on first use of its name (emcee and scipy.stats are not
+Everything but :class:`Bounds`, :class:`Problem`, :class:`Calibration`,
+:class:`RunSettings`, :func:`predict`, :func:`predict_many` and :func:`pso` is
+loaded on first use of its name (emcee and scipy.stats are not
 needed to predict).  The result types are in :mod:`terracone.result`.
 """
 
@@ -25,7 +30,8 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.predict import predict, predict_many
+from terracone.inverse.predict import RunSettings, predict, predict_many
+from terracone.inverse.problem import Calibration, Problem
 from terracone.inverse.solver.pso import PSOResult, pso
 
 if TYPE_CHECKING:  # loaded on first use, see __getattr__
@@ -38,12 +44,8 @@ if TYPE_CHECKING:  # loaded on first use, see __getattr__
         fit_layered,
         layered_posterior,
     )
-    from terracone.inverse.learning.learn import Calibration, LearnResult, learn
-    from terracone.inverse.uncertainty.posterior import (
-        PosteriorResult,
-        posterior,
-        posterior_for_result,
-    )
+    from terracone.inverse.learning.learn import LearnResult, learn
+    from terracone.inverse.uncertainty.posterior import PosteriorResult, posterior
 
 #: Names exported from submodules loaded on first use, and their submodule.
 LAZY = {
@@ -53,14 +55,15 @@ LAZY = {
     **dict.fromkeys(
         ["LayeredPosterior", "LayeredResult", "fit_layered", "layered_posterior"], "layered"
     ),
-    **dict.fromkeys(["Calibration", "LearnResult", "learn"], "learning.learn"),
-    **dict.fromkeys(
-        ["PosteriorResult", "posterior", "posterior_for_result"], "uncertainty.posterior"
-    ),
+    **dict.fromkeys(["LearnResult", "learn"], "learning.learn"),
+    **dict.fromkeys(["PosteriorResult", "posterior"], "uncertainty.posterior"),
 }
 
 __all__ = [
     "Bounds",
+    "Calibration",
+    "Problem",
+    "RunSettings",
     "PSOResult",
     "predict",
     "predict_many",
@@ -79,12 +82,10 @@ __all__ = [
     "LayeredResult",
     "fit_layered",
     "layered_posterior",
-    "Calibration",
     "LearnResult",
     "learn",
     "PosteriorResult",
     "posterior",
-    "posterior_for_result",
 ]
 
 

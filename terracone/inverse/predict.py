@@ -20,16 +20,16 @@ References
 from __future__ import annotations
 
 import functools
-import os
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from terracone.data import CIProfile, InputError, ProfileSet, TerrainParameters
 from terracone.inverse.bounds import Bounds
+from terracone.inverse.problem import Problem
 from terracone.inverse.solver.columns import design
 from terracone.inverse.solver.exact import solve_exact
 from terracone.inverse.solver.intervals import identification, linear_intervals, n_intervals
@@ -39,18 +39,18 @@ from terracone.inverse.solver.pso import pso
 from terracone.physics import units as u
 from terracone.physics.cone import Cone, cone_index_huang
 from terracone.physics.metrics import check_fit_fast
-from terracone.physics.plate import PressureLaw, pressure_law
+from terracone.physics.plate import PressureLaw
 from terracone.result import PredictionResult, PredictionResults
 
 __all__ = [
-    "PredictSettings",
+    "RunSettings",
     "SetFit",
     "predict",
     "predict_many",
-    "settings_of",
     "fit_set",
     "solve_set",
     "rmsd_objective",
+    "vectorised",
 ]
 
 _EXACT_MESSAGE = "global optimum of the bounded linear least squares over the n, phic grid"
@@ -60,20 +60,32 @@ N_GRID = 97
 
 
 def rmsd_objective(
-    profile: CIProfile, law: PressureLaw, bounds: Bounds, K_cone: float | None = None
+    profile: CIProfile,
+    law: PressureLaw,
+    bounds: Bounds,
+    K_cone: float | None = None,
+    ratio: float | None = None,
 ):
     """RMSD [kPa] of positions (P, 5) = (kc, kphi, n, cc, phic) in the bounds' units.
 
     With ``bounds`` in US units the kc and kphi coordinates are in
-    lb/in^(n+1) and lb/in^(n+2); cc is in kPa and phic in degrees.
+    lb/in^(n+1) and lb/in^(n+2); cc is in kPa and phic in degrees.  With
+    ``ratio`` [m] kc = ratio kphi (the kc coordinate is not read) and a kc
+    outside its bounds gives inf.
     """
     z, y = profile.depth, profile.ci
 
     def f(x: np.ndarray) -> np.ndarray:
         x = np.atleast_2d(x)
         n = x[:, 2:3]
-        kc = u.kc_to_si(x[:, 0:1], n, bounds.kc_units)
         kphi = u.kphi_to_si(x[:, 1:2], n, bounds.kphi_units)
+        if ratio is None:
+            kc = u.kc_to_si(x[:, 0:1], n, bounds.kc_units)
+            outside = np.zeros(len(x), bool)
+        else:
+            kc = ratio * kphi
+            lo, hi = bounds.kc_si(n)
+            outside = ((kc < lo) | (kc > hi))[:, 0]
         K = x[:, 5:6] if x.shape[1] > 5 else K_cone
         ci = cone_index_huang(
             z,
@@ -87,60 +99,38 @@ def rmsd_objective(
             cone=profile.cone,
         )
         r = ci - y
-        return np.sqrt(np.mean(r * r, axis=-1))
+        return np.where(outside, np.inf, np.sqrt(np.mean(r * r, axis=-1)))
 
     return f
 
 
 # ---------------------------------------------------------------------------
-# settings: one object from the command line (or Python keywords) to the workers
+# how a run is made: one object from the command line (or Python) to the workers
 # ---------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
-class PredictSettings:
-    """What a prediction is asked, checked once, with a calibration applied (SI).
+class RunSettings:
+    """How a prediction runs and what it attaches (what it fits is a :class:`Problem`).
 
-    The fields are the keywords of :func:`predict_many` (``docs/predict.md``).
-    ``terracone predict`` and ``terracone batch`` build one from their options
-    and pass it down unchanged: to :func:`predict_many`, to
-    :func:`terracone.apps.workflow.attach_fits` (posterior, layered fit) and,
-    pickled, to batch's workers.  A calibration (section 3.3.1) sets model,
-    r_min and plate_pair (the fields then hold its values), fixes phic and cc
-    (:attr:`fit_bounds`) and, with ``fix_ratio``, kc/kphi (:attr:`ratio`,
-    exact solver only).  ``uncertainty``, ``draws``, ``prior`` and ``layers``
-    ask for what :func:`~terracone.apps.workflow.attach_fits` adds; ``seed``
-    seeds the particle swarm and the posterior sampler.
-
-    Derived (not arguments): ``law`` (the pressure law), ``fit_bounds`` (the
-    bounds of the fit), ``ratio`` (kc/kphi held [m] or None) and ``note``
-    (added to the notes of every profile fitted with a calibration).
+    ``solver``: "exact" (default) or "pso" (the paper's swarm; ``seed`` and
+    ``pso_options``); ``n_grid``: points of the exact solver's grid over n;
+    ``detail``: "full" (profile scans of kc, kphi, cc) or "summary";
+    ``solve_many``: a replacement of :func:`solve_exact_many` (tests).
+    ``uncertainty``, ``draws`` and ``layers`` ask for what
+    :func:`terracone.apps.workflow.attach_fits` adds (posterior, layered
+    fit); ``seed`` also seeds the posterior samplers.
     """
 
-    model: str = "rm0"
-    r_min: float | None = None
-    plate_pair: tuple[float, float] | None = None
-    calibration: Any = None  # a Calibration or its file
     solver: str = "exact"
-    bounds: Bounds = field(default_factory=Bounds)
-    K_cone: float | None = None
-    fit_K_cone: bool = False
     seed: int | None = None
-    noise_floor: float = 0.01
     pso_options: dict[str, Any] | None = None
-    fix_ratio: bool = True
-    kc_over_kphi: float | None = None
     n_grid: int = N_GRID
     detail: str = "full"
     solve_many: Callable[..., ManySolution] | None = None
     uncertainty: bool = False
     draws: int = 2000
-    prior: Any = "bounds"
     layers: int = 1
-    law: PressureLaw = field(init=False, repr=False, compare=False)
-    fit_bounds: Bounds = field(init=False, repr=False, compare=False)
-    ratio: float | None = field(init=False, repr=False, compare=False)
-    note: str | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.solver not in ("exact", "pso"):
@@ -151,48 +141,11 @@ class PredictSettings:
             raise ValueError(f"layers must be >= 1 (got {self.layers})")
         if self.uncertainty and int(self.draws) < 10:
             raise ValueError(f"draws must be >= 10 (got {self.draws})")
-        put = functools.partial(object.__setattr__, self)
-        if self.bounds is None:
-            put("bounds", Bounds())
-        if isinstance(self.calibration, str | os.PathLike):  # a calibration file
-            from terracone.inverse.learning.learn import Calibration
-
-            put("calibration", Calibration.load(self.calibration))
-        cal, bounds, ratio, note = self.calibration, self.bounds, self.kc_over_kphi, None
-        if cal is not None:
-            put("model", cal.model)
-            put("r_min", cal.r_min)
-            put("plate_pair", cal.plate_pair)
-            bounds = bounds.fixed(phic_deg=cal.phic_deg, cc=cal.cc)
-            if self.fix_ratio and cal.kphi > 0:
-                ratio = cal.kc / cal.kphi
-            held = " and kc/kphi" if ratio is not None and self.solver == "exact" else ""
-            note = f"calibration {cal.terrain!r}: model, r_min, phic, cc{held} fixed"
-        if isinstance(self.prior, str):
-            if self.prior not in ("bounds", "calibration"):
-                raise ValueError(
-                    f"prior must be 'bounds', 'calibration' or a Calibration (got {self.prior!r})"
-                )
-            if self.prior == "calibration":
-                if cal is None:
-                    raise ValueError("prior 'calibration' needs a calibration")
-                put("prior", cal)
-        put("law", pressure_law(self.model, r_min=self.r_min, plate_pair=self.plate_pair))
-        put("fit_bounds", bounds)
-        put("ratio", ratio)
-        put("note", note)
-
-    @property
-    def vectorised(self) -> bool:
-        """True when the fits go through :func:`solve_exact_many` (exact, fully mobilised)."""
-        return self.solver == "exact" and self.K_cone is None and not self.fit_K_cone
 
 
-def settings_of(settings: PredictSettings | None, options: dict[str, Any]) -> PredictSettings:
-    """``settings`` with ``options`` (fields of :class:`PredictSettings`) changed, or built."""
-    if settings is None:
-        return PredictSettings(**options)
-    return replace(settings, **options) if options else settings
+def vectorised(problem: Problem, settings: RunSettings) -> bool:
+    """True when the fits go through :func:`solve_exact_many` (exact, fully mobilised)."""
+    return settings.solver == "exact" and problem.vectorised
 
 
 # ---------------------------------------------------------------------------
@@ -201,23 +154,23 @@ def settings_of(settings: PredictSettings | None, options: dict[str, Any]) -> Pr
 
 
 def predict(
-    profile: CIProfile, settings: PredictSettings | None = None, **options: Any
+    profile: CIProfile, problem: Problem | None = None, settings: RunSettings | None = None
 ) -> PredictionResult:
     """Fit the improved cone model to one CI profile (prediction process, section 3.3.2).
 
-    ``predict_many([profile], settings, **options)[0]``: one profile through
-    the one solving path; ``options`` are fields of :class:`PredictSettings`.
+    ``predict_many([profile], problem, settings)[0]``: one profile through
+    the one solving path.
     """
-    return predict_many([profile], settings, **options)[0]
+    return predict_many([profile], problem, settings)[0]
 
 
 def predict_many(
     profiles: ProfileSet | Iterable[CIProfile | InputError],
-    settings: PredictSettings | None = None,
+    problem: Problem | None = None,
+    settings: RunSettings | None = None,
     *,
     pool: Any = None,
     chunk_size: int = 1000,
-    **options: Any,
 ) -> PredictionResults:
     """Fit the improved cone model to a set of CI profiles through one vectorised path.
 
@@ -233,8 +186,11 @@ def predict_many(
     ----------
     profiles : ProfileSet or iterable of CIProfile and InputError
         The set to fit.  A ProfileSet's ``errors`` come after its profiles.
-    settings : PredictSettings, optional
-        What to fit (model, r_min [m], calibration, solver, bounds, ...).
+    problem : Problem, optional
+        What to fit: pressure law, bounds, the values a calibration holds
+        (default: ``Problem()``, RM0 over the default bounds).
+    settings : RunSettings, optional
+        How to run: solver, n grid, detail.
     pool : object with ``map``, optional
         Maps the fit over chunks of ``chunk_size`` profiles (emcee's pattern):
         a ``multiprocessing`` pool, a ``concurrent.futures`` executor, a Dask
@@ -242,9 +198,6 @@ def predict_many(
         depend on the pool.
     chunk_size : int
         Profiles per chunk.
-    **options
-        Fields of :class:`PredictSettings`, given here instead of ``settings``
-        (or changed in it), e.g. ``model="rm1", r_min=0.01``.
 
     Returns
     -------
@@ -257,7 +210,7 @@ def predict_many(
        Predicting terrain parameters for physics-based vehicle mobility
        models from cone index data. Section 3.3.2.
     """
-    settings = settings_of(settings, options)
+    problem, settings = problem or Problem(), settings or RunSettings()
     pset, order, errors, originals = _gather(profiles)
     if chunk_size < 1:
         raise ValueError(f"chunk_size must be >= 1 (got {chunk_size})")
@@ -267,7 +220,8 @@ def predict_many(
     else:
         chunks = [pset.take(np.arange(a, min(a + chunk_size, len(pset)))) for a in starts]
     mapper = map if pool is None else pool.map
-    fitted = [r for part in mapper(functools.partial(fit_set, settings), chunks) for r in part]
+    fit = functools.partial(fit_set, problem, settings)
+    fitted = [r for part in mapper(fit, chunks) for r in part]
     out = PredictionResults([None] * (len(fitted) + len(errors)))
     for pos, res, orig in zip(order, fitted, originals):
         if orig is not None:
@@ -322,7 +276,7 @@ def _profile_error(profile: CIProfile, reason: str) -> PredictionResult:
     )
 
 
-def fit_set(settings: PredictSettings, pset: ProfileSet) -> list[PredictionResult]:
+def fit_set(problem: Problem, settings: RunSettings, pset: ProfileSet) -> list[PredictionResult]:
     """Validate and fit every profile of a set (one chunk of :func:`predict_many`).
 
     Returns one result per profile, in order.  Module-level so that process
@@ -333,20 +287,20 @@ def fit_set(settings: PredictSettings, pset: ProfileSet) -> list[PredictionResul
     for j, exc in pset.screen().items():
         out[j] = _error_result(pset, j, exc, meta[j])
     good = np.array([j for j in range(len(pset)) if out[j] is None], dtype=np.intp)
-    if settings.vectorised:
+    if vectorised(problem, settings):
         for c in np.unique(pset.cone_idx[good]):
             members = good[pset.cone_idx[good] == c]
             group = pset if members.size == len(pset) else pset.take(members)
-            for j, res in zip(members, _fit_group(settings, group)):
+            for j, res in zip(members, _fit_group(problem, settings, group)):
                 out[j] = res
     else:
         for j in good:
-            out[j] = _fit_one(settings, pset, int(j))
+            out[j] = _fit_one(problem, settings, pset, int(j))
     for j in good:
         res = out[j]
         res.metadata = meta[j]
-        if res.ok and settings.note:
-            res.notes.append(settings.note)
+        if res.ok and problem.note:
+            res.notes.append(problem.note)
     return out
 
 
@@ -377,7 +331,9 @@ def _solver_error(pset: ProfileSet, j: int, why: str) -> PredictionResult:
 # ---------------------------------------------------------------------------
 
 
-def _fit_group(settings: PredictSettings, group: ProfileSet) -> list[PredictionResult]:
+def _fit_group(
+    problem: Problem, settings: RunSettings, group: ProfileSet
+) -> list[PredictionResult]:
     """One cone's profiles through one vectorised solve; a failing profile is isolated.
 
     Should the solver raise, the group is halved until the profile that
@@ -386,16 +342,16 @@ def _fit_group(settings: PredictSettings, group: ProfileSet) -> list[PredictionR
     t0 = time.perf_counter()
     try:
         with np.errstate(all="ignore"):
-            fit = solve_set(settings, group)
+            fit = solve_set(problem, settings, group)
     except Exception as exc:  # noqa: BLE001 - isolate the failing profiles by bisection
         P = len(group)
         if P == 1:
             return [_solver_error(group, 0, f"solver failed: {exc}")]
         h = P // 2
-        return _fit_group(settings, group.take(np.arange(h))) + _fit_group(
-            settings, group.take(np.arange(h, P))
+        return _fit_group(problem, settings, group.take(np.arange(h))) + _fit_group(
+            problem, settings, group.take(np.arange(h, P))
         )
-    return _group_results(settings, group, fit, (time.perf_counter() - t0) / len(group))
+    return _group_results(problem, group, fit, (time.perf_counter() - t0) / len(group))
 
 
 @dataclass
@@ -422,7 +378,7 @@ class SetFit:
     nfev: int
 
 
-def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
+def solve_set(problem: Problem, settings: RunSettings, group: ProfileSet) -> SetFit:
     """Optima and statistics of a one-cone set (exact solver, fully mobilised shear).
 
     One :func:`solve_exact_many` call over the set (eqs. (2-5) to (2-7)),
@@ -432,7 +388,7 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
     """
     from terracone.inverse.solver.kernels import box_grid
 
-    s, b = settings, settings.fit_bounds
+    pb, s, b = problem, settings, problem.fit_bounds
     cone = group.cones[int(group.cone_idx[0])]
     bounds_of = list(zip(group.offsets[:-1].tolist(), group.offsets[1:].tolist()))
     zs = [group.depth[a:e] for a, e in bounds_of]
@@ -441,41 +397,42 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
         zs,
         ys,
         cone=cone,
-        law=s.law,
+        law=pb.law,
         bounds=b,
         n_grid=s.n_grid,
-        noise_floor=s.noise_floor,
-        kc_over_kphi=s.ratio,
+        noise_floor=pb.noise_floor,
+        kc_over_kphi=pb.ratio,
     )
     zz, yy, mask = group.padded()
     # eq. (2-7): CI = X (kc, kphi, cc) at the optimum's n and phic (eq. (2-6), fully mobilised)
-    X = design(zz, ms.n[:, None], ms.phic_deg[:, None], cone=cone, law=s.law, K_cone=None)
+    X = design(zz, ms.n[:, None], ms.phic_deg[:, None], cone=cone, law=pb.law, K_cone=None)
     X = X * mask[..., None]
     lo, hi = (
-        a[:, 0] for a in box_grid(np.ascontiguousarray(ms.n[:, None]), bounds_params(b, s.ratio))
+        a[:, 0] for a in box_grid(np.ascontiguousarray(ms.n[:, None]), bounds_params(b, pb.ratio))
     )
-    if s.ratio is None:
+    ratio = pb.ratio
+    if ratio is None:
         x = polish_many(X, yy, lo, hi, np.stack([ms.kc, ms.kphi, ms.cc], axis=1))
     else:  # kc = ratio kphi: the kc column folds into the kphi column
-        Xr = np.stack([np.zeros_like(X[..., 0]), s.ratio * X[..., 0] + X[..., 1], X[..., 2]], -1)
+        Xr = np.stack([np.zeros_like(X[..., 0]), ratio * X[..., 0] + X[..., 1], X[..., 2]], -1)
         xr = polish_many(Xr, yy, lo, hi, np.stack([0 * ms.kc, ms.kphi, ms.cc], axis=1))
-        x = np.stack([s.ratio * xr[:, 1], xr[:, 1], xr[:, 2]], axis=1)
+        x = np.stack([ratio * xr[:, 1], xr[:, 1], xr[:, 2]], axis=1)
     # the reported model CI from the model itself (eq. (2-7)), as rmsd_objective evaluates it
     n_, p_ = ms.n[:, None], ms.phic_deg[:, None]
     kc, kphi, cc = x[:, 0:1], x[:, 1:2], x[:, 2:3]
     model = cone_index_huang(
-        zz, kc=kc, kphi=kphi, n=n_, cc=cc, phic_deg=p_, K_cone=None, law=s.law, cone=cone
+        zz, kc=kc, kphi=kphi, n=n_, cc=cc, phic_deg=p_, K_cone=None, law=pb.law, cone=cone
     )
     r = np.where(mask, model - yy, 0.0)
     sse = np.einsum("pz,pz->p", r, r)
-    sigma, thr, n_lo, n_hi = n_intervals(ms, sse, yy, mask, b, s.noise_floor)
+    sigma, thr, n_lo, n_hi = n_intervals(ms, sse, yy, mask, b, pb.noise_floor)
     und, intervals = [], []
     counts = group.counts
     for j, k in enumerate(counts):
         linear: tuple[list[str], dict[str, tuple[float, float]]] = ([], {})
         if s.detail == "full":
             args = (zz[j, :k], yy[j, :k], x[j], ms.n[j], ms.phic_deg[j], thr[j], (n_lo[j], n_hi[j]))
-            linear = linear_intervals(*args, bounds=b, law=s.law, cone=cone, ratio=s.ratio)
+            linear = linear_intervals(*args, bounds=b, law=pb.law, cone=cone, ratio=ratio)
         found = identification(b, (n_lo[j], n_hi[j]), (ms.phic_lo[j], ms.phic_hi[j]), linear)
         und.append(found[0])
         intervals.append(found[1])
@@ -498,7 +455,7 @@ def solve_set(settings: PredictSettings, group: ProfileSet) -> SetFit:
 
 
 def _group_results(
-    settings: PredictSettings, group: ProfileSet, fit: SetFit, time_s: float
+    problem: Problem, group: ProfileSet, fit: SetFit, time_s: float
 ) -> list[PredictionResult]:
     """The results of a vectorised fit, one per profile (arrays read as Python lists once)."""
     starts, counts = group.offsets[:-1].tolist(), group.counts.tolist()
@@ -516,7 +473,7 @@ def _group_results(
                 id=str(group.ids[j]),
                 status="ok",
                 params=TerrainParameters(
-                    kc, kphi, n[j], cc, phic[j], None, settings.model, settings.r_min
+                    kc, kphi, n[j], cc, phic[j], None, problem.model, problem.r_min
                 ),
                 rmsd=rmsd[j],
                 r2_ci=chk.r2,
@@ -582,7 +539,7 @@ def _ok_result(
 # ---------------------------------------------------------------------------
 
 
-def _fit_one(settings: PredictSettings, pset: ProfileSet, j: int) -> PredictionResult:
+def _fit_one(problem: Problem, settings: RunSettings, pset: ProfileSet, j: int) -> PredictionResult:
     """One profile through the particle swarm or the exact solver with finite Kc."""
     t0 = time.perf_counter()
     s, e = int(pset.offsets[j]), int(pset.offsets[j + 1])
@@ -591,7 +548,7 @@ def _fit_one(settings: PredictSettings, pset: ProfileSet, j: int) -> PredictionR
     try:
         with np.errstate(all="ignore"):
             fit = _exact_one if settings.solver == "exact" else _pso_one
-            params, extra = fit(settings, z, y, cone)
+            params, extra = fit(problem, settings, z, y, cone)
             # eq. (2-7), with eq. (2-6) at the fitted Kc
             m = cone_index_huang(
                 z,
@@ -601,9 +558,9 @@ def _fit_one(settings: PredictSettings, pset: ProfileSet, j: int) -> PredictionR
                 cc=params.cc,
                 phic_deg=params.phic_deg,
                 K_cone=params.K_cone,
-                law=settings.law,
+                law=problem.law,
                 cone=cone,
-            )  # noqa: E501
+            )
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
         return _solver_error(pset, j, f"solver failed: {exc}")
     chk = check_fit_fast(z, y, m)
@@ -612,24 +569,23 @@ def _fit_one(settings: PredictSettings, pset: ProfileSet, j: int) -> PredictionR
     return _ok_result(pset, j, params, y, m, rmsd, chk, settings.solver, t, extra)
 
 
-def _exact_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainParameters, dict]:
+def _exact_one(pb: Problem, s: RunSettings, z, y, cone: Cone) -> tuple[TerrainParameters, dict]:
     """:func:`solve_exact` on one profile (finite or fitted Kc)."""
-    s = settings
     sol = solve_exact(
         z,
         y,
         cone=cone,
-        law=s.law,
-        bounds=s.fit_bounds,
-        K_cone=s.K_cone,
-        fit_K_cone=s.fit_K_cone,
+        law=pb.law,
+        bounds=pb.fit_bounds,
+        K_cone=pb.K_cone,
+        fit_K_cone=pb.fit_K_cone,
         n_grid=s.n_grid,
-        noise_floor=s.noise_floor,
-        kc_over_kphi=s.ratio,
-    )  # noqa: E501
+        noise_floor=pb.noise_floor,
+        kc_over_kphi=pb.ratio,
+    )
     params = TerrainParameters(
-        sol.kc, sol.kphi, sol.n, sol.cc, sol.phic_deg, sol.K_cone, s.model, s.r_min
-    )  # noqa: E501
+        sol.kc, sol.kphi, sol.n, sol.cc, sol.phic_deg, sol.K_cone, pb.model, pb.r_min
+    )
     extra = dict(
         undetermined=sol.undetermined,
         phic_range=sol.phic_range,
@@ -643,30 +599,23 @@ def _exact_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainPara
     return params, extra
 
 
-def _pso_one(settings: PredictSettings, z, y, cone: Cone) -> tuple[TerrainParameters, dict]:
+def _pso_one(pb: Problem, s: RunSettings, z, y, cone: Cone) -> tuple[TerrainParameters, dict]:
     """The paper's particle swarm on the RMSD (section 3.3.2) for one profile."""
-    s, b = settings, settings.fit_bounds
-    f = rmsd_objective(CIProfile("", z, y, cone=cone), s.law, b, s.K_cone)
-    lo = [b.kc[0], b.kphi[0], b.n[0], b.cc[0], b.phic_deg[0]] + (
-        [b.K_cone[0]] if s.fit_K_cone else []
-    )
-    hi = [b.kc[1], b.kphi[1], b.n[1], b.cc[1], b.phic_deg[1]] + (
-        [b.K_cone[1]] if s.fit_K_cone else []
-    )
+    b = pb.fit_bounds
+    f = rmsd_objective(CIProfile("", z, y, cone=cone), pb.law, b, pb.K_cone, pb.ratio)
+    kc_box = list(b.kc) if pb.ratio is None else [0.0, 0.0]  # a held ratio sets kc
+    lo = [kc_box[0], b.kphi[0], b.n[0], b.cc[0], b.phic_deg[0]]
+    hi = [kc_box[1], b.kphi[1], b.n[1], b.cc[1], b.phic_deg[1]]
+    if pb.fit_K_cone:
+        lo, hi = lo + [b.K_cone[0]], hi + [b.K_cone[1]]
     res = pso(f, np.array(lo), np.array(hi), seed=s.seed, **(s.pso_options or {}))
     x = res.x
     n = float(x[2])
-    params = TerrainParameters(
-        float(u.kc_to_si(x[0], n, b.kc_units)),
-        float(u.kphi_to_si(x[1], n, b.kphi_units)),
-        n,
-        float(x[3]),
-        float(x[4]),
-        float(x[5]) if s.fit_K_cone else s.K_cone,
-        s.model,
-        s.r_min,
-    )
-    free = not s.fit_K_cone and s.K_cone is None and b.phic_deg[0] != b.phic_deg[1]
+    kphi = float(u.kphi_to_si(x[1], n, b.kphi_units))
+    kc = kphi * pb.ratio if pb.ratio is not None else float(u.kc_to_si(x[0], n, b.kc_units))
+    K = float(x[5]) if pb.fit_K_cone else pb.K_cone
+    params = TerrainParameters(kc, kphi, n, float(x[3]), float(x[4]), K, pb.model, pb.r_min)
+    free = not pb.fit_K_cone and pb.K_cone is None and b.phic_deg[0] != b.phic_deg[1]
     extra = dict(
         undetermined=["phic", "phic~scale(kc,kphi)"] if free else [],
         nfev=res.nfev,

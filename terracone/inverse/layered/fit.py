@@ -40,9 +40,9 @@ from terracone.inverse.layered.search import (
     SearchResult,
     search_layers,
 )
+from terracone.inverse.problem import Problem
 from terracone.physics import units as u
 from terracone.physics.metrics import check_fit
-from terracone.physics.plate import pressure_law
 
 __all__ = ["LayeredResult", "fit_layered", "phic_scale"]
 
@@ -92,8 +92,11 @@ class LayeredResult:
         [m] (``interface_1`` ...) and each n (``n_1`` ...).
     undetermined : list of str
         What the data leave free: ``phic`` and ``phic~scale(kc,kphi)``
-        always (eq. (2-6)), and each ``interface_i`` or ``n_j`` whose
-        profile interval covers half its range or more (a weak contrast).
+        (eq. (2-6)) unless a calibration holds phic, and each
+        ``interface_i`` or ``n_j`` whose profile interval covers half its
+        range or more (a weak contrast).
+    notes : list of str
+        What the fit held (a calibration's values), as the one-layer fit says.
     """
 
     id: str
@@ -120,6 +123,7 @@ class LayeredResult:
     profile_intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
     undetermined: list[str] = field(default_factory=list)
     nfev: int = 0
+    notes: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -162,6 +166,7 @@ class LayeredResult:
                 "profile_intervals": iv,
                 "certificate": cert,
                 "metadata": self.metadata,
+                "notes": list(self.notes),
             }
         )
         if curves:
@@ -189,16 +194,16 @@ def _phic_values(bounds: Bounds) -> np.ndarray:
 
 
 def _solve(
-    profile, layers, law, bounds, min_thick, n_grid, search_kw
+    profile, layers, problem: Problem, min_thick, n_grid, search_kw
 ) -> tuple[SearchResult, float]:
     """The best search over phic (see :func:`_phic_values`): (result, phic [deg])."""
     best: tuple[SearchResult, float] | None = None
     lower = math.inf
     nfev = 0
-    for ph in _phic_values(bounds):
+    for ph in _phic_values(problem.fit_bounds):
         pb = LayeredProblem(
-            profile.depth, profile.ci, profile.cone, law, bounds, layers, min_thick,
-            float(phic_scale(ph, profile.cone)), n_grid,
+            profile.depth, profile.ci, profile.cone, problem.law, problem.fit_bounds, layers,
+            min_thick, float(phic_scale(ph, profile.cone)), n_grid, ratio=problem.ratio,
         )  # fmt: skip
         res = search_layers(pb, **search_kw)
         nfev += res.nfev
@@ -212,28 +217,26 @@ def _solve(
 
 def fit_layered(
     profile: CIProfile,
+    problem: Problem | None = None,
     *,
     layers: int = 2,
-    model: str = "rm0",
-    r_min: float | None = None,
-    bounds: Bounds | None = None,
     n_grid: int = 41,
     min_thickness: float | None = None,
     target: float = 0.02,
     levels: int = 24,
-    noise_floor: float = 0.01,
 ) -> LayeredResult:
     """Fit a model of ``layers`` layers (interfaces fitted) to one CI profile.
 
     Parameters
     ----------
     profile : CIProfile
+    problem : Problem, optional
+        What is fitted: the pressure law (section 3.2), the bounds of each
+        layer's kc, kphi, n, cc and of the common phic, and the values a
+        calibration holds in every layer (phic, cc, kc/kphi); its noise
+        floor sets the profile intervals.
     layers : int
         Number of layers (1 gives the homogeneous model through the same search).
-    model, r_min
-        Pressure law (section 3.2): "rm0" or "rm1" with r_min [m].
-    bounds : Bounds
-        Bounds of each layer's kc, kphi, n, cc, and of the common phic.
     n_grid : int
         Grid over each layer's n (a 4 times finer one around each best).
     min_thickness : float, optional
@@ -245,8 +248,6 @@ def fit_layered(
         branch and bound aims at.
     levels : int
         Rounds of branch and bound.
-    noise_floor : float
-        Relative noise floor of the profile intervals (as the one-layer fit).
 
     Returns
     -------
@@ -265,29 +266,26 @@ def fit_layered(
     its bound.
     """
     t0 = time.perf_counter()
-    bounds = bounds or Bounds()
+    problem = problem or Problem()
     if int(layers) < 1:
         raise ValueError(f"layers must be at least 1 (got {layers})")
     try:
         profile.validate(min_points=max(3, 4 * layers + layers))
     except InputError as exc:
         return LayeredResult(profile.id, "error", str(exc), metadata=dict(profile.metadata))
-    law = pressure_law(model, r_min=r_min)
     z = profile.depth
     step = float(np.median(np.diff(z)))
     min_thick = min_thickness if min_thickness is not None else 2 * step
-    kw = dict(target=target, levels=levels, noise_floor=noise_floor)
-    single, ph1 = _solve(
-        profile, 1, law, bounds, min_thick, n_grid, dict(kw, intervals=layers == 1)
-    )
+    kw = dict(target=target, levels=levels, noise_floor=problem.noise_floor)
+    single, ph1 = _solve(profile, 1, problem, min_thick, n_grid, dict(kw, intervals=layers == 1))
     if layers == 1:
         found, ph = single, ph1
     else:
         if z[-1] - z[0] - 2 * min_thick < 0.5 * min_thick * (layers - 2):
             msg = "profile too short for the minimum layer thickness"
             return LayeredResult(profile.id, "error", msg, metadata=dict(profile.metadata))
-        found, ph = _solve(profile, layers, law, bounds, min_thick, n_grid, kw)
-    res = _layered_result(profile, found, ph, single, ph1, bounds, model, r_min)
+        found, ph = _solve(profile, layers, problem, min_thick, n_grid, kw)
+    res = _layered_result(profile, found, ph, single, ph1, problem)
     res.time_s = time.perf_counter() - t0
     return res
 
@@ -321,8 +319,9 @@ def _phic_ridge(x: np.ndarray, ns: np.ndarray, ph: float, bounds: Bounds, cone: 
     return ph_lo, ph_hi, mid, s_fit / float(phic_scale(mid, cone))
 
 
-def _layered_result(profile, found: SearchResult, ph, single: SearchResult, ph1, bounds, model,
-                    r_min) -> LayeredResult:  # fmt: skip
+def _layered_result(
+    profile, found: SearchResult, ph, single: SearchResult, ph1, problem: Problem
+) -> LayeredResult:
     """The :class:`LayeredResult` of the best layered fit ``found`` (at phic ``ph``).
 
     The layers are reported at the middle of the equally good phic interval,
@@ -332,17 +331,21 @@ def _layered_result(profile, found: SearchResult, ph, single: SearchResult, ph1,
     """
     z, y, cone = profile.depth, profile.ci, profile.cone
     N, L = y.size, found.n.size
-    x, ns = found.x, found.n
-    ph_lo, ph_hi, mid, ratio = _phic_ridge(x, ns, ph, bounds, cone)
+    x, ns, bounds = found.x, found.n, problem.fit_bounds
+    ph_lo, ph_hi, mid, scale = _phic_ridge(x, ns, ph, bounds, cone)
+    kphis = [float(x[3 * j + 1] * scale) for j in range(L)]
+    # a held ratio: kc = ratio kphi in every layer (its column was folded into kphi's)
+    kcs = [float(x[3 * j] * scale) if problem.ratio is None else problem.ratio * kp for j, kp in
+           enumerate(kphis)]  # fmt: skip
     params = [
         TerrainParameters(
-            kc=float(x[3 * j] * ratio),
-            kphi=float(x[3 * j + 1] * ratio),
+            kc=kcs[j],
+            kphi=kphis[j],
             n=float(ns[j]),
             cc=float(x[3 * j + 2]),
             phic_deg=mid,
-            model=model,
-            r_min=r_min,
+            model=problem.model,
+            r_min=problem.r_min,
         )  # fmt: skip
         for j in range(L)
     ]
@@ -366,6 +369,7 @@ def _layered_result(profile, found: SearchResult, ph, single: SearchResult, ph1,
         lack_of_fit=chk.lack_of_fit, phic_range=(ph_lo, ph_hi), depth=z, ci=y, ci_model=m,
         ci_model_single=m1, metadata=dict(profile.metadata), certificate=cert,
         profile_intervals=dict(found.intervals), undetermined=und, nfev=found.nfev,
+        notes=[problem.note] if problem.note else [],
     )  # fmt: skip
 
 

@@ -41,12 +41,12 @@ import numpy as np
 from terracone.data import CIProfile
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.layered.fit import LayeredResult, phic_scale
-from terracone.inverse.solver.layered_numpy import design_matrix, layer_box
+from terracone.inverse.problem import Problem
+from terracone.inverse.solver.layered_numpy import design_matrix, fold_ratio, layer_box
 from terracone.inverse.solver.many import bounds_params
 from terracone.inverse.uncertainty.posterior import LABELS, identifiability_label
 from terracone.jit import enabled
 from terracone.physics import units as u
-from terracone.physics.plate import pressure_law
 
 __all__ = ["LayeredPosterior", "layered_posterior", "prior_draws"]
 
@@ -89,6 +89,7 @@ class LayeredPosterior:
     undetermined: list[str] = field(default_factory=list)
     level: float = 0.9
     time_s: float = 0.0
+    notes: list[str] = field(default_factory=list)
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
         """The ``posterior`` block of a profile's ``layered`` fit in predict JSON (``units``)."""
@@ -118,6 +119,7 @@ class LayeredPosterior:
             "acceptance": self.acceptance,
             "rhat": dict(self.rhat),
             "level": self.level,
+            "notes": list(self.notes),
             "units": units,
         }
 
@@ -140,11 +142,11 @@ def prior_draws(L: int, space: tuple, draws: int, rng: np.random.Generator) -> n
     return out[:draws]
 
 
-def _directions(z, p, L, s, law, cone, bounds) -> np.ndarray:
+def _directions(z, p, L, s, law, cone, bounds, ratio) -> np.ndarray:
     """Gibbs directions of x: the principal axes of the scaled normal equations at p (over the
     variables whose box is open) and the coordinate axes."""
-    X = design_matrix(z, p[: L - 1], p[L - 1 :], s, law, cone)
-    lo, hi = layer_box(bounds, p[L - 1 :])
+    X = fold_ratio(design_matrix(z, p[: L - 1], p[L - 1 :], s, law, cone), ratio)
+    lo, hi = layer_box(bounds, p[L - 1 :], ratio)
     k = X.shape[1]
     free = (hi > lo) & (np.sum(X * X, axis=0) > 0)
     dirs = [np.eye(k)[i] for i in range(k) if free[i]]
@@ -189,11 +191,10 @@ def _rhat(chains: np.ndarray) -> np.ndarray:
 def layered_posterior(
     profile: CIProfile,
     fit: LayeredResult,
+    problem: Problem | None = None,
     *,
-    bounds: Bounds | None = None,
     draws: int = 2000,
     seed: int | None = None,
-    law: Any = None,
     nwalkers: int = 4,
     burn: int = 1000,
     thin: int = 8,
@@ -209,15 +210,14 @@ def layered_posterior(
     profile : CIProfile
         The profile ``fit`` was fitted to.
     fit : LayeredResult
-        An ``ok`` layered fit; the chains start around it.
-    bounds : Bounds, optional
-        The bounds of the fit (the support of the prior).
+        An ``ok`` layered fit under ``problem``; the chains start around it.
+    problem : Problem, optional
+        What was fitted: the pressure law and the bounds (the support of the
+        prior) with the values a calibration holds, held in every draw.
     draws : int
         Posterior draws returned (over all chains).
     seed : int, optional
         The same seed gives the same draws.
-    law : PressureLaw, optional
-        Default: the fit's model and r_min.
     nwalkers : int
         Chains run side by side.
     burn, thin : int
@@ -249,8 +249,8 @@ def layered_posterior(
     if not fit.ok:
         raise ValueError(f"profile {fit.id}: no layered fit to sample ({fit.error})")
     t0 = time.perf_counter()
-    bounds = bounds or Bounds()
-    law = law or pressure_law(fit.layers[0].model or "rm0", r_min=fit.layers[0].r_min)
+    problem = problem or Problem()
+    bounds, law = problem.fit_bounds, problem.law
     z, y, cone = profile.depth, profile.ci, profile.cone
     L = len(fit.layers)
     phic = float(fit.layers[0].phic_deg if phic_deg is None else phic_deg)
@@ -270,14 +270,20 @@ def layered_posterior(
     )
     coef = [float(np.asarray(c)) for c in law.coefficients()]
     geom = (cone.height, cone.radius, not law.is_rm0, coef[0], coef[1], coef[2])
-    dirs = _directions(z, p_fit, L, s, law, cone, bounds)
+    dirs = _directions(z, p_fit, L, s, law, cone, bounds, problem.ratio)
     iters = burn + int(math.ceil(draws / C)) * thin
-    out, acc = _run(z, y, np.ascontiguousarray(p0), s, bounds_params(bounds, None), geom, space,
-                    dirs, step, iters, burn, thin, int(rng.integers(2**31 - 1)), moves)  # fmt: skip
-    return _summary(out, acc, L, space, bounds, phic, level, draws, rng, t0)
+    out, acc = _run(z, y, np.ascontiguousarray(p0), s, bounds_params(bounds, problem.ratio), geom,
+                    space, dirs, step, iters, burn, thin, int(rng.integers(2**31 - 1)),
+                    moves)  # fmt: skip
+    if problem.ratio is not None:  # kc = ratio kphi in every draw (folded in the sampler)
+        kc_cols = 2 * L - 1 + 3 * np.arange(L)
+        out[..., kc_cols] = problem.ratio * out[..., kc_cols + 1]
+    post = _summary(out, acc, L, space, bounds, phic, level, draws, rng, t0, problem.ratio)
+    post.notes = list(fit.notes)
+    return post
 
 
-def _summary(out, acc, L, space, bounds, phic, level, draws, rng, t0) -> LayeredPosterior:
+def _summary(out, acc, L, space, bounds, phic, level, draws, rng, t0, ratio) -> LayeredPosterior:
     """The :class:`LayeredPosterior` of the chains' draws out (C, K, 2L-1 + 3L + 1)."""
     P = 2 * L - 1
     names, cols = [], []
@@ -291,7 +297,7 @@ def _summary(out, acc, L, space, bounds, phic, level, draws, rng, t0) -> Layered
     q = [(1 - level) / 2, 0.5, (1 + level) / 2]
     lo_q, med, hi_q = np.quantile(samples, q, axis=0)
     # prior widths: the box at the median n (kc, kphi, cc), the bounds of n, the interfaces' prior
-    prior_iv = _prior_widths(L, space, bounds, med, names, q, rng)
+    prior_iv = _prior_widths(L, space, bounds, med, names, q, rng, ratio)
     intervals = {nm: (float(lo_q[k]), float(hi_q[k])) for k, nm in enumerate(names)}
     medians = {nm: float(med[k]) for k, nm in enumerate(names)}
     labels = {}
@@ -307,8 +313,9 @@ def _summary(out, acc, L, space, bounds, phic, level, draws, rng, t0) -> Layered
     )  # fmt: skip
 
 
-def _prior_widths(L, space, bounds, med, names, q, rng) -> dict[str, float]:
-    """Width of each parameter's prior interval at the same level (interfaces from draws)."""
+def _prior_widths(L, space, bounds, med, names, q, rng, ratio) -> dict[str, float]:
+    """Width of each parameter's prior interval at the same level (interfaces from draws); with
+    a held ratio kphi's box where ratio kphi is in kc's, and kc's width ratio times kphi's."""
     frac = q[2] - q[0]
     out = {}
     Dp = prior_draws(L, space, 4000, rng) if L > 1 else np.zeros((0, 0))
@@ -324,6 +331,8 @@ def _prior_widths(L, space, bounds, med, names, q, rng) -> dict[str, float]:
             out[nm] = frac * (bounds.cc[1] - bounds.cc[0])
         else:
             n = med[names.index(f"n_{j + 1}")]
-            lo, hi = (bounds.kc_si if kind == "kc" else bounds.kphi_si)(n)
-            out[nm] = frac * float(hi - lo)
+            lo, hi = layer_box(bounds, np.array([n]), ratio)
+            w = float(hi[1] - lo[1]) if kind == "kphi" or ratio is not None else 0.0
+            w = (ratio * w if ratio is not None else float(hi[0] - lo[0])) if kind == "kc" else w
+            out[nm] = frac * w
     return out

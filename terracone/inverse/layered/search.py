@@ -114,17 +114,21 @@ class LayeredProblem:
         Scale of the kc and kphi columns, 1 + tan(phic)/tan(alpha) (eq. (2-6)).
     n_grid : int
         Points of the grid over each layer's n.
+    ratio : float, optional
+        kc/kphi held in every layer [m] (a calibration's).
     """
 
     def __init__(self, z, y, cone: Cone, law: PressureLaw, bounds: Bounds, layers: int,
-                 min_thickness: float, s: float, n_grid: int = 41) -> None:  # fmt: skip
+                 min_thickness: float, s: float, n_grid: int = 41,
+                 ratio: float | None = None) -> None:  # fmt: skip
         self.z = np.ascontiguousarray(z, dtype=float)
         self.y = np.ascontiguousarray(y, dtype=float)
         self.cone, self.law, self.bounds, self.L, self.s = cone, law, bounds, int(layers), float(s)
+        self.ratio = ratio
         H = cone.height
         coef = [float(np.asarray(c)) for c in law.coefficients()]
         self.geom = (H, cone.radius, not law.is_rm0, coef[0], coef[1], coef[2])
-        self.bp = bounds_params(bounds, None)
+        self.bp = bounds_params(bounds, ratio)
         self.u1 = self.z + H
         self.e = np.maximum(self.z, 0.0)
         self.lu1 = lnp.log_tip(self.z, H)
@@ -163,7 +167,7 @@ class LayeredProblem:
 
             return lk.layered_sse_many(self.z, self.y, Ds, nss, self.s, self.bp, self.geom)
         return lnp.layered_sse_many(
-            self.z, self.y, Ds, nss, self.s, self.bounds, self.law, self.cone
+            self.z, self.y, Ds, nss, self.s, self.bounds, self.law, self.cone, self.ratio
         )
 
     def segments(self) -> np.ndarray:

@@ -19,12 +19,10 @@ References
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -41,185 +39,15 @@ from terracone.inverse.learning.search import (
     polish,
     refine,
 )
-from terracone.io.jsonkeys import TERRAIN_KEYS, FileKeyError, Key, check_keys, read_json
+from terracone.inverse.problem import Calibration
 from terracone.physics import units as u
 
 __all__ = [
-    "CALIBRATION_KEYS",
-    "Calibration",
     "LearnResult",
     "learn",
     "learn_problem",
     "sandwich_cov",
 ]
-
-_REQUIRED = ("kc", "kphi", "n", "cc", "phic_deg", "model")
-
-#: The keys of a calibration file (format 1, SI): the terrain keys a calibration holds
-#: (:data:`terracone.io.jsonkeys.TERRAIN_KEYS`; kc, kphi, n, cc, phic_deg and model
-#: required, r_min required with model rm1) and the file's own.
-CALIBRATION_KEYS: dict[str, Key] = {
-    "terracone_calibration": Key(
-        "choice", choices=(1,), meaning="the calibration format this terracone reads"
-    ),
-    "units": Key("choice", choices=("si",), meaning="calibration files are stored in SI"),
-    "terrain": Key("text", required=True, meaning="the terrain or site label"),
-    **{
-        k: replace(TERRAIN_KEYS[k], required=k in _REQUIRED)
-        for k in ("model", "r_min", "plate_pair", "phic_deg", "cc", "kc", "kphi", "n", "Kc")
-    },
-    "cone": TERRAIN_KEYS["cone"],
-    "provenance": Key("object", meaning="where the calibration comes from"),
-}
-
-
-@dataclass(init=False)
-class Calibration:
-    """A learned calibration: what prediction takes from the learning process.
-
-    Built from a :class:`~terracone.data.TerrainParameters` (``params``); its
-    values are also readable flat (``cal.kc``, ``cal.phic_deg``, ...), and the
-    old positional form ``Calibration(terrain, model, r_min, plate_pair,
-    phic_deg, cc, kc, kphi, n, cone, provenance)`` still builds one.
-
-    Attributes
-    ----------
-    terrain : str
-        Terrain or site label.
-    params : TerrainParameters
-        kc, kphi, n (the calibrated terrain's P-S parameters), cc, phic_deg,
-        model and r_min (SI).
-    plate_pair : (float, float) or None
-        Plate radii [m] of the learning data (RM1 secant when r_min > r2).
-    cone : str
-    provenance : dict
-    model, r_min, phic_deg, cc, kc, kphi, n : read-only
-        The fields of ``params`` ([m], [deg], [kPa], SI moduli).
-    kc_over_kphi : float or None
-        kc/kphi [m], the ratio prediction can hold.
-    """
-
-    terrain: str
-    params: TerrainParameters
-    plate_pair: tuple[float, float] | None
-    cone: str
-    provenance: dict[str, Any]
-
-    def __init__(
-        self,
-        terrain: str,
-        model: str | None = None,
-        r_min: float | None = None,
-        plate_pair: tuple[float, float] | None = None,
-        phic_deg: float | None = None,
-        cc: float | None = None,
-        kc: float | None = None,
-        kphi: float | None = None,
-        n: float | None = None,
-        cone: str = "asabe-large",
-        provenance: dict[str, Any] | None = None,
-        *,
-        params: TerrainParameters | None = None,
-    ) -> None:
-        flat = dict(model=model, phic_deg=phic_deg, cc=cc, kc=kc, kphi=kphi, n=n)
-        if params is None:
-            missing = [k for k, v in flat.items() if v is None]
-            if missing:
-                raise TypeError(f"Calibration needs params= or {', '.join(missing)}")
-            params = TerrainParameters(kc, kphi, n, cc, phic_deg, None, model, r_min)
-        elif any(v is not None for v in flat.values()) or r_min is not None:
-            raise TypeError("give Calibration params= or the flat values, not both")
-        self.terrain = terrain
-        self.params = params
-        self.plate_pair = plate_pair
-        self.cone = cone
-        self.provenance = dict(provenance or {})
-
-    model = property(lambda self: self.params.model, doc="Pressure law, 'rm0' or 'rm1'.")
-    r_min = property(lambda self: self.params.r_min, doc="RM1 transition radius [m] or None.")
-    phic_deg = property(lambda self: self.params.phic_deg, doc="Cone-terrain friction [deg].")
-    cc = property(lambda self: self.params.cc, doc="Cone-terrain adhesion [kPa].")
-    kc = property(lambda self: self.params.kc, doc="kc [kN/m^(n+1)].")
-    kphi = property(lambda self: self.params.kphi, doc="kphi [kN/m^(n+2)].")
-    n = property(lambda self: self.params.n, doc="Sinkage exponent [-].")
-    kc_over_kphi = property(
-        lambda self: self.params.kc_over_kphi, doc="kc/kphi [m]; None when kphi is 0."
-    )
-
-    def to_json(self) -> dict[str, Any]:
-        """The calibration file's content (format 1, SI, flat keys as always)."""
-        d: dict[str, Any] = {"terrain": self.terrain, "model": self.model, "r_min": self.r_min}
-        d["plate_pair"] = list(self.plate_pair) if self.plate_pair else None
-        d.update({k: getattr(self, k) for k in ("phic_deg", "cc", "kc", "kphi", "n")})
-        if self.params.K_cone is not None:
-            d["Kc"] = self.params.K_cone
-        d.update({"cone": self.cone, "provenance": dict(self.provenance)})
-        return {"terracone_calibration": 1, "units": "si", **d}
-
-    def save(self, path: str | Path) -> None:
-        """Write the calibration as JSON (SI units)."""
-        Path(path).write_text(json.dumps(self.to_json(), indent=2) + "\n")
-
-    @classmethod
-    def from_json(cls, d: dict[str, Any], *, file: str | Path | None = None) -> Calibration:
-        """Calibration from the content of a calibration file, every key checked.
-
-        Raises
-        ------
-        terracone.io.jsonkeys.FileKeyError
-            (a ValueError) naming ``file``, the key and the reason: a key
-            missing, unknown, of the wrong type, not finite or out of its
-            physical range (:data:`CALIBRATION_KEYS`).
-        """
-        if isinstance(d, dict) and d.get("terracone_calibration") is None:
-            raise FileKeyError(
-                "missing: not a terracone calibration file (`terracone learn --save` writes them)",
-                file=file,
-                key="terracone_calibration",
-            )
-        c = check_keys(d, CALIBRATION_KEYS, file=file)
-        params = TerrainParameters(
-            kc=c["kc"],
-            kphi=c["kphi"],
-            n=c["n"],
-            cc=c["cc"],
-            phic_deg=c["phic_deg"],
-            K_cone=c.get("Kc"),
-            model=c["model"],
-            r_min=c.get("r_min"),
-        )
-        pp = c.get("plate_pair")
-        return cls(
-            terrain=c["terrain"],
-            plate_pair=None if not pp else (pp[0], pp[1]),
-            cone=c.get("cone", "asabe-large"),
-            provenance=c.get("provenance", {}),
-            params=params,
-        )
-
-    def library_params(self) -> dict[str, Any]:
-        """Parameters to store in the terrain library (SI keys, as :mod:`terracone.apps.library` keeps them)."""
-        pair = {"plate_pair": list(self.plate_pair)} if self.plate_pair else {}
-        return {**self.params.library_params(), **pair, "cone": self.cone}
-
-    @classmethod
-    def from_library_record(cls, rec: Any) -> Calibration:
-        """Calibration from a terrain-library record of kind "calibration"."""
-        if rec.kind != "calibration":
-            raise ValueError(
-                f"terrain {rec.name!r} is a {rec.kind!r} record, not a calibration from "
-                "`terracone learn --save-as`: it has no learned phic, cc and r_min"
-            )
-        d = {k: v for k, v in rec.params.items() if k in CALIBRATION_KEYS}
-        d.update({"terracone_calibration": 1, "units": "si", "terrain": rec.name})
-        d["provenance"] = dict(rec.provenance or {})
-        d.setdefault("cc", 0.0)
-        return cls.from_json(d)
-
-    @classmethod
-    def load(cls, path: str | Path) -> Calibration:
-        """Read a calibration written by :meth:`save`, every key checked (:meth:`from_json`)."""
-        return cls.from_json(read_json(path), file=path)
 
 
 @dataclass

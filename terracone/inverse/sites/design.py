@@ -35,11 +35,10 @@ from terracone.data import CIProfile
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.evaluate import predicted_plate_pressure
 from terracone.inverse.predict import predict
+from terracone.inverse.problem import CalibrationPrior, Problem
 from terracone.inverse.sites.statistics import ci_error_covariance, default_sinkages
-from terracone.inverse.uncertainty.priors import CalibrationPrior, as_calibration_prior
 from terracone.physics import units as u
 from terracone.physics.cone import cone_index_huang
-from terracone.physics.plate import pressure_law
 
 __all__ = ["CandidateResult", "DesignResult", "parse_candidates", "plan_test"]
 
@@ -215,11 +214,12 @@ def _plate(t: np.ndarray, law, r: float, s) -> np.ndarray:
     return (t[0] * law.kc_factor(r) + t[1]) * np.asarray(s, float) ** t[2]
 
 
-def _candidate(cand, widths, I0, I_ci, current, theta, free, law, plate_noise, s_test):
+def _candidate(cand, widths, I0, I_ci, current, theta, free, pb: Problem, plate_noise, s_test):
     """Expected widths after one candidate test (Fisher information added to I0)."""
     label, kind, r = cand
+    law = pb.law
     if kind == "plate":
-        H = _jacobian(lambda t: _plate(t, law, r, s_test), theta, free)
+        H = _jacobian(lambda t: _plate(_held(t, pb), law, r, s_test), theta, free)
         sd = plate_noise * np.maximum(_plate(theta, law, r, s_test), 1e-6)
         w = widths(I0 + H.T @ (H / sd[:, None] ** 2))
         note = (
@@ -235,22 +235,37 @@ def _candidate(cand, widths, I0, I_ci, current, theta, free, law, plate_noise, s
     return CandidateResult(label, kind, r, w, ratio, note=note)
 
 
+def _held(t: np.ndarray, pb: Problem) -> np.ndarray:
+    """theta with kc = ratio kphi where the problem holds the ratio."""
+    if pb.ratio is None or pb.centre is not None:
+        return t
+    t = np.array(t, dtype=float, copy=True)
+    t[0] = pb.ratio * t[1]
+    return t
+
+
 def _information(
-    profile: CIProfile, res: Any, law: Any, bounds: Bounds, cal: CalibrationPrior | None, ci_noise
+    profile: CIProfile, res: Any, pb: Problem, ci_noise
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The fitted parameters, which of them are free, and the Fisher information of
-    the CI data alone and of the CI data with the prior (free parameters only)."""
-    c = cal.calibration if cal is not None else None
+    the CI data alone and of the CI data with the prior (free parameters only).
+
+    The prior is the problem's: the held box (phic, cc pinned; kc following
+    kphi through a held ratio), or normal around a calibration given as the prior.
+    """
+    cal = pb.centre
+    bounds = pb.bounds if cal is not None else pb.fit_bounds
     prm = res.params
     theta = np.array([prm.kc, prm.kphi, prm.n, prm.cc, prm.phic_deg])
     fixed = [bounds.kc, bounds.kphi, bounds.n, bounds.cc, bounds.phic_deg]
     free = np.array([lo < hi for lo, hi in fixed])
-    if c is not None and c.kc <= 0:
+    if (cal is not None and cal.calibration.kc <= 0) or (cal is None and pb.ratio is not None):
         free[0] = False
 
     def ci_of(t):  # eq. (2-7)
+        t = _held(t, pb)
         c = dict(kc=t[0], kphi=t[1], n=t[2], cc=t[3], phic_deg=t[4])
-        return cone_index_huang(profile.depth, **c, K_cone=None, law=law, cone=profile.cone)
+        return cone_index_huang(profile.depth, **c, K_cone=None, law=pb.law, cone=profile.cone)
 
     J = _jacobian(ci_of, theta, free)
     I_ci = _ci_precision(profile, res.ci_model, J, ci_noise)
@@ -259,13 +274,10 @@ def _information(
 
 def plan_test(
     profile: CIProfile,
+    problem: Problem | None = None,
     *,
     candidates: Sequence[tuple[str, str, float | None]] | str = "plate:5cm,plate:10cm,ci,shear",
     plates: Sequence[float] = (0.05,),
-    prior: Any = "bounds",
-    bounds: Bounds | None = None,
-    model: str = "rm0",
-    r_min: float | None = None,
     plate_noise: float = 0.05,
     ci_noise: float | None = None,
     sinkage: float | None = None,
@@ -278,14 +290,14 @@ def plan_test(
     ----------
     profile : CIProfile
         The CI data in hand.
+    problem : Problem, optional
+        What is fitted and the prior: the bounds (uniform), with the values a
+        calibration holds held, or a calibration given as the prior (normal
+        around its phic, cc and kc/kphi).
     candidates : str or list of (label, kind, radius)
         See :func:`parse_candidates`.
     plates : sequence of float
         Target plate radii [m] of the prediction.
-    prior : "bounds", Calibration or CalibrationPrior
-    bounds : Bounds, optional
-    model, r_min
-        Pressure law without a calibration.
     plate_noise : float
         Relative standard error of a plate reading [-].
     ci_noise : float, optional
@@ -306,19 +318,16 @@ def plan_test(
         candidates = parse_candidates(candidates)
     if not plates:
         raise ValueError("give at least one target plate radius")
-    bounds = bounds or Bounds()
-    cal = as_calibration_prior(prior)
-    c = cal.calibration if cal is not None else None
-    res = predict(profile, model=model, r_min=r_min, bounds=bounds, calibration=c)
-    label = "bounds" if c is None else f"calibration:{c.terrain}"
+    pb = problem or Problem()
+    res = predict(profile, pb)
+    label = pb.prior_label()
     if not res.ok:
         return DesignResult(profile.id, "error", res.error, label)
-    prm = res.params
-    law = pressure_law(prm.model, r_min=prm.r_min, plate_pair=c.plate_pair if c else None)
-    theta, free, I_ci, I0 = _information(profile, res, law, bounds, cal, ci_noise)
+    prm, law = res.params, pb.law
+    theta, free, I_ci, I0 = _information(profile, res, pb, ci_noise)
     s_mid = default_sinkages()[12] if sinkage is None else float(sinkage)
-    G = np.stack([_jacobian(lambda t, r=r: np.atleast_1d(_plate(t, law, r, s_mid)), theta, free)[0]
-                  for r in plates])  # fmt: skip
+    G = np.stack([_jacobian(lambda t, r=r: np.atleast_1d(_plate(_held(t, pb), law, r, s_mid)),
+                            theta, free)[0] for r in plates])  # fmt: skip
     zq = stats.norm.ppf(0.5 + level / 2)
 
     def widths(info):
@@ -331,7 +340,7 @@ def plan_test(
     )
     s_test = np.linspace(0.005, 0.05, 10) if plate_sinkages is None else np.asarray(plate_sinkages)
     out = [
-        _candidate(c, widths, I0, I_ci, current, theta, free, law, plate_noise, s_test)
+        _candidate(c, widths, I0, I_ci, current, theta, free, pb, plate_noise, s_test)
         for c in candidates
     ]
     out.sort(key=lambda cnd: cnd.width_ratio)  # best first

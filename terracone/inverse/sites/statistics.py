@@ -30,13 +30,14 @@ from scipy.cluster.hierarchy import fcluster, linkage
 
 from terracone.data import CIProfile, InputError
 from terracone.inverse.bounds import Bounds
+from terracone.inverse.problem import Problem
 from terracone.inverse.sites.randeff import random_effects
 from terracone.inverse.solver.many import solve_exact_many
 from terracone.inverse.uncertainty.noise import RHO_MAX, ar1_noise, estimate_correlation
 from terracone.physics import units as u
 from terracone.physics.cone import cone_index_basis
 from terracone.physics.metrics import check_fit
-from terracone.physics.plate import PressureLaw, plate_basis, pressure_law
+from terracone.physics.plate import PressureLaw, plate_basis
 
 __all__ = [
     "PushFits",
@@ -228,17 +229,6 @@ class PushFits:
     ci_mean: np.ndarray
 
 
-def _settings(model: str, r_min: float | None, calibration: Any, bounds: Bounds | None):
-    bounds = bounds or Bounds()
-    plate_pair = ratio = None
-    if calibration is not None:
-        model, r_min, plate_pair = calibration.model, calibration.r_min, calibration.plate_pair
-        bounds = bounds.fixed(phic_deg=calibration.phic_deg, cc=calibration.cc)
-        if calibration.kphi > 0:
-            ratio = calibration.kc / calibration.kphi
-    return pressure_law(model, r_min=r_min, plate_pair=plate_pair), bounds, ratio, model
-
-
 def ci_error_covariance(
     z: np.ndarray, y: np.ndarray, m: np.ndarray, J: np.ndarray, rho=None, floor: float = 0.0
 ) -> tuple[np.ndarray, float, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
@@ -315,17 +305,15 @@ def _push_covariance(p: CIProfile, theta, law, bounds: Bounds, ratio, kc, kphi, 
     return cov, m, rho, parts
 
 
-def fit_pushes(
-    profiles: Sequence[CIProfile], law: PressureLaw, b: Bounds, ratio: float | None
-) -> PushFits:
+def fit_pushes(profiles: Sequence[CIProfile], problem: Problem | None = None) -> PushFits:
     """Fit each push (exact solver, vectorised per cone) and its sampling covariance.
 
     Parameters
     ----------
     profiles : sequence of CIProfile
-    law, b, ratio
-        Pressure law, bounds and kc/kphi [m] (None: free) of the fit
-        (fully mobilised shear).
+    problem : Problem, optional
+        What is fitted (pressure law, bounds with the held values, kc/kphi
+        held); fully mobilised shear.
 
     Returns
     -------
@@ -333,6 +321,8 @@ def fit_pushes(
         A profile that fails validation or the solver is marked not ok with
         its reason.
     """
+    problem = problem or Problem()
+    law, b, ratio = problem.law, problem.fit_bounds, problem.ratio
     P = len(profiles)
     nans = ("kc", "kphi", "phic_lo", "phic_hi", "rmsd", "r2_ci", "rho", "ci_mean")
     out = PushFits(
@@ -1061,11 +1051,8 @@ def _bootstrap_sites(
 def fit_sites(
     profiles: Sequence[CIProfile],
     grouping: Grouping,
+    problem: Problem | None = None,
     *,
-    model: str = "rm0",
-    r_min: float | None = None,
-    calibration: Any = None,
-    bounds: Bounds | None = None,
     plates: Sequence[float] = (0.0375, 0.05),
     sinkage: np.ndarray | None = None,
     target_cv: float = 0.1,
@@ -1080,8 +1067,9 @@ def fit_sites(
     profiles : sequence of CIProfile
     grouping : Grouping
         From :func:`group_profiles`.
-    model, r_min, calibration, bounds
-        Fit settings, as for :func:`terracone.inverse.predict`.
+    problem : Problem, optional
+        What is fitted, as for :func:`terracone.inverse.predict` (a
+        calibration's values held in every push).
     plates : sequence of float
         Plate radii of the site P-S curves [m].
     sinkage : ndarray, optional
@@ -1109,10 +1097,11 @@ def fit_sites(
     sinkage = default_sinkages() if sinkage is None else np.asarray(sinkage, float)
     if np.any(sinkage <= 0):
         raise ValueError("site sinkages must be > 0")
-    law, b, ratio, model = _settings(model, r_min, calibration, bounds)
-    fits = fit_pushes(profiles, law, b, ratio)
+    problem = problem or Problem()
+    b, ratio, model = problem.fit_bounds, problem.ratio, problem.model
+    fits = fit_pushes(profiles, problem)
     members_ok = _site_covariances(profiles, grouping, fits, b, ratio)
-    calibrated = calibration is not None
+    calibrated = problem.calibrated
     if bootstrap is None:
         bootstrap = 0 if calibrated else 40
     reps: list[np.ndarray | None] = [None] * len(members_ok)
@@ -1176,6 +1165,7 @@ class SiteStatistics:
 
 def site_statistics(
     items: Sequence[CIProfile | InputError],
+    problem: Problem | None = None,
     *,
     by: str | None = None,
     radius: float | None = None,
@@ -1189,13 +1179,15 @@ def site_statistics(
     items : sequence of CIProfile or InputError
         As a reader returns them with ``on_error="collect"``; the errors are
         kept, not fitted.
+    problem : Problem, optional
+        What is fitted (:func:`fit_sites`).
     by, radius
         Site grouping: metadata column(s), or a distance [m].
     source : str
         Name of the input, for the error message.
     **fit
-        Keywords of :func:`fit_sites` (model, r_min, calibration, bounds,
-        plates, sinkage, target_cv, bootstrap, seed, level).
+        Keywords of :func:`fit_sites` (plates, sinkage, target_cv, bootstrap,
+        seed, level).
 
     Returns
     -------
@@ -1212,4 +1204,4 @@ def site_statistics(
     if not grouping.sites:
         why = f" ({grouping.unassigned[0][1]})" if grouping.unassigned else ""
         raise ValueError(f"{source}: no profile could be put in a site{why}")
-    return SiteStatistics(fit_sites(profiles, grouping, **fit), grouping, errors)
+    return SiteStatistics(fit_sites(profiles, grouping, problem, **fit), grouping, errors)

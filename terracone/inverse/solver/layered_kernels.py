@@ -405,10 +405,18 @@ def design_rows_from(z, lg, D, ns, s, geom, X, D0, ns0, X0) -> None:
 def design_sse(y, ns, bp, work, boxed) -> float:
     """:func:`layered_sse` with the design already in work[0]: the normal equations into work[1]
     and work[2], the box at ns into work[3] and work[4] (there already when ``boxed``), the best
-    x into work[5] (from the face in work[6] and the x in work[5]); returns its SSE."""
+    x into work[5] (from the face in work[6] and the x in work[5]); returns its SSE.  With a held
+    kc/kphi (``bp[10]`` not NaN) each layer's kc column is folded into its kphi column in
+    work[0] first (kc = ratio kphi; its box is pinned at 0 by ``kbounds``)."""
     X, G, g, lo, hi, x, st, ws, C, idx = work
     Z = X.shape[0]
     k = X.shape[1]
+    ratio = bp[10]
+    if not math.isnan(ratio):  # kc = ratio kphi: the kc columns fold into kphi's (idempotent)
+        for q in range(Z):
+            for j in range(k // 3):
+                X[q, 3 * j + 1] += ratio * X[q, 3 * j]
+                X[q, 3 * j] = 0.0
     for i in range(k):
         g[i] = 0.0
         for j in range(k):

@@ -38,16 +38,29 @@ __all__ = [
     "layer_parts",
     "cell_terms",
     "nelder_mead",
+    "fold_ratio",
 ]
 
 RIDGE = 1e-13
 
 
-def layer_box(bounds: Bounds, ns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Box (lo, hi) of (kc, kphi, cc) of each layer in SI at the exponents ns (..., L): (..., 3L)."""
+def layer_box(
+    bounds: Bounds, ns: np.ndarray, ratio: float | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Box (lo, hi) of (kc, kphi, cc) of each layer in SI at the exponents ns (..., L): (..., 3L).
+
+    With a held kc/kphi ``ratio`` [m] the kc side is pinned at 0 (its column
+    folded into kphi's, :func:`fold_ratio`) and kphi kept where ratio kphi is
+    in kc's box, as :func:`terracone.inverse.solver.kernels.kbounds` does.
+    """
     ns = np.asarray(ns, dtype=float)
     kl, kh = bounds.kc_si(ns)
     pl, ph = bounds.kphi_si(ns)
+    if ratio is not None:
+        if ratio > 0:
+            pl = np.maximum(pl, kl / ratio)
+            ph = np.maximum(np.minimum(ph, kh / ratio), pl)
+        kl = kh = np.zeros(ns.shape)
     cl = np.full(ns.shape, float(bounds.cc[0]))
     ch = np.full(ns.shape, float(bounds.cc[1]))
     lo = np.stack([kl, pl, cl], axis=-1).reshape(ns.shape[:-1] + (3 * ns.shape[-1],))
@@ -138,6 +151,16 @@ def design_matrix(
     return X
 
 
+def fold_ratio(X: np.ndarray, ratio: float | None) -> np.ndarray:
+    """Columns (..., 3L) with kc = ratio kphi: the kc column folded into kphi's, then 0."""
+    if ratio is None:
+        return X
+    X = np.array(X, dtype=float, copy=True)
+    X[..., 1::3] += ratio * X[..., 0::3]
+    X[..., 0::3] = 0.0
+    return X
+
+
 def layered_sse_many(
     z: np.ndarray,
     y: np.ndarray,
@@ -147,14 +170,20 @@ def layered_sse_many(
     bounds: Bounds,
     law: PressureLaw,
     cone: Cone,
+    ratio: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """SSE (M,), solution (M, 3L) and residuals (M, Z) at interfaces Ds (M, L-1), exponents nss (M, L)."""
+    """SSE (M,), solution (M, 3L) and residuals (M, Z) at interfaces Ds (M, L-1), exponents nss (M, L).
+
+    With a held kc/kphi ``ratio`` [m] the solution's kc entries are 0 and
+    each layer's kc is ratio kphi (:func:`fold_ratio`).
+    """
     nss = np.atleast_2d(np.asarray(nss, dtype=float))
     Ds = np.asarray(Ds, dtype=float).reshape(nss.shape[0], -1)
     X = np.stack([design_matrix(z, D, ns, s, law, cone) for D, ns in zip(Ds, nss)])
+    X = fold_ratio(X, ratio)
     G = np.einsum("mqi,mqj->mij", X, X)
     g = np.einsum("mqi,q->mi", X, y)
-    lo, hi = layer_box(bounds, nss)
+    lo, hi = layer_box(bounds, nss, ratio)
     x, _ = boxqp(G, g, lo, hi)
     r = np.einsum("mqi,mi->mq", X, x) - y
     return np.einsum("mq,mq->m", r, r), x, r

@@ -28,7 +28,6 @@ from numpy.typing import ArrayLike
 
 from terracone.data import CIProfile, TerrainParameters
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.learning.learn import Calibration
 from terracone.physics import units as u
 from terracone.physics.cone import Cone, cone_index_basis
 from terracone.physics.plate import PressureLaw
@@ -290,15 +289,15 @@ def _fit_design(
     z: np.ndarray,
     p0: TerrainParameters,
     bounds: Bounds,
-    cal: Calibration | None,
+    ratio: float | None,
     law: PressureLaw,
     K_cone: float | None,
     cone: Cone,
 ) -> np.ndarray:
     """Jacobian (N, p) of the model CI at the best fit w.r.t. the parameters the fit moved.
 
-    Linear parameters at a bound, and those a calibration fixes, are left
-    out; with a calibration kc and kphi move together (fixed ratio).
+    Linear parameters at a bound, and those a calibration pins, are left
+    out; with a held ratio kc and kphi move together.
     """
     kw = dict(phic_deg=p0.phic_deg, K_cone=K_cone, law=law, cone=cone)
     A, B, C = (np.broadcast_to(c, z.shape) for c in cone_index_basis(z, n=p0.n, **kw))
@@ -309,15 +308,15 @@ def _fit_design(
         return lo + tol < v < hi - tol
 
     kc_box, kphi_box = ([float(v) for v in f(p0.n)] for f in (bounds.kc_si, bounds.kphi_si))
-    if cal is not None and cal.kphi > 0 and cal.kc > 0:
+    if ratio is not None:
         if inside(p0.kphi, *kphi_box):
-            cols.append((cal.kc / cal.kphi) * A + B)
+            cols.append(ratio * A + B)
     else:
         if inside(p0.kc, *kc_box):
             cols.append(A)
         if inside(p0.kphi, *kphi_box):
             cols.append(B)
-        if cal is None and inside(p0.cc, *bounds.cc):
+        if inside(p0.cc, *bounds.cc):
             cols.append(C)
     if inside(p0.n, *bounds.n):
         h = 1e-5
@@ -364,7 +363,7 @@ def noise_setup(
     law: PressureLaw,
     K_cone: float | None,
     bounds: Bounds,
-    cal: Calibration | None,
+    ratio: float | None,
     noise_model: str,
     noise_floor: float,
     correlation: str | float,
@@ -381,9 +380,10 @@ def noise_setup(
     K_cone : float or None
         [m]; None: fully mobilised shear.
     bounds : Bounds
-        Parameters at a bound are left out of the fit's design (:func:`estimate_correlation`).
-    cal : Calibration or None
-        With a calibration kc and kphi move together (fixed ratio).
+        The fit's bounds: parameters at a bound (or pinned) are left out of its
+        design (:func:`estimate_correlation`).
+    ratio : float or None
+        kc/kphi held by the fit [m]: kc and kphi move together.
     noise_model : {"relative", "absolute"}
     noise_floor : float
         [-]
@@ -414,7 +414,7 @@ def noise_setup(
     rho_raw, rho_sampled = None, False
     rho_est = isinstance(correlation, str) and correlation in ("estimate", "sample")
     if rho_est:
-        X = _fit_design(z, p0, bounds, cal, law, K_cone, profile.cone) / w[:, None]
+        X = _fit_design(z, p0, bounds, ratio, law, K_cone, profile.cone) / w[:, None]
         rho, rho_raw = estimate_correlation((y - m0) / w, z, design=X)
         rho_sampled = correlation == "sample" and N > 2
     elif correlation == "none":

@@ -35,21 +35,18 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from terracone.data import CIProfile, TerrainParameters
-from terracone.inverse.predict import PredictSettings, predict, settings_of
+from terracone.inverse.predict import predict
+from terracone.inverse.problem import Problem
 from terracone.inverse.uncertainty.likelihood import Likelihood
 from terracone.inverse.uncertainty.noise import NoiseModel, NoiseSetup, noise_setup
-from terracone.inverse.uncertainty.priors import (
-    PARAM_NAMES,
-    Prior,
-    as_calibration_prior,
-)
+from terracone.inverse.uncertainty.priors import PARAM_NAMES, Prior
 from terracone.inverse.uncertainty.sampler import (
     LogPosterior,
     SamplerCoordinates,
@@ -74,7 +71,6 @@ __all__ = [
     "identifiability_label",
     "plate_bands",
     "posterior",
-    "posterior_for_result",
 ]
 
 #: Identifiability labels, from best to worst determined.
@@ -423,13 +419,14 @@ class PosteriorOptions:
 
 def posterior(
     profile: CIProfile,
-    settings: PredictSettings | None = None,
+    problem: Problem | None = None,
     *,
     start: PredictionResult | TerrainParameters | None = None,
+    draws: int = 2000,
+    seed: int | None = None,
     plates: Sequence[float] | None = None,
     plate_sinkages: ArrayLike | None = None,
     options: PosteriorOptions | None = None,
-    **fields: Any,
 ) -> PosteriorResult:
     """Sample the posterior of (kc, kphi, n, cc, phic) given one CI profile.
 
@@ -437,19 +434,21 @@ def posterior(
     ----------
     profile : CIProfile
         Depths [m] and cone index [kPa].
-    settings : PredictSettings, optional
-        The prediction's settings: the pressure law (``model``, ``r_min`` [m],
-        ``plate_pair`` [m]; a calibration prior sets all three), ``K_cone`` [m]
-        (None: fully mobilised), ``bounds`` (the support of the prior),
-        ``prior`` ("bounds", a Calibration or a CalibrationPrior:
-        :mod:`terracone.inverse.uncertainty.priors`), ``draws`` (samples
-        returned) and ``seed`` (the same seed gives the same samples bit for
-        bit).  ``fields`` are its fields given here instead (``seed=1``).
+    problem : Problem, optional
+        What is fitted: the pressure law, ``K_cone`` [m] (None: fully
+        mobilised), the bounds (the support of the prior), the values a
+        calibration holds (held in every draw) or a calibration as the
+        prior's centre (:mod:`terracone.inverse.uncertainty.priors`).
     start : PredictionResult or TerrainParameters, optional
-        Best fit to start from; :func:`terracone.inverse.predict` runs when None.
+        Best fit under ``problem`` to start from; :func:`terracone.inverse.predict`
+        runs when None.
+    draws : int
+        Samples returned.
+    seed : int, optional
+        The same seed gives the same samples bit for bit.
     plates, plate_sinkages : optional
-        Plate radii [m] (default: the calibration's pair, else ``plate_pair``,
-        else 3.75 and 5 cm) and sinkages [m] (0 to 10 cm every 5 mm) of the bands.
+        Plate radii [m] (default: the problem's plate pair, else 3.75 and 5
+        cm) and sinkages [m] (0 to 10 cm every 5 mm) of the bands.
     options : PosteriorOptions, optional
         The noise model and the sampler.
 
@@ -469,17 +468,17 @@ def posterior(
        models from cone index data. Sections 2, 3.2, 3.3.2.
     """
     t0, c0 = time.perf_counter(), time.process_time()
-    s, o = settings_of(settings, fields), options or PosteriorOptions()
-    if s.draws < 10:
-        raise ValueError(f"draws must be >= 10 (got {s.draws})")
-    st = _prepare(profile, s, o, start)
-    samples, rho_draws, diag = _draw(st, s.draws, o)
+    problem, o = problem or Problem(), options or PosteriorOptions()
+    if draws < 10:
+        raise ValueError(f"draws must be >= 10 (got {draws})")
+    st = _prepare(profile, problem, o, start, seed)
+    samples, rho_draws, diag = _draw(st, draws, o)
     noise_out = _noise_summary(st.noise, st.lik, samples, rho_draws, o, st.rng)
     summary = _summaries(samples, st.prior_draws, st.prior, o.level)
-    radii = DEFAULT_PLATES if st.plate_pair is None else tuple(st.plate_pair)
+    radii = DEFAULT_PLATES if problem.plate_pair is None else tuple(problem.plate_pair)
     radii = radii if plates is None else tuple(plates)
     sink = np.asarray(DEFAULT_SINKAGES if plate_sinkages is None else plate_sinkages, float)
-    bands = plate_bands(samples, radii, sink, law=st.law, level=o.level)
+    bands = plate_bands(samples, radii, sink, law=problem.law, level=o.level)
     diag.time_s, diag.cpu_s = time.perf_counter() - t0, time.process_time() - c0
     return _result(profile, st, samples, summary, bands, noise_out, diag, o.level)
 
@@ -488,11 +487,7 @@ def posterior(
 class _Setup:
     """Everything :func:`posterior` samples with: law, start, noise, prior, likelihood, target."""
 
-    model: str
-    r_min: float | None
-    plate_pair: tuple[float, float] | None
-    K_cone: float | None
-    law: PressureLaw
+    problem: Problem
     start: TerrainParameters
     noise: NoiseSetup
     prior: Prior
@@ -523,10 +518,10 @@ def _result(
         plate_bands=bands,
         noise=noise_out,
         diagnostics=diag,
-        prior=st.prior.describe(),
-        model=st.model,
-        r_min=st.r_min,
-        K_cone=st.K_cone,
+        prior=st.problem.prior_label(),
+        model=st.problem.model,
+        r_min=st.problem.r_min,
+        K_cone=st.problem.K_cone,
         level=level,
         best_fit=st.start,
         notes=st.notes,
@@ -534,38 +529,25 @@ def _result(
     )
 
 
-def _prepare(profile: CIProfile, s: PredictSettings, o: PosteriorOptions, start: Any) -> _Setup:
+def _prepare(
+    profile: CIProfile, pb: Problem, o: PosteriorOptions, start: Any, seed: int | None
+) -> _Setup:
     """The best fit, noise model, prior, likelihood and target of :func:`posterior`."""
-    model, r_min, plate_pair, K_cone, bounds = s.model, s.r_min, s.plate_pair, s.K_cone, s.bounds
-    cal_prior = as_calibration_prior(s.prior)
-    cal = cal_prior.calibration if cal_prior is not None else None
-    if cal is not None:
-        model, r_min, plate_pair = cal.model, cal.r_min, cal.plate_pair
-    law = pressure_law(model, r_min=r_min, plate_pair=plate_pair)
     profile.validate()
-    rng = np.random.default_rng(s.seed)
-    if start is None:
-        start = predict(
-            profile,
-            model=model,
-            r_min=r_min,
-            plate_pair=plate_pair,
-            calibration=cal if cal is not None else s.calibration,
-            bounds=bounds,
-            K_cone=K_cone,
-        )
-    p0 = _start_params(start)
+    rng = np.random.default_rng(seed)
+    p0 = _start_params(predict(profile, pb) if start is None else start)
     ns = noise_setup(
-        profile, p0, law, K_cone, bounds, cal, o.noise_model, o.noise_floor, o.correlation
-    )
-    pri = Prior(bounds, cal_prior)
+        profile, p0, pb.law, pb.K_cone, pb.fit_bounds, pb.ratio, o.noise_model, o.noise_floor,
+        o.correlation,
+    )  # fmt: skip
+    pri = Prior.of(pb)
     lik = Likelihood(
         profile.depth,
         profile.ci,
         cone=profile.cone,
-        law=law,
-        K_cone=K_cone,
-        n_range=bounds.n,
+        law=pb.law,
+        K_cone=pb.K_cone,
+        n_range=pri.b.n,
         weights=ns.w,
         phi=None if ns.rho_sampled else ns.phi,
         spacing=ns.dz0 or None,
@@ -573,17 +555,13 @@ def _prepare(profile: CIProfile, s: PredictSettings, o: PosteriorOptions, start:
     if o.n_prior == "reference":
         free = (not pri.kc_fixed, not pri.kphi_fixed, not pri.cc_fixed)
         pri.set_reference(lik.grid, lik.gram_half_logdet(free, p0.phic_deg))
-    x0, coords = _start_and_coordinates(p0, bounds, pri, profile.cone, K_cone)
+    x0, coords = _start_and_coordinates(p0, pri, profile.cone, pb.K_cone)
     if coords.ndim == 0:
         raise ValueError("all parameters are fixed: nothing to sample")
     target = LogPosterior(coords, pri, lik, o.noise, ns.rho_sampled, ns.rho)
     prior_draws = pri.sample(rng, _N_PRIOR_DRAWS)
     return _Setup(
-        model=model,
-        r_min=r_min,
-        plate_pair=plate_pair,
-        K_cone=K_cone,
-        law=law,
+        problem=pb,
         start=p0,
         noise=ns,
         prior=pri,
@@ -632,8 +610,9 @@ def _draw(
     return samples, rho_draws, diag
 
 
-def _start_and_coordinates(p0, bounds, pri, cone, K_cone):
-    """The best fit clipped to the bounds (5,) and the sampler's coordinates."""
+def _start_and_coordinates(p0, pri: Prior, cone, K_cone):
+    """The best fit clipped to the prior's box (5,) and the sampler's coordinates."""
+    bounds = pri.b
     x0 = np.array([p0.kc, p0.kphi, p0.n, p0.cc, p0.phic_deg], dtype=float)
     for j, (lo, hi) in ((2, bounds.n), (3, bounds.cc), (4, bounds.phic_deg)):
         x0[j] = np.clip(x0[j], lo, hi)
@@ -684,8 +663,9 @@ def _summaries(samples, prior_draws, pri, level) -> dict[str, dict]:
     qs = [(1 - level) / 2, 0.5, (1 + level) / 2]
     post_q = np.quantile(samples, qs, axis=0)
     prior_q = np.quantile(prior_draws, qs, axis=0)
-    free = [not pri.kc_fixed, not pri.kphi_fixed, not pri.n_fixed, not pri.cc_fixed]
-    free.append(not pri.phic_fixed)
+    # kc held to kphi by a ratio is as determined as kphi
+    kc_free = not pri.kc_fixed or pri.held_ratio is not None
+    free = [kc_free, not pri.kphi_fixed, not pri.n_fixed, not pri.cc_fixed, not pri.phic_fixed]
     out: dict[str, dict] = {
         k: {}
         for k in (
@@ -755,45 +735,3 @@ def plate_bands(
         lo, med, hi = np.quantile(p, qs, axis=0)
         out.append(PlateBand(r, sink.copy(), med, lo, hi))
     return out
-
-
-def posterior_for_result(
-    profile: CIProfile,
-    result: PredictionResult,
-    settings: PredictSettings | None = None,
-    *,
-    plates: Sequence[float] | None = None,
-    plate_sinkages: ArrayLike | None = None,
-    options: PosteriorOptions | None = None,
-    **fields: Any,
-) -> PosteriorResult:
-    """:func:`posterior` for a profile already fitted by :func:`~terracone.inverse.predict`.
-
-    Model, r_min and Kc are taken from ``result.params`` and the walkers
-    start at the result's optimum; ``settings`` (or its ``fields``) give the
-    prior, its bounds, draws, seed and the RM1 plate pair.  When the prior is
-    a calibration and the result was not fitted with it (its phic lies more
-    than 3 prior standard deviations from the calibration's), the profile is
-    re-fitted with the calibration first.
-    """
-    if not result.ok or result.params is None:
-        raise ValueError(f"profile {result.id}: prediction failed: {result.error}")
-    p, s = result.params, settings_of(settings, fields)
-    cal_prior = as_calibration_prior(s.prior)
-    start: PredictionResult | None = result
-    if cal_prior is not None:
-        c = cal_prior.calibration
-        tol = 3.0 * max(cal_prior.phic_sd, 1e-9)
-        if abs(p.phic_deg - c.phic_deg) > tol or p.model != c.model:
-            start = None
-    s = replace(
-        s,
-        model=p.model,
-        r_min=p.r_min,
-        K_cone=p.K_cone,
-        calibration=None,
-        prior=cal_prior or "bounds",
-    )
-    return posterior(
-        profile, s, start=start, plates=plates, plate_sinkages=plate_sinkages, options=options
-    )

@@ -1,9 +1,11 @@
 """Priors of the posterior over (kc, kphi, n, cc, phic): the bounds box or a calibration.
 
-``"bounds"``: uniform over the search box of :class:`Bounds`; a
-:class:`~terracone.inverse.learning.learn.Calibration` (or a
-:class:`CalibrationPrior` to change the widths): normal priors of phic, cc and
-ln(kc/kphi) around the calibration's values, n uniform.  The densities:
+``"bounds"``: uniform over the search box of :class:`Bounds`, with the values a
+calibration holds held (phic, cc pinned in the box; kc = ratio kphi); a
+calibration as a prior (:class:`~terracone.inverse.problem.CalibrationPrior`):
+normal priors of phic, cc and ln(kc/kphi) around the calibration's values, n
+uniform.  :meth:`Prior.of` builds the prior a
+:class:`~terracone.inverse.problem.Problem` states.  The densities:
 ``docs/uncertainty.md`` (Priors).  Used by
 :func:`terracone.inverse.uncertainty.posterior.posterior`.
 
@@ -17,74 +19,44 @@ References
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.learning.learn import Calibration
+from terracone.inverse.problem import CalibrationPrior, Problem
 
-__all__ = [
-    "PARAM_NAMES",
-    "CalibrationPrior",
-    "Prior",
-    "as_calibration_prior",
-]
+__all__ = ["PARAM_NAMES", "Prior"]
 
 #: Order of the columns of :attr:`PosteriorResult.samples` (SI).
 PARAM_NAMES = ("kc", "kphi", "n", "cc", "phic_deg")
 
 
-@dataclass(frozen=True)
-class CalibrationPrior:
-    """Prior centred on a learned calibration (section 3.3.1 of [1]_).
+class Prior:
+    """Prior density and sampler over (kc, kphi, n, cc, phic), SI.
 
-    Attributes
+    Parameters
     ----------
-    calibration : Calibration
-        Fixes model, r_min and the plate pair.
-    phic_sd : float
-        Standard deviation of the normal prior of phic around the
-        calibration's value [deg] (Table 4-1 of [1]_ spreads 10-12.5 deg
-        over four LETE profiles).
-    cc_sd : float or None
-        Standard deviation of the normal prior of cc [kPa]; None:
-        max(2 kPa, 0.25 * cc_cal).
-    ratio_log_sd : float
-        Standard deviation of ln(kc/kphi) around the calibration's ratio
-        [-] (0.25: a factor 1.5 either way at 90%; the LETE profiles of
-        Table 4-1 span 0.017-0.026 m).
+    bounds : Bounds
+        The support (a pinned parameter, LO = HI, is held).
+    cal : CalibrationPrior, optional
+        A calibration as the prior's centre.
+    ratio : float, optional
+        kc/kphi held [m] (kc = ratio kphi; not with ``cal``).
     """
 
-    calibration: Calibration
-    phic_sd: float = 2.0
-    cc_sd: float | None = None
-    ratio_log_sd: float = 0.25
-
-    def __post_init__(self) -> None:
-        if not (self.phic_sd >= 0 and self.ratio_log_sd > 0):
-            raise ValueError("phic_sd must be >= 0 and ratio_log_sd > 0")
-        if self.cc_sd is not None and self.cc_sd < 0:
-            raise ValueError("cc_sd must be >= 0")
-
-    @property
-    def cc_width(self) -> float:
-        """The standard deviation of cc actually used [kPa]."""
-        if self.cc_sd is not None:
-            return float(self.cc_sd)
-        return max(2.0, 0.25 * float(self.calibration.cc))
-
-
-class Prior:
-    """Prior density and sampler over (kc, kphi, n, cc, phic), SI."""
-
-    def __init__(self, bounds: Bounds, cal: CalibrationPrior | None) -> None:
+    def __init__(
+        self, bounds: Bounds, cal: CalibrationPrior | None, ratio: float | None = None
+    ) -> None:
+        if cal is not None and ratio is not None:
+            raise ValueError("a held kc/kphi ratio and a calibration prior exclude each other")
         self.b = bounds
         self.cal = cal
+        self.held_ratio = None if ratio is None else float(ratio)
         self._si = bounds.kc_units == "si" and bounds.kphi_units == "si"
         c = cal.calibration if cal is not None else None
-        self.kc_fixed = bounds.kc[0] == bounds.kc[1] or (c is not None and c.kc <= 0)
+        self.kc_fixed = (
+            bounds.kc[0] == bounds.kc[1] or (c is not None and c.kc <= 0) or ratio is not None
+        )
         self.kphi_fixed = bounds.kphi[0] == bounds.kphi[1] or (c is not None and c.kphi <= 0)
         self.n_fixed = bounds.n[0] == bounds.n[1]
         self.cc_fixed = bounds.cc[0] == bounds.cc[1] or (cal is not None and cal.cc_width == 0)
@@ -112,6 +84,13 @@ class Prior:
         if c is not None and c.kphi <= 0 and bounds.kphi[0] > 0:
             raise ValueError("the calibration has kphi = 0 but the kphi bounds exclude 0")
 
+    @classmethod
+    def of(cls, problem: Problem) -> Prior:
+        """The prior ``problem`` states: the held box and ratio, or around its centre."""
+        if problem.centre is not None:
+            return cls(problem.bounds, problem.centre)
+        return cls(problem.fit_bounds, None, ratio=problem.ratio)
+
     def describe(self) -> str:
         if self.cal is None:
             return "bounds"
@@ -124,7 +103,7 @@ class Prior:
         box (no longer normalised per n), which does not depend on the
         units the bounds were given in.
         """
-        if self.cal is not None or self.n_fixed:
+        if self.cal is not None or self.n_fixed or self.held_ratio is not None:
             return
         ok = np.isfinite(logw)
         if not ok.any():
@@ -153,8 +132,21 @@ class Prior:
         cdf = np.concatenate([[0.0], np.cumsum(0.5 * (d[1:] + d[:-1]) * np.diff(g))])
         return np.interp(rng.uniform(0, cdf[-1], m), cdf, g)
 
+    def kphi_range(self, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) of kphi [SI] at n; with a held ratio, where kc = ratio kphi is in its box too."""
+        lo, hi = self.b.kphi_si(n)
+        if self.held_ratio is not None and self.held_ratio > 0:
+            kc_lo, kc_hi = self.b.kc_si(n)
+            lo = np.maximum(lo, kc_lo / self.held_ratio)
+            hi = np.maximum(np.minimum(hi, kc_hi / self.held_ratio), lo)
+        return lo, hi
+
     def fixed_value(self, j: int, n: np.ndarray) -> np.ndarray:
-        """kc (j = 0) or kphi (j = 1) where fixed [SI] at n: 0 (a calibration's 0) or LO."""
+        """kc (j = 0) or kphi (j = 1) where fixed [SI] at n: 0 (a calibration's 0) or LO.
+
+        A kc held by a ratio is not a value of n alone: :class:`SamplerCoordinates`
+        sets it from kphi.
+        """
         name = ("kc", "kphi")[j]
         if self.cal is not None and getattr(self.cal.calibration, name) <= 0:
             return np.zeros_like(n)
@@ -179,6 +171,9 @@ class Prior:
         ref = self.n_logw is not None
         if ref:
             lp = lp + self.n_log_weight(n)
+        if self.held_ratio is not None:  # kc = ratio kphi: in its box; kphi uniform where both are
+            inside &= (kc >= kc_lo) & (kc <= kc_hi)
+            kp_lo, kp_hi = self.kphi_range(np.clip(n, b.n[0], b.n[1]))
         if not self.kphi_fixed:
             inside &= (kphi >= kp_lo) & (kphi <= kp_hi)
             if not ref:
@@ -210,8 +205,10 @@ class Prior:
         for _ in range(200):
             m = 2 * size
             n = np.full(m, b.n[0]) if self.n_fixed else self._sample_n(rng, m)
-            kphi = self.fixed_value(1, n) if self.kphi_fixed else rng.uniform(*b.kphi_si(n))
-            if self.ratio:
+            kphi = self.fixed_value(1, n) if self.kphi_fixed else rng.uniform(*self.kphi_range(n))
+            if self.held_ratio is not None:
+                kc = self.held_ratio * kphi
+            elif self.ratio:
                 q = np.exp(self.log_q0 + self.cal.ratio_log_sd * rng.standard_normal(m))
                 kc = q * kphi
             elif self.kc_fixed:
@@ -236,17 +233,3 @@ class Prior:
             if out.shape[0] >= size:
                 return out[:size]
         raise ValueError("the prior has (almost) no mass inside the bounds")
-
-
-def as_calibration_prior(prior: Any) -> CalibrationPrior | None:
-    if prior is None or prior == "bounds":
-        return None
-    if isinstance(prior, str):
-        raise ValueError(
-            f"prior must be 'bounds', a Calibration or a CalibrationPrior (got {prior!r})"
-        )
-    if isinstance(prior, CalibrationPrior):
-        return prior
-    if isinstance(prior, Calibration):
-        return CalibrationPrior(prior)
-    raise TypeError(f"prior must be 'bounds', a Calibration or a CalibrationPrior (got {prior!r})")

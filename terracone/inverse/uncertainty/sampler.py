@@ -54,7 +54,9 @@ class SamplerCoordinates:
         self.t = math.tan(cone.half_angle)
         nb = np.array(prior.b.n, dtype=float)
         fixed = (prior.kc_fixed, prior.kphi_fixed, prior.n_fixed, prior.cc_fixed, prior.phic_fixed)
-        nonzero = [fixed[j] and not np.all(prior.fixed_value(j, nb) == 0) for j in (0, 1)]
+        # a kc or kphi held at a non-zero value breaks the exact phic ridge; kc = ratio kphi does not
+        held = [fixed[0] and prior.held_ratio is None, fixed[1]]
+        nonzero = [held[j] and not np.all(prior.fixed_value(j, nb) == 0) for j in (0, 1)]
         self.scaled = K_cone is None and not prior.phic_fixed and not any(nonzero)
         self.free = ~np.array(fixed)
         self.nscale = int(self.free[0]) + int(self.free[1])
@@ -79,6 +81,8 @@ class SamplerCoordinates:
             logj = -self.nscale * np.log(s)
         for j in np.flatnonzero(~self.free[:2]):  # kc, kphi held
             P[:, j] = self.prior.fixed_value(j, P[:, 2])
+        if self.prior.held_ratio is not None:  # kc = ratio kphi (a calibration's)
+            P[:, 0] = self.prior.held_ratio * P[:, 1]
         return P, logj
 
     def from_params(self, params: np.ndarray) -> np.ndarray:
