@@ -314,7 +314,7 @@ def draw_samples(
     intervals) or fewer than ``count``.
     """
     post = result.posterior
-    samples = None if post is None else getattr(post, "samples", None)
+    samples = None if post is None else post.samples
     if samples is None:
         raise ValueError(
             f"profile {result.id!r} has no posterior draws: --samples needs the JSON of "

@@ -56,6 +56,7 @@ import numpy as np
 from terracone.data import CIProfile, InputError
 from terracone.physics import units as u
 from terracone.physics import vehicle as phys
+from terracone.physics.metrics import finite_median
 from terracone.result import PredictionResult, PredictionResults
 
 __all__ = [
@@ -502,7 +503,7 @@ def _wheel_notes(wheel: Wheel, z: float) -> list[str]:
 
 def _band(post: Any, wheel: Wheel, level: float, label: str) -> tuple[dict | None, Any, str]:
     """The wheel band from the posterior draws, the draws, and a note when there is none."""
-    samples = getattr(post, "samples", None)
+    samples = None if post is None else post.samples
     if samples is None:
         return (
             None,
@@ -684,11 +685,6 @@ def _mean(values: Sequence[float | None]) -> float | None:
     return float(np.mean(v)) if v else None
 
 
-def _median(values: Sequence[float | None]) -> float | None:
-    v = [x for x in values if x is not None and math.isfinite(x)]
-    return float(np.median(v)) if v else None
-
-
 def _site(name: str, members: list[ProfileMobility], vci: float, level: float) -> SiteMobility:
     s = SiteMobility(name, [m.id for m in members], members[0].layer, vci=vci)
     s.ci = _mean([m.ci for m in members])
@@ -697,8 +693,8 @@ def _site(name: str, members: list[ProfileMobility], vci: float, level: float) -
         s.go, s.margin = s.rci >= vci, s.rci - vci
     decided = [m.go for m in members if m.go is not None]
     s.go_fraction = sum(decided) / len(decided) if decided else None
-    s.sinkage = _median([m.sinkage for m in members])
-    s.resistance = _median([m.resistance for m in members])
+    s.sinkage = finite_median([m.sinkage for m in members])
+    s.resistance = finite_median([m.resistance for m in members])
     if members and all(m.draws is not None for m in members):
         pooled = np.concatenate([m.draws for m in members])
         q = [(1 - level) / 2, (1 + level) / 2]
@@ -785,7 +781,7 @@ class MobilityRun:
 
 def _prior_of(results: PredictionResults) -> tuple[str, str]:
     """(prior, band label): "bounds" without a calibration, then bands are set by the prior."""
-    priors = {getattr(r.posterior, "prior", None) for r in results if r.posterior is not None}
+    priors = {r.posterior.prior for r in results if r.posterior is not None}
     priors.discard(None)
     if priors:
         prior = "bounds" if "bounds" in priors else sorted(priors)[0]

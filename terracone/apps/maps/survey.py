@@ -423,7 +423,7 @@ def _posterior(r: PredictionResult, calibrated: bool) -> Any:
     estimate (kc/kphi, phic and cc free): its spread is not the fit's.
     """
     post = r.posterior
-    prior = str(getattr(post, "prior", None) or "")
+    prior = "" if post is None else str(post.prior or "")
     if post is None or calibrated != prior.startswith("calibration"):
         return None
     return post
@@ -432,7 +432,7 @@ def _posterior(r: PredictionResult, calibrated: bool) -> Any:
 def _draws_variance(r: PredictionResult, q: Quantity, pair: Any, calibrated: bool) -> float:
     """Variance over the posterior draws of the kriged value (log or linear), NaN without draws."""
     post = _posterior(r, calibrated)
-    s = None if post is None else getattr(post, "samples", None)
+    s = None if post is None else post.samples
     if s is None or len(s) < 2:
         return math.nan
     s = np.asarray(s, dtype=float)
@@ -457,9 +457,9 @@ def _draws_variance(r: PredictionResult, q: Quantity, pair: Any, calibrated: boo
 def _n_variance(r: PredictionResult, calibrated: bool) -> float:
     """Estimation variance of n from its interval (posterior 90%, else profile 95%)."""
     post = _posterior(r, calibrated)
-    if post is not None and "n" in getattr(post, "intervals", {}):
+    if post is not None and "n" in post.intervals:
         lo, hi = post.intervals["n"]
-        z = float(norm.ppf(0.5 + 0.5 * float(getattr(post, "level", 0.9))))
+        z = float(norm.ppf(0.5 + 0.5 * float(post.level)))
         return ((hi - lo) / (2 * z)) ** 2
     if "n" in r.profile_intervals:
         lo, hi = r.profile_intervals["n"]
