@@ -356,7 +356,7 @@ def _layered_result(
         lack_of_fit=chk.lack_of_fit, phic_range=(ph_lo, ph_hi), depth=z, ci=y, ci_model=m,
         ci_model_single=m1, metadata=dict(profile.metadata), certificate=cert,
         profile_intervals=dict(found.intervals), undetermined=und, nfev=found.nfev,
-        notes=[problem.note] if problem.note else [],
+        notes=problem.notes_for(cone.name),
     )  # fmt: skip
 
 

@@ -1120,8 +1120,7 @@ def fit_sites(
             name, idx, failed, fits, b, tan_a, list(plates), sinkage, target_cv, level, model,
             pooled, calibrated,
         )  # fmt: skip
-        if problem.note:
-            site.notes.insert(0, problem.note)
+        site.notes[:0] = problem.notes_for(profiles[members[0]].cone.name)
         out.append(site)
     return out
 
