@@ -82,7 +82,7 @@ def vehicle_line(doc: Mapping[str, Any]) -> str:
         else ""
     )
     vci = (
-        f"VCI_{v['passes']} {v['vci']:.4g} {u.pressure_unit(units)}"
+        f"VCI_{v['passes']} {v['vci']:.4g} {u.pressure_unit(units)} (fine-grained soils)"
         if v.get("vci") is not None
         else f"VCI_{v['passes']}: none ({v.get('vci_note')})"
     )
