@@ -23,7 +23,8 @@ fine        wheeled   1       6-12 in    [2]_: VCI_1 observations (M923 5-ton tr
 fine        wheeled   50      6-12 in    [1]_ (the 50-pass layer; no wheeled 50-pass
                                          source was opened)
 coarse      any       any     0-6 in     [3]_: "an average CI for the top 15 cm of soil is
-                                         standard in mobility applications"
+                                         standard in mobility applications" (of soils in
+                                         general; none specific to coarse soils opened)
 ==========  ========  ======  =========  ==================================================
 
 The weight of the vehicle is not a threshold of these rules: no source opened
@@ -34,9 +35,9 @@ instead the weakest layer of a given thickness within a depth window, exactly
 
 References
 ----------
-.. [1] U.S. Army Engineer School, subcourse EN5341, ch. 3 (soil trafficability),
-   pp. 3-26 to 3-29 (armyengineer.tpub.com/En5341a/En5341a0111.htm, ...0112.htm,
-   ...0121.htm): the critical layer, RCI of fine-grained soils and remoldable sands.
+.. [1] U.S. Army Engineer School, subcourse EN5341, ch. 3 (soil trafficability):
+   the critical layer, pp. 3-26 and 3-27 (armyengineer.tpub.com/En5341a/En5341a0111.htm,
+   En5341a0112.htm); the RCI of fine-grained soils and remoldable sands (En5341a0121.htm).
 .. [2] Priddy, J.D., Willoughby, W.E. (2006). Clarification of vehicle cone
    index with reference to mean maximum pressure. J. Terramechanics 43(2),
    85-96, Fig. 2.
