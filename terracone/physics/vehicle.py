@@ -43,9 +43,10 @@ References
    the mobility index and VCI_1 of tracked vehicles.  Neither this review
    nor [2]_ could be opened here: the tracked-vehicle factors and VCI_1 were
    read in public transcriptions of [6]_ and of FM 5-430-00-1 (1994), which
-   agree on every constant used here except the engine and transmission
-   factors, taken as for wheeled vehicles (docs/mobility.md).  No public
-   source of a tracked-vehicle VCI_50 could be opened, so none is given.
+   agree on the weight, track, grouser, bogie and clearance factors and VCI_1;
+   the engine and transmission factors are taken as for wheeled vehicles, the
+   transcriptions being unreliable there (docs/mobility.md, Not done).  No
+   public source of a tracked-vehicle VCI_50 could be opened, so none is given.
 """
 
 from __future__ import annotations
