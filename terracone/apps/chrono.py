@@ -117,10 +117,11 @@ SCM_UNITS = ("Pa/m^n", "Pa/m^(n-1)", "-", "Pa", "deg", "m", "Pa/m", "Pa s/m")
 #: [kPa], friction angle [deg], Janosi-Hanamoto shear deformation modulus [m].
 SHEAR_KEYS = ("c_kpa", "phi_deg", "K_m")
 
-#: Default SCM elastic stiffness [Pa/m]: the value of Chrono's SCM demo for
-#: Wong's LETE sand (``demo_VEH_DeformableSoil``) and of its
-#: ``scm_soil_parameters/scm_hard.json``; above every Bekker Kphi of Wong's
-#: reference soils.  Not a Bekker-Wong value: never from data.
+#: Default SCM elastic stiffness [Pa/m]: the value of the LETE-sand branch of
+#: PyChrono's SCM demo (``src/demos/python/vehicle/demo_VEH_DeformableSoil.py``);
+#: Chrono's co-simulation samples use 4e7 (``data/vehicle/cosim/terrain/scm_soft.json``)
+#: and 2e8 (``scm_hard.json``).  Above every Bekker Kphi of Wong's reference soils.
+#: Not a Bekker-Wong value: never from data.
 DEFAULT_ELASTIC_K = 4e8
 #: Default SCM vertical damping [Pa s/m]: the value of every SCM sample of
 #: Chrono (``data/vehicle/cosim/terrain/scm_soft.json``, ``scm_hard.json``).

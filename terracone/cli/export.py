@@ -152,8 +152,15 @@ def parse_origin(text: str) -> tuple[float, float]:
     default=None,
     help="mavs: MAVS soil type of the surface (its Cone Index: CI for sand, RCI for clay).",
 )
+@click.option(
+    "--json",
+    "as_json",
+    is_flag=True,
+    help="mavs: print the written entry and set_terrain_properties (the values of MAVS's two "
+    "SetTerrainProperties calls) as JSON.",
+)
 def export_cmd(
-    terrain, results_path, map_dir, profile, fmt, out, units, library, material, **chrono
+    terrain, results_path, map_dir, profile, fmt, out, units, library, material, as_json, **chrono
 ):
     """Write a terrain or results for Project Chrono's SCM (a co-simulation spec or a PyChrono
     module), as plain Bekker-Wong parameters, or results as GeoJSON points.
@@ -170,6 +177,8 @@ def export_cmd(
         raise click.UsageError("--map: only with --format pychrono (a terrain map's cells)")
     if material is not None and fmt != "mavs":
         raise click.UsageError("--material: only with --format mavs")
+    if as_json and fmt != "mavs":
+        raise click.UsageError("--json: only with --format mavs")
     if fmt not in CHRONO_FORMATS:
         given = [f"--{k.replace('_', '-')}" for k, v in chrono.items() if v is not None]
         if given:
@@ -179,7 +188,7 @@ def export_cmd(
     if fmt == "mavs":
         from terracone.cli.mobility import export_mavs
 
-        return export_mavs(results_path, profile, material, out)
+        return export_mavs(results_path, profile, material, out, as_json)
     if fmt in ("json", "csv"):
         return _export_plain(terrain, results_path, profile, fmt, out, units or "si", library)
     chrono["map_dir"] = map_dir
