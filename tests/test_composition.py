@@ -45,7 +45,7 @@ def held(units: str) -> dict[str, float]:
 def _profiles(count: int, seed: int = 1):
     """(id, site, lat, lon, depth [m], CI [kPa]) of ``count`` noisy two-layer pushes."""
     rng = np.random.default_rng(seed)
-    z = np.linspace(0.0, 0.3, 16)
+    z = np.linspace(0.0, 0.375, 16)  # below the 6-12 in critical layer of a wheeled vehicle
     kw = dict(phic_deg=20.0, cc=3.0, model="rm1", r_min=0.01)
     for k in range(count):
         s = 1 + 0.3 * rng.standard_normal()
