@@ -199,7 +199,7 @@ def test_a_folder_that_reproduce_alone_wrote_is_written_again(run, tmp_path):
     (tmp_path / "results" / "lete_learn.json").write_text("{}\n")
     assert prepare_output(tmp_path) == tmp_path
     assert sorted(p.name for p in tmp_path.iterdir()) == ["data", "figures", "results", "tables"]
-    assert not any(p.iterdir() for p in tmp_path.iterdir())
+    assert not any(any(p.iterdir()) for p in tmp_path.iterdir())
     # one file of data/ without the header: someone else's folder
     (tmp_path / "data" / "lete_sand_synthetic_ci.csv").write_text(f"# {DATA_HEADER}\nx\n")
     (tmp_path / "data" / "precious.csv").write_text("x\n")
