@@ -104,7 +104,8 @@ class BatchSummary:
     on resume), ``chunks_failed`` (their profiles are error rows; resume
     recomputes them); ``duplicate_ids`` (id -> count, at most 100 listed;
     ``n_duplicate_ids`` counts all); ``problems``: run-level problems, empty
-    when all is well.  ``workers`` (threads) and ``scheduler`` (None: local
+    when all is well; ``notes``: what the run left aside without a problem
+    (an input file of a directory that holds no profile).  ``workers`` (threads) and ``scheduler`` (None: local
     cluster).  Seconds: ``scan_s``, ``startup_s``, ``read_s`` and
     ``write_s`` (client), ``fit_s`` and ``fit_cpu_s`` (worker-seconds and
     their CPU time, summed over chunks), ``verify_s``, ``wall_s``;
@@ -122,6 +123,7 @@ class BatchSummary:
     duplicate_ids: dict[str, int] = field(default_factory=dict)
     n_duplicate_ids: int = 0
     problems: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
     workers: int = 0
     scheduler: str | None = None
     scan_s: float = 0.0
@@ -949,19 +951,26 @@ def run_batch(
     run = _run_record(_run_settings(settings, reading, units, default_cone, chunk_size), source)
     out = Path(out_dir)
     in_dir = Path(input) if Path(input).is_dir() else None
+    created = not out.exists()
     resuming = _prepare_out_dir(out, resume, run, in_dir)
-    readable = files if in_dir else _readable(files, out, reading, default_cone)
     summary = BatchSummary(out_dir=str(out), scheduler=scheduler)
-    with _lock(out):
-        _remove_leftovers(out)
-        plan, expected, done = _begin(out, readable, run, resuming, chunk_size, summary)
-        job = {"settings": settings, "reading": reading, "units": units}
-        sink = _Sink(out, plan, job, run["run_key"], summary, sum(expected[i] for i in done))
-        chunks = iter_chunks(plan, chunk_size, ConeCache(default_cone), done)
-        where = {"pool": pool, "workers": workers, "scheduler": scheduler}
-        _process(sink, chunks, len(done) < len(expected), where, progress)
-        changed = fingerprint(input, files) != source
-        _finish(sink, expected, done, run, units, t_start, changed)
+    try:
+        readable = files if in_dir else _readable(files, out, reading, default_cone)
+        with _lock(out):
+            _remove_leftovers(out)
+            plan, expected, done = _begin(out, readable, run, resuming, chunk_size, summary)
+            job = {"settings": settings, "reading": reading, "units": units}
+            sink = _Sink(out, plan, job, run["run_key"], summary, sum(expected[i] for i in done))
+            chunks = iter_chunks(plan, chunk_size, ConeCache(default_cone), done)
+            where = {"pool": pool, "workers": workers, "scheduler": scheduler}
+            _process(sink, chunks, len(done) < len(expected), where, progress)
+            changed = fingerprint(input, files) != source
+            _finish(sink, expected, done, run, units, t_start, changed)
+    except InputError:
+        if created:  # refused before any result: leave no empty output directory behind
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        raise
     return summary
 
 
@@ -995,6 +1004,10 @@ def _begin(
     t0 = time.perf_counter()
     plan = scan_inputs(files, leading=PARQUET_COLUMNS)  # output columns first
     summary.scan_s = time.perf_counter() - t0
+    if plan.profiles == 0:  # as predict: a file of a header and no data is refused
+        where = files[0][0] if len(files) == 1 else files[0][0].parent
+        raise InputError("no data rows: the input holds no profile", file=str(where))
+    summary.notes += [f"file {f.path}: no data rows" for f in plan.files if not f.profiles]
     n_chunks = -(-plan.profiles // chunk_size)
     expected = {i: min(chunk_size, plan.profiles - i * chunk_size) for i in range(n_chunks)}
     run.update(profiles=plan.profiles, chunks=n_chunks)

@@ -25,6 +25,7 @@ from terracone.cli.common import (
     store_in_library,
 )
 from terracone.data import InputError, TerrainParameters
+from terracone.io.outputs import check_outputs
 from terracone.physics import units as u
 from terracone.report.text import (
     design_text,
@@ -79,6 +80,8 @@ def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts)
     """Predict kc, kphi, n, cc, phic from CI profiles (section 3.3.2)."""
     from terracone.apps.workflow import predict_profiles, sinkage_grid
 
+    inputs = {"CI_FILE": ci_file, "--calibration": opts["calibration"]}
+    check_outputs({"--out": out, "--parquet": parquet_path}, inputs)
     units, uncertainty = opts["units"], opts.pop("uncertainty")
     settings = settings_from(
         opts,
@@ -116,6 +119,9 @@ def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts)
         if layered:
             click.echo(layered_text(layered, units))
     if not any(r.ok for r in results):
+        r0 = results[0] if results else None
+        first = f": first, {r0.id}: {r0.error or r0.status}" if r0 else ""
+        click.echo(f"terracone: no profile could be fitted ({len(results)} read){first}", err=True)
         sys.exit(1)
 
 
@@ -164,6 +170,7 @@ def learn_cmd(ci_file, plates_file, r_min_range, terrain_name, save, save_as, as
     from terracone.inverse.learning.learn import learn
     from terracone.io import read_plate_tests
 
+    check_outputs({"--save": save}, {"--ci": ci_file, "--plates": plates_file})
     units, model = opts["units"], opts["model"]
     profiles = reading_from(opts).read(ci_file, units, on_error="raise")
     plates = read_plate_tests(plates_file)
@@ -274,6 +281,7 @@ def sites_cmd(
     """Site statistics: pushes pooled per site (median terrain, push-to-push CV, pushes needed)."""
     from terracone.inverse.sites.statistics import default_sinkages, site_statistics
 
+    check_outputs({"--out": out}, {"CI_FILE": ci_file, "--calibration": opts["calibration"]})
     if by is None and radius is None:
         raise click.UsageError("give --by COLUMN or --radius L to group the profiles into sites")
     if opts["layers"] > 1:

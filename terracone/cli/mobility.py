@@ -93,9 +93,13 @@ def mobility_cmd(
     draws of predict --uncertainty --json.
     """
     from terracone.apps.mobility import ci_profiles_by_id, evaluate_mobility, load_vehicle
+    from terracone.io.outputs import check_outputs
     from terracone.report.mobility import mobility_text
     from terracone.result import read_results
 
+    check_outputs(
+        {"--out": out}, {"RESULTS": results_path, "--vehicle": vehicle_path, "--ci": ci_file}
+    )
     vehicle = load_vehicle(vehicle_path)
     results = read_results(results_path)
     ci_profiles = None
