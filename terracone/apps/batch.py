@@ -951,26 +951,19 @@ def run_batch(
     run = _run_record(_run_settings(settings, reading, units, default_cone, chunk_size), source)
     out = Path(out_dir)
     in_dir = Path(input) if Path(input).is_dir() else None
-    created = not out.exists()
     resuming = _prepare_out_dir(out, resume, run, in_dir)
+    readable = files if in_dir else _readable(files, out, reading, default_cone)
     summary = BatchSummary(out_dir=str(out), scheduler=scheduler)
-    try:
-        readable = files if in_dir else _readable(files, out, reading, default_cone)
-        with _lock(out):
-            _remove_leftovers(out)
-            plan, expected, done = _begin(out, readable, run, resuming, chunk_size, summary)
-            job = {"settings": settings, "reading": reading, "units": units}
-            sink = _Sink(out, plan, job, run["run_key"], summary, sum(expected[i] for i in done))
-            chunks = iter_chunks(plan, chunk_size, ConeCache(default_cone), done)
-            where = {"pool": pool, "workers": workers, "scheduler": scheduler}
-            _process(sink, chunks, len(done) < len(expected), where, progress)
-            changed = fingerprint(input, files) != source
-            _finish(sink, expected, done, run, units, t_start, changed)
-    except InputError:
-        if created:  # refused before any result: leave no empty output directory behind
-            with contextlib.suppress(OSError):
-                out.rmdir()
-        raise
+    with _lock(out):
+        _remove_leftovers(out)
+        plan, expected, done = _begin(out, readable, run, resuming, chunk_size, summary)
+        job = {"settings": settings, "reading": reading, "units": units}
+        sink = _Sink(out, plan, job, run["run_key"], summary, sum(expected[i] for i in done))
+        chunks = iter_chunks(plan, chunk_size, ConeCache(default_cone), done)
+        where = {"pool": pool, "workers": workers, "scheduler": scheduler}
+        _process(sink, chunks, len(done) < len(expected), where, progress)
+        changed = fingerprint(input, files) != source
+        _finish(sink, expected, done, run, units, t_start, changed)
     return summary
 
 

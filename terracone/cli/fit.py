@@ -119,9 +119,12 @@ def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts)
         if layered:
             click.echo(layered_text(layered, units))
     if not any(r.ok for r in results):
-        r0 = results[0] if results else None
-        first = f": first, {r0.id}: {r0.error or r0.status}" if r0 else ""
-        click.echo(f"terracone: no profile could be fitted ({len(results)} read){first}", err=True)
+        if as_json:  # the table says it otherwise; stdout is the JSON document here
+            r0 = results[0] if results else None
+            first = f"; first, {r0.id}: {r0.error or r0.status}" if r0 else ""
+            click.echo(
+                f"terracone: no profile could be fitted ({len(results)} read){first}", err=True
+            )
         sys.exit(1)
 
 

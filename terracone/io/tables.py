@@ -36,7 +36,7 @@ SPECIAL_FLOAT = re.compile(r"^\s*[+-]?(?:nan|inf|infinity)\s*$", re.IGNORECASE)
 #: First characters that make a spreadsheet read a cell as a formula: OWASP's list
 #: against CSV injection (https://owasp.org/www-community/attacks/CSV_Injection).
 FORMULA_START = "=+-@\t\r"
-_PLAIN_NUMBER = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
+_PLAIN_NUMBER = re.compile(r"^[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
 _GUARDED = re.compile(r"^'+[=+\-@\t\r]")
 
 

@@ -292,9 +292,10 @@ def metric_crs(lat: np.ndarray, lon: np.ndarray, crs: str | None = None) -> tupl
     return out, "the WGS 84 UTM zone of the pushes' centre (default; --crs to change)"
 
 
-#: Largest distance error of a map's CRS at a push (its scale factor's distance from 1):
-#: beyond it the map is refused, above :data:`CRS_SCALE_NOTE` it is noted.  Within its zone
-#: a UTM projection is off by at most about 0.1 %.
+#: Largest distance error of a map's CRS (its scale factor's distance from 1) at a push
+#: outside the CRS's area of use: beyond it the push is far outside and the map is
+#: refused.  Above :data:`CRS_SCALE_NOTE` anywhere the map notes it.  Within its zone a
+#: UTM projection is off by at most about 0.1 %.
 CRS_SCALE_LIMIT = 0.05
 CRS_SCALE_NOTE = 0.01
 
@@ -344,9 +345,9 @@ def crs_fit(
     Raises
     ------
     ValueError
-        Distances off by more than :data:`CRS_SCALE_LIMIT` at a push, or a
-        projection that folds there (the message names the push and the area
-        of use).
+        A push far outside the area of use (distances off by more than
+        :data:`CRS_SCALE_LIMIT` there), or a projection that fails or folds at a
+        push (the message names the push and the area of use).
     """
     aou = crs.area_of_use
     outside = np.zeros(lat.size, dtype=bool)
@@ -361,19 +362,25 @@ def crs_fit(
         name = name if len(name) <= 60 else name[:57].rstrip(" ,.") + "..."
         where = f"{name} (lon {w:g} to {e:g}, lat {s:g} to {n:g})"
     err = _scale_error(crs, lat, lon)
-    worst = None if err is None else int(np.argmax(err))
+    finite = err is not None and bool(np.all(np.isfinite(err)))
     info.update(
         pushes_outside=int(outside.sum()),
-        scale_error=None if worst is None or not np.isfinite(err[worst]) else float(err[worst]),
+        scale_error=float(np.max(err)) if finite else None,
     )
     label = f"{'--crs ' if given else ''}{crs.name}"
-    if worst is not None and not err[worst] <= CRS_SCALE_LIMIT:
-        off = "cannot measure distances" if not np.isfinite(err[worst]) else (
-            f"measures distances {err[worst]:.0%} wrong"
+    far = (
+        None
+        if err is None
+        else np.flatnonzero(~np.isfinite(err) | (outside & (err > CRS_SCALE_LIMIT)))
+    )
+    if far is not None and far.size:
+        i = int(far[np.argmax(err[far])])
+        off = "cannot measure distances" if not np.isfinite(err[i]) else (
+            f"measures distances {err[i]:.0%} wrong"
         )  # fmt: skip
         area = f"; its area of use is {where}" if where else ""
         raise ValueError(
-            f"{label} {off} at push {ids[worst]} (lat {lat[worst]:.6g}, lon {lon[worst]:.6g}; "
+            f"{label} {off} at push {ids[i]} (lat {lat[i]:.6g}, lon {lon[i]:.6g}; "
             f"{int(outside.sum())} of {lat.size} pushes lie outside its area of use){area}: "
             "a map in it would be wrong; give a CRS made for the pushes' area (without --crs "
             "the map uses their UTM zone)"
