@@ -118,6 +118,8 @@ SCM_UNITS = ("Pa/m^n", "Pa/m^(n-1)", "-", "Pa", "deg", "m", "Pa/m", "Pa s/m")
 #: terracone's SI keys of the terrain's shear strength (library keys): cohesion
 #: [kPa], friction angle [deg], Janosi-Hanamoto shear deformation modulus [m].
 SHEAR_KEYS = ("c_kpa", "phi_deg", "K_m")
+#: The header of ``draws.csv`` (:func:`write_scm_specs`).
+DRAWS_HEADER = ("file", "kc [kN/m^(n+1)]", "kphi [kN/m^(n+2)]", "n", "cc [kPa]", "phic_deg")
 
 #: Default SCM elastic stiffness [Pa/m]: the value of Chrono's SCM demo for
 #: Wong's LETE sand (``demo_VEH_DeformableSoil``) and of its
@@ -443,10 +445,6 @@ def write_scm_specs(
             w.writerow(list(DRAWS_HEADER))
             w.writerows(rows)
     return [folder / name for name in names]
-
-
-#: The header of ``draws.csv`` (:func:`write_scm_specs`).
-DRAWS_HEADER = ("file", "kc [kN/m^(n+1)]", "kphi [kN/m^(n+2)]", "n", "cc [kPa]", "phic_deg")
 
 
 def is_ensemble(folder: str | os.PathLike) -> bool:
