@@ -820,6 +820,10 @@ def read_json(path: PathLike) -> PredictionResults:
         doc = json.loads(p.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ValueError(f"file {p}: cannot read JSON ({exc})") from exc
+    except RecursionError:
+        from terracone.io.jsonkeys import JSON_TOO_DEEP
+
+        raise ValueError(f"file {p}: {JSON_TOO_DEEP}") from None
     return from_document(doc, source=f"file {p}")
 
 

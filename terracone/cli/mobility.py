@@ -141,9 +141,13 @@ def mobility_cmd(
     """
     from terracone.apps.mobility import ci_profiles_by_id, evaluate_mobility
     from terracone.apps.vehicles import load_vehicle
+    from terracone.io.outputs import check_outputs
     from terracone.report.mobility import mobility_text
     from terracone.result import read_results
 
+    check_outputs(
+        {"--out": out}, {"RESULTS": results_path, "--vehicle": vehicle_path, "--ci": ci_file}
+    )
     choice = parse_critical_layer(critical_layer, units)
     vehicle = load_vehicle(vehicle_path)
     results = read_results(results_path)

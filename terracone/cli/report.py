@@ -41,8 +41,10 @@ def report_cmd(results, out, map_by):
     Many profiles (predict JSON, a batch directory) get a summary of the field first, a map when
     they carry coordinates, a sortable table and a panel per profile.
     """
+    from terracone.io.outputs import check_outputs
     from terracone.report import build_report
 
+    check_outputs({"--out": out}, {"RESULTS": results})
     click.echo(f"wrote {build_report(results, out, map_by=map_by)}")
 
 

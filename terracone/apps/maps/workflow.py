@@ -278,7 +278,7 @@ def cell_parameters(
 
 
 def _notes(survey: Survey, maps: Sequence[QuantityMap], calibrated: bool) -> list[str]:
-    notes = []
+    notes = list(survey.crs_warnings)
     if not calibrated:
         notes.append(UNCALIBRATED_MAP_NOTE)
     if survey.unlocated:
