@@ -235,6 +235,14 @@ def test_batch_map_and_mobility(ws, units, calibrated):
     doc = run(ws, "mobility", str(pred), "--vehicle", truck, "--units", units, "--json")
     assert doc["settings"]["calibration"] == (NAME if calibrated else None)
     assert doc["settings"]["prior"] == (f"calibration:{NAME}" if calibrated else "bounds")
+    # a batch directory keeps no CI: mobility reads it from the CI file (--ci), by profile id
+    ci_file = str(ws / f"many_{units}.csv")
+    from_batch = run(
+        ws, "mobility", str(out), "--vehicle", truck, "--ci", ci_file, "--units", units, "--json"
+    )
+    layer = {p["id"]: p["critical_layer"]["ci"] for p in from_batch["profiles"]}
+    for p in doc["profiles"]:
+        assert layer[p["id"]] == pytest.approx(p["critical_layer"]["ci"], rel=1e-9)
     fits = {p["id"]: p for p in json.loads(pred.read_text())["profiles"]}
     for p in doc["profiles"]:
         fit = fits[p["id"]]

@@ -37,8 +37,8 @@ from terracone.apps.chrono import LocatedSoil, pychrono_module, scm_settings, sc
 from terracone.apps.library import Library
 from terracone.cli import cli
 from terracone.data import CIProfile
-from terracone.inverse.learning.learn import Calibration
 from terracone.inverse.predict import predict_many
+from terracone.inverse.problem import Calibration, Problem
 from terracone.io import read_ci_profiles, write_ci_profiles
 from terracone.io.outputs import check_outputs, run_directory
 from terracone.io.profiles import iter_profile_sets
@@ -397,7 +397,7 @@ def test_hard_link_and_symlink_are_the_same_file(tmp_path):
 def chile_results(path: Path, count: int = 12) -> Path:
     """Results of ``count`` located pushes in a field near Santiago, Chile (UTM zone 19S)."""
     profiles = located_profiles([f"P{i}" for i in range(count)])
-    write_json(path, PredictionResults(predict_many(profiles, calibration=CAL)))
+    write_json(path, PredictionResults(predict_many(profiles, Problem(calibration=CAL))))
     return path
 
 

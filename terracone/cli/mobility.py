@@ -153,10 +153,9 @@ def mobility_cmd(
     results = read_results(results_path)
     ci_profiles = None
     if ci_file:
-        from terracone.cli.common import read_profiles
+        from terracone.apps.workflow import Reading
 
-        items = read_profiles(ci_file, "asabe-large", None, "base", units=file_units)
-        ci_profiles = ci_profiles_by_id(items)
+        ci_profiles = ci_profiles_by_id(Reading(file_units=file_units).read(ci_file, units))
     run = evaluate_mobility(
         results, vehicle, passes=int(passes), layer=parse_layer(layer, units), choice=choice,
         soil=soil, remolding_index=remolding_index,
