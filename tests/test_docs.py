@@ -435,3 +435,17 @@ def test_shortened_commands_are_in_the_docs():
     text = "\n".join(b.code for b in EXAMPLES)
     for written, _, why in SHORTENED:
         assert written in text, f"{written!r} is no longer in the docs: remove it ({why})"
+
+
+def test_strict_site_build_checks_links_and_anchors():
+    """``mkdocs build --strict`` (.ci/run) fails on a link to a missing page or anchor only
+    while mkdocs.yml asks it to warn about them (``validation``, mkdocs >= 1.6, the pin of
+    the docs extra); the root README is not part of the site: its links are checked here."""
+    config = (ROOT / "mkdocs.yml").read_text()
+    validation = config[config.index("\nvalidation:") :].split("\n\n")[0]
+    for key in ("omitted_files", "absolute_links", "unrecognized_links", "anchors"):
+        assert f"\n  {key}: warn" in validation, key
+    assert '"mkdocs>=1.6"' in (ROOT / "pyproject.toml").read_text()
+    links = re.findall(r"\]\(([^)#\s]+)(#[^)\s]*)?\)", (ROOT / "README.md").read_text())
+    local = [target for target, _ in links if not re.match(r"^[a-z]+:", target)]
+    assert local and all((ROOT / t).exists() for t in local), local
