@@ -813,6 +813,6 @@ if __name__ == "__main__":
     sinkage, static = demo()
     soil = f"soil of {SITES[0][0]!r}" if ORIGIN is None else f"{len(SITES)} sites"
     print(f"SCM patch {PATCH[0]:g} x {PATCH[1]:g} m, grid {GRID_SPACING:g} m, {soil}")
-    print(f"plate 0.2 m at 20 kPa: sinkage {sinkage:.4f} m after 1 s "
-          f"(Bekker, static: {static:.4f} m)")
+    print(f"plate 0.2 m at 20 kPa: sinkage {sinkage:.3g} m after 1 s "
+          f"(Bekker, static: {static:.3g} m)")
 '''
