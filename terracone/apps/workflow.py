@@ -217,7 +217,8 @@ def attach_fits(
     """
     if not settings.uncertainty and settings.layers < 2:
         return results
-    from terracone.inverse.uncertainty.posterior import posterior_for_result
+    if settings.uncertainty:  # emcee and scipy.stats: imported only for a posterior
+        from terracone.inverse.uncertainty.posterior import posterior_for_result
 
     for j, r in enumerate(results):
         if not r.ok:

@@ -40,10 +40,9 @@ import numpy as np
 
 from terracone.data import CIProfile
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.layered.fit import LayeredResult, phic_scale
+from terracone.inverse.layered.fit import LayeredResult, bin_profile, max_depths, phic_scale
 from terracone.inverse.solver.layered_numpy import design_matrix, layer_box
 from terracone.inverse.solver.many import bounds_params
-from terracone.inverse.uncertainty.posterior import LABELS, identifiability_label
 from terracone.jit import enabled
 from terracone.physics import units as u
 from terracone.physics.plate import pressure_law
@@ -107,6 +106,8 @@ class LayeredPosterior:
                 col = u.length_from_si(col, units)
             lo, mid, hi = np.quantile(np.asarray(col, float), q)
             iv[name], med[name] = [float(lo), float(hi)], float(mid)
+        from terracone.inverse.uncertainty.posterior import LABELS  # emcee: only when sampled
+
         labels = dict(self.identifiability)
         labels["phic_deg"] = LABELS[2]
         return {
@@ -209,7 +210,9 @@ def layered_posterior(
     profile : CIProfile
         The profile ``fit`` was fitted to.
     fit : LayeredResult
-        An ``ok`` layered fit; the chains start around it.
+        An ``ok`` layered fit; the chains start around it.  A profile longer
+        than the fit searches (:func:`~terracone.inverse.layered.fit.max_depths`)
+        is sampled on the same bins as the fit (the fit's ``notes`` say so).
     bounds : Bounds, optional
         The bounds of the fit (the support of the prior).
     draws : int
@@ -251,8 +254,9 @@ def layered_posterior(
     t0 = time.perf_counter()
     bounds = bounds or Bounds()
     law = law or pressure_law(fit.layers[0].model or "rm0", r_min=fit.layers[0].r_min)
-    z, y, cone = profile.depth, profile.ci, profile.cone
     L = len(fit.layers)
+    profile, _ = bin_profile(profile, max_depths(L))  # the depths the fit searched (its notes)
+    z, y, cone = profile.depth, profile.ci, profile.cone
     phic = float(fit.layers[0].phic_deg if phic_deg is None else phic_deg)
     s = float(phic_scale(phic, cone))
     space = _space(z, bounds, min_thickness)
@@ -279,6 +283,9 @@ def layered_posterior(
 
 def _summary(out, acc, L, space, bounds, phic, level, draws, rng, t0) -> LayeredPosterior:
     """The :class:`LayeredPosterior` of the chains' draws out (C, K, 2L-1 + 3L + 1)."""
+    # the one-layer posterior's labels (its module imports emcee: not for a fit without one)
+    from terracone.inverse.uncertainty.posterior import LABELS, identifiability_label
+
     P = 2 * L - 1
     names, cols = [], []
     for j in range(L):
