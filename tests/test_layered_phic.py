@@ -19,6 +19,7 @@ from conftest import require_shared
 from terracone.data import CIProfile, TerrainParameters
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.layered import fit_layered
+from terracone.inverse.problem import Problem
 from terracone.io import read_ci_profiles
 from terracone.physics.cone import get_cone
 from terracone.physics.layers import layered_cone_index
@@ -31,7 +32,7 @@ def grid_best(prof: CIProfile, layers: int) -> float:
     """The smallest SSE of the fits at 19 fixed values of phic in the bounds."""
     out = []
     for ph in np.linspace(*BOUNDS.phic_deg, 19):
-        res = fit_layered(prof, layers=layers, bounds=BOUNDS.fixed(phic_deg=ph))
+        res = fit_layered(prof, Problem(bounds=BOUNDS.fixed(phic_deg=ph)), layers=layers)
         assert res.ok, res.error
         out.append(res.sse)
     return min(out)
@@ -42,7 +43,7 @@ def test_noise_free_truth_inside_the_boxes_comes_back():
     bottom = TerrainParameters(kc=8.0, kphi=1200.0, n=1.0, cc=1.0, phic_deg=30.0)
     z = np.arange(0.0, 0.451, 0.025)
     y = layered_cone_index(z, [top, bottom], [0.16], cone=CONE)
-    res = fit_layered(CIProfile("clean", z, y, cone=CONE), layers=2, bounds=BOUNDS)
+    res = fit_layered(CIProfile("clean", z, y, cone=CONE), Problem(bounds=BOUNDS), layers=2)
     assert res.ok, res.error
     assert res.sse <= 1e-12 * float(y @ y)
     lo, hi = res.phic_range
@@ -64,7 +65,7 @@ def sc900():
 @pytest.mark.parametrize("push", ["0004-N2", "0010-N8", "0003-N1", "0023-N11"])
 def test_never_above_the_fits_at_fixed_phic(sc900, push):
     prof = sc900[push]
-    res = fit_layered(prof, layers=2, bounds=BOUNDS)
+    res = fit_layered(prof, Problem(bounds=BOUNDS), layers=2)
     assert res.ok, res.error
     ref = grid_best(prof, 2)
     assert res.sse <= ref * (1 + 1e-6), (push, res.sse, ref)

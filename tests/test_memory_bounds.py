@@ -143,14 +143,14 @@ def test_the_ar1_estimate_takes_linear_memory():
 
 
 def test_a_long_profile_is_sampled_on_bins_with_a_note():
-    from terracone.inverse.predict import PredictSettings, predict
-    from terracone.inverse.uncertainty.posterior import posterior_for_result
+    from terracone.inverse.predict import predict
+    from terracone.inverse.uncertainty.posterior import posterior
 
     N = POSTERIOR_MAX_POINTS + 1
     nb = -(-N // 2)  # bins of 2, the last of 1
     prof = long_profile(N, noise=0.02)
     one = predict(prof)
-    post = posterior_for_result(prof, one, PredictSettings(uncertainty=True, seed=1, draws=400))
+    post = posterior(prof, start=one, seed=1, draws=400)
     assert post.noise.weights.size == nb
     assert (
         f"posterior from {nb} depth bins of the {N} readings (means of 2 "
