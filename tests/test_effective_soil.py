@@ -349,15 +349,19 @@ def test_export_chrono_scm_writes_the_effective_soil_and_its_notes(tmp_path, lay
 def test_export_pychrono_every_located_push_on_the_standin(tmp_path, layered_json, monkeypatch):
     pred, _, _ = layered_json
     out = tmp_path / "site_soil.py"
+    name = 'evil""" + __import__("os").system("touch PWNED") + """x\' + str(1) + \''
     r = run("export", "--results", pred, "--format", "pychrono", "--vehicle",
-            write(tmp_path, TRACKED), "--out", out, *SHEAR)  # fmt: skip
+            write(tmp_path, {**TRACKED, "name": name}), "--out", out, *SHEAR)  # fmt: skip
     assert r.exit_code == 0, r.output
+    monkeypatch.chdir(tmp_path)
     install(monkeypatch)
     spec = importlib.util.spec_from_file_location("site_soil_eff", out)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     assert [s[0] for s in module.SITES] == ["A", "B", "C"]
     assert len(module.EFFECTIVE) == 3
+    assert all(e["vehicle"] == name for e in module.EFFECTIVE)  # data, never code
+    assert not (tmp_path / "PWNED").exists()
     q = 50e3 / (0.4 * 2.5) / 1000  # one track's load over its width and contact length [kPa]
     for (pid, _, _), row, eff in zip(module.SITES, module.SOIL, module.EFFECTIVE):
         assert eff["running_gear"] == "track" and eff["width_m"] == pytest.approx(0.4)

@@ -33,7 +33,7 @@ import csv
 import json
 import math
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -724,17 +724,19 @@ def effective_soils(
     soils: Sequence[LocatedSoil],
     gear: RunningGear,
     source: str = "results",
+    progress: Callable[[Iterable[Any]], Iterable[Any]] | None = None,
 ) -> tuple[list[LocatedSoil], list[str]]:
     """The soils with each profile's layered fit replaced by its effective soil for ``gear``.
 
     kc = 0, kphi = k, n = m of :func:`terracone.physics.effective.effective_soil`
     (the shear values kept), and the soil's ``effective`` block.  One soil:
     a profile without an effective soil raises.  Several: it is left out,
-    ``"id (why)"``, and the others go on; none left raises.
+    ``"id (why)"``, and the others go on; none left raises.  ``progress``
+    wraps the loop over the soils (a tqdm bar, say).
     """
     by_id = {r.id: r for r in results}
     out, left = [], []
-    for s in soils:
+    for s in (progress or iter)(soils):
         try:
             block = _effective_block(by_id[s.id], gear, results.settings)
         except ValueError as exc:

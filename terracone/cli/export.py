@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import sys
 from pathlib import Path
 
 import click
@@ -367,6 +368,19 @@ def _check_vehicle_source(terrain: bool, opts: dict) -> None:
         )
 
 
+def _progress(count: int):
+    """tqdm over the profiles when there are many and stderr is a terminal."""
+    if count < 200 or not sys.stderr.isatty():
+        return None
+    from tqdm.auto import tqdm
+
+    def bar(it):
+        return tqdm(it, total=count, desc="terracone export: effective soils", unit="profile",
+                    file=sys.stderr)  # fmt: skip
+
+    return bar
+
+
 def _effective(results_path, soils, notes, left, vehicle):
     """The soils replaced by their effective soils for the vehicle, and what is said of them."""
     from terracone.apps.export import effective_soils, running_gear
@@ -374,8 +388,9 @@ def _effective(results_path, soils, notes, left, vehicle):
 
     gear = running_gear(vehicle)
     results = read_results(results_path)
-    soils, more = effective_soils(results, soils, gear, source=str(results_path))
-    worst = max(abs(s.effective["error"]["pressure_rms"]) for s in soils)
+    soils, more = effective_soils(results, soils, gear, str(results_path), _progress(len(soils)))
+    rms = [s.effective["error"]["pressure_rms"] for s in soils]
+    worst = max((v for v in rms if v is not None), default=float("nan"))
     notes = [
         notes[0].replace(
             "from the cone",

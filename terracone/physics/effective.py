@@ -116,7 +116,7 @@ class EffectiveSoil:
     at_bound: bool = False
 
     def as_dict(self) -> dict[str, Any]:
-        """The ``effective`` block of an export's notes (SI, keys with their unit)."""
+        """The ``effective`` block of an export's notes (SI, keys with their unit; NaN as None)."""
         d: dict[str, Any] = {"running_gear": self.gear, "width_m": self.width,
                              "load_n": self.load, "sinkage_m": self.sinkage}  # fmt: skip
         if self.gear == "wheel":
@@ -128,10 +128,19 @@ class EffectiveSoil:
         if self.closed_form_error is not None:
             err["sinkage_closed_form"] = self.closed_form_error
         for f, e in self.off_load_errors.items():
-            err[f"sinkage_at_{round(100 * f)}pct_load"] = e if math.isfinite(e) else None
+            err[f"sinkage_at_{round(100 * f)}pct_load"] = e
         d.update(sinkage_effective_m=self.sinkage_effective, error=err,
                  kc=self.kc, kphi=self.kphi, n=self.n, n_at_bound=self.at_bound)  # fmt: skip
-        return d
+        return _finite(d)
+
+
+def _finite(v: Any) -> Any:
+    """JSON-safe: a number that is not finite becomes None (JSON has no NaN)."""
+    if isinstance(v, dict):
+        return {k: _finite(x) for k, x in v.items()}
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
 
 
 def plate_misfit(plate: LayeredPlate, k: float, m: float, sinkage: float) -> tuple[float, float]:
