@@ -423,3 +423,22 @@ def test_write_go_map_without_a_wheel_writes_no_sinkage(small_map, tmp_path):
     files, doc = write_go_map(g, tmp_path / "o")
     assert set(files) == {"p_go", "json"} and doc["sinkage"]["file"] is None
     assert doc["critical_layer"]["rule"] == "fine-tracked-1pass"
+
+
+def test_simulations_do_not_depend_on_the_pool(small_map):
+    """The blocks of cells conditioned here, on a thread pool and on a Dask client (in-process
+    workers): the same realisations, bit for bit (every random number is drawn here)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from distributed import Client
+
+    q = read_map_directory(small_map).quantity("n")
+    grid = read_map_directory(small_map).grid
+    assert q.variogram.structure  # blocks of cells to condition
+    here = simulate(q.variogram, q.x, q.y, q.z, grid, 6, seed=4).realisations
+    with ThreadPoolExecutor(2) as pool:
+        threads = simulate(q.variogram, q.x, q.y, q.z, grid, 6, seed=4, pool=pool).realisations
+    with Client(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as c:
+        dask = simulate(q.variogram, q.x, q.y, q.z, grid, 6, seed=4, pool=c).realisations
+    np.testing.assert_array_equal(threads, here)
+    np.testing.assert_array_equal(dask, here)

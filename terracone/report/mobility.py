@@ -273,6 +273,10 @@ def mobility_document(doc: Mapping[str, Any], *, source: str | None = None) -> d
 # ---------------------------------------------------------------------------
 
 
+def _num(v: float | None) -> str:
+    return "-" if v is None else f"{v:.3g}"
+
+
 def _km2(v: float | None) -> str:
     return "-" if v is None else f"{v / 1e6:.4g} km²"
 
@@ -299,8 +303,9 @@ def go_map_text(doc: Mapping[str, Any], out: str | None = None) -> str:
             f"expected GO area {_km2(a['expected_go'])}; in one realisation of the field "
             f"{_km2(a['go_simulated']['lo'])} to {_km2(a['go_simulated']['hi'])} (90%)",
             f"{doc['simulations']} conditional simulations: their GO frequency against P(GO), "
-            f"rms standardised difference {mc.get('rms_standardised_difference') or 0:.3g} "
-            f"(standard error at P = 0.5: {mc.get('standard_error_at_0.5', 0):.3g})",
+            f"rms standardised difference {_num(mc.get('rms_standardised_difference'))} "
+            f"(standard error at P = 0.5: {_num(mc.get('standard_error_at_0.5'))}; 1 expected, "
+            "- where every P(GO) is 0 or 1)",
         ]
     if sk["file"] is None:
         lines.append(f"wheel sinkage: not computed: {sk['reason']}")

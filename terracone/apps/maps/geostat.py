@@ -511,7 +511,8 @@ def krige(
     m, v = np.empty(gx.size), np.empty(gx.size)
     # small systems: BLAS threads only contend (16x slower seen on a busy machine); the limit
     # is set once, not per block (entering it reads the process's libraries, ~15 ms)
-    small = neighbourhood == "local" or px.size <= max(NEIGHBOURS, GLOBAL_PUSHES)
+    one = neighbourhood == "global" or (neighbourhood == "auto" and px.size <= GLOBAL_PUSHES)
+    small = not one or px.size <= NEIGHBOURS  # local blocks hold at most NEIGHBOURS pushes
     with threadpool_limits(1 if small else None, user_api="blas"):
         for cells, nb in neighbourhoods(px, py, gx, gy, neighbourhood=neighbourhood):
             m[cells], v[cells] = _krige_all(vg.model, px[nb], py[nb], z[nb], gx[cells], gy[cells])
