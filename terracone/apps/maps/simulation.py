@@ -61,7 +61,6 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -184,16 +183,30 @@ def _bilinear(fields: np.ndarray, grid: Grid, x: np.ndarray, y: np.ndarray) -> n
     )
 
 
-def _condition_blocks(model: Any, blocks: Sequence[tuple]) -> list[tuple]:
-    """One pool task: for each block (cells, px, py, z, r, gx, gy), the kriging estimate, the
-    smooth field's kriging variance and the correction m - w' r (cells, count) float32."""
+def _condition_blocks(model: Any, task: tuple) -> list[tuple]:
+    """One pool task: the pushes (px, py, z, r) its blocks use, and for each block (cells,
+    pushes, gx, gy) the kriging estimate, the smooth field's kriging variance and the
+    correction m - w' r (cells, count) float32."""
+    px, py, z, r, blocks = task
     out = []
     with threadpool_limits(1, user_api="blas"):  # small systems: threads only contend
-        for cells, px, py, z, r, gx, gy in blocks:
-            w, v = kriging_weights(model, px, py, gx, gy)
-            m = w.T @ z
-            out.append((cells, m, v, m[:, None].astype(np.float32) - w.T.astype(np.float32) @ r))
+        for cells, nb, gx, gy in blocks:
+            w, v = kriging_weights(model, px[nb], py[nb], gx, gy)
+            m = w.T @ z[nb]
+            corr = m[:, None].astype(np.float32) - w.T.astype(np.float32) @ r[nb]
+            out.append((cells, m, v, corr))
     return out
+
+
+def _tasks(blocks: list[tuple], px, py, z, r) -> list[tuple]:
+    """Blocks of cells in tasks of :data:`BLOCKS_PER_TASK`, each with the pushes it uses only."""
+    tasks = []
+    for k in range(0, len(blocks), BLOCKS_PER_TASK):
+        part = blocks[k : k + BLOCKS_PER_TASK]
+        idx = np.unique(np.concatenate([nb for _, nb, _, _ in part]))
+        local = [(c, np.searchsorted(idx, nb), gx, gy) for c, nb, gx, gy in part]
+        tasks.append((px[idx], py[idx], z[idx], r[idx], local))
+    return tasks
 
 
 def map_tasks(function: Any, tasks: list, pool: Any = None) -> list:
@@ -274,17 +287,18 @@ def simulate(
     for cells, nb in neighbourhoods(px, py, gx, gy):
         cells = cells[~far[cells]]
         if cells.size:
-            blocks.append((cells, px[nb], py[nb], z[nb], r[nb], gx[cells], gy[cells]))
-    tasks = [blocks[k : k + BLOCKS_PER_TASK] for k in range(0, len(blocks), BLOCKS_PER_TASK)]
+            blocks.append((cells, nb, gx[cells], gy[cells]))
     mean, var = np.full(gx.size, np.nan), np.full(gx.size, np.nan)
-    for part in map_tasks(functools.partial(_condition_blocks, model), tasks, pool):
+    task = functools.partial(_condition_blocks, model)
+    for part in map_tasks(task, _tasks(blocks, px, py, z, r), pool):
         for cells, m, v, corr in part:
             mean[cells], var[cells] = m, v
             real[:, cells] += corr.T
             if progress:
                 progress(cells.size)
-    eps = rng.standard_normal(real.shape, dtype=np.float32)
-    real += np.float32(math.sqrt(vg.nugget)) * eps
+    nugget = np.float32(math.sqrt(vg.nugget))
+    for k in range(count):  # each point's own variation, one realisation at a time
+        real[k] += nugget * rng.standard_normal(real.shape[1], dtype=np.float32)
     real[:, far] = np.nan
     scale = np.sqrt(var + vg.nugget)
     return Simulation(
