@@ -34,13 +34,15 @@ from terracone.inverse.bounds import Bounds
 from terracone.inverse.learning.search import (
     GridStage,
     LearnProblem,
+    Refined,
     certify,
     grid_stage,
-    grid_starts,
     jacobians,
     polish,
     refine,
+    stretch_starts,
 )
+from terracone.inverse.learning.varpro import descend
 from terracone.io.jsonkeys import TERRAIN_KEYS, FileKeyError, Key, check_keys, read_json
 from terracone.physics import units as u
 
@@ -470,22 +472,36 @@ def _criteria(
 
 
 def _search(prob: LearnProblem, grid, starts: int, certify_levels: int, target: float):
-    """Grid, refinement of its best local minima, and the global-minimum bound."""
+    """Grid, local searches from its best points in every r_min stretch, the global bound.
+
+    Least squares first, by variable projection (:func:`.varpro.descend`), from
+    up to ``starts`` grid points per stretch of log r_min: on noise-free data
+    it reaches a zero residual, which J >= 0 certifies as the global minimum.
+    Otherwise J itself is minimised (:func:`.search.refine`) in each stretch
+    from its least-squares end point (the stretches whose J there is within
+    ``J_STRETCH`` of the best), the best is polished and bounded from below.
+    """
     stage = grid_stage(prob, grid)
     nfev = int(stage.cells.J.size)
     zero = 1e-12 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
-    # every start is refined to convergence; the best is polished
-    best = None
-    for idx in grid_starts(stage, starts):
-        theta = np.array([stage.axes[k][idx[k]] for k in range(3)])
-        r = refine(prob, stage.cells.x[idx], theta)
-        nfev += r.nfev
-        # ties (equal J to 1e-12 relative) keep the earlier, better-ranked grid start
-        if best is None or r.J < best.J * (1 - 1e-12) - 1e-300:
-            best = r
-        if best.J <= zero:  # J >= 0: a zero-residual fit is the global minimum
-            break
+    st = stretch_starts(prob, stage, starts)
+    ls = descend(prob, st.theta, st.t_lo, st.t_hi, st.t_free)
+    nfev += ls.evaluations
+    order = np.lexsort((np.arange(ls.J.size), ls.J))
+    k = int(order[0])
+    best = Refined(ls.x[k], ls.theta[k], float(prob.objective(ls.x[k], ls.theta[k])), 0)
     if best.J > zero:
+        # J from each stretch's best least-squares point, while it is not far above the best
+        seen: set[int] = set()
+        for k in order:
+            s = id(st.stretch[k])
+            if s in seen or ls.J[k] > J_STRETCH * ls.J[order[0]]:
+                continue
+            seen.add(s)
+            r = refine(prob, ls.x[k], ls.theta[k], st.stretch[k])
+            nfev += r.nfev
+            if r.J < best.J * (1 - 1e-12) - 1e-300:
+                best = r
         best = polish(prob, best.x, best.theta)
     if best.J <= zero:  # J >= 0 certifies an exact fit
         lower, n_cells, n_cert = 0.0, 0, 0
@@ -495,6 +511,11 @@ def _search(prob: LearnProblem, grid, starts: int, certify_levels: int, target: 
         )
     nfev += n_cert
     return stage, best, nfev, lower, n_cells
+
+
+#: J is minimised in a stretch of r_min when J at its least-squares point is within this
+#: factor of the best stretch's
+J_STRETCH = 1.5
 
 
 def _split_residuals(prob: LearnProblem, x, theta) -> tuple[list, list]:
