@@ -36,6 +36,7 @@ from terracone.inverse.learning.search import (
     LearnProblem,
     Refined,
     certify,
+    flat_set,
     grid_stage,
     jacobians,
     polish,
@@ -241,6 +242,7 @@ class LearnResult:
     r_min_profile: list[tuple[float, float]] = field(default_factory=list)
     intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
     certificate: dict[str, Any] = field(default_factory=dict)
+    flat_sets: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def _repr_html_(self) -> str:
         """A table of the learned parameters (SI and US) and the fit, for Jupyter."""
@@ -286,6 +288,10 @@ class LearnResult:
                     for k, iv in self.intervals.items()
                 },
                 "interval_level": 0.95,
+                "flat_sets": {
+                    k: [float(v) for v in _interval_in(k, iv, self.params.n, units)]
+                    for k, iv in self.flat_sets.items()
+                },
                 "certificate": self.certificate,
                 "criteria": self.criteria,
                 "diagnostics": {"nfev": self.nfev, "time_s": self.time_s},
@@ -415,6 +421,7 @@ def learn(
     certificate = _certificate(stage, J_res, lower, float(final.gap[0]), n_cells)
     criteria = _criteria(prob, params, datasets, max_cv)
     intervals, und, r_profile = _intervals(prob, stage, x, theta, datasets, noise_floor)
+    flat_sets = _flat_sets(prob, theta, intervals, und)
     res = [np.concatenate(r) for r in _split_residuals(prob, x, theta)]
     return LearnResult(
         params=params,
@@ -430,7 +437,23 @@ def learn(
         r_min_profile=r_profile,
         intervals=intervals,
         certificate=certificate,
+        flat_sets=flat_sets,
     )
+
+
+def _flat_sets(prob: LearnProblem, theta, intervals, und: list[str]) -> dict:
+    """Sets along which J is exactly constant: r_min above the larger plate (the RM1 law is
+    then the secant through both plates' pressures, section 3.2).  r_min is then listed in
+    ``und`` and its interval covers the set (both updated in place)."""
+    flat = flat_set(prob, float(theta[2]))
+    if flat is None:
+        return {}
+    lo, hi = math.exp(flat[0]), math.exp(flat[1])
+    a, b = intervals.get("r_min", (lo, hi))
+    intervals["r_min"] = (min(a, lo), max(b, hi))
+    if "r_min" not in und:
+        und.append("r_min")
+    return {"r_min": (lo, hi)}
 
 
 def _certificate(
@@ -478,8 +501,10 @@ def _search(prob: LearnProblem, grid, starts: int, certify_levels: int, target: 
     up to ``starts`` grid points per stretch of log r_min: on noise-free data
     it reaches a zero residual, which J >= 0 certifies as the global minimum.
     Otherwise J itself is minimised (:func:`.search.refine`) in each stretch
-    from its least-squares end point (the stretches whose J there is within
-    ``J_STRETCH`` of the best), the best is polished and bounded from below.
+    from its least-squares end point of least J, unless the stretch's least
+    squares F says J cannot beat the best there (J >= sqrt(F): the sum of
+    a_d ||r_d|| is at least their root sum of squares); the best is polished
+    and bounded from below.
     """
     stage = grid_stage(prob, grid)
     nfev = int(stage.cells.J.size)
@@ -491,13 +516,17 @@ def _search(prob: LearnProblem, grid, starts: int, certify_levels: int, target: 
     k = int(order[0])
     best = Refined(ls.x[k], ls.theta[k], float(prob.objective(ls.x[k], ls.theta[k])), 0)
     if best.J > zero:
-        # J from each stretch's best least-squares point, while it is not far above the best
+        # J in each stretch from its least-squares point of least J, best first; a stretch is
+        # left when sqrt(F) there (F its least squares, J >= sqrt(F)) is not below the best J
         seen: set[int] = set()
         for k in order:
-            s = id(st.stretch[k])
-            if s in seen or ls.J[k] > J_STRETCH * ls.J[order[0]]:
+            key = id(st.stretch[k])
+            if key in seen:
                 continue
-            seen.add(s)
+            seen.add(key)
+            F_min = min(f for f, s_ in zip(ls.F, st.stretch) if s_ is st.stretch[k])
+            if math.sqrt(F_min) >= best.J:
+                continue
             r = refine(prob, ls.x[k], ls.theta[k], st.stretch[k])
             nfev += r.nfev
             if r.J < best.J * (1 - 1e-12) - 1e-300:
@@ -511,11 +540,6 @@ def _search(prob: LearnProblem, grid, starts: int, certify_levels: int, target: 
         )
     nfev += n_cert
     return stage, best, nfev, lower, n_cells
-
-
-#: J is minimised in a stretch of r_min when J at its least-squares point is within this
-#: factor of the best stretch's
-J_STRETCH = 1.5
 
 
 def _split_residuals(prob: LearnProblem, x, theta) -> tuple[list, list]:
@@ -571,7 +595,10 @@ def sandwich_cov(prob: LearnProblem, x, theta, noise_floor: float) -> np.ndarray
     """Covariance (6, 6) of p = (kc, kphi, cc, n, phic, log r_min), sandwich form.
 
     The minimiser of J is, at its optimum, a weighted least-squares fit with
-    weights w_d = a_d / ||r_d|| (the fixed point of reweighting), so its
+    weights w_d = a_d / ||r_d|| (the fixed point of reweighting; ||r_d|| taken
+    as at least ``noise_floor`` mean_d sqrt(N_d), the norm of an RMSD at the
+    noise floor, so that a data set fitted exactly does not weigh without
+    bound), so its
     covariance is H^+ B H^+ with H = sum_d w_d D_d'D_d and
     B = sum_d w_d^2 D_d' diag(r_d^2) D_d (heteroscedasticity-consistent,
     HC3: each squared residual divided by (1 - leverage)^2 and at least
@@ -594,8 +621,10 @@ def sandwich_cov(prob: LearnProblem, x, theta, noise_floor: float) -> np.ndarray
         free[5] = False
     H = np.zeros((6, 6))
     parts = []
-    for D, r, a in zip(Ds, rs, prob.a):
-        nr = max(float(np.linalg.norm(r)), 1e-300)
+    for D, r, a, m in zip(Ds, rs, prob.a, prob.means):
+        # ||r_d|| at least the noise floor's (RMSD = noise_floor mean_d): a data set fitted
+        # more closely (noise-free data) weighs as one at the floor, not without bound
+        nr = max(float(np.linalg.norm(r)), noise_floor * float(m) * math.sqrt(r.size), 1e-300)
         w = a / nr
         g = D.T @ (r / nr)  # Hessian of a_d ||r_d||: w (D'D - g g')
         H += w * (D.T @ D - np.outer(g, g))

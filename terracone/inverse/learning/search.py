@@ -40,6 +40,7 @@ __all__ = [
     "branch_points",
     "certify",
     "Cells",
+    "flat_set",
     "jacobians",
     "objectives",
     "polish",
@@ -202,6 +203,17 @@ def stretches(prob: LearnProblem) -> list[Stretch]:
     ends = [lo] + ks + [hi]
     r2 = math.log(max(prob.pair)) if prob.pair else math.inf
     return [Stretch(a, b, a >= r2) for a, b in zip(ends[:-1], ends[1:])]
+
+
+def flat_set(prob: LearnProblem, t: float) -> tuple[float, float] | None:
+    """The stretch (lo, hi] of log r_min holding t when J does not depend on r_min there
+    (RM1 above the larger plate), else None."""
+    if prob.model != "rm1":
+        return None
+    for st in stretches(prob):
+        if st.flat and st.hi > st.lo and st.lo < t <= st.hi:
+            return st.lo, st.hi
+    return None
 
 
 def r_axis(prob: LearnProblem, k: int) -> np.ndarray:
