@@ -37,8 +37,10 @@ average is printed before and after.
 
 Run:  python benchmarks/learn.py [--sites K] [--seed S] [--json OUT]
 Prints one line per site (regime, units, noise, truth r_min, learn's time,
-DE's, their ratio, J of each by the forward models, learn's certificate gap)
-and the median ratio, overall and per group.
+DE's, their ratio, J of each by the forward models, learn's certificate gap,
+absolute and relative to J on noisy sites, and on noise-free sites the largest
+error of the learned parameters against the truth, :func:`truth_error`) and
+the median ratio, overall and per group.
 """
 
 from __future__ import annotations
@@ -202,8 +204,34 @@ def run_site(ci_path: Path, plates_path: Path, units: str, seed: int) -> dict:
         gap=c["gap"],
         cells_not_excluded=c["cells_not_excluded"],
         params=v,
+        flat=bool(p.r_min > pair[1]),  # the secant branch: J does not depend on r_min
         undetermined=res.undetermined,
         nfev=res.nfev,
+    )
+
+
+def truth_error(r: dict) -> float:
+    """Largest error of the learned parameters against the truth: relative for kc, kphi, n and
+    r_min (r_min left out on its flat set above the larger plate), in units of 1 kPa for cc and
+    1 deg for phic."""
+    t, (kc, kphi, n, cc, phic, lr) = r["truth"], r["params"]
+    err = [abs(kc / t["kc"] - 1), abs(kphi / t["kphi"] - 1), abs(n / t["n"] - 1)]
+    err += [abs(cc - t["cc"]), abs(phic - t["phic_deg"])]
+    if not r["flat"]:
+        err.append(abs(math.exp(lr) / t["r_min"] - 1))
+    return max(err)
+
+
+def _line(r: dict) -> str:
+    t = r["truth"]
+    if r["noise"] == "free":
+        tail = f"{r['gap']:10.1e}{'-':>7}{truth_error(r):9.1e}"
+    else:
+        tail = f"{r['gap']:10.1e}{r['gap'] / r['objective']:7.3f}{'-':>9}"
+    return (
+        f"{r['site']:<5}{r['regime']:<11}{r['units']:<6}{r['noise']:<6}{t['r_min'] * 1e3:9.2f}"
+        f"{r['learn_s']:9.3f}{r['de_s']:7.2f}{r['de_s'] / r['learn_s']:7.1f}"
+        f"{r['J_learn']:11.3e}{r['J_de']:11.3e}" + tail
     )
 
 
@@ -238,7 +266,8 @@ def main() -> None:
         learn(read_ci_profiles(warm[0], on_error="raise"), read_plate_tests(warm[1]))
         print(
             f"{'site':<5}{'regime':<11}{'units':<6}{'noise':<6}{'r_min mm':>9}{'learn s':>9}"
-            f"{'DE s':>7}{'ratio':>7}{'J learn':>11}{'J DE':>11}{'gap/J':>8}"
+            f"{'DE s':>7}{'ratio':>7}{'J learn':>11}{'J DE':>11}{'gap':>10}{'gap/J':>7}"
+            f"{'truth err':>9}"
         )
         sites = [
             (reg, units, noise)
@@ -253,13 +282,7 @@ def main() -> None:
             r = run_site(*paths, units, seed=args.seed + i)
             r.update(site=f"s{i}", regime=regime, units=units, noise=noise, truth=t)
             rows.append(r)
-            gap = r["gap"] / r["objective"] if r["objective"] > 0 else 0.0
-            print(
-                f"{r['site']:<5}{regime:<11}{units:<6}{noise:<6}{t['r_min'] * 1e3:9.2f}"
-                f"{r['learn_s']:9.3f}{r['de_s']:7.2f}{r['de_s'] / r['learn_s']:7.1f}"
-                f"{r['J_learn']:11.3e}{r['J_de']:11.3e}{gap:8.3f}",
-                flush=True,
-            )
+            print(_line(r), flush=True)
     print(_medians(rows))
     ratios = np.array([r["de_s"] / r["learn_s"] for r in rows])
     worse = [r["site"] for r in rows if r["J_learn"] > r["J_de"] * (1 + 1e-9) + 1e-12]

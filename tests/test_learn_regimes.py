@@ -181,6 +181,13 @@ def test_noise_free_site_is_learned_exactly_through_the_cli(tmp_path, units, reg
         assert lo < d["r_min"] < hi and "r_min" in d["undetermined"]
         assert d["profile_intervals"]["r_min"][0] <= lo * (1 + 1e-9)
         assert d["profile_intervals"]["r_min"][1] >= hi * (1 - 1e-9)
+        # and the text report says so
+        r = CliRunner().invoke(
+            cli, ["learn", "--ci", str(ci_path), "--plates", str(pl_path), "--units", units]
+        )
+        assert r.exit_code == 0, r.output
+        unit = GEOMETRY[units]["length"][0]
+        assert f"r_min: every value in ({lo:.6g}, {hi:.6g}] {unit} fits exactly as well" in r.output
     else:
         assert got["r_min"] == pytest.approx(t["r_min"], rel=1e-6)
         assert d["flat_sets"] == {}

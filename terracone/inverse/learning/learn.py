@@ -4,9 +4,11 @@ Given CI profiles and plate pressure-sinkage tests of one terrain, find the
 RM1 transition radius r_min and kc, kphi, n, cc, phic fitted jointly to all
 data, minimising ``J = sum_d RMSD_d / mean_d`` over the data sets d (each CI
 profile and each plate test): a certified convex solve in (kc, kphi, cc)
-(:mod:`.sumnorm`) on a grid of (n, phic, log r_min), the best local minima
-refined jointly, and a branch and bound that bounds how far the answer can be
-from the global minimum (:mod:`.search`; ``docs/learn.md``).  The result is
+(:mod:`.sumnorm`) on a grid of (n, phic, log r_min), local searches from the
+grid's best points in every stretch of r_min between RM1 branch points (least
+squares by variable projection, :mod:`.varpro`, then J, :mod:`.search`), and
+a branch and bound that bounds how far the answer can be from the global
+minimum (:mod:`.search`; ``docs/learn.md``).  The result is
 saved as a :class:`Calibration`, the paper's "information library", which
 the prediction process uses.
 
@@ -364,8 +366,9 @@ def learn(
     Minimises J = sum_d RMSD_d / mean_d over the data sets d (each CI
     profile and each plate test's loading branch) within the bounds: a
     certified inner solve in (kc, kphi, cc) on a grid of (n, phic,
-    log r_min), then a joint refinement of all parameters from the best
-    grid points that are local minima (see :mod:`.search`).
+    log r_min), then, from the best grid points of every stretch of r_min
+    between RM1 branch points, least squares by variable projection
+    (:mod:`.varpro`; exact on noise-free data) and J itself (:mod:`.search`).
 
     Parameters
     ----------
@@ -386,7 +389,8 @@ def learn(
     noise_floor : float
         Smallest relative noise assumed when judging what the data leave free.
     starts : int
-        Most grid local minima refined.
+        Most grid points (local minima of the grid's J) per stretch of r_min
+        between RM1 branch points that start a local search.
     certify_levels : int
         Rounds of branch and bound on the grid cells for the lower bound of
         the global minimum (0: the grid alone; each round halves, along one

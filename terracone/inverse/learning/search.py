@@ -4,13 +4,14 @@ J(kc, kphi, n, cc, phic, r_min) = sum_d RMSD_d / mean_d over data sets d
 (each CI profile and each plate test).  For fixed theta = (n, phic, r_min)
 J is convex in x = (kc, kphi, cc) and is minimised with a certificate by
 :func:`terracone.inverse.learning.sumnorm.sum_norm_box`.  theta is searched on a
-vectorised grid (n, phic, log r_min); the best grid points that are local
-minima start a joint refinement of all six parameters (:func:`refine`: least
-squares first, which reaches J = 0 on noise-free data, then
-Levenberg-Marquardt steps on J itself, every candidate step of an iteration
-evaluated in one vectorised call), and the grid with a branch and bound
-(:func:`certify`) gives a bound on how far the answer can be from the global
-minimum.
+vectorised grid (n, phic, log r_min) whose log r_min nodes are laid out per
+stretch between RM1 branch points (:func:`stretches`, :func:`r_axis`); each
+stretch's best grid points (:func:`stretch_starts`) start the least squares of
+:mod:`terracone.inverse.learning.varpro`, whose end points start
+:func:`refine` (Levenberg-Marquardt steps on J itself, every candidate step of
+an iteration evaluated in one vectorised call, log r_min held in its stretch),
+and the grid with a branch and bound (:func:`certify`) gives a bound on how far
+the answer can be from the global minimum.
 
 References
 ----------
@@ -178,6 +179,7 @@ class Stretch:
     ``flat``: above the larger plate, where the law is the secant through both
     plates' pressures and J does not depend on r_min (the stretch is then
     (lo, hi], lo the larger plate); ``rep`` is the value reported there.
+    RM0 has one flat stretch of zero width.
     """
 
     lo: float
@@ -186,7 +188,8 @@ class Stretch:
 
     @property
     def rep(self) -> float:
-        return 0.5 * (self.lo + self.hi) if self.flat else self.lo
+        """The value of log r_min reported on a flat stretch: its middle."""
+        return 0.5 * (self.lo + self.hi)
 
 
 def stretches(prob: LearnProblem) -> list[Stretch]:
@@ -269,7 +272,11 @@ def stretch_starts(prob: LearnProblem, stage: GridStage, count: int) -> Starts:
     for st in stretches(prob):
         inside = (ax[2] > st.lo) if st.flat and st.hi > st.lo else (ax[2] >= st.lo)
         cols = np.flatnonzero(inside & (ax[2] <= st.hi))
-        if cols.size == 0:
+        if cols.size == 0:  # a grid of one r_min node: the stretch starts from the best n, phic
+            i, j, c = np.unravel_index(int(np.argmin(U)), U.shape)
+            theta.append([ax[0][i], ax[1][j], st.rep if st.flat else 0.5 * (st.lo + st.hi)])
+            xs.append(stage.cells.x[i, j, c])
+            rows.append(st)
             continue
         sub = U[:, :, cols]
         loc = np.flatnonzero(sub <= minimum_filter(sub, size=3, mode="nearest"))
