@@ -171,26 +171,56 @@ def test_noise_free_site_is_learned_exactly_through_the_cli(tmp_path, units, reg
     assert 0.0 <= c["lower_bound"] <= d["objective"]
     assert c["gap"] <= 1e-10 and c["cells_not_excluded"] == 0
     # every parameter the data fix is the truth
-    for k in ("kc", "kphi", "n", "cc", "phic_deg"):
+    for k in ("n", "cc", "phic_deg"):
         assert got[k] == pytest.approx(t[k], rel=1e-6, abs=1e-9), k
-    if regime == "above the plates":  # any r_min in (r2, 3 r2] is as good: the flat set
-        L = GEOMETRY[units]["length"][1]
-        lo, hi = d["flat_sets"]["r_min"]
-        assert lo == pytest.approx(pair[1] / L, rel=1e-12)
-        assert hi == pytest.approx(3 * pair[1] / L, rel=1e-12)
-        assert lo < d["r_min"] < hi and "r_min" in d["undetermined"]
-        assert d["profile_intervals"]["r_min"][0] <= lo * (1 + 1e-9)
-        assert d["profile_intervals"]["r_min"][1] >= hi * (1 - 1e-9)
-        # and the text report says so
-        r = CliRunner().invoke(
-            cli, ["learn", "--ci", str(ci_path), "--plates", str(pl_path), "--units", units]
-        )
-        assert r.exit_code == 0, r.output
-        unit = GEOMETRY[units]["length"][0]
-        assert f"r_min: every value in ({lo:.6g}, {hi:.6g}] {unit} fits exactly as well" in r.output
-    else:
-        assert got["r_min"] == pytest.approx(t["r_min"], rel=1e-6)
-        assert d["flat_sets"] == {}
+    if regime != "above the plates":
+        for k in ("kc", "kphi", "r_min"):
+            assert got[k] == pytest.approx(t[k], rel=1e-6), k
+        assert d["flat_sets"] == {} and d["equivalent"] == []
+        return
+    check_secant_set(d, t, units, got)
+    # and the text report says so
+    r = CliRunner().invoke(
+        cli, ["learn", "--ci", str(ci_path), "--plates", str(pl_path), "--units", units]
+    )
+    assert r.exit_code == 0, r.output
+    lo, hi = d["flat_sets"]["r_min"]
+    unit = GEOMETRY[units]["length"][0]
+    assert f"r_min: every value in ({lo:.6g}, {hi:.6g}] {unit} fits exactly as well" in r.output
+    assert ("Fits exactly as well: r_min =" in r.output) == bool(d["equivalent"])
+
+
+def check_secant_set(d: dict, t: dict, units: str, got: dict) -> None:
+    """r_min above the larger plate: every r_min in (r2, 3 r2] fits as well (the flat set),
+    and so does r_min = r2 with kc' = kc r2/r1, kphi' = kphi + kc/r2 - kc/r1 when that is
+    within the bounds (kphi' >= 0): on r <= r2 the tangent at r2 is the secant's line (hand
+    algebra of section 3.2's two laws).  Then kc and kphi are not fixed by the data: learn
+    must give one of the two and name the other."""
+    (r1, r2), L = GEOMETRY[units]["pair"], GEOMETRY[units]["length"][1]
+    lo, hi = d["flat_sets"]["r_min"]
+    assert lo == pytest.approx(r2 / L, rel=1e-12) and hi == pytest.approx(3 * r2 / L, rel=1e-12)
+    assert "r_min" in d["undetermined"]
+    assert d["profile_intervals"]["r_min"][0] <= lo * (1 + 1e-9)
+    assert d["profile_intervals"]["r_min"][1] >= hi * (1 - 1e-9)
+    twin = dict(kc=t["kc"] * r2 / r1, kphi=t["kphi"] + t["kc"] / r2 - t["kc"] / r1, r_min=r2)
+    if twin["kphi"] < 0:  # no twin within the bounds: kc and kphi are the truth's
+        assert got["kc"] == pytest.approx(t["kc"], rel=1e-6)
+        assert got["kphi"] == pytest.approx(t["kphi"], rel=1e-6)
+        assert lo < d["r_min"] < hi and d["equivalent"] == []
+        return
+    assert {"kc", "kphi", "r_min"} <= set(d["undetermined"])
+    (e,) = d["equivalent"]
+    other = dict(
+        kc=float(u.kc_to_si(e["kc"], got["n"], units)),
+        kphi=float(u.kphi_to_si(e["kphi"], got["n"], units)),
+        r_min=float(u.length_to_si(e["r_min"], units)),
+    )
+    secant, tangent = (got, other) if got["r_min"] > r2 else (other, got)
+    assert secant["kc"] == pytest.approx(t["kc"], rel=1e-6)
+    assert secant["kphi"] == pytest.approx(t["kphi"], rel=1e-6)
+    assert r2 < secant["r_min"] <= 3 * r2
+    for k in ("kc", "kphi", "r_min"):
+        assert tangent[k] == pytest.approx(twin[k], rel=1e-6), k
 
 
 @pytest.mark.parametrize(

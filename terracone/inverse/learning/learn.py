@@ -43,6 +43,7 @@ from terracone.inverse.learning.search import (
     jacobians,
     polish,
     refine,
+    secant_twin,
     stretch_starts,
 )
 from terracone.inverse.learning.varpro import descend
@@ -245,6 +246,7 @@ class LearnResult:
     intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
     certificate: dict[str, Any] = field(default_factory=dict)
     flat_sets: dict[str, tuple[float, float]] = field(default_factory=dict)
+    equivalent: list[dict[str, float]] = field(default_factory=list)
 
     def _repr_html_(self) -> str:
         """A table of the learned parameters (SI and US) and the fit, for Jupyter."""
@@ -294,6 +296,13 @@ class LearnResult:
                     k: [float(v) for v in _interval_in(k, iv, self.params.n, units)]
                     for k, iv in self.flat_sets.items()
                 },
+                "equivalent": [
+                    {
+                        k: float(_interval_in(k, (v, v), self.params.n, units)[0])
+                        for k, v in e.items()
+                    }
+                    for e in self.equivalent
+                ],
                 "certificate": self.certificate,
                 "criteria": self.criteria,
                 "diagnostics": {"nfev": self.nfev, "time_s": self.time_s},
@@ -425,7 +434,7 @@ def learn(
     certificate = _certificate(stage, J_res, lower, float(final.gap[0]), n_cells)
     criteria = _criteria(prob, params, datasets, max_cv)
     intervals, und, r_profile = _intervals(prob, stage, x, theta, datasets, noise_floor)
-    flat_sets = _flat_sets(prob, theta, intervals, und)
+    flat_sets, equivalent = _flat_sets(prob, x, theta, intervals, und)
     res = [np.concatenate(r) for r in _split_residuals(prob, x, theta)]
     return LearnResult(
         params=params,
@@ -442,22 +451,38 @@ def learn(
         intervals=intervals,
         certificate=certificate,
         flat_sets=flat_sets,
+        equivalent=equivalent,
     )
 
 
-def _flat_sets(prob: LearnProblem, theta, intervals, und: list[str]) -> dict:
-    """Sets along which J is exactly constant: r_min above the larger plate (the RM1 law is
-    then the secant through both plates' pressures, section 3.2).  r_min is then listed in
-    ``und`` and its interval covers the set (both updated in place)."""
+def _flat_sets(prob: LearnProblem, x, theta, intervals, und: list[str]):
+    """What fits exactly as well as the answer: r_min above the larger plate (the RM1 law
+    is then the secant through both plates' pressures, section 3.2, and J does not depend
+    on r_min), and at r_min = r2 the tangent twin of the secant (:func:`.search.secant_twin`).
+
+    Returns (flat sets {"r_min": (r2, HI)} [m], the equivalent parameter sets [SI]); r_min
+    (and kc, kphi when there is a twin) are then listed in ``und`` and their intervals
+    cover the set and the twin (both updated in place).
+    """
+    twin = secant_twin(prob, x, theta)
     flat = flat_set(prob, float(theta[2]))
+    if flat is None and twin is not None:  # at r2: the secant set is as good
+        flat = flat_set(prob, float(twin[1][2]))
     if flat is None:
-        return {}
+        return {}, []
     lo, hi = math.exp(flat[0]), math.exp(flat[1])
-    a, b = intervals.get("r_min", (lo, hi))
-    intervals["r_min"] = (min(a, lo), max(b, hi))
-    if "r_min" not in und:
-        und.append("r_min")
-    return {"r_min": (lo, hi)}
+    others = [("r_min", lo, hi)]
+    equivalent = []
+    if twin is not None:
+        (kc, kphi, _), th = twin
+        others += [("kc", kc, kc), ("kphi", kphi, kphi)]
+        equivalent.append({"kc": float(kc), "kphi": float(kphi), "r_min": math.exp(th[2])})
+    for name, a_, b_ in others:
+        a, b = intervals.get(name, (a_, b_))
+        intervals[name] = (min(a, a_), max(b, b_))
+        if name not in und:
+            und.append(name)
+    return {"r_min": (lo, hi)}, equivalent
 
 
 def _certificate(

@@ -42,6 +42,7 @@ __all__ = [
     "certify",
     "Cells",
     "flat_set",
+    "secant_twin",
     "jacobians",
     "objectives",
     "polish",
@@ -188,7 +189,7 @@ class Stretch:
 
     @property
     def rep(self) -> float:
-        """The value of log r_min reported on a flat stretch: its middle."""
+        """The middle of the stretch: the value of log r_min reported on a flat one."""
         return 0.5 * (self.lo + self.hi)
 
 
@@ -217,6 +218,40 @@ def flat_set(prob: LearnProblem, t: float) -> tuple[float, float] | None:
         if st.flat and st.hi > st.lo and st.lo < t <= st.hi:
             return st.lo, st.hi
     return None
+
+
+def secant_twin(prob: LearnProblem, x, theta) -> tuple[np.ndarray, np.ndarray] | None:
+    """The other parameters that give the same model values as (x, theta) on the secant set.
+
+    For r <= r2 the secant through both plates' Bekker pressures with (kc, kphi)
+    (r_min > r2) and the tangent at r_min = r2 with (kc r2/r1, kphi + kc/r2 - kc/r1)
+    are the same line in r (section 3.2: both pass through the two plates'
+    pressures and the tangent's slope -kc'/r2^2 equals the secant's -kc/(r1 r2)).
+    So when every cone's base radius is at most r2, data fitted on one side are
+    fitted exactly as well on the other: the data cannot tell kc and kphi apart.
+    Returns the twin (x, theta) (r_min = r2 for a secant answer, the middle of the
+    secant set for an answer at r2) when it lies within the bounds, else None.
+    """
+    if prob.model != "rm1" or not prob.pair:
+        return None
+    r1, r2 = prob.pair
+    t2 = math.log(r2)
+    if max(p.cone.radius for p in prob.profiles) > r2 or not prob.theta_lo[2] <= t2:
+        return None
+    kc, kphi = float(x[0]), float(x[1])
+    flat = flat_set(prob, float(theta[2]))
+    if flat is not None:  # secant with (kc, kphi): the tangent at r2
+        twin = [kc * r2 / r1, kphi + kc / r2 - kc / r1, t2]
+    elif abs(float(theta[2]) - t2) <= 1e-9 and prob.theta_hi[2] > t2:  # tangent at r2
+        kc_s = kc * r1 / r2
+        twin = [kc_s, kphi - kc_s / r2 + kc_s / r1, 0.5 * (t2 + float(prob.theta_hi[2]))]
+    else:
+        return None
+    lo, hi = prob.box(np.asarray(theta[0]))
+    xt = np.array([twin[0], twin[1], float(x[2])])
+    if np.any(xt < lo - 1e-12 * np.abs(lo)) or np.any(xt > hi + 1e-12 * np.abs(hi)):
+        return None
+    return xt, np.array([theta[0], theta[1], twin[2]])
 
 
 def r_axis(prob: LearnProblem, k: int) -> np.ndarray:
@@ -263,30 +298,51 @@ class Starts:
         return np.array([not s.flat for s in self.stretch])
 
 
+def _stretch_cells(stage: GridStage, st: Stretch):
+    """A stretch's stretches between grid nodes, as starts: J (n, phic, K) the smaller of
+    each interval's two end nodes, its middle t (K,), and the node of the smaller J
+    (n, phic, K).  A flat stretch: its nodes, t its reported value."""
+    U, r = stage.cells.J, stage.axes[2]
+    if st.flat:
+        cols = np.flatnonzero(((r > st.lo) | (st.hi == st.lo)) & (r <= st.hi))
+        return (
+            U[:, :, cols],
+            np.full(cols.size, st.rep),
+            np.broadcast_to(cols, U.shape[:2] + cols.shape),
+        )
+    cols = np.flatnonzero((r >= st.lo) & (r <= st.hi))
+    a, b = cols[:-1], cols[1:]
+    node = np.where(U[:, :, a] <= U[:, :, b], a, b)
+    return np.minimum(U[:, :, a], U[:, :, b]), 0.5 * (r[a] + r[b]), node
+
+
 def stretch_starts(prob: LearnProblem, stage: GridStage, count: int) -> Starts:
-    """Per stretch of log r_min, up to ``count`` grid points of least J that are local
-    minima of the grid's J over (n, phic) and the stretch's nodes, best first (ties by
-    position); a flat stretch's start has r_min at its reported value."""
+    """Per stretch of log r_min, up to ``count`` starts, best first (ties by position): the
+    middles of the intervals between its grid nodes whose J (the smaller at their ends) is
+    a local minimum over (n, phic) and the intervals, n and phic of that node.
+
+    A start is never a node itself: an RM1 branch point can be a stationary point of the
+    least squares in r_min (at the larger plate the tangent and the secant meet with
+    their slopes), where a local search would not move.  A flat stretch's start has r_min
+    at its reported value.  Without a node in a stretch, its middle from the grid's best.
+    """
     U, ax = stage.cells.J, stage.axes
     theta, xs, rows = [], [], []
     for st in stretches(prob):
-        inside = (ax[2] > st.lo) if st.flat and st.hi > st.lo else (ax[2] >= st.lo)
-        cols = np.flatnonzero(inside & (ax[2] <= st.hi))
-        if cols.size == 0:  # a grid of one r_min node: the stretch starts from the best n, phic
+        sub, tm, node = _stretch_cells(stage, st)
+        if sub.shape[2] == 0:
             i, j, c = np.unravel_index(int(np.argmin(U)), U.shape)
-            theta.append([ax[0][i], ax[1][j], st.rep if st.flat else 0.5 * (st.lo + st.hi)])
+            theta.append([ax[0][i], ax[1][j], st.rep])
             xs.append(stage.cells.x[i, j, c])
             rows.append(st)
             continue
-        sub = U[:, :, cols]
         loc = np.flatnonzero(sub <= minimum_filter(sub, size=3, mode="nearest"))
         # by J quantised to 1e-9 of the scale (last-bit differences do not reorder)
         q = np.floor(sub.reshape(-1)[loc] / (1e-9 * max(float(U.max()), 1e-300)))
         for f in loc[np.lexsort((loc, q))][:count]:
             i, j, c = np.unravel_index(f, sub.shape)
-            t = st.rep if st.flat else ax[2][cols[c]]
-            theta.append([ax[0][i], ax[1][j], t])
-            xs.append(stage.cells.x[i, j, cols[c]])
+            theta.append([ax[0][i], ax[1][j], tm[c]])
+            xs.append(stage.cells.x[i, j, node[i, j, c]])
             rows.append(st)
     return Starts(np.array(theta), np.array(xs), rows)
 
