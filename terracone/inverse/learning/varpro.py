@@ -48,7 +48,10 @@ __all__ = ["Projected", "VarproResult", "descend", "project", "tau_designs"]
 SCAN_DEG = 1.5
 
 #: Levenberg-Marquardt dampings of :func:`descend` (times the current one; 0: Gauss-Newton)
-DAMPINGS = (0.0, 1.0 / 8.0, 1.0, 8.0, 64.0)
+DAMPINGS = (0.0, 1.0, 64.0)
+
+#: fractions of the Gauss-Newton step that :func:`descend` tries too
+BACKTRACK = (0.5, 0.25, 0.125)
 
 
 def tau_designs(prob: LearnProblem, n, t) -> tuple[list, list]:
@@ -273,21 +276,82 @@ def _projected_jacobian(rows: _Rows, idx, U, pr: Projected, Aa, Ab) -> np.ndarra
 
 def _lm_candidates(Dp, r, U, lo, hi, free, mu):
     """Levenberg-Marquardt steps in (n, log r_min) at the dampings ``mu * DAMPINGS``
-    (Marquardt's diagonal scaling), clipped to the box: points (K, L, 2) and dampings (K, L)."""
+    (Marquardt's diagonal scaling), the Gauss-Newton step shortened by ``BACKTRACK``,
+    and steps in n alone and in log r_min alone at damping ``mu``, clipped to the box:
+    points (K, L, 2) and dampings (K, L).
+
+    The one-variable steps matter where log r_min is weakly determined (its curvature a
+    millionth of n's): a joint step then throws it across the stretch, however damped.
+    The shortened steps matter where the inner minimum's active set changes (phic or cc
+    reaching its bound): F(log r_min) then bends sharply, the Gauss-Newton step of the
+    gentle side overshoots into the steep one, and damping, scaled to each variable's
+    curvature, does not shorten it.
+    """
     H = np.einsum("kni,knj->kij", Dp, Dp)
     g = np.einsum("kni,kn->ki", Dp, r)
     # a variable on a bound that the gradient pushes outwards stays there
     free = free & ~(((U <= lo) & (g > 0)) | ((U >= hi) & (g < 0)))
     f2 = free[:, :, None] & free[:, None, :]
-    dg = np.where(free, np.einsum("kii->ki", H), 1.0)
-    dg = np.maximum(dg, 1e-300)
-    H = np.where(f2, H, np.eye(2)) / np.sqrt(dg[:, :, None] * dg[:, None, :])
-    g = np.where(free, g, 0.0) / np.sqrt(dg)
+    sd = np.sqrt(np.maximum(np.where(free, np.einsum("kii->ki", H), 1.0), 1e-300))
+    H = np.where(f2, H, np.eye(2)) / (sd[:, :, None] * sd[:, None, :])
+    g = np.where(free, g, 0.0) / sd
     lams = mu[:, None] * np.array(DAMPINGS)[None, :]
     M = H[:, None] + (lams[..., None, None] + 1e-12) * np.eye(2)
     step = -np.linalg.solve(M, np.broadcast_to(g[:, None, :, None], M.shape[:-1] + (1,)))[..., 0]
-    P = U[:, None, :] + step / np.sqrt(dg)[:, None, :]
+    one = -g[:, None, :] * np.eye(2)[None] / (1.0 + mu)[:, None, None]  # unit diagonal
+    short = step[:, :1] * np.array(BACKTRACK)[None, :, None]  # Gauss-Newton's, shortened
+    step = np.concatenate([step, short, one], axis=1)
+    lams = np.concatenate([lams, np.repeat(mu[:, None], 2 + len(BACKTRACK), axis=1)], axis=1)
+    P = U[:, None, :] + step / sd[:, None, :]
     return np.clip(P, lo[:, None], hi[:, None]), lams
+
+
+#: fractions of a stretch at which a row stopped on an end of it probes the inside
+PROBES = (1.0 / 64.0, 1.0 / 16.0, 1.0 / 4.0, 1.0 / 2.0, 3.0 / 4.0)
+
+
+@dataclass
+class _State:
+    """The rows' current points (n, log r_min), inner minima, designs and step control."""
+
+    U: np.ndarray
+    pr: Projected
+    Aa: np.ndarray
+    Ab: np.ndarray
+    mu: np.ndarray
+    fails: np.ndarray
+    probes: np.ndarray
+
+    def move(self, rows, P, cand: Projected, Ca, Cb) -> None:
+        """Rows ``rows`` go to points P with inner minima ``cand`` and designs (Ca, Cb)."""
+        self.U[rows] = P
+        pr = self.pr
+        pr.tau[rows], pr.x[rows], pr.r[rows], pr.F[rows] = cand.tau, cand.x, cand.r, cand.F
+        self.Aa[rows], self.Ab[rows] = Ca, Cb
+        self.fails[rows] = 0
+
+
+def _probe(rows: _Rows, st: _State, idx) -> np.ndarray:
+    """Rows ``idx`` stopped on an end of their stretch of log r_min: F at points inside it
+    (``PROBES`` of its length from that end, n kept); each row moves to the best if it is
+    lower.  An RM1 branch point can be a stationary point of F in r_min (at the larger plate
+    the tangent meets the secant with its slope), which no step from derivatives leaves.
+    Returns the rows that moved."""
+    at_hi = st.U[idx, 1] >= rows.hi[idx, 1]
+    span = rows.hi[idx, 1] - rows.lo[idx, 1]
+    t = np.where(at_hi, rows.hi[idx, 1], rows.lo[idx, 1])
+    f = np.array(PROBES)
+    T = t[:, None] + np.where(at_hi, -1.0, 1.0)[:, None] * span[:, None] * f
+    L = f.size
+    P = np.stack([np.repeat(st.U[idx, 0], L), T.reshape(-1)], axis=1)
+    cand, (Ca, Cb) = rows.evaluate(np.repeat(idx, L), P, np.repeat(st.pr.tau[idx], L))
+    k = np.argmin(cand.F.reshape(-1, L), axis=1)
+    p = np.arange(idx.size) * L + k
+    ok = cand.F[p] < st.pr.F[idx]
+    st.move(idx[ok], P[p[ok]], cand.take(p[ok]), Ca[p[ok]], Cb[p[ok]])
+    st.mu[idx[ok]] = 1e-3
+    st.probes[idx] += 1
+    return idx[ok]
 
 
 def descend(
@@ -325,15 +389,17 @@ def descend(
     -------
     VarproResult
         Each row's end point, converged when the cost is zero to rounding,
-        falls by less than 1e-12 relative, or no damping lowers it.
+        falls by less than 1e-12 relative, or no damping lowers it (after up
+        to two probes inside its stretch when it stopped on an end of it,
+        :func:`_probe`).
     """
     w = prob.a**2 if w is None else np.asarray(w, float)
     rows = _Rows(prob, np.asarray(t_lo, float), np.asarray(t_hi, float), np.asarray(t_free), w)
     K = theta0.shape[0]
     U = np.clip(theta0[:, [0, 2]], rows.lo, rows.hi)
     pr, (Aa, Ab) = rows.evaluate(np.arange(K), U, np.tan(np.radians(theta0[:, 1])))
+    st = _State(U, pr, Aa, Ab, np.full(K, 1e-3), np.zeros(K, int), np.zeros(K, int))
     zero = 1e-13 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
-    mu, fails = np.full(K, 1e-3), np.zeros(K, int)
     active = rows.J(np.arange(K), pr.r) > zero
     nev, it = K, 0
     done = stop_at_zero and not active.all()  # a start fitted exactly
@@ -343,29 +409,34 @@ def descend(
         if idx.size == 0:
             break
         cur = pr.take(idx)
-        Dp = _projected_jacobian(rows, idx, U[idx], cur, Aa[idx], Ab[idx])
+        Dp = _projected_jacobian(rows, idx, st.U[idx], cur, st.Aa[idx], st.Ab[idx])
         P, lams = _lm_candidates(
-            Dp, cur.r, U[idx], rows.lo[idx], rows.hi[idx], rows.free[idx], mu[idx]
+            Dp, cur.r, st.U[idx], rows.lo[idx], rows.hi[idx], rows.free[idx], st.mu[idx]
         )
         L = P.shape[1]
         cand, (Ca, Cb) = rows.evaluate(np.repeat(idx, L), P.reshape(-1, 2), np.repeat(cur.tau, L))
         nev += idx.size * (L + 4)
-        Fc = cand.F.reshape(-1, L)
-        k = np.argmin(Fc, axis=1)
-        gain = Fc[np.arange(idx.size), k] < cur.F
+        k = np.argmin(cand.F.reshape(-1, L), axis=1)
+        p = np.arange(idx.size) * L + k
+        gain = cand.F[p] < cur.F
         lost = idx[~gain]  # no damping gains: more damping next time, until three misses
-        mu[lost] *= 64.0
-        fails[lost] += 1
-        active[lost] = fails[lost] < 3
-        won, p = idx[gain], (np.arange(idx.size) * L + k)[gain]
-        U[won] = P.reshape(-1, 2)[p]
-        pr.tau[won], pr.x[won], pr.r[won], pr.F[won] = cand.tau[p], cand.x[p], cand.r[p], cand.F[p]
-        Aa[won], Ab[won] = Ca[p], Cb[p]
+        st.mu[lost] = np.maximum(64.0 * st.mu[lost], 1.0)
+        st.fails[lost] += 1
+        won, p = idx[gain], p[gain]
+        st.move(won, P.reshape(-1, 2)[p], cand.take(p), Ca[p], Cb[p])
         lam = lams[gain, k[gain]]
-        mu[won] = np.where(lam > 0, lam, np.maximum(mu[won] / 64.0, 1e-9))
-        fails[won] = 0
+        st.mu[won] = np.where(lam > 0, lam, np.maximum(st.mu[won] / 64.0, 1e-9))
         Jw = rows.J(won, pr.r[won])
         active[won] = (cur.F[gain] - cand.F[p] > 1e-12 * cand.F[p]) & (Jw > zero)
-        done = stop_at_zero and bool(np.any(Jw <= zero))  # J >= 0: the global minimum
-    theta = np.stack([U[:, 0], np.degrees(np.arctan(pr.tau)), U[:, 1]], axis=1)
+        active[lost] = st.fails[lost] < 3
+        # rows that stop on an end of their stretch probe its inside (twice at most)
+        J = rows.J(idx, pr.r[idx])
+        t = st.U[idx, 1]
+        end = rows.free[idx, 1] & ((t <= rows.lo[idx, 1]) | (t >= rows.hi[idx, 1]))
+        stuck = idx[~active[idx] & end & (st.probes[idx] < 2) & (J > zero)]
+        if stuck.size:
+            nev += stuck.size * len(PROBES)
+            active[_probe(rows, st, stuck)] = True
+        done = stop_at_zero and bool(np.any(J <= zero))
+    theta = np.stack([st.U[:, 0], np.degrees(np.arctan(pr.tau)), st.U[:, 1]], axis=1)
     return VarproResult(theta, pr.x, pr.F, rows.J(np.arange(K), pr.r), it, nev)
