@@ -279,3 +279,37 @@ def test_designs_are_affine_in_tan_phic(K_cone):
             np.testing.assert_allclose(
                 Xa[d] + tau * Xb[d], X[d], rtol=1e-12, atol=1e-12 * np.abs(X[d]).max()
             )
+
+
+def test_secant_twin_gives_the_same_model_values_both_ways():
+    """search.secant_twin: from a secant answer (r_min above r2) the tangent at r2, from an
+    answer at r2 the secant, each with the same CI and plate values by the forward models
+    (to 1e-12 relative); none below r2, and none when the twin's kphi would be negative."""
+    from terracone.inverse.learning.search import secant_twin
+
+    z = GEOMETRY["si"]["depth"]
+    s = GEOMETRY["si"]["sinkage"]
+    r1, r2 = GEOMETRY["si"]["pair"]
+    prof = [CIProfile("p", z, 100.0 + 1e4 * z)]
+    plates = [PlateTest(f"b{r}", r, "circular", s, 10 + s) for r in (r1, r2)]
+    prob = learn_problem(prof, plates, "rm1", Bounds(), None, None)
+
+    def values(x, th):
+        law = dict(kc=x[0], kphi=x[1], n=th[0], model="rm1", r_min=math.exp(th[2]))
+        law["plate_pair"] = (r1, r2)
+        ci = cone_index(z, cc=x[2], phic_deg=th[1], **law)
+        return np.concatenate([ci] + [plate_pressure(s, radius=r, **law) for r in (r1, r2)])
+
+    x, th = np.array([150.0, 4000.0, 2.0]), np.array([0.8, 10.0, math.log(0.1)])
+    xt, tht = secant_twin(prob, x, th)
+    assert math.exp(tht[2]) == pytest.approx(r2, rel=1e-12)
+    assert xt[0] == pytest.approx(150.0 * r2 / r1) and xt[1] == pytest.approx(
+        4000 + 150 / r2 - 150 / r1
+    )
+    np.testing.assert_allclose(values(xt, tht), values(x, th), rtol=1e-12)
+    xb, thb = secant_twin(prob, xt, tht)  # and back: the secant, r_min in the flat set
+    np.testing.assert_allclose(xb, x, rtol=1e-12)
+    assert r2 < math.exp(thb[2]) <= 3 * r2
+    np.testing.assert_allclose(values(xb, thb), values(x, th), rtol=1e-12)
+    assert secant_twin(prob, x, np.array([0.8, 10.0, math.log(0.05)])) is None  # below r2
+    assert secant_twin(prob, np.array([400.0, 100.0, 2.0]), th) is None  # kphi' < 0

@@ -247,8 +247,10 @@ def _inner_directions(rows: _Rows, idx, U, pr: Projected, Aa, Ab) -> np.ndarray:
     vhi = np.concatenate([hi, rows.tau_hi[idx, None]], axis=1)
     grad = np.einsum("kni,kn->ki", C, pr.r)
     inside = ((v > vlo) | (grad < 0)) & ((v < vhi) | (grad > 0)) & (vhi > vlo)
-    Uc, s, _ = np.linalg.svd(C * inside[:, None, :], full_matrices=False)
-    keep = s > 1e-10 * np.max(s, axis=1, keepdims=True)
+    norm = np.linalg.norm(C, axis=1)  # columns to unit length: the rank test sees directions
+    C = C * (inside / np.where(norm > 0, norm, 1.0))[:, None, :]
+    Uc, s, _ = np.linalg.svd(C, full_matrices=False)
+    keep = s > 1e-10 * np.max(s, axis=1, keepdims=True, initial=1e-300)
     return Uc * keep[:, None, :]
 
 
