@@ -25,6 +25,7 @@ import pyarrow as pa
 
 from terracone.data import CIProfile, InputError, ProfileSet, TerrainParameters
 from terracone.inverse.evaluate import predicted_plate_pressure
+from terracone.inverse.library.mixture import result_bands
 from terracone.inverse.predict import RunSettings, predict_many
 from terracone.inverse.problem import Problem
 from terracone.io import read_ci_profiles
@@ -139,6 +140,8 @@ class PredictRun:
         pb, s = self.problem, self.settings
         recorded = {"model": pb.model, "r_min": pb.r_min, "solver": s.solver, "seed": s.seed}
         recorded.update(bounds=pb.bounds, calibration=pb.record()["calibration"])
+        if pb.library is not None:
+            recorded.update(prior=pb.prior_label(), library=pb.library.source)
         doc_settings = settings_dict(recorded, units, **extra)
         return to_document(self.results, units, input=input, settings=doc_settings)
 
@@ -184,6 +187,10 @@ def predict_profiles(
         if r.ok and plates:
             r.plate_curves = plate_curves(r.params, plates, s, problem.plate_pair)
     bands = np.linspace(0.0, 0.05, 21) if band_sinkage is None else band_sinkage
+    if problem.library is not None and plates:  # the mixture's bands at the plates asked
+        for r in results:
+            if r.ok and r.library is not None:
+                r.library.plate_bands = result_bands(r, plates, bands)
     attach_fits(results, items, problem, settings, plates=list(plates) or None, band_sinkage=bands)
     return PredictRun(results, problem, settings)
 

@@ -327,6 +327,15 @@ def soil_match(profile_soil: str | None, candidate_soil: str | None) -> bool | N
     return pc == cc
 
 
+def _provenance_soil(cal: Calibration) -> str | None:
+    """A calibration's soil class from its provenance (``soil_class`` or ``uscs``), or None."""
+    for key in ("soil_class", "uscs"):
+        v = cal.provenance.get(key)
+        if isinstance(v, str) and v.strip():
+            return v.strip()
+    return None
+
+
 @dataclass(frozen=True)
 class LibraryPrior:
     """Stored calibrations as the candidate models of a prior (issue 32).
@@ -343,7 +352,8 @@ class LibraryPrior:
     calibrations : sequence of Calibration
         The candidates (unique terrain names, kphi > 0 so that kc/kphi is held).
     soil_classes : sequence of str or None, optional
-        Each candidate's soil class (a USCS symbol, fine or coarse), or None.
+        Each candidate's soil class (a USCS symbol, fine or coarse), or None;
+        by default its provenance's ``soil_class`` (or ``uscs``).
     source : str, optional
         Where the calibrations come from (the library file), for the record.
     mismatch_weight : float
@@ -385,7 +395,7 @@ class LibraryPrior:
             raise ValueError(
                 f"{where}: calibration {flat[0]!r} has kphi = 0, so no kc/kphi to hold"
             )
-        soils = tuple(self.soil_classes) or (None,) * len(cals)
+        soils = tuple(self.soil_classes) or tuple(_provenance_soil(c) for c in cals)
         if len(soils) != len(cals):
             raise ValueError("give one soil class (or None) per calibration")
         if not 0 < self.mismatch_weight <= 1:

@@ -34,7 +34,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from terracone.inverse.library.evidence import HeldPosterior, ProfileNoise
+from terracone.inverse.library.evidence import (
+    HeldPosterior,
+    ProfileNoise,
+    color_ar1,
+    held_columns,
+    whiten,
+)
 
 __all__ = ["CHECK_METHOD", "check_p_value", "discrepancy", "replicate_discrepancy"]
 
@@ -46,22 +52,22 @@ CHECK_METHOD = (
 )
 
 
-def _grid(post: HeldPosterior) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The held kphi column D, cc part e and the free basis U at the check's n nodes."""
-    parts = [post.coarse, post.terms] if post.terms is not post.coarse else [post.coarse]
-    D = np.concatenate([t.D for t in parts])
-    e = np.concatenate([t.e for t in parts])
-    free = np.concatenate([np.stack(t.cols, axis=-1) for t in parts])  # (G, Z, 3)
-    U = np.linalg.qr(free)[0]  # an orthonormal basis of each node's free columns
+def _grid(noise: ProfileNoise, post: HeldPosterior) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The held kphi column D, cc part e and the free basis U at the check's n nodes (coarse
+    and fine), whitened with the profile's estimated rho."""
+    phi = noise.phi(noise.rho)
+    parts = [post.coarse_raw, post.terms.raw]
+    raw = [np.concatenate([p[k] for p in parts]) for k in range(3)]
+    D0, e0 = held_columns(noise, post.candidate, raw)
+    D, e = whiten(D0, phi)[0], whiten(e0, phi)[0]
+    free = whiten(np.stack(raw, axis=0), phi)[0]  # (3, G, Z)
+    U = np.linalg.qr(np.moveaxis(free, 0, -1))[0]  # an orthonormal basis of each node's columns
     return D, e, U
 
 
-def discrepancy(Y: np.ndarray, post: HeldPosterior, grid=None) -> np.ndarray:
-    """T of whitened profiles Y (R, Z) under the candidate of ``post`` (R,).
-
-    ``grid``: the result of the check's grid (computed from ``post`` when None).
-    """
-    D, e, U = _grid(post) if grid is None else grid
+def discrepancy(Y: np.ndarray, grid: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """T of whitened profiles Y (R, Z) on the check's grid (:func:`_grid`) (R,)."""
+    D, e, U = grid
     Y = np.atleast_2d(Y)
     d = D / np.maximum(np.linalg.norm(D, axis=1, keepdims=True), 1e-300)
     yy = np.einsum("rz,rz->r", Y, Y)[:, None]
@@ -81,16 +87,26 @@ def discrepancy(Y: np.ndarray, post: HeldPosterior, grid=None) -> np.ndarray:
 def replicate_discrepancy(
     noise: ProfileNoise, post: HeldPosterior, rng: np.random.Generator, replicates: int
 ) -> tuple[float, np.ndarray]:
-    """Observed T and T of ``replicates`` profiles from the candidate's posterior predictive."""
-    grid = _grid(post)
-    observed = float(discrepancy(noise.yw, post, grid)[0])
-    idx, kphi = post.draw(rng, replicates)
+    """Observed T and T of ``replicates`` profiles from the candidate's posterior predictive.
+
+    (kphi, n) from the candidate's posterior, sigma^2 | theta from
+    Q / chi^2_N, AR(1) noise on the profile's weights with the rho
+    estimated from its uncalibrated fit (a rho drawn from the candidate's
+    posterior would grow to absorb the candidate's misfit, and the check
+    would lose its power).
+    """
+    grid = _grid(noise, post)
+    phi_hat = noise.phi(noise.rho)
+    observed = float(discrepancy(whiten(noise.v, phi_hat)[0], grid)[0])
+    ri, gi, kphi = post.draw(rng, replicates)
     t = post.terms
-    mean = kphi[:, None] * t.D[idx] + t.e[idx]  # eq. (2-7), whitened
-    q = t.qmin[idx] + t.a[idx] * (kphi - t.khat[idx]) ** 2
+    D0, e0 = held_columns(noise, post.candidate, t.raw)
+    mean = kphi[:, None] * D0[gi] + e0[gi]  # eq. (2-7), over the weights
+    q = t.qmin[ri, gi] + t.a[ri, gi] * (kphi - t.khat[ri, gi]) ** 2
     sigma = np.sqrt(q / rng.chisquare(noise.N, size=replicates))  # sigma^2 | theta ~ Q / chi2_N
-    Y = mean + sigma[:, None] * rng.standard_normal(mean.shape)
-    return observed, discrepancy(Y, post, grid)
+    eps = color_ar1(rng.standard_normal(mean.shape), phi_hat[0])  # the estimated rho's noise
+    Y = whiten(mean + sigma[:, None] * eps, phi_hat)[0]
+    return observed, discrepancy(Y, grid)
 
 
 def check_p_value(

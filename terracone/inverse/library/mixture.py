@@ -36,10 +36,11 @@ from terracone.inverse.library.evidence import (
     HeldPosterior,
     ProfileNoise,
     held_posterior,
+    n_nodes,
     profile_noise,
 )
 from terracone.inverse.problem import Calibration, Problem
-from terracone.physics.plate import PressureLaw, plate_basis
+from terracone.physics.plate import PressureLaw, plate_basis, pressure_law
 from terracone.result import UQ_PARAMS, LibrarySummary, PosteriorSummary, PredictionResult
 
 __all__ = [
@@ -53,6 +54,7 @@ __all__ = [
     "mixture_bands",
     "mixture_draws",
     "rank_candidates",
+    "result_bands",
     "rng_for",
     "soil_of",
 ]
@@ -144,6 +146,7 @@ class Ranking:
                     "check_p": None if np.isnan(self.p_values[i]) else float(self.p_values[i]),
                     "model": c.model,
                     "r_min": c.r_min,
+                    "plate_pair": None if c.plate_pair is None else list(c.plate_pair),
                     "phic_deg": float(c.phic_deg),
                     "cc": float(c.cc),
                     "kc_over_kphi": float(c.kc / c.kphi),
@@ -228,8 +231,8 @@ def rank_candidates(
     for k, cand in enumerate(cands):
         key = (_law_key(cand.law), cand.bounds.n)
         if key not in cache and cand.bounds.n[1] > cand.bounds.n[0]:
-            nodes = np.linspace(cand.bounds.n[0], cand.bounds.n[1], 129)
-            cache[key] = [nz.columns(cand.law, nodes) for nz in noises]
+            nodes = n_nodes(cand.bounds)
+            cache[key] = [nz.raw_columns(cand.law, nodes) for nz in noises]
         cols = cache.get(key, [None] * len(noises))
         ps = [held_posterior(nz, cand, c) for nz, c in zip(noises, cols)]
         posts.append(ps)
@@ -270,7 +273,7 @@ def mixture_draws(
         if m == 0:
             continue
         post, cand = ranking.posts[k][push], ranking.candidates[k]
-        idx, kphi = post.draw(rng, int(m))
+        _, idx, kphi = post.draw(rng, int(m))
         n = post.n[idx]
         cols = [cand.ratio * kphi, kphi, n, np.full(m, cand.cc), np.full(m, cand.phic_deg)]
         rows.append(np.column_stack(cols))
@@ -304,6 +307,24 @@ def mixture_bands(
         lo, med, hi = np.quantile(p, qs, axis=0)
         out.append({"radius": float(r), "sinkage": sink.copy(), "median": med, "lo": lo, "hi": hi})
     return out
+
+
+def result_bands(
+    result: PredictionResult, radii: Sequence[float], sinkage: Sequence[float]
+) -> list[dict[str, Any]]:
+    """The mixture bands of plate pressure of a library result at other plates and sinkages.
+
+    From the result's mixture draws (``posterior.samples``), each with its
+    candidate's pressure law (``library.draw_candidate``, ``library.candidates``).
+    """
+    lib, post = result.library, result.posterior
+    if lib is None or post is None or post.samples is None or lib.draw_candidate is None:
+        return []
+    laws = [
+        pressure_law(c["model"], r_min=c.get("r_min"), plate_pair=c.get("plate_pair"))
+        for c in lib.candidates
+    ]
+    return mixture_bands(post.samples, lib.draw_candidate, laws, radii, sinkage, post.level)
 
 
 @dataclass(kw_only=True)
@@ -469,8 +490,6 @@ def component_mixture(
     1 gives back its own median and interval.  The mixture's quantiles are
     found by bisection of its CDF.
     """
-    from scipy.stats import norm
-
     tr = np.log if log else (lambda v: np.asarray(v, float))
     with np.errstate(divide="ignore", invalid="ignore"):
         mu, a, b = (
@@ -478,7 +497,7 @@ def component_mixture(
             tr(np.asarray(lo, float)),
             tr(np.asarray(hi, float)),
         )
-    zq = norm.ppf(0.5 + level / 2)
+    zq = special.ndtri(0.5 + level / 2)
     sd = np.maximum((b - a) / (2 * zq), 0.0)
     w = np.asarray(weights, float)[:, None]
     ok = np.isfinite(mu) & np.isfinite(sd)
@@ -492,12 +511,12 @@ def component_mixture(
         with np.errstate(divide="ignore", invalid="ignore"):
             z = np.where(sd > 0, (x[None, :] - mu) / np.where(sd > 0, sd, 1.0),
                          np.where(x[None, :] >= mu, np.inf, -np.inf))  # fmt: skip
-        return np.sum(w * norm.cdf(z), axis=0)
+        return np.sum(w * special.ndtr(z), axis=0)
 
     out = []
     for q in (0.5, (1 - level) / 2, (1 + level) / 2):
         lo_x, hi_x = left.copy(), right.copy()
-        for _ in range(80):
+        for _ in range(64):
             mid = 0.5 * (lo_x + hi_x)
             below = cdf(mid) < q
             lo_x, hi_x = np.where(below, mid, lo_x), np.where(below, hi_x, mid)
