@@ -43,6 +43,7 @@ __all__ = [
     "PredictRun",
     "Reading",
     "attach_fits",
+    "repredict",
     "plate_curves",
     "predict_profiles",
     "sinkage_grid",
@@ -264,3 +265,29 @@ def _layered(prof: CIProfile, problem: Problem, s: RunSettings, sample: bool) ->
     if not (sample and s.uncertainty and lr.ok):
         return lr, None
     return lr, layered_posterior(prof, lr, problem, draws=s.draws, seed=s.seed)
+
+
+def repredict(
+    results: PredictionResults,
+    problem: Problem,
+    ci_profiles: Any = None,
+) -> PredictionResults:
+    """Predict again the profiles of a results file under ``problem`` (``--library`` of map, mobility).
+
+    Each result's CI comes from the result (a predict JSON keeps it) or
+    from ``ci_profiles`` (a mapping id -> CIProfile); a result with neither
+    stays an error saying so.  Cones and metadata are the results'.
+    """
+    items: list[Any] = []
+    for r in results:
+        if r.depth is not None and r.ci is not None and len(r.depth):
+            items.append(CIProfile(r.id, r.depth, r.ci, cone=r.cone, metadata=dict(r.metadata)))
+        elif ci_profiles is not None and r.id in ci_profiles:
+            items.append(ci_profiles[r.id])
+        else:
+            why = "no CI in the results to weigh the library's calibrations by"
+            items.append(InputError(f"{why} (use predict --json, or --ci FILE)", profile=r.id))
+    out = predict_many(items, problem)
+    out.settings = {**results.settings, **problem.record()}
+    out.header = dict(results.header)
+    return out

@@ -122,12 +122,19 @@ def _progress(count: int):
     "--file-units", type=UNITS, default=None, help="Unit system of a --ci file that states none."
 )
 @click.option(
+    "--library",
+    "library_path",
+    default=None,
+    help="Predict the profiles again with this library's calibrations as the prior (their CI "
+    "from RESULTS or --ci; docs/library.md).",
+)
+@click.option(
     "--units", type=UNITS, default="si", show_default=True, help="SI: m, kPa, N; US: in, psi, lbf."
 )
 @shared(*json_options)
 def mobility_cmd(
     results_path, vehicle_path, passes, soil, critical_layer, layer, remolding_index, by, ci_file,
-    file_units, units, out, as_json,
+    file_units, library_path, units, out, as_json,
 ):  # fmt: skip
     """NRMM go/no-go and Bekker wheel sinkage of a vehicle on predicted terrain.
 
@@ -153,6 +160,8 @@ def mobility_cmd(
 
         items = read_profiles(ci_file, "asabe-large", None, "base", units=file_units)
         ci_profiles = ci_profiles_by_id(items)
+    if library_path:
+        results = _with_library(results, library_path, ci_profiles)
     run = evaluate_mobility(
         results, vehicle, passes=int(passes), layer=parse_layer(layer, units), choice=choice,
         soil=soil, remolding_index=remolding_index,
@@ -168,6 +177,15 @@ def mobility_cmd(
         click.echo(mobility_text(doc))
     if not run.evaluated_any:
         sys.exit(1)
+
+
+def _with_library(results, library_path: str, ci_profiles):
+    """The results predicted again with a library as the prior (``--library``)."""
+    from terracone.apps.workflow import repredict
+    from terracone.cli.common import load_library_prior
+    from terracone.inverse.problem import Problem
+
+    return repredict(results, Problem(library=load_library_prior(library_path)), ci_profiles)
 
 
 def export_mavs(

@@ -517,7 +517,9 @@ def library_prior_text(results: Sequence[PredictionResult], units: str) -> str:
         if lib["plate_bands"] and not d["outside_library"]:
             b = lib["plate_bands"][0]
             i = len(b["sinkage"]) - 1
-            band_at = f" (plate r = {b['radius']:.4g}, z = {b['sinkage'][i]:.3g} {u.length_unit(units)})"
+            band_at = (
+                f" (plate r = {b['radius']:.4g}, z = {b['sinkage'][i]:.3g} {u.length_unit(units)})"
+            )
             p = [b["median"][i], _span([b["lo"][i], b["hi"][i]])]
         rows.append([d["id"], answer, top.get("terrain", "-"), top.get("weight"),
                      _span(iv.get("kc")), _span(iv.get("kphi")), _span(iv.get("n")), *p])  # fmt: skip
@@ -556,7 +558,9 @@ def match_text(doc: Mapping[str, Any]) -> str:
             verdict = f"like {g['carried_by']!r}"
         else:
             verdict = "no single calibration carries it"
-        rows = [[c["terrain"], c["weight"], c["prior_weight"], c["check_p"]] for c in g["candidates"]]
+        rows = [
+            [c["terrain"], c["weight"], c["prior_weight"], c["check_p"]] for c in g["candidates"]
+        ]
         out.append(f"{head}: {verdict}")
         out.append(table(["calibration", "weight", "prior weight", "check p"], rows))
     for d in doc.get("unassigned", []):

@@ -402,7 +402,9 @@ class HeldPosterior:
         """The n nodes of the final grid [-]."""
         return self.terms.n
 
-    def draw(self, rng: np.random.Generator, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def draw(
+        self, rng: np.random.Generator, size: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Posterior draws: rho index, n index and kphi [kN/m^(n+2)], each (size,).
 
         The (rho, n) node from the nodes' masses, u = log kphi from the

@@ -43,9 +43,7 @@ from terracone.result import LibrarySummary
 __all__ = ["library_sites", "push_noises", "rank_groups"]
 
 
-def push_noises(
-    profiles: Sequence[CIProfile], problem: Problem
-) -> list[ProfileNoise | str]:
+def push_noises(profiles: Sequence[CIProfile], problem: Problem) -> list[ProfileNoise | str]:
     """Each profile's noise model from its uncalibrated fit (or why it has none)."""
     base = problem.without_library()
     fits = predict_many(profiles, base, RunSettings(detail="summary"))
@@ -172,7 +170,9 @@ def _site_answer(
         f"calibrations by weight; the push-to-push variation, pushes needed and pushes are "
         f"those under {names[0]!r}"
     )
-    return replace(top, **mixed, library=summary, calibrated="library", notes=[note] + top.notes)
+    held = f"calibration {names[0]!r}:"  # the held note of the heaviest's pooling: not the answer's
+    rest = [n for n in top.notes if not n.startswith(held)]
+    return replace(top, **mixed, library=summary, calibrated="library", notes=[note] + rest)
 
 
 def library_sites(
