@@ -11,7 +11,7 @@ turn, a site strength g_s ~ logN(0, 0.35) (kc and kphi times g_s) and
 n_s = n + N(0, 0.08); each of its pushes has its own strength
 g_s exp(0.05 e) and CI from the improved model (eq. (2-7) of Huang et al.,
 the calibration's law, fully mobilised shear, asabe-large cone, base depths
-2-40 cm every 2 cm) times (1 + 0.03 e) with e AR(1) along depth (rho 0.4).
+2-40 cm every 2 cm, or from -3 cm with ``--from-surface``) times (1 + 0.03 e) with e AR(1) along depth (rho 0.4).
 Outside sites draw from a soil outside the library (:data:`OUTSIDE`).  The
 truth of a site is the plate pressure of its terrain (kc_s, kphi_s, n_s) on a
 5 cm radius plate at 2.5 cm sinkage (Bekker's eq. (2-2) or RM1).
@@ -186,11 +186,20 @@ def main(argv=None) -> None:
     ap.add_argument("--seed", type=int, default=32)
     ap.add_argument("--cost-profiles", type=int, default=40)
     ap.add_argument("--skip-cost", action="store_true")
+    ap.add_argument(
+        "--from-surface",
+        action="store_true",
+        help="profiles from the surface (cone-base depths from -3 cm: the tip entering)",
+    )
     a = ap.parse_args(argv)
+    global DEPTH
+    if a.from_surface:
+        DEPTH = np.round(np.arange(-0.03, 0.4001, 0.02), 6)
     res = study(a.sites, a.outside, a.pushes, a.seed)
     s = summary(res)
     print(f"library: {', '.join(c.terrain for c in LIBRARY)}; outside soil: {OUTSIDE.terrain}")
-    print(f"{s['sites_in']} sites in the library, {s['sites_out']} outside, {a.pushes} pushes each")
+    print(f"{s['sites_in']} sites in the library, {s['sites_out']} outside, {a.pushes} pushes each; "
+          f"cone-base depths {DEPTH[0] * 100:g} to {DEPTH[-1] * 100:g} cm")  # fmt: skip
     print(f"true calibration carries the largest weight: {s['top_is_truth']:.0%}")
     print(f"plate pressure, r = {PLATE * 100:g} cm, z = {SINKAGE * 100:g} cm:")
     print(f"{'answer':<28}{'90% coverage':>16}{'width hi/lo':>13}{'median/truth 5-50-95%':>26}")

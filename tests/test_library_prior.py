@@ -188,6 +188,25 @@ def test_problem_holds_each_candidate_and_refuses_two_priors():
         pb.require_single("posterior")
 
 
+def test_single_problem_entry_points_refuse_a_library():
+    """A posterior, a layered fit and a test plan take one problem, and say so."""
+    from terracone.inverse.layered import fit_layered
+    from terracone.inverse.sites.design import plan_test
+    from terracone.inverse.uncertainty.posterior import posterior
+
+    prof = make_sites(1, 0, 1, 1)[0][0]
+    pb = Problem(library=LibraryPrior(LIBRARY))
+    tail = "takes one problem, not a library prior: fit with the library (predict_many, "
+    for name, call in (
+        ("posterior", lambda: posterior(prof, pb, draws=10)),
+        ("fit_layered", lambda: fit_layered(prof, pb, layers=2)),
+        ("plan_test", lambda: plan_test(prof, pb, candidates=[], plates=[0.05])),
+    ):
+        with pytest.raises(ValueError) as err:
+            call()
+        assert str(err.value).startswith(f"{name} {tail}")
+
+
 def test_soil_class_is_the_prior_weight():
     sand = _cal("sand", "rm0", None, 11.0, 0.0, 90.0, 4500.0, 0.7)
     sand.provenance["soil_class"] = "SP"

@@ -227,6 +227,7 @@ def layered_posterior(
         raise ValueError(f"profile {fit.id}: no layered fit to sample ({fit.error})")
     t0 = time.perf_counter()
     problem = problem or Problem()
+    problem.require_single("layered_posterior")
     bounds, law = problem.fit_bounds, problem.law
     z, y, cone = profile.depth, profile.ci, profile.cone
     L = len(fit.layers)

@@ -443,11 +443,11 @@ def held_posterior(
 ) -> HeldPosterior:
     """The evidence of a profile under a candidate, and the candidate's posterior.
 
-    n (uniform on the candidate's box) on 129 nodes over the box, then on
-    129 over the span within e^-40 of the maximum (widened by a step), and
-    again, up to four levels, until neighbouring nodes near the peak differ
-    by less than 1 in log density; rho (uniform on [0, 0.95]) likewise on
-    17 nodes.  Trapezoids in n and rho; ``docs/library.md`` gives their
+    n (uniform on the candidate's box): 129 nodes over the box, then 129
+    over the span within e^-40 of the maximum (widened by a step), and again,
+    up to four levels, until neighbouring nodes near the peak differ by less
+    than 1 in log density (the kphi integral approximated at its mode while
+    searching); rho (uniform on [0, 0.95]) on 17 nodes, refined likewise.  Trapezoids in n and rho; ``docs/library.md`` gives their
     accuracy against brute-force integrals.
 
     Parameters
