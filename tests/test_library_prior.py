@@ -300,7 +300,7 @@ def run(*args):
 def test_predict_and_sites_json_contract(files):
     r = run("predict", files["ci"], "--library", files["db"], "--json")
     assert r.exit_code == 0, r.output
-    doc = json.loads(r.output)
+    doc = json.loads(r.stdout)
     assert doc["settings"]["prior"] == f"library:{files['db']}"
     for p in doc["profiles"]:
         w = p["calibration_weights"]
@@ -309,7 +309,7 @@ def test_predict_and_sites_json_contract(files):
         assert isinstance(p["outside_library"], bool)
     r = run("sites", files["ci"], "--by", "site", "--library", files["db"], "--json")
     assert r.exit_code == 0, r.output
-    for s in json.loads(r.output)["sites"]:
+    for s in json.loads(r.stdout)["sites"]:
         assert math.isclose(sum(s["calibration_weights"].values()), 1.0, rel_tol=1e-12)
         assert isinstance(s["outside_library"], bool)
         assert s["calibrated"] == ("library" if not s["outside_library"] else False)
@@ -320,7 +320,7 @@ def test_predict_and_sites_json_contract(files):
 def test_match_json_contract(files):
     r = run("match", files["ci"], "--library", files["db"], "--by", "site", "--json")
     assert r.exit_code == 0, r.output
-    doc = json.loads(r.output)
+    doc = json.loads(r.stdout)
     assert [g["id"] for g in doc["groups"]] == ["site000", "site001", "site002", "site003"]
     for g in doc["groups"]:
         w = [c["weight"] for c in g["candidates"]]
@@ -330,17 +330,17 @@ def test_match_json_contract(files):
         assert all(c["check_p"] is not None for c in g["candidates"])  # match checks them all
     assert doc["groups"][-1]["outside_library"] is True  # the soft cohesive soil
     r = run("match", files["ci"], "--library", files["db"], "--json")
-    assert len(json.loads(r.output)["groups"]) == 8  # one per profile without --by
+    assert len(json.loads(r.stdout)["groups"]) == 8  # one per profile without --by
 
 
 def test_library_without_the_flag_keeps_todays_answer(files, monkeypatch):
     """$TERRACONE_LIBRARY locates --terrain; it is never a prior."""
     monkeypatch.setenv("TERRACONE_LIBRARY", files["db"])
-    doc = json.loads(run("predict", files["ci"], "--json").output)
+    doc = json.loads(run("predict", files["ci"], "--json").stdout)
     assert doc["settings"]["calibration"] is None and "prior" not in doc["settings"]
     assert all("calibration_weights" not in p for p in doc["profiles"])
     doc = json.loads(run("predict", files["ci"], "--library", files["db"], "--terrain", "sand",
-                         "--json").output)  # fmt: skip
+                         "--json").stdout)  # fmt: skip
     assert doc["settings"]["calibration"] == "sand"
     assert all("calibration_weights" not in p for p in doc["profiles"])
 
@@ -365,7 +365,7 @@ def test_errors_empty_library_no_cone_corrupt_file(files):
         lb.add("tiny", "calibration", cal.library_params())
     r = run("predict", files["ci"], "--library", small, "--json")
     assert r.exit_code == 1
-    errors = {p["error"] for p in json.loads(r.output)["profiles"]}
+    errors = {p["error"] for p in json.loads(r.stdout)["profiles"]}
     assert errors == {
         f"library {small} holds no calibration learned with the asabe-large cone "
         "(calibrations: asabe-small)"
@@ -433,3 +433,34 @@ def test_seed_paper_and_library_add_from_a_calibration_file(tmp_path):
         assert c.execute("SELECT kind FROM terrains WHERE name='sand'").fetchone() == (
             "calibration",
         )
+
+
+def test_mobility_and_map_read_the_mixture(files):
+    """predict --library JSON -> mobility: each profile carries the weights, and its wheel band
+    (from the mixture's draws) is a posterior band; map --library predicts again and says so."""
+    tmp = files["tmp"]
+    vehicle = tmp / "truck.json"
+    vehicle.write_text(json.dumps({
+        "name": "truck", "kind": "wheeled", "mobility_index": 50.0,
+        "wheel": {"load": "15000 N", "diameter": "0.9 m", "width": "0.3 m"},
+    }))  # fmt: skip
+    pred = tmp / "pred.json"
+    assert run("predict", files["ci"], "--library", files["db"], "--out", pred).exit_code == 0
+    for extra in ([], ["--library", files["db"]]):
+        r = run("mobility", pred, "--vehicle", vehicle, "--layer", "5cm:15cm", "--json", *extra)
+        assert r.exit_code == 0, r.output
+        for p in json.loads(r.stdout)["profiles"]:
+            assert math.isclose(sum(p["calibration_weights"].values()), 1.0, rel_tol=1e-12)
+            assert isinstance(p["outside_library"], bool)
+            if not p["outside_library"]:
+                assert p["wheel"]["band"] == "posterior"
+    located = tmp / "located.csv"
+    profiles, _ = make_sites(12, 0, 1, 9)
+    for i, p in enumerate(profiles):
+        p.metadata.update(lat=45.0 + 1e-4 * (i % 4), lon=-80.0 + 1e-4 * (i // 4))
+    write_ci_profiles(located, profiles)
+    res = tmp / "located.json"
+    assert run("predict", located, "--out", res).exit_code == 0
+    r = run("map", res, "--out", tmp / "map", "--library", files["db"], "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["notes"][0].startswith("the library as the prior: each push's")
