@@ -147,6 +147,7 @@ def summary(res: dict) -> dict:
         out[f"width_{key}"] = float(np.median([r[key][2] / r[key][1] for r in inside]))
         ratio = np.array([r[key][0] / r["truth"] for r in inside])
         out[f"ratio_{key}"] = tuple(float(v) for v in np.quantile(ratio, [0.05, 0.5, 0.95]))
+        out[f"logerr_{key}"] = float(np.median(np.abs(np.log(ratio))))
     lib_in = [r for r in inside if not r["flagged"]]
     out["coverage_lib_unflagged"] = _cover(lib_in, "lib") if lib_in else (float("nan"), 0.0)
     return out
@@ -202,13 +203,14 @@ def main(argv=None) -> None:
           f"cone-base depths {DEPTH[0] * 100:g} to {DEPTH[-1] * 100:g} cm")  # fmt: skip
     print(f"true calibration carries the largest weight: {s['top_is_truth']:.0%}")
     print(f"plate pressure, r = {PLATE * 100:g} cm, z = {SINKAGE * 100:g} cm:")
-    print(f"{'answer':<28}{'90% coverage':>16}{'width hi/lo':>13}{'median/truth 5-50-95%':>26}")
+    print(f"{'answer':<28}{'90% coverage':>16}{'width hi/lo':>13}{'median/truth 5-50-95%':>26}"
+          f"{'median |log(median/truth)|':>28}")  # fmt: skip
     for key, label in (("lib", "library"), ("true_cal", "true calibration given"),
                        ("free", "no calibration (prior)")):  # fmt: skip
         k, se = s[f"coverage_{key}"]
         r = s[f"ratio_{key}"]
         print(f"{label:<28}{k:>10.1%} +-{se:.1%}{s[f'width_{key}']:>13.2f}"
-              f"{r[0]:>10.2f}{r[1]:>8.2f}{r[2]:>8.2f}")  # fmt: skip
+              f"{r[0]:>10.2f}{r[1]:>8.2f}{r[2]:>8.2f}{s[f'logerr_{key}']:>28.3f}")  # fmt: skip
     k, se = s["coverage_lib_unflagged"]
     print(f"library, sites not flagged: coverage {k:.1%} +-{se:.1%}")
     print(f"flagged outside the library: {s['false_flags']} of {s['sites_in']} in-library "

@@ -13,9 +13,11 @@ is >= 0: how much worse the calibration's held values fit than free ones.
 Its reference distribution is simulated from the candidate's posterior
 predictive: (kphi, n) drawn from the candidate's posterior
 (:meth:`~terracone.inverse.library.evidence.HeldPosterior.draw`), sigma^2
-from Q / chi^2_N, and noise of the profile's model (white after whitening).
+from Q / chi^2_N, and AR(1) noise on the profile's weights with the rho
+estimated from its uncalibrated fit.
 The p-value is the share of replicates with T at least the observed one
-(Gelman, Meng and Stern [1]_); a site adds its pushes' T.  A profile (site)
+(Gelman, Meng and Stern [1]_); a site is checked as its pushes under the site
+terrain (:func:`~terracone.inverse.library.evidence.pooled_noise`).  A profile (site)
 whose p-value is below the level for every candidate is outside the library.
 
 References

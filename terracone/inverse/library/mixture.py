@@ -1,8 +1,9 @@
 """Candidates ranked by their evidence, and the mixture a library prior answers with.
 
 A profile's (or a site's) candidates are weighed by ``prior weight x
-evidence`` (:mod:`.evidence`; a site multiplies its pushes' evidences) and
-checked (:mod:`.check`): :func:`rank_candidates` gives a :class:`Ranking`.
+evidence`` (:mod:`.evidence`; a site's pushes under its site terrain,
+:func:`~terracone.inverse.library.evidence.pooled_noise`) and checked
+(:mod:`.check`): :func:`rank_candidates` gives a :class:`Ranking`.
 The answer of a profile is the mixture of the candidates' posteriors:
 :func:`mixture_draws` draws from each candidate in proportion to its weight,
 and the medians and 90% intervals of kc, kphi, n and plate pressure are
