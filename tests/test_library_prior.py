@@ -353,7 +353,8 @@ def _error(r) -> str:
 def test_errors_empty_library_no_cone_corrupt_file(files):
     tmp = files["tmp"]
     empty = tmp / "empty.sqlite"
-    Library(empty).close()
+    with Library(empty) as lb:  # a library file opens on first use: this makes it, empty
+        assert lb.list("calibration", include_builtin=False) == []
     assert _error(run("predict", files["ci"], "--library", empty)) == (
         f"Error: library {empty} holds no calibration (kind 'calibration'): add one with "
         "`terracone library add --from cal.json` (cal.json from `terracone learn --save`) or "
@@ -373,7 +374,9 @@ def test_errors_empty_library_no_cone_corrupt_file(files):
     bad = tmp / "bad.sqlite"
     bad.write_bytes(b"this is not a database" * 100)
     assert _error(run("predict", files["ci"], "--library", bad)) == (
-        f"Error: --library {bad}: not a terracone library (file is not a database)"
+        f"Error: terrain library {bad}: cannot use it (file is not a database); move the file "
+        "away or give another with --library or TERRACONE_LIBRARY (the packaged reference "
+        "terrains need no library file)"
     )
     missing = tmp / "none.sqlite"
     assert _error(run("match", files["ci"], "--library", missing)).startswith(

@@ -306,8 +306,6 @@ def load_library_prior(path: str) -> Any:
     reference terrains are not (they hold no learned phic, cc).  The file
     must exist (a library is not created here) and be a terracone library.
     """
-    import sqlite3
-
     from terracone.apps.library import Library
     from terracone.inverse.problem import LibraryPrior
 
@@ -317,11 +315,8 @@ def load_library_prior(path: str) -> Any:
             f"--library {path}: no such library file (store calibrations with `terracone "
             f"library --library {path} add --from cal.json` or `... seed-paper`)"
         )
-    try:
-        with Library(p) as lib:
-            recs = lib.list("calibration", include_builtin=False)
-    except sqlite3.DatabaseError as exc:
-        raise click.UsageError(f"--library {path}: not a terracone library ({exc})") from None
+    with Library(p) as lib:  # a corrupt or foreign file: the library's own message, naming it
+        recs = lib.list("calibration", include_builtin=False)
     try:
         cals = tuple(Calibration.from_library_record(r) for r in recs)
         return LibraryPrior(cals, source=str(path))
