@@ -434,9 +434,9 @@ def test_example_runs(block, outcomes):
 
 
 #: A shell line that runs an exported PyChrono module, and the line that module prints
-#: (terracone.apps.chrono): the plate's sinkage, and Bekker's static sinkage for its soil.
+#: (terracone.apps.chrono): the plate's sinkage and the static sinkage SCM's grid gives.
 SCRIPT = re.compile(r"^python3? \S+_soil\.py", re.M)
-SINKAGE = re.compile(r"sinkage (\S+) m after [\d.]+ s \(Bekker, static: (\S+) m\)")
+SINKAGE = re.compile(r"sinkage (\S+) m after [\d.]+ s \(static on SCM's grid: (\S+) m;")
 
 
 def test_the_docs_run_a_pychrono_module_as_a_script():
