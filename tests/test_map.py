@@ -41,8 +41,8 @@ from terracone.apps.maps.grid import choose_grid, nice_size
 from terracone.apps.maps.survey import coordinates, locate
 from terracone.cli import cli
 from terracone.data import CIProfile
-from terracone.inverse.learning.learn import Calibration
 from terracone.inverse.predict import predict_many
+from terracone.inverse.problem import Calibration, Problem
 from terracone.physics import units as u
 from terracone.physics.cone import cone_index_huang
 from terracone.physics.plate import plate_pressure
@@ -108,7 +108,7 @@ def survey(
         CIProfile(f"p{i}", DEPTH, ci[i], metadata={"lat": float(lat[i]), "lon": float(lon[i])})
         for i in range(pushes)
     ]
-    res = predict_many(profiles, calibration=CAL)
+    res = predict_many(profiles, Problem(calibration=CAL))
     return PredictionResults(res, {"calibration": CAL.terrain}), f, np.column_stack([x, y])
 
 
