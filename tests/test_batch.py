@@ -30,6 +30,8 @@ from terracone.apps.batch import run_batch
 from terracone.apps.workflow import Reading
 from terracone.data import CIProfile
 from terracone.inverse.bounds import Bounds
+from terracone.inverse.predict import RunSettings
+from terracone.inverse.problem import Problem
 from terracone.io import write_ci_profiles
 from terracone.io.scan import CsvLines
 from terracone.physics import units as u
@@ -487,7 +489,11 @@ def test_a_solver_failure_is_isolated_in_its_chunk(tmp_path):
         return solve_exact_many(depths, cis, **kw)
 
     s = run_batch(
-        tmp_path / "in.parquet", tmp_path / "o", pool=map, progress=False, solve_many=flaky
+        tmp_path / "in.parquet",
+        tmp_path / "o",
+        settings=RunSettings(solve_many=flaky),
+        pool=map,
+        progress=False,
     )
     res = read_out(tmp_path / "o")
     assert list(res["status"]) == ["ok"] * 4 + ["error"] + ["ok"] * 4
@@ -614,7 +620,7 @@ def test_csv_lines_keeps_file_line_numbers(tmp_path):
 
 def test_bad_settings_and_inputs_are_refused(tmp_path, data):
     with pytest.raises(ValueError, match="r_min"):
-        run_batch(data["parquet"], tmp_path / "o", model="rm1", progress=False)
+        run_batch(data["parquet"], tmp_path / "o", Problem(model="rm1"), progress=False)
     with pytest.raises(ValueError, match="chunk_size"):
         run_batch(data["parquet"], tmp_path / "o", chunk_size=0)
     with pytest.raises(ValueError, match="units"):
@@ -649,8 +655,8 @@ def test_bad_settings_and_inputs_are_refused(tmp_path, data):
 
 def test_calibration_and_rm1_match_predict(cluster, tmp_path):
     """With a calibration batch equals the single-profile predict (same solver path)."""
-    from terracone.inverse.learning.learn import Calibration
     from terracone.inverse.predict import predict
+    from terracone.inverse.problem import Calibration
 
     profiles = make_profiles(5, seed=13)
     to_frame(profiles).to_parquet(tmp_path / "in.parquet")
@@ -660,8 +666,8 @@ def test_calibration_and_rm1_match_predict(cluster, tmp_path):
     s = run_batch(
         tmp_path / "in.parquet",
         tmp_path / "cal",
+        Problem(calibration=cal_file),
         scheduler=cluster,
-        calibration=cal_file,
         progress=False,
     )
     assert s.success and s.profiles_ok == 5
@@ -672,7 +678,7 @@ def test_calibration_and_rm1_match_predict(cluster, tmp_path):
     for p, row in zip(profiles, out.itertuples()):
         # batch runs the vectorised solver without predict's final BVLS polish and
         # without its profile intervals of kc, kphi, cc: equal to 1e-6, and no worse
-        ref = predict(p, calibration=cal).as_dict()
+        ref = predict(p, Problem(calibration=cal)).as_dict()
         for k in ("kc", "kphi", "n", "cc", "phic_deg"):
             assert getattr(row, k) == pytest.approx(ref[k], rel=1e-6, abs=1e-9), k
         assert row.rmsd == pytest.approx(ref["rmsd"], rel=1e-6, abs=1e-12)
@@ -684,11 +690,9 @@ def test_calibration_and_rm1_match_predict(cluster, tmp_path):
     s = run_batch(
         tmp_path / "in.parquet",
         tmp_path / "rm1",
+        Problem(model="rm1", r_min=0.0254, bounds=Bounds.parse("n=0.2:1.5", "us")),
         scheduler=cluster,
-        model="rm1",
-        r_min=0.0254,
         units="us",
-        bounds=Bounds.parse("n=0.2:1.5", "us"),
         progress=False,
     )
     out = read_out(tmp_path / "rm1")
@@ -736,10 +740,9 @@ def test_uncertainty_columns_and_lack_of_fit(tmp_path):
     s = run_batch(
         tmp_path / "in.parquet",
         tmp_path / "out",
+        settings=RunSettings(uncertainty=True, draws=1000),
         workers=1,
         progress=False,
-        uncertainty=True,
-        draws=1000,
     )
     assert s.success and s.profiles_ok == N
     out = read_out(tmp_path / "out")
@@ -816,7 +819,13 @@ def test_layers_columns(tmp_path):
     pd.DataFrame({"profile": "pan", "depth_m": z, "ci_kpa": ci}).to_csv(
         tmp_path / "in.csv", index=False
     )
-    s = run_batch(tmp_path / "in.csv", tmp_path / "out", workers=1, progress=False, layers=2)
+    s = run_batch(
+        tmp_path / "in.csv",
+        tmp_path / "out",
+        settings=RunSettings(layers=2),
+        workers=1,
+        progress=False,
+    )
     assert s.success
     row = read_out(tmp_path / "out").iloc[0]
     assert row.preferred_layers == 2 and row.bic_layered < row.bic_single
