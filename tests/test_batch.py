@@ -702,6 +702,37 @@ def test_calibration_and_rm1_match_predict(cluster, tmp_path):
     assert np.isfinite(out["rmsd"]).all()  # RM0 data: RM1 need not fit them exactly
 
 
+def test_a_calibration_is_held_in_batch_posteriors_whatever_the_prior(tmp_path):
+    """Issue 28: with --calibration, --prior calibration and --prior bounds sample the same
+    posterior (the calibration's phic, cc and kc/kphi held in every draw) and _run.json
+    records the prior as "calibration" in both."""
+    from terracone.inverse.problem import Calibration
+
+    cal = Calibration("test", "rm0", None, None, 12.0, 2.0, 20.0, 1000.0, 0.8)
+    z = np.linspace(0.0, 0.4, 21)
+    rng = np.random.default_rng(3)
+    profiles = []
+    for i, kphi in enumerate((800.0, 2500.0)):
+        ci = cone_index(z, kc=0.02 * kphi, kphi=kphi, n=0.7 + 0.3 * i, cc=2.0, phic_deg=12.0)
+        profiles.append(CIProfile(f"c{i}", z, ci * (1 + 0.03 * rng.standard_normal(z.size))))
+    to_frame(profiles).to_parquet(tmp_path / "in.parquet")
+    run = RunSettings(uncertainty=True, draws=100)
+    outs = {}
+    for prior in ("bounds", "calibration"):
+        pb = Problem(calibration=cal, prior=prior)
+        s = run_batch(tmp_path / "in.parquet", tmp_path / prior, pb, run, pool=map, progress=False)
+        assert s.success and s.profiles_ok == 2
+        rec = json.loads((tmp_path / prior / "_run.json").read_text())["settings"]
+        assert rec["uncertainty"] == {"draws": 100, "prior": "calibration"}
+        outs[prior] = read_out(tmp_path / prior)
+    same_results(outs["bounds"], outs["calibration"])
+    out = outs["bounds"]
+    assert (out["phic_deg_q05"] == 12.0).all() and (out["phic_deg_q95"] == 12.0).all()
+    assert (out["cc_q05"] == 2.0).all() and (out["cc_q95"] == 2.0).all()
+    np.testing.assert_allclose(out["kc_q05"], 0.02 * out["kphi_q05"], rtol=1e-9)
+    np.testing.assert_allclose(out["kc_q95"], 0.02 * out["kphi_q95"], rtol=1e-9)
+
+
 def test_parquet_types_and_nulls(cluster, tmp_path):
     profiles = make_profiles(5, seed=11)
     frame = to_frame(profiles)
