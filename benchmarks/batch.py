@@ -169,7 +169,7 @@ def per_core_child(args: argparse.Namespace) -> None:
     3 after one warm-up call, wall and CPU time: with predict_many's defaults (the issue's
     measure: a grid of 97 points over n) and with the batch's settings (41 points, the work
     a batch worker does); prints a JSON line."""
-    from terracone.inverse.predict import predict_many
+    from terracone.inverse.predict import RunSettings, predict_many
     from terracone.io.stream import ConeCache, input_files, iter_chunks, scan_inputs
     from terracone.physics.cone import get_cone
 
@@ -180,7 +180,7 @@ def per_core_child(args: argparse.Namespace) -> None:
     pset.errors = [e for e in chunk.problems if e is not None]
     out: dict[str, float] = {"profiles": n}
     for label, extra in (("", {}), ("same_", {"n_grid": args.n_grid})):
-        kw = {"detail": "summary", "chunk_size": n, **extra}
+        kw = {"settings": RunSettings(detail="summary", **extra), "chunk_size": n}
         predict_many(pset, **kw)
         best = best_cpu = float("inf")
         for _ in range(3):
@@ -202,7 +202,7 @@ def costs(chunk, n_grid: int) -> dict[str, float]:
     metadata columns, on the profiles of one chunk (best of 4 each)."""
     import pyarrow as pa
 
-    from terracone.inverse.predict import predict_many
+    from terracone.inverse.predict import RunSettings, predict_many
 
     task = chunk.task
     task.errors = []
@@ -225,7 +225,8 @@ def costs(chunk, n_grid: int) -> dict[str, float]:
         for _ in range(4):
             fresh = dataclasses.replace(pset)  # screened again
             t = time.perf_counter()
-            predict_many(fresh, detail="summary", chunk_size=max(count, 1), n_grid=n_grid)
+            run = RunSettings(detail="summary", n_grid=n_grid)
+            predict_many(fresh, settings=run, chunk_size=max(count, 1))
             best = min(best, time.perf_counter() - t)
         out[name] = 1e6 * best / max(count, 1)
     out["metadata_us"] -= out["fit_us"]  # what the columns add to a fit
