@@ -48,11 +48,11 @@ import time
 
 import numpy as np
 
+from terracone import jit
 from terracone.data import CIProfile
 from terracone.inverse import Bounds, Problem, predict
 from terracone.inverse.predict import rmsd_objective
 from terracone.inverse.problem import Calibration
-from terracone.inverse.uncertainty import likelihood
 from terracone.inverse.uncertainty.noise import ar1_noise
 from terracone.inverse.uncertainty.posterior import PosteriorOptions, posterior
 from terracone.physics.cone import cone_index_huang
@@ -154,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     bounds = Bounds()
     profiles = make_profiles(args.profiles, args.seed)
-    print(f"numba kernels: {'on' if likelihood.JIT_ENABLED else 'off (TERRACONE_NUMBA=0)'}")
+    print(f"numba kernels: {'on' if jit.enabled() else 'off (TERRACONE_NUMBA=0 or not cached)'}")
     print(
         f"import terracone.inverse.uncertainty.posterior (fresh interpreter): {import_time():.2f} s"
     )
@@ -170,11 +170,8 @@ def main(argv: list[str] | None = None) -> int:
         fit, t_fit = timed(predict, prof, pb, repeats=args.repeats)
         kw = dict(start=fit, draws=args.draws, seed=i)
         _, t_post = timed(posterior, prof, pb, repeats=args.repeats, **kw)
-        likelihood.JIT_ENABLED, jit = False, likelihood.JIT_ENABLED
-        try:
+        with jit.disabled():  # the numpy likelihood, as before issue 14
             _, t_before = timed(posterior, prof, pb, **kw, **BEFORE)
-        finally:
-            likelihood.JIT_ENABLED = jit
         rows.append((t_pso, t_post, t_fit + t_post, t_before))
         print(
             f"{prof.id:4s} prior {'bounds' if prior == 'bounds' else 'LETE':6s} "
