@@ -53,6 +53,8 @@ __all__ = [
     "read_results",
     "PosteriorSummary",
     "LayeredSummary",
+    "convert_draws",
+    "finite_or_none",
     "result_columns",
     "settings_dict",
     "to_document",
@@ -164,48 +166,67 @@ class PlateCurve:
         }
 
 
-@dataclass
+@dataclass(kw_only=True)
 class PosteriorSummary:
-    """A posterior as a result file keeps it: intervals, labels and, from JSON, the draws (SI).
+    """A posterior as results carry it: named parameters, their draws, intervals and labels (SI).
 
-    :func:`read_results` attaches one to :attr:`PredictionResult.posterior`
-    where a fitted :class:`~terracone.inverse.uncertainty.posterior.PosteriorResult`
-    would be; both have ``intervals``, ``identifiability``, ``samples``,
-    ``prior`` and ``level``, so readers of results need not tell them apart.
+    The one summary type of a posterior: a fitted one-layer posterior
+    (:class:`~terracone.inverse.uncertainty.posterior.PosteriorResult`) and a
+    layered one (:class:`~terracone.inverse.layered.LayeredPosterior`) are
+    this type with their run's details added, and :func:`read_results` gives
+    it back from files.  Readers of results use these fields alone.
 
     Attributes
     ----------
     intervals : dict
         Equal-tailed credible interval (lo, hi) per parameter (SI): kc
-        [kN/m^(n+1)], kphi [kN/m^(n+2)], n [-], cc [kPa], phic_deg [deg].
+        [kN/m^(n+1)], kphi [kN/m^(n+2)], n [-], cc [kPa], phic_deg [deg]
+        (a layered posterior: ``kc_1``, ..., ``interface_1`` [m]).
     identifiability : dict
         "determined", "weakly determined" or "set by prior" per parameter.
-    samples : ndarray or None, shape (draws, 5)
-        Posterior draws of kc, kphi, n, cc, phic_deg (SI); only JSON written
-        with the draws (``predict --uncertainty --json``) has them.
+    samples : ndarray or None, shape (draws, len(names))
+        Posterior draws (SI); read from a file only when it kept them
+        (``predict --uncertainty --json``).
+    names : tuple of str
+        The columns of ``samples`` (:data:`UQ_PARAMS` for one layer).
+    medians : dict
+        Posterior median per parameter (SI), where known.
     prior : str or None
-        "bounds" or "calibration:<terrain>", when the file records it.
+        "bounds" or "calibration:<terrain>", when known.
     level : float
         Credibility level of the intervals [-].
+    notes : list of str
+        What the run held or found (a calibration's values held, warnings).
     """
 
     intervals: dict[str, tuple[float, float]]
     identifiability: dict[str, str] = field(default_factory=dict)
-    samples: np.ndarray | None = None
+    samples: np.ndarray | None = field(default=None, repr=False)
+    names: tuple[str, ...] = UQ_PARAMS
+    medians: dict[str, float] = field(default_factory=dict)
     prior: str | None = None
     level: float = 0.9
+    notes: list[str] = field(default_factory=list)
+
+    def quantiles(self, units: str = "si") -> dict[str, tuple[float, float, float]]:
+        """(lo, median, hi) per parameter in ``units``: quantiles of the draws, each converted
+        with its own n (:func:`convert_draws`); without draws, the intervals converted with
+        the middle of n's interval (the median then NaN)."""
+        units = u.check_system(units)
+        if self.samples is not None:
+            conv = convert_draws(self.names, self.samples, units)
+            q = np.quantile(conv, [(1 - self.level) / 2, 0.5, (1 + self.level) / 2], axis=0)
+            return {k: (float(q[0, j]), float(q[1, j]), float(q[2, j])) for j, k in
+                    enumerate(self.names)}  # fmt: skip
+        n = self.intervals.get("n", (1.0, 1.0))
+        iv = _intervals(self.intervals, 0.5 * (n[0] + n[1]), units, False)
+        return {k: (lo, math.nan, hi) for k, (lo, hi) in iv.items()}
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
-        """``intervals`` and ``identifiability`` of a profile in a prediction document.
-
-        kc and kphi are converted with the middle of n's interval (the draws,
-        which a US document converts one by one, are not always kept).
-        """
-        units = u.check_system(units)
-        n = self.intervals.get("n", (1.0, 1.0))
-        mid = 0.5 * (n[0] + n[1])
+        """``intervals`` and ``identifiability`` of a profile in a prediction document."""
+        q = self.quantiles(units)
         return {
-            "intervals": _intervals(self.intervals, mid, units, False),
+            "intervals": {k: [v[0], v[2]] for k, v in q.items()},
             "identifiability": dict(self.identifiability),
         }
 
@@ -213,61 +234,67 @@ class PosteriorSummary:
         """The draws as ``{"names", "units", "values"}`` (each converted with its own n)."""
         if self.samples is None:
             return None
-        s = _convert_samples(self.samples, units, to_si=False)
-        return {"names": list(UQ_PARAMS), "units": units, "values": s.tolist()}
+        values = convert_draws(self.names, self.samples, units).tolist()
+        return {"names": list(self.names), "units": u.check_system(units), "values": values}
 
 
-@dataclass
+@dataclass(kw_only=True)
 class LayeredSummary:
-    """A layered fit as a prediction table keeps it (SI): what batch's layered columns hold.
+    """A layered fit as results carry it (SI): the one type of a layered fit.
 
-    :func:`read_results` attaches one to :attr:`PredictionResult.layered` for
-    each row of a table with a layered fit, where a fitted
-    :class:`~terracone.inverse.layered.LayeredResult` would be.
+    A fitted :class:`~terracone.inverse.layered.LayeredResult` is this type
+    with the fit's details added; :func:`read_results` gives it back from a
+    prediction table, where each layer's n is known and its kc, kphi, cc and
+    phic are not (NaN).
 
     Attributes
     ----------
     status : {"ok", "error"}
     error : str or None
         Why the layered fit was not possible.
+    layers : list of TerrainParameters
+        Parameters of each layer, top first.
+    interfaces : list of float
+        Depths of the layer boundaries [m].
     bic, bic_single : float
         BIC of the layered and of the one-layer fit.
     preferred_layers : int
         Number of layers with the lower BIC.
     r2_ci : float
         R2 of the layered CI fit [-].
-    interfaces : list of float
-        Depths of the layer boundaries [m].
-    layer_n : list of float
-        n of each layer, top first [-].
     lack_of_fit : str or None
     """
 
     status: str
     error: str | None = None
+    layers: list[TerrainParameters] = field(default_factory=list)
+    interfaces: list[float] = field(default_factory=list)
     bic: float = math.nan
     bic_single: float = math.nan
     preferred_layers: int = 1
     r2_ci: float = math.nan
-    interfaces: list[float] = field(default_factory=list)
-    layer_n: list[float] = field(default_factory=list)
     lack_of_fit: str | None = None
 
     @property
     def ok(self) -> bool:
         return self.status == "ok"
 
+    @property
+    def layer_n(self) -> list[float]:
+        """n of each layer, top first [-]."""
+        return [p.n for p in self.layers]
+
     def as_dict(self, units: str = "si") -> dict[str, Any]:
-        """The ``layered`` of a profile in a prediction document, as far as the table knows it."""
+        """The ``layered`` of a profile in a prediction document, as far as a table knows it."""
         d: dict[str, Any] = {"status": self.status, "error": self.error}
         if self.ok:
             d.update(
                 layers=[{"n": v} for v in self.layer_n],
                 interfaces=[float(v) for v in u.length_from_si(self.interfaces, units)],
-                r2_ci=_num(self.r2_ci),
+                r2_ci=finite_or_none(self.r2_ci),
                 lack_of_fit=self.lack_of_fit,
-                bic=_num(self.bic),
-                bic_single=_num(self.bic_single),
+                bic=finite_or_none(self.bic),
+                bic_single=finite_or_none(self.bic_single),
                 preferred_layers=self.preferred_layers,
                 units=units,
             )
@@ -442,8 +469,8 @@ class PredictionResult:
             d.update({k: p[k] for k in keys})
         else:
             d.update({k: None for k in keys})
-        d["rmsd"] = _num(u.pressure_from_si(self.rmsd, units)) if self.ok else None
-        d["r2_ci"] = _num(self.r2_ci) if self.ok else None
+        d["rmsd"] = finite_or_none(u.pressure_from_si(self.rmsd, units)) if self.ok else None
+        d["r2_ci"] = finite_or_none(self.r2_ci) if self.ok else None
         d["longest_run"] = self.longest_run if self.ok else None
         d["lack_of_fit"] = self.lack_of_fit
         d["units"] = units
@@ -492,7 +519,8 @@ class PredictionResults(list):
         return predictions_html(self)
 
 
-def _num(v: Any) -> float | None:
+def finite_or_none(v: Any) -> float | None:
+    """``float(v)``, or None where it is NaN or infinite (JSON has no NaN)."""
     v = float(v)
     return v if math.isfinite(v) else None
 
@@ -506,13 +534,32 @@ def _intervals(iv: Mapping[str, Sequence[float]], n: float, units: str, to_si: b
     return {k: [float(conv.get(k, float)(v)) for v in lohi] for k, lohi in iv.items()}
 
 
-def _convert_samples(samples: Any, units: str, to_si: bool) -> np.ndarray:
-    """Draws (kc, kphi, n, cc, phic_deg) to or from SI, kc and kphi each with its own n."""
-    s = np.array(samples, dtype=float)
-    if units != "si":
-        kc, kphi = (u.kc_to_si, u.kphi_to_si) if to_si else (u.kc_from_si, u.kphi_from_si)
-        s[:, 0], s[:, 1] = kc(s[:, 0], s[:, 2], units), kphi(s[:, 1], s[:, 2], units)
-        s[:, 3] = (u.pressure_to_si if to_si else u.pressure_from_si)(s[:, 3], units)
+def convert_draws(
+    names: Sequence[str], samples: Any, units: str, *, to_si: bool = False
+) -> np.ndarray:
+    """Posterior draws (S, len(names)) from SI into ``units`` (or back, ``to_si``).
+
+    The one conversion of draws: kc and kphi (``kc``, ``kc_1``, ...) each
+    with its own draw's n (``n``, ``n_1``, ...), cc as a pressure,
+    interfaces as lengths; n and phic are unitless.
+    """
+    names = list(names)
+    s = np.array(samples, dtype=float, copy=True).reshape(-1, len(names))
+    units = u.check_system(units)
+    if units == "si":
+        return s
+    kc, kphi = (u.kc_to_si, u.kphi_to_si) if to_si else (u.kc_from_si, u.kphi_from_si)
+    p = u.pressure_to_si if to_si else u.pressure_from_si
+    ln = u.length_to_si if to_si else u.length_from_si
+    for j, name in enumerate(names):
+        kind, _, layer = name.partition("_")
+        if kind in ("kc", "kphi"):
+            n = s[:, names.index(f"n_{layer}" if layer else "n")]
+            s[:, j] = (kc if kind == "kc" else kphi)(s[:, j], n, units)
+        elif kind == "cc":
+            s[:, j] = p(s[:, j], units)
+        elif kind == "interface":
+            s[:, j] = ln(s[:, j], units)
     return s
 
 
@@ -666,7 +713,7 @@ def _samples_to_si(block: Mapping[str, Any]) -> np.ndarray:
     if names != list(UQ_PARAMS):
         raise ValueError(f"samples: expected columns {list(UQ_PARAMS)} (got {names})")
     s = np.reshape(block["values"], (-1, len(UQ_PARAMS)))
-    return _convert_samples(s, u.check_system(block.get("units", "si")), to_si=True)
+    return convert_draws(UQ_PARAMS, s, block.get("units", "si"), to_si=True)
 
 
 def _posterior_from_dict(
@@ -773,6 +820,10 @@ def read_json(path: PathLike) -> PredictionResults:
         doc = json.loads(p.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ValueError(f"file {p}: cannot read JSON ({exc})") from exc
+    except RecursionError:
+        from terracone.io.jsonkeys import JSON_TOO_DEEP
+
+        raise ValueError(f"file {p}: {JSON_TOO_DEEP}") from None
     return from_document(doc, source=f"file {p}")
 
 
@@ -837,11 +888,11 @@ def _posterior_row(post: Any, units: str) -> dict[str, Any]:
     return row
 
 
-def _layered_row(lr: Any, units: str) -> dict[str, Any]:
-    """The layered columns of a LayeredResult or a LayeredSummary."""
+def _layered_row(lr: LayeredSummary, units: str) -> dict[str, Any]:
+    """The layered columns of a layered fit (:class:`LayeredSummary`)."""
     if not lr.ok:
         return {"lack_of_fit_layered": f"layered fit not possible: {lr.error}"}
-    ns = lr.layer_n if isinstance(lr, LayeredSummary) else [p.n for p in lr.layers]
+    ns = lr.layer_n
     return {
         "bic_single": lr.bic_single,
         "bic_layered": lr.bic,
@@ -860,7 +911,7 @@ def _row_layered(row: Mapping[str, Any], units: str) -> LayeredSummary | None:
         head = "layered fit not possible: "
         if why is None or not why.startswith(head):
             return None
-        return LayeredSummary("error", error=why[len(head) :])
+        return LayeredSummary(status="error", error=why[len(head) :])
 
     def floats(key: str) -> list[float]:
         return [float(v) for v in (_cell(row, key) or "").split(",") if v.strip()]
@@ -868,14 +919,15 @@ def _row_layered(row: Mapping[str, Any], units: str) -> LayeredSummary | None:
     def num(key: str) -> float:
         return math.nan if _cell(row, key) is None else float(row[key])
 
+    nan = math.nan
     return LayeredSummary(
-        "ok",
+        status="ok",
         bic=num("bic_layered"),
         bic_single=num("bic_single"),
         preferred_layers=int(row["preferred_layers"]),
         r2_ci=num("r2_layered"),
         interfaces=[float(u.length_to_si(v, units)) for v in floats("interfaces")],
-        layer_n=floats("n_layers"),
+        layers=[TerrainParameters(nan, nan, n, nan, nan) for n in floats("n_layers")],
         lack_of_fit=why,
     )
 
@@ -1027,7 +1079,7 @@ def _row_posterior(row: Mapping[str, Any], units: str, n: float) -> PosteriorSum
     if not iv:
         return None
     ident = {p: _cell(row, f"ident_{p}") for p in UQ_PARAMS if _cell(row, f"ident_{p}")}
-    return PosteriorSummary(_intervals_to_si(iv, n, units), ident)
+    return PosteriorSummary(intervals=_intervals_to_si(iv, n, units), identifiability=ident)
 
 
 def _result_from_row(row: Mapping[str, Any], meta_names: Mapping[str, str]) -> PredictionResult:

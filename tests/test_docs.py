@@ -34,7 +34,7 @@ pushes.csv                          a wide table: 6 located pushes, depths in cm
 survey.csv, survey.json             the same with 30 pushes on a grid; its prediction with
                                     sand.json (= cal.json)
 sc900_export.txt                    PokeMe.txt again
-hmmwv.json                          the vehicle file of docs/mobility.md
+hmmwv.json, m113.json               the vehicle files of docs/mobility.md
 PokeMe.txt, field.txt               FieldScout SC900 exports (kPa, 1/2 inch cone), 4 pushes
 big.csv, big/, field-data/          200 pushes of LETE sand as a long CSV (big/, field-data/:
                                     split in two files)
@@ -206,6 +206,7 @@ def write_long_ci(path: Path, pushes: int, seed: int, first: int = 1) -> pd.Data
 HMMWV = {
     "name": "HMMWV M1152",
     "kind": "wheeled",
+    "drive": "all",
     "mobility_index_inputs": {
         "gross_weight": "13450 lb", "axles": 2, "tires": 4,
         "tire_width": "12.5 in", "tire_diameter": "37 in",
@@ -214,6 +215,16 @@ HMMWV = {
     },
     "tire_deflection_ratio": 0.15,
     "wheel": {"load": "3363 lb", "diameter": "37 in", "width": "12.5 in"},
+}  # fmt: skip
+#: The tracked vehicle file of docs/mobility.md (an M113 from its published data).
+M113 = {
+    "name": "M113",
+    "kind": "tracked",
+    "mobility_index_inputs": {
+        "gross_weight": "22900 lb", "track_width": "15 in", "track_contact_length": "105 in",
+        "tracks": 2, "bogies": 10, "shoe_area": "90 in2", "grouser_height": "0 in",
+        "ground_clearance": "16.1 in", "engine_power": "215 hp", "transmission": "automatic",
+    },
 }  # fmt: skip
 
 
@@ -301,6 +312,7 @@ def workspace(tmp_path_factory) -> Path:
     shutil.copy(ws / "PokeMe.txt", ws / "field.txt")
     shutil.copy(ws / "PokeMe.txt", ws / "sc900_export.txt")
     (ws / "hmmwv.json").write_text(json.dumps(HMMWV, indent=1))
+    (ws / "m113.json").write_text(json.dumps(M113, indent=1))
     terracone("learn", "--ci", "CI.csv", "--plates", "PLATES.csv", "--save", "cal.json", cwd=ws)
     shutil.copy(ws / "cal.json", ws / "sand.json")
     survey = ["--format", "wide", "--depth-unit", "cm", "--calibration", "sand.json", "--json"]

@@ -2,7 +2,7 @@
 
 terracone ships the published tables as package data
 (``terracone/data/paper/table_4_*.csv``, read by
-:mod:`terracone.report.paper`).  The project's shared folder holds the same
+:mod:`terracone.apps.reproduce.paper`).  The project's shared folder holds the same
 tables, typed in independently (``huang2020_predicted_parameters.csv``,
 ``huang2020_fit_metrics.csv``).  Every value the two have in common must be
 the same number; the tests skip with the reason when ../shared is absent.
@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 from conftest import require_shared
 
-from terracone.report.paper import paper_dir, published_agreement, published_parameters
+from terracone.apps.reproduce.paper import paper_dir, published_agreement, published_parameters
 
 
 def _rows(path: Path) -> list[dict[str, str]]:

@@ -23,6 +23,11 @@ from click.testing import CliRunner
 
 import terracone
 from terracone.apps.example import CI_FILE, PLATES_FILE, example_dir
+from terracone.apps.reproduce.paper import (
+    published_agreement,
+    published_parameters,
+    us_column_check,
+)
 from terracone.cli import cli
 from terracone.data import TerrainParameters
 from terracone.inverse.evaluate import cross_table
@@ -32,7 +37,6 @@ from terracone.io import read_plate_tests
 from terracone.physics import units as u
 from terracone.report import build_report, result_kind
 from terracone.report import figures as F
-from terracone.report.paper import published_agreement, published_parameters, us_column_check
 from terracone.report.tables import (
     Table,
     agreement_table,

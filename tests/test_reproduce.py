@@ -16,11 +16,12 @@ from click.testing import CliRunner
 from PIL import Image
 
 from terracone.apps.reproduce import KRC_FORCE_LIMIT, WONG_LETE, reproduce
+from terracone.apps.reproduce.paper import published_agreement, published_parameters
+from terracone.apps.reproduce.run import DATA_HEADER, prepare_output
 from terracone.cli import cli
 from terracone.io import read_ci_profiles, read_plate_tests
 from terracone.physics import units as u
 from terracone.report import build_report
-from terracone.report.paper import published_agreement, published_parameters
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +36,7 @@ def pool():
             return super().map(fn, tasks, **kwargs)
 
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr("terracone.apps.reproduce.ProcessPoolExecutor", Executor)
+        mp.setattr("terracone.apps.reproduce.pool.ProcessPoolExecutor", Executor)
         yield recorder
 
 
@@ -184,4 +185,24 @@ def test_refuses_a_folder_it_did_not_write(tmp_path):
     (tmp_path / "data" / "precious.csv").write_text("x\n")
     with pytest.raises(ValueError, match="not written by terracone reproduce"):
         reproduce(tmp_path, quick=True)
+    assert (tmp_path / "data" / "precious.csv").exists()
+
+
+def test_a_folder_that_reproduce_alone_wrote_is_written_again(run, tmp_path):
+    # the data files of a run start with the header that marks a folder as ours
+    for f in (run.out_dir / "data").iterdir():
+        assert f.read_text().splitlines()[0] == f"# {DATA_HEADER}", f
+    # terracone.apps.reproduce.reproduce alone writes data/ and results/, no reproduce.json
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "lete_sand_synthetic_ci.csv").write_text(f"# {DATA_HEADER}\nx\n")
+    (tmp_path / "results").mkdir()
+    (tmp_path / "results" / "lete_learn.json").write_text("{}\n")
+    assert prepare_output(tmp_path) == tmp_path
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["data", "figures", "results", "tables"]
+    assert not any(any(p.iterdir()) for p in tmp_path.iterdir())
+    # one file of data/ without the header: someone else's folder
+    (tmp_path / "data" / "lete_sand_synthetic_ci.csv").write_text(f"# {DATA_HEADER}\nx\n")
+    (tmp_path / "data" / "precious.csv").write_text("x\n")
+    with pytest.raises(ValueError, match="not written by terracone reproduce"):
+        prepare_output(tmp_path)
     assert (tmp_path / "data" / "precious.csv").exists()

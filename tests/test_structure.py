@@ -155,8 +155,6 @@ RANKS = {
     "cli": 5,
     "__main__": 5,
 }
-#: Deliberate exceptions to the layer order, each explained in docs/architecture.md.
-UPWARD_ALLOWED = {("terracone.apps.reproduce", "terracone.report")}
 #: Classes named ``*Result`` outside result.py and inverse/: Sobol indices.
 RESULT_CLASSES_ALLOWED = {("apps/sensitivity.py", "SobolResult")}
 
@@ -247,12 +245,6 @@ def upward_imports(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
     )  # fmt: skip
 
 
-def allowed(edge: tuple[str, str]) -> bool:
-    """An upward import of :data:`UPWARD_ALLOWED` (importer, imported module or its package)."""
-    v, w = edge
-    return any(v == a and (w == b or w.startswith(b + ".")) for a, b in UPWARD_ALLOWED)
-
-
 def test_the_graph_measures_by_hand():
     mods = [
         ("__init__.py", ast.parse("from terracone.data import X\n")),
@@ -272,8 +264,15 @@ def test_the_graph_measures_by_hand():
         ["terracone.io", "terracone.io.scan"],
     ]
     assert upward_imports(g) == [("terracone.physics.cone", "terracone.data")]
-    assert not allowed(("terracone.physics.cone", "terracone.data"))
-    assert allowed(("terracone.apps.reproduce", "terracone.report.html"))
+    # an application drawing with report/ imports upward (no exception since issue 28)
+    drawing = [
+        ("apps/reproduce.py", ast.parse("from terracone.report import html\n")),
+        ("report/__init__.py", ast.parse("")),
+        ("report/html.py", ast.parse("")),
+    ]
+    assert upward_imports(module_graph(drawing)) == [
+        ("terracone.apps.reproduce", "terracone.report.html")
+    ]
     with pytest.raises(KeyError):
         rank_of("terracone.maps.grid")  # a new folder must be given its place
     del g["terracone.physics.cone"]
@@ -288,7 +287,7 @@ def test_every_module_has_a_layer_and_imports_none_above_it():
     graph = module_graph(modules())
     for name in graph:
         rank_of(name)  # a KeyError names a folder or module that needs its place in RANKS
-    assert [e for e in upward_imports(graph) if not allowed(e)] == []
+    assert upward_imports(graph) == []
 
 
 def getattr_modules(mods: list[tuple[str, ast.Module]]) -> list[str]:

@@ -105,7 +105,8 @@ class BatchSummary:
     on resume), ``chunks_failed`` (their profiles are error rows; resume
     recomputes them); ``duplicate_ids`` (id -> count, at most 100 listed;
     ``n_duplicate_ids`` counts all); ``problems``: run-level problems, empty
-    when all is well.  ``workers`` (threads) and ``scheduler`` (None: local
+    when all is well; ``notes``: what the run left aside without a problem
+    (an input file of a directory that holds no profile).  ``workers`` (threads) and ``scheduler`` (None: local
     cluster).  Seconds: ``scan_s``, ``startup_s``, ``read_s`` and
     ``write_s`` (client), ``fit_s`` and ``fit_cpu_s`` (worker-seconds and
     their CPU time, summed over chunks), ``verify_s``, ``wall_s``;
@@ -123,6 +124,7 @@ class BatchSummary:
     duplicate_ids: dict[str, int] = field(default_factory=dict)
     n_duplicate_ids: int = 0
     problems: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
     workers: int = 0
     scheduler: str | None = None
     scan_s: float = 0.0
@@ -1002,6 +1004,10 @@ def _begin(
     t0 = time.perf_counter()
     plan = scan_inputs(files, leading=PARQUET_COLUMNS)  # output columns first
     summary.scan_s = time.perf_counter() - t0
+    if plan.profiles == 0:  # as predict: a file of a header and no data is refused
+        where = files[0][0] if len(files) == 1 else files[0][0].parent
+        raise InputError("no data rows: the input holds no profile", file=str(where))
+    summary.notes += [f"file {f.path}: no data rows" for f in plan.files if not f.profiles]
     n_chunks = -(-plan.profiles // chunk_size)
     expected = {i: min(chunk_size, plan.profiles - i * chunk_size) for i in range(n_chunks)}
     run.update(profiles=plan.profiles, chunks=n_chunks)

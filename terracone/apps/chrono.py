@@ -77,7 +77,9 @@ __all__ = [
     "SCM_UNITS",
     "SHEAR_KEYS",
     "SPEC_SOIL_KEYS",
+    "DRAWS_HEADER",
     "default_origin",
+    "is_ensemble",
     "pychrono_module",
     "scm_settings",
     "scm_spec",
@@ -116,11 +118,14 @@ SCM_UNITS = ("Pa/m^n", "Pa/m^(n-1)", "-", "Pa", "deg", "m", "Pa/m", "Pa s/m")
 #: terracone's SI keys of the terrain's shear strength (library keys): cohesion
 #: [kPa], friction angle [deg], Janosi-Hanamoto shear deformation modulus [m].
 SHEAR_KEYS = ("c_kpa", "phi_deg", "K_m")
+#: The header of ``draws.csv`` (:func:`write_scm_specs`).
+DRAWS_HEADER = ("file", "kc [kN/m^(n+1)]", "kphi [kN/m^(n+2)]", "n", "cc [kPa]", "phic_deg")
 
-#: Default SCM elastic stiffness [Pa/m]: the value of Chrono's SCM demo for
-#: Wong's LETE sand (``demo_VEH_DeformableSoil``) and of its
-#: ``scm_soil_parameters/scm_hard.json``; above every Bekker Kphi of Wong's
-#: reference soils.  Not a Bekker-Wong value: never from data.
+#: Default SCM elastic stiffness [Pa/m]: the value of the LETE-sand branch of
+#: PyChrono's SCM demo (``src/demos/python/vehicle/demo_VEH_DeformableSoil.py``);
+#: Chrono's co-simulation samples use 4e7 (``data/vehicle/cosim/terrain/scm_soft.json``)
+#: and 2e8 (``scm_hard.json``).  Above every Bekker Kphi of Wong's reference soils.
+#: Not a Bekker-Wong value: never from data.
 DEFAULT_ELASTIC_K = 4e8
 #: Default SCM vertical damping [Pa s/m]: the value of every SCM sample of
 #: Chrono (``data/vehicle/cosim/terrain/scm_soft.json``, ``scm_hard.json``).
@@ -318,6 +323,9 @@ def scm_values(
         float(settings.elastic_k),  # Pa/m
         float(settings.damping_r),  # Pa s/m
     )
+    bad = [a for a, v in zip(SCM_ARGUMENTS, values) if not math.isfinite(v)]
+    if bad:
+        raise ValueError(f"{name}: {', '.join(bad)} not a finite number; nothing was written")
     if not values[6] > values[0]:
         where = "the default " if "elastic_k" in settings.defaulted else ""
         raise ValueError(
@@ -400,34 +408,60 @@ class LocatedSoil:
 
 
 def write_scm_specs(
-    folder: str | os.PathLike, soil: LocatedSoil, settings: SCMSettings
+    folder: str | os.PathLike, soil: LocatedSoil, settings: SCMSettings, *, force: bool = False
 ) -> list[Path]:
     """One co-simulation spec per draw of ``soil`` in ``folder``, and ``draws.csv``.
 
     Files ``<id>-draw-0001.json``, ...; ``draws.csv`` lists file, kc
-    [kN/m^(n+1)], kphi [kN/m^(n+2)], n, cc [kPa] and phic_deg of each draw.
-    Every spec is built before anything is written: a draw that cannot be
-    exported (named in the ValueError) leaves no file and no folder.
+    [kN/m^(n+1)], kphi [kN/m^(n+2)], n, cc [kPa] and phic_deg of each draw
+    (a file name that a spreadsheet would take for a formula is written after
+    a single quote, OWASP's advice against CSV injection).  Every spec is built
+    before anything is written: a draw that cannot be exported (named in the
+    ValueError) leaves no file and no folder.  The folder then holds these
+    files and nothing else: they are written into a new folder that takes its
+    place whole (:func:`terracone.io.outputs.run_directory`); an earlier
+    ensemble there is replaced, a folder holding anything else is refused
+    unless ``force``.
     """
+    from terracone.io.outputs import run_directory
+    from terracone.io.tables import guard_formula
+
     if not soil.draws:
         raise ValueError(f"{soil.id!r} has no draws to write")
     safe = re.sub(r"[^A-Za-z0-9._-]+", "_", soil.id).strip("_") or "profile"
     docs = []
     for k, draw in enumerate(soil.draws, 1):
         docs.append(scm_spec(draw, settings, f"{soil.id!r} draw {k}"))
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    written, rows = [], []
-    for k, (draw, doc) in enumerate(zip(soil.draws, docs), 1):
-        path = folder / f"{safe}-draw-{k:04d}.json"
-        path.write_text(json.dumps(doc, indent=4) + "\n", encoding="utf-8")
-        written.append(path)
-        rows.append([path.name] + [draw.get(p) for p in ("kc", "kphi", "n", "cc", "phic_deg")])
-    with open(folder / "draws.csv", "w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(["file", "kc [kN/m^(n+1)]", "kphi [kN/m^(n+2)]", "n", "cc [kPa]", "phic_deg"])
-        w.writerows(rows)
-    return written
+    folder = Path(folder).expanduser().resolve()
+    names, rows = [], []
+    with run_directory(folder, what="Chrono ensemble", is_run=is_ensemble, force=force) as stage:
+        for k, (draw, doc) in enumerate(zip(soil.draws, docs), 1):
+            name = f"{safe}-draw-{k:04d}.json"
+            (stage / name).write_text(json.dumps(doc, indent=4) + "\n", encoding="utf-8")
+            names.append(name)
+            values = [draw.get(p) for p in ("kc", "kphi", "n", "cc", "phic_deg")]
+            rows.append([guard_formula(name), *values])
+        with open(stage / "draws.csv", "w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)
+            w.writerow(list(DRAWS_HEADER))
+            w.writerows(rows)
+    return [folder / name for name in names]
+
+
+def is_ensemble(folder: str | os.PathLike) -> bool:
+    """Whether a folder holds one ensemble of :func:`write_scm_specs` and nothing else."""
+    from terracone.io.tables import unguard_formula
+
+    d = Path(folder)
+    try:
+        with open(d / "draws.csv", newline="", encoding="utf-8") as fh:
+            table = list(csv.reader(fh))
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return False
+    if not table or tuple(table[0]) != DRAWS_HEADER:
+        return False
+    files = {"draws.csv"} | {unguard_formula(r[0]) for r in table[1:] if r}
+    return all(e.is_file() and e.name in files for e in d.iterdir())
 
 
 def default_origin(soils: Sequence[LocatedSoil]) -> tuple[float, float]:
@@ -451,8 +485,21 @@ def _rows(soil: LocatedSoil, settings: SCMSettings, n_draws: int) -> tuple[Any, 
     return values, draws
 
 
+def _number(v: float | None) -> str:
+    """A Python literal of a number (``float('nan')`` and the like where not finite)."""
+    if v is None:
+        return "None"
+    x = float(v)
+    return repr(x) if math.isfinite(x) else f"float({str(x)!r})"
+
+
 def _literal(rows: Sequence[Sequence[float]], indent: str) -> str:
-    return "".join(f"{indent}({', '.join(repr(float(v)) for v in r)}),\n" for r in rows)
+    return "".join(f"{indent}({', '.join(_number(v) for v in r)}),\n" for r in rows)
+
+
+def _strings(lines: Sequence[str]) -> str:
+    """A tuple literal of strings, one a line: every string is data (``repr``), never code."""
+    return "".join(f"    {str(line)!r},\n" for line in lines)
 
 
 def pychrono_module(
@@ -481,15 +528,18 @@ def pychrono_module(
         ORIGIN (lat, lon) [deg] of several soils; default
         :func:`default_origin`.
     source : str
-        Where the values come from, for the module's docstring.
+        Where the values come from: the module's ``SOURCE``.
     notes : sequence of str
-        Lines for the docstring (e.g. where the shear values came from).
+        The module's ``NOTES`` (e.g. where the shear values came from).
 
     Returns
     -------
     str
         The module: imports only ``pychrono``, ``pychrono.vehicle`` and the
-        standard library.
+        standard library.  Every string from the data (ids, ``source``,
+        ``notes``) is a ``repr`` literal in an assignment; the docstring holds
+        terracone's own text only, so no name or path can end a string early
+        or run as code.
 
     Raises
     ------
@@ -512,6 +562,8 @@ def pychrono_module(
         origin = None
     from terracone import __version__
 
+    if origin is not None:
+        origin = (float(origin[0]), float(origin[1]))
     frame = _FRAME_DOC.format(origin=origin) if origin is not None else _ONE_DOC
     defaults = settings.defaulted_values(spec=False)
     tail = [
@@ -519,14 +571,14 @@ def pychrono_module(
         "Defaults (Chrono's own samples), not from data: " + (", ".join(defaults) or "none") + ".",
     ]
     return string.Template(_MODULE).substitute(
-        version=__version__,
-        source=source or "terracone",
         frame=_wrap(frame),
-        sources="\n".join(_wrap(line) for line in tail),
-        origin=repr(tuple(float(v) for v in origin)) if origin is not None else "None",
-        patch=repr(tuple(float(v) for v in settings.patch)),
-        spacing=repr(float(settings.grid_spacing)),
-        sites="".join(f"    ({json.dumps(s.id)}, {s.lat!r}, {s.lon!r}),\n" for s in soils),
+        version=repr(str(__version__)),
+        source=repr(str(source or "terracone")),
+        notes=_strings(tail),
+        origin=f"({_number(origin[0])}, {_number(origin[1])})" if origin is not None else "None",
+        patch=f"({_number(settings.patch[0])}, {_number(settings.patch[1])})",
+        spacing=_number(settings.grid_spacing),
+        sites="".join(f"    ({str(s.id)!r}, {_number(s.lat)}, {_number(s.lon)}),\n" for s in soils),
         soil=_literal([r[0] for r in rows], "    "),
         samples="".join(
             "    (\n" + _literal([r[1][i] for r in rows], "        ") + "    ),\n"
@@ -563,7 +615,7 @@ distance d from ORIGIN: at 45 degrees 0.02 m at 500 m, 0.4 m at 2 km, 3 m at 6 k
 (against WGS 84 geodesics)."""
 
 _MODULE = '''\
-"""Chrono SCM soil written by terracone $version from $source.
+"""Chrono SCM soil written by terracone: where from in SOURCE and NOTES below.
 
 Give a PyChrono SCMTerrain this soil:
 
@@ -583,8 +635,6 @@ Values: Chrono's SCMTerrain::SetSoilParameters arguments, in its order and units
 (NAMES, UNITS): Bekker Kphi [Pa/m^n], Bekker Kc [Pa/m^(n-1)], Bekker n [-],
 Mohr cohesion [Pa], Mohr friction [deg], Janosi shear [m], elastic stiffness K
 [Pa/m], damping R [Pa s/m].  Bekker Kc, Kphi = kc, kphi [kN/m^(n+1), kN/m^(n+2)] x 1000.
-
-$sources
 """
 
 import math
@@ -603,6 +653,11 @@ NAMES = (
     "damping_R",
 )
 UNITS = ("Pa/m^n", "Pa/m^(n-1)", "-", "Pa", "deg", "m", "Pa/m", "Pa s/m")
+# where the values come from: the terracone version, the input, notes
+TERRACONE = $version
+SOURCE = $source
+NOTES = (
+$notes)
 ORIGIN = $origin
 PATCH = $patch  # length, width [m]
 GRID_SPACING = $spacing  # [m]

@@ -37,6 +37,7 @@ import numpy as np
 from terracone.apps.chrono import SHEAR_KEYS, LocatedSoil
 from terracone.apps.library import Library, TerrainRecord, check_params, record_params
 from terracone.data import TerrainParameters, TerrainShear
+from terracone.io.tables import guard_formula
 from terracone.physics import units as u
 from terracone.result import UQ_PARAMS, PredictionResult, PredictionResults
 
@@ -191,7 +192,10 @@ def write_plain_csv(
 
     ``terrains`` holds library records or ``(name, params)`` pairs.  The
     header names each column's unit, e.g. ``kc [kN/m^(n+1)]``; empty cells
-    are parameters the terrain lacks.
+    are parameters the terrain lacks.  A name or text value that begins with
+    ``=``, ``+``, ``-``, ``@``, a tab or a carriage return is written after a
+    single quote, so that a spreadsheet shows it as text instead of running it
+    as a formula (OWASP's advice against CSV injection); numbers are numbers.
     """
     units = u.check_system(units)
     labels = plain_units(units)
@@ -203,11 +207,17 @@ def write_plain_csv(
         else:
             name, obj = t
         d = to_plain(obj, units)
-        rows.append([name] + ["" if d[f] is None else d[f] for f in PLAIN_FIELDS])
+        cells = ["" if d[f] is None else d[f] for f in PLAIN_FIELDS]
+        rows.append([guard_formula(name)] + [_cell(v) for v in cells])
     with open(path, "w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
         w.writerow(header)
         w.writerows(rows)
+
+
+def _cell(v: Any) -> Any:
+    """A CSV cell: numbers as they are, text guarded (:func:`guard_formula`)."""
+    return v if isinstance(v, int | float) else guard_formula(v)
 
 
 def export_terrain(
@@ -314,7 +324,7 @@ def draw_samples(
     intervals) or fewer than ``count``.
     """
     post = result.posterior
-    samples = None if post is None else getattr(post, "samples", None)
+    samples = None if post is None else post.samples
     if samples is None:
         raise ValueError(
             f"profile {result.id!r} has no posterior draws: --samples needs the JSON of "
@@ -414,6 +424,10 @@ def shear_of(text: str, library: str | os.PathLike | None = None) -> tuple[dict[
             doc = json.loads(path.read_text(encoding="utf-8"))
         except (UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise ValueError(f"--shear {text}: not a JSON file ({exc})") from None
+        except RecursionError:
+            from terracone.io.jsonkeys import JSON_TOO_DEEP
+
+            raise ValueError(f"--shear {text}: {JSON_TOO_DEEP}") from None
         if not isinstance(doc, Mapping) or "K" not in doc or "phi_deg" not in doc:
             raise ValueError(
                 f"--shear {text}: not the output of `terracone fit-shear --json` "

@@ -415,17 +415,39 @@ class Library:
 
     def __init__(self, path: str | os.PathLike | None = None, *, timeout: float = 30.0) -> None:
         self.path = Path(path).expanduser() if path is not None else default_library_path()
-        self.path.parent.mkdir(parents=True, exist_ok=True)
         self._timeout = float(timeout)
-        self._conn = sqlite3.connect(
+        self._connection: sqlite3.Connection | None = None
+
+    @property
+    def _conn(self) -> sqlite3.Connection:
+        """The database, opened on first use: the packaged reference terrains need none."""
+        if self._connection is None:
+            self._connection = self._open()
+        return self._connection
+
+    def _open(self) -> sqlite3.Connection:
+        """Connect and set up the file; ValueError naming it when it is not a library."""
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        conn = sqlite3.connect(
             str(self.path), timeout=self._timeout, isolation_level=None, check_same_thread=False
         )
+        self._connection = conn
         try:
-            self._conn.execute(f"PRAGMA busy_timeout = {int(self._timeout * 1000)}")
+            conn.execute(f"PRAGMA busy_timeout = {int(self._timeout * 1000)}")
             self._retry(self._setup)
+        except sqlite3.DatabaseError as exc:
+            self._connection = None
+            conn.close()
+            raise ValueError(
+                f"terrain library {self.path}: cannot use it ({exc}); move the file away or give "
+                "another with --library or TERRACONE_LIBRARY (the packaged reference terrains "
+                "need no library file)"
+            ) from None
         except BaseException:
-            self._conn.close()
+            self._connection = None
+            conn.close()
             raise
+        return conn
 
     # -- plumbing ---------------------------------------------------------
 
@@ -445,6 +467,13 @@ class Library:
                 delay = min(delay * 2, 0.2)
 
     def _setup(self) -> None:
+        tables = {
+            r[0] for r in self._conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")
+        }
+        if tables and "terrains" not in tables:
+            raise sqlite3.DatabaseError(
+                f"an SQLite file of something else, with tables {', '.join(sorted(tables))}"
+            )
         mode = self._conn.execute("PRAGMA journal_mode = WAL").fetchone()[0]
         if str(mode).lower() != "wal":  # pragma: no cover - e.g. unsupported filesystem
             raise sqlite3.OperationalError(f"could not switch {self.path} to WAL (got {mode})")
@@ -473,8 +502,10 @@ class Library:
         c.execute("COMMIT")
 
     def close(self) -> None:
-        """Close the database connection."""
-        self._conn.close()
+        """Close the database connection (if it was opened)."""
+        if self._connection is not None:
+            self._connection.close()
+            self._connection = None
 
     def __enter__(self) -> Library:
         return self
@@ -557,7 +588,10 @@ class Library:
         with self._transaction() as c:
             row = c.execute("SELECT created FROM terrains WHERE name = ?", (name,)).fetchone()
             if row is not None and not replace:
-                raise ValueError(f"terrain {name!r} exists (use replace=True to overwrite)")
+                raise ValueError(
+                    f"terrain {name!r} exists in {self.path} (it may have just been added by "
+                    "another process): pass --replace (replace=True in Python) to overwrite it"
+                )
             created = row[0] if row is not None else now
             c.execute(
                 "INSERT OR REPLACE INTO terrains "
@@ -693,8 +727,9 @@ class Library:
                             continue
                         if not replace:
                             raise ValueError(
-                                f"terrain {r.name!r} exists with other values "
-                                "(use replace=True); nothing imported"
+                                f"terrain {r.name!r} exists with other values; nothing "
+                                "imported: pass --replace (replace=True in Python) to "
+                                "overwrite"
                             )
                     c.execute(
                         "INSERT OR REPLACE INTO terrains "

@@ -252,7 +252,8 @@ def _layered(prof: CIProfile, problem: Problem, s: RunSettings, sample: bool) ->
     try:
         lr = fit_layered(prof, problem, layers=s.layers)
     except Exception as exc:  # noqa: BLE001 - recorded per profile, the rest goes on
-        return LayeredResult(prof.id, "error", f"{type(exc).__name__}: {exc}"), None
+        why = f"{type(exc).__name__}: {exc}"
+        return LayeredResult(id=prof.id, status="error", error=why), None
     if not (sample and s.uncertainty and lr.ok):
         return lr, None
     return lr, layered_posterior(prof, lr, problem, draws=s.draws, seed=s.seed)

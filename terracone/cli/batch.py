@@ -74,6 +74,8 @@ def batch_cmd(input_path, out_dir, workers, scheduler, resume, quiet, chunk_size
     )
     for p in s.problems:
         click.echo(f"terracone: {p}", err=True)
+    for note in s.notes:
+        click.echo(f"terracone: note: {note}", err=True)
     if s.profiles and not s.profiles_ok:
         # as predict: error profiles are normal, but a run that fitted none is a failure
         click.echo("terracone: no profile could be fitted (see the error column)", err=True)

@@ -157,12 +157,26 @@ json_options = (
 )
 
 
+def check_cone(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    """Click callback of --cone: a cone terracone knows, or one in the range of penetrometer
+    cones (:data:`terracone.physics.cone.CONE_ANGLE_RANGE`, ``CONE_DIAMETER_RANGE``)."""
+    from terracone.physics.cone import get_cone
+
+    if value is not None:
+        try:
+            get_cone(value)
+        except ValueError as exc:
+            raise click.BadParameter(str(exc), ctx=ctx, param=param) from None
+    return value
+
+
 #: How CI files are read: --cone, --format, a wide table's units, --depth-ref, --depth-range.
 reading_options = (
     click.option(
         "--cone",
         default="asabe-large",
         show_default=True,
+        callback=check_cone,
         help="Cone when the input does not name one: a name (asabe-large, asabe-small, "
         "penetrologger-1cm2|2cm2|3.33cm2|5cm2), DIAMETER:ANGLE (20.27mm:30) or AREA:ANGLE (5cm2:60).",
     ),

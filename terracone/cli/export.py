@@ -152,8 +152,33 @@ def parse_origin(text: str) -> tuple[float, float]:
     default=None,
     help="mavs: MAVS soil type of the surface (its Cone Index: CI for sand, RCI for clay).",
 )
+@click.option(
+    "--json",
+    "as_json",
+    is_flag=True,
+    help="mavs: print the written entry and set_terrain_properties (the values of MAVS's two "
+    "SetTerrainProperties calls) as JSON.",
+)
+@click.option(
+    "--force",
+    is_flag=True,
+    help="chrono-scm --samples: replace the --out directory whole even when it holds files "
+    "that are not an earlier ensemble's (they are deleted); an earlier ensemble is always "
+    "replaced whole.",
+)
 def export_cmd(
-    terrain, results_path, map_dir, profile, fmt, out, units, library, material, **chrono
+    terrain,
+    results_path,
+    map_dir,
+    profile,
+    fmt,
+    out,
+    units,
+    library,
+    material,
+    as_json,
+    force,
+    **chrono,
 ):
     """Write a terrain or results for Project Chrono's SCM (a co-simulation spec or a PyChrono
     module), as plain Bekker-Wong parameters, or results as GeoJSON points.
@@ -162,14 +187,21 @@ def export_cmd(
     and n; Mohr cohesion, friction and Janosi K come from --shear, a library
     terrain that has them, or --cohesion, --friction, --janosi.  When one is
     missing nothing is written.  Elastic stiffness, damping, patch and grid
-    spacing are defaults unless given (said on stderr).
+    spacing are defaults unless given (said on stderr).  CSV cells of text that a
+    spreadsheet would run as a formula are written after a single quote.
     """
     if sum(x is not None for x in (terrain, results_path, map_dir)) != 1:
         raise click.UsageError("give exactly one of --terrain, --results and --map")
+    folder = fmt == "chrono-scm" and chrono["samples"] is not None  # --out is a directory
+    if force and not folder:
+        raise click.UsageError("--force: only with --format chrono-scm --samples (a directory)")
+    _check_paths(out, results_path, map_dir, library, terrain, chrono, folder)
     if map_dir is not None and fmt != "pychrono":
         raise click.UsageError("--map: only with --format pychrono (a terrain map's cells)")
     if material is not None and fmt != "mavs":
         raise click.UsageError("--material: only with --format mavs")
+    if as_json and fmt != "mavs":
+        raise click.UsageError("--json: only with --format mavs")
     if fmt not in CHRONO_FORMATS:
         given = [f"--{k.replace('_', '-')}" for k, v in chrono.items() if v is not None]
         if given:
@@ -179,11 +211,26 @@ def export_cmd(
     if fmt == "mavs":
         from terracone.cli.mobility import export_mavs
 
-        return export_mavs(results_path, profile, material, out)
+        return export_mavs(results_path, profile, material, out, as_json)
     if fmt in ("json", "csv"):
         return _export_plain(terrain, results_path, profile, fmt, out, units or "si", library)
-    chrono["map_dir"] = map_dir
+    chrono["map_dir"], chrono["force"] = map_dir, force
     return _export_chrono(terrain, results_path, profile, fmt, out, units or "si", library, chrono)
+
+
+def _check_paths(out, results_path, map_dir, library, terrain, chrono, folder) -> None:
+    """Refuse an --out that is an input (or, a --samples directory, one that holds an input)."""
+    from terracone.io.outputs import check_outputs
+
+    inputs = {"--results": results_path, "--map": map_dir}
+    shear = chrono["shear"]
+    if shear is not None and Path(shear).is_file():
+        inputs["--shear"] = shear
+    if terrain is not None or (shear is not None and "--shear" not in inputs):
+        from terracone.apps.library import default_library_path
+
+        inputs["--library"] = library or default_library_path()
+    check_outputs({"--out": out}, inputs, directories=("--out",) if folder else ())
 
 
 def _export_plain(terrain, results_path, profile, fmt, out, units, library) -> None:
@@ -332,7 +379,7 @@ def _write_chrono(soils, fmt, out, settings, opts, source, notes) -> str:
             what += f" with {opts['samples']} posterior draws"
         return what
     if opts["samples"] is not None:
-        write_scm_specs(out, soils[0], settings)
+        write_scm_specs(out, soils[0], settings, force=opts["force"])
         return f"{opts['samples']} Chrono SCM specs and draws.csv of {soils[0].id!r}"
     write_scm_spec(out, soils[0].params, settings, repr(soils[0].id))
     return f"the Chrono SCM spec of {soils[0].id!r}"

@@ -24,6 +24,7 @@ from terracone.cli.common import (
     shared,
 )
 from terracone.data import TerrainParameters
+from terracone.io.outputs import check_outputs
 from terracone.report.text import (
     design_text,
     evaluate_text,
@@ -78,6 +79,8 @@ def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts)
     """Predict kc, kphi, n, cc, phic from CI profiles (section 3.3.2)."""
     from terracone.apps.workflow import predict_profiles, sinkage_grid
 
+    inputs = {"CI_FILE": ci_file, "--calibration": opts["calibration"]}
+    check_outputs({"--out": out, "--parquet": parquet_path}, inputs)
     units, uncertainty = opts["units"], opts.pop("uncertainty")
     problem = problem_from(opts, prior=load_prior(opts["prior"], opts["library"]))
     settings = run_from(
@@ -112,6 +115,12 @@ def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts)
         if layered:
             click.echo(layered_text(layered, units))
     if not any(r.ok for r in results):
+        if as_json:  # the table says it otherwise; stdout is the JSON document here
+            r0 = results[0] if results else None
+            first = f"; first, {r0.id}: {r0.error or r0.status}" if r0 else ""
+            click.echo(
+                f"terracone: no profile could be fitted ({len(results)} read){first}", err=True
+            )
         sys.exit(1)
 
 
@@ -160,6 +169,7 @@ def learn_cmd(ci_file, plates_file, r_min_range, terrain_name, save, save_as, as
     from terracone.inverse import Bounds
     from terracone.io import read_plate_tests
 
+    check_outputs({"--save": save}, {"--ci": ci_file, "--plates": plates_file})
     units, model = opts["units"], opts["model"]
     rb = parse_r_min_range(r_min_range, units)
     if rb is not None and model != "rm1":
@@ -268,6 +278,7 @@ def sites_cmd(
     from terracone.apps.sites import DEFAULT_SITE_PLATES, pool_sites
     from terracone.inverse.sites.statistics import default_sinkages
 
+    check_outputs({"--out": out}, {"CI_FILE": ci_file, "--calibration": opts["calibration"]})
     if by is None and radius is None:
         raise click.UsageError("give --by COLUMN or --radius L to group the profiles into sites")
     if opts["layers"] > 1:

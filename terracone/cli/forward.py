@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from terracone.cli.common import UNITS, echo_curve, parse_floats, shared
+from terracone.cli.common import UNITS, check_cone, echo_curve, parse_floats, shared
 from terracone.physics.cone import CONES, cone_index
 from terracone.physics.plate import plate_pressure
 
@@ -39,6 +39,7 @@ bekker_options = shared(
     "--cone",
     default="asabe-large",
     show_default=True,
+    callback=check_cone,
     help=f"{' | '.join(CONES)} | DIAMETER<unit>:ANGLE (20.27mm:30) | AREA<unit>2:ANGLE (5cm2:60)",
 )
 @click.option("--units", type=UNITS, default="si", show_default=True)

@@ -125,6 +125,9 @@ def library_import(ctx, path, replace):
 @click.pass_context
 def library_export(ctx, path, include_builtin):
     """Export terrains to a JSON file."""
+    from terracone.io.outputs import check_outputs
+
     with _open(ctx) as lib:
+        check_outputs({"PATH": path}, {"--library": lib.path})
         k = lib.export(path, include_builtin=include_builtin)
     click.echo(f"exported {k} terrains to {path}")

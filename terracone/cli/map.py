@@ -97,18 +97,29 @@ def _summary(doc: dict, out: str) -> str:
 )
 @click.option("--units", type=UNITS, default="si", show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="Print map.json.")
-def map_cmd(results, out, plate, sinkage, layers_ci, resolution, crs, units, as_json):
+@click.option(
+    "--force",
+    is_flag=True,
+    help="Replace --out whole even when it holds files that are not an earlier map's "
+    "(they are deleted); an earlier map is always replaced whole.",
+)
+def map_cmd(results, out, plate, sinkage, layers_ci, resolution, crs, units, as_json, force):
     """Kriged maps of plate pressure, n and mean CI, with 90% intervals, from located pushes.
 
     RESULTS is a predict JSON, a predict Parquet file or a batch output directory whose profiles
     carry lat/lon.  Writes one GeoTIFF per quantity (bands median, lo, hi), points.parquet
     (GeoParquet), cells.parquet (each cell's kc, kphi, n for simulators) and map.json, with the
-    leave-one-out cross-validation of each map.
+    leave-one-out cross-validation of each map.  DIR then holds this map only: an earlier
+    map there is replaced whole, any other non-empty directory is refused unless --force.
     """
     from tqdm import tqdm
 
-    from terracone.apps.maps import map_document, map_survey, write_map
+    from terracone.apps.maps import is_map_directory, map_document, map_survey, write_map
+    from terracone.io.outputs import check_outputs, check_run_directory
     from terracone.result import read_results
+
+    check_outputs({"--out": out}, {"RESULTS": results}, directories=("--out",))
+    check_run_directory(out, what="terracone map", is_run=is_map_directory, force=force)
 
     if (plate is None) != (sinkage is None):
         raise click.UsageError("give --plate and --sinkage together")
@@ -128,7 +139,7 @@ def map_cmd(results, out, plate, sinkage, layers_ci, resolution, crs, units, as_
             data, plate=plate_si, layers=layers, resolution=res, crs=crs, units=units,
             progress=bar.update,
         )  # fmt: skip
-    write_map(result, out, units)
+    write_map(result, out, units, force=force)
     doc = map_document(result, units)
     for note in result.notes:
         click.echo(f"note: {note}", err=True)

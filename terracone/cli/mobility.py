@@ -24,6 +24,33 @@ def parse_layer(text: str | None, units: str) -> tuple[float, float] | None:
     return top, bottom
 
 
+def parse_critical_layer(text: str | None, units: str):
+    """'rule' or 'weakest:THICKNESS[:TOP:BOTTOM]' (lengths with a unit, or in --units)
+    -> a :class:`terracone.apps.mobility.LayerChoice`."""
+    from terracone.apps.mobility import LayerChoice
+
+    if text is None or text.strip() == "rule":
+        return LayerChoice()
+    parts = text.split(":")
+    if (
+        parts[0].strip() != "weakest"
+        or len(parts) not in (2, 4)
+        or not all(p.strip() for p in parts)
+    ):
+        raise click.BadParameter(
+            "--critical-layer: expected 'rule', 'weakest:THICKNESS' or "
+            f"'weakest:THICKNESS:TOP:BOTTOM' (e.g. weakest:6in, weakest:15cm:0:45cm), got {text!r}"
+        )
+    lengths = [parse_length(p, units, "--critical-layer") for p in parts[1:]]
+    window = tuple(lengths[1:]) if len(lengths) == 3 else None
+    try:
+        if window is None:
+            return LayerChoice("weakest", thickness=lengths[0])
+        return LayerChoice("weakest", thickness=lengths[0], window=window)
+    except ValueError as exc:
+        raise click.BadParameter(f"--critical-layer: {exc}") from None
+
+
 def _progress(count: int):
     """tqdm over the profiles when there are many and stderr is a terminal."""
     if count < 500 or not sys.stderr.isatty():
@@ -41,18 +68,37 @@ def _progress(count: int):
     "vehicle_path",
     required=True,
     type=click.Path(dir_okay=False),
-    help="Vehicle JSON: name, kind, mobility_index (or mobility_index_inputs), "
-    "tire_deflection_ratio, wheel {load, diameter, width} (docs/mobility.md).",
+    help="Vehicle JSON: name, kind (wheeled or tracked), mobility_index (or "
+    "mobility_index_inputs), drive, tire_deflection_ratio, wheel {load, diameter, width} "
+    "(docs/mobility.md).",
 )
 @click.option(
     "--passes",
     type=click.Choice(["1", "50"]),
     default="1",
     show_default=True,
-    help="VCI_1 with the 0-6 in critical layer, or VCI_50 with 6-12 in.",
+    help="VCI_1 (one pass) or VCI_50 (fifty passes).",
 )
 @click.option(
-    "--layer", default=None, help="Critical layer TOP:BOTTOM in place of --passes' (e.g. 0:6in)."
+    "--soil",
+    type=click.Choice(["fine", "coarse"]),
+    default=None,
+    help="Soil class of every profile: fine-grained (RCI = CI x RI) or coarse-grained (CI). "
+    "Default: each profile's uscs or soil_class metadata, else assumed fine (and said).",
+)
+@click.option(
+    "--critical-layer",
+    "critical_layer",
+    default="rule",
+    show_default=True,
+    help="How the critical layer is chosen: 'rule' (by soil class, vehicle kind and passes, "
+    "with its source) or 'weakest:THICKNESS[:TOP:BOTTOM]', the weakest layer of that "
+    "thickness within TOP-BOTTOM (default 0-12 in).",
+)
+@click.option(
+    "--layer",
+    default=None,
+    help="Critical layer TOP:BOTTOM of every profile (e.g. 0:6in); overrides --critical-layer.",
 )
 @click.option(
     "--remolding-index",
@@ -80,33 +126,39 @@ def _progress(count: int):
 )
 @shared(*json_options)
 def mobility_cmd(
-    results_path, vehicle_path, passes, layer, remolding_index, by, ci_file, file_units, units,
-    out, as_json,
+    results_path, vehicle_path, passes, soil, critical_layer, layer, remolding_index, by, ci_file,
+    file_units, units, out, as_json,
 ):  # fmt: skip
     """NRMM go/no-go and Bekker wheel sinkage of a vehicle on predicted terrain.
 
     RESULTS is a predict JSON or Parquet file, or a batch directory.  Per
-    profile (and per site): the critical-layer mean CI, RCI = CI x RI, the
-    vehicle cone index (Priddy and Willoughby 2006), GO when RCI >= VCI with
+    profile (and per site): the soil class, the critical layer and what chose
+    it, its mean CI, RCI = CI x RI (fine-grained soils), the vehicle cone index
+    of the vehicle's kind where its relation applies, GO when RCI >= VCI with
     the margin, and the sinkage and compaction resistance of the vehicle's
     wheel from kc, kphi and n (Bekker), with the 90% band of the posterior
     draws of predict --uncertainty --json.
     """
-    from terracone.apps.mobility import ci_profiles_by_id, evaluate_mobility, load_vehicle
+    from terracone.apps.mobility import ci_profiles_by_id, evaluate_mobility
+    from terracone.apps.vehicles import load_vehicle
+    from terracone.io.outputs import check_outputs
     from terracone.report.mobility import mobility_text
     from terracone.result import read_results
 
+    check_outputs(
+        {"--out": out}, {"RESULTS": results_path, "--vehicle": vehicle_path, "--ci": ci_file}
+    )
+    choice = parse_critical_layer(critical_layer, units)
     vehicle = load_vehicle(vehicle_path)
     results = read_results(results_path)
     ci_profiles = None
     if ci_file:
-        from terracone.cli.common import read_profiles
+        from terracone.apps.workflow import Reading
 
-        items = read_profiles(ci_file, "asabe-large", None, "base", units=file_units)
-        ci_profiles = ci_profiles_by_id(items)
+        ci_profiles = ci_profiles_by_id(Reading(file_units=file_units).read(ci_file, units))
     run = evaluate_mobility(
-        results, vehicle, passes=int(passes), layer=parse_layer(layer, units),
-        remolding_index=remolding_index,
+        results, vehicle, passes=int(passes), layer=parse_layer(layer, units), choice=choice,
+        soil=soil, remolding_index=remolding_index,
         by=None if by is None else [k.strip() for k in by.split(",")],
         ci_profiles=ci_profiles, source=str(results_path), progress=_progress(len(results)),
     )  # fmt: skip
@@ -121,9 +173,12 @@ def mobility_cmd(
         sys.exit(1)
 
 
-def export_mavs(results_path: str | None, profile: str | None, material: str | None, out: str):
-    """``terracone export --format mavs``: the MAVS surface entry of a profile or a site."""
-    from terracone.apps.mobility import write_mavs
+def export_mavs(
+    results_path: str | None, profile: str | None, material: str | None, out: str, as_json: bool
+):
+    """``terracone export --format mavs``: the MAVS surface entry of a profile or a site, and
+    the values of MAVS's two SetTerrainProperties calls (docs/export.md)."""
+    from terracone.apps.mavs import write_mavs
     from terracone.result import read_results
 
     if results_path is None:
@@ -136,10 +191,19 @@ def export_mavs(results_path: str | None, profile: str | None, material: str | N
     )  # fmt: skip
     for n in notes:
         click.echo(f"terracone: {n}", err=True)
-    entry = doc["Surface Mesh"][0]
+    entry, tc = doc["Surface Mesh"][0], doc["terracone"]
+    stp = tc["set_terrain_properties"]
+    env, veh = stp["environment"], stp["vehicle"]
     click.echo(
         f"terracone: {out}: Material {entry['Material']}, Cone Index {entry['Cone Index']:.4g} psi "
-        f"({doc['terracone']['cone_index_of']} of the 0-6 in layer, {doc['terracone']['what']})",
+        f"({tc['cone_index_of']} of the 0-6 in layer, {tc['what']}); MAVS's scene loader reads "
+        "this entry but does not pass it to the vehicle: set the soil with\n"
+        f"  env.SetTerrainProperties({env['type']!r}, {env['strength']:.6g})  # Pa\n"
+        f"  or veh.SetTerrainProperties(soil_type={veh['soil_type']!r}, "
+        f"soil_strength={veh['soil_strength']:.6g})  # psi (replaces the mesh by a flat surface)",
         err=True,
     )
-    click.echo(f"wrote {out}")
+    if as_json:
+        emit_json({**doc, "set_terrain_properties": stp, "out": str(out)})
+    else:
+        click.echo(f"wrote {out}")

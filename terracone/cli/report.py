@@ -41,8 +41,10 @@ def report_cmd(results, out, map_by):
     Many profiles (predict JSON, a batch directory) get a summary of the field first, a map when
     they carry coordinates, a sortable table and a panel per profile.
     """
+    from terracone.io.outputs import check_outputs
     from terracone.report import build_report
 
+    check_outputs({"--out": out}, {"RESULTS": results})
     click.echo(f"wrote {build_report(results, out, map_by=map_by)}")
 
 
@@ -54,8 +56,8 @@ def report_cmd(results, out, map_by):
 @click.option("--workers", type=int, default=None, help="Processes (default 2).")
 def reproduce_cmd(out, quick, workers):
     """Re-create the paper's LETE sand and KRC case studies (synthetic data), with figures, tables and a report."""
-    from terracone.apps.reproduce import reproduce
+    from terracone.report.reproduce import reproduce_report
 
-    s = reproduce(out, quick=quick, workers=workers)
+    s = reproduce_report(out, quick=quick, workers=workers)
     click.echo(f"report: {s.report}")
     click.echo(f"figures and tables in {s.out_dir} ({s.seconds:.0f} s)")

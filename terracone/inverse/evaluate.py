@@ -148,6 +148,10 @@ def parameters_from_json(path: str | os.PathLike[str]) -> list[tuple[str, Terrai
         doc = json.loads(Path(path).read_text())
     except (OSError, json.JSONDecodeError) as exc:
         raise ValueError(f"file {path}: cannot read JSON ({exc})") from exc
+    except RecursionError:
+        from terracone.io.jsonkeys import JSON_TOO_DEEP
+
+        raise ValueError(f"file {path}: {JSON_TOO_DEEP}") from None
 
     def params(d: dict, where: str) -> TerrainParameters:
         try:

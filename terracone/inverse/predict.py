@@ -299,8 +299,8 @@ def fit_set(problem: Problem, settings: RunSettings, pset: ProfileSet) -> list[P
     for j in good:
         res = out[j]
         res.metadata = meta[j]
-        if res.ok and problem.note:
-            res.notes.append(problem.note)
+        if res.ok:
+            res.notes += problem.notes_for(res.cone)
     return out
 
 

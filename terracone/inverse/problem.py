@@ -407,6 +407,23 @@ class Problem:
         """True when the fits go through the vectorised exact solver (fully mobilised)."""
         return self.K_cone is None and not self.fit_K_cone
 
+    def notes_for(self, cone: str) -> list[str]:
+        """What every fit of a profile taken with ``cone`` (its name) says of this problem.
+
+        The calibration's note, and, where the calibration was learned with
+        another cone, that it is applied across cones (the model carries the
+        cone's geometry, eqs. (2-5) to (2-7); phic and cc were learned at the
+        other cone's size).
+        """
+        out = [self.note] if self.note else []
+        cal = self.anchor
+        if cal is not None and cal.cone and cal.cone != cone:
+            out.append(
+                f"calibration {cal.terrain!r} was learned with the {cal.cone} cone; "
+                f"applied to the {cone} cone"
+            )
+        return out
+
     def held(self) -> dict[str, float]:
         """The values held in every fit *and* every posterior draw (SI): phic, cc, kc/kphi.
 

@@ -248,6 +248,12 @@ def check_keys(
     return out
 
 
+#: Why a JSON file that Python's parser cannot nest into is refused.
+JSON_TOO_DEEP = (
+    "cannot read JSON (nested too deeply: arrays or objects inside each other too many times)"
+)
+
+
 def read_json(path: str | os.PathLike) -> Any:
     """The parsed content of a JSON file; FileKeyError naming the file when unreadable.
 
@@ -263,6 +269,8 @@ def read_json(path: str | os.PathLike) -> Any:
         return json.loads(text)
     except json.JSONDecodeError as exc:
         raise FileKeyError(f"cannot read JSON ({exc})", file=path) from None
+    except RecursionError:
+        raise FileKeyError(JSON_TOO_DEEP, file=path) from None
 
 
 #: The terrain parameter keys of calibrations and library records (all SI).  kc and kphi

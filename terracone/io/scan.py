@@ -31,8 +31,10 @@ from terracone.io.tables import (
     DECIMAL,
     SPECIAL_FLOAT,
     PathLike,
+    check_separator,
     column_layout,
     is_parquet,
+    unguard_formula,
 )
 
 #: Rows read per block (CSV / Parquet); memory per block, not per profile.
@@ -207,10 +209,11 @@ class CsvLines(io.RawIOBase):
                 f"not a UTF-8 text file ({exc.reason})", file=self.path, row=self.header_line
             ) from None
         cells = next(csv.reader([text.rstrip("\r")]), [])
-        cells = [c.strip() for c in cells]
+        cells = [unguard_formula(c).strip() for c in cells]
         self.header_fields = len(cells)
         while cells and not cells[-1]:
             cells.pop()
+        check_separator(self.path, cells, self.header_line)
         return cells
 
     def lines(self, first_row: int, n: int) -> np.ndarray:
@@ -444,6 +447,13 @@ def strip_text(values: np.ndarray) -> np.ndarray:
     return np.array([v.strip() for v in values.tolist()], dtype=object).reshape(len(values))
 
 
+def csv_text(values: np.ndarray) -> np.ndarray:
+    """:func:`strip_text` of CSV cells, each first without the guard quote of
+    :func:`~terracone.io.tables.guard_formula` (as the table readers read them)."""
+    cells = [unguard_formula(v).strip() for v in values.tolist()]
+    return np.array(cells, dtype=object).reshape(len(values))
+
+
 def _is_number_text(v: str) -> bool:
     return not v.strip() or bool(DECIMAL.match(v) or SPECIAL_FLOAT.match(v))
 
@@ -466,7 +476,7 @@ def _scan_csv(path: str, units: str | None) -> tuple[FileInfo, int, int, dict[st
             else:
                 cells = block.column(f"c{ci[info.id_col]}")
                 st = text_starts(cells)
-                first = strip_text(cells.take(pa.array(st)).to_numpy(zero_copy_only=False))
+                first = csv_text(cells.take(pa.array(st)).to_numpy(zero_copy_only=False))
             if st.size and prev is not None and first[0] == prev:
                 st, first = st[1:], first[1:]
             if first.size:
@@ -524,15 +534,15 @@ def block_cells(block: pa.RecordBatch, j: int) -> np.ndarray:
 
 
 def text_starts(cells: pa.Array) -> np.ndarray:
-    """:func:`profile_starts` of a column of text cells, compared in Arrow: only the
-    first cell of each run of equal cells becomes a Python str."""
+    """:func:`profile_starts` of a column of CSV cells (:func:`csv_text`), compared in Arrow:
+    only the first cell of each run of equal cells becomes a Python str."""
     n = len(cells)
     if n == 0:
         return np.empty(0, dtype=np.int64)
     change = pc.not_equal(cells.slice(1), cells.slice(0, n - 1)).to_numpy(zero_copy_only=False)
     st = np.concatenate([[0], np.flatnonzero(change) + 1]).astype(np.int64)
     if st.size > 1:
-        first = strip_text(cells.take(pa.array(st)).to_numpy(zero_copy_only=False).astype(object))
+        first = csv_text(cells.take(pa.array(st)).to_numpy(zero_copy_only=False).astype(object))
         keep = np.ones(st.size, dtype=bool)
         keep[1:] = first[1:] != first[:-1]
         st = st[keep]

@@ -25,13 +25,14 @@ from terracone.io.scan import (
     arrow_text,
     block_cells,
     csv_blocks,
+    csv_text,
     parquet_file,
     plain_type,
     profile_starts,
     strip_text,
     text_starts,
 )
-from terracone.io.tables import to_numbers
+from terracone.io.tables import to_numbers, unguard_formula
 from terracone.physics.cone import Cone, get_cone
 
 __all__ = ["iter_chunks", "chunk_set", "Chunk", "ConeCache"]
@@ -322,10 +323,14 @@ class ConeCache:
         return hit
 
 
+#: :func:`~terracone.io.tables.unguard_formula` for Arrow (RE2): the guard quote, dropped.
+_GUARD_RE2 = r"^'('*[=+\-@\t\r])"
+
+
 def _meta_array(values: Any, t: pa.DataType, from_csv: bool) -> pa.Array:
     """Per-profile metadata values as an Arrow array of the output type (CSV: text cells)."""
-    if from_csv and isinstance(values, pa.Array):
-        text = pc.utf8_trim_whitespace(values)
+    if from_csv and isinstance(values, pa.Array):  # without guard_formula's quote, stripped
+        text = pc.utf8_trim_whitespace(pc.replace_substring_regex(values, _GUARD_RE2, r"\1"))
         if not (pa.types.is_floating(t) or pa.types.is_integer(t)):
             return text.cast(t)
         try:  # blank cells are missing values
@@ -336,7 +341,7 @@ def _meta_array(values: Any, t: pa.DataType, from_csv: bool) -> pa.Array:
         except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
             values = text.to_pylist()  # what Arrow does not cast (e.g. "Infinity"): as Python
     if from_csv:
-        text = [str(v).strip() for v in values]
+        text = [unguard_formula(str(v)).strip() for v in values]
         if pa.types.is_floating(t) or pa.types.is_integer(t):
             nums = [None if not v else float(v) for v in text]
             return pa.array(nums, type=pa.float64()).cast(t)
@@ -412,7 +417,8 @@ def make_piece(rows: Rows, starts: np.ndarray, plan: ScanPlan, cones: ConeCache)
     P = int(starts.size)
     ends = np.append(starts[1:], n)
     counts = ends - starts
-    ids = strip_text(_cells_at(rows.ids, starts))
+    raw_ids = _cells_at(rows.ids, starts)
+    ids = csv_text(raw_ids) if isinstance(rows.ids, pa.Array) else strip_text(raw_ids)
     first = rows.lines[starts]
     flagged = np.zeros(P, dtype=bool)
     if info.id_col is not None:

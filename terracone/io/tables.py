@@ -33,6 +33,38 @@ UNIT_TABLES: dict[str, dict[str, float]] = {
 DECIMAL = re.compile(r"^\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*$")
 SPECIAL_FLOAT = re.compile(r"^\s*[+-]?(?:nan|inf|infinity)\s*$", re.IGNORECASE)
 
+#: First characters that make a spreadsheet read a cell as a formula: OWASP's list
+#: against CSV injection (https://owasp.org/www-community/attacks/CSV_Injection).
+FORMULA_START = "=+-@\t\r"
+_PLAIN_NUMBER = re.compile(r"^[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
+_GUARDED = re.compile(r"^'+[=+\-@\t\r]")
+
+
+def guard_formula(cell: Any) -> str:
+    """A text cell that a spreadsheet shows as text, never runs as a formula (CSV injection).
+
+    As OWASP recommends, a cell that begins with ``=``, ``+``, ``-``, ``@``, a
+    tab or a carriage return gets a leading single quote, which spreadsheets
+    take as "this is text" and do not show.  A number (``-1.5``, ``+2e3``) is
+    left as it is.  A cell that already begins with quotes before one of those
+    characters gets one more, so that :func:`unguard_formula` (which the CSV
+    readers apply to ids and text metadata) gives every cell back unchanged.
+    """
+    text = "" if cell is None else str(cell)
+    first = text.lstrip("'")[:1]
+    if first and first in FORMULA_START and not _PLAIN_NUMBER.match(text):
+        return "'" + text
+    return text
+
+
+def unguard_formula(cell: str) -> str:
+    """A text cell without the guard quote of :func:`guard_formula` (as a spreadsheet reads it).
+
+    One leading single quote is dropped when quotes are followed by ``=``,
+    ``+``, ``-``, ``@``, a tab or a carriage return; other cells are unchanged.
+    """
+    return cell[1:] if _GUARDED.match(cell) else cell
+
 
 def check_options(on_error: str, depth_ref: str = "base", units: str | None = None) -> None:
     """Refuse bad reader options (ValueError naming the option)."""
@@ -115,6 +147,22 @@ def read_lines(path: str) -> list[str]:
             raise InputError(f"not a UTF-8 text file ({exc.reason})", file=path) from None
 
 
+def check_separator(path: str, header: Sequence[str], row: int | None) -> None:
+    """Refuse a header of one column that another separator splits (``;`` or tab): a
+    semicolon-separated export of a spreadsheet is not read as a broken comma file."""
+    if len(header) != 1:
+        return
+    for sep, name in ((";", "semicolons (;)"), ("\t", "tabs")):
+        if sep in header[0]:
+            raise InputError(
+                f"the columns are separated by {name}, not commas: terracone reads "
+                "comma-separated files with '.' decimals; save the file as CSV with commas "
+                "(a wide table, one row per push, may use ';' and ',' decimals: --format wide)",
+                file=path,
+                row=row,
+            )
+
+
 @dataclass
 class Table:
     """A CSV table as read: header, its file line, columns of cells and the file line of
@@ -158,9 +206,10 @@ def read_table(path: str) -> Table:
             raise InputError(f"bad CSV: {exc}", file=path, row=first_line[0]) from None
     if not records:
         raise InputError("no header line (the file is empty or all comments)", file=path)
-    header = [h.strip() for h in records[0]]
+    header = [unguard_formula(h).strip() for h in records[0]]
     while header and not header[-1]:  # trailing separators
         header.pop()
+    check_separator(path, header, starts[0])
     width = len(header)
     for j, name in enumerate(header):
         if not name:
@@ -305,7 +354,7 @@ def table_groups(table: Table, id_col: Column | None) -> list[tuple[str, np.ndar
         return [(Path(table.path).stem, np.arange(table.lines.size))]
     index: dict[str, list[int]] = {}
     for i, cell in enumerate(table.columns[id_col.index]):
-        index.setdefault(cell.strip(), []).append(i)
+        index.setdefault(unguard_formula(cell).strip(), []).append(i)
     return [(key, np.asarray(rows, dtype=int)) for key, rows in index.items()]
 
 
@@ -335,10 +384,14 @@ def check_group(
 
 
 def row_metadata(table: Table, layout: Layout, i: int) -> dict[str, Any]:
-    """The metadata cells of table row ``i``: floats when they read as numbers, else stripped text."""
+    """The metadata cells of table row ``i``: floats when they read as numbers, else stripped
+    text (without the guard quote of :func:`guard_formula`)."""
     cells = {c.name: table.columns[c.index][i] for c in layout.metadata}
     number = DECIMAL.match, SPECIAL_FLOAT.match
-    return {k: float(v) if any(m(v) for m in number) else v.strip() for k, v in cells.items()}
+    return {
+        k: float(v) if any(m(v) for m in number) else unguard_formula(v).strip()
+        for k, v in cells.items()
+    }
 
 
 def collect(items: Sequence[Any], build: Callable[[Any], Any], on_error: str) -> list[Any]:

@@ -21,6 +21,7 @@ from terracone.io.tables import (
     collect,
     push_profile,
     read_lines,
+    unguard_formula,
 )
 from terracone.physics import units as u
 from terracone.physics.cone import Cone, get_cone
@@ -295,7 +296,9 @@ def _push_reader(
     def one(item: tuple[int, tuple[int, list[str]]]) -> CIProfile:
         """The k-th data row (1-based) as a validated profile."""
         k, (line, cells) = item
-        pid = cells[id_j].strip() if id_j is not None else f"{Path(source).stem}/{k}"
+        pid = (
+            unguard_formula(cells[id_j]).strip() if id_j is not None else f"{Path(source).stem}/{k}"
+        )
 
         def fail(msg: str, j: int | None) -> InputError:
             column = head.cells[j] if j is not None else None
@@ -310,7 +313,8 @@ def _push_reader(
         metadata: dict[str, Any] = {}
         for j in meta_cols:
             num = _wide_number(cells[j], comma)
-            metadata[head.cells[j]] = float(num) if DECIMAL.match(num) else cells[j].strip()
+            text = unguard_formula(cells[j]).strip()
+            metadata[head.cells[j]] = float(num) if DECIMAL.match(num) else text
         for j, key in ((lat_j, "lat"), (lon_j, "lon")):
             if j is not None:
                 try:

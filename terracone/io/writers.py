@@ -19,6 +19,7 @@ from terracone.io.tables import (
     UNIT_TABLES,
     PathLike,
     Schema,
+    guard_formula,
     match_field,
 )
 from terracone.physics.cone import Cone, get_cone
@@ -33,12 +34,15 @@ def _unit(name: str, kind: str) -> tuple[str, float]:
 
 
 def _fmt(value: Any) -> str:
-    """A cell: floats with repr (round-trips exactly), None as empty."""
+    """A cell: floats with repr (round-trips exactly), None as empty, text guarded
+    against formula injection (:func:`~terracone.io.tables.guard_formula`)."""
     if value is None:
         return ""
     if isinstance(value, float | np.floating):
         return repr(float(value))
-    return str(value)
+    if isinstance(value, bool | int | np.integer):
+        return str(value)
+    return guard_formula(value)
 
 
 def _metadata_columns(items: Sequence[Any], schema: Schema, reserved: Sequence[str]) -> list[str]:
@@ -91,7 +95,7 @@ def _write_items(
                 f.write(f"# {line}\n" if line else "#\n")
         plain = csv.writer(f, lineterminator="\n")
         quoted = csv.writer(f, lineterminator="\n", quoting=csv.QUOTE_ALL)
-        plain.writerow([*names[:-2], *meta, *names[-2:]])
+        plain.writerow([*names[:-2], *map(guard_formula, meta), *names[-2:]])
         for item in items:
             fixed = lead(item, lf, pf) + [_fmt(item.metadata.get(k)) for k in meta]
             x, y = (np.asarray(getattr(item, a), dtype=float) / f for a, f in zip(series, (lf, pf)))
@@ -140,14 +144,17 @@ def write_ci_profiles(
     one), ``depth_<unit>``, ``ci_<unit>``.  Floats are written with
     ``repr``, so in m and kPa the numbers read back bit for bit.  Notes,
     rows and source are not written.  A cone that is not a named cone is
-    written as ``"<diameter>m:<angle>"``.
+    written as ``"<diameter>m:<angle>"``.  Text cells (ids, text metadata)
+    that a spreadsheet would run as a formula (``=``, ``+``, ``-``, ``@``, tab,
+    carriage return first) get a leading ``'`` (OWASP), which the readers drop
+    again: the file still reads back exactly.
     """
     _write_items(
         path,
         profiles,
         CI_SCHEMA,
         ["profile", "cone", "depth_{lu}", "ci_{pu}"],
-        lambda p, lf, pf: [str(p.id), _cone_spec(p.cone)],
+        lambda p, lf, pf: [guard_formula(p.id), guard_formula(_cone_spec(p.cone))],
         ("depth", "ci"),
         (length_unit, pressure_unit),
         comment,
@@ -184,7 +191,7 @@ def write_plate_tests(
         tests,
         PLATE_SCHEMA,
         ["test", size_col + "_{lu}", "sinkage_{lu}", "pressure_{pu}"],
-        lambda t, lf, pf: [str(t.id), repr(float(t.b) / lf)],
+        lambda t, lf, pf: [guard_formula(t.id), repr(float(t.b) / lf)],
         ("sinkage", "pressure"),
         (length_unit, pressure_unit),
         comment,
@@ -216,7 +223,7 @@ def write_shear_tests(
         tests,
         SHEAR_SCHEMA,
         ["test", "normal_pressure_{pu}", "shear_displacement_{lu}", "shear_stress_{pu}"],
-        lambda t, lf, pf: [str(t.id), repr(float(t.normal_pressure) / pf)],
+        lambda t, lf, pf: [guard_formula(t.id), repr(float(t.normal_pressure) / pf)],
         ("displacement", "stress"),
         (length_unit, pressure_unit),
         comment,

@@ -32,6 +32,8 @@ from terracone.physics.plate import PressureLaw, pressure_law
 __all__ = [
     "Cone",
     "CONES",
+    "CONE_ANGLE_RANGE",
+    "CONE_DIAMETER_RANGE",
     "get_cone",
     "cone_index",
     "cone_index_basis",
@@ -63,9 +65,17 @@ class Cone:
 
     def __post_init__(self) -> None:
         if not (self.base_area > 0 and math.isfinite(self.base_area)):
-            raise ValueError(f"cone base_area must be positive (got {self.base_area})")
-        if not (0 < self.angle_deg < 180):
-            raise ValueError(f"cone angle_deg must be in (0, 180) (got {self.angle_deg})")
+            raise ValueError(
+                f"cone {self.name!r}: base area must be positive (got {self.base_area})"
+            )
+        _check_diameter(self.name, 2.0 * math.sqrt(self.base_area / math.pi))
+        lo, hi = CONE_ANGLE_RANGE
+        if not lo <= self.angle_deg <= hi:
+            raise ValueError(
+                f"cone {self.name!r}: included angle {self.angle_deg:g} deg is outside the "
+                f"range of penetrometer cones, {lo:g} to {hi:g} deg (ASABE cones: 30, "
+                "Penetrologger cones: 60)"
+            )
 
     @property
     def radius(self) -> float:
@@ -81,6 +91,26 @@ class Cone:
     def height(self) -> float:
         """Height from base to tip H = R / tan(angle / 2) [m] (Figure 2-2 in [1])."""
         return self.radius / math.tan(self.half_angle)
+
+
+#: Included angle [deg] and base diameter [m] a cone must have: a plausibility
+#: guard, not a standard.  The named cones below span 30 to 60 deg and 12.8 to
+#: 25.2 mm; the ranges are wide enough for every penetrometer cone terracone
+#: knows of, while a cone sharper than 10 deg is a needle (its height is more
+#: than 11 diameters), one blunter than 120 deg nearly a flat plate, and a
+#: diameter below 1 mm or above 150 mm a typing error (20mm:1e-300, 1e300mm:30).
+CONE_ANGLE_RANGE = (10.0, 120.0)
+CONE_DIAMETER_RANGE = (1e-3, 0.15)
+
+
+def _check_diameter(name: str, d: float) -> None:
+    lo, hi = CONE_DIAMETER_RANGE
+    if not (math.isfinite(d) and lo <= d <= hi):
+        raise ValueError(
+            f"cone {name!r}: base diameter {d * 1000:.4g} mm is outside the range of "
+            f"penetrometer cones, {lo * 1000:g} to {hi * 1000:g} mm (base area "
+            f"{math.pi * (lo * 100) ** 2 / 4:.3g} to {math.pi * (hi * 100) ** 2 / 4:.3g} cm^2)"
+        )
 
 
 #: Named cones of ASABE S313 [2]_: 30 deg, 0.5 in^2 (large) and 0.2 in^2 (small),
@@ -117,15 +147,19 @@ def get_cone(cone: str | Cone) -> Cone:
     if m:
         try:
             area = float(m.group(1)) * u.LENGTH_UNITS[m.group(2)] ** 2
-            return Cone(str(cone).strip(), area, float(m.group(3)))
+            angle = float(m.group(3))
         except ValueError as exc:
             raise ValueError(f"cone {cone!r}: {exc}") from None
+        return Cone(str(cone).strip(), area, angle)
     m = _CUSTOM.match(str(cone))
     if m:
-        d = float(m.group(1)) * u.LENGTH_UNITS[m.group(2)]
-        if not d > 0:
-            raise ValueError(f"cone diameter must be positive (got {d})")
-        return Cone(str(cone).strip(), math.pi * d**2 / 4.0, float(m.group(3)))
+        try:
+            d = float(m.group(1)) * u.LENGTH_UNITS[m.group(2)]
+            angle = float(m.group(3))
+        except ValueError as exc:
+            raise ValueError(f"cone {cone!r}: {exc}") from None
+        _check_diameter(str(cone).strip(), d)  # before d**2 can overflow
+        return Cone(str(cone).strip(), math.pi * d**2 / 4.0, angle)
     raise ValueError(
         f"cone must be one of {sorted(CONES)}, 'DIAMETER<m|cm|mm|in>:ANGLE' (e.g. 20.27mm:30) "
         f"or 'AREA<cm2|mm2|in2>:ANGLE' (e.g. 5cm2:60) (got {cone!r})"

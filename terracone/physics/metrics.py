@@ -10,6 +10,7 @@ References
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -17,7 +18,13 @@ from numpy.typing import ArrayLike
 
 from terracone.jit import enabled, njit
 
-__all__ = ["Agreement", "agreement", "pearson_r", "rmsd", "cv"]
+__all__ = ["Agreement", "agreement", "pearson_r", "rmsd", "cv", "finite_median"]
+
+
+def finite_median(values: Iterable[float | None]) -> float | None:
+    """Median of the finite values (None and NaN left out); None when there are none."""
+    v = [float(x) for x in values if x is not None and math.isfinite(float(x))]
+    return float(np.median(v)) if v else None
 
 
 def pearson_r(measured: ArrayLike, predicted: ArrayLike) -> float:

@@ -14,7 +14,7 @@ customary units.  The factors are exact: 1 in = 0.0254 m and 1 lbf =
 4.4482216152605 N.  The factors of kc and kphi depend on the sinkage exponent n.
 
 Quantities written with their unit (``"10 kN"``, ``"40 in"``, ``"190 hp"``,
-as in a vehicle file) are read by :func:`quantity_to_si`.  Its factors are
+``"90 in2"``, as in a vehicle file) are read by :func:`quantity_to_si`.  Its factors are
 exact by definition [2]_: 1 ft = 12 in, 1 kip = 1000 lbf, 1 kgf = 9.80665 N
 (standard gravity), 1 hp = 550 ft lbf/s = 745.69987158227 W (mechanical
 horsepower); a mass (kg, t) stands for its weight under standard gravity.
@@ -97,10 +97,13 @@ QUANTITY_UNITS: dict[str, dict[str, float]] = {
         "t": 1000.0 * G_N,
     },
     "power": {"w": 1.0, "kw": 1000.0, "hp": HP},
+    "area": {"m2": 1.0, "cm2": 1e-4, "mm2": 1e-6, "in2": INCH**2, "ft2": (12.0 * INCH) ** 2},
 }
-_SI_NAME = {"length": "m", "force": "N", "power": "W"}
-_EXAMPLE = {"length": "'40 in'", "force": "'10 kN'", "power": "'190 hp'"}
-_QUANTITY_RE = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z]+)?\s*$")
+_SI_NAME = {"length": "m", "force": "N", "power": "W", "area": "m^2"}
+_EXAMPLE = {"length": "'40 in'", "force": "'10 kN'", "power": "'190 hp'", "area": "'90 in2'"}
+_QUANTITY_RE = re.compile(
+    r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z][A-Za-z0-9^]*)?\s*$"
+)
 
 _SYSTEM_LENGTH = {"si": 1.0, "us": INCH}
 _SYSTEM_PRESSURE = {"si": 1.0, "us": PSI}
@@ -205,12 +208,13 @@ def quantity_to_si(value: Any, kind: str) -> float:
         A string ``"<number> <unit>"`` with a unit of :data:`QUANTITY_UNITS`
         for ``kind`` (case ignored), or a bare number (int or float) taken
         as SI (m, N, W).
-    kind : {"length", "force", "power"}
+    kind : {"length", "force", "power", "area"}
 
     Returns
     -------
     float
-        The value in SI: [m], [N] or [W].
+        The value in SI: [m], [N], [W] or [m^2] (areas: ``m2 cm2 mm2 in2 ft2``,
+        also written ``in^2``).
 
     Raises
     ------
@@ -234,7 +238,7 @@ def quantity_to_si(value: Any, kind: str) -> float:
                 f"{value!r} has no unit: write it with one ({', '.join(table)}) "
                 f"or as a bare number in {_SI_NAME[kind]}"
             )
-        unit = m.group(2).lower()
+        unit = m.group(2).lower().replace("^", "")
         if unit not in table:
             raise ValueError(
                 f"unknown {kind} unit {m.group(2)!r} in {value!r} (known: {', '.join(table)})"

@@ -8,8 +8,10 @@ vehicle cone index VCI, the least RCI on which the vehicle completes one
 (VCI_1) or fifty (VCI_50) passes; the vehicle goes when RCI >= VCI.  VCI
 comes from the vehicle's mobility index MI [2]_ [3]_, with the deflection
 correction factor DCF for tyres deflected otherwise than 15% of their
-section height [1]_.  The formulas are fits in US customary units (psi,
-lb, in); the functions here take and return SI and convert inside.
+section height [1]_.  Wheeled and tracked vehicles have mobility indices
+and VCI relations of their own [2]_ [6]_.  The formulas are fits in US
+customary units (psi, lb, in); the functions here take and return SI and
+convert inside.
 
 **Bekker-Wong, physics.**  A rigid wheel of diameter D and width b under the
 load W sinks, by Bekker's analysis with the pressure p = (kc/b + kphi) z^n,
@@ -35,9 +37,21 @@ References
 .. [5] Wong, J.Y. (2008). Theory of Ground Vehicles, 4th ed. Wiley;
    chapter 2: the WES cone-index methods, and the sinkage and motion
    resistance of a rigid wheel.
+.. [6] Wong, J.Y., Jayakumar, P., Toma, E., Preston-Thomas, J. (2020). A
+   review of mobility metrics for next generation vehicle mobility models.
+   Journal of Terramechanics 87, 11-20, doi:10.1016/j.jterra.2019.10.003:
+   the mobility index and VCI_1 of tracked vehicles.  Neither this review
+   nor [2]_ could be opened here: the tracked-vehicle factors and VCI_1 were
+   read in public transcriptions of [6]_ and of FM 5-430-00-1 (1994), which
+   agree on the weight, track, grouser, bogie and clearance factors and VCI_1;
+   the engine and transmission factors are taken as for wheeled vehicles, the
+   transcriptions being unreliable there (docs/mobility.md, Not done).  No
+   public source of a tracked-vehicle VCI_50 could be opened, so none is given.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -50,6 +64,9 @@ __all__ = [
     "vci50_rula_nuttall",
     "mobility_index_wheeled",
     "weight_factor_wheeled",
+    "vci1_tracked",
+    "mobility_index_tracked",
+    "weight_factor_tracked",
     "rating_cone_index",
     "sinkage_rigid_wheel_bekker",
     "compaction_resistance_bekker",
@@ -245,10 +262,139 @@ def mobility_index_wheeled(
     gf = 1.05 if chains else 1.0  # grouser factor
     wlf = w_lb / 1000.0 / (2.0 * axles)  # wheel load factor
     cf = ground_clearance / u.INCH / 10.0  # clearance factor
-    hp_per_ton = (engine_power / u.HP) / (w_lb / 2000.0)
-    ef = 1.0 if hp_per_ton >= 10.0 else 1.05  # engine factor
+    ef = _engine_factor(engine_power, w_lb)  # engine factor
     xf = 1.05 if manual_transmission else 1.0  # transmission factor
     return float((cpf * wf / (tf * gf) + wlf - cf) * ef * xf)
+
+
+#: Tracked-vehicle weight factor by gross weight [lb]: (upper bound, factor) [6].
+TRACKED_WEIGHT_FACTORS = ((50_000.0, 1.0), (70_000.0, 1.2), (100_000.0, 1.4), (math.inf, 1.8))
+#: Grouser height above which the tracked grouser factor is 1.1, else 1.0 [in] [6].
+GROUSER_HEIGHT_IN = 1.5
+
+
+def vci1_tracked(mobility_index: ArrayLike) -> np.ndarray:
+    """One-pass vehicle cone index VCI_1 of a tracked vehicle [kPa] [1]_.
+
+    VCI_1 = 7.0 + 0.2 MI - 39.2 / (MI + 5.6) [psi], returned in kPa (fine-grained
+    soils; tracks carry no deflection correction).
+
+    Parameters
+    ----------
+    mobility_index : array_like
+        Mobility index MI [-] (:func:`mobility_index_tracked`), > 0.
+
+    Returns
+    -------
+    ndarray
+        VCI_1 [kPa].
+
+    References
+    ----------
+    .. [1] Wong et al. (2020), as transcribed (:mod:`terracone.physics.vehicle`, [6]).
+    """
+    mi = _check_mi(mobility_index)
+    return u.pressure_to_si(7.0 + 0.2 * mi - 39.2 / (mi + 5.6), "us")  # VCI_1, tracked [6]
+
+
+def weight_factor_tracked(gross_weight_lb: ArrayLike) -> np.ndarray:
+    """Weight factor of the tracked-vehicle mobility index [-] [1]_.
+
+    1.0 below 50,000 lb, 1.2 to 70,000 lb, 1.4 to 100,000 lb, 1.8 above
+    (each band includes its lower bound).
+
+    Parameters
+    ----------
+    gross_weight_lb : array_like
+        Gross vehicle weight [lb].
+
+    References
+    ----------
+    .. [1] Wong et al. (2020), as transcribed (:mod:`terracone.physics.vehicle`, [6]).
+    """
+    w = np.asarray(gross_weight_lb, dtype=float)
+    bounds = [b for b, _ in TRACKED_WEIGHT_FACTORS[:-1]]
+    return np.select([w < b for b in bounds], [f for _, f in TRACKED_WEIGHT_FACTORS[:-1]],
+                     TRACKED_WEIGHT_FACTORS[-1][1])  # fmt: skip
+
+
+def _engine_factor(engine_power: float, w_lb: float) -> float:
+    """EF = 1 at 10 hp per short ton (2000 lb) of gross weight or more, else 1.05 [2], [6]."""
+    hp_per_ton = (engine_power / u.HP) / (w_lb / 2000.0)
+    return 1.0 if hp_per_ton >= 10.0 else 1.05
+
+
+def mobility_index_tracked(
+    gross_weight: float,
+    *,
+    track_width: float,
+    track_contact_length: float,
+    tracks: int,
+    bogies: int,
+    shoe_area: float,
+    grouser_height: float,
+    ground_clearance: float,
+    engine_power: float,
+    manual_transmission: bool = False,
+) -> float:
+    """Mobility index MI of a self-propelled tracked vehicle [-] [1]_.
+
+    MI = (CPF WF / (TF GF) + BF - CF) EF XF, in US customary units:
+
+    * contact pressure factor CPF = W [lb] / (tracks L [in] b [in]), the
+      gross weight over the area of the tracks on the ground;
+    * weight factor WF of W (:func:`weight_factor_tracked`);
+    * track factor TF = b [in] / 100;
+    * grouser factor GF = 1.1 with grousers higher than 1.5 in, else 1.0;
+    * bogie factor BF = (W [lb] / 10) / (bogies x shoe area [in^2]), bogies
+      being the road wheels in contact with the ground on all tracks;
+    * clearance factor CF = clearance [in] / 10;
+    * engine factor EF = 1 at 10 hp per short ton of W or more, else 1.05;
+    * transmission factor XF = 1 automatic, 1.05 manual.
+
+    Parameters
+    ----------
+    gross_weight : float
+        Gross vehicle weight W [N].
+    track_width, track_contact_length : float
+        Width b of a track and the length L of one track on the ground [m].
+    tracks, bogies : int
+        Number of tracks; road wheels in contact with the ground, all tracks.
+    shoe_area : float
+        Area of one track shoe [m^2].
+    grouser_height, ground_clearance : float
+        Grouser height and ground clearance [m].
+    engine_power : float
+        Engine power [W].
+    manual_transmission : bool
+        True for a manual transmission (False: automatic).
+
+    Returns
+    -------
+    float
+        MI [-].
+
+    References
+    ----------
+    .. [1] Wong et al. (2020), as transcribed (:mod:`terracone.physics.vehicle`, [6]).
+    """
+    dims = (gross_weight, track_width, track_contact_length, shoe_area, engine_power)
+    if not all(x > 0 for x in dims) or grouser_height < 0 or ground_clearance < 0:
+        raise ValueError("need weight, track width, contact length, shoe area and engine power "
+                         "> 0, grouser height and clearance >= 0")  # fmt: skip
+    if int(tracks) < 1 or int(bogies) < 1:
+        raise ValueError("need tracks >= 1 and bogies >= 1")
+    w_lb = gross_weight / u.LBF
+    b_in, l_in = track_width / u.INCH, track_contact_length / u.INCH
+    cpf = w_lb / (tracks * l_in * b_in)  # contact pressure factor [psi]
+    wf = float(weight_factor_tracked(w_lb))  # weight factor
+    tf = b_in / 100.0  # track factor
+    gf = 1.1 if grouser_height / u.INCH > GROUSER_HEIGHT_IN else 1.0  # grouser factor
+    bf = (w_lb / 10.0) / (bogies * shoe_area / u.INCH**2)  # bogie factor
+    cf = ground_clearance / u.INCH / 10.0  # clearance factor
+    ef = _engine_factor(engine_power, w_lb)  # engine factor
+    xf = 1.05 if manual_transmission else 1.0  # transmission factor
+    return float((cpf * wf / (tf * gf) + bf - cf) * ef * xf)
 
 
 def rating_cone_index(ci: ArrayLike, remolding_index: ArrayLike) -> np.ndarray:

@@ -63,6 +63,10 @@ def _read_json(path: Path) -> Any:
         return json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ValueError(f"file {path}: cannot read JSON ({exc})") from exc
+    except RecursionError:
+        from terracone.io.jsonkeys import JSON_TOO_DEEP
+
+        raise ValueError(f"file {path}: {JSON_TOO_DEEP}") from None
 
 
 def load_document(

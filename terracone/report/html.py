@@ -7,7 +7,7 @@ A report is a *document*: a title, metadata and sections, each a list of
 parts (``text``, ``list``, ``kv``, ``figure``, ``table``, ``html``).  The
 renderers here turn the JSON documents of ``terracone predict``, ``learn``
 and ``evaluate``, and the output directory of ``terracone batch``, into such
-documents; :mod:`terracone.apps.reproduce` stores its own in ``reproduce.json``.
+documents; :mod:`terracone.report.reproduce` stores its own in ``reproduce.json``.
 """
 
 from __future__ import annotations

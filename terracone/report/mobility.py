@@ -23,7 +23,15 @@ from terracone.report.html import figure_part, kv_part, list_part, table_part, t
 from terracone.report.tables import Table
 from terracone.report.text import table
 
-__all__ = ["mobility_text", "mobility_document", "verdict", "go_map_figure", "profile_notes"]
+__all__ = [
+    "mobility_text",
+    "mobility_document",
+    "verdict",
+    "go_map_figure",
+    "profile_notes",
+    "vehicle_line",
+    "layer_line",
+]
 
 
 def verdict(go: bool | None) -> str:
@@ -36,22 +44,75 @@ def _band(w: Mapping[str, Any], key: str) -> tuple[Any, Any]:
     return (lo[key], hi[key]) if lo and hi else (None, None)
 
 
+def _layer_text(cl: Mapping[str, Any]) -> str:
+    top, bottom = cl.get("top"), cl.get("bottom")
+    return "-" if top is None or bottom is None else f"{top:.3g}-{bottom:.3g}"
+
+
+def _soil_text(d: Mapping[str, Any]) -> str:
+    soil = d.get("soil_class") or "-"
+    return f"{soil}*" if d.get("assumed") else soil
+
+
 def _row(d: Mapping[str, Any], name_key: str) -> list[Any]:
     cl, w = d["critical_layer"], d["wheel"]
     zlo, zhi = _band(w, "sinkage")
     rlo, rhi = _band(w, "resistance")
     return [
-        d[name_key], cl["ci"], cl.get("ri"), cl["rci"], d["vci"], verdict(d["go"]), d["margin"],
-        w["sinkage"], zlo, zhi, w["resistance"], rlo, rhi,
+        d[name_key], _soil_text(d), _layer_text(cl), cl["ci"], cl.get("ri"), cl["rci"], d["vci"],
+        verdict(d["go"]), d["margin"], w["sinkage"], zlo, zhi, w["resistance"], rlo, rhi,
     ]  # fmt: skip
 
 
 def _headers(units: str, first: str) -> list[str]:
     pu, lu, fu = u.pressure_unit(units), u.length_unit(units), u.force_unit(units)
     return [
-        first, f"CI [{pu}]", "RI", f"RCI [{pu}]", f"VCI [{pu}]", "GO", f"margin [{pu}]",
-        f"sinkage [{lu}]", "5%", "95%", f"resistance [{fu}]", "5%", "95%",
+        first, "soil", f"layer [{lu}]", f"CI [{pu}]", "RI", f"RCI [{pu}]", f"VCI [{pu}]", "GO",
+        f"margin [{pu}]", f"sinkage [{lu}]", "5%", "95%", f"resistance [{fu}]", "5%", "95%",
     ]  # fmt: skip
+
+
+def vehicle_line(doc: Mapping[str, Any]) -> str:
+    """The vehicle, its mobility index and its VCI (or why none applies), in one line."""
+    units, v = doc["units"], doc["vehicle"]
+    drive = f", drive {v['drive']}" if v.get("drive") else ""
+    tyre = (
+        f", delta/h {v['tire_deflection_ratio']:g} (DCF {v['dcf']:.4g})"
+        if v.get("tire_deflection_ratio") is not None
+        else ""
+    )
+    vci = (
+        f"VCI_{v['passes']} {v['vci']:.4g} {u.pressure_unit(units)} (fine-grained soils)"
+        if v.get("vci") is not None
+        else f"VCI_{v['passes']}: none ({v.get('vci_note')})"
+    )
+    return (
+        f"vehicle {v['name']} ({v['kind']}{drive}): MI {v['mobility_index']:.4g} "
+        f"({v['mobility_index_from']}){tyre}, {vci}"
+    )
+
+
+def layer_line(doc: Mapping[str, Any]) -> str:
+    """How the critical layer was chosen, and the wheel of Bekker's sinkage."""
+    units, st, v = doc["units"], doc["settings"], doc["vehicle"]
+    lu = u.length_unit(units)
+    cl = st.get("critical_layer") or {"mode": "layer", **st["layer"]}  # documents before issue 30
+    rules = sorted({p["critical_layer"].get("rule") or "-" for p in doc["profiles"]})
+    if cl["mode"] == "layer":
+        how = f"critical layer {cl['top']:.4g}-{cl['bottom']:.4g} {lu} (--layer)"
+    elif cl["mode"] == "weakest":
+        w = cl["window"]
+        how = (f"critical layer: the weakest {cl['thickness']:.4g} {lu} within "
+               f"{w[0]:.4g}-{w[1]:.4g} {lu} of each profile")  # fmt: skip
+    else:
+        how = f"critical layer by rule: {', '.join(rules)}"
+    wheel = v.get("wheel")
+    if wheel is None:
+        return f"{how}; no wheel"
+    return (
+        f"{how}; wheel {wheel['load']:.4g} {u.force_unit(units)}, D {wheel['diameter']:.4g} {lu}, "
+        f"b {wheel['width']:.4g} {lu}"
+    )
 
 
 def profile_notes(profiles: Sequence[Mapping[str, Any]], shown: int = 3) -> list[str]:
@@ -76,21 +137,17 @@ def profile_notes(profiles: Sequence[Mapping[str, Any]], shown: int = 3) -> list
 def mobility_text(doc: Mapping[str, Any]) -> str:
     """The plain-text tables of a mobility document (what ``terracone mobility`` prints)."""
     units = doc["units"]
-    v, st = doc["vehicle"], doc["settings"]
-    lu = u.length_unit(units)
     lines = [
-        f"vehicle {v['name']} ({v['kind']}): MI {v['mobility_index']:.4g} ({v['mobility_index_from']}),"
-        f" delta/h {v['tire_deflection_ratio']:g} (DCF {v['dcf']:.4g}), "
-        f"VCI_{v['passes']} {v['vci']:.4g} {u.pressure_unit(units)}",
-        f"critical layer {st['layer']['top']:.4g}-{st['layer']['bottom']:.4g} {lu}; wheel "
-        f"{v['wheel']['load']:.4g} {u.force_unit(units)}, D {v['wheel']['diameter']:.4g} {lu}, "
-        f"b {v['wheel']['width']:.4g} {lu}",
+        vehicle_line(doc),
+        layer_line(doc),
         "",
         table(_headers(units, "profile"), [_row(p, "id") for p in doc["profiles"]]),
     ]
     if doc.get("sites"):
         lines += ["", table(_headers(units, "site"), [_row(s, "site") for s in doc["sites"]])]
     notes = list(doc.get("notes", [])) + profile_notes(doc["profiles"])
+    if any(p.get("assumed") for p in doc["profiles"]):
+        notes.append("soil*: soil class assumed (not given)")
     if notes:
         lines += [""] + notes
     return "\n".join(lines)
@@ -99,8 +156,8 @@ def mobility_text(doc: Mapping[str, Any]) -> str:
 def _table(rows: Sequence[Mapping[str, Any]], units: str, site: bool) -> Table:
     hs = _headers(units, "site" if site else "profile")
     columns = [(h.split(" [")[0], h.split(" [")[1].rstrip("]") if " [" in h else "") for h in hs]
-    columns[8], columns[9] = ("sinkage", "5%"), ("sinkage", "95%")
-    columns[11], columns[12] = ("resistance", "5%"), ("resistance", "95%")
+    columns[10], columns[11] = ("sinkage", "5%"), ("sinkage", "95%")
+    columns[13], columns[14] = ("resistance", "5%"), ("resistance", "95%")
     body = [_row(r, "site" if site else "id") for r in rows]
     if site:
         columns.append(("GO share", "of profiles"))
@@ -114,7 +171,9 @@ def _table(rows: Sequence[Mapping[str, Any]], units: str, site: bool) -> Table:
         rows=body,
         notes=[
             "GO when RCI >= VCI (Priddy and Willoughby 2006); margin = RCI - VCI; '-' where "
-            "there is no RCI (no remolding index, or no CI over the critical layer).",
+            "there is no RCI or no VCI (no remolding index, no CI over the critical layer, a "
+            "coarse-grained soil, or a vehicle outside the VCI relation's domain); soil*: "
+            "assumed.",
             "sinkage and compaction resistance of the vehicle's rigid wheel (Bekker 1969); "
             "5%/95%: band of the posterior draws where the results keep them.",
         ],
@@ -168,10 +227,10 @@ def mobility_document(doc: Mapping[str, Any], *, source: str | None = None) -> d
                 "input": doc.get("input"),
                 "vehicle": f"{v['name']} ({v['kind']})",
                 "mobility index": v["mobility_index"],
-                f"VCI_{v['passes']} [{u.pressure_unit(units)}]": v["vci"],
-                f"critical layer [{u.length_unit(units)}]": (
-                    f"{st['layer']['top']:.4g}-{st['layer']['bottom']:.4g}"
+                f"VCI_{v['passes']} [{u.pressure_unit(units)}]": (
+                    v["vci"] if v["vci"] is not None else f"none ({v.get('vci_note')})"
                 ),
+                "critical layer": layer_line(doc).split(";")[0],
                 "remolding index": st.get("remolding_index") or "from metadata",
                 "profiles": len(profiles),
                 "GO / NO-GO / undecided": (

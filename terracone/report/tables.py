@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from terracone.data import TerrainParameters, TerrainShear
+from terracone.io.tables import guard_formula
 from terracone.notebook import fmt_value
 from terracone.physics import units as u
 
@@ -59,7 +60,9 @@ def _csv_value(v: Any) -> str:
         if not math.isfinite(v):
             return ""
         return f"{v:.6g}"
-    return str(v)
+    if isinstance(v, int):
+        return str(v)
+    return guard_formula(v)  # text a spreadsheet must not run as a formula (OWASP)
 
 
 @dataclass
@@ -112,7 +115,7 @@ class Table:
             for part in str(line).splitlines():
                 buf.write(f"# {part}\n")
         w = csv.writer(buf, lineterminator="\n")
-        w.writerow(self.header())
+        w.writerow([guard_formula(h) for h in self.header()])
         for r in self.rows:
             w.writerow([_csv_value(v) for v in r])
         text = buf.getvalue()

@@ -17,6 +17,7 @@ from terracone.apps.maps.workflow import QuantityMap, TerrainMap, map_survey
 from terracone.apps.maps.writers import (
     MAP_SCHEMA,
     LocatedParameters,
+    is_map_directory,
     map_document,
     read_map_cells,
     write_map,
@@ -30,6 +31,7 @@ __all__ = [
     "Quantity",
     "QuantityMap",
     "Survey",
+    "is_map_directory",
     "locate",
     "map_document",
     "map_survey",

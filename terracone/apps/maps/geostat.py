@@ -61,6 +61,8 @@ from scipy.spatial import cKDTree
 from scipy.spatial.distance import cdist
 from threadpoolctl import threadpool_limits
 
+from terracone.result import finite_or_none
+
 __all__ = [
     "GLOBAL_PUSHES",
     "LOO_GLOBAL_PUSHES",
@@ -144,15 +146,15 @@ class Variogram:
         return {
             "model": "Stable" if self.structure else "pure nugget",
             "structure": self.structure,
-            "nugget": _num(self.nugget),
-            "partial_sill": _num(self.partial_sill),
-            "sill": _num(self.nugget + self.partial_sill),
-            "len_scale": _num(self.len_scale),
-            "alpha": _num(self.alpha),
-            "range": _num(self.range),
-            "r2": _num(self.r2),
+            "nugget": finite_or_none(self.nugget),
+            "partial_sill": finite_or_none(self.partial_sill),
+            "sill": finite_or_none(self.nugget + self.partial_sill),
+            "len_scale": finite_or_none(self.len_scale),
+            "alpha": finite_or_none(self.alpha),
+            "range": finite_or_none(self.range),
+            "r2": finite_or_none(self.r2),
             "structure_test": {
-                "p_value": _num(self.p_value),
+                "p_value": finite_or_none(self.p_value),
                 "method": f"permutation test ({PERMUTATIONS} permutations, seed 0) of the mean "
                 f"semivariance over each push's {STRUCTURE_NEIGHBOURS} nearest neighbours",
                 "level": STRUCTURE_ALPHA,
@@ -212,10 +214,6 @@ class CrossValidation:
         if log:
             out["rmse_log"] = float(np.sqrt(np.mean(e**2)))
         return out
-
-
-def _num(v: float) -> float | None:
-    return float(v) if math.isfinite(v) else None
 
 
 def _xy(x: np.ndarray, y: np.ndarray) -> np.ndarray:

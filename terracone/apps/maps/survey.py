@@ -44,11 +44,14 @@ from terracone.physics.plate import plate_pressure, pressure_law
 from terracone.result import PredictionResult
 
 __all__ = [
+    "CRS_SCALE_LIMIT",
+    "CRS_SCALE_NOTE",
     "MIN_PUSHES",
     "Quantity",
     "Survey",
     "ci_quantity",
     "coordinates",
+    "crs_fit",
     "default_layer",
     "layer_name",
     "locate",
@@ -121,6 +124,12 @@ class Survey:
         The map's projected CRS.
     crs_note : str
         How the CRS was chosen.
+    crs_fit : dict
+        How the CRS fits the pushes (:func:`crs_fit`): its area of use, the
+        pushes outside it, the largest distance error at a push.
+    crs_warnings : list of str
+        What the map's notes say about the CRS (pushes outside its area of use,
+        distances off by more than 1 %).
     unlocated : list of str
         Fitted profiles without coordinates (not mapped).
     not_fitted : list of (id, reason)
@@ -139,6 +148,8 @@ class Survey:
     unlocated: list[str] = field(default_factory=list)
     not_fitted: list[tuple[str, str]] = field(default_factory=list)
     settings: dict[str, Any] = field(default_factory=dict)
+    crs_fit: dict[str, Any] = field(default_factory=dict)
+    crs_warnings: list[str] = field(default_factory=list)
 
     @property
     def ids(self) -> list[str]:
@@ -281,6 +292,112 @@ def metric_crs(lat: np.ndarray, lon: np.ndarray, crs: str | None = None) -> tupl
     return out, "the WGS 84 UTM zone of the pushes' centre (default; --crs to change)"
 
 
+#: Largest distance error of a map's CRS (its scale factor's distance from 1) at a push
+#: outside the CRS's area of use: beyond it the push is far outside and the map is
+#: refused.  Above :data:`CRS_SCALE_NOTE` anywhere the map notes it.  Within its zone a
+#: UTM projection is off by at most about 0.1 %.
+CRS_SCALE_LIMIT = 0.05
+CRS_SCALE_NOTE = 0.01
+
+
+def _scale_error(crs: Any, lat: np.ndarray, lon: np.ndarray) -> np.ndarray | None:
+    """|scale factor - 1| at each point (the larger of the meridional and parallel scale;
+    inf where the projection folds or fails); None when pyproj cannot tell."""
+    from pyproj import Proj
+
+    try:
+        f = Proj(crs).get_factors(lon, lat, errcheck=False)
+    except Exception:  # pyproj.exceptions.ProjError and friends: no factors for this CRS
+        return None
+    h, k, areal = (
+        np.asarray(v, dtype=float).reshape(lat.shape)
+        for v in (f.meridional_scale, f.parallel_scale, f.areal_scale)
+    )
+    err = np.maximum(np.abs(h - 1.0), np.abs(k - 1.0))
+    return np.where(np.isfinite(err) & (areal > 0), err, np.inf)
+
+
+def crs_fit(
+    crs: Any, lat: np.ndarray, lon: np.ndarray, ids: Sequence[str], given: bool
+) -> tuple[dict[str, Any], list[str]]:
+    """How a projected CRS fits the pushes: its area of use and its distance error there.
+
+    Parameters
+    ----------
+    crs : pyproj.CRS
+    lat, lon : ndarray
+        The pushes [deg].
+    ids : sequence of str
+        Their ids, for messages.
+    given : bool
+        Whether the user chose the CRS (--crs), for messages.
+
+    Returns
+    -------
+    dict
+        ``area_of_use`` (name), ``bounds`` [west, south, east, north] [deg],
+        ``pushes_outside``, ``scale_error`` (largest |scale factor - 1| at a
+        push, None when pyproj gives no factors).
+    list of str
+        Warnings: pushes outside the area of use; distances off by more than
+        :data:`CRS_SCALE_NOTE`.
+
+    Raises
+    ------
+    ValueError
+        A push far outside the area of use (distances off by more than
+        :data:`CRS_SCALE_LIMIT` there), or a projection that fails or folds at a
+        push (the message names the push and the area of use).
+    """
+    aou = crs.area_of_use
+    outside = np.zeros(lat.size, dtype=bool)
+    info: dict[str, Any] = {"area_of_use": None, "bounds": None}
+    where = ""
+    if aou is not None:
+        w, s, e, n = (float(v) for v in aou.bounds)
+        in_lon = (lon >= w) & (lon <= e) if w <= e else (lon >= w) | (lon <= e)
+        outside = ~(in_lon & (lat >= s) & (lat <= n))
+        info.update(area_of_use=aou.name, bounds=[w, s, e, n])
+        name = aou.name.rstrip(".")
+        name = name if len(name) <= 60 else name[:57].rstrip(" ,.") + "..."
+        where = f"{name} (lon {w:g} to {e:g}, lat {s:g} to {n:g})"
+    err = _scale_error(crs, lat, lon)
+    finite = err is not None and bool(np.all(np.isfinite(err)))
+    info.update(
+        pushes_outside=int(outside.sum()),
+        scale_error=float(np.max(err)) if finite else None,
+    )
+    label = f"{'--crs ' if given else ''}{crs.name}"
+    far = (
+        None
+        if err is None
+        else np.flatnonzero(~np.isfinite(err) | (outside & (err > CRS_SCALE_LIMIT)))
+    )
+    if far is not None and far.size:
+        i = int(far[np.argmax(err[far])])
+        off = "cannot measure distances" if not np.isfinite(err[i]) else (
+            f"measures distances {err[i]:.0%} wrong"
+        )  # fmt: skip
+        area = f"; its area of use is {where}" if where else ""
+        raise ValueError(
+            f"{label} {off} at push {ids[i]} (lat {lat[i]:.6g}, lon {lon[i]:.6g}; "
+            f"{int(outside.sum())} of {lat.size} pushes lie outside its area of use){area}: "
+            "a map in it would be wrong; give a CRS made for the pushes' area (without --crs "
+            "the map uses their UTM zone)"
+        )
+    notes = []
+    if outside.any():
+        notes.append(
+            f"{int(outside.sum())} of {lat.size} pushes lie outside the area of use of {label}, "
+            f"{where}: " + ", ".join(str(ids[i]) for i in np.flatnonzero(outside)[:8])
+        )
+    if info["scale_error"] is not None and info["scale_error"] > CRS_SCALE_NOTE:
+        notes.append(
+            f"distances in {label} are off by up to {info['scale_error']:.1%} at the pushes"
+        )
+    return info, notes
+
+
 def locate(results: Sequence[PredictionResult], *, crs: str | None = None) -> Survey:
     """The survey of a set of results: located, fitted pushes projected to a metric CRS.
 
@@ -324,7 +441,10 @@ def locate(results: Sequence[PredictionResult], *, crs: str | None = None) -> Su
             f"the {len(pushes)} located pushes lie at fewer than 3 distinct points (lat "
             f"{lat[0]:.6f}, lon {lon[0]:.6f}): a map needs pushes spread over the field"
         )
-    return Survey(pushes, lat, lon, x, y, out_crs, note, unlocated, not_fitted, settings)
+    fit, warnings = crs_fit(out_crs, lat, lon, [r.id for r in pushes], given=crs is not None)
+    return Survey(
+        pushes, lat, lon, x, y, out_crs, note, unlocated, not_fitted, settings, fit, warnings
+    )
 
 
 # ---------------------------------------------------------------------------
@@ -423,7 +543,7 @@ def _posterior(r: PredictionResult, calibrated: bool) -> Any:
     estimate (kc/kphi, phic and cc free): its spread is not the fit's.
     """
     post = r.posterior
-    prior = str(getattr(post, "prior", None) or "")
+    prior = "" if post is None else str(post.prior or "")
     if post is None or calibrated != prior.startswith("calibration"):
         return None
     return post
@@ -432,7 +552,7 @@ def _posterior(r: PredictionResult, calibrated: bool) -> Any:
 def _draws_variance(r: PredictionResult, q: Quantity, pair: Any, calibrated: bool) -> float:
     """Variance over the posterior draws of the kriged value (log or linear), NaN without draws."""
     post = _posterior(r, calibrated)
-    s = None if post is None else getattr(post, "samples", None)
+    s = None if post is None else post.samples
     if s is None or len(s) < 2:
         return math.nan
     s = np.asarray(s, dtype=float)
@@ -457,9 +577,9 @@ def _draws_variance(r: PredictionResult, q: Quantity, pair: Any, calibrated: boo
 def _n_variance(r: PredictionResult, calibrated: bool) -> float:
     """Estimation variance of n from its interval (posterior 90%, else profile 95%)."""
     post = _posterior(r, calibrated)
-    if post is not None and "n" in getattr(post, "intervals", {}):
+    if post is not None and "n" in post.intervals:
         lo, hi = post.intervals["n"]
-        z = float(norm.ppf(0.5 + 0.5 * float(getattr(post, "level", 0.9))))
+        z = float(norm.ppf(0.5 + 0.5 * float(post.level)))
         return ((hi - lo) / (2 * z)) ** 2
     if "n" in r.profile_intervals:
         lo, hi = r.profile_intervals["n"]

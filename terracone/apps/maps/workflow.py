@@ -38,6 +38,7 @@ from terracone.apps.maps.survey import (
     push_values,
 )
 from terracone.physics import units as u
+from terracone.physics.metrics import finite_median
 from terracone.result import PredictionResult
 
 __all__ = [
@@ -231,10 +232,6 @@ def _quantities(
     return out, note
 
 
-def _median(results: Sequence[PredictionResult], key: str) -> float:
-    return float(np.median([getattr(r.params, key) for r in results]))
-
-
 def cell_parameters(
     survey: Survey, grid: Grid, n_map: QuantityMap, b: float, calibrated: bool
 ) -> tuple[dict[str, Any], QuantityMap]:
@@ -269,8 +266,8 @@ def cell_parameters(
         "kc": share * s * b,
         "kphi": (1.0 - share) * s,
         "n": n_map.median,
-        "cc": _median(survey.results, "cc"),
-        "phic_deg": _median(survey.results, "phic_deg"),
+        "cc": finite_median(r.params.cc for r in survey.results),
+        "phic_deg": finite_median(r.params.phic_deg for r in survey.results),
         "model": survey.results[0].params.model,
         "r_min": survey.results[0].params.r_min,
         "reference_size": b,
@@ -281,7 +278,7 @@ def cell_parameters(
 
 
 def _notes(survey: Survey, maps: Sequence[QuantityMap], calibrated: bool) -> list[str]:
-    notes = []
+    notes = list(survey.crs_warnings)
     if not calibrated:
         notes.append(UNCALIBRATED_MAP_NOTE)
     if survey.unlocated:

@@ -35,6 +35,7 @@ from terracone.physics import units as u
 __all__ = [
     "MAP_SCHEMA",
     "LocatedParameters",
+    "is_map_directory",
     "map_document",
     "read_map_cells",
     "write_map",
@@ -119,6 +120,7 @@ def map_document(result: TerrainMap, units: str = "si") -> dict[str, Any]:
         "crs_name": crs.name,
         "crs_note": s.crs_note,
         "crs_units": "m",
+        "crs_fit": dict(s.crs_fit),
         "units": units,
         "level": LEVEL,
         "resolution": g.resolution,
@@ -243,30 +245,54 @@ def _write_cells(path: Path, result: TerrainMap) -> None:
     pq.write_table(table.replace_schema_metadata({_CELLS_KEY: json.dumps(meta).encode()}), path)
 
 
-def write_map(result: TerrainMap, directory: PathLike, units: str = "si") -> dict[str, Path]:
+def write_map(
+    result: TerrainMap, directory: PathLike, units: str = "si", *, force: bool = False
+) -> dict[str, Path]:
     """Write a map's rasters, ``points.parquet``, ``cells.parquet`` and ``map.json`` to ``directory``.
 
-    Returns the written files by name (quantities by their name, then
-    ``points``, ``cells``, ``map``).  The directory is created.
+    The directory then holds this map and nothing else: the files are
+    written into a new directory beside it that takes its place whole
+    (:func:`terracone.io.outputs.run_directory`).  An earlier map there is
+    replaced; a directory holding anything else is refused (ValueError)
+    unless ``force``.  Returns the written files by name (quantities by their
+    name, then ``points``, ``cells``, ``map``).
     """
-    units = u.check_system(units)
-    out = Path(directory)
-    out.mkdir(parents=True, exist_ok=True)
-    files: dict[str, Path] = {}
-    for m in result.quantities:
-        if m.skipped:
-            continue
-        files[m.name] = out / f"{m.name}.tif"
-        _write_tif(files[m.name], m, result, units)
-    files["points"] = out / "points.parquet"
-    _write_points(files["points"], result, units)
-    files["cells"] = out / "cells.parquet"
-    _write_cells(files["cells"], result)
-    files["map"] = out / "map.json"
+    from terracone.io.outputs import run_directory
     from terracone.result import dumps
 
-    files["map"].write_text(dumps(map_document(result, units)) + "\n")
-    return files
+    units = u.check_system(units)
+    out = Path(directory).expanduser().resolve()
+    names: dict[str, str] = {m.name: f"{m.name}.tif" for m in result.quantities if not m.skipped}
+    names.update(points="points.parquet", cells="cells.parquet", map="map.json")
+    with run_directory(out, what="terracone map", is_run=is_map_directory, force=force) as stage:
+        for m in result.quantities:
+            if not m.skipped:
+                _write_tif(stage / names[m.name], m, result, units)
+        _write_points(stage / names["points"], result, units)
+        _write_cells(stage / names["cells"], result)
+        (stage / names["map"]).write_text(dumps(map_document(result, units)) + "\n")
+    return {k: out / v for k, v in names.items()}
+
+
+def is_map_directory(directory: PathLike) -> bool:
+    """Whether a directory holds one map of :func:`write_map` and nothing else.
+
+    Its ``map.json`` is a map's (schema :data:`MAP_SCHEMA`) and every entry is
+    a file that ``map.json`` names: the quantities' GeoTIFFs, ``points.parquet``,
+    ``cells.parquet``.
+    """
+    d = Path(directory)
+    try:
+        doc = json.loads((d / "map.json").read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError):
+        return False
+    if not isinstance(doc, dict) or doc.get("schema") != MAP_SCHEMA:
+        return False
+    quantities = doc.get("quantities")
+    files = {"map.json", str(doc.get("points")), str(doc.get("cells"))}
+    if isinstance(quantities, dict):
+        files |= {str(q.get("file")) for q in quantities.values() if isinstance(q, dict)}
+    return all(e.is_file() and e.name in files for e in d.iterdir())
 
 
 def read_map_cells(directory: PathLike) -> list[LocatedParameters]:

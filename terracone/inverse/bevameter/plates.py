@@ -34,11 +34,13 @@ from terracone.data import InputError, PlateTest
 from terracone.physics import units as u
 
 __all__ = [
+    "DRIFT_LIMIT",
     "METHODS",
     "PlateFit",
     "PlatesFit",
     "fit_plate_test",
     "fit_plates",
+    "left_out",
     "line_fit",
     "of_type",
 ]
@@ -303,6 +305,58 @@ def line_fit(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray | Non
     return coef, stats.t.ppf(0.975, m - 2) * np.sqrt(np.diag(cov))
 
 
+#: A loading-branch pressure below ``-DRIFT_LIMIT`` times the test's largest pressure is
+#: refused: the zero drift of a load cell is a small fraction of the load (the drift of
+#: the Cullinan sand tests of ../shared is at most 3.5 %), a large negative value a lost sign.
+DRIFT_LIMIT = 0.1
+
+
+def _lines(rows: np.ndarray | None, mask: np.ndarray) -> str:
+    """' (lines 3, 4, 9, ...)' of the points in ``mask``, or ''."""
+    if rows is None:
+        return ""
+    at = [str(int(r)) for r in rows[mask]]
+    word = "line" if len(at) == 1 else "lines"
+    return f" ({word} {', '.join(at[:6])}{', ...' if len(at) > 6 else ''})"
+
+
+def left_out(test: PlateTest) -> str | None:
+    """What the fit leaves out of a test's points and why, in words (None: nothing).
+
+    The fit uses the loading branch (:meth:`PlateTest.loading_branch`): points
+    after the largest sinkage (unloading) and points at sinkage <= 0 or
+    pressure <= 0 (zero drift) are left out, and said so in the fit's notes.
+    Raises a located InputError for a pressure below ``-DRIFT_LIMIT`` times the
+    test's largest pressure in the loading branch: not drift but an error.
+    """
+    z, p, rows = test.sinkage, test.pressure, test.rows
+    if z.size == 0:
+        return None
+    imax = int(np.argmax(z))
+    head = np.arange(z.size) <= imax
+    peak = float(np.max(p[head], initial=0.0))
+    wrong = head & (p < -DRIFT_LIMIT * peak)
+    if wrong.any():
+        i = int(np.flatnonzero(wrong)[0])
+        raise InputError(
+            f"pressure {p[i]:.6g} kPa in the loading branch is below -{DRIFT_LIMIT:.0%} of the "
+            f"test's largest pressure ({peak:.6g} kPa): not zero drift; a lost sign?",
+            file=test.source, profile=test.id, item="test", column="pressure",
+            row=None if rows is None else int(rows[i]),
+        )  # fmt: skip
+    parts = []
+    drift = head & ~((z > 0) & (p > 0))
+    if drift.any():
+        k = int(drift.sum())
+        parts.append(f"{k} at sinkage <= 0 or pressure <= 0{_lines(rows, drift)}")
+    if (~head).any():
+        parts.append(f"{int((~head).sum())} after the largest sinkage (unloading)")
+    if not parts:
+        return None
+    k = int(drift.sum() + (~head).sum())
+    return f"test {test.id}: {k} of {z.size} points left out of the fit: {'; '.join(parts)}"
+
+
 def _branch(test: PlateTest) -> tuple[np.ndarray, np.ndarray]:
     br = of_type(test, PlateTest).loading_branch()
     z, p = br.sinkage, br.pressure
@@ -403,6 +457,7 @@ def fit_plates(tests: Iterable[PlateTest], method: str = "wong") -> PlatesFit:
     tests = list(tests)
     if not tests:
         raise ValueError("no plate tests to fit")
+    dropped = [note for t in tests if (note := left_out(of_type(t, PlateTest))) is not None]
     branches = [_branch(t) for t in tests]
     per_test = [fit_plate_test(t, method) for t in tests]
     m = len(tests)
@@ -424,6 +479,7 @@ def fit_plates(tests: Iterable[PlateTest], method: str = "wong") -> PlatesFit:
         )  # fmt: skip
     else:
         split = _split_k(k, b)
+    split["notes"] = [*split["notes"], *dropped]
     return PlatesFit(
         n=n, n_ci=_n_interval(n, per_test), tests=per_test, method=method,
         k_common=[float(v) for v in k], **split,

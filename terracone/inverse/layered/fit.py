@@ -43,6 +43,7 @@ from terracone.inverse.layered.search import (
 from terracone.inverse.problem import Problem
 from terracone.physics import units as u
 from terracone.physics.metrics import check_fit
+from terracone.result import LayeredSummary
 
 __all__ = ["LayeredResult", "fit_layered", "phic_scale"]
 
@@ -61,25 +62,20 @@ CERTIFICATE_METHOD = (
 )
 
 
-@dataclass
-class LayeredResult:
+@dataclass(kw_only=True)
+class LayeredResult(LayeredSummary):
     """Fit of a layered model to one profile (SI).
+
+    A :class:`~terracone.result.LayeredSummary` (``status``, ``error``,
+    ``layers``, ``interfaces``, ``bic``, ``bic_single``, ``preferred_layers``,
+    ``r2_ci``, ``lack_of_fit``) with the fit's details.
 
     Attributes
     ----------
-    layers : list of TerrainParameters
-        Parameters of each layer, top first.
-    interfaces : list of float
-        Depths of the layer boundaries [m].
+    id : str
     rmsd : float
         [kPa]
-    bic : float
-        Bayesian information criterion of this fit.
-    bic_single : float
-        BIC of the one-layer fit of the same data.
-    preferred_layers : int
-        Number of layers with the lower BIC.
-    r2_ci, longest_run, lack_of_fit
+    longest_run, lack_of_fit
         As in :class:`terracone.result.PredictionResult`.
     phic_range : (float, float)
         Interval of the common phic that fits equally well [deg].
@@ -100,18 +96,9 @@ class LayeredResult:
     """
 
     id: str
-    status: str
-    error: str | None = None
-    layers: list[TerrainParameters] = field(default_factory=list)
-    interfaces: list[float] = field(default_factory=list)
     rmsd: float = float("nan")
     sse: float = float("nan")
-    bic: float = float("nan")
-    bic_single: float = float("nan")
-    preferred_layers: int = 1
-    r2_ci: float = float("nan")
     longest_run: int = 0
-    lack_of_fit: str | None = None
     phic_range: tuple[float, float] | None = None
     depth: np.ndarray | None = None
     ci: np.ndarray | None = None
@@ -124,10 +111,6 @@ class LayeredResult:
     undetermined: list[str] = field(default_factory=list)
     nfev: int = 0
     notes: list[str] = field(default_factory=list)
-
-    @property
-    def ok(self) -> bool:
-        return self.status == "ok"
 
     def _repr_html_(self) -> str:
         """A table of the layers (SI) and the BIC comparison, for Jupyter."""
@@ -272,7 +255,9 @@ def fit_layered(
     try:
         profile.validate(min_points=max(3, 4 * layers + layers))
     except InputError as exc:
-        return LayeredResult(profile.id, "error", str(exc), metadata=dict(profile.metadata))
+        return LayeredResult(
+            id=profile.id, status="error", error=str(exc), metadata=dict(profile.metadata)
+        )
     z = profile.depth
     step = float(np.median(np.diff(z)))
     min_thick = min_thickness if min_thickness is not None else 2 * step
@@ -283,7 +268,9 @@ def fit_layered(
     else:
         if z[-1] - z[0] - 2 * min_thick < 0.5 * min_thick * (layers - 2):
             msg = "profile too short for the minimum layer thickness"
-            return LayeredResult(profile.id, "error", msg, metadata=dict(profile.metadata))
+            return LayeredResult(
+                id=profile.id, status="error", error=msg, metadata=dict(profile.metadata)
+            )
         found, ph = _solve(profile, layers, problem, min_thick, n_grid, kw)
     res = _layered_result(profile, found, ph, single, ph1, problem)
     res.time_s = time.perf_counter() - t0
@@ -369,7 +356,7 @@ def _layered_result(
         lack_of_fit=chk.lack_of_fit, phic_range=(ph_lo, ph_hi), depth=z, ci=y, ci_model=m,
         ci_model_single=m1, metadata=dict(profile.metadata), certificate=cert,
         profile_intervals=dict(found.intervals), undetermined=und, nfev=found.nfev,
-        notes=[problem.note] if problem.note else [],
+        notes=problem.notes_for(cone.name),
     )  # fmt: skip
 
 

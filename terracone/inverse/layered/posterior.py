@@ -47,26 +47,23 @@ from terracone.inverse.solver.many import bounds_params
 from terracone.inverse.uncertainty.posterior import LABELS, identifiability_label
 from terracone.jit import enabled
 from terracone.physics import units as u
+from terracone.result import PosteriorSummary
 
 __all__ = ["LayeredPosterior", "layered_posterior", "prior_draws"]
 
 
-@dataclass
-class LayeredPosterior:
+@dataclass(kw_only=True)
+class LayeredPosterior(PosteriorSummary):
     """Posterior of a layered fit: per layer kc, kphi, n, cc, and the interfaces (SI).
+
+    A :class:`~terracone.result.PosteriorSummary` whose ``names`` are
+    ``kc_1, kphi_1, n_1, cc_1, kc_2, ..., interface_1, ...`` (``samples``
+    (draws, len(names)), ``intervals`` and ``medians`` at ``level``,
+    ``identifiability`` from the posterior/prior width ratio as the one-layer
+    posterior labels it, ``notes``), with the run's details.
 
     Attributes
     ----------
-    names : list of str
-        ``kc_1, kphi_1, n_1, cc_1, kc_2, ..., interface_1, ...``.
-    samples : ndarray
-        (draws, len(names)).
-    intervals, medians : dict
-        Equal-tailed intervals (``level``, 90% by default) and medians per name.
-    identifiability : dict
-        Label per name from the posterior/prior width ratio (as the one-layer
-        posterior: below 0.25 "determined", below 0.75 "weakly determined",
-        else "set by prior").
     phic_deg : float
         The common phic held at the fit's value (labelled "set by prior").
     acceptance : float
@@ -78,41 +75,21 @@ class LayeredPosterior:
     time_s : float
     """
 
-    names: list[str]
-    samples: np.ndarray = field(repr=False)
-    intervals: dict[str, tuple[float, float]]
-    medians: dict[str, float]
-    identifiability: dict[str, str]
     phic_deg: float
     acceptance: float
     rhat: dict[str, float] = field(default_factory=dict)
     undetermined: list[str] = field(default_factory=list)
-    level: float = 0.9
     time_s: float = 0.0
-    notes: list[str] = field(default_factory=list)
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
         """The ``posterior`` block of a profile's ``layered`` fit in predict JSON (``units``)."""
         units = u.check_system(units)
-        q = [(1 - self.level) / 2, 0.5, (1 + self.level) / 2]
-        iv, med = {}, {}
-        for k, name in enumerate(self.names):
-            col = self.samples[:, k]
-            if name.startswith(("kc_", "kphi_")):  # convert each draw with its own n
-                nn = self.samples[:, self.names.index(f"n_{name.split('_')[1]}")]
-                f = u.kc_from_si if name.startswith("kc_") else u.kphi_from_si
-                col = f(col, nn, units)
-            elif name.startswith("cc_"):
-                col = u.pressure_from_si(col, units)
-            elif name.startswith("interface_"):
-                col = u.length_from_si(col, units)
-            lo, mid, hi = np.quantile(np.asarray(col, float), q)
-            iv[name], med[name] = [float(lo), float(hi)], float(mid)
+        q = self.quantiles(units)
         labels = dict(self.identifiability)
         labels["phic_deg"] = LABELS[2]
         return {
-            "intervals": iv,
-            "medians": med,
+            "intervals": {k: [v[0], v[2]] for k, v in q.items()},
+            "medians": {k: v[1] for k, v in q.items()},
             "identifiability": labels,
             "undetermined": list(self.undetermined),
             "phic_deg": self.phic_deg,
@@ -308,8 +285,9 @@ def _summary(out, acc, L, space, bounds, phic, level, draws, rng, t0, ratio) -> 
     rhat = {nm: float(rh[c]) for nm, c in zip(names, cols) if c < P}
     und = [nm for nm in names if nm.startswith(("interface_", "n_")) and labels[nm] == LABELS[2]]
     return LayeredPosterior(
-        names, samples, intervals, medians, labels, phic, float(np.mean(acc)), rhat, und, level,
-        time.perf_counter() - t0,
+        names=tuple(names), samples=samples, intervals=intervals, medians=medians,
+        identifiability=labels, phic_deg=phic, acceptance=float(np.mean(acc)), rhat=rhat,
+        undetermined=und, level=level, time_s=time.perf_counter() - t0,
     )  # fmt: skip
 
 

@@ -38,6 +38,7 @@ from terracone.physics import units as u
 from terracone.physics.cone import cone_index_basis
 from terracone.physics.metrics import check_fit
 from terracone.physics.plate import PressureLaw, plate_basis
+from terracone.result import finite_or_none
 
 __all__ = [
     "PushFits",
@@ -465,10 +466,10 @@ class SitePlate:
             "radius": float(u.length_from_si(self.radius, units)),
             "sinkage": [float(v) for v in u.length_from_si(self.sinkage, units)],
             **{
-                k: [_num(v) for v in u.pressure_from_si(getattr(self, k), units)]
+                k: [finite_or_none(v) for v in u.pressure_from_si(getattr(self, k), units)]
                 for k in ("median", "lo", "hi")
             },
-            **{k: [_num(v) for v in getattr(self, k)] for k in cvs},
+            **{k: [finite_or_none(v) for v in getattr(self, k)] for k in cvs},
         }
 
 
@@ -544,7 +545,9 @@ class SiteResult:
         }
 
         def c(k, v):
-            return _num(conv.get(k, lambda x: x)(v)) if np.isfinite(n) else _num(v)
+            return (
+                finite_or_none(conv.get(k, lambda x: x)(v)) if np.isfinite(n) else finite_or_none(v)
+            )
 
         return {
             "site": self.site,
@@ -553,7 +556,7 @@ class SiteResult:
             "failed": [{"id": i, "error": e} for i, e in self.failed],
             "params": {k: c(k, v) for k, v in self.params.items()},
             "intervals": {k: [c(k, lo), c(k, hi)] for k, (lo, hi) in self.intervals.items()},
-            "between": {k: _num(v) for k, v in self.between.items()},
+            "between": {k: finite_or_none(v) for k, v in self.between.items()},
             "plate_pressure": [pl.as_dict(units) for pl in self.plate_pressure],
             "profiles_needed": self.profiles_needed,
             "profiles_needed_hi": self.profiles_needed_hi,
@@ -561,18 +564,14 @@ class SiteResult:
             "middle_sinkage": float(u.length_from_si(self.middle_sinkage, units)),
             "lack_of_fit": self.lack_of_fit,
             "pushes": [
-                {**d, "rmsd": _num(u.pressure_from_si(d["rmsd"], units))} for d in self.pushes
+                {**d, "rmsd": finite_or_none(u.pressure_from_si(d["rmsd"], units))}
+                for d in self.pushes
             ],
             "notes": list(self.notes),
             "calibrated": self.calibrated,
             "model": self.model,
             "units": units,
         }
-
-
-def _num(v: Any) -> float | None:
-    v = float(v)
-    return v if math.isfinite(v) else None
 
 
 def _ridge_log_s(fits: PushFits, idx: list[int], bounds: Bounds, tan_a: float, notes: list[str]):
@@ -754,7 +753,7 @@ def _pool_site(
         {
             "id": fits.ids[i],
             "n": float(fits.theta[i, 3]),
-            "r2_ci": _num(fits.r2_ci[i]),
+            "r2_ci": finite_or_none(fits.r2_ci[i]),
             "rmsd": float(fits.rmsd[i]),
             "rho": float(fits.rho[i]),
             "lack_of_fit": fits.lack_of_fit[i],
@@ -1117,12 +1116,12 @@ def fit_sites(
         failed = [(fits.ids[i], str(fits.error[i])) for i in members if not fits.ok[i]]
         tan_a = math.tan(profiles[members[0]].cone.half_angle)
         pooled = (_slice(re_all, k), est[k][2] if est[k] is not None else None)
-        out.append(
-            _pool_site(
-                name, idx, failed, fits, b, tan_a, list(plates), sinkage, target_cv, level, model,
-                pooled, calibrated,
-            )
+        site = _pool_site(
+            name, idx, failed, fits, b, tan_a, list(plates), sinkage, target_cv, level, model,
+            pooled, calibrated,
         )  # fmt: skip
+        site.notes[:0] = problem.notes_for(profiles[members[0]].cone.name)
+        out.append(site)
     return out
 
 

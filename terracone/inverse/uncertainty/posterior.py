@@ -56,7 +56,7 @@ from terracone.inverse.uncertainty.sampler import (
 )
 from terracone.physics import units as u
 from terracone.physics.plate import PressureLaw, plate_basis, pressure_law
-from terracone.result import PredictionResult
+from terracone.result import PosteriorSummary, PredictionResult, finite_or_none
 
 __all__ = [
     "LABELS",
@@ -196,91 +196,62 @@ class SamplerDiagnostics:
             "acceptance_min": self.acceptance_min,
             "autocorr_time": None
             if self.autocorr_time is None
-            else {k: _num(v) for k, v in self.autocorr_time.items()},
+            else {k: finite_or_none(v) for k, v in self.autocorr_time.items()},
             "autocorr_reliable": self.autocorr_reliable,
-            "effective_samples": _num(self.effective_samples),
+            "effective_samples": finite_or_none(self.effective_samples),
             "log_prob_evals": self.log_prob_evals,
             "time_s": self.time_s,
-            "cpu_s": _num(self.cpu_s),
+            "cpu_s": finite_or_none(self.cpu_s),
             "coordinates": self.coordinates,
         }
 
 
-@dataclass
-class PosteriorResult:
+@dataclass(kw_only=True)
+class PosteriorResult(PosteriorSummary):
     """Posterior of (kc, kphi, n, cc, phic) given one CI profile (SI inside).
+
+    A :class:`~terracone.result.PosteriorSummary` (``samples``, ``names`` =
+    :data:`PARAM_NAMES`, ``intervals``, ``medians``, ``identifiability``,
+    ``prior`` "bounds" or "calibration:<terrain>", ``level``, ``notes``) with
+    the run's details.
 
     Attributes
     ----------
     id : str
         Profile id.
-    samples : ndarray, shape (draws, 5)
-        Posterior draws of kc [kN/m^(n+1)], kphi [kN/m^(n+2)], n [-],
-        cc [kPa], phic [deg] (:data:`PARAM_NAMES`).
-    medians : dict
-        Posterior median per parameter (SI).
-    intervals : dict
-        Equal-tailed credible interval (lo, hi) per parameter (SI), at
-        ``level``.
     prior_intervals : dict
-        The same interval of the prior (SI).
+        The prior's interval at ``level`` per parameter (SI).
     prior_widths, posterior_widths : dict
         hi - lo of the prior and posterior intervals (SI).
     width_ratio : dict
         posterior / prior width [-] (1 for parameters held fixed).
-    identifiability : dict
-        "determined" (ratio < 0.25), "weakly determined" (< 0.75) or "set
-        by prior".
     plate_bands : list of PlateBand
     noise : NoiseModel
     diagnostics : SamplerDiagnostics
-    prior : str
-        "bounds" or "calibration:<terrain>".
     model : {"rm0", "rm1"}
     r_min : float or None
         [m]
     K_cone : float or None
         [m]
-    level : float
-        Credibility level of the intervals and bands [-].
     best_fit : TerrainParameters
         The exact solver's optimum the walkers started from.
-    notes : list of str
-        Warnings of the run (low acceptance, few effective samples, ...).
     prior_samples : ndarray, shape (2000, 5)
         Prior draws (SI), for the prior intervals in US units.
     """
 
     id: str
-    samples: np.ndarray
-    medians: dict[str, float]
-    intervals: dict[str, tuple[float, float]]
     prior_intervals: dict[str, tuple[float, float]]
     prior_widths: dict[str, float]
     posterior_widths: dict[str, float]
     width_ratio: dict[str, float]
-    identifiability: dict[str, str]
     plate_bands: list[PlateBand]
     noise: NoiseModel
     diagnostics: SamplerDiagnostics
-    prior: str
     model: str
     r_min: float | None
     K_cone: float | None
-    level: float
     best_fit: TerrainParameters
-    notes: list[str] = field(default_factory=list)
     prior_samples: np.ndarray | None = field(default=None, repr=False)
-
-    def _quantiles(self, samples: np.ndarray, units: str) -> dict[str, tuple[float, float, float]]:
-        """(lo, median, hi) per parameter, each sample converted with its own n."""
-        conv = _convert_samples(samples, units)
-        q = [(1 - self.level) / 2, 0.5, (1 + self.level) / 2]
-        out = {}
-        for j, name in enumerate(PARAM_NAMES):
-            lo, med, hi = np.quantile(conv[:, j], q)
-            out[name] = (float(lo), float(med), float(hi))
-        return out
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
         """JSON-ready dict in a unit system.
@@ -293,7 +264,7 @@ class PosteriorResult:
         quantiles are taken, so US intervals are quantiles of US values.
         """
         units = u.check_system(units)
-        q = self._quantiles(self.samples, units)
+        q = self.quantiles(units)
         d: dict[str, Any] = {
             "intervals": {k: [v[0], v[2]] for k, v in q.items()},
             "medians": {k: v[1] for k, v in q.items()},
@@ -303,8 +274,8 @@ class PosteriorResult:
         if units == "si":
             prior_iv = {k: [float(v[0]), float(v[1])] for k, v in self.prior_intervals.items()}
         elif self.prior_samples is not None:
-            qp = self._quantiles(self.prior_samples, units)
-            prior_iv = {k: [v[0], v[2]] for k, v in qp.items()}
+            prior = PosteriorSummary(intervals={}, samples=self.prior_samples, level=self.level)
+            prior_iv = {k: [v[0], v[2]] for k, v in prior.quantiles(units).items()}
         else:
             prior_iv = None
         d["posterior"] = {
@@ -313,7 +284,7 @@ class PosteriorResult:
             "model": self.model,
             "r_min": None if self.r_min is None else float(u.length_from_si(self.r_min, units)),
             "Kc": None if self.K_cone is None else float(u.length_from_si(self.K_cone, units)),
-            "width_ratio": {k: _num(v) for k, v in self.width_ratio.items()},
+            "width_ratio": {k: finite_or_none(v) for k, v in self.width_ratio.items()},
             "thresholds": {"determined": DETERMINED_BELOW, "weakly determined": WEAKLY_BELOW},
             "prior_intervals": prior_iv,
             "noise": self.noise.as_dict(units),
@@ -322,37 +293,6 @@ class PosteriorResult:
             "units": units,
         }
         return d
-
-    def samples_dict(self, units: str = "si") -> dict[str, Any]:
-        """The posterior draws for JSON: ``{"names", "units", "values"}``.
-
-        ``values`` is a list of rows (kc, kphi, n, cc, phic_deg), each draw
-        converted with its own n; the key ``samples`` of ``predict
-        --uncertainty --json``, read back by :func:`terracone.result.read_results`.
-        """
-        units = u.check_system(units)
-        return {
-            "names": list(PARAM_NAMES),
-            "units": units,
-            "values": _convert_samples(self.samples, units).tolist(),
-        }
-
-
-def _num(v: float) -> float | None:
-    v = float(v)
-    return v if math.isfinite(v) else None
-
-
-def _convert_samples(samples: np.ndarray, units: str) -> np.ndarray:
-    units = u.check_system(units)
-    out = np.array(samples, dtype=float, copy=True)
-    if units == "si":
-        return out
-    n = out[:, 2]
-    out[:, 0] = u.kc_from_si(out[:, 0], n, units)
-    out[:, 1] = u.kphi_from_si(out[:, 1], n, units)
-    out[:, 3] = u.pressure_from_si(out[:, 3], units)
-    return out
 
 
 def _start_params(start: Any) -> TerrainParameters:

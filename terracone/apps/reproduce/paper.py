@@ -1,9 +1,9 @@
 """The published values of Tables 4-1 to 4-4, shipped as package data.
 
 ``terracone/data/paper/table_4_*.csv`` hold the values as printed in [1]_
-(typed in, with the citation in a header comment).  They are used by
-:mod:`terracone.apps.reproduce` to generate synthetic data (Tables 4-1 and 4-3)
-and to set our results beside the paper's (Tables 4-2 and 4-4).
+(typed in, with the citation in a header comment).  :mod:`terracone.apps.reproduce`
+generates synthetic data from them (Tables 4-1 and 4-3) and
+:mod:`terracone.report.reproduce` sets our results beside them (Tables 4-1 to 4-4).
 
 References
 ----------
