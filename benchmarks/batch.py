@@ -170,7 +170,8 @@ def per_core_child(args: argparse.Namespace) -> None:
     measure: a grid of 97 points over n) and with the batch's settings (41 points, the work
     a batch worker does); prints a JSON line."""
     from terracone.inverse.predict import RunSettings, predict_many
-    from terracone.io.stream import ConeCache, input_files, iter_chunks, scan_inputs
+    from terracone.io.scan import input_files, scan_inputs
+    from terracone.io.stream import ConeCache, iter_chunks
     from terracone.physics.cone import get_cone
 
     plan = scan_inputs(input_files(args.input))
