@@ -365,7 +365,9 @@ def run_block(block: Block, folder: Path) -> subprocess.CompletedProcess:
         # the layered posterior is minutes on the numpy twins, seconds compiled
         env["TERRACONE_NUMBA"] = "1"
     env["MPLBACKEND"] = "Agg"
-    env["PYTHONPATH"] = str(ROOT / "tests")  # the report page's browser helper, tests/chromium.py
+    # the report page's browser helper, tests/chromium.py; the caller's path kept (a worktree
+    # under test is found before an installed terracone, as in the fixture's runs)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT / "tests"), env.get("PYTHONPATH")]))
     env.pop("TERRACONE_WHEEL", None)
     if block.lang == "python":
         script = folder / f"example_{block.line}.py"
