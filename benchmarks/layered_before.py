@@ -200,44 +200,81 @@ def marsden_profiles():
     return out
 
 
-def record(path: Path, every3: int = 1) -> None:
-    """Today's 2-layer fit of every Marsden push, 3 layers of every ``every3``-th, into ``path``."""
+HEADER = (
+    "# layered RMSD of the fit before issue 24 (terracone 8775439), our own fits of the\n"
+    "# Marsden pushes in ../shared (not the data): made by\n"
+    "#   python benchmarks/layered_before.py tests/data/layered_rmsd_before.csv\n"
+    "# 2 and 3 layers: every readable push of both files (cone: asabe-small, the SC900 small\n"
+    "# cone); status 'refused: ...' where that fit gave an error (no RMSD then)\n"
+)
+COLUMNS = [
+    "file",
+    "profile",
+    "layers",
+    "points",
+    "rmsd_kpa",
+    "interfaces_m",
+    "n",
+    "time_s",
+    "status",
+]
+
+
+def refusal(profile, layers: int) -> str:
+    """Why :func:`fit_before` gave no fit (its own two checks, in its order)."""
+    N, need = profile.depth.size, max(3, 5 * layers)
+    if N < need:
+        return f"refused: {N} points; at least {need} are needed"
+    return "refused: no interface fits the profile with the minimum layer thickness"
+
+
+def record_row(name: str, p, layers: int) -> list:
+    """The record's row of one push: the old fit's RMSD, interfaces and n's, or its refusal."""
+    t0 = time.perf_counter()
+    got = fit_before(p, layers=layers)
+    dt = f"{time.perf_counter() - t0:.3f}"
+    if got is None:
+        return [name, p.id, layers, p.depth.size, "", "", "", dt, refusal(p, layers)]
+    ns, D, sse = got
+    return [
+        name,
+        p.id,
+        layers,
+        p.depth.size,
+        f"{math.sqrt(sse / p.depth.size):.9g}",
+        ";".join(f"{v:.9g}" for v in D),
+        ";".join(f"{v:.9g}" for v in ns),
+        dt,
+        "ok",
+    ]
+
+
+def record(path: Path, keep: bool = True) -> None:
+    """The old fit of every readable Marsden push with 2 and 3 layers, into ``path``.
+
+    With ``keep``, rows already in ``path`` (same file, profile, layers and
+    points) are kept as they are and only the missing pushes are fitted (a
+    row without a status column was an ``ok`` fit); rows of pushes no longer
+    read are dropped.  The rows follow the file order of the pushes.
+    """
+    old = {}
+    if keep and path.exists():
+        with open(path, newline="") as fh:
+            for r in csv.DictReader(line for line in fh if not line.startswith("#")):
+                r.setdefault("status", "ok")
+                r["status"] = r["status"] or "ok"
+                old[(r["file"], r["profile"], r["layers"], r["points"])] = [r[c] for c in COLUMNS]
     items = marsden_profiles()
+    rows = []
+    for layers in (2, 3):
+        for name, p in items:
+            key = (name, p.id, str(layers), str(p.depth.size))
+            rows.append(old[key] if key in old else record_row(name, p, layers))
     with open(path, "w", newline="") as fh:
-        fh.write(
-            "# layered RMSD of the fit before issue 24 (terracone 8775439), our own fits of the\n"
-            "# Marsden pushes in ../shared (not the data): made by\n"
-            "#   python benchmarks/layered_before.py tests/data/layered_rmsd_before.csv\n"
-            "# 2 and 3 layers: every push of both files (cone: asabe-small, the SC900 small cone)\n"
-        )
+        fh.write(HEADER)
         w = csv.writer(fh)
-        w.writerow(
-            ["file", "profile", "layers", "points", "rmsd_kpa", "interfaces_m", "n", "time_s"]
-        )
-        for layers in (2, 3):
-            for k, (name, p) in enumerate(items):
-                idx = sum(1 for q, _ in items[:k] if q == name)
-                if layers == 3 and idx % every3:
-                    continue
-                t0 = time.perf_counter()
-                got = fit_before(p, layers=layers)
-                dt = time.perf_counter() - t0
-                if got is None:
-                    continue
-                ns, D, sse = got
-                w.writerow(
-                    [
-                        name,
-                        p.id,
-                        layers,
-                        p.depth.size,
-                        f"{math.sqrt(sse / p.depth.size):.9g}",
-                        ";".join(f"{v:.9g}" for v in D),
-                        ";".join(f"{v:.9g}" for v in ns),
-                        f"{dt:.3f}",
-                    ]
-                )
-                fh.flush()
+        w.writerow(COLUMNS)
+        w.writerows(rows)
 
 
 if __name__ == "__main__":

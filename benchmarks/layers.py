@@ -20,13 +20,21 @@ export, the SC900's small cone), in one run:
 4. with ``--coverage N``, the coverage table of the layered posterior's 90%
    intervals over N profiles drawn from its prior (the test's generator);
 5. the cost of the layered posterior per push (2 and 3 layers) in one-layer
-   posteriors on the same SC900 pushes, CPU time, alternating runs.
+   posteriors on the same SC900 pushes, CPU time, alternating runs;
+6. the cost of ``terracone predict FILE --layers 2 --json`` per push in
+   ``terracone predict FILE --json`` per push, through the real CLI (issue 29):
+   alternating runs on 10 copies of the SC900 export's pushes and on a file of
+   its first fitted push, the per-push cost being (many - one) / (pushes - 1)
+   (start-up removed), in CPU time of the child (steadier on a shared machine)
+   and wall-clock; the start-up that ``--layers 2`` adds (the one-push runs)
+   beside it.
 
 Wall-clock figures on a shared machine are noisy; the ratios are measured in
 one run.  Usage::
 
     python benchmarks/layers.py                      # all of it, modest sizes
     python benchmarks/layers.py --before 40 --copies 20 --coverage 200
+    python benchmarks/layers.py --skip speed fits batch posterior --cli 7   # section 6
 """
 
 from __future__ import annotations
@@ -118,7 +126,7 @@ def fits(data: dict[str, list]) -> None:
     by_id = {(n, p.id): p for n, items in data.items() for p in items}
     print("\n== 2. RMSD and BIC against the fits before issue 24 (every recorded push)")
     for L in (2, 3):
-        sel = [r for r in rows if int(r["layers"]) == L]
+        sel = [r for r in rows if int(r["layers"]) == L and r["status"] == "ok"]
         new, old, wins, r2_1, r2_L, gaps = [], [], [], [], [], []
         for r in sel:
             res = fit_layered(by_id[(r["file"], r["profile"])], layers=L)
@@ -280,6 +288,67 @@ def posterior_cost(data: dict[str, list], count: int) -> None:
     )
 
 
+def cli_cost(rounds: int, copies: int = 10) -> None:
+    """Section 6: ``predict --layers 2`` per push through the CLI, in one-layer predicts per push.
+
+    The real command (``terracone predict FILE --cone asabe-small --json``, with
+    and without ``--layers 2``) on the SC900 export's pushes repeated ``copies``
+    times (one file: a per-push signal well above the start-up's scatter) and on
+    a file of its first push that both settings fit; the runs alternate (one
+    layer, two layers; many pushes, one push) ``rounds`` times.  Per push: the
+    median over the rounds of (many - one) / (pushes - 1), which removes the
+    start-up (interpreter, imports, kernels loaded from the cache, reading); CPU
+    seconds of the child process (user + system, ``os.wait4``) and wall-clock.
+    """
+    import subprocess
+
+    src = DATA / "sc900_export_2019-06-11.txt"
+    lines = src.read_text().splitlines(keepends=True)
+    pushes_ = [ln for ln in lines if ln.startswith(",,N=")]
+    head = [ln for ln in lines[:5] if not ln.startswith(",,")]
+
+    def depths(ln: str) -> int:
+        return sum(v.strip() not in ("", "0") for v in ln.split(",")[3:-1])
+
+    first = next(ln for ln in pushes_ if depths(ln) >= 10)  # two layers need 10 depths
+
+    def run(path: Path, layers: int) -> tuple[float, float]:
+        cmd = ["terracone", "predict", str(path), "--cone", "asabe-small", "--json"]
+        cmd += ["--layers", str(layers)] if layers > 1 else []
+        t0 = time.perf_counter()
+        p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        _, status, ru = os.wait4(p.pid, 0)
+        if os.waitstatus_to_exitcode(status) != 0:
+            raise SystemExit(f"{' '.join(cmd)} failed")
+        return ru.ru_utime + ru.ru_stime, time.perf_counter() - t0
+
+    N = copies * len(pushes_)
+    per: dict[tuple[int, int], list[float]] = {(L, k): [] for L in (1, 2) for k in (0, 1)}
+    start: dict[tuple[int, int], list[float]] = {(L, k): [] for L in (1, 2) for k in (0, 1)}
+    with tempfile.TemporaryDirectory() as tmp:
+        one, many = Path(tmp) / "one_push.txt", Path(tmp) / "many_pushes.txt"
+        one.write_text("".join(head + [first]))
+        many.write_text("".join(head + pushes_ * copies))
+        for _ in range(rounds):
+            for L in (1, 2):
+                t_one, t_many = run(one, L), run(many, L)
+                for k in (0, 1):
+                    per[(L, k)].append((t_many[k] - t_one[k]) / (N - 1))
+                    start[(L, k)].append(t_one[k])
+    print(
+        f"\n== 6. predict through the CLI: {copies} copies of the SC900 export ({N} pushes)"
+        f" against one push, median of {rounds} alternating rounds"
+    )
+    for k, what in ((0, "CPU"), (1, "wall")):
+        pp = {L: float(np.median(per[(L, k)])) for L in (1, 2)}
+        st = {L: float(np.median(start[(L, k)])) for L in (1, 2)}
+        print(
+            f"   {what:4s}: per push one layer {pp[1] * 1e3:6.2f} ms, --layers 2 {pp[2] * 1e3:6.2f}"
+            f" ms = {pp[2] / pp[1]:5.1f}x;  start-up (one push) {st[1]:.2f} s and"
+            f" {st[2]:.2f} s (+{st[2] - st[1]:.2f} s)"
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--before", type=int, default=12, help="pushes timed with the old fit")
@@ -288,8 +357,9 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=2, help="alternating batch runs per setting")
     ap.add_argument("--coverage", type=int, default=0, help="profiles of the coverage table")
     ap.add_argument("--posterior", type=int, default=20, help="pushes of the posterior cost")
+    ap.add_argument("--cli", type=int, default=5, help="alternating rounds of the CLI cost")
     ap.add_argument(
-        "--skip", nargs="*", default=[], choices=["speed", "fits", "batch", "posterior"]
+        "--skip", nargs="*", default=[], choices=["speed", "fits", "batch", "posterior", "cli"]
     )
     args = ap.parse_args()
     if not DATA.exists():
@@ -303,6 +373,8 @@ def main() -> None:
         batch(data, args.copies, tuple(args.workers), args.rounds)
     if "posterior" not in args.skip:
         posterior_cost(data, args.posterior)
+    if "cli" not in args.skip:
+        cli_cost(args.cli)
     if args.coverage:
         coverage(args.coverage)
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())

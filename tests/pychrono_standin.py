@@ -20,11 +20,28 @@ conventions of Chrono's own sources:
   ``sys.DoStepDynamics(step)``; ``chrono.ChBodyEasyBox(x, y, z, density,
   visualize, collide, material)``.
 
+The stand-in moves what lies on the terrain, so that a script's printed sinkage
+means something: after each ``DoStepDynamics`` every colliding box of the system
+rests where SCM's normal pressure carries its weight (quasi-static, no
+dynamics).  SCM's pressure is Bekker's ``sigma = (Kc / b + Kphi) z^n`` on the
+total sinkage z, with ``1/b = perimeter / (2 area)`` of the contact patch
+(``src/chrono_vehicle/terrain/SCMTerrain.cpp``: ``p.oob = p.perimeter / (2 *
+p.area)`` and ``nr.sigma = (contact_patches[patch_id].oob * Bekker_Kc +
+Bekker_Kphi) * pow(nr.sinkage, Bekker_n)``; the elastic and damping terms
+vanish at rest).  So a box of footprint x by y and mass m under gravity g
+sinks to ``z = (m |g_z| / (x y) / (Kc / b + Kphi)) ** (1 / n)``, b = x y / (x +
+y), with the soil values the terrain was given (those of the callback at the
+box's centre), in SCM's default frame (the plane z = 0, z up).  Gravity
+starts at Chrono's default (0, -9.8, 0) (``ChSystem::ChSystem``), which loads
+nothing along z: a script must set it.  The patch is continuous here; real
+SCM sums the pressure over the grid nodes the box covers.
+
 Every call is recorded in :data:`CALLS` as (name, args).
 """
 
 from __future__ import annotations
 
+import math
 import sys
 import types
 
@@ -69,6 +86,8 @@ class SCMTerrain:
         self.system = system
         self.params = None
         self.callback = None
+        if isinstance(system, ChSystemSMC):  # Chrono adds the terrain to the system
+            system.terrains.append(self)
 
     def SetSoilParameters(self, *args):
         if len(args) != 8 or not all(isinstance(a, float) for a in args):
@@ -91,27 +110,55 @@ class SCMTerrain:
         self.callback.Set(Vector(x, y, 0.0), *ptrs)
         return tuple(p.value for p in ptrs)
 
+    def sinkage(self, body: ChBodyEasyBox, g_z: float) -> float:
+        """Where SCM's Bekker pressure carries ``body`` [m below the plane z = 0]."""
+        soil = self.params if self.callback is None else self.soil_at(body.pos.x, body.pos.y)
+        if soil is None:
+            raise RuntimeError("SCMTerrain has no soil: SetSoilParameters or a callback first")
+        kphi, kc, n = soil[:3]
+        area, perimeter = body.size[0] * body.size[1], 2.0 * (body.size[0] + body.size[1])
+        pressure = body.mass * max(0.0, -g_z) / area  # [Pa]
+        return (pressure / (kc * perimeter / (2.0 * area) + kphi)) ** (1.0 / n)
+
 
 class ChSystemSMC:
     def __init__(self):
-        self.bodies, self.steps = [], 0
+        self.bodies, self.terrains, self.steps, self.time = [], [], 0, 0.0
+        self.gravity = (0.0, -9.8, 0.0)  # Chrono's default (y up)
 
     def SetCollisionSystemType(self, kind):
         CALLS.append(("SetCollisionSystemType", (kind,)))
 
     def SetGravitationalAcceleration(self, g):
         CALLS.append(("SetGravitationalAcceleration", (g.x, g.y, g.z)))
+        self.gravity = (g.x, g.y, g.z)
 
     def Add(self, body):
         self.bodies.append(body)
 
     def DoStepDynamics(self, step):
+        """One step: each colliding box comes to rest on the terrain (see the module)."""
+        if not step > 0:
+            raise ValueError(f"step must be > 0 (got {step!r})")
         self.steps += 1
+        self.time += step
+        for terrain in self.terrains:
+            for body in self.bodies:
+                if isinstance(body, ChBodyEasyBox) and body.collide:
+                    z = terrain.sinkage(body, self.gravity[2])
+                    body.pos = Vector(body.pos.x, body.pos.y, body.size[2] / 2.0 - z)
 
 
 class ChBodyEasyBox:
+    """A box of sides x, y, z [m] and mass density * x * y * z [kg], centred at ``pos``."""
+
     def __init__(self, x, y, z, density, visualize, collide, material):
         CALLS.append(("ChBodyEasyBox", (x, y, z, density, visualize, collide)))
+        if not all(math.isfinite(v) and v > 0 for v in (x, y, z, density)):
+            raise ValueError(f"ChBodyEasyBox needs sizes and density > 0 (got {x, y, z, density})")
+        self.size = (float(x), float(y), float(z))
+        self.mass = float(density) * x * y * z
+        self.collide = bool(collide)
         self.pos = Vector()
 
     def SetPos(self, v):
@@ -121,8 +168,8 @@ class ChBodyEasyBox:
         return self.pos
 
 
-def install(monkeypatch) -> None:
-    """Put the stand-in in ``sys.modules`` for one test (``monkeypatch`` undoes it)."""
+def modules() -> tuple[types.ModuleType, types.ModuleType]:
+    """New ``pychrono`` and ``pychrono.vehicle`` stand-in modules (empties :data:`CALLS`)."""
     CALLS.clear()
     chrono = types.ModuleType("pychrono")
     vehicle = types.ModuleType("pychrono.vehicle")
@@ -135,5 +182,11 @@ def install(monkeypatch) -> None:
     vehicle.SCMTerrain = SCMTerrain
     vehicle.SoilParametersCallback = SoilParametersCallback
     vehicle.doublep_assign = doublep_assign
+    return chrono, vehicle
+
+
+def install(monkeypatch) -> None:
+    """Put the stand-in in ``sys.modules`` for one test (``monkeypatch`` undoes it)."""
+    chrono, vehicle = modules()
     monkeypatch.setitem(sys.modules, "pychrono", chrono)
     monkeypatch.setitem(sys.modules, "pychrono.vehicle", vehicle)

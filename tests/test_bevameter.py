@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import require_shared
 
 from terracone.data import InputError, PlateTest
 from terracone.inverse.bevameter.plates import (
@@ -18,9 +18,6 @@ from terracone.inverse.bevameter.plates import (
 )
 from terracone.physics import units as u
 from terracone.physics.plate import plate_pressure
-
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
-CULLINAN = SHARED / "data" / "cullinan-sand"
 
 # LETE sand (Wong): kc [kN/m^(n+1)], kphi [kN/m^(n+2)], n
 KC, KPHI, N = 102.0, 5301.0, 0.79
@@ -244,9 +241,7 @@ def test_as_dict_units_round_trip():
 
 
 def load_cullinan_plates() -> list[PlateTest]:
-    csv = CULLINAN / "plate_sinkage.csv"
-    if not csv.exists():
-        pytest.skip(f"Cullinan sand data not found at {csv} (shared data folder absent)")
+    csv = require_shared("data", "cullinan-sand", "plate_sinkage.csv")
     try:
         from terracone.io import read_plate_tests
     except ImportError:

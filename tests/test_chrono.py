@@ -252,16 +252,21 @@ def test_samples_refused_leave_no_folder(tmp_path, library, predicted):
     assert r.exit_code != 0 and not out.exists()
 
 
-def test_real_shear_fit_on_one_normal_pressure_gives_only_janosi(tmp_path, library, predicted):
-    from conftest import require_shared
-
-    src = require_shared("data", "cullinan-sand", "shear.csv")
+def test_shear_fit_on_one_normal_pressure_gives_only_janosi(tmp_path, library, predicted):
+    # two generated shear tests at one normal pressure (93 kPa, as the Cullinan sand's four):
+    # Janosi-Hanamoto tau = tau_max (1 - exp(-j / K)), K = 15 mm, tau_max 60 and 61 kPa
+    src = tmp_path / "shear.csv"
+    rows = ["test,normal_pressure_kpa,shear_displacement_mm,shear_stress_kpa"]
+    for test, tau_max in (("a", 60.0), ("b", 61.0)):
+        rows += [f"{test},93,{j},{tau_max * (1 - math.exp(-j / 15.0))!r}" for j in range(0, 101, 5)]
+    src.write_text("\n".join(rows) + "\n")
     fit = tmp_path / "fit.json"
     r = run("fit-shear", src, "--json")
     assert r.exit_code == 0, r.output
     fit.write_text(r.stdout)
     fitted = json.loads(r.stdout)
-    assert fitted["c"] is None and fitted["phi_deg"] is None  # one normal pressure (93 kPa)
+    assert fitted["c"] is None and fitted["phi_deg"] is None  # one normal pressure
+    assert fitted["K"] == pytest.approx(0.015, rel=1e-6)  # the known truth [m]
     out = tmp_path / "a.json"
     base = ["export", "--results", predicted, "--profile", "A", "--format", "chrono-scm"]
     r = run(*base, "--out", out, "--shear", fit)
@@ -384,9 +389,44 @@ def test_module_one_terrain_sets_the_eight_values(tmp_path, library, monkeypatch
     assert dict(CALLS)["SetGravitationalAcceleration"] == (0.0, 0.0, -9.81)  # SCM: z up
     printed = capsys.readouterr().out
     assert "SCM patch 4 x 1 m, grid 0.1 m, soil of 'LETE sand'" in printed
-    # Bekker's static sinkage of a 0.2 m square plate at 20 kPa, b = 2 area / perimeter = 0.1 m
+    # Bekker's static sinkage of a 0.2 m square plate at 20 kPa, b = 2 area / perimeter = 0.1 m:
+    # (20e3 Pa / (102e3 / 0.1 + 5301e3) Pa/m^n) ** (1 / 0.79) = 0.000685 m; the stand-in
+    # rests the plate where SCM's pressure carries it, so the script's own figure is this too
     static = (20e3 / (102e3 / 0.1 + 5301e3)) ** (1 / 0.79)
-    assert f"(Bekker, static: {static:.4f} m)" in printed
+    assert static == pytest.approx(6.85097e-4, rel=1e-5)
+    assert f"sinkage {static:.3g} m after 1 s (Bekker, static: {static:.3g} m)" in printed
+    assert "sinkage 0.000685 m after 1 s" in printed
+    sinkage, bekker = m.demo()
+    assert sinkage == pytest.approx(static, rel=1e-12) and bekker == pytest.approx(
+        static, rel=1e-12
+    )
+    # a plate of 0.4 m at 40 kPa: b = 0.2 m, (40e3 / (102e3 / 0.2 + 5301e3)) ** (1 / 0.79)
+    sinkage, _ = m.demo(plate=0.4, pressure=40e3)
+    assert sinkage == pytest.approx((40e3 / 5811e3) ** (1 / 0.79), rel=1e-12)
+
+
+def test_standin_rests_a_box_where_bekker_carries_it(monkeypatch):
+    """The stand-in's plate: 0.2 x 0.4 m, 0.05 m thick, 160 kg under 10 m/s^2: 1600 N on
+    0.08 m^2 = 20 kPa; b = 2 area / perimeter = 0.16 / 1.2 m; soil Kphi 2e6 Pa/m^n, Kc 1e5
+    Pa/m^(n-1), n 1.1: z = (20e3 / (1e5 * 7.5 + 2e6)) ** (1 / 1.1) = 0.01138 m."""
+    install(monkeypatch)
+    import pychrono as chrono
+    import pychrono.vehicle as veh
+
+    system = chrono.ChSystemSMC()
+    terrain = veh.SCMTerrain(system)
+    terrain.SetSoilParameters(2e6, 1e5, 1.1, 0.0, 30.0, 0.01, 4e7, 3e4)
+    body = chrono.ChBodyEasyBox(0.2, 0.4, 0.05, 160.0 / (0.2 * 0.4 * 0.05), True, True, None)
+    body.SetPos(chrono.ChVector3d(1.0, 0.5, 0.03))
+    system.Add(body)
+    system.DoStepDynamics(1e-3)  # Chrono's default gravity (0, -9.8, 0) loads nothing along z
+    assert body.GetPos().z == pytest.approx(0.025)
+    system.SetGravitationalAcceleration(chrono.ChVector3d(0, 0, -10.0))
+    system.DoStepDynamics(1e-3)
+    z = (20e3 / (1e5 * 1.2 / 0.16 + 2e6)) ** (1 / 1.1)
+    assert z == pytest.approx(0.01138, abs=5e-6)
+    assert body.GetPos().z == pytest.approx(0.025 - z, rel=1e-12)
+    assert (body.GetPos().x, body.GetPos().y) == (1.0, 0.5)
 
 
 def test_module_three_located_profiles_nearest_values(tmp_path, library, monkeypatch, predicted):
@@ -427,6 +467,12 @@ def test_module_three_located_profiles_nearest_values(tmp_path, library, monkeyp
     assert xa < xb and ya > yb
     # 0.5 minute of latitude is about 0.5 * 1852 m (a nautical mile is one minute)
     assert ya - yb == pytest.approx(0.5 * 1852.0, rel=0.01)
+    # the script's plate at ORIGIN rests on the soil of the nearest profile (the callback's)
+    near = min(where, key=lambda k: math.hypot(*m.to_local(*where[k])))
+    kphi, kc, n = terrain.soil_at(*m.to_local(*where[near]))[:3]
+    sinkage, static = m.demo()
+    assert sinkage == pytest.approx((20e3 / (kc / 0.1 + kphi)) ** (1 / n), rel=1e-12)
+    assert static == pytest.approx(sinkage, rel=1e-12) and sinkage > 0
 
 
 def test_to_local_by_hand_at_the_equator(monkeypatch, tmp_path):

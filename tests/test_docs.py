@@ -15,8 +15,12 @@ their ``$ `` lines.  Python blocks run as scripts in a new interpreter.
 terrain library.  ``TERRACONE_NUMBA=0``: the examples are small jobs, and the numpy
 twins of the kernels (tested against them elsewhere) spare each of the some 80 processes
 the loading, or on a cold cache the compiling, of the kernels.  A block that reads
-``../shared`` runs when that folder exists and is skipped with the reason otherwise; one
-that drives a browser likewise needs chromium.
+``../shared`` runs when that folder exists (``TERRACONE_SHARED``, see conftest) and is
+skipped with the reason otherwise; one that drives a browser likewise needs chromium; in CI
+(``CI`` set) either missing fails the example.  PyChrono examples run on the stand-in of
+``tests/pychrono_standin.py`` (``tests/standin`` on PYTHONPATH) unless PyChrono is
+installed, and a printed plate sinkage must be positive and equal Bekker's static figure
+printed beside it.
 
 The workspace holds the files the examples name, all SYNTHETIC, made here from
 terracone's forward models (:func:`workspace`):
@@ -68,7 +72,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import shared_dir
+from chromium import find_chromium
+from conftest import missing, shared_dir
 
 from terracone.apps.example import example_dir
 from terracone.jit import disabled
@@ -349,10 +354,8 @@ def needs(block: Block) -> str | None:
     """Why the block cannot run here, or None."""
     if "../shared" in block.code and not shared_dir().exists():
         return f"../shared not found: {shared_dir()} is read by this example"
-    if "BrowserSession" in block.code and shutil.which("chromium") is None:
+    if "BrowserSession" in block.code and find_chromium() is None:
         return "chromium not installed: this example drives a browser"
-    if re.search(r"^import pychrono", block.code, re.M) and find_spec("pychrono") is None:
-        return "PyChrono not installed (conda only): tests/test_chrono.py runs the modules on a stand-in"
     return None
 
 
@@ -365,9 +368,14 @@ def run_block(block: Block, folder: Path) -> subprocess.CompletedProcess:
         # the layered posterior is minutes on the numpy twins, seconds compiled
         env["TERRACONE_NUMBA"] = "1"
     env["MPLBACKEND"] = "Agg"
-    # the report page's browser helper, tests/chromium.py; the caller's path kept (a worktree
-    # under test is found before an installed terracone, as in the fixture's runs)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT / "tests"), env.get("PYTHONPATH")]))
+    # the report page's browser helper, tests/chromium.py; PyChrono's stand-in unless installed;
+    # the caller's path kept (a worktree under test is found before an installed terracone, as
+    # in the fixture's runs)
+    paths = [ROOT / "tests"] + (
+        [ROOT / "tests" / "standin"] if find_spec("pychrono") is None else []
+    )
+    caller = [env["PYTHONPATH"]] if env.get("PYTHONPATH") else []
+    env["PYTHONPATH"] = os.pathsep.join([str(p) for p in paths] + caller)
     env.pop("TERRACONE_WHEEL", None)
     if block.lang == "python":
         script = folder / f"example_{block.line}.py"
@@ -415,15 +423,44 @@ def outcomes(request, workspace) -> dict[str, subprocess.CompletedProcess | str]
 def test_example_runs(block, outcomes):
     r = outcomes[block.name]
     if isinstance(r, str):
-        pytest.skip(r)
+        missing(r)
     assert r.returncode == 0, (
         f"{block.name} failed ({r.returncode}):\n{block.code}\n--- stdout\n{r.stdout[-3000:]}"
         f"\n--- stderr\n{r.stderr[-3000:]}"
     )
     assert "Traceback" not in r.stderr, r.stderr[-3000:]
+    printed = SINKAGE.findall(r.stdout)  # an exported PyChrono module run as a script
+    if SCRIPT.search(shell_code(block) if block.lang != "python" else ""):
+        assert printed, f"{block.name} runs a PyChrono module but printed no sinkage:\n{r.stdout}"
+    for sinkage, static in printed:
+        assert 0 < float(sinkage) == float(static), (block.name, sinkage, static)
+
+
+#: A shell line that runs an exported PyChrono module, and the line that module prints
+#: (terracone.apps.chrono): the plate's sinkage, and Bekker's static sinkage for its soil.
+SCRIPT = re.compile(r"^python3? \S+_soil\.py", re.M)
+SINKAGE = re.compile(r"sinkage (\S+) m after [\d.]+ s \(Bekker, static: (\S+) m\)")
+
+
+def test_the_docs_run_a_pychrono_module_as_a_script():
+    assert any(SCRIPT.search(shell_code(b)) for b in EXAMPLES if b.lang != "python")
 
 
 def test_shortened_commands_are_in_the_docs():
     text = "\n".join(b.code for b in EXAMPLES)
     for written, _, why in SHORTENED:
         assert written in text, f"{written!r} is no longer in the docs: remove it ({why})"
+
+
+def test_strict_site_build_checks_links_and_anchors():
+    """``mkdocs build --strict`` (.ci/run) fails on a link to a missing page or anchor only
+    while mkdocs.yml asks it to warn about them (``validation``, mkdocs >= 1.6, the pin of
+    the docs extra); the root README is not part of the site: its links are checked here."""
+    config = (ROOT / "mkdocs.yml").read_text()
+    validation = config[config.index("\nvalidation:") :].split("\n\n")[0]
+    for key in ("omitted_files", "absolute_links", "unrecognized_links", "anchors"):
+        assert f"\n  {key}: warn" in validation, key
+    assert '"mkdocs>=1.6"' in (ROOT / "pyproject.toml").read_text()
+    links = re.findall(r"\]\(([^)#\s]+)(#[^)\s]*)?\)", (ROOT / "README.md").read_text())
+    local = [target for target, _ in links if not re.match(r"^[a-z]+:", target)]
+    assert local and all((ROOT / t).exists() for t in local), local

@@ -1,9 +1,10 @@
 """The ``exact`` solver of the prediction process against known truths.
 
 CI profiles are generated with :func:`terracone.cone_index` from terrain
-parameters of the paper (Tables 4-1 and 4-3 of Huang et al., read from
-``../shared/reference/huang2020_predicted_parameters.csv`` when present,
-else the values typed below) and from Wong's LETE sand values.  The
+parameters of the paper (Tables 4-1 and 4-3 of Huang et al., the package's
+copies, which tests/test_paper_tables.py holds equal to
+``../shared/reference/huang2020_predicted_parameters.csv``) and from Wong's
+LETE sand values.  The
 references are these known truths, the closed-form ridge of fully mobilised
 shear (phic trades exactly with a common scale of kc and kphi), and
 independent optimisers (terracone's own swarm and
@@ -13,13 +14,12 @@ bounds.
 
 from __future__ import annotations
 
-import csv
 import math
 import warnings
 
 import numpy as np
 import pytest
-from conftest import shared_dir
+from conftest import paper_parameter_rows
 from scipy.optimize import differential_evolution
 
 from terracone import CIProfile, cone_index
@@ -31,24 +31,6 @@ from terracone.physics.units import kc_from_si, kphi_from_si
 
 TAN15 = math.tan(math.radians(15.0))
 
-# Tables 4-1 (LETE sand) and 4-3 (KRC soils) of Huang, Wong, Preston-Thomas,
-# Jayakumar, "Predicting terrain parameters for physics-based vehicle mobility
-# models from cone index data": kc [kN/m^(n+1)], kphi [kN/m^(n+2)], n, cc [kPa],
-# phic [deg].  Used when ../shared is absent.
-TABLE_TYPED = {
-    "LS_1": (80.14, 4727.2, 0.74, 0.0, 12.5),
-    "LS_2": (73.17, 2812.8, 0.562, 0.0, 10.0),
-    "LS_3": (90.41, 4075.0, 0.693, 0.0, 10.03),
-    "LS_4": (96.28, 4551.1, 0.723, 0.0, 10.78),
-    "KRC_1": (42.0, 885.18, 0.591, 1.0, 10.0),
-    "KRC_2": (96.84, 673.67, 0.809, 0.0, 15.82),
-    "KRC_3": (0.0, 1948.9, 0.514, 0.0, 14.37),
-    "KRC_4": (1.0, 2571.3, 0.786, 0.0, 14.07),
-    "KRC_7": (0.89, 1417.3, 0.391, 1.0, 9.14),
-    "KRC_9": (8.91, 1881.3, 0.436, 0.0, 17.76),
-    "KRC_24": (22.02, 2273.7, 0.8, 0.0, 11.18),
-    "KRC_25": (0.0, 1628.8, 0.591, 0.0, 21.22),
-}
 # LETE sand, Wong (1981) as quoted in section 2 of the paper: kc = 102
 # kN/m^(n+1), kphi = 5301 kN/m^(n+2), n = 0.79; cone-metal shear chosen here
 # (cc = 1.5 kPa, phic = 12 deg).
@@ -56,17 +38,10 @@ WONG_LETE = (102.0, 5301.0, 0.79, 1.5, 12.0)
 
 
 def _table() -> dict[str, tuple[float, float, float, float, float]]:
-    path = shared_dir() / "reference" / "huang2020_predicted_parameters.csv"
-    if not path.exists():
-        return dict(TABLE_TYPED)
-    with path.open() as fh:
-        rows = csv.DictReader(line for line in fh if not line.startswith("#"))
-        return {
-            r["dataset"]: tuple(
-                float(r[k]) for k in ("kc_si", "kphi_si", "n", "cc_kpa", "phic_deg")
-            )
-            for r in rows
-        }
+    """Tables 4-1 (LETE sand) and 4-3 (KRC soils) of Huang et al.: kc [kN/m^(n+1)], kphi
+    [kN/m^(n+2)], n, cc [kPa], phic [deg] of each data set."""
+    keys = ("kc_si", "kphi_si", "n", "cc_kpa", "phic_deg")
+    return {r["dataset"]: tuple(float(r[k]) for k in keys) for r in paper_parameter_rows()}
 
 
 TABLE = _table()
@@ -154,7 +129,7 @@ def de_minimum(profile: CIProfile, bounds: Bounds, *, seed: int = 1, maxiter: in
 # recovery from noiseless data
 # ---------------------------------------------------------------------------
 
-NAMES = list(TABLE_TYPED) + ["LETE"]
+NAMES = list(TABLE) + ["LETE"]
 
 
 @pytest.mark.parametrize("dz", [0.01, 0.025])
@@ -334,7 +309,7 @@ def test_exact_never_worse_than_de_with_us_bounds():
 
 @pytest.mark.parametrize("K_cone", [0.002, 0.005])
 def test_fixed_finite_Kc_reaches_the_truth(K_cone):
-    kc, kphi, n, _, phic = TABLE_TYPED["LS_1"]
+    kc, kphi, n, _, phic = TABLE["LS_1"]
     z = depths(0.025)
     ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=1.0, phic_deg=phic, K_cone=K_cone)
     res = predict(CIProfile("Kc", z, ci), Problem(K_cone=K_cone))
@@ -350,7 +325,7 @@ def test_fixed_finite_Kc_reaches_the_truth(K_cone):
 
 
 def test_fit_Kc_reaches_the_truth():
-    kc, kphi, n, _, phic = TABLE_TYPED["LS_1"]
+    kc, kphi, n, _, phic = TABLE["LS_1"]
     z = depths(0.025)
     ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=1.0, phic_deg=phic, K_cone=0.02)
     res = predict(CIProfile("fitKc", z, ci), Problem(fit_K_cone=True, bounds=Bounds(n=(0.5, 1.0))))
@@ -360,7 +335,7 @@ def test_fit_Kc_reaches_the_truth():
 
 
 def test_fit_Kc_reaches_the_truth_dense_profile():
-    kc, kphi, n, _, phic = TABLE_TYPED["LS_1"]
+    kc, kphi, n, _, phic = TABLE["LS_1"]
     z = depths(0.01)
     ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=1.0, phic_deg=phic, K_cone=0.005)
     res = predict(

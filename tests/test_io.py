@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import require_shared
 
 from terracone import CIProfile, InputError, PlateTest, ShearTest, get_cone
 from terracone.io import (
@@ -26,19 +27,11 @@ from terracone.io import (
 )
 
 DATA = Path(__file__).resolve().parent / "data"
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 PSI = 6.894757293168361  # kPa
 INCH = 0.0254  # m
 TAN15 = math.tan(math.radians(15.0))
 H_SMALL = math.sqrt(0.2 * INCH**2 / math.pi) / TAN15  # ASABE small cone height [m]
 H_LARGE = math.sqrt(0.5 * INCH**2 / math.pi) / TAN15  # ASABE large cone height [m]
-
-
-def shared_file(*parts: str) -> Path:
-    path = SHARED.joinpath(*parts)
-    if not path.exists():
-        pytest.skip(f"../shared data not available: {path} is needed by this test")
-    return path
 
 
 def write(tmp_path: Path, text: str, name: str = "profiles.csv") -> Path:
@@ -692,7 +685,7 @@ SC900_TRAILING = {
 
 
 def test_sc900_real_export():
-    path = shared_file("data", "marsden-penetrometer", "sc900_export_2019-06-11.txt")
+    path = require_shared("data", "marsden-penetrometer", "sc900_export_2019-06-11.txt")
     lines = path.read_text().splitlines()
     assert len(lines) == 111
     assert sum(ln.strip() == ",,Logger Started" for ln in lines) == SC900_LOGGER_STARTED
@@ -744,7 +737,7 @@ def test_sc900_real_export():
 
 
 def test_sc900_real_export_tip_reference():
-    path = shared_file("data", "marsden-penetrometer", "sc900_export_2019-06-11.txt")
+    path = require_shared("data", "marsden-penetrometer", "sc900_export_2019-06-11.txt")
     profiles = read_ci_profiles(path, depth_ref="tip")
     assert len(profiles) == SC900_PUSHES
     assert profiles[0].depth[0] == pytest.approx(-H_SMALL, rel=1e-12)
@@ -875,7 +868,7 @@ def test_sc900_file_level_errors(tmp_path):
 
 
 def test_marsden_ci_profiles_csv():
-    path = shared_file("data", "marsden-penetrometer", "ci_profiles.csv")
+    path = require_shared("data", "marsden-penetrometer", "ci_profiles.csv")
     profiles = read_ci_profiles(path, cone="asabe-small")
     # `tail -n +2 ci_profiles.csv | cut -d, -f1 | sort -u | wc -l` -> 224
     assert len(profiles) == 224
@@ -898,7 +891,7 @@ def test_marsden_ci_profiles_csv():
 
 
 def test_cullinan_plate_and_shear_csv():
-    plate_path = shared_file("data", "cullinan-sand", "plate_sinkage.csv")
+    plate_path = require_shared("data", "cullinan-sand", "plate_sinkage.csv")
     plates = read_plate_tests(plate_path)
     assert len(plates) == 13
     assert [t.id for t in plates][:2] == ["method_5_test_1", "method_1_test_1"]
@@ -915,7 +908,7 @@ def test_cullinan_plate_and_shear_csv():
     assert plates[1].metadata == {"method": "Method 1", "dry_density_kg_m3": ""}
     assert plates[1].rows[0] == 2002
 
-    shear_path = shared_file("data", "cullinan-sand", "shear.csv")
+    shear_path = require_shared("data", "cullinan-sand", "shear.csv")
     shear = read_shear_tests(shear_path)
     assert len(shear) == 4
     assert [s.id for s in shear] == [

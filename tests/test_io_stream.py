@@ -16,6 +16,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from conftest import require_shared
 
 import terracone.io.stream as stream
 from terracone import CIProfile, InputError, get_cone
@@ -23,15 +24,7 @@ from terracone.data import ProfileSet
 from terracone.io import iter_profile_sets, read_ci_profiles, read_profile_set
 from terracone.io.tables import to_numbers
 
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 H_LARGE = get_cone("asabe-large").height
-
-
-def shared_file(*parts: str) -> Path:
-    path = SHARED.joinpath(*parts)
-    if not path.exists():
-        pytest.skip(f"../shared data not available: {path} is needed by this test")
-    return path
 
 
 # ---------------------------------------------------------------------------
@@ -153,7 +146,7 @@ def test_profile_set_of_a_wide_table_equals_the_list(tmp_path):
 
 
 def test_profile_set_of_an_sc900_export_equals_the_list(tmp_path):
-    path = shared_file("data", "marsden-penetrometer", "sc900_export_2019-06-11.txt")
+    path = require_shared("data", "marsden-penetrometer", "sc900_export_2019-06-11.txt")
     items = read_ci_profiles(path, on_error="collect")
     profs = [p for p in items if isinstance(p, CIProfile)]
     pset = read_profile_set(path)

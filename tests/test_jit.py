@@ -11,6 +11,7 @@ waited for, or ended by its process id when it overstays.
 
 from __future__ import annotations
 
+import ast
 import contextlib
 import json
 import os
@@ -201,22 +202,61 @@ def test_mode_follows_the_switch(monkeypatch):
     assert jit.mode() == "auto"
 
 
-def test_every_kernel_module_keys_the_marker():
-    """The marker's key covers every source that defines a kernel (numba keys its cache on
-    them too), so editing a kernel makes the cache cold again."""
-    import importlib
+def _njit_sources() -> dict[str, int]:
+    """Package-relative source -> number of functions decorated with ``njit`` or
+    ``jit.njit`` (with or without options), read from the sources' syntax trees."""
 
-    for name in (
-        "terracone.inverse.solver.kernels",
-        "terracone.inverse.solver.layered_kernels",
-        "terracone.inverse.layered.sampler",
-        "terracone.inverse.learning.kernels",
-        "terracone.inverse.solver.polish",
-        "terracone.inverse.uncertainty.likelihood",
-        "terracone.inverse.predict",
-        "terracone.apps.batch",
-    ):
-        importlib.import_module(name)
+    def is_njit(dec: ast.expr) -> bool:
+        f = dec.func if isinstance(dec, ast.Call) else dec
+        return (isinstance(f, ast.Name) and f.id == "njit") or (
+            isinstance(f, ast.Attribute) and f.attr == "njit"
+        )
+
     pkg = Path(jit.__file__).resolve().parent
-    files = {Path(k.py_func.__code__.co_filename).resolve() for k in jit._lazy}
-    assert files == {(pkg / rel).resolve() for rel in jit.KERNEL_SOURCES}
+    out = {}
+    for path in sorted(pkg.rglob("*.py")):
+        if path.name == "jit.py" and path.parent == pkg:
+            continue  # defines njit itself
+        tree = ast.parse(path.read_text(), str(path))
+        n = sum(
+            any(is_njit(d) for d in node.decorator_list)
+            for node in ast.walk(tree)
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+        )
+        if n:
+            out[path.relative_to(pkg).as_posix()] = n
+    return out
+
+
+def test_every_kernel_module_keys_the_marker(tmp_path):
+    """The marker's key covers every source that defines a kernel (numba keys its cache on
+    them too), so editing a kernel makes the cache cold again.  Every module of the package
+    is imported (pkgutil.walk_packages, in a fresh interpreter, so no earlier import decides
+    what is seen); the kernels registered then, and the ``njit`` decorators in the sources,
+    must come from exactly jit.KERNEL_SOURCES."""
+    r = run_py(
+        """
+        import importlib, json, pkgutil
+        import terracone
+        from terracone import jit
+        names = [m.name for m in pkgutil.walk_packages(terracone.__path__, "terracone.")]
+        for name in names:
+            importlib.import_module(name)
+        files = sorted({k.py_func.__code__.co_filename for k in jit._lazy})
+        print(json.dumps({"modules": names, "files": files, "kernels": len(jit._lazy)}))
+        """,
+        tmp_path / "nc",
+    )
+    assert r.returncode == 0, r.stderr
+    got = json.loads(r.stdout.strip().splitlines()[-1])
+    pkg = Path(jit.__file__).resolve().parent
+    on_disk = {
+        ".".join(("terracone", *p.relative_to(pkg).with_suffix("").parts)).removesuffix(".__init__")
+        for p in pkg.rglob("*.py")
+    } - {"terracone"}
+    assert set(got["modules"]) == on_disk  # every module was imported
+    keyed = {(pkg / rel).resolve() for rel in jit.KERNEL_SOURCES}
+    assert {Path(f).resolve() for f in got["files"]} == keyed
+    decorated = _njit_sources()
+    assert {(pkg / rel).resolve() for rel in decorated} == keyed
+    assert got["kernels"] == sum(decorated.values())

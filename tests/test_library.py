@@ -9,6 +9,7 @@ import sqlite3
 from pathlib import Path
 
 import pytest
+from conftest import require_shared
 
 from terracone.apps.library import (
     REFERENCE_CITATION,
@@ -98,16 +99,15 @@ def _shared_rows(path: Path) -> list[dict[str, str]]:
     return out
 
 
+def test_reference_csv_cites_and_holds_21_terrains(lib):
+    assert REFERENCE_CITATION in REFERENCE_CSV.read_text()
+    assert len(_table_rows(REFERENCE_CSV)) == len(reference_records()) == 21
+
+
 def test_reference_csv_matches_shared(lib):
-    shared = Path(__file__).resolve().parents[1].parent / "shared" / "reference"
-    src = shared / "wong_terrain_values.csv"
+    src = require_shared("reference", "wong_terrain_values.csv")
     text = REFERENCE_CSV.read_text()
-    assert REFERENCE_CITATION in text
-    refs = reference_records()
     rows = _table_rows(REFERENCE_CSV)
-    assert len(rows) == len(refs) == 21
-    if not src.exists():
-        pytest.skip(f"shared reference table not found at {src}")
     # same header comments, the same columns, and row by row the same values
     shared_lines = src.read_text().splitlines()
     ours = text.splitlines()
@@ -127,7 +127,7 @@ def test_reference_csv_matches_shared(lib):
             else:
                 assert float(mine[col]) == float(ref[col]), (ref["terrain"], col)
     # and the library's records carry those values (SI, as tabulated)
-    by_value = {(r.params["kc"], r.params["kphi"], r.params["n"]) for r in refs}
+    by_value = {(r.params["kc"], r.params["kphi"], r.params["n"]) for r in reference_records()}
     for ref in theirs:
         assert (float(ref["kc_si"]), float(ref["kphi_si"]), float(ref["n"])) in by_value
 

@@ -633,10 +633,10 @@ def test_report_of_a_map_directory(located_json, tmp_path):
     assert "Variograms and leave-one-out cross-validation" in text
     assert text.count("data:image/png;base64,") == 3  # plate_pressure, n, one CI layer
     assert "median and 90% interval width" in text
-    from chromium import browser_check, find_chromium
+    from chromium import browser_check
+    from conftest import require_chromium
 
-    if find_chromium() is None:
-        pytest.skip("headless Chromium not found (install Debian's chromium, as .ci/run does)")
+    require_chromium()
     chk = browser_check(html)
     assert chk.images_total == 3 and chk.images_ok == 3, chk.page_error_text
     assert chk.page_errors == 0 and chk.console == [], chk.console

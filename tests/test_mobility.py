@@ -251,6 +251,33 @@ def marsden(tmp_path_factory):
     return out
 
 
+#: Five generated pushes, CI = a + b z [kPa] read every 2.5 cm from 0 to the depth given [m]:
+#: s1 stops at 15 cm (too shallow for 0-6 in), s2 at 20 cm (too shallow for 6-12 in).
+LINEAR = {
+    "s1": (0.15, 250.0, 2000.0),
+    "s2": (0.20, 280.0, 2500.0),
+    "s3": (0.45, 300.0, 3000.0),
+    "s4": (0.45, 350.0, 2000.0),
+    "s5": (0.45, 400.0, 1500.0),
+}
+
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory):
+    """predict JSON of the five LINEAR pushes (a CSV made here: no real data needed)."""
+    tmp = tmp_path_factory.mktemp("synthetic")
+    rows = ["# SYNTHETIC DATA: CI = a + b z", "profile,depth_m,ci_kpa"]
+    for pid, (bottom, a, b) in LINEAR.items():
+        for k in range(round(bottom / 0.025) + 1):
+            rows.append(f"{pid},{0.025 * k:.3f},{a + b * 0.025 * k:.2f}")
+    src = tmp / "synthetic.csv"
+    src.write_text("\n".join(rows) + "\n")
+    out = tmp / "pred.json"
+    res = run("predict", src, "--json", "--out", out)
+    assert res.exit_code == 0, res.output
+    return out
+
+
 def test_cli_end_to_end_on_the_marsden_sc900_file_with_an_ri(marsden, tmp_path):
     out = tmp_path / "mob.json"
     res = run("mobility", marsden, "--vehicle", write_vehicle(tmp_path), "--remolding-index",
@@ -283,38 +310,44 @@ def test_cli_end_to_end_on_the_marsden_sc900_file_with_an_ri(marsden, tmp_path):
     assert f"{805.14653 / PSI:.4g}" in row and "GO" in row
 
 
-def test_cli_end_to_end_on_the_marsden_sc900_file_without_an_ri(marsden, tmp_path):
-    res = run("mobility", marsden, "--vehicle", write_vehicle(tmp_path), "--json")
+def test_cli_without_an_ri_decides_nothing(synthetic, tmp_path):
+    res = run("mobility", synthetic, "--vehicle", write_vehicle(tmp_path), "--json")
     assert res.exit_code == 0, res.output
     doc = json.loads(res.output)
     decided = [p for p in doc["profiles"] if p["critical_layer"]["ci"] is not None]
-    assert len(decided) == 3  # 6-12 in (the rule of a wheeled vehicle, one pass): 2 too shallow
+    # 6-12 in (the rule of a wheeled vehicle, one pass): s1 and s2 are too shallow
+    assert [p["id"] for p in decided] == ["s3", "s4", "s5"]
+    # the mean of a + b z over 0.1524-0.3048 m is a + b 0.2286 (the trapezoids are exact)
     for p in decided:
+        _, a, b = LINEAR[p["id"]]
+        assert p["critical_layer"]["ci"] == pytest.approx(a + b * 0.2286, rel=1e-12)
         assert p["critical_layer"]["rci"] is None and p["go"] is None and p["margin"] is None
         assert any(n.startswith("no remolding index") for n in p["notes"])
-    text = run("mobility", marsden, "--vehicle", write_vehicle(tmp_path)).output
+    text = run("mobility", synthetic, "--vehicle", write_vehicle(tmp_path)).output
     assert "no remolding index (--remolding-index or an RI column in the metadata)" in text
 
 
-def test_fifty_passes_use_the_6_to_12_in_layer_and_vci50(marsden, tmp_path):
-    res = run("mobility", marsden, "--vehicle", write_vehicle(tmp_path), "--passes", "50",
+def test_fifty_passes_use_the_6_to_12_in_layer_and_vci50(synthetic, tmp_path):
+    res = run("mobility", synthetic, "--vehicle", write_vehicle(tmp_path), "--passes", "50",
               "--remolding-index", "1", "--json")  # fmt: skip
     doc = json.loads(res.output)
     assert doc["vehicle"]["vci"] == pytest.approx(52.574527 * PSI, rel=1e-7)
-    p = {q["id"].rsplit("/", 1)[1]: q for q in doc["profiles"]}["0002-N1"]
-    assert p["critical_layer"]["status"] == "too shallow"  # ends at 20 cm < 30.48 cm
+    by = {q["id"]: q for q in doc["profiles"]}
+    assert by["s2"]["critical_layer"]["status"] == "too shallow"  # ends at 20 cm < 30.48 cm
+    # s3: the mean of 300 + 3000 z over 0.1524-0.3048 m is CI(0.2286 m) = 985.8 kPa
+    assert by["s3"]["critical_layer"]["ci"] == pytest.approx(985.8, rel=1e-12)
 
 
-def test_layer_deeper_than_every_profile_is_an_error(marsden, tmp_path):
-    res = run("mobility", marsden, "--vehicle", write_vehicle(tmp_path), "--layer", "40cm:60cm")
+def test_layer_deeper_than_every_profile_is_an_error(synthetic, tmp_path):
+    res = run("mobility", synthetic, "--vehicle", write_vehicle(tmp_path), "--layer", "40cm:60cm")
     assert res.exit_code != 0
     assert "critical layer 0.4-0.6 m is deeper than every profile" in res.output
     assert "0.45 m" in res.output and "Traceback" not in res.output
 
 
 @pytest.mark.parametrize("ri", ["0", "2.5", "-1"])
-def test_remolding_index_outside_0_2_is_an_error(marsden, tmp_path, ri):
-    res = run("mobility", marsden, "--vehicle", write_vehicle(tmp_path), "--remolding-index", ri)
+def test_remolding_index_outside_0_2_is_an_error(synthetic, tmp_path, ri):
+    res = run("mobility", synthetic, "--vehicle", write_vehicle(tmp_path), "--remolding-index", ri)
     assert res.exit_code != 0
     assert "--remolding-index" in res.output and "outside (0, 2]" in res.output
 
@@ -396,10 +429,10 @@ def test_report_section_maps_go_and_no_go(tmp_path):
         ),  # fmt: skip
     ],
 )
-def test_vehicle_file_errors_name_the_file_and_the_key(tmp_path, marsden, change, message):
+def test_vehicle_file_errors_name_the_file_and_the_key(tmp_path, synthetic, change, message):
     bad = {**VEHICLE, **change}
     path = write_vehicle(tmp_path, bad, "bad.json")
-    res = run("mobility", marsden, "--vehicle", path)
+    res = run("mobility", synthetic, "--vehicle", path)
     assert res.exit_code != 0
     assert f"vehicle file {path}" in res.output and message in res.output, res.output
     assert "Traceback" not in res.output
@@ -521,15 +554,16 @@ def read_mavs_like_mavs(path: Path) -> list[tuple[str, float]]:
     return [(s["Material"], 6894.76 * s["Cone Index"]) for s in d["Surface Mesh"]]
 
 
-def test_mavs_export_of_a_profile_and_of_a_site(marsden, tmp_path):
+def test_mavs_export_of_a_profile_and_of_a_site(synthetic, tmp_path):
     out = tmp_path / "mavs.json"
-    pid = "marsden5/0003-N1"
-    res = run("export", "--results", marsden, "--profile", pid, "--format", "mavs",
+    res = run("export", "--results", synthetic, "--profile", "s3", "--format", "mavs",
               "--material", "sand", "--out", out)  # fmt: skip
     assert res.exit_code == 0, res.output
     [(material, pa)] = read_mavs_like_mavs(out)
     assert material in ("dry", "wet", "ice", "snow", "clay", "sand") and material == "sand"
-    assert pa == pytest.approx(805.14653e3, rel=1e-6)  # the 0-6 in mean by hand, in Pa
+    # the 0-6 in mean of 300 + 3000 z [kPa]: CI(0.0762 m) = 528.6 kPa, in Pa (MAVS's factor
+    # 6894.76 Pa/psi against the exact 6894.757...: rel 4e-7)
+    assert pa == pytest.approx(528.6e3, rel=1e-6)
     # a site: the mean of its profiles' critical-layer RCI for clay (RI from the metadata)
     site = located_results(ri=[0.5, 0.5, 0.5])
     doc, notes = write_mavs(site, out, material="clay", profile="A")
@@ -540,15 +574,15 @@ def test_mavs_export_of_a_profile_and_of_a_site(marsden, tmp_path):
     assert "no remolding index" in notes[0]
 
 
-def test_mavs_export_errors(marsden, tmp_path):
+def test_mavs_export_errors(synthetic, tmp_path):
     out = tmp_path / "m.json"
-    res = run("export", "--results", marsden, "--format", "mavs", "--material", "sand",
+    res = run("export", "--results", synthetic, "--format", "mavs", "--material", "sand",
               "--out", out)  # fmt: skip
     assert res.exit_code != 0 and "5 profiles: name one (or a site) with --profile" in res.output
-    res = run("export", "--results", marsden, "--format", "mavs", "--profile", "marsden5/0001-N1",
+    res = run("export", "--results", synthetic, "--format", "mavs", "--profile", "s1",
               "--material", "clay", "--out", out)  # fmt: skip
     assert res.exit_code != 0 and "too shallow" in res.output
-    res = run("export", "--results", marsden, "--format", "mavs", "--out", out)
+    res = run("export", "--results", synthetic, "--format", "mavs", "--out", out)
     assert res.exit_code != 0 and "--material" in res.output
 
 

@@ -8,13 +8,12 @@ Tables 4-1 and 4-3 of the paper.
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 
 import numpy as np
 import pytest
-from conftest import shared_dir
+from conftest import paper_parameter_rows
 
 from terracone import CIProfile, InputError, TerrainParameters, cone_index
 from terracone.inverse import Bounds, Problem, RunSettings, predict, predict_many
@@ -42,26 +41,15 @@ CONTRACT_KEYS = {
     "undetermined",
 }
 
-# Tables 4-1 and 4-3 (Huang et al.): SI and US columns, used when ../shared is absent.
-# dataset: kc_si, kc_us, kphi_si, kphi_us, n, cc_kpa, phic_deg
-TABLE_TYPED = {
-    "LS_1": (80.14, 30.2, 4727.2, 45.25, 0.74, 0.0, 12.5),
-    "LS_2": (73.17, 53.03, 2812.8, 51.78, 0.562, 0.0, 10.0),
-    "KRC_1": (42.0, 27.36, 885.18, 14.648, 0.591, 1.0, 10.0),
-    "KRC_3": (0.0, 0.0, 1948.9, 42.791, 0.514, 0.0, 14.37),
-    "KRC_7": (0.89, 1.21, 1417.3, 48.892, 0.391, 1.0, 9.14),
-    "KRC_24": (22.02, 6.66, 2273.7, 17.462, 0.8, 0.0, 11.18),
-}
+# Tables 4-1 and 4-3 (Huang et al.), SI and US columns (the package's copies, held equal to
+# ../shared/reference/ by tests/test_paper_tables.py); the data sets run here:
+NAMES = ("LS_1", "LS_2", "KRC_1", "KRC_3", "KRC_7", "KRC_24")
 
 
 def _table():
-    path = shared_dir() / "reference" / "huang2020_predicted_parameters.csv"
-    if not path.exists():
-        return dict(TABLE_TYPED)
+    """dataset -> kc_si, kc_us, kphi_si, kphi_us, n, cc_kpa, phic_deg."""
     keys = ("kc_si", "kc_us", "kphi_si", "kphi_us", "n", "cc_kpa", "phic_deg")
-    with path.open() as fh:
-        rows = csv.DictReader(line for line in fh if not line.startswith("#"))
-        return {r["dataset"]: tuple(float(r[k]) for k in keys) for r in rows}
+    return {r["dataset"]: tuple(float(r[k]) for k in keys) for r in paper_parameter_rows()}
 
 
 TABLE = _table()
@@ -190,7 +178,7 @@ def test_us_units_by_hand():
     assert us["kphi"] == pytest.approx(TABLE["KRC_1"][3], rel=2e-3)
 
 
-@pytest.mark.parametrize("name", list(TABLE_TYPED))
+@pytest.mark.parametrize("name", NAMES)
 def test_table_us_columns(name):
     """A result holding a table row's SI values reports the row's US columns."""
     kc, kc_us, kphi, kphi_us, n, cc, phic = TABLE[name]

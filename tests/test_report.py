@@ -18,8 +18,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from chromium import browser_check, find_chromium, screenshot
+from chromium import browser_check, screenshot
 from click.testing import CliRunner
+from conftest import require_chromium
 
 import terracone
 from terracone.apps.example import CI_FILE, PLATES_FILE, example_dir
@@ -385,14 +386,7 @@ def test_published_tables_are_consistent():
 
 @pytest.fixture(scope="session")
 def chromium() -> str:
-    exe = find_chromium()
-    if exe is None:
-        pytest.skip(
-            "headless Chromium not found ($TERRACONE_CHROMIUM, /usr/bin/chromium, or chromium "
-            "or chromium-browser on PATH); "
-            "install Debian's chromium package, as .ci/run does"
-        )
-    return exe
+    return require_chromium()
 
 
 def _shots_dir(tmp_path: Path) -> Path:

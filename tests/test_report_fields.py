@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 import pytest
-from chromium import BrowserSession, find_chromium
+from chromium import BrowserSession
 from click.testing import CliRunner
+from conftest import require_chromium, require_shared
 
 import terracone
 from terracone.apps.batch import BatchSummary
@@ -35,14 +36,7 @@ from terracone.report import fields as FL
 from terracone.report import figures as F
 from terracone.result import PredictionResults, from_table, read_results
 
-REAL = (
-    Path(__file__).resolve().parents[1]
-    / ".."
-    / "shared"
-    / "data"
-    / "marsden-penetrometer"
-    / "sc900_export_2019-06-11.txt"
-)
+REAL = ("data", "marsden-penetrometer", "sc900_export_2019-06-11.txt")  # under ../shared
 N_REAL = 83  # pushes in the export (its README and the file's "N=" lines)
 
 # independent unit factors (NIST): 1 lbf = 4.4482216152605 N, 1 in = 0.0254 m
@@ -52,9 +46,7 @@ PSI_KPA = LBF_KN / INCH**2
 
 
 def _need_real() -> Path:
-    if not REAL.exists():
-        pytest.skip(f"real data not found: {REAL} (the shared data folder is absent)")
-    return REAL
+    return require_shared(*REAL)
 
 
 def _predict(args: list[str], out: Path) -> dict:
@@ -312,10 +304,7 @@ def test_sortable_table_markup():
 
 @pytest.fixture(scope="module")
 def browser():
-    if find_chromium() is None:
-        pytest.skip(
-            "headless Chromium not installed (Debian package chromium; .ci/run installs it)"
-        )
+    require_chromium()
     with BrowserSession(width=1280, height=900) as b:
         yield b
 

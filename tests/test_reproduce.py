@@ -11,8 +11,9 @@ from types import SimpleNamespace
 
 import pandas as pd
 import pytest
-from chromium import browser_check, find_chromium
+from chromium import browser_check
 from click.testing import CliRunner
+from conftest import require_chromium
 from PIL import Image
 
 from terracone.apps.reproduce import KRC_FORCE_LIMIT, WONG_LETE, reproduce
@@ -166,8 +167,7 @@ def test_report_rebuilds_from_the_output_directory(run, tmp_path):
 
 
 def test_reproduce_report_renders_in_chromium(run):
-    if find_chromium() is None:
-        pytest.skip("headless Chromium not found: install Debian's chromium package (.ci/run does)")
+    require_chromium()
     chk = browser_check(Path(run.report))
     assert chk.images_total == len(EXPECTED_FIGURES), chk.page_error_text
     assert chk.images_ok == chk.images_total

@@ -3,17 +3,14 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import require_shared
 
 from terracone.data import InputError, ShearTest
 from terracone.inverse.bevameter.shear import ShearFit, fit_shear, fit_shear_test
 from terracone.physics.shear import shear_stress_janosi_hanamoto
-
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
-CULLINAN = SHARED / "data" / "cullinan-sand"
 
 # LETE sand internal shear (Wong): c [kPa], phi [deg], K [m]
 C, PHI, K = 1.3, 31.1, 0.012
@@ -134,9 +131,7 @@ def test_as_dict_us():
 
 
 def load_cullinan_shear() -> list[ShearTest]:
-    csv = CULLINAN / "shear.csv"
-    if not csv.exists():
-        pytest.skip(f"Cullinan sand data not found at {csv} (shared data folder absent)")
+    csv = require_shared("data", "cullinan-sand", "shear.csv")
     try:
         from terracone.io import read_shear_tests
     except ImportError:

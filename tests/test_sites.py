@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import require_shared
 
 from terracone.cli import cli
 from terracone.data import CIProfile
@@ -25,9 +25,6 @@ from terracone.inverse.sites.statistics import (
 from terracone.physics.cone import cone_index
 from terracone.physics.plate import plate_pressure
 
-MARSDEN = (
-    Path(__file__).resolve().parents[1] / "../shared/data/marsden-penetrometer/ci_profiles.csv"
-)
 CV_TRUE = 0.2
 TAU2 = math.log1p(CV_TRUE**2)
 
@@ -199,11 +196,11 @@ def test_cli_sites_needs_a_grouping(tmp_path):
     assert "no value in metadata column 'plot'" in r.output
 
 
-@pytest.mark.skipif(not MARSDEN.exists(), reason="Marsden data not present (../shared/data)")
 def test_cli_sites_marsden_by_plot():
+    marsden = require_shared("data", "marsden-penetrometer", "ci_profiles.csv")
     r = CliRunner().invoke(
         cli,
-        ["sites", str(MARSDEN), "--by", "plot", "--cone", "asabe-small", "--plates", "5cm"]
+        ["sites", str(marsden), "--by", "plot", "--cone", "asabe-small", "--plates", "5cm"]
         + ["--json"],
     )
     assert r.exit_code == 0, r.output

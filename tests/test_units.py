@@ -3,18 +3,19 @@
 The tables of Huang et al. (Tables 4-1 and 4-3) print every parameter in
 both SI and US customary units; each pair must agree within the precision
 printed, which is a check of the n-dependent factors of kc and kphi that
-owes nothing to terracone.
+owes nothing to terracone.  The tables are read from the package's copies
+(terracone/data/paper/), which tests/test_paper_tables.py holds equal, as
+printed, to the independently typed ones of ../shared/reference/.
 """
 
 from __future__ import annotations
 
-import csv
 import math
 from decimal import Decimal
 
 import numpy as np
 import pytest
-from conftest import require_shared
+from conftest import paper_parameter_rows, require_shared
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -121,10 +122,7 @@ def _half_ulp(printed: str) -> float:
 
 
 def _table_rows():
-    path = require_shared("reference", "huang2020_predicted_parameters.csv")
-    with open(path, newline="") as f:
-        lines = [line for line in f if line.strip() and not line.startswith("#")]
-    return list(csv.DictReader(lines))
+    return paper_parameter_rows()
 
 
 PAIRS = [  # (US column, SI column, US -> SI, SI -> US)
@@ -172,6 +170,21 @@ def test_half_ulp_parser():
     assert _half_ulp("0") == 0.5
 
 
-def test_require_shared_skips_when_absent():
-    with pytest.raises(pytest.skip.Exception, match=r"\.\./shared not found"):
-        require_shared("no-such-folder-for-terracone-tests")
+def test_require_shared_skips_when_absent_and_fails_in_ci(monkeypatch, tmp_path):
+    monkeypatch.setenv("TERRACONE_SHARED", str(tmp_path))
+    (tmp_path / "here.txt").write_text("x")
+    assert require_shared("here.txt") == tmp_path.resolve() / "here.txt"
+    missing = f"../shared not found: {tmp_path.resolve() / 'absent'} is needed by this test"
+    for ci in ("", "0", "false"):
+        monkeypatch.setenv("CI", ci)
+        with pytest.raises(pytest.skip.Exception) as exc:
+            require_shared("absent")
+        assert str(exc.value) == missing
+    monkeypatch.delenv("CI")
+    with pytest.raises(pytest.skip.Exception):
+        require_shared("absent")
+    for ci in ("true", "1"):
+        monkeypatch.setenv("CI", ci)
+        with pytest.raises(pytest.fail.Exception) as exc:
+            require_shared("absent")
+        assert str(exc.value) == f"{missing} (CI: a missing dependency fails)"

@@ -337,7 +337,10 @@ def scm_values(
 
 
 def scm_spec(
-    params: Mapping[str, Any], settings: SCMSettings, name: str = "the terrain"
+    params: Mapping[str, Any],
+    settings: SCMSettings,
+    name: str = "the terrain",
+    notes: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Chrono's co-simulation SCM terrain spec of a terrain, with exactly Chrono's keys.
 
@@ -346,9 +349,12 @@ def scm_spec(
     contact radius", "Fix proxies"}}``, the layout of Chrono's
     ``data/vehicle/cosim/terrain/scm_soft.json``, read by
     ``ChVehicleCosimTerrainNodeSCM::SetFromSpecfile``.  Values as
-    :func:`scm_values` (which raises when one is missing).
+    :func:`scm_values` (which raises when one is missing).  ``notes``, when
+    given, are added as ``"Notes"`` (an effective soil's ``effective`` block,
+    say): Chrono reads its keys by name and ignores the others.
     """
     values = scm_values(params, settings, name)
+    extra = {} if notes is None else {"Notes": dict(notes)}
     return {
         "Type": "SCM",
         "Patch dimensions": {"Length": settings.patch[0], "Width": settings.patch[1]},
@@ -358,6 +364,7 @@ def scm_spec(
             "Proxy contact radius": settings.proxy_radius,
             "Fix proxies": bool(settings.fix_proxies),
         },
+        **extra,
     }
 
 
@@ -366,9 +373,10 @@ def write_scm_spec(
     params: Mapping[str, Any],
     settings: SCMSettings,
     name: str = "the terrain",
+    notes: Mapping[str, Any] | None = None,
 ) -> Path:
     """Write :func:`scm_spec` to ``path`` (nothing is written when it raises)."""
-    text = json.dumps(scm_spec(params, settings, name), indent=4) + "\n"
+    text = json.dumps(scm_spec(params, settings, name, notes), indent=4) + "\n"
     p = Path(path)
     p.write_text(text, encoding="utf-8")
     return p
@@ -393,6 +401,10 @@ class LocatedSoil:
         Decimal degrees (WGS 84), when located.
     draws : tuple of mappings
         Posterior draws, each with the keys of ``params`` (SI).
+    effective : mapping or None
+        When ``params`` are the effective soil of a layered ground for a
+        vehicle (:func:`terracone.physics.effective.effective_soil`), its
+        ``effective`` block (width, load, sinkage, error), written with the soil.
     """
 
     id: str
@@ -400,6 +412,7 @@ class LocatedSoil:
     lat: float | None = None
     lon: float | None = None
     draws: tuple[Mapping[str, Any], ...] = field(default_factory=tuple)
+    effective: Mapping[str, Any] | None = None
 
     @property
     def located(self) -> bool:
@@ -497,6 +510,19 @@ def _literal(rows: Sequence[Sequence[float]], indent: str) -> str:
     return "".join(f"{indent}({', '.join(_number(v) for v in r)}),\n" for r in rows)
 
 
+def _data(v: Any) -> str:
+    """A Python literal of JSON-like data (dicts, lists, strings, numbers): data, never code."""
+    if isinstance(v, Mapping):
+        return "{" + ", ".join(f"{str(k)!r}: {_data(x)}" for k, x in v.items()) + "}"
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_data(x) for x in v) + "]"
+    if v is None or isinstance(v, bool):
+        return repr(v)
+    if isinstance(v, int | float):
+        return _number(v)
+    return repr(str(v))
+
+
 def _strings(lines: Sequence[str]) -> str:
     """A tuple literal of strings, one a line: every string is data (``repr``), never code."""
     return "".join(f"    {str(line)!r},\n" for line in lines)
@@ -584,6 +610,7 @@ def pychrono_module(
             "    (\n" + _literal([r[1][i] for r in rows], "        ") + "    ),\n"
             for i in range(n_draws)
         ),
+        effective="".join(f"    {_data(s.effective)},\n" for s in soils),
     )
 
 
@@ -671,6 +698,10 @@ $soil)
 SAMPLES = (
 $samples)
 N_SAMPLES = len(SAMPLES)
+# one entry per site: None, or the effective soil of a layered ground for a vehicle
+# (terracone export --vehicle): width_m, load_n, sinkage_m, error, ...
+EFFECTIVE = (
+$effective)
 
 _WGS84_A = 6378137.0
 _WGS84_E2 = 6.69437999014e-3
@@ -813,6 +844,6 @@ if __name__ == "__main__":
     sinkage, static = demo()
     soil = f"soil of {SITES[0][0]!r}" if ORIGIN is None else f"{len(SITES)} sites"
     print(f"SCM patch {PATCH[0]:g} x {PATCH[1]:g} m, grid {GRID_SPACING:g} m, {soil}")
-    print(f"plate 0.2 m at 20 kPa: sinkage {sinkage:.4f} m after 1 s "
-          f"(Bekker, static: {static:.4f} m)")
+    print(f"plate 0.2 m at 20 kPa: sinkage {sinkage:.3g} m after 1 s "
+          f"(Bekker, static: {static:.3g} m)")
 '''

@@ -20,6 +20,11 @@ are joined with the terrain's own shear strength and Janosi modulus, from a
 :func:`result_soils`).  The cone (metal)-terrain adhesion and friction cc,
 phic of the paper are *not* the terrain's internal cohesion and friction and
 are never used as Mohr parameters.
+
+With a vehicle (:func:`running_gear`), a profile's layered fit
+(:func:`layered_ground`) is replaced by its effective one-layer soil for the
+vehicle's wheel or track (:func:`effective_soils`,
+:func:`terracone.physics.effective.effective_soil`).
 """
 
 from __future__ import annotations
@@ -28,7 +33,8 @@ import csv
 import json
 import math
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -44,15 +50,19 @@ from terracone.result import UQ_PARAMS, PredictionResult, PredictionResults
 __all__ = [
     "FORMATS",
     "PLAIN_FIELDS",
+    "RunningGear",
     "draw_samples",
+    "effective_soils",
     "export_terrain",
     "geojson",
+    "layered_ground",
     "location",
     "map_soils",
     "merge_shear",
     "pick_profile",
     "plain_units",
     "result_soils",
+    "running_gear",
     "shear_of",
     "terrain_soil",
     "to_plain",
@@ -543,3 +553,200 @@ def result_soils(
         _soil(r, shear, None if samples is None else draw_samples(r, samples, rng)) for r in picked
     ]
     return soils, left
+
+
+# ---------------------------------------------------------------------------
+# the effective one-layer soil of a layered fit, for a vehicle
+# ---------------------------------------------------------------------------
+
+LAYERED_HOW = "run `terracone predict FILE --layers 2 --json` and export its JSON"
+
+
+@dataclass(frozen=True)
+class RunningGear:
+    """What presses on the ground (SI): one wheel, or one track.
+
+    Attributes
+    ----------
+    kind : {"wheel", "track"}
+    width : float
+        Wheel or track width b [m].
+    load : float
+        Load on the wheel, or on one track (gross weight / tracks) [N].
+    diameter : float or None
+        Wheel diameter D [m].
+    contact_length : float or None
+        Track contact length L [m].
+    vehicle : str
+        The vehicle's name.
+    """
+
+    kind: str
+    width: float
+    load: float
+    diameter: float | None = None
+    contact_length: float | None = None
+    vehicle: str = ""
+
+    def describe(self) -> str:
+        """One line: which running gear, its width and load."""
+        if self.kind == "wheel":
+            return (f"{self.vehicle}'s wheel: width {self.width:g} m, diameter "
+                    f"{self.diameter:g} m, load {self.load:g} N")  # fmt: skip
+        return (f"{self.vehicle}'s track: width {self.width:g} m, contact length "
+                f"{self.contact_length:g} m, load {self.load:g} N on one track")  # fmt: skip
+
+
+def running_gear(path: str | os.PathLike) -> RunningGear:
+    """The running gear of a vehicle file (:func:`terracone.apps.vehicles.load_vehicle`).
+
+    A wheeled vehicle: its ``wheel`` (load, diameter, width).  A tracked
+    vehicle: one track, its ``mobility_index_inputs`` track_width and
+    track_contact_length, loaded with gross_weight / tracks (a track presses
+    with the uniform pressure load / (width x contact length), Bekker's track);
+    a ``wheel`` block of a tracked vehicle is not used.
+
+    Raises
+    ------
+    ValueError
+        A bad vehicle file, or one without the width and load needed (the
+        message names the keys).
+    """
+    from terracone.apps.vehicles import load_vehicle, vehicle_from_dict
+
+    vehicle = load_vehicle(path)
+    where = f"vehicle file {path}"
+    if vehicle.kind == "wheeled":
+        w = vehicle.wheel  # required of a wheeled vehicle by load_vehicle
+        return RunningGear("wheel", w.width, w.load, diameter=w.diameter, vehicle=vehicle.name)
+    raw = json.loads(Path(path).read_text())
+    inputs = raw.get("mobility_index_inputs")
+    if not isinstance(inputs, Mapping):
+        raise ValueError(
+            f"{where}: a tracked vehicle's effective soil needs its track: give "
+            "'mobility_index_inputs' with gross_weight, track_width, track_contact_length and "
+            "tracks (the file gives only 'mobility_index')"
+        )
+    # the inputs checked even where the file also gives the mobility index
+    vehicle_from_dict({k: v for k, v in raw.items() if k != "mobility_index"}, str(path))
+    width = u.quantity_to_si(inputs["track_width"], "length")
+    length = u.quantity_to_si(inputs["track_contact_length"], "length")
+    load = u.quantity_to_si(inputs["gross_weight"], "force") / int(inputs["tracks"])
+    return RunningGear("track", width, load, contact_length=length, vehicle=vehicle.name)
+
+
+def layered_ground(result: PredictionResult, settings: Mapping[str, Any] | None = None):
+    """(layers, interfaces [m], pressure law) of a profile's layered fit, SI.
+
+    From the ``layered`` block of ``predict --layers N --json``, read back by
+    :func:`~terracone.result.read_results` into ``result.extra``.  The law is
+    each layer's model and r_min, with the run's plate pair (``settings``).
+
+    Raises
+    ------
+    ValueError
+        No layered fit, a failed one, or one read from a Parquet table (which
+        keeps each layer's n only); the message says what to run.
+    """
+    from terracone.physics.plate import pressure_law
+
+    block = result.extra.get("layered")
+    if not isinstance(block, Mapping):
+        if result.layered is not None and result.layered.ok:
+            raise ValueError(
+                f"profile {result.id!r}: a Parquet table or batch directory keeps only each "
+                f"layer's n, not its kc and kphi: {LAYERED_HOW}"
+            )
+        raise ValueError(f"profile {result.id!r} has no layered fit: {LAYERED_HOW}")
+    if block.get("status") != "ok":
+        raise ValueError(
+            f"profile {result.id!r}: its layered fit failed ({block.get('error')}): no layered "
+            "ground to make an effective soil of"
+        )
+    units = block.get("units") or "si"
+    layers = [TerrainParameters.from_dict(dict(p), units) for p in block["layers"]]
+    interfaces = [float(v) for v in u.length_to_si(block["interfaces"], units)]
+    settings = settings or {}
+    cal = settings.get("calibration")
+    pair = settings.get("plate_pair") or (
+        cal.get("plate_pair") if isinstance(cal, Mapping) else None
+    )
+    top = layers[0]
+    law = pressure_law(top.model, r_min=top.r_min, plate_pair=tuple(pair) if pair else None)
+    return layers, interfaces, law
+
+
+def _effective_block(result: PredictionResult, gear: RunningGear, settings) -> dict[str, Any]:
+    """The effective soil of one profile for ``gear``: SI params and the ``effective`` block."""
+    from terracone.physics.effective import effective_soil
+    from terracone.physics.layers import layered_plate
+
+    layers, interfaces, law = layered_ground(result, settings)
+    plate = layered_plate(layers, interfaces, width=gear.width, law=law)
+    try:
+        eff = effective_soil(plate, load=gear.load, diameter=gear.diameter,
+                             contact_length=gear.contact_length)  # fmt: skip
+    except ValueError as exc:
+        raise ValueError(f"profile {result.id!r}: {exc}") from None
+    block = eff.as_dict()
+    block.update(
+        vehicle=gear.vehicle,
+        fitted_to={"layers": [{k: getattr(p, k) for k in ("kc", "kphi", "n")} for p in layers],
+                   "interfaces_m": interfaces, "model": law.model},
+        split="kc = 0, kphi = k at the vehicle's width (Chrono's SCM takes its own width)",
+    )  # fmt: skip
+    layered = result.extra["layered"]
+    block["preferred_layers"] = layered.get("preferred_layers")
+    block["warnings"] = _warnings(eff, gear, layered)
+    return block
+
+
+def _warnings(eff: Any, gear: RunningGear, layered: Mapping[str, Any]) -> list[str]:
+    """What the user should know of an effective soil: its sinkage against its ranges."""
+    said = []
+    if gear.kind == "wheel" and eff.sinkage > gear.diameter / 6:
+        said.append(f"sinkage {eff.sinkage:.3g} m beyond D/6 = {gear.diameter / 6:.3g} m, the "
+                    "range in which Bekker's wheel analysis is held acceptable (Wong 2008)")  # fmt: skip
+    depth = layered.get("depth")
+    if depth:
+        deepest = float(u.length_to_si(max(depth), layered.get("units") or "si"))
+        if eff.sinkage > deepest:
+            said.append(f"sinkage {eff.sinkage:.3g} m below the deepest reading {deepest:.3g} m: "
+                        "the bottom layer is extrapolated")  # fmt: skip
+    if eff.at_bound:
+        said.append(f"n = {eff.n:g} at an end of its range: the layered curve is steeper or "
+                    "flatter than any power law allowed")  # fmt: skip
+    return said
+
+
+def effective_soils(
+    results: PredictionResults,
+    soils: Sequence[LocatedSoil],
+    gear: RunningGear,
+    source: str = "results",
+    progress: Callable[[Iterable[Any]], Iterable[Any]] | None = None,
+) -> tuple[list[LocatedSoil], list[str]]:
+    """The soils with each profile's layered fit replaced by its effective soil for ``gear``.
+
+    kc = 0, kphi = k, n = m of :func:`terracone.physics.effective.effective_soil`
+    (the shear values kept), and the soil's ``effective`` block.  One soil:
+    a profile without an effective soil raises.  Several: it is left out,
+    ``"id (why)"``, and the others go on; none left raises.  ``progress``
+    wraps the loop over the soils (a tqdm bar, say).
+    """
+    by_id = {r.id: r for r in results}
+    out, left = [], []
+    for s in (progress or iter)(soils):
+        try:
+            block = _effective_block(by_id[s.id], gear, results.settings)
+        except ValueError as exc:
+            if len(soils) == 1:
+                raise
+            left.append(f"{s.id} ({exc})")
+            continue
+        params = {**s.params, "kc": 0.0, "kphi": block["kphi"], "n": block["n"]}
+        out.append(replace(s, params=params, effective=block))
+    if not out:
+        raise ValueError(f"{source}: no profile has an effective soil for {gear.describe()}: "
+                         f"{'; '.join(left[:3])}")  # fmt: skip
+    return out, left

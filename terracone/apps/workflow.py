@@ -222,7 +222,8 @@ def attach_fits(
     """
     if not settings.uncertainty and settings.layers < 2:
         return results
-    from terracone.inverse.uncertainty.posterior import posterior
+    if settings.uncertainty:  # emcee and scipy.stats: imported only for a posterior
+        from terracone.inverse.uncertainty.posterior import posterior
 
     s = settings
     for j, r in enumerate(results):

@@ -275,13 +275,13 @@ def problem_from(opts: dict[str, Any], prior: Any = "bounds") -> Problem:
     r_min = parse_length(opts["r_min"], units, "--r-min") if opts["r_min"] else None
     if opts["model"] == "rm1" and r_min is None and cal is None and isinstance(prior, str):
         raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
-    bounds = Bounds.parse(opts["bounds"], units)  # its errors: "Error: bounds ...", exit 1
-    try:
-        return Problem(
-            model=opts["model"], r_min=r_min, calibration=cal, bounds=bounds, prior=prior
-        )
-    except ValueError as exc:
-        raise click.UsageError(str(exc)) from None
+    return Problem(
+        model=opts["model"],
+        r_min=r_min,
+        calibration=cal,
+        bounds=Bounds.parse(opts["bounds"], units),
+        prior=prior,
+    )
 
 
 def run_from(opts: dict[str, Any], **fields: Any) -> RunSettings:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import sys
 from pathlib import Path
 
 import click
@@ -130,6 +131,13 @@ def parse_origin(text: str) -> tuple[float, float]:
     default=None,
     help="Chrono: SCM damping R [Pa s/m] (default 3e4; not from data).",
 )
+@click.option(
+    "--vehicle",
+    default=None,
+    type=click.Path(exists=True, dir_okay=False),
+    help="Chrono: a vehicle JSON (as for mobility): write, for each profile's layered fit "
+    "(predict --layers N --json), the effective one-layer soil for its wheel or track.",
+)
 @click.option("--patch", default=None, help="Chrono: patch LENGTHxWIDTH (default 4x1 m).")
 @click.option("--grid-spacing", default=None, help="Chrono: SCM grid spacing (default 0.1 m).")
 @click.option(
@@ -206,6 +214,8 @@ def export_cmd(
         given = [f"--{k.replace('_', '-')}" for k, v in chrono.items() if v is not None]
         if given:
             raise click.UsageError(f"{', '.join(given)}: only with --format chrono-scm or pychrono")
+    if chrono["vehicle"] is not None:
+        _check_vehicle_source(terrain is not None, {**chrono, "map_dir": map_dir})
     if fmt == "geojson":
         return _export_geojson(results_path, out, units)
     if fmt == "mavs":
@@ -222,7 +232,7 @@ def _check_paths(out, results_path, map_dir, library, terrain, chrono, folder) -
     """Refuse an --out that is an input (or, a --samples directory, one that holds an input)."""
     from terracone.io.outputs import check_outputs
 
-    inputs = {"--results": results_path, "--map": map_dir}
+    inputs = {"--results": results_path, "--map": map_dir, "--vehicle": chrono["vehicle"]}
     shear = chrono["shear"]
     if shear is not None and Path(shear).is_file():
         inputs["--shear"] = shear
@@ -333,7 +343,65 @@ def _chrono_soils(terrain, results_path, profile, fmt, units, library, opts):
         samples=opts["samples"],
         seed=opts["seed"],
     )
+    if opts["vehicle"] is not None:
+        soils, notes, left = _effective(results_path, soils, notes, left, opts["vehicle"])
     return soils, notes, left
+
+
+def _check_vehicle_source(terrain: bool, opts: dict) -> None:
+    """--vehicle needs layered results: refuse a library terrain, a map, --samples."""
+    if terrain:
+        raise click.UsageError(
+            "--vehicle: a library terrain has one layer; the effective soil is made of a "
+            "profile's layered fit: give --results (the JSON of predict --layers 2 --json)"
+        )
+    if opts["map_dir"] is not None:
+        raise click.UsageError(
+            "--vehicle with --map: a terrain map's cells carry one layer (kc, kphi, n per cell, "
+            "no layers or interfaces), so there is no layered ground to make an effective soil "
+            "of: give --results (the JSON of predict --layers 2 --json)"
+        )
+    if opts["samples"] is not None:
+        raise click.UsageError(
+            "--vehicle with --samples: the posterior draws are of the one-layer fit; an "
+            "effective soil per draw of the layered fit is not done"
+        )
+
+
+def _progress(count: int):
+    """tqdm over the profiles when there are many and stderr is a terminal."""
+    if count < 200 or not sys.stderr.isatty():
+        return None
+    from tqdm.auto import tqdm
+
+    def bar(it):
+        return tqdm(it, total=count, desc="terracone export: effective soils", unit="profile",
+                    file=sys.stderr)  # fmt: skip
+
+    return bar
+
+
+def _effective(results_path, soils, notes, left, vehicle):
+    """The soils replaced by their effective soils for the vehicle, and what is said of them."""
+    from terracone.apps.export import effective_soils, running_gear
+    from terracone.result import read_results
+
+    gear = running_gear(vehicle)
+    results = read_results(results_path)
+    soils, more = effective_soils(results, soils, gear, str(results_path), _progress(len(soils)))
+    rms = [s.effective["error"]["pressure_rms"] for s in soils]
+    worst = max((v for v in rms if v is not None), default=float("nan"))
+    notes = [
+        notes[0].replace(
+            "from the cone",
+            f"of the effective soil (kc = 0, kphi = k at the width) for {gear.describe()}, "
+            f"fitted to the layered fit of the cone",
+        ),
+        *notes[1:],
+        f"effective soil: sinkage as the layered ground's; pressure error (relative RMS over the "
+        f"sinkage) at most {worst:.3g}; per profile in the notes' 'effective'",
+    ]
+    return soils, notes, left + more
 
 
 def _export_chrono(terrain, results_path, profile, fmt, out, units, library, opts) -> None:
@@ -381,5 +449,16 @@ def _write_chrono(soils, fmt, out, settings, opts, source, notes) -> str:
     if opts["samples"] is not None:
         write_scm_specs(out, soils[0], settings, force=opts["force"])
         return f"{opts['samples']} Chrono SCM specs and draws.csv of {soils[0].id!r}"
-    write_scm_spec(out, soils[0].params, settings, repr(soils[0].id))
+    effective = soils[0].effective
+    spec_notes = (
+        None
+        if effective is None
+        else {
+            "profile": soils[0].id,
+            "source": str(source),
+            "notes": list(notes),
+            "effective": dict(effective),
+        }  # fmt: skip
+    )
+    write_scm_spec(out, soils[0].params, settings, repr(soils[0].id), spec_notes)
     return f"the Chrono SCM spec of {soils[0].id!r}"

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -41,13 +41,21 @@ from terracone.inverse.layered.search import (
     search_layers,
 )
 from terracone.inverse.problem import Problem
+from terracone.inverse.uncertainty.noise import bin_readings
 from terracone.physics import units as u
 from terracone.physics.metrics import check_fit
 from terracone.result import LayeredSummary
 
-__all__ = ["LayeredResult", "fit_layered", "phic_scale"]
+__all__ = ["MAX_DEPTHS", "LayeredResult", "bin_profile", "fit_layered", "max_depths", "phic_scale"]
 
 PHIC_GRID = 19  # phic values searched when the bounds of kc or kphi are not 0 (as predict)
+
+#: Most depths the layered search takes, per number of layers.  The search's cells and
+#: tables grow as Z^L in memory (a run of 2,000 depths with two layers took 5.4 GB, 100,000
+#: all the machine's memory), so a longer profile is fitted on bins of consecutive readings
+#: (:func:`bin_profile`), with a note.  At these sizes a fit takes at most about 300 MB and a
+#: few seconds (``benchmarks/memory.py``); more layers than listed: the last entry's half.
+MAX_DEPTHS = {1: 400, 2: 400, 3: 200, 4: 60}
 
 CERTIFICATE_METHOD = (
     "interfaces on cells between the depths where an interface meets a cone base or tip, "
@@ -92,7 +100,10 @@ class LayeredResult(LayeredSummary):
         ``interface_i`` or ``n_j`` whose profile interval covers half its
         range or more (a weak contrast).
     notes : list of str
-        What the fit held (a calibration's values), as the one-layer fit says.
+        What the fit held (a calibration's values), as the one-layer fit says,
+        and what it did to the data: a long profile fitted on bins
+        (:data:`MAX_DEPTHS`; ``depth``, ``ci`` and ``ci_model`` are then
+        those of the bins).
     """
 
     id: str
@@ -159,6 +170,36 @@ class LayeredResult(LayeredSummary):
         return d
 
 
+def max_depths(layers: int) -> int:
+    """Most depths the layered search takes with ``layers`` layers (:data:`MAX_DEPTHS`)."""
+    return MAX_DEPTHS.get(int(layers), MAX_DEPTHS[max(MAX_DEPTHS)] // 2)
+
+
+def bin_profile(profile: CIProfile, most: int) -> tuple[CIProfile, str | None]:
+    """The profile on at most ``most`` depths: bins of k consecutive readings, and a note.
+
+    A profile of N <= ``most`` readings comes back as it is (note None).  A
+    longer one becomes the means of depth and CI over bins of k =
+    ceil(N / most) consecutive readings (the last bin may hold fewer), each
+    at its mean depth (:func:`~terracone.inverse.uncertainty.noise.bin_readings`,
+    as the posterior bins): a least-squares fit to the bin means is the fit to
+    the readings up to the model's curvature within a bin (eq. (2-7) is
+    smooth in depth; an interface is placed to about a bin).
+    """
+    N = profile.depth.size
+    z, y, k = bin_readings(profile.depth, profile.ci, most)
+    if k == 1:
+        return profile, None
+    binned = CIProfile(profile.id, z, y, cone=profile.cone, metadata=profile.metadata,
+                       source=profile.source)  # fmt: skip
+    width = float(np.median(np.diff(z))) if z.size > 1 else 0.0
+    note = (
+        f"fitted on {z.size} depth bins of the {N} readings (means of {k} consecutive "
+        f"readings, about {width * 1000:.3g} mm apart): at most {most} depths are searched"
+    )
+    return binned, note
+
+
 def _bic(sse: float, N: int, k: int) -> float:
     return N * math.log(max(sse, 1e-300) / N) + k * math.log(N)
 
@@ -176,25 +217,65 @@ def _phic_values(bounds: Bounds) -> np.ndarray:
     return np.linspace(lo, hi, PHIC_GRID)
 
 
+def _hull(bounds: Bounds, cone: Any) -> Bounds:
+    """The bounds of the relaxation over phic: kc and kphi as if scaled at phic's upper bound.
+
+    The data fix s kc and s kphi (eq. (2-6)); over s in [s_lo, s_hi] they
+    range over [s_lo kc_lo, s_hi kc_hi] (likewise kphi), which at s = s_hi
+    are the kc in [kc_lo s_lo / s_hi, kc_hi].  Its boxes hold every phic's.
+    """
+    r = float(phic_scale(bounds.phic_deg[0], cone) / phic_scale(bounds.phic_deg[1], cone))
+    kc, kphi, hi = bounds.kc, bounds.kphi, bounds.phic_deg[1]
+    return replace(bounds, kc=(kc[0] * r, kc[1]), kphi=(kphi[0] * r, kphi[1]), phic_deg=(hi, hi))
+
+
+def _search(
+    profile, layers, problem: Problem, bounds, min_thick, n_grid, search_kw, ph
+) -> SearchResult:
+    """One search at phic ``ph`` over ``bounds``; with a held kc/kphi the result's kc entries
+    are ratio kphi (the search folds kc's column into kphi's and reports kc 0)."""
+    pb = LayeredProblem(
+        profile.depth, profile.ci, profile.cone, problem.law, bounds, layers, min_thick,
+        float(phic_scale(ph, profile.cone)), n_grid, ratio=problem.ratio,
+    )  # fmt: skip
+    res = search_layers(pb, **search_kw)
+    if problem.ratio is not None:
+        res.x[0::3] = problem.ratio * res.x[1::3]
+    return res
+
+
 def _solve(
     profile, layers, problem: Problem, min_thick, n_grid, search_kw
 ) -> tuple[SearchResult, float]:
-    """The best search over phic (see :func:`_phic_values`): (result, phic [deg])."""
+    """The best search over phic: (result, phic [deg]).
+
+    Nested boxes (kc and kphi from 0): one search at phic's upper bound.
+    Otherwise first one search of the relaxation (:func:`_hull`): where
+    some phic holds every layer's kc and kphi in its box
+    (:func:`_scale_range` not empty) its optimum is the optimum over every
+    phic.  Only where it is not (a layer pressing on a box that another
+    layer's wants the other way), a search at each of :data:`PHIC_GRID`
+    values of phic, as before; the bound is the relaxation's then.
+    """
+    cone, bounds = profile.cone, problem.fit_bounds
+    hi = float(bounds.phic_deg[1])
+    values = _phic_values(bounds)
+    args = (profile, layers, problem)
+    if values.size == 1:
+        return _search(*args, bounds, min_thick, n_grid, search_kw, hi), hi
+    relaxed = _search(*args, _hull(bounds, cone), min_thick, n_grid, search_kw, hi)
+    s_lo, s_hi = _scale_range(relaxed.x, relaxed.n, hi, bounds, cone)
+    if s_lo <= s_hi:  # the relaxation's optimum is feasible: the optimum over every phic
+        return relaxed, hi
     best: tuple[SearchResult, float] | None = None
-    lower = math.inf
-    nfev = 0
-    for ph in _phic_values(problem.fit_bounds):
-        pb = LayeredProblem(
-            profile.depth, profile.ci, profile.cone, problem.law, problem.fit_bounds, layers,
-            min_thick, float(phic_scale(ph, profile.cone)), n_grid, ratio=problem.ratio,
-        )  # fmt: skip
-        res = search_layers(pb, **search_kw)
+    nfev = relaxed.nfev
+    for ph in values:
+        res = _search(*args, bounds, min_thick, n_grid, search_kw, float(ph))
         nfev += res.nfev
-        lower = min(lower, res.lower)
         if best is None or res.sse < best[0].sse:
             best = (res, float(ph))
     assert best is not None
-    best[0].lower, best[0].nfev = min(lower, best[0].sse), nfev
+    best[0].lower, best[0].nfev = min(relaxed.lower, best[0].sse), nfev
     return best
 
 
@@ -241,7 +322,11 @@ def fit_layered(
 
     Notes
     -----
-    phic is fitted at its upper bound when the lower bounds of kc and kphi
+    A profile of more than :func:`max_depths` readings (400 with one or
+    two layers, 200 with three, 60 with four) is fitted on bins of
+    consecutive readings (:func:`bin_profile`) and says so in ``notes``:
+    the search's memory and time grow as the number of depths to the power
+    of the layers.  phic is fitted at its upper bound when the lower bounds of kc and kphi
     are 0 (the boxes of the scaled k's are nested, as in
     :mod:`terracone.inverse.solver.many`), else on a grid of 19 values; its
     equally good interval is reported (``phic_range``) and the layers at its
@@ -258,6 +343,7 @@ def fit_layered(
         return LayeredResult(
             id=profile.id, status="error", error=str(exc), metadata=dict(profile.metadata)
         )
+    profile, note = bin_profile(profile, max_depths(layers))
     z = profile.depth
     step = float(np.median(np.diff(z)))
     min_thick = min_thickness if min_thickness is not None else 2 * step
@@ -273,18 +359,17 @@ def fit_layered(
             )
         found, ph = _solve(profile, layers, problem, min_thick, n_grid, kw)
     res = _layered_result(profile, found, ph, single, ph1, problem)
+    res.notes += [note] if note else []
     res.time_s = time.perf_counter() - t0
     return res
 
 
-def _phic_ridge(x: np.ndarray, ns: np.ndarray, ph: float, bounds: Bounds, cone: Any):
-    """The interval of phic [deg] that fits as well as ``ph`` over all layers, and its middle.
+def _scale_range(x: np.ndarray, ns: np.ndarray, ph: float, bounds: Bounds, cone: Any):
+    """(s_lo, s_hi): the phic scales s that hold every layer's kc and kphi in its box.
 
     x holds (kc, kphi, cc) per layer with the kc and kphi columns scaled at
-    ``ph``; the products s kc and s kphi are what the data fix (eq. (2-6)),
-    so every s keeping each layer's kc and kphi in its box fits equally well
-    (the nested-box argument of :mod:`terracone.inverse.solver.many`).
-    Returns (phic_lo, phic_hi, phic_mid, s_fit / s_mid).
+    ``ph``; the products s kc and s kphi are what the data fix (eq. (2-6)).
+    Empty (s_lo > s_hi, beyond a relative 1e-12) when no phic in the bounds does.
     """
     s_fit = float(phic_scale(ph, cone))
     need, room = (
@@ -298,8 +383,24 @@ def _phic_ridge(x: np.ndarray, ns: np.ndarray, ph: float, bounds: Bounds, cone: 
                 need = max(need, v / float(hi))
             if float(lo) > 0:
                 room = min(room, v / float(lo))
+    if need > room and need <= room * (1 + 1e-12):
+        need = room  # rounding
+    return need, room
+
+
+def _phic_ridge(x: np.ndarray, ns: np.ndarray, ph: float, bounds: Bounds, cone: Any):
+    """The interval of phic [deg] that fits as well as ``ph`` over all layers, and its middle.
+
+    Every s of :func:`_scale_range` fits equally well (the nested-box
+    argument of :mod:`terracone.inverse.solver.many`); ``ph`` itself when
+    the range is empty (it is not for a fit :func:`_solve` returns).
+    Returns (phic_lo, phic_hi, phic_mid, s_fit / s_mid).
+    """
+    s_fit = float(phic_scale(ph, cone))
+    s_lo, s_hi = _scale_range(x, ns, ph, bounds, cone)
+    if s_lo > s_hi:
+        s_lo = s_hi = s_fit
     tt = cone.radius / cone.height
-    s_lo, s_hi = min(need, s_fit), max(room, s_fit)
     ph_lo = float(np.clip(math.degrees(math.atan((s_lo - 1.0) * tt)), *bounds.phic_deg))
     ph_hi = float(np.clip(math.degrees(math.atan((s_hi - 1.0) * tt)), *bounds.phic_deg))
     mid = 0.5 * (ph_lo + ph_hi)
@@ -320,14 +421,10 @@ def _layered_result(
     N, L = y.size, found.n.size
     x, ns, bounds = found.x, found.n, problem.fit_bounds
     ph_lo, ph_hi, mid, scale = _phic_ridge(x, ns, ph, bounds, cone)
-    kphis = [float(x[3 * j + 1] * scale) for j in range(L)]
-    # a held ratio: kc = ratio kphi in every layer (its column was folded into kphi's)
-    kcs = [float(x[3 * j] * scale) if problem.ratio is None else problem.ratio * kp for j, kp in
-           enumerate(kphis)]  # fmt: skip
     params = [
         TerrainParameters(
-            kc=kcs[j],
-            kphi=kphis[j],
+            kc=float(x[3 * j] * scale),  # ratio kphi where the problem holds kc/kphi
+            kphi=float(x[3 * j + 1] * scale),
             n=float(ns[j]),
             cc=float(x[3 * j + 2]),
             phic_deg=mid,

@@ -40,11 +40,10 @@ import numpy as np
 
 from terracone.data import CIProfile
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.layered.fit import LayeredResult, phic_scale
+from terracone.inverse.layered.fit import LayeredResult, bin_profile, max_depths, phic_scale
 from terracone.inverse.problem import Problem
 from terracone.inverse.solver.layered_numpy import design_matrix, fold_ratio, layer_box
 from terracone.inverse.solver.many import bounds_params
-from terracone.inverse.uncertainty.posterior import LABELS, identifiability_label
 from terracone.jit import enabled
 from terracone.physics import units as u
 from terracone.result import PosteriorSummary
@@ -83,6 +82,8 @@ class LayeredPosterior(PosteriorSummary):
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
         """The ``posterior`` block of a profile's ``layered`` fit in predict JSON (``units``)."""
+        from terracone.inverse.uncertainty.posterior import LABELS  # emcee: only when sampled
+
         units = u.check_system(units)
         q = self.quantiles(units)
         labels = dict(self.identifiability)
@@ -187,7 +188,10 @@ def layered_posterior(
     profile : CIProfile
         The profile ``fit`` was fitted to.
     fit : LayeredResult
-        An ``ok`` layered fit under ``problem``; the chains start around it.
+        An ``ok`` layered fit under ``problem``; the chains start around it.  A
+        profile longer than the fit searches
+        (:func:`~terracone.inverse.layered.fit.max_depths`) is sampled on the
+        same bins as the fit (the fit's ``notes`` say so).
     problem : Problem, optional
         What was fitted: the pressure law and the bounds (the support of the
         prior) with the values a calibration holds, held in every draw.
@@ -228,8 +232,9 @@ def layered_posterior(
     t0 = time.perf_counter()
     problem = problem or Problem()
     bounds, law = problem.fit_bounds, problem.law
-    z, y, cone = profile.depth, profile.ci, profile.cone
     L = len(fit.layers)
+    profile, _ = bin_profile(profile, max_depths(L))  # the depths the fit searched (its notes)
+    z, y, cone = profile.depth, profile.ci, profile.cone
     phic = float(fit.layers[0].phic_deg if phic_deg is None else phic_deg)
     s = float(phic_scale(phic, cone))
     space = _space(z, bounds, min_thickness)
@@ -262,6 +267,9 @@ def layered_posterior(
 
 def _summary(out, acc, L, space, bounds, phic, level, draws, rng, t0, ratio) -> LayeredPosterior:
     """The :class:`LayeredPosterior` of the chains' draws out (C, K, 2L-1 + 3L + 1)."""
+    # the one-layer posterior's labels (its module imports emcee: not for a fit without one)
+    from terracone.inverse.uncertainty.posterior import LABELS, identifiability_label
+
     P = 2 * L - 1
     names, cols = [], []
     for j in range(L):

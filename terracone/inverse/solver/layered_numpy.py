@@ -19,7 +19,6 @@ References
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import minimize
 
 from terracone.inverse.bounds import Bounds
 from terracone.inverse.solver.boxlsq import box_lsq3_reference
@@ -306,6 +305,8 @@ def nelder_mead(
     compiled :func:`~terracone.inverse.solver.layered_kernels.nelder_mead`
     evaluates it.
     """
+    from scipy.optimize import minimize  # 0.3 s to import: only on this (numpy) path
+
     sim = np.vstack([start, start + np.diag(step)])
     res = minimize(
         fun,

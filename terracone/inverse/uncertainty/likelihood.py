@@ -25,7 +25,7 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from terracone.inverse.uncertainty.noise import whiten_ar1
+from terracone.inverse.uncertainty.noise import POSTERIOR_MAX_POINTS, bin_readings, whiten_ar1
 from terracone.jit import enabled, njit
 from terracone.physics.cone import Cone, cone_index_basis
 from terracone.physics.plate import PressureLaw
@@ -166,7 +166,9 @@ class Likelihood:
     Parameters
     ----------
     z, y : ndarray
-        Depths [m] and measured CI [kPa].
+        Depths [m] and measured CI [kPa]; more than
+        :data:`~terracone.inverse.uncertainty.noise.POSTERIOR_MAX_POINTS` readings
+        are binned as :func:`~terracone.inverse.uncertainty.noise.noise_setup` bins them.
     cone : Cone
     law : PressureLaw
     K_cone : float or None
@@ -209,6 +211,12 @@ class Likelihood:
         phi: np.ndarray | None,
         spacing: float | None = None,
     ) -> None:
+        # a long profile: its bins, as noise_setup takes them (the weights are the bins')
+        z, y, _ = bin_readings(z, y, POSTERIOR_MAX_POINTS)
+        if np.shape(weights) != y.shape:
+            raise ValueError(
+                f"{np.size(weights)} noise weights for {y.size} readings (noise_setup's weights?)"
+            )
         self.z, self.y, self.cone, self.law, self.K_cone = z, y, cone, law, K_cone
         self.t = math.tan(cone.half_angle)
         self.w = weights

@@ -33,11 +33,13 @@ from terracone.physics.cone import Cone, cone_index_basis
 from terracone.physics.plate import PressureLaw
 
 __all__ = [
+    "POSTERIOR_MAX_POINTS",
     "RHO_MAX",
     "NoiseModel",
     "NoiseSetup",
     "ar1_coefficients",
     "ar1_noise",
+    "bin_readings",
     "estimate_correlation",
     "noise_setup",
     "whiten_ar1",
@@ -45,6 +47,12 @@ __all__ = [
 
 #: Largest AR(1) coefficient used.
 RHO_MAX = 0.95
+
+#: Most readings the posterior samples with.  Its likelihood tabulates every reading's basis
+#: columns over n (about 9 kB a reading) and each of its ~22,000 evaluations visits every
+#: reading, so a longer profile is sampled on bins of consecutive readings
+#: (:func:`bin_readings`), with a note: memory stays under about 250 MB whatever the length.
+POSTERIOR_MAX_POINTS = 5000
 
 
 @dataclass
@@ -220,6 +228,36 @@ def whiten_ar1(v: np.ndarray, phi: np.ndarray) -> np.ndarray:
     return out
 
 
+def bin_readings(depth: ArrayLike, ci: ArrayLike, most: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """Readings on at most ``most`` depths: means over bins of k consecutive readings.
+
+    Parameters
+    ----------
+    depth, ci : array_like
+        Increasing depths [m] and CI [kPa] of one profile.
+    most : int
+        Most bins.
+
+    Returns
+    -------
+    depth, ci : ndarray
+        The bins' mean depths and CI (the readings themselves when there are
+        at most ``most``).
+    k : int
+        Readings per bin, ceil(N / most) (the last bin may hold fewer); 1
+        when not binned.
+    """
+    z = np.asarray(depth, dtype=float)
+    y = np.asarray(ci, dtype=float)
+    N = z.size
+    if N <= most:
+        return z, y, 1
+    k = -(-N // int(most))
+    starts = np.arange(0, N, k)
+    count = np.diff(np.append(starts, N)).astype(float)
+    return np.add.reduceat(z, starts) / count, np.add.reduceat(y, starts) / count, k
+
+
 def estimate_correlation(
     residuals: ArrayLike,
     depth: ArrayLike,
@@ -268,21 +306,63 @@ def estimate_correlation(
     X = np.column_stack([np.ones(N), np.asarray(design, dtype=float).reshape(N, -1)])
     X = X / np.maximum(np.linalg.norm(X, axis=0), 1e-300)
     U, sv, _ = np.linalg.svd(X, full_matrices=False)
-    Uq = U[:, sv > 1e-8 * sv[0]]
-    M = np.eye(N) - Uq @ Uq.T
+    Q = U[:, sv > 1e-8 * sv[0]]
     grid = np.linspace(0.0, RHO_MAX, 96)
-    lag = np.abs(z[:, None] - z[None, :]) / dz0
-    f = np.empty(grid.size)
-    for k, rho in enumerate(grid):
-        S = rho**lag if rho > 0 else np.eye(N)
-        MSM = M @ S @ M
-        f[k] = np.trace(MSM, offset=1) / np.trace(MSM)
+    f = _absorbed_lag1(Q, np.diff(z) / dz0, grid)
     f = np.maximum.accumulate(f)  # monotone (it is, up to rounding)
     if r1 <= f[0]:
         return 0.0, r1
     if r1 >= f[-1]:
         return RHO_MAX, r1
     return float(np.interp(r1, f, grid)), r1
+
+
+def _absorbed_lag1(Q: np.ndarray, lag: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    """f(rho) = tr(D M S M) / tr(M S M) at each rho of ``grid``, in O(N q^2) memory and time.
+
+    M = I - Q Q' (Q (N, q) orthonormal) is the residual maker, S(rho) the
+    AR(1) correlation rho**(|z_i - z_j| / dz0) (``lag``: the N - 1 spacings
+    over dz0) and tr(D A) the sum of A's first superdiagonal.  With W = S Q
+    and T = Q' W: tr(M S M) = N - tr(T) (M idempotent, tr S = N) and
+    tr(D M S M) = sum_i [S_(i,i+1) - (Q W')_(i,i+1) - (W Q')_(i,i+1) +
+    (Q T Q')_(i,i+1)], S_(i,i+1) = phi_i.  S Q comes from the AR(1)
+    recursions (S v = f + b - v, f_i = v_i + phi_(i-1) f_(i-1), b_i = v_i +
+    phi_i b_(i+1)), all rho at once: no N x N matrix (those took 75 GiB at
+    100,000 readings).
+    """
+    N, q = Q.shape
+    out = np.empty(grid.size)
+    step = max(1, min(grid.size, (1 << 20) // max(N * q, 1)))  # rho values at once: <= 8 MB
+    for g0 in range(0, grid.size, step):
+        out[g0 : g0 + step] = _absorbed_chunk(Q, lag, grid[g0 : g0 + step])
+    return out
+
+
+def _absorbed_chunk(Q: np.ndarray, lag: np.ndarray, rho: np.ndarray) -> np.ndarray:
+    """:func:`_absorbed_lag1` at the few rho values ``rho`` (G,): arrays (G, N, q)."""
+    N, q = Q.shape
+    G = rho.size
+    phi = np.zeros((G, N - 1))
+    pos = rho > 0
+    phi[pos] = rho[pos, None] ** lag[None, :]
+    fw = np.empty((G, N, q))
+    bw = np.empty((G, N, q))
+    fw[:, 0] = Q[0]
+    for i in range(1, N):
+        fw[:, i] = Q[i] + phi[:, i - 1, None] * fw[:, i - 1]
+    bw[:, N - 1] = Q[N - 1]
+    for i in range(N - 2, -1, -1):
+        bw[:, i] = Q[i] + phi[:, i, None] * bw[:, i + 1]
+    W = fw + bw - Q  # (G, N, q) = S Q
+    del fw, bw
+    T = np.einsum("nk,gnl->gkl", Q, W)  # Q' S Q
+    den = N - np.einsum("gkk->g", T)
+    QT = np.einsum("nk,gkl->gnl", Q, T)
+    num = phi.sum(axis=1)
+    num -= np.einsum("nk,gnk->g", Q[:-1], W[:, 1:])
+    num -= np.einsum("gnk,nk->g", W[:, :-1], Q[1:])
+    num += np.einsum("gnl,nl->g", QT[:, :-1], Q[1:])
+    return num / den
 
 
 def _fit_design(
@@ -392,10 +472,18 @@ def noise_setup(
     Returns
     -------
     NoiseSetup
+        Of the profile's readings, or of their bins when there are more than
+        :data:`POSTERIOR_MAX_POINTS` (:func:`bin_readings`, with a note).
     """
-    z, y = profile.depth, profile.ci
+    z, y, k = bin_readings(profile.depth, profile.ci, POSTERIOR_MAX_POINTS)
     N = y.size
     notes = []
+    if k > 1:
+        notes.append(
+            f"posterior from {N} depth bins of the {profile.depth.size} readings (means of {k} "
+            f"consecutive readings; at most {POSTERIOR_MAX_POINTS} are sampled): sigma and rho "
+            "are those of a bin's mean"
+        )
     A, B, C = cone_index_basis(
         z, n=p0.n, phic_deg=p0.phic_deg, K_cone=K_cone, law=law, cone=profile.cone
     )
