@@ -21,6 +21,18 @@ time.perf_counter, once each (the machine is shared: read the ratios):
 Printed: cells, seconds per step, the ratio 10,000 / 1,000 of the total
 (10x the pushes and about 10x the cells: local kriging keeps it near 10),
 and the global/local comparison.
+
+``--pgo`` (issue 31): one P(GO) map of 10,000 pushes at 5 m cells over 4 km^2
+(2 km x 2 km, 161,604 cells), ``terracone mobility MAPDIR``'s computation
+(:func:`terracone.apps.go_map.go_map`: 100 conditional simulations of the
+critical layer's CI, the strength and n, P(GO), the areas and the wheel
+sinkage).  The pushes' values come from gstools fields (log kphi: sd 0.35,
+length scale 250 m, push-to-push sd 0.2; n: sd 0.12, push-to-push sd 0.05)
+with each push's parameters taken as its fit (no inverse step: the
+benchmark is of the map and the simulations).  Printed: the map's time, the
+wall time of the P(GO) map in this process and on a pool of 2 processes
+(alternating runs, and their ratio), the simulated cell values per second,
+and the simulations' check against the exact P(GO).
 """
 
 from __future__ import annotations
@@ -90,10 +102,90 @@ def compare_global_local(n: int = 1000, resolution: float = 20.0) -> tuple[float
     return tg, gx.size
 
 
+def located_results(n: int, side: float, seed: int = 1):
+    """``n`` located pushes on a 'side' m square with their parameters taken as fitted."""
+    import math
+
+    from pyproj import Transformer
+
+    from terracone.data import TerrainParameters
+    from terracone.physics.cone import cone_index_huang
+    from terracone.result import PredictionResult, PredictionResults
+
+    rng = np.random.default_rng(seed)
+    x, y = 500000.0 + rng.uniform(0, side, n), 7150000.0 + rng.uniform(0, side, n)
+    mesh = {"mesh_type": "unstructured"}
+    model = gs.Gaussian(dim=2, var=0.35**2, len_scale=250.0)
+    lk = gs.SRF(model, mean=math.log(1500.0), seed=seed)((x, y), **mesh)
+    nn = gs.SRF(gs.Gaussian(dim=2, var=0.12**2, len_scale=250.0), mean=0.9, seed=seed + 1)(
+        (x, y), **mesh
+    )
+    kphi = np.exp(lk + rng.normal(0, 0.2, n))
+    nn = nn + rng.normal(0, 0.05, n)
+    kc = kphi * 11.0 / 1500.0
+    depth = np.arange(0.0, 0.451, 0.025)
+    ci = cone_index_huang(depth[None, :], kc=kc[:, None], kphi=kphi[:, None], n=nn[:, None],
+                          cc=5.0, phic_deg=50.0)  # fmt: skip
+    ci *= 1 + 0.05 * rng.standard_normal(ci.shape)
+    lon, lat = Transformer.from_crs("EPSG:32735", "EPSG:4326", always_xy=True).transform(x, y)
+    res = [
+        PredictionResult(f"p{i}", "ok", params=TerrainParameters(kc[i], kphi[i], nn[i], 5.0, 50.0),
+                         depth=depth, ci=ci[i], metadata={"lat": lat[i], "lon": lon[i]})
+        for i in range(n)
+    ]  # fmt: skip
+    return PredictionResults(res, {"calibration": "generated"})
+
+
+def pgo(n: int = 10000, side: float = 2000.0, simulations: int = 100) -> None:
+    """One P(GO) map of ``n`` pushes at 5 m cells, here and on 2 processes, alternating."""
+    import tempfile
+    from concurrent.futures import ProcessPoolExecutor
+
+    from terracone.apps.go_map import go_map, go_map_document
+    from terracone.apps.maps import map_survey, write_map
+    from terracone.apps.vehicles import vehicle_from_dict
+
+    wheel = {"load": "20 kN", "diameter": "1 m", "width": "0.3 m"}
+    vehicle = vehicle_from_dict({"name": "truck", "kind": "wheeled", "mobility_index": 60,
+                                 "drive": "all", "wheel": wheel})  # fmt: skip
+    res = located_results(n, side)
+    layer = (6 * 0.0254, 12 * 0.0254)  # the critical layer of a wheeled vehicle, one pass
+    m, t_map = timed(map_survey, res, layers=[layer], resolution=5.0)
+    cells = m.grid.width * m.grid.height
+    ci = m[next(q.name for q in m.quantities if q.name.startswith("ci_"))]
+    ri = vehicle.vci(1) / float(np.median(ci.values))  # the field's median point at the VCI
+    print(f"P(GO) map: {n:,} pushes, {cells:,} cells of 5 m; the map itself {t_map:.1f} s")
+    with tempfile.TemporaryDirectory() as tmp:
+        write_map(m, tmp)
+        times: dict[str, list[float]] = {"here": [], "2 processes": []}
+        with ProcessPoolExecutor(2) as pool:
+            for _ in range(2):
+                for name, p in (("here", None), ("2 processes", pool)):
+                    g, t = timed(go_map, tmp, vehicle, remolding_index=ri,
+                                 simulations=simulations, pool=p)  # fmt: skip
+                    times[name].append(t)
+                    print(f"  {name:>12}: {t:6.1f} s")
+        doc = go_map_document(g)
+    here, two = min(times["here"]), min(times["2 processes"])
+    values = 3 * cells * simulations
+    mc = doc["p_go"]["monte_carlo"]
+    print(
+        f"P(GO) map of {n:,} pushes, {cells:,} cells x {simulations} simulations x 3 fields: "
+        f"{here:.1f} s here, {two:.1f} s on 2 processes (ratio {here / two:.2f}); "
+        f"{values / two / 1e6:.2f} million simulated cell values per second; simulations' GO "
+        f"frequency against P(GO): rms standardised difference "
+        f"{mc['rms_standardised_difference']:.3f} (1 expected)"
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="skip the global/local comparison")
+    ap.add_argument("--pgo", action="store_true", help="only the 10,000-push P(GO) map")
     args = ap.parse_args()
+    if args.pgo:
+        pgo()
+        return
     small, large = run(1000), run(10000)
     t1 = small["fit"] + small["krige"] + small["loo"]
     t10 = large["fit"] + large["krige"] + large["loo"]

@@ -36,7 +36,13 @@ from scipy import stats
 from scipy.integrate import trapezoid
 
 from terracone.apps.maps import map_survey, read_map_cells, write_map
-from terracone.apps.maps.geostat import Variogram, krige, leave_one_out, structure_test
+from terracone.apps.maps.geostat import (
+    Variogram,
+    krige,
+    kriging_weights,
+    leave_one_out,
+    structure_test,
+)
 from terracone.apps.maps.grid import choose_grid, nice_size
 from terracone.apps.maps.survey import coordinates, locate
 from terracone.cli import cli
@@ -183,6 +189,74 @@ def test_map_band_covers_the_truth_at_unsampled_points(known_truth, name):
     assert 0.82 <= inside.mean() <= 0.96, inside.mean()
 
 
+def point_truth(seed: int, x: np.ndarray, y: np.ndarray, tau=(0.1, 0.03)) -> dict:
+    """Fresh point truths at (x, y): the smooth fields plus a new push-to-push draw of log kphi
+    and n (the pushes' own sd ``tau``), without measurement noise."""
+    f = fields(seed)
+    rng = np.random.default_rng(10_000 + seed)
+    lk = f[0]((x, y), mesh_type="unstructured") + rng.normal(0, tau[0], x.size)
+    n = f[1]((x, y), mesh_type="unstructured") + rng.normal(0, tau[1], x.size)
+    kphi = np.exp(lk)
+    kc = kphi * CAL.kc / CAL.kphi
+    ci = cone_index_huang(DEPTH[:, None], kc=kc, kphi=kphi, n=n, cc=CAL.cc, phic_deg=CAL.phic_deg)
+    mean_ci = trapezoid(ci, DEPTH, axis=0) / (DEPTH[-1] - DEPTH[0])
+    p = plate_pressure(PLATE[1], kc=kc, kphi=kphi, n=n, radius=PLATE[0])
+    return {"plate_pressure": p, "n": n, "ci_0-45cm": mean_ci}
+
+
+@pytest.mark.parametrize("name", QUANTITIES)
+def test_point_band_covers_fresh_point_truths(known_truth, name):
+    """The value at a point: the band with the nugget covers fresh point truths at unsampled cell
+    centres 85-95% of the time; the local-mean band, without it, covers them less often."""
+    point = local = total = 0
+    for seed, _, m, _ in known_truth:
+        q = m[name]
+        gx, gy = m.grid.centres()
+        t = point_truth(seed, gx.ravel(), gy.ravel())[name]
+        ok = np.isfinite(q.median.ravel())
+        t = t[ok]
+        point += np.sum((q.point_lo.ravel()[ok] <= t) & (t <= q.point_hi.ravel()[ok]))
+        local += np.sum((q.lo.ravel()[ok] <= t) & (t <= q.hi.ravel()[ok]))
+        total += t.size
+    assert 0.85 <= point / total <= 0.95, (point / total, local / total)
+    assert local / total < point / total - 0.05, (point / total, local / total)
+
+
+def test_point_band_is_the_kriging_variance_plus_the_nugget(known_truth):
+    """Each cell's point band against the kriging system solved by hand: median +- 1.645
+    sqrt(kriging variance + nugget) (log space), the local band without the nugget."""
+    _, _, m, _ = known_truth[0]  # 60 pushes: one global kriging system
+    q = m["ci_0-45cm"]
+    vg = q.variogram
+    s = m.survey
+    z = np.log(q.values)
+    gx, gy = (a.ravel()[:40] for a in m.grid.centres())
+    d = np.hypot(s.x[:, None] - s.x, s.y[:, None] - s.y)
+    k = z.size
+    a = np.zeros((k + 1, k + 1))
+    a[:k, :k] = vg.model.covariance(d) + vg.nugget * np.eye(k)
+    a[:k, k] = a[k, :k] = 1.0
+    rhs = np.vstack([vg.model.covariance(np.hypot(s.x[:, None] - gx, s.y[:, None] - gy)),
+                     np.ones(gx.size)])  # fmt: skip
+    w = np.linalg.solve(a, rhs)
+    est = w[:k].T @ z
+    var = vg.partial_sill - np.sum(w * rhs, axis=0)
+    ok = np.isfinite(q.median.ravel()[:40])
+    z90 = stats.norm.ppf(0.95)
+    for band, want in (
+        ("median", est),
+        ("lo", est - z90 * np.sqrt(var)),
+        ("point_lo", est - z90 * np.sqrt(var + vg.nugget)),
+        ("point_hi", est + z90 * np.sqrt(var + vg.nugget)),
+    ):
+        got = np.log(getattr(q, band).ravel()[:40])
+        np.testing.assert_allclose(got[ok], want[ok], rtol=1e-7, err_msg=band)
+    # the point band's leave-one-out check in map.json: both tails near 5%
+    pcv = q.cross_validation.point_summary()
+    assert pcv["coverage_90"] == pytest.approx(1 - pcv["below"] - pcv["above"])
+    assert pcv["n"] == k
+
+
 def test_cells_carry_the_calibrated_parameters(known_truth, tmp_path):
     _, _, m, _ = known_truth[1]
     files = write_map(m, tmp_path)
@@ -237,9 +311,14 @@ def test_pure_nugget_field_gets_the_message_and_the_pooled_interval():
         t = stats.t.ppf(0.95, v.size - 1) * np.std(v, ddof=1) / math.sqrt(v.size)
         back = np.exp if q.quantity.log else (lambda a: a)
         want = [back(np.mean(v)), back(np.mean(v) - t), back(np.mean(v) + t)]
-        np.testing.assert_allclose(q.pooled, want, rtol=1e-12)
+        np.testing.assert_allclose(q.pooled[:3], want, rtol=1e-12)
         for band, w in zip((q.median, q.lo, q.hi), want):
             np.testing.assert_allclose(band, w, rtol=1e-12)  # every cell, none masked
+        # the value at a new point: the t prediction interval, mean +- t s sqrt(1 + 1/n)
+        tp = stats.t.ppf(0.95, v.size - 1) * np.std(v, ddof=1) * math.sqrt(1 + 1 / v.size)
+        for k, w in ((3, back(np.mean(v) - tp)), (4, back(np.mean(v) + tp))):
+            np.testing.assert_allclose((q.point_lo, q.point_hi)[k - 3], w, rtol=1e-12)
+            assert q.pooled[k] == pytest.approx(w, rel=1e-12)
 
 
 def test_estimation_variance_from_draws_only_under_the_fits_prior():
@@ -297,6 +376,18 @@ def test_kriging_variance_is_the_smooth_fields(small):
     w = np.linalg.solve(a, rhs)
     np.testing.assert_allclose(m, w[:25].T @ z, rtol=1e-9)
     np.testing.assert_allclose(v, 1.0 - np.sum(w * rhs, axis=0), rtol=1e-8)
+
+
+def test_kriging_weights_are_gstools_kriging(small):
+    """The weights of the simulations (Cholesky with the unbiasedness condition eliminated)
+    give gstools' kriging estimate and the smooth field's variance, and sum to 1."""
+    vg, x, y, z = small
+    gx, gy = np.linspace(0, 500, 30), np.linspace(500, 0, 30)
+    m, v = krige(vg, x, y, z, gx, gy)
+    w, wv = kriging_weights(vg.model, x, y, gx, gy)
+    np.testing.assert_allclose(w.sum(axis=0), 1.0, rtol=1e-12)
+    np.testing.assert_allclose(w.T @ z, m, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(wv, v, rtol=1e-8, atol=1e-12)
 
 
 def test_leave_one_out_is_gstools_kriging_from_the_others(small):
@@ -498,19 +589,28 @@ def test_cli_map_end_to_end_on_a_located_wide_table(located_json, tmp_path):
         cv = q["cross_validation"]
         assert set(cv) >= {"rmse", "mean_standardised_error", "coverage_90", "n"}
         assert cv["n"] == 30 and q["file"] == f"{name}.tif"
+        pcv = q["point_cross_validation"]
+        assert set(pcv) == {"coverage_90", "below", "above", "n"} and pcv["n"] == 30
+        assert list(q["bands"]) == ["median", "lo", "hi", "point_lo", "point_hi"]
+        assert "nugget excluded" in q["bands"]["lo"] and "plus the nugget" in q["bands"]["point_lo"]
         assert {"nugget", "sill", "range", "structure"} <= set(q["variogram"])
         with rasterio.open(out / q["file"]) as src:  # the consumer: rasterio
-            assert src.crs.to_epsg() == 32735 and src.count == 3
+            assert src.crs.to_epsg() == 32735 and src.count == 5
             unit = "-" if name == "n" else "kPa"
-            assert src.descriptions == (
+            assert src.descriptions == ("median", "lo", "hi", "point_lo", "point_hi")
+            assert [src.tags(i)["meaning"] for i in range(1, 6)] == [
                 f"median [{unit}]",
-                f"lo (5%) [{unit}]",
-                f"hi (95%) [{unit}]",
-            )
-            assert src.units == (unit,) * 3
-            med, lo, hi = src.read()
+                f"lo (5%, local mean) [{unit}]",
+                f"hi (95%, local mean) [{unit}]",
+                f"point_lo (5%, value at a point) [{unit}]",
+                f"point_hi (95%, value at a point) [{unit}]",
+            ]
+            assert src.tags()["bands"] == "median,lo,hi,point_lo,point_hi"
+            assert src.units == (unit,) * 5
+            med, lo, hi, plo, phi = src.read()
             ok = np.isfinite(med)
             assert ok.any() and np.all(lo[ok] <= med[ok]) and np.all(med[ok] <= hi[ok])
+            assert np.all(plo[ok] < lo[ok]) and np.all(hi[ok] < phi[ok])  # the nugget widens
             assert src.res == (doc["resolution"], doc["resolution"])
     pts = gpd.read_parquet(out / "points.parquet")  # the consumer: geopandas (GeoParquet)
     assert pts.crs.to_epsg() == 32735 and len(pts) == 30
@@ -568,7 +668,7 @@ def test_cli_map_units_us_converts_the_rasters_only(located_json, tmp_path):
         si = a.read()
     with rasterio.open(tmp_path / "us" / "plate_pressure.tif") as b:
         us = b.read()
-        assert b.units == ("psi",) * 3
+        assert b.units == ("psi",) * 5
     np.testing.assert_allclose(us, si / u.PSI, rtol=1e-6)  # float32 rasters
     doc = json.loads((tmp_path / "us" / "map.json").read_text())
     assert doc["quantities"]["plate_pressure"]["plate_radius"] == pytest.approx(2.0)

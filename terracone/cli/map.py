@@ -107,7 +107,8 @@ def map_cmd(results, out, plate, sinkage, layers_ci, resolution, crs, units, as_
     """Kriged maps of plate pressure, n and mean CI, with 90% intervals, from located pushes.
 
     RESULTS is a predict JSON, a predict Parquet file or a batch output directory whose profiles
-    carry lat/lon.  Writes one GeoTIFF per quantity (bands median, lo, hi), points.parquet
+    carry lat/lon.  Writes one GeoTIFF per quantity (bands median, lo, hi of the local mean,
+    point_lo, point_hi of the value at a point), points.parquet
     (GeoParquet), cells.parquet (each cell's kc, kphi, n for simulators) and map.json, with the
     leave-one-out cross-validation of each map.  DIR then holds this map only: an earlier
     map there is replaced whole, any other non-empty directory is refused unless --force.

@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
 
 import click
 
-from terracone.cli.common import UNITS, emit_json, json_options, parse_length, shared
+from terracone.cli.common import UNITS, emit_json, parse_length
 
 
 def parse_layer(text: str | None, units: str) -> tuple[float, float] | None:
@@ -62,7 +66,7 @@ def _progress(count: int):
 
 
 @click.command("mobility")
-@click.argument("results_path", metavar="RESULTS", type=click.Path(exists=True))
+@click.argument("results_path", metavar="RESULTS|MAPDIR", type=click.Path(exists=True))
 @click.option(
     "--vehicle",
     "vehicle_path",
@@ -124,12 +128,37 @@ def _progress(count: int):
 @click.option(
     "--units", type=UNITS, default="si", show_default=True, help="SI: m, kPa, N; US: in, psi, lbf."
 )
-@shared(*json_options)
+@click.option(
+    "--simulations",
+    type=int,
+    default=None,
+    help="MAPDIR: conditional simulations of the map's fields (default 100).",
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="MAPDIR: simulations' seed.")
+@click.option(
+    "--workers",
+    type=int,
+    default=None,
+    help="MAPDIR: processes that condition the simulations (default: this one).",
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    help="MAPDIR: address of a running dask.distributed scheduler, tcp://HOST:PORT.",
+)
+@click.option(
+    "--out",
+    type=click.Path(),
+    default=None,
+    help="RESULTS: write the JSON here too. MAPDIR: the output directory (p_go.tif, "
+    "sinkage.tif, mobility.json).",
+)
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def mobility_cmd(
     results_path, vehicle_path, passes, soil, critical_layer, layer, remolding_index, by, ci_file,
-    file_units, units, out, as_json,
+    file_units, units, simulations, seed, workers, scheduler, out, as_json,
 ):  # fmt: skip
-    """NRMM go/no-go and Bekker wheel sinkage of a vehicle on predicted terrain.
+    """NRMM go/no-go and Bekker wheel sinkage of a vehicle on predicted terrain or on a map.
 
     RESULTS is a predict JSON or Parquet file, or a batch directory.  Per
     profile (and per site): the soil class, the critical layer and what chose
@@ -138,7 +167,31 @@ def mobility_cmd(
     the margin, and the sinkage and compaction resistance of the vehicle's
     wheel from kc, kphi and n (Bekker), with the 90% band of the posterior
     draws of predict --uncertainty --json.
+
+    MAPDIR is a terracone map directory (it holds map.json): every cell gets
+    P(GO), the probability that RCI at a point reaches VCI (p_go.tif), and
+    the median and 90% band of the wheel sinkage (sinkage.tif), from
+    conditional simulations of the map's fields; --out DIR is required.
     """
+    from terracone.apps.maps.directory import is_map_directory
+
+    if is_map_directory(results_path):
+        opts = {"--by": by, "--ci": ci_file, "--file-units": file_units}
+        given = [k for k, v in opts.items() if v is not None]
+        if given:
+            raise click.UsageError(f"{', '.join(given)}: not with a map directory")
+        go_map_cmd(results_path, vehicle_path, passes, soil, critical_layer, layer,
+                   remolding_index, units, simulations, seed, workers, scheduler, out, as_json)  # fmt: skip
+        return
+    extra = {"--simulations": simulations, "--workers": workers, "--scheduler": scheduler}
+    given = [k for k, v in extra.items() if v is not None]
+    if given:
+        raise click.UsageError(f"{', '.join(given)}: only with a map directory (MAPDIR)")
+    if out is not None and Path(out).is_dir():
+        raise click.BadParameter(
+            f"{out!r} is a directory (give a file for RESULTS)", param_hint="'--out'"
+        )
+    _check_results_path(results_path)
     from terracone.apps.mobility import ci_profiles_by_id, evaluate_mobility
     from terracone.apps.vehicles import load_vehicle
     from terracone.io.outputs import check_outputs
@@ -170,6 +223,90 @@ def mobility_cmd(
     else:
         click.echo(mobility_text(doc))
     if not run.evaluated_any:
+        sys.exit(1)
+
+
+def _check_results_path(path: str) -> None:
+    """A directory must be a batch directory (a map directory was taken before)."""
+    p = Path(path)
+    if p.is_dir() and not any(p.glob("part-*.parquet")):
+        raise ValueError(
+            f"{p}: neither a terracone map directory (no map.json) nor a batch directory "
+            "(no part-*.parquet files)"
+        )
+
+
+@contextmanager
+def _pool(workers: int | None, scheduler: str | None) -> Iterator[Any]:
+    """None (this process), a process pool of ``workers``, or a Dask client of ``scheduler``."""
+    if workers is not None and scheduler is not None:
+        raise click.UsageError("give --workers or --scheduler, not both")
+    if scheduler is not None:
+        from distributed import Client
+
+        try:
+            client = Client(scheduler, timeout="20s", set_as_default=False)
+        except (OSError, TimeoutError) as exc:
+            raise ValueError(f"cannot connect to the Dask scheduler {scheduler}: {exc}") from None
+        with client:
+            yield client
+        return
+    if workers is None or workers <= 1:
+        if workers is not None and workers < 1:
+            raise click.BadParameter(f"must be >= 1, got {workers}", param_hint="'--workers'")
+        yield None
+        return
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        yield pool
+
+
+def go_map_cmd(
+    mapdir, vehicle_path, passes, soil, critical_layer, layer, remolding_index, units,
+    simulations, seed, workers, scheduler, out, as_json,
+) -> None:  # fmt: skip
+    """``terracone mobility MAPDIR``: P(GO) and wheel sinkage of every cell of a map."""
+    from tqdm import tqdm
+
+    from terracone.apps.go_map import DEFAULT_SIMULATIONS, go_map, write_go_map
+    from terracone.apps.maps.directory import read_map_directory
+    from terracone.apps.vehicles import load_vehicle
+    from terracone.report.mobility import go_map_text
+
+    if out is None:
+        raise click.UsageError("a map directory needs --out DIR (p_go.tif, sinkage.tif)")
+    if Path(out).exists() and not Path(out).is_dir():
+        raise click.BadParameter(
+            f"{out!r} is a file (give a directory for MAPDIR)", param_hint="'--out'"
+        )
+    choice = parse_critical_layer(critical_layer, units)
+    lay = parse_layer(layer, units)
+    if lay is not None:
+        from terracone.apps.mobility import LayerChoice
+
+        choice = LayerChoice("layer", layer=lay)
+    vehicle = load_vehicle(vehicle_path)
+    d = read_map_directory(mapdir)
+    n = DEFAULT_SIMULATIONS if simulations is None else simulations
+    cells = d.grid.width * d.grid.height
+    with (
+        _pool(workers, scheduler) as pool,
+        tqdm(
+            total=3 * cells, desc="simulating cells", unit="cell", disable=None, leave=False
+        ) as bar,
+    ):
+        result = go_map(d, vehicle, passes=int(passes), soil=soil, choice=choice,
+                        remolding_index=remolding_index, simulations=n, seed=seed, pool=pool,
+                        progress=bar.update)  # fmt: skip
+    _, doc = write_go_map(result, out, units, input=str(mapdir))
+    for note in doc["notes"]:
+        click.echo(f"note: {note}", err=True)
+    if as_json:
+        emit_json(doc)
+    else:
+        click.echo(go_map_text(doc, out))
+    if not result.evaluated_any:
         sys.exit(1)
 
 

@@ -26,7 +26,8 @@ __all__ = ["build_report", "load_document", "result_kind"]
 
 
 def result_kind(doc: Any) -> str:
-    """Kind of a terracone JSON result: "predict", "learn", "evaluate" or "reproduce".
+    """Kind of a terracone JSON result: "predict", "learn", "evaluate", "reproduce", "sites",
+    "mobility" or "mobility-map" (a P(GO) map's ``mobility.json``).
 
     A document with a ``schema`` key is read by it (``terracone.prediction/1``
     is a prediction; another schema or version is refused with the reason);
@@ -35,7 +36,7 @@ def result_kind(doc: Any) -> str:
     if not isinstance(doc, dict):
         raise ValueError("not a terracone result: expected a JSON object")
     if doc.get("command") == "mobility":
-        return "mobility"
+        return "mobility-map" if doc.get("schema") == "terracone.mobility-map/1" else "mobility"
     if "schema" in doc or "schema_version" in doc:
         check_schema(doc)
         return "predict"
@@ -161,6 +162,10 @@ def _document(kind: str, doc: dict[str, Any], source: str, map_by: str = "n") ->
         from terracone.report.mobility import mobility_document
 
         return mobility_document(doc, source=source)
+    if kind == "mobility-map":
+        from terracone.report.mobility import go_map_document
+
+        return go_map_document(doc, Path(source).parent)
     raise ValueError(f"unknown result kind {kind!r}")  # pragma: no cover
 
 

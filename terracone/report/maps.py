@@ -123,8 +123,9 @@ def map_document(directory: str | Path) -> dict[str, Any]:
         text_part(
             "Ordinary kriging in log space of plate pressure and mean CI (n in its own units), "
             "with a fitted variogram whose nugget absorbs push-to-push variation and each push's "
-            "estimation noise. Each cell shows the median and the width of its 90% interval; "
-            "dots are the pushes."
+            "estimation noise. Each cell shows the median and the width of the 90% interval of "
+            "its local mean (the rasters also hold the wider band of the value at a point, "
+            "nugget included); dots are the pushes."
         ),
         table_part(_table(quantities), sortable=False),
     ]

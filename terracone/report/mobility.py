@@ -4,7 +4,9 @@
 the HTML report section of a ``terracone mobility --json`` document (schema
 ``terracone.mobility/1``, docs/mobility.md): the vehicle, a table of the
 profiles and of the sites, a map of GO and NO-GO where the profiles are
-located, and the notes.  Nothing is computed here; the numbers are those of
+located, and the notes.  :func:`go_map_text` and :func:`go_map_document` do the
+same for a P(GO) map (``terracone mobility MAPDIR``, schema
+``terracone.mobility-map/1``), drawing ``p_go.tif`` and ``sinkage.tif``.  Nothing is computed here; the numbers are those of
 :mod:`terracone.apps.mobility`.
 """
 
@@ -12,8 +14,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
+import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
@@ -26,6 +30,9 @@ from terracone.report.text import table
 __all__ = [
     "mobility_text",
     "mobility_document",
+    "go_map_text",
+    "go_map_document",
+    "p_go_figure",
     "verdict",
     "go_map_figure",
     "profile_notes",
@@ -258,4 +265,153 @@ def mobility_document(doc: Mapping[str, Any], *, source: str | None = None) -> d
         "title": f"terracone report: mobility of {v['name']}",
         "meta": {"results": source, "command": "mobility"},
         "sections": [{"id": "mobility", "heading": "Vehicle mobility", "parts": parts}],
+    }
+
+
+# ---------------------------------------------------------------------------
+# P(GO) maps: terracone mobility MAPDIR
+# ---------------------------------------------------------------------------
+
+
+def _num(v: float | None) -> str:
+    return "-" if v is None else f"{v:.3g}"
+
+
+def _km2(v: float | None) -> str:
+    return "-" if v is None else f"{v / 1e6:.4g} km²"
+
+
+def go_map_text(doc: Mapping[str, Any], out: str | None = None) -> str:
+    """The plain-text summary of a P(GO) map document (what ``terracone mobility MAPDIR`` prints)."""
+    units = doc["units"]
+    pu, lu = u.pressure_unit(units), u.length_unit(units)
+    cl, a, pg, sk = doc["critical_layer"], doc["area_m2"], doc["p_go"], doc["sinkage"]
+    g = doc["map"]["grid"] or {}
+    lines = [vehicle_line(doc)]
+    if pg["file"] is None:
+        lines.append(f"P(GO): not computed: {pg['reason']}")
+    else:
+        mc = pg["monte_carlo"] or {}
+        lines += [
+            f"critical layer {cl['top']:.4g}-{cl['bottom']:.4g} {lu} ({cl['rule']}), map layer "
+            f"{cl['quantity']}; RI {doc['remolding_index']:g}: a point needs CI >= "
+            f"{doc['threshold_ci']:.4g} {pu} (RCI >= VCI {doc['vci']:.4g} {pu})",
+            f"P(GO) of {g.get('width', 0) * g.get('height', 0):,} cells of "
+            f"{doc['map']['resolution']:g} m: GO at 90% confidence {_km2(a['go_90'])}, NO-GO at "
+            f"90% {_km2(a['no_go_90'])}, uncertain {_km2(a['uncertain'])}, masked "
+            f"{_km2(a['masked'])}",
+            f"expected GO area {_km2(a['expected_go'])}; in one realisation of the field "
+            f"{_km2(a['go_simulated']['lo'])} to {_km2(a['go_simulated']['hi'])} (90%)",
+            f"{doc['simulations']} conditional simulations: their GO frequency against P(GO), "
+            f"rms standardised difference {_num(mc.get('rms_standardised_difference'))} "
+            f"(standard error at P = 0.5: {_num(mc.get('standard_error_at_0.5'))}; 1 expected, "
+            "- where every P(GO) is 0 or 1)",
+        ]
+    if sk["file"] is None:
+        lines.append(f"wheel sinkage: not computed: {sk['reason']}")
+    else:
+        lines.append(f"wheel sinkage: median over the cells {sk['median_of_cells']:.4g} {lu} "
+                     "(sinkage.tif: median, 5% and 95% at a point)")  # fmt: skip
+    files = [f for f in (pg["file"], sk["file"]) if f] + ["mobility.json"]
+    if out is not None:
+        lines.append(f"wrote {out}: {', '.join(files)}")
+    return "\n".join(lines)
+
+
+def p_go_figure(directory: str | Path, doc: Mapping[str, Any]) -> Figure | None:
+    """P(GO) of every cell (p_go.tif) and the median wheel sinkage (sinkage.tif), with the
+    map's pushes; None when neither raster was written."""
+    from terracone.report.maps import read_raster
+
+    d = Path(directory)
+    panels = []
+    if doc["p_go"]["file"] and (d / doc["p_go"]["file"]).exists():
+        bands, extent = read_raster(d / doc["p_go"]["file"])
+        panels.append((bands[0], extent, "P(GO) [-]", "RdYlGn", (0.0, 1.0)))
+    if doc["sinkage"]["file"] and (d / doc["sinkage"]["file"]).exists():
+        bands, extent = read_raster(d / doc["sinkage"]["file"])
+        panels.append((bands[0], extent, f"median wheel sinkage [{doc['sinkage']['units']}]",
+                       "viridis", (None, None)))  # fmt: skip
+    if not panels:
+        return None
+    points = _map_points(doc)
+    fig = Figure(figsize=(4.6 * len(panels), 4.2))
+    FigureCanvasAgg(fig)
+    for k, (img, extent, label, cmap, (vmin, vmax)) in enumerate(panels, 1):
+        ax = fig.add_subplot(1, len(panels), k)
+        x0, y0 = extent[0], extent[2]
+        ext = (0.0, extent[1] - x0, 0.0, extent[3] - y0)
+        im = ax.imshow(np.ma.masked_invalid(img), extent=ext, origin="upper", cmap=cmap,
+                       vmin=vmin, vmax=vmax)  # fmt: skip
+        if k == 1 and doc["p_go"]["file"]:
+            ax.contour(np.ma.masked_invalid(img), levels=[0.1, 0.9], colors="k", linewidths=0.6,
+                       extent=ext, origin="upper")  # fmt: skip
+        if points is not None:
+            ax.plot(points[:, 0] - x0, points[:, 1] - y0, "k.", ms=1.5)
+        ax.set_aspect("equal")
+        ax.set_xlabel(f"east of {x0:.0f} [m]")
+        ax.set_ylabel(f"north of {y0:.0f} [m]")
+        ax.set_title(label, fontsize=9)
+        fig.colorbar(im, ax=ax, shrink=0.8)
+    v = doc["vehicle"]
+    fig.suptitle(f"{v['name']}: P(RCI >= VCI_{v['passes']}) at a point", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def _map_points(doc: Mapping[str, Any]) -> Any:
+    """The map's pushes (x, y) [m], when its directory is still there; else None."""
+    d = Path(str(doc["map"]["directory"]))
+    try:
+        import pyarrow.parquet as pq
+
+        pts = pq.read_table(d / "points.parquet", columns=["x", "y"])
+    except (OSError, ValueError):
+        return None
+    return np.column_stack([pts["x"].to_numpy(), pts["y"].to_numpy()])
+
+
+def go_map_document(doc: Mapping[str, Any], directory: str | Path) -> dict[str, Any]:
+    """Report document of a ``terracone mobility MAPDIR`` output directory (``mobility.json``)."""
+    units = str(doc.get("units", "si"))
+    v, a, pg = doc["vehicle"], doc["area_m2"], doc["p_go"]
+    cl = doc["critical_layer"]
+    parts: list[dict[str, Any]] = [
+        kv_part(
+            {
+                "map": doc["map"]["directory"],
+                "vehicle": f"{v['name']} ({v['kind']})",
+                f"VCI_{v['passes']} [{u.pressure_unit(units)}]": (
+                    doc["vci"] if doc["vci"] is not None else f"none ({v.get('vci_note')})"
+                ),
+                "soil class": doc["soil_class"] + (" (assumed)" if doc["assumed"] else ""),
+                "critical layer": cl["quantity"] or "-",
+                "remolding index": doc["remolding_index"],
+                "GO at 90% confidence": _km2(a["go_90"]),
+                "NO-GO at 90% confidence": _km2(a["no_go_90"]),
+                "uncertain (0.1 < P < 0.9)": _km2(a["uncertain"]),
+                "expected GO area": _km2(a["expected_go"]),
+                "simulations": doc["simulations"],
+            }
+        ),
+        text_part(
+            "P(GO) is the probability that the rating cone index RCI = CI x RI of the critical "
+            "layer at a point of the cell reaches the vehicle cone index: the map's kriged "
+            "median of the layer's CI with the variance of a point (kriging variance plus "
+            "nugget). Contours at P = 0.1 and 0.9 bound the uncertain area. The wheel sinkage "
+            "comes from conditional simulations of the map's strength and n."
+        ),
+    ]
+    if pg["file"] is None:
+        parts.append(text_part(f"No P(GO): {pg['reason']}"))
+    fig = p_go_figure(directory, doc)
+    if fig is not None:
+        parts.append(figure_part(fig, "P(GO) of every cell and the median wheel sinkage; dots "
+                                      "are the map's pushes.", alt="P(GO) map"))  # fmt: skip
+    if doc.get("notes"):
+        parts.append(list_part(list(doc["notes"])))
+    return {
+        "title": f"terracone report: P(GO) map of {v['name']}",
+        "meta": {"map": doc["map"]["directory"], "command": "mobility"},
+        "sections": [{"id": "p-go", "heading": "Probability of GO", "parts": parts}],
     }

@@ -177,6 +177,20 @@ def learn_text(d: Mapping[str, Any], units: str) -> str:
         )
     if d["undetermined"]:
         text += f"\nLeft free by the data: {', '.join(d['undetermined'])}"
+    if "r_min" in (d.get("flat_sets") or {}):
+        lo, hi = d["flat_sets"]["r_min"]
+        text += (
+            f"\nr_min: every value in ({lo:.6g}, {hi:.6g}] {u.length_unit(units)} fits exactly as "
+            "well (above the larger plate the RM1 law is the secant through both plates' "
+            "pressures, which does not depend on r_min)"
+        )
+    for e in d.get("equivalent") or []:
+        text += (
+            f"\nFits exactly as well: r_min = {e['r_min']:.6g} {u.length_unit(units)} with "
+            f"kc = {e['kc']:.6g} {u.kc_unit(units)}, kphi = {e['kphi']:.6g} {u.kphi_unit(units)} "
+            "(at the larger plate the tangent is the same line as the secant through both "
+            "plates' pressures: the data do not fix kc and kphi)"
+        )
     if c.get("at_bounds"):
         text += (
             f"\nOn a search bound (the bound, not the data, set it): {'; '.join(c['at_bounds'])}"

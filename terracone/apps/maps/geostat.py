@@ -49,7 +49,7 @@ References
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -72,10 +72,13 @@ __all__ = [
     "fit_reml",
     "fit_variogram",
     "krige",
+    "kriging_weights",
     "leave_one_out",
+    "neighbourhoods",
     "pooled",
     "restricted_nll",
     "structure_test",
+    "variogram_from_dict",
 ]
 
 #: Up to this many pushes, every push conditions every cell (one global kriging system).
@@ -167,6 +170,37 @@ class Variogram:
         }
 
 
+def variogram_from_dict(d: dict[str, Any]) -> Variogram:
+    """The :class:`Variogram` that :meth:`Variogram.as_dict` recorded (``map.json``).
+
+    The model is rebuilt from its nugget, partial sill, length scale and
+    shape (JSON keeps floats exactly), so kriging with it repeats the map's.
+    """
+    import gstools as gs
+
+    def num(key: str) -> float:
+        v = d.get(key)
+        return math.nan if v is None else float(v)
+
+    emp = d.get("empirical") or {}
+    lags, gamma, counts = (
+        np.asarray(emp.get(k, []), dtype=float) for k in ("lag", "gamma", "pairs")
+    )
+    p_value = float((d.get("structure_test") or {}).get("p_value") or math.nan)
+    if not d.get("structure"):
+        return Variogram(
+            None, False, p_value, num("nugget"), 0.0, *(math.nan,) * 4, lags, gamma, counts
+        )
+    model = gs.Stable(
+        dim=2, var=num("partial_sill"), len_scale=num("len_scale"), alpha=num("alpha"),
+        nugget=num("nugget"),
+    )  # fmt: skip
+    return Variogram(
+        model, True, p_value, num("nugget"), num("partial_sill"), num("len_scale"), num("alpha"),
+        num("range"), num("r2"), lags, gamma, counts,
+    )  # fmt: skip
+
+
 @dataclass
 class CrossValidation:
     """Leave-one-out cross-validation of a quantity's map.
@@ -214,6 +248,23 @@ class CrossValidation:
         if log:
             out["rmse_log"] = float(np.sqrt(np.mean(e**2)))
         return out
+
+    def point_summary(self) -> dict[str, Any]:
+        """The point band's leave-one-out check: ``coverage_90``, ``below``, ``above``, ``n``.
+
+        A push is a value at a point, so each push against the 90% band of
+        the value at its place from the others (the band includes the
+        nugget) checks the map's point band: ``coverage_90`` is the share
+        inside it, ``below`` and ``above`` the shares under its 5% and over
+        its 95% bound (each about 0.05 when the band is right and symmetric).
+        """
+        t = self.standardised
+        return {
+            "coverage_90": float(np.mean(np.abs(t) <= self.quantile)),
+            "below": float(np.mean(t < -self.quantile)),
+            "above": float(np.mean(t > self.quantile)),
+            "n": int(t.size),
+        }
 
 
 def _xy(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -378,10 +429,8 @@ def fit_variogram(x: np.ndarray, y: np.ndarray, z: np.ndarray, *, seed: int = 0)
 def _krige_all(model: Any, px, py, z, gx, gy) -> tuple[np.ndarray, np.ndarray]:
     import gstools as gs
 
-    # small systems: BLAS threads only contend (16x slower seen on a busy machine)
-    with threadpool_limits(1 if px.size <= NEIGHBOURS else None, user_api="blas"):
-        k = gs.krige.Ordinary(model, (px, py), z, exact=False, cond_err="nugget")
-        m, v = k((gx, gy), mesh_type="unstructured", chunk_size=20000, store=False)
+    k = gs.krige.Ordinary(model, (px, py), z, exact=False, cond_err="nugget")
+    m, v = k((gx, gy), mesh_type="unstructured", chunk_size=20000, store=False)
     return np.asarray(m, dtype=float), np.asarray(v, dtype=float)
 
 
@@ -395,6 +444,34 @@ def _blocks(px, py, gx, gy) -> Iterable[np.ndarray]:
     order = np.argsort(key, kind="stable")
     cuts = np.flatnonzero(np.diff(key[order])) + 1
     return np.split(order, cuts)
+
+
+def neighbourhoods(
+    px: np.ndarray,
+    py: np.ndarray,
+    gx: np.ndarray,
+    gy: np.ndarray,
+    *,
+    neighbourhood: str = "auto",
+) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """The cells and the pushes that condition them: (cells, pushes) index arrays per block.
+
+    "global": one block of every cell and every push; "local": each block of
+    about :data:`BLOCK_PUSHES` pushes' area with the :data:`NEIGHBOURS`
+    pushes nearest to its centre; "auto": global up to :data:`GLOBAL_PUSHES`
+    pushes.  :func:`krige` and the conditional simulations
+    (:mod:`terracone.apps.maps.simulation`) use the same blocks, so a
+    simulation's mean is the map's median.
+    """
+    if neighbourhood not in ("auto", "global", "local"):
+        raise ValueError(f"neighbourhood must be auto, global or local (got {neighbourhood!r})")
+    if neighbourhood == "global" or (neighbourhood == "auto" and px.size <= GLOBAL_PUSHES):
+        yield np.arange(gx.size), np.arange(px.size)
+        return
+    tree = cKDTree(_xy(px, py))
+    for cells in _blocks(px, py, gx, gy):
+        _, nb = tree.query([gx[cells].mean(), gy[cells].mean()], k=min(NEIGHBOURS, px.size))
+        yield cells, np.atleast_1d(nb)
 
 
 def krige(
@@ -420,7 +497,8 @@ def krige(
         The places to estimate [m].
     neighbourhood : {"auto", "global", "local"}
         Every push for every cell, or the :data:`NEIGHBOURS` nearest pushes
-        of each block of cells; "auto": global up to :data:`GLOBAL_PUSHES` pushes.
+        of each block of cells; "auto": global up to :data:`GLOBAL_PUSHES`
+        pushes (:func:`neighbourhoods`).
     progress : callable, optional
         ``progress(k)`` after each block of ``k`` cells.
 
@@ -430,21 +508,56 @@ def krige(
         The variance is that of the smooth field (gstools' kriging variance
         less the nugget, at least 0).
     """
-    if neighbourhood not in ("auto", "global", "local"):
-        raise ValueError(f"neighbourhood must be auto, global or local (got {neighbourhood!r})")
-    if neighbourhood == "global" or (neighbourhood == "auto" and z.size <= GLOBAL_PUSHES):
-        m, v = _krige_all(vg.model, px, py, z, gx, gy)
-        if progress:
-            progress(gx.size)
-    else:
-        m, v = np.empty(gx.size), np.empty(gx.size)
-        tree = cKDTree(_xy(px, py))
-        for cells in _blocks(px, py, gx, gy):
-            _, nb = tree.query([gx[cells].mean(), gy[cells].mean()], k=min(NEIGHBOURS, z.size))
+    m, v = np.empty(gx.size), np.empty(gx.size)
+    # small systems: BLAS threads only contend (16x slower seen on a busy machine); the limit
+    # is set once, not per block (entering it reads the process's libraries, ~15 ms)
+    one = neighbourhood == "global" or (neighbourhood == "auto" and px.size <= GLOBAL_PUSHES)
+    small = not one or px.size <= NEIGHBOURS  # local blocks hold at most NEIGHBOURS pushes
+    with threadpool_limits(1 if small else None, user_api="blas"):
+        for cells, nb in neighbourhoods(px, py, gx, gy, neighbourhood=neighbourhood):
             m[cells], v[cells] = _krige_all(vg.model, px[nb], py[nb], z[nb], gx[cells], gy[cells])
             if progress:
                 progress(cells.size)
     return m, np.maximum(v - vg.nugget, 0.0)
+
+
+def kriging_weights(
+    model: Any, px: np.ndarray, py: np.ndarray, gx: np.ndarray, gy: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Ordinary kriging weights of the pushes for the smooth field at (gx, gy), and its variance.
+
+    The system gstools solves in :func:`krige` (``Ordinary``, ``exact=False``,
+    the nugget as every push's measurement error), solved here for the
+    weights themselves: ``[K, 1; 1', 0] [w; mu] = [c0; 1]`` with K = C +
+    nugget I, C the covariance of the smooth field between the pushes and c0
+    that between the pushes and each place.  K is factorised once (Cholesky)
+    and the unbiasedness condition eliminated: ``mu = (1' K^-1 c0 - 1) /
+    (1' K^-1 1)``, ``w = K^-1 (c0 - mu 1)`` (twice as fast as the bordered
+    system); the smooth field's kriging variance is ``C(0) - w' c0 - mu``.
+    The estimate at the places is ``w' z``.  Small systems run fastest on one
+    BLAS thread: call it under ``threadpoolctl.threadpool_limits(1)`` (once:
+    entering it costs ~15 ms).
+
+    Returns
+    -------
+    (weights, variance) : ndarray
+        Weights (pushes, places) and the variance of each place (at least 0).
+    """
+    k = px.size
+    kk = model.covariance(np.hypot(px[:, None] - px[None, :], py[:, None] - py[None, :]))
+    kk[np.diag_indices(k)] += model.nugget
+    rhs = np.empty((k, gx.size + 1))
+    rhs[:, :-1] = model.covariance(np.hypot(px[:, None] - gx[None, :], py[:, None] - gy[None, :]))
+    rhs[:, -1] = 1.0
+    try:
+        y = cho_solve(cho_factor(kk, lower=True, check_finite=False), rhs, check_finite=False)
+    except np.linalg.LinAlgError:
+        y = np.linalg.pinv(kk, hermitian=True) @ rhs
+    k1 = y[:, -1]
+    mu = (rhs[:, :-1].T @ k1 - 1.0) / k1.sum()
+    w = y[:, :-1] - np.outer(k1, mu)
+    v = model.var - np.einsum("ij,ij->j", w, rhs[:, :-1]) - mu
+    return w, np.maximum(v, 0.0)
 
 
 def _augmented(model: Any, px: np.ndarray, py: np.ndarray) -> np.ndarray:
@@ -518,10 +631,17 @@ def leave_one_out(
     return CrossValidation(pred, var, z[rows], q)
 
 
-def pooled(z: np.ndarray, level: float = 0.9) -> tuple[float, float, float]:
-    """The field's pooled estimate of a pure nugget: mean and its t interval (kriged space)."""
+def pooled(z: np.ndarray, level: float = 0.9) -> tuple[float, float, float, float, float]:
+    """The field's pooled estimate of a pure nugget (kriged space): the mean, its t interval,
+    and the t prediction interval of the value at a new point.
+
+    Returns (mean, lo, hi, point_lo, point_hi): mean +- t s / sqrt(n) and
+    mean +- t s sqrt(1 + 1/n), t the (1 + level)/2 quantile of Student's t
+    with n - 1 degrees of freedom and s the pushes' standard deviation.
+    """
     n = z.size
     m = float(np.mean(z))
-    se = float(np.std(z, ddof=1) / math.sqrt(n))
+    s = float(np.std(z, ddof=1))
     q = float(stats.t.ppf(0.5 + level / 2, n - 1))
-    return m, m - q * se, m + q * se
+    se, sp = s / math.sqrt(n), s * math.sqrt(1.0 + 1.0 / n)
+    return m, m - q * se, m + q * se, m - q * sp, m + q * sp

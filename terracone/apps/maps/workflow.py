@@ -45,8 +45,10 @@ __all__ = [
     "LEVEL",
     "REFERENCE_SIZE",
     "UNCALIBRATED_MAP_NOTE",
+    "BANDS",
     "TerrainMap",
     "QuantityMap",
+    "beyond_range",
     "cell_parameters",
     "map_quantity",
     "map_survey",
@@ -55,6 +57,14 @@ __all__ = [
 #: Level of every interval of a map.
 LEVEL = 0.9
 Z90 = 1.6448536269514722  # Phi^-1(0.95)
+#: The bands of a quantity's raster, in order, and what each is.
+BANDS = {
+    "median": "median of the local mean (the kriged smooth field)",
+    "lo": "5% bound of the local mean: kriging variance of the smooth field, nugget excluded",
+    "hi": "95% bound of the local mean: kriging variance of the smooth field, nugget excluded",
+    "point_lo": "5% bound of the value at a point: kriging variance plus the nugget",
+    "point_hi": "95% bound of the value at a point: kriging variance plus the nugget",
+}
 #: Plate size b [m] of the strength kc/b + kphi from which the cells' kc and kphi are
 #: derived when no --plate is given.
 REFERENCE_SIZE = 0.1
@@ -82,11 +92,15 @@ class QuantityMap:
         None when too few pushes have a value (``skipped`` says why).
     cross_validation : CrossValidation or None
     median, lo, hi : ndarray, shape (height, width)
-        The cells' median and 90% interval [SI]; NaN where masked.
+        The cells' median and 90% interval of the local mean (the smooth
+        field) [SI]; NaN where masked.
+    point_lo, point_hi : ndarray, shape (height, width)
+        The 90% interval of the value at a point of the cell (the smooth
+        field plus the nugget: what one push there, or a wheel, meets) [SI].
     estimation_variance : float
         Mean estimation variance of the pushes in the kriged space (NaN
         when the results do not tell it).
-    pooled : (median, lo, hi) or None
+    pooled : (median, lo, hi, point_lo, point_hi) or None
         The field's pooled estimate [SI] when the variogram is a pure nugget.
     skipped : str or None
         Why no map was made.
@@ -100,8 +114,10 @@ class QuantityMap:
     median: np.ndarray | None = None
     lo: np.ndarray | None = None
     hi: np.ndarray | None = None
+    point_lo: np.ndarray | None = None
+    point_hi: np.ndarray | None = None
     estimation_variance: float = math.nan
-    pooled: tuple[float, float, float] | None = None
+    pooled: tuple[float, ...] | None = None
     skipped: str | None = None
 
     @property
@@ -181,21 +197,29 @@ def map_quantity(survey: Survey, q: Quantity, grid: Grid, *, progress: Any = Non
     gx, gy = grid.centres()
     if vg.structure:
         m, v = krige(vg, px, py, z, gx.ravel(), gy.ravel(), progress=progress)
-        s = np.sqrt(v)
-        d, _ = cKDTree(np.column_stack([px, py])).query(np.column_stack([gx.ravel(), gy.ravel()]))
-        far = d > vg.range
-        cols = [np.where(far, np.nan, a).reshape(gx.shape) for a in (m, m - Z90 * s, m + Z90 * s)]
+        s, sp = np.sqrt(v), np.sqrt(v + vg.nugget)  # the local mean's; a point's (nugget in)
+        far = beyond_range(vg, px, py, gx.ravel(), gy.ravel())
+        bands = (m, m - Z90 * s, m + Z90 * s, m - Z90 * sp, m + Z90 * sp)
+        cols = [np.where(far, np.nan, a).reshape(gx.shape) for a in bands]
     else:
-        c, lo, hi = pooled(z, LEVEL)
-        cols = [np.full(gx.shape, a) for a in (c, lo, hi)]
+        cols = [np.full(gx.shape, a) for a in pooled(z, LEVEL)]
         if progress:
             progress(gx.size)
     if q.log:
         cols = [np.exp(a) for a in cols]
-    out.median, out.lo, out.hi = cols
+    out.median, out.lo, out.hi, out.point_lo, out.point_hi = cols
     if not vg.structure:
-        out.pooled = (float(cols[0].flat[0]), float(cols[1].flat[0]), float(cols[2].flat[0]))
+        out.pooled = tuple(float(a.flat[0]) for a in cols)
     return out
+
+
+def beyond_range(
+    vg: Variogram, px: np.ndarray, py: np.ndarray, gx: np.ndarray, gy: np.ndarray
+) -> np.ndarray:
+    """Whether each place (gx, gy) lies farther than the variogram's range from every push
+    (the masked cells of a map)."""
+    d, _ = cKDTree(np.column_stack([px, py])).query(np.column_stack([gx, gy]))
+    return d > vg.range
 
 
 def _quantities(

@@ -2,17 +2,21 @@
 
 In the output directory:
 
-* ``<quantity>.tif``: one GeoTIFF per quantity (rasterio), float32, three
-  bands: median, lo (5%) and hi (95%), in the map's unit system; the CRS
-  set, NaN as nodata (cells beyond the variogram's range), each band's
-  description and unit (``median [kPa]``), the quantity and its variogram
-  in the tags;
+* ``<quantity>.tif``: one GeoTIFF per quantity (rasterio), float32, five
+  bands (:data:`~terracone.apps.maps.workflow.BANDS`): median, lo (5%) and
+  hi (95%) of the local mean, point_lo (5%) and point_hi (95%) of the value
+  at a point, in the map's unit system; the CRS set, NaN as nodata (cells
+  beyond the variogram's range), each band's description (its name first,
+  then which interval it bounds, then its unit: ``point_lo (5%, value at a
+  point) [kPa]``) and unit, the quantity and its variogram in the tags;
 * ``points.parquet``: the located pushes as GeoParquet (geopandas), points
-  in the map CRS with lat, lon, x, y and each push's value of each quantity;
+  in the map CRS with lat, lon, x, y, each push's value of each quantity
+  and its ``strength`` kc/b + kphi [SI], from which the cells' kc and kphi
+  are kriged;
 * ``cells.parquet``: one row per cell that has a value (plain Parquet, SI):
-  the centre (x, y in the map CRS, lat, lon), each quantity's median, lo
-  and hi, and the cell's kc, kphi, n, cc, phic_deg for simulators
-  (:func:`read_map_cells`);
+  the centre (x, y in the map CRS, lat, lon), each quantity's median, lo,
+  hi, point_lo and point_hi, and the cell's kc, kphi, n, cc, phic_deg for
+  simulators (:func:`read_map_cells`);
 * ``map.json``: :func:`map_document`.
 """
 
@@ -28,7 +32,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from terracone.apps.maps.workflow import LEVEL, QuantityMap, TerrainMap
+from terracone.apps.maps.workflow import BANDS, LEVEL, QuantityMap, TerrainMap
 from terracone.data import TerrainParameters
 from terracone.physics import units as u
 
@@ -36,6 +40,7 @@ __all__ = [
     "MAP_SCHEMA",
     "LocatedParameters",
     "is_map_directory",
+    "band_description",
     "map_document",
     "read_map_cells",
     "write_map",
@@ -89,14 +94,30 @@ def _quantity_dict(m: QuantityMap, units: str) -> dict[str, Any]:
     cv = m.cross_validation.summary(q.log)
     cv["rmse"] = float(q.from_si(cv["rmse"], units))
     d["cross_validation"] = cv
+    d["point_cross_validation"] = m.cross_validation.point_summary()
+    d["bands"] = dict(BANDS)
     d["pooled"] = (
         None
         if m.pooled is None
-        else dict(zip(("median", "lo", "hi"), (float(v) for v in q.from_si(m.pooled, units))))
+        else dict(zip(BANDS, (float(v) for v in q.from_si(m.pooled, units))))
     )
     d["cells"] = {"total": int(m.median.size), "masked": m.masked}
     d["message"] = m.message()
     return d
+
+
+def _strength_dict(m: QuantityMap | None) -> dict[str, Any] | None:
+    """The strength kc/b + kphi the cells' kc and kphi come from: its variogram (log space),
+    for the conditional simulations of ``terracone mobility MAPDIR``."""
+    if m is None or m.skipped:
+        return None
+    return {
+        "description": m.quantity.label,
+        "units": "kN/m^(n+2) (SI always; points.parquet column strength)",
+        "space": "log",
+        "pushes": int(np.isfinite(m.values).sum()),
+        "variogram": {k: v for k, v in m.variogram.as_dict().items() if k != "empirical"},
+    }
 
 
 def map_document(result: TerrainMap, units: str = "si") -> dict[str, Any]:
@@ -150,11 +171,24 @@ def map_document(result: TerrainMap, units: str = "si") -> dict[str, Any]:
             "kc_share": p["kc_share"],
             "model": p["model"],
             "r_min_m": p["r_min"],
+            "strength": _strength_dict(p.get("strength")),
         },
         "points": "points.parquet",
         "cells": "cells.parquet",
         "notes": list(result.notes),
     }
+
+
+def band_description(name: str, unit: str) -> str:
+    """The description of a map raster's band: its name, which interval it bounds, its unit.
+
+    ``median [kPa]``, ``lo (5%, local mean) [kPa]``, ``point_hi (95%, value at a point) [kPa]``.
+    """
+    if name == "median":
+        return f"median [{unit}]"
+    q = (1 - LEVEL) / 2 if name.endswith("lo") else (1 + LEVEL) / 2
+    what = "value at a point" if name.startswith("point") else "local mean"
+    return f"{name} ({q:.0%}, {what}) [{unit}]"
 
 
 def _write_tif(path: Path, m: QuantityMap, result: TerrainMap, units: str) -> None:
@@ -164,14 +198,14 @@ def _write_tif(path: Path, m: QuantityMap, result: TerrainMap, units: str) -> No
 
     g = result.grid
     unit = m.quantity.unit(units)
-    bands = np.stack([m.quantity.from_si(a, units) for a in (m.median, m.lo, m.hi)])
+    bands = np.stack([m.quantity.from_si(getattr(m, k), units) for k in BANDS])
     with rasterio.open(
         path,
         "w",
         driver="GTiff",
         width=g.width,
         height=g.height,
-        count=3,
+        count=len(BANDS),
         dtype="float32",
         crs=CRS.from_wkt(result.survey.crs.to_wkt()),
         transform=Affine(*g.transform),
@@ -179,15 +213,16 @@ def _write_tif(path: Path, m: QuantityMap, result: TerrainMap, units: str) -> No
         compress="deflate",
     ) as dst:
         dst.write(bands.astype("float32"))
-        lo, hi = (1 - LEVEL) / 2, (1 + LEVEL) / 2
-        for i, what in enumerate(("median", f"lo ({lo:.0%})", f"hi ({hi:.0%})"), 1):
-            dst.set_band_description(i, f"{what} [{unit}]")
-        dst.units = (unit, unit, unit)
+        for i, name in enumerate(BANDS, 1):  # the name as the description, its meaning as a tag
+            dst.set_band_description(i, name)
+            dst.update_tags(i, meaning=band_description(name, unit))
+        dst.units = (unit,) * len(BANDS)
         dst.update_tags(
             quantity=m.name,
             description=m.quantity.label,
             units=unit,
             level=str(LEVEL),
+            bands=",".join(BANDS),
             variogram=json.dumps(
                 {k: v for k, v in m.variogram.as_dict().items() if k != "empirical"}
             ),
@@ -208,6 +243,9 @@ def _write_points(path: Path, result: TerrainMap, units: str) -> None:
     }
     for m in result.quantities:
         cols[m.name] = m.quantity.from_si(m.values, units)
+    strength = result.parameters.get("strength")
+    if strength is not None:
+        cols["strength"] = np.asarray(strength.values, dtype=float)  # SI, kN/m^(n+2)
     cols["lack_of_fit"] = [r.lack_of_fit for r in s.results]
     gdf = gpd.GeoDataFrame(cols, geometry=gpd.points_from_xy(s.x, s.y), crs=s.crs)
     gdf.to_parquet(path)
@@ -223,7 +261,7 @@ def _write_cells(path: Path, result: TerrainMap) -> None:
     for m in result.quantities:
         if m.median is None:
             continue
-        for k in ("median", "lo", "hi"):
+        for k in BANDS:
             cols[f"{m.name}_{k}"] = getattr(m, k).ravel()
         keep |= np.isfinite(cols[f"{m.name}_median"])
     for k in ("kc", "kphi", "n", "cc", "phic_deg"):

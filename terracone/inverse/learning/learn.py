@@ -4,9 +4,11 @@ Given CI profiles and plate pressure-sinkage tests of one terrain, find the
 RM1 transition radius r_min and kc, kphi, n, cc, phic fitted jointly to all
 data, minimising ``J = sum_d RMSD_d / mean_d`` over the data sets d (each CI
 profile and each plate test): a certified convex solve in (kc, kphi, cc)
-(:mod:`.sumnorm`) on a grid of (n, phic, log r_min), the best local minima
-refined jointly, and a branch and bound that bounds how far the answer can be
-from the global minimum (:mod:`.search`; ``docs/learn.md``).  The result is
+(:mod:`.sumnorm`) on a grid of (n, phic, log r_min), local searches from the
+grid's best points in every stretch of r_min between RM1 branch points (least
+squares by variable projection, :mod:`.varpro`, then J, :mod:`.search`), and
+a branch and bound that bounds how far the answer can be from the global
+minimum (:mod:`.search`; ``docs/learn.md``).  The result is
 saved as a :class:`Calibration`, the paper's "information library", which
 the prediction process uses.
 
@@ -32,13 +34,17 @@ from terracone.inverse.bounds import Bounds
 from terracone.inverse.learning.search import (
     GridStage,
     LearnProblem,
+    Refined,
     certify,
+    flat_set,
     grid_stage,
-    grid_starts,
     jacobians,
     polish,
     refine,
+    secant_twin,
+    stretch_starts,
 )
+from terracone.inverse.learning.varpro import descend
 from terracone.inverse.problem import Calibration
 from terracone.physics import units as u
 
@@ -67,6 +73,8 @@ class LearnResult:
     r_min_profile: list[tuple[float, float]] = field(default_factory=list)
     intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
     certificate: dict[str, Any] = field(default_factory=dict)
+    flat_sets: dict[str, tuple[float, float]] = field(default_factory=dict)
+    equivalent: list[dict[str, float]] = field(default_factory=list)
 
     def _repr_html_(self) -> str:
         """A table of the learned parameters (SI and US) and the fit, for Jupyter."""
@@ -112,6 +120,17 @@ class LearnResult:
                     for k, iv in self.intervals.items()
                 },
                 "interval_level": 0.95,
+                "flat_sets": {
+                    k: [float(v) for v in _interval_in(k, iv, self.params.n, units)]
+                    for k, iv in self.flat_sets.items()
+                },
+                "equivalent": [
+                    {
+                        k: float(_interval_in(k, (v, v), self.params.n, units)[0])
+                        for k, v in e.items()
+                    }
+                    for e in self.equivalent
+                ],
                 "certificate": self.certificate,
                 "criteria": self.criteria,
                 "diagnostics": {"nfev": self.nfev, "time_s": self.time_s},
@@ -184,8 +203,9 @@ def learn(
     Minimises J = sum_d RMSD_d / mean_d over the data sets d (each CI
     profile and each plate test's loading branch) within the bounds: a
     certified inner solve in (kc, kphi, cc) on a grid of (n, phic,
-    log r_min), then a joint refinement of all parameters from the best
-    grid points that are local minima (see :mod:`.search`).
+    log r_min), then, from the best grid points of every stretch of r_min
+    between RM1 branch points, least squares by variable projection
+    (:mod:`.varpro`; exact on noise-free data) and J itself (:mod:`.search`).
 
     Parameters
     ----------
@@ -206,7 +226,8 @@ def learn(
     noise_floor : float
         Smallest relative noise assumed when judging what the data leave free.
     starts : int
-        Most grid local minima refined.
+        Most grid points (local minima of the grid's J) per stretch of r_min
+        between RM1 branch points that start a local search.
     certify_levels : int
         Rounds of branch and bound on the grid cells for the lower bound of
         the global minimum (0: the grid alone; each round halves, along one
@@ -241,6 +262,7 @@ def learn(
     certificate = _certificate(stage, J_res, lower, float(final.gap[0]), n_cells)
     criteria = _criteria(prob, params, datasets, max_cv)
     intervals, und, r_profile = _intervals(prob, stage, x, theta, datasets, noise_floor)
+    flat_sets, equivalent = _flat_sets(prob, x, theta, intervals, und)
     res = [np.concatenate(r) for r in _split_residuals(prob, x, theta)]
     return LearnResult(
         params=params,
@@ -256,7 +278,39 @@ def learn(
         r_min_profile=r_profile,
         intervals=intervals,
         certificate=certificate,
+        flat_sets=flat_sets,
+        equivalent=equivalent,
     )
+
+
+def _flat_sets(prob: LearnProblem, x, theta, intervals, und: list[str]):
+    """What fits exactly as well as the answer: r_min above the larger plate (the RM1 law
+    is then the secant through both plates' pressures, section 3.2, and J does not depend
+    on r_min), and at r_min = r2 the tangent twin of the secant (:func:`.search.secant_twin`).
+
+    Returns (flat sets {"r_min": (r2, HI)} [m], the equivalent parameter sets [SI]); r_min
+    (and kc, kphi when there is a twin) are then listed in ``und`` and their intervals
+    cover the set and the twin (both updated in place).
+    """
+    twin = secant_twin(prob, x, theta)
+    flat = flat_set(prob, float(theta[2]))
+    if flat is None and twin is not None:  # at r2: the secant set is as good
+        flat = flat_set(prob, float(twin[1][2]))
+    if flat is None:
+        return {}, []
+    lo, hi = math.exp(flat[0]), math.exp(flat[1])
+    others = [("r_min", lo, hi)]
+    equivalent = []
+    if twin is not None:
+        (kc, kphi, _), th = twin
+        others += [("kc", kc, kc), ("kphi", kphi, kphi)]
+        equivalent.append({"kc": float(kc), "kphi": float(kphi), "r_min": math.exp(th[2])})
+    for name, a_, b_ in others:
+        a, b = intervals.get(name, (a_, b_))
+        intervals[name] = (min(a, a_), max(b, b_))
+        if name not in und:
+            und.append(name)
+    return {"r_min": (lo, hi)}, equivalent
 
 
 def _certificate(
@@ -298,22 +352,42 @@ def _criteria(
 
 
 def _search(prob: LearnProblem, grid, starts: int, certify_levels: int, target: float):
-    """Grid, refinement of its best local minima, and the global-minimum bound."""
+    """Grid, local searches from its best points in every r_min stretch, the global bound.
+
+    Least squares first, by variable projection (:func:`.varpro.descend`), from
+    up to ``starts`` grid points per stretch of log r_min: on noise-free data
+    it reaches a zero residual, which J >= 0 certifies as the global minimum.
+    Otherwise J itself is minimised (:func:`.search.refine`) in each stretch
+    from its least-squares end point of least J, unless the stretch's least
+    squares F says J cannot beat the best there (J >= sqrt(F): the sum of
+    a_d ||r_d|| is at least their root sum of squares); the best is polished
+    and bounded from below.
+    """
     stage = grid_stage(prob, grid)
     nfev = int(stage.cells.J.size)
     zero = 1e-12 * float(sum(a * np.linalg.norm(y) for a, y in zip(prob.a, prob.ys)))
-    # every start is refined to convergence; the best is polished
-    best = None
-    for idx in grid_starts(stage, starts):
-        theta = np.array([stage.axes[k][idx[k]] for k in range(3)])
-        r = refine(prob, stage.cells.x[idx], theta)
-        nfev += r.nfev
-        # ties (equal J to 1e-12 relative) keep the earlier, better-ranked grid start
-        if best is None or r.J < best.J * (1 - 1e-12) - 1e-300:
-            best = r
-        if best.J <= zero:  # J >= 0: a zero-residual fit is the global minimum
-            break
+    st = stretch_starts(prob, stage, starts)
+    ls = descend(prob, st.theta, st.t_lo, st.t_hi, st.t_free)
+    nfev += ls.evaluations
+    order = np.lexsort((np.arange(ls.J.size), ls.J))
+    k = int(order[0])
+    best = Refined(ls.x[k], ls.theta[k], float(prob.objective(ls.x[k], ls.theta[k])), 0)
     if best.J > zero:
+        # J in each stretch from its least-squares point of least J, best first; a stretch is
+        # left when sqrt(F) there (F its least squares, J >= sqrt(F)) is not below the best J
+        seen: set[int] = set()
+        for k in order:
+            key = id(st.stretch[k])
+            if key in seen:
+                continue
+            seen.add(key)
+            F_min = min(f for f, s_ in zip(ls.F, st.stretch) if s_ is st.stretch[k])
+            if math.sqrt(F_min) >= best.J:
+                continue
+            r = refine(prob, ls.x[k], ls.theta[k], st.stretch[k])
+            nfev += r.nfev
+            if r.J < best.J * (1 - 1e-12) - 1e-300:
+                best = r
         best = polish(prob, best.x, best.theta)
     if best.J <= zero:  # J >= 0 certifies an exact fit
         lower, n_cells, n_cert = 0.0, 0, 0
@@ -378,7 +452,10 @@ def sandwich_cov(prob: LearnProblem, x, theta, noise_floor: float) -> np.ndarray
     """Covariance (6, 6) of p = (kc, kphi, cc, n, phic, log r_min), sandwich form.
 
     The minimiser of J is, at its optimum, a weighted least-squares fit with
-    weights w_d = a_d / ||r_d|| (the fixed point of reweighting), so its
+    weights w_d = a_d / ||r_d|| (the fixed point of reweighting; ||r_d|| taken
+    as at least ``noise_floor`` mean_d sqrt(N_d), the norm of an RMSD at the
+    noise floor, so that a data set fitted exactly does not weigh without
+    bound), so its
     covariance is H^+ B H^+ with H = sum_d w_d D_d'D_d and
     B = sum_d w_d^2 D_d' diag(r_d^2) D_d (heteroscedasticity-consistent,
     HC3: each squared residual divided by (1 - leverage)^2 and at least
@@ -401,8 +478,10 @@ def sandwich_cov(prob: LearnProblem, x, theta, noise_floor: float) -> np.ndarray
         free[5] = False
     H = np.zeros((6, 6))
     parts = []
-    for D, r, a in zip(Ds, rs, prob.a):
-        nr = max(float(np.linalg.norm(r)), 1e-300)
+    for D, r, a, m in zip(Ds, rs, prob.a, prob.means):
+        # ||r_d|| at least the noise floor's (RMSD = noise_floor mean_d): a data set fitted
+        # more closely (noise-free data) weighs as one at the floor, not without bound
+        nr = max(float(np.linalg.norm(r)), noise_floor * float(m) * math.sqrt(r.size), 1e-300)
         w = a / nr
         g = D.T @ (r / nr)  # Hessian of a_d ||r_d||: w (D'D - g g')
         H += w * (D.T @ D - np.outer(g, g))

@@ -4,13 +4,14 @@ J(kc, kphi, n, cc, phic, r_min) = sum_d RMSD_d / mean_d over data sets d
 (each CI profile and each plate test).  For fixed theta = (n, phic, r_min)
 J is convex in x = (kc, kphi, cc) and is minimised with a certificate by
 :func:`terracone.inverse.learning.sumnorm.sum_norm_box`.  theta is searched on a
-vectorised grid (n, phic, log r_min); the best grid points that are local
-minima start a joint refinement of all six parameters (:func:`refine`: least
-squares first, which reaches J = 0 on noise-free data, then
-Levenberg-Marquardt steps on J itself, every candidate step of an iteration
-evaluated in one vectorised call), and the grid with a branch and bound
-(:func:`certify`) gives a bound on how far the answer can be from the global
-minimum.
+vectorised grid (n, phic, log r_min) whose log r_min nodes are laid out per
+stretch between RM1 branch points (:func:`stretches`, :func:`r_axis`); each
+stretch's best grid points (:func:`stretch_starts`) start the least squares of
+:mod:`terracone.inverse.learning.varpro`, whose end points start
+:func:`refine` (Levenberg-Marquardt steps on J itself, every candidate step of
+an iteration evaluated in one vectorised call, log r_min held in its stretch),
+and the grid with a branch and bound (:func:`certify`) gives a bound on how far
+the answer can be from the global minimum.
 
 References
 ----------
@@ -40,6 +41,8 @@ __all__ = [
     "branch_points",
     "certify",
     "Cells",
+    "flat_set",
+    "secant_twin",
     "jacobians",
     "objectives",
     "polish",
@@ -47,8 +50,12 @@ __all__ = [
     "GridStage",
     "Refined",
     "grid_stage",
-    "grid_starts",
+    "r_axis",
     "refine",
+    "Starts",
+    "Stretch",
+    "stretch_starts",
+    "stretches",
 ]
 
 
@@ -166,26 +173,178 @@ def _axis(lo: float, hi: float, k: int) -> np.ndarray:
     return np.array([lo]) if lo == hi or k <= 1 else np.linspace(lo, hi, k)
 
 
+@dataclass
+class Stretch:
+    """A stretch [lo, hi] of log r_min between RM1 branch points, where J is smooth in r_min.
+
+    ``flat``: above the larger plate, where the law is the secant through both
+    plates' pressures and J does not depend on r_min (the stretch is then
+    (lo, hi], lo the larger plate); ``rep`` is the value reported there.
+    RM0 has one flat stretch of zero width.
+    """
+
+    lo: float
+    hi: float
+    flat: bool
+
+    @property
+    def rep(self) -> float:
+        """The middle of the stretch: the value of log r_min reported on a flat one."""
+        return 0.5 * (self.lo + self.hi)
+
+
+def stretches(prob: LearnProblem) -> list[Stretch]:
+    """The stretches of the log r_min range between the RM1 branch points (section 3.2).
+
+    The cone radii and the smaller plate change the branch of some data set
+    (J is continuous there, its curvature jumps); above the larger plate the
+    law is the secant, where J is flat in r_min.  RM0: one stretch, flat.
+    """
+    lo, hi = float(prob.theta_lo[2]), float(prob.theta_hi[2])
+    if prob.model != "rm1" or lo == hi:
+        return [Stretch(lo, hi, True)]
+    ks = [k for k in branch_points(prob) if lo < k < hi]
+    ends = [lo] + ks + [hi]
+    r2 = math.log(max(prob.pair)) if prob.pair else math.inf
+    return [Stretch(a, b, a >= r2) for a, b in zip(ends[:-1], ends[1:])]
+
+
+def flat_set(prob: LearnProblem, t: float) -> tuple[float, float] | None:
+    """The stretch (lo, hi] of log r_min holding t when J does not depend on r_min there
+    (RM1 above the larger plate), else None."""
+    if prob.model != "rm1":
+        return None
+    for st in stretches(prob):
+        if st.flat and st.hi > st.lo and st.lo < t <= st.hi:
+            return st.lo, st.hi
+    return None
+
+
+def secant_twin(prob: LearnProblem, x, theta) -> tuple[np.ndarray, np.ndarray] | None:
+    """The other parameters that give the same model values as (x, theta) on the secant set.
+
+    For r <= r2 the secant through both plates' Bekker pressures with (kc, kphi)
+    (r_min > r2) and the tangent at r_min = r2 with (kc r2/r1, kphi + kc/r2 - kc/r1)
+    are the same line in r (section 3.2: both pass through the two plates'
+    pressures and the tangent's slope -kc'/r2^2 equals the secant's -kc/(r1 r2)).
+    So when every cone's base radius is at most r2, data fitted on one side are
+    fitted exactly as well on the other: the data cannot tell kc and kphi apart.
+    Returns the twin (x, theta) (r_min = r2 for a secant answer, the middle of the
+    secant set for an answer at r2) when it lies within the bounds, else None.
+    """
+    if prob.model != "rm1" or not prob.pair:
+        return None
+    r1, r2 = prob.pair
+    t2 = math.log(r2)
+    if max(p.cone.radius for p in prob.profiles) > r2 or not prob.theta_lo[2] <= t2:
+        return None
+    kc, kphi = float(x[0]), float(x[1])
+    flat = flat_set(prob, float(theta[2]))
+    if flat is not None:  # secant with (kc, kphi): the tangent at r2
+        twin = [kc * r2 / r1, kphi + kc / r2 - kc / r1, t2]
+    elif abs(float(theta[2]) - t2) <= 1e-9 and prob.theta_hi[2] > t2:  # tangent at r2
+        kc_s = kc * r1 / r2
+        twin = [kc_s, kphi - kc_s / r2 + kc_s / r1, 0.5 * (t2 + float(prob.theta_hi[2]))]
+    else:
+        return None
+    lo, hi = prob.box(np.asarray(theta[0]))
+    xt = np.array([twin[0], twin[1], float(x[2])])
+    if np.any(xt < lo - 1e-12 * np.abs(lo)) or np.any(xt > hi + 1e-12 * np.abs(hi)):
+        return None
+    return xt, np.array([theta[0], theta[1], twin[2]])
+
+
+def r_axis(prob: LearnProblem, k: int) -> np.ndarray:
+    """The grid's log r_min nodes: every stretch's ends and nodes inside it no further apart
+    than ``k`` even nodes over the range would be; one node (the range's end) where J is
+    flat in r_min."""
+    lo, hi = float(prob.theta_lo[2]), float(prob.theta_hi[2])
+    if prob.model != "rm1" or lo == hi or k <= 1:
+        return np.array([lo])
+    step = (hi - lo) / (k - 1)
+    nodes = [np.array([lo, hi])]
+    for st in stretches(prob):
+        if not st.flat:
+            nodes.append(np.linspace(st.lo, st.hi, max(1, math.ceil((st.hi - st.lo) / step)) + 1))
+    return np.unique(np.concatenate(nodes))
+
+
 def grid_stage(prob: LearnProblem, grid: tuple[int, int, int]) -> GridStage:
-    """Certified inner minima on the (n, phic, log r_min) grid."""
-    axes = [
-        _axis(prob.theta_lo[k], prob.theta_hi[k], grid[k] if (k < 2 or prob.model == "rm1") else 1)
-        for k in range(3)
-    ]
+    """Certified inner minima on the (n, phic, log r_min) grid (log r_min: :func:`r_axis`)."""
+    axes = [_axis(prob.theta_lo[k], prob.theta_hi[k], grid[k]) for k in range(2)]
+    axes.append(r_axis(prob, grid[2]))
     N, P, R = np.meshgrid(*axes, indexing="ij")
     return GridStage(axes, prob.solve_cells(N, P, R))
 
 
-def grid_starts(stage: GridStage, count: int) -> list[tuple[int, ...]]:
-    """Grid points that are local minima of J, best first, ties by position."""
-    U = stage.cells.J
-    loc = U <= minimum_filter(U, size=3, mode="nearest")
-    idx = np.flatnonzero(loc)
-    # by J quantised to 1e-9 of the scale (last-bit differences between machines do not
-    # reorder), then by position
-    q = np.floor(U.reshape(-1)[idx] / (1e-9 * max(float(U.max()), 1e-300)))
-    order = np.lexsort((idx, q))
-    return [np.unravel_index(i, U.shape) for i in idx[order][:count]]
+@dataclass
+class Starts:
+    """Starts of the local searches, one row each: theta (K, 3), x (K, 3), the row's stretch."""
+
+    theta: np.ndarray
+    x: np.ndarray
+    stretch: list[Stretch]
+
+    @property
+    def t_lo(self) -> np.ndarray:
+        return np.array([s.lo for s in self.stretch])
+
+    @property
+    def t_hi(self) -> np.ndarray:
+        return np.array([s.hi for s in self.stretch])
+
+    @property
+    def t_free(self) -> np.ndarray:
+        return np.array([not s.flat for s in self.stretch])
+
+
+def _stretch_cells(stage: GridStage, st: Stretch):
+    """A stretch's stretches between grid nodes, as starts: J (n, phic, K) the smaller of
+    each interval's two end nodes, its middle t (K,), and the node of the smaller J
+    (n, phic, K).  A flat stretch: its nodes, t its reported value."""
+    U, r = stage.cells.J, stage.axes[2]
+    if st.flat:
+        cols = np.flatnonzero(((r > st.lo) | (st.hi == st.lo)) & (r <= st.hi))
+        return (
+            U[:, :, cols],
+            np.full(cols.size, st.rep),
+            np.broadcast_to(cols, U.shape[:2] + cols.shape),
+        )
+    cols = np.flatnonzero((r >= st.lo) & (r <= st.hi))
+    a, b = cols[:-1], cols[1:]
+    node = np.where(U[:, :, a] <= U[:, :, b], a, b)
+    return np.minimum(U[:, :, a], U[:, :, b]), 0.5 * (r[a] + r[b]), node
+
+
+def stretch_starts(prob: LearnProblem, stage: GridStage, count: int) -> Starts:
+    """Per stretch of log r_min, up to ``count`` starts, best first (ties by position): the
+    middles of the intervals between its grid nodes whose J (the smaller at their ends) is
+    a local minimum over (n, phic) and the intervals, n and phic of that node.
+
+    A start is never a node itself: an RM1 branch point can be a stationary point of the
+    least squares in r_min (at the larger plate the tangent and the secant meet with
+    their slopes), where a local search would not move.  A flat stretch's start has r_min
+    at its reported value.  Without a node in a stretch, its middle from the grid's best.
+    """
+    U, ax = stage.cells.J, stage.axes
+    theta, xs, rows = [], [], []
+    for st in stretches(prob):
+        sub, tm, node = _stretch_cells(stage, st)
+        if sub.shape[2] == 0:
+            i, j, c = np.unravel_index(int(np.argmin(U)), U.shape)
+            theta.append([ax[0][i], ax[1][j], st.rep])
+            xs.append(stage.cells.x[i, j, c])
+            rows.append(st)
+            continue
+        loc = np.flatnonzero(sub <= minimum_filter(sub, size=3, mode="nearest"))
+        # by J quantised to 1e-9 of the scale (last-bit differences do not reorder)
+        q = np.floor(sub.reshape(-1)[loc] / (1e-9 * max(float(U.max()), 1e-300)))
+        for f in loc[np.lexsort((loc, q))][:count]:
+            i, j, c = np.unravel_index(f, sub.shape)
+            theta.append([ax[0][i], ax[1][j], tm[c]])
+            xs.append(stage.cells.x[i, j, node[i, j, c]])
+            rows.append(st)
+    return Starts(np.array(theta), np.array(xs), rows)
 
 
 @dataclass
@@ -282,10 +441,6 @@ def _local_model(prob: LearnProblem, p: np.ndarray, free: np.ndarray, lo, hi):
         out.append((r, D, S))
     return out
 
-
-#: relative gain below which the least-squares start of :func:`refine` ends (on noisy
-#: data it is only a start for J; on noise-free data it converges quadratically)
-LS_TOL = 1e-3
 
 #: Levenberg-Marquardt dampings of every iteration of :func:`refine`, times the last
 #: accepted damping (and no damping: Newton's step)
@@ -452,101 +607,34 @@ def _descend(prob: LearnProblem, p, lo, hi, free, max_iter: int, power=1, tol=1e
     return p, J, nfev + 1, done
 
 
-def _segment(prob: LearnProblem, t: float) -> tuple[float, float]:
-    """The stretch (a, b] of log r_min that holds t, as bounds: J is continuous in r_min
-    except where it passes the larger plate of the pair (above it the RM1 law is the
-    secant through both plates', section 3.2; at the cone's and the smaller plate's
-    radius the tangent meets Bekker's law with its slope)."""
-    r2 = [math.log(max(prob.pair))] if prob.model == "rm1" and prob.pair else []
-    ks = [k for k in r2 if prob.theta_lo[2] < k < prob.theta_hi[2]]
-    edges = [float(prob.theta_lo[2])] + ks + [float(prob.theta_hi[2])]
-    i = max(0, min(int(np.searchsorted(edges, t, side="left")) - 1, len(edges) - 2))
-    a = edges[i] + (1e-9 if i > 0 else 0.0)  # at a branch point the law is the lower branch's
-    return a, edges[i + 1]
+def refine(prob: LearnProblem, x0: np.ndarray, theta0: np.ndarray, st: Stretch) -> Refined:
+    """Minimise J jointly over (kc, kphi, cc, n, phic, log r_min) from a start, in the box
+    with log r_min in one stretch (held at its reported value where J is flat in it).
 
-
-def _in_stretch(prob: LearnProblem, start, lo, hi, free, max_iter: int):
-    """:func:`_descend` with log r_min in one stretch [lo[5], hi[5]], and the stretch's
-    upper end (a branch point inside the range) searched with r_min held on it when the
-    search heads there and ends on it or does not converge; the better is taken.
-    (p, J, evaluations)."""
-    b = hi[5]
-    q, J, nfev, done = _descend(prob, start, lo, hi, free, max_iter)
-    if b < prob.theta_hi[2] and q[5] > start[5] and (q[5] >= b or not done):
-        held = free.copy()
-        held[5] = False
-        e = q.copy()
-        e[5] = b
-        e, Je, ne, _ = _descend(prob, e, lo, hi, held, max_iter)
-        nfev += ne
-        if Je < J:
-            return e, Je, nfev
-    return q, J, nfev
-
-
-def refine(
-    prob: LearnProblem, x0: np.ndarray, theta0: np.ndarray, *, max_iter: int = 100
-) -> Refined:
-    """Minimise J jointly over (kc, kphi, cc, n, phic, log r_min) from a start, in the box.
-
-    First the least-squares cost sum_d a_d^2 ||r_d||^2 (Gauss-Newton: on
-    noise-free data it reaches J = 0 quadratically, where J itself is not
-    smooth; on noisy data it ends when an iteration gains less than
-    ``LS_TOL``), then J.  Each iteration first tries points further along
-    the path of the last iterates in theta (:func:`_extrapolated`, x
-    re-solved there: noisy RM1 data often leave a long, flat, curved valley
-    in (phic, cc, r_min) that Newton steps follow only slowly) and moves to
-    the best if it lowers J; else it takes the residuals, their Jacobian and
-    second differences at the current point (one vectorised call of the
-    design matrices), the Levenberg-Marquardt steps of three quadratic
-    models (:func:`_models`: J with its Hessian, J with its Gauss-Newton
-    part, least squares) at six dampings each, every one the exact minimiser
-    of its model over the box (:func:`_lm_steps`), then the cost at all of
-    them (one more vectorised call), and moves to the candidate of least
-    cost (the damping adapts to it; when none gains, more damping on the
-    same models).  Stops when the cost falls by less than 1e-14 relative, on
-    a zero-residual fit or after ``max_iter`` iterations.  Values within
-    1e-9 of their range from a bound then go onto it when J does not rise.
-
-    J jumps where r_min passes the larger plate (above it the RM1 law is the
-    secant of section 3.2, and J no longer depends on r_min), so log r_min
-    is held on the side of it that holds the start (:func:`_segment`).  When
-    the search heads for the larger plate, r_min held on it is searched too
-    (on noisy data the best fit often sits there), and the other side from
-    there, while J falls.
+    Each iteration first tries points further along the path of the last
+    iterates in theta (:func:`_extrapolated`, x re-solved there: noisy RM1
+    data often leave a long, flat, curved valley in (phic, cc, r_min) that
+    Newton steps follow only slowly) and moves to the best if it lowers J;
+    else it takes the residuals, their Jacobian and second differences at
+    the current point (one vectorised call of the design matrices), the
+    Levenberg-Marquardt steps of three quadratic models (:func:`_models`: J
+    with its Hessian, J with its Gauss-Newton part, least squares) at six
+    dampings each, every one the exact minimiser of its model over the box
+    (:func:`_lm_steps`), then J at all of them (one more vectorised call),
+    and moves to the candidate of least J (the damping adapts to it; when
+    none gains, more damping on the same models).  Stops when J falls by
+    less than 1e-14 relative, on a zero-residual fit or after 100
+    iterations.  Values within 1e-9 of their range from a bound then go onto
+    it when J does not rise.
     """
     lo, hi, free = _search_box(prob, theta0)
-    rm1 = prob.model == "rm1" and bool(free[5])
-    if rm1:
-        lo[5], hi[5] = _segment(prob, float(theta0[2]))
+    lo[5], hi[5] = st.lo, st.hi
+    if st.flat:
+        lo[5] = hi[5] = st.rep
+        free[5] = False
     p = np.clip(np.concatenate([x0, theta0]), lo, hi)
-    # least squares first (weights a_d^2): zero-residual data are reached quadratically; on
-    # noisy data it is a start for J, so it ends when an iteration gains less than 1e-3
-    p, _, nfev, _ = _descend(prob, p, lo, hi, free, max_iter, power=2, tol=LS_TOL)
-    if not rm1:
-        p, J, ne, _ = _descend(prob, p, lo, hi, free, max_iter)
-        return Refined(p[:3].copy(), p[3:].copy(), J, nfev + ne)
-    best, seen = None, set()
-    while True:
-        a, b = _segment(prob, float(p[5]))
-        seen.add(a)
-        lo[5], hi[5] = a, b
-        q, J, ne = _in_stretch(prob, np.clip(p, lo, hi), lo, hi, free, max_iter)
-        nfev += ne
-        if best is not None and not J < best[1]:
-            break
-        best = (q, J)
-        # on a branch point: go on into the stretch beyond it
-        if q[5] >= b and b < prob.theta_hi[2] and _segment(prob, b + 2e-9)[0] not in seen:
-            p = q.copy()
-            p[5] = b + 2e-9
-        elif q[5] <= a and a > prob.theta_lo[2] and _segment(prob, a - 2e-9)[0] not in seen:
-            p = q.copy()
-            p[5] = a - 1e-9
-        else:
-            break
-    q, J = best
-    return Refined(q[:3].copy(), q[3:].copy(), J, nfev)
+    p, J, nfev, _ = _descend(prob, p, lo, hi, free, 100)
+    return Refined(p[:3].copy(), p[3:].copy(), J, nfev)
 
 
 def jacobians(prob: LearnProblem, x, theta) -> list[np.ndarray]:
@@ -709,14 +797,16 @@ def _kink_cut(prob: LearnProblem, ax: np.ndarray) -> np.ndarray:
 
 def _augmented(prob: LearnProblem, stage: GridStage, rtol: float):
     """The grid with log r_min nodes added a hair (1e-9) either side of each RM1
-    branch point inside the range, solved with certificates: (axes, J, lower, new solves).
+    branch point inside the range (above it only, when it is a node itself), solved with
+    certificates: (axes, J, lower, new solves).
     """
     ax = list(stage.axes)
     U, L = stage.cells.J, stage.cells.lower
     if prob.model != "rm1" or ax[2].size < 2:
         return ax, U, L, 0
     ks = np.array(branch_points(prob))
-    extra = np.concatenate([ks - 1e-9, ks + 1e-9])
+    # a branch point that is a node already (:func:`r_axis`) ends the stretch below it
+    extra = np.concatenate([ks[~np.isin(ks, ax[2])] - 1e-9, ks + 1e-9])
     extra = extra[(extra > ax[2][0]) & (extra < ax[2][-1])]
     extra = np.setdiff1d(extra, ax[2])
     # a stretch between branch points with no node inside gets its midpoint (for a curvature)
