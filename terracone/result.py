@@ -53,6 +53,7 @@ __all__ = [
     "read_results",
     "PosteriorSummary",
     "LayeredSummary",
+    "LibrarySummary",
     "convert_draws",
     "finite_or_none",
     "result_columns",
@@ -301,6 +302,134 @@ class LayeredSummary:
         return d
 
 
+@dataclass(kw_only=True)
+class LibrarySummary:
+    """What the library as a prior found for a profile or a site (issue 32), SI inside.
+
+    Attributes
+    ----------
+    weights : dict
+        {terrain name: weight} of the candidate calibrations, summing to 1,
+        largest first (JSON ``calibration_weights``).
+    outside : bool
+        True when the posterior predictive check of every candidate has a
+        p-value below ``check_level``: the answer is then the uncalibrated
+        one (JSON ``outside_library``).
+    candidates : list of dict
+        Per candidate, largest weight first: ``terrain``, ``weight``,
+        ``prior_weight``, ``log_evidence``, ``check_p``, ``model``, ``r_min``
+        [m], ``phic_deg``, ``cc`` [kPa], ``kc_over_kphi`` [m].
+    carried_by : str or None
+        The candidate whose weight is at least 0.5, when the answer is the
+        library's; None when none is (or the profile is outside).
+    source : str or None
+        The library file.
+    check_level : float
+        Level of the check [-].
+    evidence, check : str
+        How the evidence and the check were computed.
+    plate_bands : list of dict
+        Mixture medians and 90% bands of plate pressure: ``radius`` [m],
+        ``sinkage`` [m], ``median``, ``lo``, ``hi`` [kPa].
+    draw_candidate : ndarray or None
+        Index (into ``candidates``) of the candidate of each mixture draw.
+    notes : list of str
+    """
+
+    weights: dict[str, float]
+    outside: bool
+    candidates: list[dict[str, Any]] = field(default_factory=list)
+    carried_by: str | None = None
+    source: str | None = None
+    check_level: float = 0.01
+    evidence: str = ""
+    check: str = ""
+    plate_bands: list[dict[str, Any]] = field(default_factory=list)
+    draw_candidate: np.ndarray | None = field(default=None, repr=False)
+    notes: list[str] = field(default_factory=list)
+
+    def as_dict(self, units: str = "si") -> dict[str, Any]:
+        """``calibration_weights``, ``outside_library`` and the ``library`` details."""
+        units = u.check_system(units)
+
+        def length(v: Any) -> Any:
+            return None if v is None else float(u.length_from_si(v, units))
+
+        def pressure(v: Any) -> Any:
+            return [float(x) for x in u.pressure_from_si(np.asarray(v, float), units)]
+
+        cands = []
+        for c in self.candidates:
+            d = dict(c)
+            d["r_min"] = length(d.get("r_min"))
+            d["kc_over_kphi"] = length(d.get("kc_over_kphi"))
+            if d.get("cc") is not None:
+                d["cc"] = float(u.pressure_from_si(d["cc"], units))
+            d["log_evidence"] = finite_or_none(d.get("log_evidence", math.nan))
+            cands.append(d)
+        bands = [
+            {
+                "radius": length(b["radius"]),
+                "sinkage": [float(v) for v in u.length_from_si(np.asarray(b["sinkage"]), units)],
+                **{k: pressure(b[k]) for k in ("median", "lo", "hi")},
+            }
+            for b in self.plate_bands
+        ]
+        return {
+            "calibration_weights": dict(self.weights),
+            "outside_library": bool(self.outside),
+            "library": {
+                "source": self.source,
+                "candidates": cands,
+                "carried_by": self.carried_by,
+                "check_level": self.check_level,
+                "evidence": self.evidence,
+                "check": self.check,
+                "plate_bands": bands,
+                "notes": list(self.notes),
+                "units": units,
+            },
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], units: str = "si") -> LibrarySummary:
+        """The summary of a profile or site of a document (:meth:`as_dict`), back in SI."""
+        lib = d.get("library") if isinstance(d.get("library"), Mapping) else {}
+        units = u.check_system(lib.get("units") or units)
+        cands = []
+        for c in lib.get("candidates") or []:
+            c = dict(c)
+            for k in ("r_min", "kc_over_kphi"):
+                if c.get(k) is not None:
+                    c[k] = float(u.length_to_si(c[k], units))
+            if c.get("cc") is not None:
+                c["cc"] = float(u.pressure_to_si(c["cc"], units))
+            cands.append(c)
+        bands = [
+            {
+                "radius": float(u.length_to_si(b["radius"], units)),
+                "sinkage": np.asarray(u.length_to_si(b["sinkage"], units), float),
+                **{
+                    k: np.asarray(u.pressure_to_si(b[k], units), float)
+                    for k in ("median", "lo", "hi")
+                },
+            }
+            for b in lib.get("plate_bands") or []
+        ]
+        return cls(
+            weights={str(k): float(v) for k, v in (d.get("calibration_weights") or {}).items()},
+            outside=bool(d.get("outside_library")),
+            candidates=cands,
+            carried_by=lib.get("carried_by"),
+            source=lib.get("source"),
+            check_level=float(lib.get("check_level", 0.01)),
+            evidence=str(lib.get("evidence", "")),
+            check=str(lib.get("check", "")),
+            plate_bands=bands,
+            notes=list(lib.get("notes") or []),
+        )
+
+
 @dataclass
 class PredictionResult:
     """Result of the prediction process for one profile (SI inside).
@@ -358,6 +487,10 @@ class PredictionResult:
         Posterior of the layered fit.
     plate_curves : list of PlateCurve
         Predicted plate pressure-sinkage curves.
+    library : LibrarySummary or None
+        What the library as a prior found (candidates' weights, the check);
+        then ``params`` kc, kphi and n are the mixture's medians and
+        ``posterior`` the mixture (``docs/library.md``).
 
     References
     ----------
@@ -396,6 +529,7 @@ class PredictionResult:
     layered: Any = None
     layered_posterior: Any = None
     plate_curves: list[PlateCurve] = field(default_factory=list)
+    library: LibrarySummary | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.error, InputError):
@@ -458,6 +592,8 @@ class PredictionResult:
             d["layered"] = self.layered.as_dict(units)
             if self.layered_posterior is not None:
                 d["layered"]["posterior"] = self.layered_posterior.as_dict(units)
+        if self.library is not None:
+            d.update(self.library.as_dict(units))
         return d
 
     def _fit_dict(self, units: str) -> dict[str, Any]:
@@ -705,6 +841,7 @@ _READ_KEYS = {
     *("phic_range_deg", "profile_intervals", "solver", "diagnostics", "cone", "metadata"),
     *("notes", "source", "depth", "ci", "ci_model", "plates", "error_row", "error_column"),
     *("intervals", "identifiability", "samples"),  # the posterior
+    *("calibration_weights", "outside_library", "library"),  # the library as a prior
 }
 
 
@@ -783,6 +920,7 @@ def _result_from_dict(p: Mapping[str, Any], units: str) -> PredictionResult:
         extra={k: v for k, v in p.items() if k not in _READ_KEYS},
         error_row=p.get("error_row"),
         posterior=posterior,
+        library=LibrarySummary.from_dict(p, units) if "calibration_weights" in p else None,
         error_column=p.get("error_column"),
         plate_curves=[
             PlateCurve(

@@ -55,7 +55,10 @@ __all__ = [
     "record_params",
     "default_library_path",
     "make_provenance",
+    "paper_calibrations",
     "reference_records",
+    "seed_paper",
+    "PAPER_SETS",
 ]
 
 #: Parameter keys a record may carry, with their SI unit (their ranges:
@@ -749,3 +752,85 @@ class Library:
             return ImportReport(imported, skipped)
 
         return self._retry(_imp)
+
+
+# --------------------------------------------------------------------------
+# the paper's calibrations (issue 32: a library to try the library as a prior on)
+
+#: The published parameter sets stored by :func:`paper_calibrations`: (table, data set
+#: prefix of the name, plate radii of its learning data [m], soil class, what the paper calls
+#: the terrain).  LETE sand: 3.75 cm and 5 cm radius plates; KRC: 4 in and 6 in diameter
+#: plates (section 4 of [1]_).
+PAPER_SETS = (
+    ("4-1", "LETE sand", (0.0375, 0.05), "coarse", "LETE sand (a sand: coarse-grained)"),
+    ("4-3", "KRC", (0.0508, 0.0762), None, "KRC mineral terrains (soil class not published)"),
+)
+
+
+def paper_calibrations() -> list[TerrainRecord]:
+    """The paper's parameter sets as records of kind "calibration" (Tables 4-1 and 4-3 of [1]_).
+
+    Each row of Table 4-1 (LETE sand, LS_1 to LS_4) and Table 4-3 (KRC_1 to
+    KRC_25) is the set of kc, kphi, n, cc and phic that the paper's method
+    (learning, then prediction, section 3.3) gives for one CI data set,
+    read from ``terracone/data/paper/table_4_1.csv`` and ``table_4_3.csv``
+    as printed.  The paper does not publish r_min: the records use RM0, the
+    Bekker equation with which it draws the plate curves of Figs. 4-2 to
+    4-10, and say so; the cone is the standard 30 deg, 0.5 in^2 cone of [1]_
+    (``asabe-large``).  Names are "LETE sand LS_1", ..., "KRC KRC_1", ...
+    """
+    from terracone.apps.reproduce.paper import CITATION, published_parameters
+
+    out = []
+    for table, prefix, pair, soil, what in PAPER_SETS:
+        for row in published_parameters(table):
+            params = record_params(
+                {k: row[k] for k in ("kc", "kphi", "n", "cc", "phic_deg")},
+                model="rm0",
+                plate_pair=list(pair),
+                cone="asabe-large",
+            )
+            prov = {
+                "source": f"terracone/data/paper/table_{table.replace('-', '_')}.csv",
+                "method": "published parameters of the paper's learning and prediction "
+                "processes (section 3.3); r_min not published: stored as RM0",
+                "citation": f"{CITATION}, Table {table}, row {row['id']}",
+                "table": table,
+                "row": row["id"],
+                "terrain": what,
+                **({"soil_class": soil} if soil else {}),
+            }
+            out.append(
+                TerrainRecord(
+                    name=f"{prefix} {row['id']}",
+                    kind="calibration",
+                    params=params,
+                    provenance=prov,
+                    notes="seeded by `terracone library seed-paper`",
+                )
+            )
+    return out
+
+
+def seed_paper(library: Library, replace: bool = False) -> ImportReport:
+    """Store :func:`paper_calibrations` in ``library`` (kind "calibration").
+
+    A record of the same name and values is skipped; one with other values
+    raises ValueError unless ``replace``.
+    """
+    imported: list[str] = []
+    skipped: list[tuple[str, str]] = []
+    for rec in paper_calibrations():
+        if rec.name in library:
+            old = library.get(rec.name)
+            if (old.kind, old.params) == (rec.kind, rec.params):
+                skipped.append((rec.name, "identical record exists"))
+                continue
+            if not replace:
+                raise ValueError(
+                    f"terrain {rec.name!r} exists with other values (use --replace); "
+                    f"nothing more seeded"
+                )
+        library.add(rec.name, rec.kind, rec.params, rec.provenance, replace=True, notes=rec.notes)
+        imported.append(rec.name)
+    return ImportReport(imported, skipped)

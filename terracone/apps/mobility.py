@@ -240,6 +240,7 @@ class ProfileMobility:
     metadata: dict[str, Any] = field(default_factory=dict)
     draws: np.ndarray | None = field(default=None, repr=False)
     deepest: float | None = field(default=None, repr=False)
+    library: dict[str, Any] | None = None  # predict --library: weights, outside_library
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
         """One profile of the mobility document (``--json``), in ``units``."""
@@ -262,6 +263,7 @@ class ProfileMobility:
             "wheel": _wheel_dict(self.sinkage, self.resistance, self.band, units),
             "notes": list(self.notes),
             "metadata": dict(self.metadata),
+            **(self.library or {}),  # calibration_weights, outside_library (predict --library)
         }
 
 
@@ -470,6 +472,9 @@ def evaluate_profile(
     """
     choice = LayerChoice("layer", layer=layer) if layer is not None else choice or LayerChoice()
     out = ProfileMobility(r.id, r.status, r.error, metadata=dict(r.metadata))
+    if r.library is not None:  # the library as the prior: which calibrations carry the answer
+        out.library = {"calibration_weights": dict(r.library.weights),
+                       "outside_library": r.library.outside}  # fmt: skip
     out.soil_class, out.assumed, soil_note = soil_class_of(out.metadata, soil)
     if soil_note:
         out.notes.append(soil_note)

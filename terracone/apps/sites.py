@@ -51,6 +51,7 @@ class SitesRun:
             "radius": None if radius is None else float(u.length_from_si(radius, units)),
             "model": pb.model,
             "calibration": pb.record()["calibration"],
+            **({} if pb.library is None else {"library": pb.library.source}),
             "bounds": pb.bounds.as_dict(units),
             "depth_range": a.get("depth_range"),
             "target_cv": a.get("target_cv"),
@@ -120,7 +121,8 @@ def pool_sites(
         bootstrap=bootstrap,
         seed=seed,
     )
-    boot = bootstrap if bootstrap is not None else (0 if problem.calibrated else 40)
+    held = problem.calibrated or problem.library is not None  # a library pools held problems
+    boot = bootstrap if bootstrap is not None else (0 if held else 40)
     asked = dict(by=by, radius=radius, target_cv=target_cv, bootstrap=boot, seed=seed)
     return SitesRun(stats, problem, dict(asked, depth_range=depth_range))
 

@@ -25,6 +25,7 @@ import pyarrow as pa
 
 from terracone.data import CIProfile, InputError, ProfileSet, TerrainParameters
 from terracone.inverse.evaluate import predicted_plate_pressure
+from terracone.inverse.library.mixture import result_bands
 from terracone.inverse.predict import RunSettings, predict_many
 from terracone.inverse.problem import Problem
 from terracone.io import read_ci_profiles
@@ -42,6 +43,7 @@ __all__ = [
     "PredictRun",
     "Reading",
     "attach_fits",
+    "repredict",
     "plate_curves",
     "predict_profiles",
     "sinkage_grid",
@@ -139,6 +141,8 @@ class PredictRun:
         pb, s = self.problem, self.settings
         recorded = {"model": pb.model, "r_min": pb.r_min, "solver": s.solver, "seed": s.seed}
         recorded.update(bounds=pb.bounds, calibration=pb.record()["calibration"])
+        if pb.library is not None:
+            recorded.update(prior=pb.prior_label(), library=pb.library.source)
         doc_settings = settings_dict(recorded, units, **extra)
         return to_document(self.results, units, input=input, settings=doc_settings)
 
@@ -184,6 +188,10 @@ def predict_profiles(
         if r.ok and plates:
             r.plate_curves = plate_curves(r.params, plates, s, problem.plate_pair)
     bands = np.linspace(0.0, 0.05, 21) if band_sinkage is None else band_sinkage
+    if problem.library is not None and plates:  # the mixture's bands at the plates asked
+        for r in results:
+            if r.ok and r.library is not None:
+                r.library.plate_bands = result_bands(r, plates, bands)
     attach_fits(results, items, problem, settings, plates=list(plates) or None, band_sinkage=bands)
     return PredictRun(results, problem, settings)
 
@@ -258,3 +266,29 @@ def _layered(prof: CIProfile, problem: Problem, s: RunSettings, sample: bool) ->
     if not (sample and s.uncertainty and lr.ok):
         return lr, None
     return lr, layered_posterior(prof, lr, problem, draws=s.draws, seed=s.seed)
+
+
+def repredict(
+    results: PredictionResults,
+    problem: Problem,
+    ci_profiles: Any = None,
+) -> PredictionResults:
+    """Predict again the profiles of a results file under ``problem`` (``--library`` of map, mobility).
+
+    Each result's CI comes from the result (a predict JSON keeps it) or
+    from ``ci_profiles`` (a mapping id -> CIProfile); a result with neither
+    stays an error saying so.  Cones and metadata are the results'.
+    """
+    items: list[Any] = []
+    for r in results:
+        if r.depth is not None and r.ci is not None and len(r.depth):
+            items.append(CIProfile(r.id, r.depth, r.ci, cone=r.cone, metadata=dict(r.metadata)))
+        elif ci_profiles is not None and r.id in ci_profiles:
+            items.append(ci_profiles[r.id])
+        else:
+            why = "no CI in the results to weigh the library's calibrations by"
+            items.append(InputError(f"{why} (use predict --json, or --ci FILE)", profile=r.id))
+    out = predict_many(items, problem)
+    out.settings = {**results.settings, **problem.record()}
+    out.header = dict(results.header)
+    return out

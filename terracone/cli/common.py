@@ -235,7 +235,13 @@ fit_options = shared(
     click.option(
         "--terrain", default=None, help="Use a calibration stored in the terrain library."
     ),
-    library_option,
+    click.option(
+        "--library",
+        default=None,
+        help="Terrain library path (default: $TERRACONE_LIBRARY or the user data dir) of "
+        "--terrain and --prior terrain:NAME.  On predict and sites, given without them: the "
+        "library's calibrations as the prior (docs/library.md).",
+    ),
     click.option(
         "--bounds", default=None, help="kc=LO:HI,kphi=LO:HI,n=LO:HI,cc=LO:HI,phic=LO:HI in --units."
     ),
@@ -264,14 +270,22 @@ def reading_from(opts: dict[str, Any], file_units: str | None = None) -> Reading
     )
 
 
-def problem_from(opts: dict[str, Any], prior: Any = "bounds") -> Problem:
+def problem_from(
+    opts: dict[str, Any], prior: Any = "bounds", library_prior: bool = False
+) -> Problem:
     """The one :class:`Problem` of a command's ``fit_options`` (lengths in --units).
 
     ``prior``: "bounds", "calibration", or a calibration given as the prior
-    (``--prior terrain:NAME``, :func:`load_prior`).
+    (``--prior terrain:NAME``, :func:`load_prior`).  ``library_prior``: the
+    command takes ``--library DB`` given on its own (no --calibration,
+    --terrain or --prior terrain:NAME) as the library as a prior
+    (:func:`load_library_prior`); ``$TERRACONE_LIBRARY`` never is.
     """
     units = opts["units"]
     cal = load_calibration(opts["calibration"], opts["terrain"], opts["library"])
+    lib = None
+    if library_prior and opts["library"] and cal is None and prior in ("bounds", None):
+        lib = load_library_prior(opts["library"])
     r_min = parse_length(opts["r_min"], units, "--r-min") if opts["r_min"] else None
     if opts["model"] == "rm1" and r_min is None and cal is None and isinstance(prior, str):
         raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
@@ -281,7 +295,33 @@ def problem_from(opts: dict[str, Any], prior: Any = "bounds") -> Problem:
         calibration=cal,
         bounds=Bounds.parse(opts["bounds"], units),
         prior=prior,
+        library=lib,
     )
+
+
+def load_library_prior(path: str) -> Any:
+    """The calibrations of a library file as a prior (:class:`~terracone.inverse.problem.LibraryPrior`).
+
+    Every record of kind "calibration" is a candidate; the packaged
+    reference terrains are not (they hold no learned phic, cc).  The file
+    must exist (a library is not created here) and be a terracone library.
+    """
+    from terracone.apps.library import Library
+    from terracone.inverse.problem import LibraryPrior
+
+    p = Path(path).expanduser()
+    if not p.is_file():
+        raise click.UsageError(
+            f"--library {path}: no such library file (store calibrations with `terracone "
+            f"library --library {path} add --from cal.json` or `... seed-paper`)"
+        )
+    with Library(p) as lib:  # a corrupt or foreign file: the library's own message, naming it
+        recs = lib.list("calibration", include_builtin=False)
+    try:
+        cals = tuple(Calibration.from_library_record(r) for r in recs)
+        return LibraryPrior(cals, source=str(path))
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
 
 
 def run_from(opts: dict[str, Any], **fields: Any) -> RunSettings:

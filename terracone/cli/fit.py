@@ -30,6 +30,7 @@ from terracone.report.text import (
     evaluate_text,
     layered_text,
     learn_text,
+    library_prior_text,
     posterior_text,
     predict_text,
     sites_text,
@@ -82,7 +83,13 @@ def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts)
     inputs = {"CI_FILE": ci_file, "--calibration": opts["calibration"]}
     check_outputs({"--out": out, "--parquet": parquet_path}, inputs)
     units, uncertainty = opts["units"], opts.pop("uncertainty")
-    problem = problem_from(opts, prior=load_prior(opts["prior"], opts["library"]))
+    prior = load_prior(opts["prior"], opts["library"])
+    problem = problem_from(opts, prior=prior, library_prior=True)
+    if problem.library is not None and (uncertainty or opts["layers"] > 1):
+        raise click.UsageError(
+            "--library as the prior answers with the mixture of its calibrations (medians and "
+            "90% intervals); --uncertainty and --layers do not apply to it"
+        )
     settings = run_from(
         opts, solver=opts["solver"], seed=opts["seed"], uncertainty=uncertainty, draws=opts["draws"]
     )
@@ -106,6 +113,9 @@ def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts)
         write_parquet(parquet_path, results, units)
     if as_json:
         emit_json(doc)
+    elif problem.library is not None:
+        click.echo(predict_text(results, units))
+        click.echo(library_prior_text(results, units))
     else:
         click.echo(predict_text(results, units))
         posts = {r.id: r.posterior for r in results if r.posterior is not None}
@@ -288,7 +298,7 @@ def sites_cmd(
     units = opts["units"]
     run = pool_sites(
         reading_from(opts, file_units).read(ci_file, units),
-        problem_from(opts),
+        problem_from(opts, library_prior=True),
         by=by,
         radius=parse_length(radius, units, "--radius") if radius else None,
         plates=parse_lengths(plates, units, "--plates") or DEFAULT_SITE_PLATES,

@@ -56,8 +56,8 @@ def library_show(ctx, name):
 
 
 @library_grp.command("add")
-@click.argument("name")
-@click.option("--kind", default="user", show_default=True)
+@click.argument("name", required=False)
+@click.option("--kind", default=None, help="Record kind (default: user; calibration with --from).")
 @click.option(
     "--param",
     "params",
@@ -70,14 +70,37 @@ def library_show(ctx, name):
     default=None,
     help="Parameters from a JSON object (SI).",
 )
+@click.option(
+    "--from",
+    "from_cal",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="A calibration file of `terracone learn --save`: stored as kind calibration, under "
+    "its terrain name unless NAME is given.",
+)
+@click.option(
+    "--soil-class",
+    default=None,
+    help="Soil class of the terrain (a USCS symbol such as SP, or fine or coarse), kept in "
+    "the provenance: the prior weight of the library as a prior.",
+)
 @click.option("--source", default=None, help="Provenance: where the values come from.")
 @click.option("--replace", is_flag=True)
 @click.pass_context
-def library_add(ctx, name, kind, params, from_json, source, replace):
-    """Add a terrain."""
+def library_add(ctx, name, kind, params, from_json, from_cal, soil_class, source, replace):
+    """Add a terrain (NAME), or a calibration file (--from cal.json)."""
     from terracone.apps.library import check_params, make_provenance
     from terracone.io.jsonkeys import read_json
 
+    soil = {"soil_class": soil_class} if soil_class else {}
+    if from_cal:
+        if from_json or params:
+            raise click.UsageError("give --from alone: a calibration file holds its parameters")
+        _add_calibration(ctx, name, kind, from_cal, soil, source, replace)
+        return
+    if name is None:
+        raise click.UsageError("give the terrain's NAME (or --from cal.json)")
+    kind = kind or "user"
     p: dict[str, Any] = {}
     if from_json:
         p.update(check_params(read_json(from_json), file=from_json))
@@ -89,11 +112,41 @@ def library_add(ctx, name, kind, params, from_json, source, replace):
             p[k.strip()] = float(v)
         except ValueError:
             p[k.strip()] = v.strip()
+    prov = {**make_provenance(source=source, method="library add"), **soil}
     with _open(ctx) as lib:
-        rec = lib.add(
-            name, kind, p, make_provenance(source=source, method="library add"), replace=replace
-        )
+        rec = lib.add(name, kind, p, prov, replace=replace)
     click.echo(f"added {rec.name!r} ({rec.kind})")
+
+
+def _add_calibration(ctx, name, kind, path, soil, source, replace) -> None:
+    """``library add --from cal.json``: a learned calibration, kind calibration."""
+    from terracone.inverse.problem import Calibration
+
+    if kind not in (None, "calibration"):
+        raise click.UsageError(f"--from stores kind calibration (got --kind {kind})")
+    cal = Calibration.load(path)
+    prov = {**cal.provenance, "source": source or str(path), **soil}
+    prov.setdefault("method", "terracone learn")
+    with _open(ctx) as lib:
+        rec = lib.add(name or cal.terrain, "calibration", cal.library_params(), prov,
+                      replace=replace)  # fmt: skip
+    click.echo(f"added {rec.name!r} ({rec.kind}) from {path}")
+
+
+@library_grp.command("seed-paper")
+@click.option("--replace", is_flag=True, help="Overwrite records of the same names.")
+@click.pass_context
+def library_seed_paper(ctx, replace):
+    """Store the paper's parameter sets as calibrations: LETE sand (Table 4-1), KRC (Table 4-3)."""
+    from terracone.apps.library import seed_paper
+
+    with _open(ctx) as lib:
+        rep = seed_paper(lib, replace=replace)
+    click.echo(f"seeded {len(rep.imported)} calibrations, skipped {len(rep.skipped)}")
+    for n in rep.imported:
+        click.echo(f"  {n}")
+    for n, why in rep.skipped:
+        click.echo(f"  skipped {n!r}: {why}", err=True)
 
 
 @library_grp.command("remove")

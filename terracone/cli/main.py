@@ -13,6 +13,7 @@ from terracone.cli.fit import design_cmd, evaluate_cmd, learn_cmd, predict_cmd, 
 from terracone.cli.forward import ci_cmd, plate_cmd
 from terracone.cli.library import library_grp
 from terracone.cli.map import map_cmd
+from terracone.cli.match import match_cmd
 from terracone.cli.mobility import mobility_cmd
 from terracone.cli.report import demo_cmd, report_cmd, reproduce_cmd
 
@@ -46,6 +47,7 @@ for _command in (
     evaluate_cmd,
     sites_cmd,
     design_cmd,
+    match_cmd,
     mobility_cmd,
     fit_plates_cmd,
     fit_shear_cmd,

@@ -96,6 +96,13 @@ def _summary(doc: dict, out: str) -> str:
     "--crs", default=None, help="Projected CRS in metres, e.g. EPSG:32615 (default: UTM zone)."
 )
 @click.option("--units", type=UNITS, default="si", show_default=True)
+@click.option(
+    "--library",
+    "library_path",
+    default=None,
+    help="Predict the pushes again with this library's calibrations as the prior (their CI "
+    "from RESULTS, a predict JSON; docs/library.md).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print map.json.")
 @click.option(
     "--force",
@@ -103,7 +110,9 @@ def _summary(doc: dict, out: str) -> str:
     help="Replace --out whole even when it holds files that are not an earlier map's "
     "(they are deleted); an earlier map is always replaced whole.",
 )
-def map_cmd(results, out, plate, sinkage, layers_ci, resolution, crs, units, as_json, force):
+def map_cmd(
+    results, out, plate, sinkage, layers_ci, resolution, crs, units, library_path, as_json, force
+):
     """Kriged maps of plate pressure, n and mean CI, with 90% intervals, from located pushes.
 
     RESULTS is a predict JSON, a predict Parquet file or a batch output directory whose profiles
@@ -135,6 +144,12 @@ def map_cmd(results, out, plate, sinkage, layers_ci, resolution, crs, units, as_
     layers = parse_layers(layers_ci, units)
     res = parse_length(resolution, "si", "--resolution") if resolution else None
     data = read_results(results)
+    if library_path:  # the library as the prior, from the CI the results keep
+        from terracone.apps.workflow import repredict
+        from terracone.cli.common import load_library_prior
+        from terracone.inverse.problem import Problem
+
+        data = repredict(data, Problem(library=load_library_prior(library_path)))
     with tqdm(desc="kriging cells", unit="cell", disable=None, leave=False) as bar:
         result = map_survey(
             data, plate=plate_si, layers=layers, resolution=res, crs=crs, units=units,

@@ -126,6 +126,13 @@ def _progress(count: int):
     "--file-units", type=UNITS, default=None, help="Unit system of a --ci file that states none."
 )
 @click.option(
+    "--library",
+    "library_path",
+    default=None,
+    help="Predict the profiles again with this library's calibrations as the prior (their CI "
+    "from RESULTS or --ci; docs/library.md).",
+)
+@click.option(
     "--units", type=UNITS, default="si", show_default=True, help="SI: m, kPa, N; US: in, psi, lbf."
 )
 @click.option(
@@ -156,7 +163,7 @@ def _progress(count: int):
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def mobility_cmd(
     results_path, vehicle_path, passes, soil, critical_layer, layer, remolding_index, by, ci_file,
-    file_units, units, simulations, seed, workers, scheduler, out, as_json,
+    file_units, library_path, units, simulations, seed, workers, scheduler, out, as_json,
 ):  # fmt: skip
     """NRMM go/no-go and Bekker wheel sinkage of a vehicle on predicted terrain or on a map.
 
@@ -176,7 +183,7 @@ def mobility_cmd(
     from terracone.apps.maps.directory import is_map_directory
 
     if is_map_directory(results_path):
-        opts = {"--by": by, "--ci": ci_file, "--file-units": file_units}
+        opts = {"--by": by, "--ci": ci_file, "--file-units": file_units, "--library": library_path}
         given = [k for k, v in opts.items() if v is not None]
         if given:
             raise click.UsageError(f"{', '.join(given)}: not with a map directory")
@@ -209,6 +216,8 @@ def mobility_cmd(
         from terracone.apps.workflow import Reading
 
         ci_profiles = ci_profiles_by_id(Reading(file_units=file_units).read(ci_file, units))
+    if library_path:
+        results = _with_library(results, library_path, ci_profiles)
     run = evaluate_mobility(
         results, vehicle, passes=int(passes), layer=parse_layer(layer, units), choice=choice,
         soil=soil, remolding_index=remolding_index,
@@ -308,6 +317,15 @@ def go_map_cmd(
         click.echo(go_map_text(doc, out))
     if not result.evaluated_any:
         sys.exit(1)
+
+
+def _with_library(results, library_path: str, ci_profiles):
+    """The results predicted again with a library as the prior (``--library``)."""
+    from terracone.apps.workflow import repredict
+    from terracone.cli.common import load_library_prior
+    from terracone.inverse.problem import Problem
+
+    return repredict(results, Problem(library=load_library_prior(library_path)), ci_profiles)
 
 
 def export_mavs(

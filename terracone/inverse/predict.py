@@ -29,6 +29,7 @@ import numpy as np
 
 from terracone.data import CIProfile, InputError, ProfileSet, TerrainParameters
 from terracone.inverse.bounds import Bounds
+from terracone.inverse.library.mixture import library_fit_set
 from terracone.inverse.problem import Problem
 from terracone.inverse.solver.columns import design
 from terracone.inverse.solver.exact import solve_exact
@@ -255,9 +256,19 @@ def _gather(profiles) -> tuple[ProfileSet, list[int], list[tuple[int, Prediction
             continue
         order.append(pos)
         profs.append(it)
-    # metadata stays with the originals (any Python values): the set carries none
-    pset = ProfileSet.from_profiles(replace(p, metadata={}) for p in profs)
+    # metadata stays with the originals (any Python values): the set carries only the soil
+    # class a library prior reads (text)
+    pset = ProfileSet.from_profiles(replace(p, metadata=_soil_keys(p.metadata)) for p in profs)
     return pset, order, errs, profs
+
+
+def _soil_keys(meta: dict) -> dict:
+    """The soil-class keys of a profile's metadata (``uscs``, ``soil_class``) that are text."""
+    return {
+        k: v
+        for k, v in meta.items()
+        if str(k).lower() in ("uscs", "soil_class") and isinstance(v, str)
+    }
 
 
 def _reader_error(err: InputError) -> PredictionResult:
@@ -280,8 +291,12 @@ def fit_set(problem: Problem, settings: RunSettings, pset: ProfileSet) -> list[P
     """Validate and fit every profile of a set (one chunk of :func:`predict_many`).
 
     Returns one result per profile, in order.  Module-level so that process
-    pools can pickle it.
+    pools can pickle it.  With a library problem (``problem.library``) the
+    result of each profile is the mixture over the library's candidates
+    (:func:`terracone.inverse.library.mixture.library_fit_set`).
     """
+    if problem.library is not None:
+        return library_fit_set(problem, settings, pset, fit_set)
     out: list[PredictionResult | None] = [None] * len(pset)
     meta = [{}] * len(pset) if pset.metadata is None else pset.metadata.to_pylist()
     for j, exc in pset.screen().items():

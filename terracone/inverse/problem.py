@@ -17,7 +17,11 @@ resolved:
   :class:`~terracone.inverse.uncertainty.priors.CalibrationPrior`): the point
   fit is held at its values and the posterior lets phic, cc and kc/kphi vary
   around them with its widths;
-* ``noise_floor`` and the cone's shear deformation (``K_cone``, ``fit_K_cone``).
+* ``noise_floor`` and the cone's shear deformation (``K_cone``, ``fit_K_cone``);
+* ``library``: stored calibrations as candidate models of a prior
+  (:class:`LibraryPrior`, issue 32): each candidate's *held* problem is
+  :meth:`Problem.held_problem` (its phic, cc and kc/kphi held), and
+  :meth:`Problem.candidates` gives those of a cone with their prior weights.
 
 Every inverse entry point takes it unchanged: :func:`~terracone.inverse.predict.predict_many`,
 :func:`~terracone.inverse.layered.fit_layered`, :func:`~terracone.inverse.uncertainty.posterior.posterior`,
@@ -36,6 +40,7 @@ References
 from __future__ import annotations
 
 import json
+import math
 import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -44,9 +49,19 @@ from typing import Any
 from terracone.data import TerrainParameters
 from terracone.inverse.bounds import Bounds
 from terracone.io.jsonkeys import TERRAIN_KEYS, FileKeyError, Key, check_keys, read_json
+from terracone.physics.cone import get_cone
 from terracone.physics.plate import PressureLaw, pressure_law
 
-__all__ = ["CALIBRATION_KEYS", "Calibration", "CalibrationPrior", "Problem", "as_calibration_prior"]
+__all__ = [
+    "CALIBRATION_KEYS",
+    "Calibration",
+    "CalibrationPrior",
+    "LibraryPrior",
+    "Problem",
+    "as_calibration_prior",
+    "same_cone",
+    "soil_match",
+]
 
 
 _REQUIRED = ("kc", "kphi", "n", "cc", "phic_deg", "model")
@@ -272,6 +287,144 @@ def as_calibration_prior(prior: Any) -> CalibrationPrior | None:
     raise TypeError(f"prior must be 'bounds', a Calibration or a CalibrationPrior (got {prior!r})")
 
 
+def same_cone(a: str, b: str) -> bool:
+    """Whether two cone names (or specs) are the same cone: base area and angle."""
+    ca, cb = get_cone(a), get_cone(b)
+    return math.isclose(ca.base_area, cb.base_area, rel_tol=1e-9) and math.isclose(
+        ca.angle_deg, cb.angle_deg, rel_tol=1e-9
+    )
+
+
+#: Soil classes the library prior compares: a USCS group symbol (SP, CL, ...) or the
+#: class of one, fine or coarse (G and S coarse-grained; M, C, O and Pt fine-grained,
+#: the rule of :mod:`terracone.apps.trafficability`).
+_COARSE_FIRST = ("G", "S")
+
+
+def _soil_parts(soil: str | None) -> tuple[str | None, str | None]:
+    """(USCS symbol or None, "fine"/"coarse" or None) of a soil class text."""
+    if soil is None or not str(soil).strip():
+        return None, None
+    t = str(soil).strip()
+    if t.lower() in ("fine", "coarse"):
+        return None, t.lower()
+    sym = t.upper().split("-")[0].split("/")[0]
+    return sym, "coarse" if sym[:1] in _COARSE_FIRST else "fine"
+
+
+def soil_match(profile_soil: str | None, candidate_soil: str | None) -> bool | None:
+    """Whether a profile's soil class agrees with a candidate calibration's; None if unknown.
+
+    USCS symbols are compared as symbols when both sides give one, else as
+    fine or coarse (``SP`` agrees with ``coarse``, not with ``fine``).
+    """
+    ps, pc = _soil_parts(profile_soil)
+    cs, cc = _soil_parts(candidate_soil)
+    if pc is None or cc is None:
+        return None
+    if ps is not None and cs is not None:
+        return ps == cs
+    return pc == cc
+
+
+def _provenance_soil(cal: Calibration) -> str | None:
+    """A calibration's soil class from its provenance (``soil_class`` or ``uscs``), or None."""
+    for key in ("soil_class", "uscs"):
+        v = cal.provenance.get(key)
+        if isinstance(v, str) and v.strip():
+            return v.strip()
+    return None
+
+
+@dataclass(frozen=True)
+class LibraryPrior:
+    """Stored calibrations as the candidate models of a prior (issue 32).
+
+    Each calibration is a candidate: its held problem
+    (:meth:`Problem.held_problem`) fixes its model, r_min, phic, cc and kc/kphi,
+    and leaves kphi and n free.  Only the calibrations learned with the
+    profile's cone are candidates for it.  A candidate's prior weight is 1,
+    or ``mismatch_weight`` where its soil class and the profile's (metadata
+    ``uscs`` or ``soil_class``) disagree (:func:`soil_match`).
+
+    Parameters
+    ----------
+    calibrations : sequence of Calibration
+        The candidates (unique terrain names, kphi > 0 so that kc/kphi is held).
+    soil_classes : sequence of str or None, optional
+        Each candidate's soil class (a USCS symbol, fine or coarse), or None;
+        by default its provenance's ``soil_class`` (or ``uscs``).
+    source : str, optional
+        Where the calibrations come from (the library file), for the record.
+    mismatch_weight : float
+        Prior weight of a candidate whose soil class disagrees with the
+        profile's [-], in (0, 1].
+    check_level : float
+        A profile (or site) is outside the library when the posterior
+        predictive check of every candidate has a p-value below this [-].
+    draws : int
+        Draws of the mixture posterior of a profile.
+    replicates : int
+        Replicates of the posterior predictive check per candidate.
+    """
+
+    calibrations: tuple[Calibration, ...]
+    soil_classes: tuple[str | None, ...] = ()
+    source: str | None = None
+    mismatch_weight: float = 0.1
+    check_level: float = 0.01
+    draws: int = 2000
+    replicates: int = 200
+
+    def __post_init__(self) -> None:
+        put = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 - frozen fields
+        cals = tuple(self.calibrations)
+        where = f"library {self.source}" if self.source else "the library"
+        if not cals:
+            raise ValueError(
+                f"{where} holds no calibration (kind 'calibration'): add one with `terracone "
+                "library add --from cal.json` (cal.json from `terracone learn --save`) or "
+                "`terracone library seed-paper`"
+            )
+        names = [c.terrain for c in cals]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"{where}: calibration names repeat: {dup}")
+        flat = [c.terrain for c in cals if not c.kphi > 0]
+        if flat:
+            raise ValueError(
+                f"{where}: calibration {flat[0]!r} has kphi = 0, so no kc/kphi to hold"
+            )
+        soils = tuple(self.soil_classes) or tuple(_provenance_soil(c) for c in cals)
+        if len(soils) != len(cals):
+            raise ValueError("give one soil class (or None) per calibration")
+        if not 0 < self.mismatch_weight <= 1:
+            raise ValueError(f"mismatch_weight must be in (0, 1] (got {self.mismatch_weight})")
+        if not 0 < self.check_level < 1:
+            raise ValueError(f"check_level must be in (0, 1) (got {self.check_level})")
+        if self.draws < 10 or self.replicates < 10:
+            raise ValueError("draws and replicates must be >= 10")
+        put("calibrations", cals)
+        put("soil_classes", soils)
+
+    @property
+    def names(self) -> list[str]:
+        """The candidates' terrain names, in library order."""
+        return [c.terrain for c in self.calibrations]
+
+    def of_cone(self, cone: str) -> list[int]:
+        """Indices of the calibrations learned with ``cone`` (its name or spec)."""
+        return [i for i, c in enumerate(self.calibrations) if same_cone(c.cone, cone)]
+
+    def prior_weight(self, i: int, soil: str | None) -> float:
+        """Prior weight of candidate ``i`` for a profile of soil class ``soil`` [-]."""
+        return self.mismatch_weight if soil_match(soil, self.soil_classes[i]) is False else 1.0
+
+    def describe(self) -> str:
+        """ "library:<source>" (as result files record the prior)."""
+        return f"library:{self.source or f'{len(self.calibrations)} calibrations'}"
+
+
 @dataclass(frozen=True)
 class Problem:
     """What a fit fits, resolved once: pressure law, box, held values, prior (SI).
@@ -304,6 +457,13 @@ class Problem:
         kc/kphi [m] to hold without a calibration.
     noise_floor : float
         Relative noise floor of the profile intervals [-].
+    library : LibraryPrior, optional
+        Stored calibrations as the candidates of a prior (not with a
+        ``calibration`` or a calibration as the prior): every fit is made
+        under each candidate's held problem (:meth:`held_problem`) and the
+        answer is their mixture, weighted by each candidate's evidence
+        (:mod:`terracone.inverse.library`).  Fully mobilised shear and a
+        held kc/kphi (``fix_ratio``) only.
 
     Attributes
     ----------
@@ -331,6 +491,7 @@ class Problem:
     fix_ratio: bool = True
     kc_over_kphi: float | None = None
     noise_floor: float = 0.01
+    library: LibraryPrior | None = None
     law: PressureLaw = field(init=False, repr=False, compare=False)
     fit_bounds: Bounds = field(init=False, repr=False, compare=False)
     ratio: float | None = field(init=False, repr=False, compare=False)
@@ -348,6 +509,7 @@ class Problem:
         if self.kc_over_kphi is not None and not self.kc_over_kphi >= 0:
             raise ValueError(f"kc_over_kphi must be >= 0 [m] (got {self.kc_over_kphi})")
         centre = self._centre()
+        self._check_library(centre)
         anchor = self.calibration if self.calibration is not None else _calibration_of(centre)
         fit_bounds, ratio, note = self.bounds, self.kc_over_kphi, None
         if anchor is not None:
@@ -370,6 +532,22 @@ class Problem:
         put("ratio", ratio)
         put("centre", centre)
         put("note", note)
+
+    def _check_library(self, centre: CalibrationPrior | None) -> None:
+        """A library prior excludes a calibration (held or as the prior) and finite Kc."""
+        if self.library is None:
+            return
+        if not isinstance(self.library, LibraryPrior):
+            raise TypeError(f"library must be a LibraryPrior (got {type(self.library).__name__})")
+        if self.calibration is not None or centre is not None:
+            raise ValueError(
+                "give a calibration or a library as the prior, not both: a calibration holds "
+                "its values, a library weighs its calibrations by the data"
+            )
+        if self.K_cone is not None or self.fit_K_cone:
+            raise ValueError("a library prior needs fully mobilised shear (no K_cone)")
+        if not self.fix_ratio:
+            raise ValueError("a library prior holds each calibration's kc/kphi (fix_ratio=True)")
 
     def _centre(self) -> CalibrationPrior | None:
         """The calibration given as a prior, or None (checked against ``calibration``)."""
@@ -439,14 +617,16 @@ class Problem:
         return out
 
     def prior_label(self) -> str:
-        """ "bounds", or "calibration:<terrain>" (as result files record the prior)."""
+        """ "bounds", "calibration:<terrain>" or "library:<file>" (as result files record it)."""
+        if self.library is not None:
+            return self.library.describe()
         cal = self.anchor
         return "bounds" if cal is None else f"calibration:{cal.terrain}"
 
     def record(self) -> dict[str, Any]:
         """What a run fitted, as result documents and batch's ``_run.json`` record it (SI)."""
         cal = self.anchor
-        return {
+        out = {
             "model": self.model,
             "r_min": self.r_min,
             "plate_pair": None if self.plate_pair is None else list(self.plate_pair),
@@ -454,10 +634,49 @@ class Problem:
             "prior": self.prior_label(),
             "kc_over_kphi": self.ratio,
         }
+        if self.library is not None:
+            out.update(library=self.library.source, candidates=self.library.names)
+        return out
 
     def with_bounds(self, bounds: Bounds) -> Problem:
         """The same problem over another search box (the held values pinned again)."""
         return replace(self, bounds=bounds)
+
+    def held_problem(self, calibration: Calibration) -> Problem:
+        """One candidate's problem: this one with ``calibration`` held, without the library.
+
+        Its model, r_min, plate pair, phic, cc and kc/kphi are held (as with
+        ``calibration=``); the bounds, noise floor and the rest are this
+        problem's.
+        """
+        return replace(self, calibration=calibration, library=None, prior="bounds")
+
+    def without_library(self) -> Problem:
+        """This problem without its library: today's uncalibrated problem (the fall-back)."""
+        return replace(self, library=None)
+
+    def candidates(
+        self, cone: str, soil: str | None = None
+    ) -> list[tuple[Calibration, Problem, float]]:
+        """The library's candidates for a profile of ``cone``: (calibration, held problem,
+        prior weight), in library order; empty without a library or without a calibration
+        of that cone.  ``soil``: the profile's soil class (:meth:`LibraryPrior.prior_weight`).
+        """
+        lib = self.library
+        if lib is None:
+            return []
+        return [
+            (lib.calibrations[i], self.held_problem(lib.calibrations[i]), lib.prior_weight(i, soil))
+            for i in lib.of_cone(cone)
+        ]
+
+    def require_single(self, what: str) -> None:
+        """Raise ValueError when this problem has a library (``what`` does not mix candidates)."""
+        if self.library is not None:
+            raise ValueError(
+                f"{what} takes one problem, not a library prior: fit with the library "
+                "(predict_many, fit_sites), or give one calibration"
+            )
 
 
 def _calibration_of(centre: Any) -> Calibration | None:

@@ -28,7 +28,9 @@ __all__ = [
     "format_value",
     "layered_text",
     "learn_text",
+    "library_prior_text",
     "library_text",
+    "match_text",
     "plate_fit_text",
     "posterior_text",
     "predict_text",
@@ -493,3 +495,90 @@ def demo_text(demo: Demo) -> str:
     if demo.out is not None:
         parts.append(f"\nJSON written to {demo.out}")
     return "\n".join(parts)
+
+
+def _span(lohi: Sequence[float] | None) -> str:
+    return "-" if not lohi else f"{format_value(lohi[0])}-{format_value(lohi[1])}"
+
+
+def library_prior_text(results: Sequence[PredictionResult], units: str) -> str:
+    """What ``terracone predict --library`` adds: the mixture and which calibration carries it.
+
+    Parameters
+    ----------
+    results : sequence of PredictionResult
+        With ``library`` (and, in the library, the mixture as ``posterior``).
+    units : {"si", "us"}
+
+    Returns
+    -------
+    str
+        Per profile: the calibration carrying the answer (or the mixture, or
+        outside the library), its weight, the 90% intervals of kc, kphi and n
+        and the plate pressure band at the deepest sinkage of the first
+        plate; then each profile's sentence.
+    """
+    rows, words, band_at = [], [], ""
+    for r in results:
+        if r.library is None:
+            continue
+        d = r.as_dict(units, curves=False, samples=False)
+        lib = d["library"]
+        top = lib["candidates"][0] if lib["candidates"] else {}
+        answer = "outside" if d["outside_library"] else (lib["carried_by"] or "mixture")
+        iv = d.get("intervals") or {}
+        p = ["-", "-"]
+        if lib["plate_bands"] and not d["outside_library"]:
+            b = lib["plate_bands"][0]
+            i = len(b["sinkage"]) - 1
+            band_at = (
+                f" (plate r = {b['radius']:.4g}, z = {b['sinkage'][i]:.3g} {u.length_unit(units)})"
+            )
+            p = [b["median"][i], _span([b["lo"][i], b["hi"][i]])]
+        rows.append([d["id"], answer, top.get("terrain", "-"), top.get("weight"),
+                     _span(iv.get("kc")), _span(iv.get("kphi")), _span(iv.get("n")), *p])  # fmt: skip
+        words += [f"  {d['id']}: {w}" for w in lib["notes"][:1]]
+    if not rows:
+        return ""
+    P = u.pressure_unit(units)
+    heads = ["profile", "answer", "heaviest calibration", "weight", "kc 90%", "kphi 90%"]
+    heads += ["n 90%", f"p [{P}]", f"p 90% [{P}]"]
+    head = f"\nThe library as the prior: mixture medians and 90% intervals{band_at}:\n"
+    return head + table(heads, rows) + "\n" + "\n".join(words)
+
+
+def match_text(doc: Mapping[str, Any]) -> str:
+    """The ranking ``terracone match`` prints: per group, its calibrations by weight.
+
+    Parameters
+    ----------
+    doc : mapping
+        :meth:`terracone.apps.matching.MatchRun.as_dict`.
+
+    Returns
+    -------
+    str
+    """
+    out = []
+    level = doc["settings"]["check_level"]
+    for g in doc["groups"]:
+        head = f"{g['id']} ({len(g['profiles'])} profile{'s' if len(g['profiles']) != 1 else ''})"
+        if g["error"]:
+            out.append(f"{head}: not matched: {g['error']}")
+            continue
+        if g["outside_library"]:
+            verdict = f"outside the library: every calibration's check p-value < {level:g}"
+        elif g["carried_by"]:
+            verdict = f"like {g['carried_by']!r}"
+        else:
+            verdict = "no single calibration carries it"
+        rows = [
+            [c["terrain"], c["weight"], c["prior_weight"], c["check_p"]] for c in g["candidates"]
+        ]
+        out.append(f"{head}: {verdict}")
+        out.append(table(["calibration", "weight", "prior weight", "check p"], rows))
+    for d in doc.get("unassigned", []):
+        out.append(f"not in a site: {d['id']}: {d['reason']}")
+    for e in doc.get("errors", []):
+        out.append(f"not read: {e}")
+    return "\n".join(out)

@@ -301,9 +301,19 @@ def cell_parameters(
     return params, s_map
 
 
+#: Note of a map of results whose prior was a library of calibrations (predict --library).
+LIBRARY_MAP_NOTE = (
+    "the library as the prior: each push's kc, kphi and n are the medians of the mixture over "
+    "the library's calibrations (docs/library.md), and the maps' intervals carry the mixture's "
+    "spread, not one calibration's"
+)
+
+
 def _notes(survey: Survey, maps: Sequence[QuantityMap], calibrated: bool) -> list[str]:
     notes = list(survey.crs_warnings)
-    if not calibrated:
+    if not calibrated and str(survey.settings.get("prior") or "").startswith("library:"):
+        notes.append(LIBRARY_MAP_NOTE)
+    elif not calibrated:
         notes.append(UNCALIBRATED_MAP_NOTE)
     if survey.unlocated:
         notes.append(

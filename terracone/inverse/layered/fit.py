@@ -335,6 +335,7 @@ def fit_layered(
     """
     t0 = time.perf_counter()
     problem = problem or Problem()
+    problem.require_single("fit_layered")
     if int(layers) < 1:
         raise ValueError(f"layers must be at least 1 (got {layers})")
     try:

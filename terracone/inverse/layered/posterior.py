@@ -231,6 +231,7 @@ def layered_posterior(
         raise ValueError(f"profile {fit.id}: no layered fit to sample ({fit.error})")
     t0 = time.perf_counter()
     problem = problem or Problem()
+    problem.require_single("layered_posterior")
     bounds, law = problem.fit_bounds, problem.law
     L = len(fit.layers)
     profile, _ = bin_profile(profile, max_depths(L))  # the depths the fit searched (its notes)

@@ -319,6 +319,7 @@ def plan_test(
     if not plates:
         raise ValueError("give at least one target plate radius")
     pb = problem or Problem()
+    pb.require_single("plan_test")
     res = predict(profile, pb)
     label = pb.prior_label()
     if not res.ok:

@@ -30,6 +30,7 @@ from scipy.cluster.hierarchy import fcluster, linkage
 
 from terracone.data import CIProfile, InputError
 from terracone.inverse.bounds import Bounds
+from terracone.inverse.library.sites import library_sites
 from terracone.inverse.problem import Problem
 from terracone.inverse.sites.randeff import random_effects
 from terracone.inverse.solver.many import solve_exact_many
@@ -38,7 +39,7 @@ from terracone.physics import units as u
 from terracone.physics.cone import cone_index_basis
 from terracone.physics.metrics import check_fit
 from terracone.physics.plate import PressureLaw, plate_basis
-from terracone.result import finite_or_none
+from terracone.result import LibrarySummary, finite_or_none
 
 __all__ = [
     "PushFits",
@@ -506,11 +507,16 @@ class SiteResult:
         How many pushes the one-layer model does not follow (then the site
         terrain is an average of a misfit, and its intervals are wide).
     notes : list of str
-    calibrated : bool
+    calibrated : bool or "library"
         Whether a calibration fixed phic, cc and kc/kphi.  Without one the
         site's plate-pressure intervals are set largely by the prior (the
         phic ridge) and are not calibrated (docs/sites.md), and between_cv
         is that of the pushes' strength and n (:func:`shape_pushes`).
+        "library": the mixture over a library's calibrations
+        (:mod:`terracone.inverse.library.sites`).
+    library : LibrarySummary or None
+        With a library prior: the candidates' weights and the check (JSON
+        ``calibration_weights``, ``outside_library``, ``library``).
     """
 
     site: str
@@ -528,7 +534,8 @@ class SiteResult:
     notes: list[str] = field(default_factory=list)
     model: str = "rm0"
     profiles_needed_hi: int | None = None
-    calibrated: bool = True
+    calibrated: bool | str = True
+    library: LibrarySummary | None = None
 
     @property
     def n_profiles(self) -> int:
@@ -570,6 +577,7 @@ class SiteResult:
             "notes": list(self.notes),
             "calibrated": self.calibrated,
             "model": self.model,
+            **({} if self.library is None else self.library.as_dict(units)),
             "units": units,
         }
 
@@ -1068,7 +1076,10 @@ def fit_sites(
         From :func:`group_profiles`.
     problem : Problem, optional
         What is fitted, as for :func:`terracone.inverse.predict` (a
-        calibration's values held in every push).
+        calibration's values held in every push).  With a library
+        (:class:`~terracone.inverse.problem.LibraryPrior`) each site is the
+        mixture over the library's calibrations, weighed by the site's
+        evidence (:func:`terracone.inverse.library.sites.library_sites`).
     plates : sequence of float
         Plate radii of the site P-S curves [m].
     sinkage : ndarray, optional
@@ -1097,6 +1108,10 @@ def fit_sites(
     if np.any(sinkage <= 0):
         raise ValueError("site sinkages must be > 0")
     problem = problem or Problem()
+    if problem.library is not None:  # each candidate's pooling, mixed by the site's evidence
+        kw = dict(plates=plates, sinkage=sinkage, target_cv=target_cv, level=level,
+                  bootstrap=bootstrap, seed=seed)  # fmt: skip
+        return library_sites(profiles, grouping, problem, fit_sites, **kw)
     b, ratio, model = problem.fit_bounds, problem.ratio, problem.model
     fits = fit_pushes(profiles, problem)
     members_ok = _site_covariances(profiles, grouping, fits, b, ratio)

@@ -409,6 +409,7 @@ def posterior(
     """
     t0, c0 = time.perf_counter(), time.process_time()
     problem, o = problem or Problem(), options or PosteriorOptions()
+    problem.require_single("posterior")
     if draws < 10:
         raise ValueError(f"draws must be >= 10 (got {draws})")
     st = _prepare(profile, problem, o, start, seed)
