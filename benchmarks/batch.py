@@ -4,7 +4,7 @@ Measures:
 
 0. efficiency on field-like CSV (noisy profiles, a quarter of them bad in five
    ways, metadata columns site/lat/lon): the batch rate on W local workers
-   against W x the per-core fit rate of ``predict_many(detail="summary")`` on
+   against W x the per-core fit rate of ``predict_many`` (``detail="summary"``) on
    a chunk of the same file, from alternating runs (each one's best kept),
    with the peak memory of client and workers;
 
@@ -163,14 +163,15 @@ def generate_field_csv(path: Path, n_profiles: int, bad: float = 0.25, seed: int
 
 
 def per_core_child(args: argparse.Namespace) -> None:
-    """The per-core fit rate (in its own process): ``predict_many(..., detail="summary")``
+    """The per-core fit rate (in its own process): ``predict_many`` with ``detail="summary"``
     on the first chunk of ``chunk_size`` profiles of the input, as a batch worker gets it
     (the profiles the reader refused as the set's errors, the others unscreened), best of
     3 after one warm-up call, wall and CPU time: with predict_many's defaults (the issue's
     measure: a grid of 97 points over n) and with the batch's settings (41 points, the work
     a batch worker does); prints a JSON line."""
-    from terracone.inverse.predict import predict_many
-    from terracone.io.stream import ConeCache, input_files, iter_chunks, scan_inputs
+    from terracone.inverse.predict import RunSettings, predict_many
+    from terracone.io.scan import input_files, scan_inputs
+    from terracone.io.stream import ConeCache, iter_chunks
     from terracone.physics.cone import get_cone
 
     plan = scan_inputs(input_files(args.input))
@@ -180,7 +181,7 @@ def per_core_child(args: argparse.Namespace) -> None:
     pset.errors = [e for e in chunk.problems if e is not None]
     out: dict[str, float] = {"profiles": n}
     for label, extra in (("", {}), ("same_", {"n_grid": args.n_grid})):
-        kw = {"detail": "summary", "chunk_size": n, **extra}
+        kw = {"settings": RunSettings(detail="summary", **extra), "chunk_size": n}
         predict_many(pset, **kw)
         best = best_cpu = float("inf")
         for _ in range(3):
@@ -197,12 +198,12 @@ def per_core_child(args: argparse.Namespace) -> None:
 
 
 def costs(chunk, n_grid: int) -> dict[str, float]:
-    """Cost per profile [us] in predict_many(detail="summary") of a fit, of a refusal (a
+    """Cost per profile [us] in predict_many (detail="summary") of a fit, of a refusal (a
     profile its screen refuses; one the reader refused) and of carrying the chunk's
     metadata columns, on the profiles of one chunk (best of 4 each)."""
     import pyarrow as pa
 
-    from terracone.inverse.predict import predict_many
+    from terracone.inverse.predict import RunSettings, predict_many
 
     task = chunk.task
     task.errors = []
@@ -225,7 +226,8 @@ def costs(chunk, n_grid: int) -> dict[str, float]:
         for _ in range(4):
             fresh = dataclasses.replace(pset)  # screened again
             t = time.perf_counter()
-            predict_many(fresh, detail="summary", chunk_size=max(count, 1), n_grid=n_grid)
+            run = RunSettings(detail="summary", n_grid=n_grid)
+            predict_many(fresh, settings=run, chunk_size=max(count, 1))
             best = min(best, time.perf_counter() - t)
         out[name] = 1e6 * best / max(count, 1)
     out["metadata_us"] -= out["fit_us"]  # what the columns add to a fit
@@ -412,7 +414,7 @@ def efficiency(args: argparse.Namespace, work: Path) -> None:
 
     Alternating runs (batch, per-core rate, batch, per-core rate, ...), each one's best
     kept: the batch rate end to end with the start-up (cluster start, kernel loading)
-    removed, against ``workers x`` the per-core rate of ``predict_many(detail="summary")``
+    removed, against ``workers x`` the per-core rate of ``predict_many`` (``detail="summary"``)
     on the file's first chunk.  Peak memory of the client and the workers as well.
     """
     n, W = args.field_profiles, args.field_workers
@@ -479,7 +481,7 @@ def efficiency(args: argparse.Namespace, work: Path) -> None:
     )
     print(
         "  batch: profiles / (wall - start), start = cluster start and kernel loading; per core:\n"
-        "  predict_many(detail='summary') on the file's first chunk, best of 3, one process;\n"
+        "  predict_many with RunSettings(detail='summary') on the file's first chunk, best of 3, one process;\n"
         "  fit cpu: CPU seconds of the fit tasks (per-core row: its best time); load: 1-minute\n"
         "  load average after the run (2 CPUs: above 2, other work competed)"
     )

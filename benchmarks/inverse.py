@@ -8,10 +8,10 @@ same bounds (terracone's defaults: kc 0-1000 kN/m^(n+1), kphi 0-20000
 kN/m^(n+2), n 0.05-2, cc 0-100 kPa, phic 0-45 deg), as computed by
 ``terracone.inverse.predict.rmsd_objective``:
 
-* ``exact``    terracone.inverse.predict(solver="exact") (grid over n, phic +
-               bounded linear least squares; time includes its
+* ``exact``    terracone.inverse.predict with RunSettings(solver="exact") (grid
+               over n, phic + bounded linear least squares; time includes its
                identifiability analysis, as a user would run it);
-* ``pso``      terracone.inverse.predict(solver="pso", seed=case seed);
+* ``pso``      terracone.inverse.predict with RunSettings(solver="pso", seed=case seed);
 * ``pyswarms`` pyswarms.single.GlobalBestPSO, 64 particles, 300 iterations,
                c1 = c2 = 1.49618, w = 0.7298, other settings pyswarms'
                defaults, seeded with np.random.seed(case seed);
@@ -54,7 +54,7 @@ import numpy as np  # noqa: E402
 from scipy.optimize import differential_evolution  # noqa: E402
 
 from terracone import CIProfile, cone_index, jit  # noqa: E402
-from terracone.inverse import Bounds, predict  # noqa: E402
+from terracone.inverse import Bounds, Problem, RunSettings, predict  # noqa: E402
 from terracone.inverse.predict import rmsd_objective  # noqa: E402
 from terracone.inverse.solver import kernels  # noqa: E402
 from terracone.inverse.solver.exact import solve_exact  # noqa: E402
@@ -166,19 +166,21 @@ def bench_case(prof: CIProfile, seed: int, repeats: int, bounds: Bounds):
     lo = np.array([bounds.kc[0], bounds.kphi[0], bounds.n[0], bounds.cc[0], bounds.phic_deg[0]])
     hi = np.array([bounds.kc[1], bounds.kphi[1], bounds.n[1], bounds.cc[1], bounds.phic_deg[1]])
     out = {}
-    r, t = timed(lambda: predict(prof, solver="exact", bounds=bounds), repeats)
+    pb = Problem(bounds=bounds)
+    exact, swarm = RunSettings(solver="exact"), RunSettings(solver="pso", seed=seed)
+    r, t = timed(lambda: predict(prof, pb, exact), repeats)
     out["exact"] = (t, params_vec(r.params))
     # the same with the numpy kernels (TERRACONE_NUMBA=0): the figure before compilation
     with jit.disabled():
-        _, t_np = timed(lambda: predict(prof, solver="exact", bounds=bounds), repeats)
-    r, t = timed(lambda: predict(prof, solver="pso", bounds=bounds, seed=seed), repeats)
+        _, t_np = timed(lambda: predict(prof, pb, exact), repeats)
+    r, t = timed(lambda: predict(prof, pb, swarm), repeats)
     out["pso"] = (t, params_vec(r.params))
     x, t = timed(lambda: run_pyswarms(f, lo, hi, seed), repeats)
     out["pyswarms"] = (t, x)
     # CPU seconds (the machine may be shared): exact and pyswarms once more
     c0 = time.process_time()
     for _ in range(repeats):
-        predict(prof, solver="exact", bounds=bounds)
+        predict(prof, pb, exact)
     c1 = time.process_time()
     run_pyswarms(f, lo, hi, seed)
     c2 = time.process_time()
@@ -341,7 +343,7 @@ def run_cases(cases: list, repeats: int, bounds: Bounds) -> list:
     # start-up removed from the per-profile times: compile or load the kernels first
     # (measured apart, cold and warm, at the end)
     t0 = time.perf_counter()
-    predict(cases[0][1], solver="exact", bounds=bounds)
+    predict(cases[0][1], Problem(bounds=bounds), RunSettings(solver="exact"))
     solve_exact(
         cases[0][1].depth,
         cases[0][1].ci,

@@ -15,7 +15,7 @@ export, the SC900's small cone), in one run:
 3. the efficiency of ``terracone batch --layers 2`` beside one layer's
    (``run_batch``), from alternating runs on the same warmed cluster:
    profiles per second end to end on W local workers divided by W times the
-   per-core rate of the same work (``predict_many(..., detail="summary")``
+   per-core rate of the same work (``predict_many`` with ``detail="summary"``
    and ``fit_layered`` on a chunk of the same file, in this process);
 4. with ``--coverage N``, the coverage table of the layered posterior's 90%
    intervals over N profiles drawn from its prior (the test's generator);
@@ -162,7 +162,7 @@ def batch(data: dict[str, list], copies: int, workers: tuple[int, ...], rounds: 
     ``terracone batch --workers W`` starts), end to end with its start-up removed
     (``wall_s - startup_s``: cluster start and kernel loading, as issue 20 measures
     it), divided by W x the per-core rate of the same work in this process
-    (``predict_many(..., detail="summary")`` and, with layers, ``fit_layered`` per
+    (``predict_many`` with ``detail="summary"`` and, with layers, ``fit_layered`` per
     profile, on a chunk of the same file and of the batch's chunk size).  The runs alternate, one layer, two
     layers, ``rounds`` times, and each setting keeps its best run (the per-core rates
     likewise alternate, best of three).  The one-layer runs use 20 times more copies
@@ -173,7 +173,7 @@ def batch(data: dict[str, list], copies: int, workers: tuple[int, ...], rounds: 
 
     from terracone.apps.batch import run_batch
     from terracone.apps.workflow import Reading
-    from terracone.inverse import predict_many
+    from terracone.inverse import RunSettings, predict_many
     from terracone.inverse.layered import fit_layered
 
     src = pd.read_csv(DATA / "ci_profiles.csv")
@@ -182,7 +182,7 @@ def batch(data: dict[str, list], copies: int, workers: tuple[int, ...], rounds: 
     settings = (1, 2)
 
     def work(items, layers):
-        predict_many(items, detail="summary")
+        predict_many(items, settings=RunSettings(detail="summary"))
         if layers > 1:
             for p in items:
                 fit_layered(p, layers=layers)
@@ -217,8 +217,9 @@ def batch(data: dict[str, list], copies: int, workers: tuple[int, ...], rounds: 
             for r in range(rounds):
                 for layers in settings:
                     s = run_batch(
-                        files[layers], Path(tmp) / f"out{layers}_{W}_{r}", layers=layers,
-                        workers=W, chunk_size=chunk_size[layers], reading=reading, progress=False,
+                        files[layers], Path(tmp) / f"out{layers}_{W}_{r}",
+                        settings=RunSettings(layers=layers), workers=W,
+                        chunk_size=chunk_size[layers], reading=reading, progress=False,
                     )  # fmt: skip
                     effs[layers].append(s.profiles / (s.wall_s - s.startup_s) / (W * rate[layers]))
             line = f"   {W} worker(s):"
@@ -248,22 +249,20 @@ def posterior_cost(data: dict[str, list], count: int) -> None:
     """Section 5: cost of the layered posterior per push in one-layer posteriors.
 
     On ``count`` pushes of the SC900 export (15 depths or more), alternating twice:
-    the one-layer posterior (``posterior_for_result``, what ``predict --uncertainty``
+    the one-layer posterior (``posterior`` started at the fit, what ``predict --uncertainty``
     adds) and the layered posterior (``layered_posterior``, what ``--layers N`` adds to
     it) with 2 and 3 layers, default settings, fits done beforehand; CPU seconds of
     this process (steadier than wall-clock on a shared machine), each setting's best.
     """
     from terracone.inverse import predict_many
     from terracone.inverse.layered import fit_layered, layered_posterior
-    from terracone.inverse.predict import PredictSettings
-    from terracone.inverse.uncertainty.posterior import posterior_for_result
+    from terracone.inverse.uncertainty.posterior import posterior
 
     items = [p for p in data["sc900_export_2019-06-11.txt"] if p.depth.size >= 15]
     items = items[:: max(1, len(items) // count)][:count]
-    settings = PredictSettings(uncertainty=True, seed=1)
     one = predict_many(items)
     fits = {L: [fit_layered(p, layers=L) for p in items] for L in (2, 3)}
-    posterior_for_result(items[0], one[0], settings)  # kernels loaded, not timed
+    posterior(items[0], start=one[0], seed=1)  # kernels loaded, not timed
     for L in (2, 3):
         layered_posterior(items[0], fits[L][0], seed=1)
 
@@ -271,7 +270,7 @@ def posterior_cost(data: dict[str, list], count: int) -> None:
         t0 = time.process_time()
         for j, p in enumerate(items):
             if L == 1:
-                posterior_for_result(p, one[j], settings)
+                posterior(p, start=one[j], seed=1)
             elif fits[L][j].ok:
                 layered_posterior(p, fits[L][j], seed=1)
         return (time.process_time() - t0) / len(items)

@@ -49,10 +49,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from terracone.data import CIProfile
-from terracone.inverse.learning.learn import Calibration
+from terracone.inverse.problem import Calibration, CalibrationPrior, Problem
 from terracone.inverse.uncertainty.noise import ar1_noise
 from terracone.inverse.uncertainty.posterior import PosteriorOptions, posterior
-from terracone.inverse.uncertainty.priors import CalibrationPrior
 from terracone.physics.cone import cone_index_huang
 
 DEPTH = np.round(np.arange(0.0, 0.3001, 0.01), 6)
@@ -133,7 +132,7 @@ def run(
         t0 = time.perf_counter()
         res = posterior(
             prof,
-            prior="bounds" if prior == "bounds" else cal_prior,
+            Problem(prior="bounds" if prior == "bounds" else cal_prior),
             draws=draws,
             seed=seed * 1000 + i,
             plates=(PLATE_RADIUS,),

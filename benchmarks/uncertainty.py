@@ -21,7 +21,7 @@ the shortest of ``--repeats`` runs except for ``before``, run once):
 
 * ``pyswarms``: one GlobalBestPSO fit;
 * ``posterior``: what ``--uncertainty`` adds, i.e.
-  :func:`terracone.inverse.uncertainty.posterior.posterior_for_result` on a fitted profile
+  :func:`terracone.inverse.uncertainty.posterior.posterior` started at the profile's fit
   with the default sampler settings;
 * ``predict+posterior``: the same including the exact fit itself;
 * ``before``: the sampler settings and likelihood before issue 14 (64
@@ -48,17 +48,13 @@ import time
 
 import numpy as np
 
+from terracone import jit
 from terracone.data import CIProfile
-from terracone.inverse import Bounds, predict
-from terracone.inverse.learning.learn import Calibration
+from terracone.inverse import Bounds, Problem, predict
 from terracone.inverse.predict import rmsd_objective
-from terracone.inverse.uncertainty import likelihood
+from terracone.inverse.problem import Calibration
 from terracone.inverse.uncertainty.noise import ar1_noise
-from terracone.inverse.uncertainty.posterior import (
-    PosteriorOptions,
-    posterior,
-    posterior_for_result,
-)
+from terracone.inverse.uncertainty.posterior import PosteriorOptions, posterior
 from terracone.physics.cone import cone_index_huang
 from terracone.physics.plate import pressure_law
 
@@ -158,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     bounds = Bounds()
     profiles = make_profiles(args.profiles, args.seed)
-    print(f"numba kernels: {'on' if likelihood.JIT_ENABLED else 'off (TERRACONE_NUMBA=0)'}")
+    print(f"numba kernels: {'on' if jit.enabled() else 'off (TERRACONE_NUMBA=0 or not cached)'}")
     print(
         f"import terracone.inverse.uncertainty.posterior (fresh interpreter): {import_time():.2f} s"
     )
@@ -170,15 +166,12 @@ def main(argv: list[str] | None = None) -> int:
     for i, prof in enumerate(profiles):
         prior = LETE if i % 4 >= 2 else "bounds"
         _, t_pso = timed(run_pyswarms, prof, bounds, i, repeats=args.repeats)
-        cal = None if prior == "bounds" else LETE
-        fit, t_fit = timed(predict, prof, calibration=cal, repeats=args.repeats)
-        kw = dict(prior=prior, draws=args.draws, seed=i)
-        _, t_post = timed(posterior_for_result, prof, fit, repeats=args.repeats, **kw)
-        likelihood.JIT_ENABLED, jit = False, likelihood.JIT_ENABLED
-        try:
-            _, t_before = timed(posterior_for_result, prof, fit, **kw, **BEFORE)
-        finally:
-            likelihood.JIT_ENABLED = jit
+        pb = Problem(prior=prior)  # LETE as the prior: the fit at its values, draws around
+        fit, t_fit = timed(predict, prof, pb, repeats=args.repeats)
+        kw = dict(start=fit, draws=args.draws, seed=i)
+        _, t_post = timed(posterior, prof, pb, repeats=args.repeats, **kw)
+        with jit.disabled():  # the numpy likelihood, as before issue 14
+            _, t_before = timed(posterior, prof, pb, **kw, **BEFORE)
         rows.append((t_pso, t_post, t_fit + t_post, t_before))
         print(
             f"{prof.id:4s} prior {'bounds' if prior == 'bounds' else 'LETE':6s} "

@@ -98,7 +98,7 @@ def paper_parameter_rows() -> list[dict[str, str]]:
     with the shared reference's column names (``dataset, kc_si, kc_us, kphi_si, kphi_us, n,
     cc_kpa, cc_psi, phic_deg``); tests/test_paper_tables.py holds them equal to the
     independently typed ``../shared/reference/huang2020_predicted_parameters.csv``."""
-    from terracone.report.paper import paper_dir
+    from terracone.apps.reproduce.paper import paper_dir
 
     rows = []
     for name in ("table_4_1.csv", "table_4_3.csv"):

@@ -28,13 +28,15 @@ total sinkage z, with ``1/b = perimeter / (2 area)`` of the contact patch
 (``src/chrono_vehicle/terrain/SCMTerrain.cpp``: ``p.oob = p.perimeter / (2 *
 p.area)`` and ``nr.sigma = (contact_patches[patch_id].oob * Bekker_Kc +
 Bekker_Kphi) * pow(nr.sinkage, Bekker_n)``; the elastic and damping terms
-vanish at rest).  So a box of footprint x by y and mass m under gravity g
-sinks to ``z = (m |g_z| / (x y) / (Kc / b + Kphi)) ** (1 / n)``, b = x y / (x +
-y), with the soil values the terrain was given (those of the callback at the
-box's centre), in SCM's default frame (the plane z = 0, z up).  Gravity
-starts at Chrono's default (0, -9.8, 0) (``ChSystem::ChSystem``), which loads
-nothing along z: a script must set it.  The patch is continuous here; real
-SCM sums the pressure over the grid nodes the box covers.
+vanish at rest), and the force on each grid node the box covers is
+``m_area * sigma`` with ``m_area`` the grid step squared, 1/b that of the
+convex hull of those nodes.  So a box of mass m under gravity g, covering N
+nodes of a grid of step d whose hull is hx by hy, sinks to
+``z = (m |g_z| / (N d^2) / (Kc (hx + hy) / (hx hy) + Kphi)) ** (1 / n)``, with
+the soil values the terrain was given (those of the callback at the box's
+centre), in SCM's default frame (the plane z = 0, z up).  Gravity starts at
+Chrono's default (0, -9.8, 0) (``ChSystem::ChSystem``), which loads nothing
+along z: a script must set it.
 
 Every call is recorded in :data:`CALLS` as (name, args).
 """
@@ -86,6 +88,7 @@ class SCMTerrain:
         self.system = system
         self.params = None
         self.callback = None
+        self.delta = None  # the grid step of Initialize
         if isinstance(system, ChSystemSMC):  # Chrono adds the terrain to the system
             system.terrains.append(self)
 
@@ -103,6 +106,7 @@ class SCMTerrain:
 
     def Initialize(self, size_x, size_y, delta):
         CALLS.append(("Initialize", (size_x, size_y, delta)))
+        self.delta = float(delta)
 
     def soil_at(self, x: float, y: float) -> tuple[float, ...]:
         """The eight values the callback writes at (x, y) of the SCM frame."""
@@ -116,9 +120,20 @@ class SCMTerrain:
         if soil is None:
             raise RuntimeError("SCMTerrain has no soil: SetSoilParameters or a callback first")
         kphi, kc, n = soil[:3]
-        area, perimeter = body.size[0] * body.size[1], 2.0 * (body.size[0] + body.size[1])
-        pressure = body.mass * max(0.0, -g_z) / area  # [Pa]
-        return (pressure / (kc * perimeter / (2.0 * area) + kphi)) ** (1.0 / n)
+        if self.delta is None:
+            raise RuntimeError("SCMTerrain has no grid: Initialize(size_x, size_y, delta) first")
+        d = self.delta
+        # the grid nodes whose vertical ray meets the box's footprint
+        xs = [i * d for i in range(-1000, 1001) if abs(i * d - body.pos.x) < body.size[0] / 2]
+        ys = [j * d for j in range(-1000, 1001) if abs(j * d - body.pos.y) < body.size[1] / 2]
+        if not xs or not ys:
+            return 0.0
+        hull_x, hull_y = xs[-1] - xs[0], ys[-1] - ys[0]  # the nodes' convex hull: a rectangle
+        area, perimeter = hull_x * hull_y, 2.0 * (hull_x + hull_y)
+        oob = perimeter / (2.0 * area) if area >= 1e-6 else 0.0
+        # each node carries sigma on d^2: the weight spread over len(xs) len(ys) d^2
+        sigma = body.mass * max(0.0, -g_z) / (len(xs) * len(ys) * d * d)  # [Pa]
+        return (sigma / (kc * oob + kphi)) ** (1.0 / n)
 
 
 class ChSystemSMC:

@@ -30,6 +30,8 @@ from terracone.apps.batch import run_batch
 from terracone.apps.workflow import Reading
 from terracone.data import CIProfile
 from terracone.inverse.bounds import Bounds
+from terracone.inverse.predict import RunSettings
+from terracone.inverse.problem import Problem
 from terracone.io import write_ci_profiles
 from terracone.io.scan import CsvLines
 from terracone.physics import units as u
@@ -487,7 +489,11 @@ def test_a_solver_failure_is_isolated_in_its_chunk(tmp_path):
         return solve_exact_many(depths, cis, **kw)
 
     s = run_batch(
-        tmp_path / "in.parquet", tmp_path / "o", pool=map, progress=False, solve_many=flaky
+        tmp_path / "in.parquet",
+        tmp_path / "o",
+        settings=RunSettings(solve_many=flaky),
+        pool=map,
+        progress=False,
     )
     res = read_out(tmp_path / "o")
     assert list(res["status"]) == ["ok"] * 4 + ["error"] + ["ok"] * 4
@@ -614,7 +620,7 @@ def test_csv_lines_keeps_file_line_numbers(tmp_path):
 
 def test_bad_settings_and_inputs_are_refused(tmp_path, data):
     with pytest.raises(ValueError, match="r_min"):
-        run_batch(data["parquet"], tmp_path / "o", model="rm1", progress=False)
+        run_batch(data["parquet"], tmp_path / "o", Problem(model="rm1"), progress=False)
     with pytest.raises(ValueError, match="chunk_size"):
         run_batch(data["parquet"], tmp_path / "o", chunk_size=0)
     with pytest.raises(ValueError, match="units"):
@@ -649,8 +655,8 @@ def test_bad_settings_and_inputs_are_refused(tmp_path, data):
 
 def test_calibration_and_rm1_match_predict(cluster, tmp_path):
     """With a calibration batch equals the single-profile predict (same solver path)."""
-    from terracone.inverse.learning.learn import Calibration
     from terracone.inverse.predict import predict
+    from terracone.inverse.problem import Calibration
 
     profiles = make_profiles(5, seed=13)
     to_frame(profiles).to_parquet(tmp_path / "in.parquet")
@@ -660,8 +666,8 @@ def test_calibration_and_rm1_match_predict(cluster, tmp_path):
     s = run_batch(
         tmp_path / "in.parquet",
         tmp_path / "cal",
+        Problem(calibration=cal_file),
         scheduler=cluster,
-        calibration=cal_file,
         progress=False,
     )
     assert s.success and s.profiles_ok == 5
@@ -672,7 +678,7 @@ def test_calibration_and_rm1_match_predict(cluster, tmp_path):
     for p, row in zip(profiles, out.itertuples()):
         # batch runs the vectorised solver without predict's final BVLS polish and
         # without its profile intervals of kc, kphi, cc: equal to 1e-6, and no worse
-        ref = predict(p, calibration=cal).as_dict()
+        ref = predict(p, Problem(calibration=cal)).as_dict()
         for k in ("kc", "kphi", "n", "cc", "phic_deg"):
             assert getattr(row, k) == pytest.approx(ref[k], rel=1e-6, abs=1e-9), k
         assert row.rmsd == pytest.approx(ref["rmsd"], rel=1e-6, abs=1e-12)
@@ -684,11 +690,9 @@ def test_calibration_and_rm1_match_predict(cluster, tmp_path):
     s = run_batch(
         tmp_path / "in.parquet",
         tmp_path / "rm1",
+        Problem(model="rm1", r_min=0.0254, bounds=Bounds.parse("n=0.2:1.5", "us")),
         scheduler=cluster,
-        model="rm1",
-        r_min=0.0254,
         units="us",
-        bounds=Bounds.parse("n=0.2:1.5", "us"),
         progress=False,
     )
     out = read_out(tmp_path / "rm1")
@@ -696,6 +700,37 @@ def test_calibration_and_rm1_match_predict(cluster, tmp_path):
     np.testing.assert_allclose(out["r_min"], 1.0)  # inches
     assert (out["n"] >= 0.2).all() and (out["n"] <= 1.5).all()
     assert np.isfinite(out["rmsd"]).all()  # RM0 data: RM1 need not fit them exactly
+
+
+def test_a_calibration_is_held_in_batch_posteriors_whatever_the_prior(tmp_path):
+    """Issue 28: with --calibration, --prior calibration and --prior bounds sample the same
+    posterior (the calibration's phic, cc and kc/kphi held in every draw) and _run.json
+    records the prior as "calibration" in both."""
+    from terracone.inverse.problem import Calibration
+
+    cal = Calibration("test", "rm0", None, None, 12.0, 2.0, 20.0, 1000.0, 0.8)
+    z = np.linspace(0.0, 0.4, 21)
+    rng = np.random.default_rng(3)
+    profiles = []
+    for i, kphi in enumerate((800.0, 2500.0)):
+        ci = cone_index(z, kc=0.02 * kphi, kphi=kphi, n=0.7 + 0.3 * i, cc=2.0, phic_deg=12.0)
+        profiles.append(CIProfile(f"c{i}", z, ci * (1 + 0.03 * rng.standard_normal(z.size))))
+    to_frame(profiles).to_parquet(tmp_path / "in.parquet")
+    run = RunSettings(uncertainty=True, draws=100)
+    outs = {}
+    for prior in ("bounds", "calibration"):
+        pb = Problem(calibration=cal, prior=prior)
+        s = run_batch(tmp_path / "in.parquet", tmp_path / prior, pb, run, pool=map, progress=False)
+        assert s.success and s.profiles_ok == 2
+        rec = json.loads((tmp_path / prior / "_run.json").read_text())["settings"]
+        assert rec["uncertainty"] == {"draws": 100, "prior": "calibration"}
+        outs[prior] = read_out(tmp_path / prior)
+    same_results(outs["bounds"], outs["calibration"])
+    out = outs["bounds"]
+    assert (out["phic_deg_q05"] == 12.0).all() and (out["phic_deg_q95"] == 12.0).all()
+    assert (out["cc_q05"] == 2.0).all() and (out["cc_q95"] == 2.0).all()
+    np.testing.assert_allclose(out["kc_q05"], 0.02 * out["kphi_q05"], rtol=1e-9)
+    np.testing.assert_allclose(out["kc_q95"], 0.02 * out["kphi_q95"], rtol=1e-9)
 
 
 def test_parquet_types_and_nulls(cluster, tmp_path):
@@ -736,10 +771,9 @@ def test_uncertainty_columns_and_lack_of_fit(tmp_path):
     s = run_batch(
         tmp_path / "in.parquet",
         tmp_path / "out",
+        settings=RunSettings(uncertainty=True, draws=1000),
         workers=1,
         progress=False,
-        uncertainty=True,
-        draws=1000,
     )
     assert s.success and s.profiles_ok == N
     out = read_out(tmp_path / "out")
@@ -816,7 +850,13 @@ def test_layers_columns(tmp_path):
     pd.DataFrame({"profile": "pan", "depth_m": z, "ci_kpa": ci}).to_csv(
         tmp_path / "in.csv", index=False
     )
-    s = run_batch(tmp_path / "in.csv", tmp_path / "out", workers=1, progress=False, layers=2)
+    s = run_batch(
+        tmp_path / "in.csv",
+        tmp_path / "out",
+        settings=RunSettings(layers=2),
+        workers=1,
+        progress=False,
+    )
     assert s.success
     row = read_out(tmp_path / "out").iloc[0]
     assert row.preferred_layers == 2 and row.bic_layered < row.bic_single

@@ -390,25 +390,39 @@ def test_module_one_terrain_sets_the_eight_values(tmp_path, library, monkeypatch
     printed = capsys.readouterr().out
     assert "SCM patch 4 x 1 m, grid 0.1 m, soil of 'LETE sand'" in printed
     # Bekker's static sinkage of a 0.2 m square plate at 20 kPa, b = 2 area / perimeter = 0.1 m:
-    # (20e3 Pa / (102e3 / 0.1 + 5301e3) Pa/m^n) ** (1 / 0.79) = 0.000685 m; the stand-in
-    # rests the plate where SCM's pressure carries it, so the script's own figure is this too
+    # (20e3 Pa / (102e3 / 0.1 + 5301e3) Pa/m^n) ** (1 / 0.79) = 0.000685 m
     static = (20e3 / (102e3 / 0.1 + 5301e3)) ** (1 / 0.79)
     assert static == pytest.approx(6.85097e-4, rel=1e-5)
-    assert f"sinkage {static:.3g} m after 1 s (Bekker, static: {static:.3g} m)" in printed
-    assert "sinkage 0.000685 m after 1 s" in printed
-    sinkage, bekker = m.demo()
-    assert sinkage == pytest.approx(static, rel=1e-12) and bekker == pytest.approx(
-        static, rel=1e-12
+    # on SCM's 0.1 m grid the plate is centred half a step off the grid lines (its edges would
+    # fall on them): it covers the nodes x, y in {0, 0.1}, 4 nodes of 0.01 m^2 = 800 N / 0.04 m^2
+    # = 20 kPa; their hull is 0.1 m square, 1/b = 0.4 / (2 * 0.01) = 20 /m, so
+    # (20e3 / (102e3 * 20 + 5301e3)) ** (1 / 0.79); the stand-in rests the plate there
+    on_grid = (20e3 / (102e3 * 20 + 5301e3)) ** (1 / 0.79)
+    assert on_grid == pytest.approx(5.66908e-4, rel=1e-5)
+    assert (
+        f"sinkage {on_grid:.3g} m after 1 s (static on SCM's grid: {on_grid:.3g} m; "
+        f"Bekker, continuous plate: {static:.3g} m)"
+    ) in printed
+    sinkage, grid, bekker = m.demo()
+    assert sinkage == pytest.approx(on_grid, rel=1e-12) and grid == pytest.approx(
+        on_grid, rel=1e-12
     )
-    # a plate of 0.4 m at 40 kPa: b = 0.2 m, (40e3 / (102e3 / 0.2 + 5301e3)) ** (1 / 0.79)
-    sinkage, _ = m.demo(plate=0.4, pressure=40e3)
-    assert sinkage == pytest.approx((40e3 / 5811e3) ** (1 / 0.79), rel=1e-12)
+    assert bekker == pytest.approx(static, rel=1e-12)
+    # a plate of 0.4 m at 40 kPa, centred at 0.05 m: nodes -0.1 .. 0.2 (4 x 4, 0.16 m^2, 40 kPa),
+    # hull 0.3 m square: 1/b = 1.2 / 0.18 = 20/3 /m
+    sinkage, _, _ = m.demo(plate=0.4, pressure=40e3)
+    assert sinkage == pytest.approx((40e3 / (102e3 * 20 / 3 + 5301e3)) ** (1 / 0.79), rel=1e-12)
+    # a plate of 0.3 m (an odd number of steps, centred on a node): 3 x 3 nodes, 0.09 m^2 carry
+    # 20e3 * 0.09 N: 20 kPa; hull 0.2 m square, 1/b = 10 /m
+    sinkage, _, _ = m.demo(plate=0.3)
+    assert sinkage == pytest.approx((20e3 / (102e3 * 10 + 5301e3)) ** (1 / 0.79), rel=1e-12)
 
 
 def test_standin_rests_a_box_where_bekker_carries_it(monkeypatch):
-    """The stand-in's plate: 0.2 x 0.4 m, 0.05 m thick, 160 kg under 10 m/s^2: 1600 N on
-    0.08 m^2 = 20 kPa; b = 2 area / perimeter = 0.16 / 1.2 m; soil Kphi 2e6 Pa/m^n, Kc 1e5
-    Pa/m^(n-1), n 1.1: z = (20e3 / (1e5 * 7.5 + 2e6)) ** (1 / 1.1) = 0.01138 m."""
+    """The stand-in's plate: 0.2 x 0.4 m at (1.05, 0.55) m on a 0.1 m grid, 0.05 m thick, 160 kg
+    under 10 m/s^2: it covers nodes x in {1.0, 1.1}, y in {0.4 .. 0.7}, 8 nodes of 0.01 m^2 carry
+    1600 N: 20 kPa; their hull is 0.1 x 0.3 m, 1/b = 0.8 / 0.06 = 40/3 /m; soil Kphi 2e6
+    Pa/m^n, Kc 1e5 Pa/m^(n-1), n 1.1: z = (20e3 / (1e5 * 40 / 3 + 2e6)) ** (1 / 1.1)."""
     install(monkeypatch)
     import pychrono as chrono
     import pychrono.vehicle as veh
@@ -416,17 +430,18 @@ def test_standin_rests_a_box_where_bekker_carries_it(monkeypatch):
     system = chrono.ChSystemSMC()
     terrain = veh.SCMTerrain(system)
     terrain.SetSoilParameters(2e6, 1e5, 1.1, 0.0, 30.0, 0.01, 4e7, 3e4)
+    terrain.Initialize(4.0, 2.0, 0.1)
     body = chrono.ChBodyEasyBox(0.2, 0.4, 0.05, 160.0 / (0.2 * 0.4 * 0.05), True, True, None)
-    body.SetPos(chrono.ChVector3d(1.0, 0.5, 0.03))
+    body.SetPos(chrono.ChVector3d(1.05, 0.55, 0.03))
     system.Add(body)
     system.DoStepDynamics(1e-3)  # Chrono's default gravity (0, -9.8, 0) loads nothing along z
     assert body.GetPos().z == pytest.approx(0.025)
     system.SetGravitationalAcceleration(chrono.ChVector3d(0, 0, -10.0))
     system.DoStepDynamics(1e-3)
-    z = (20e3 / (1e5 * 1.2 / 0.16 + 2e6)) ** (1 / 1.1)
-    assert z == pytest.approx(0.01138, abs=5e-6)
+    z = (20e3 / (1e5 * 40 / 3 + 2e6)) ** (1 / 1.1)
+    assert z == pytest.approx(0.0095529, rel=1e-4)
     assert body.GetPos().z == pytest.approx(0.025 - z, rel=1e-12)
-    assert (body.GetPos().x, body.GetPos().y) == (1.0, 0.5)
+    assert (body.GetPos().x, body.GetPos().y) == (1.05, 0.55)
 
 
 def test_module_three_located_profiles_nearest_values(tmp_path, library, monkeypatch, predicted):
@@ -470,9 +485,10 @@ def test_module_three_located_profiles_nearest_values(tmp_path, library, monkeyp
     # the script's plate at ORIGIN rests on the soil of the nearest profile (the callback's)
     near = min(where, key=lambda k: math.hypot(*m.to_local(*where[k])))
     kphi, kc, n = terrain.soil_at(*m.to_local(*where[near]))[:3]
-    sinkage, static = m.demo()
-    assert sinkage == pytest.approx((20e3 / (kc / 0.1 + kphi)) ** (1 / n), rel=1e-12)
-    assert static == pytest.approx(sinkage, rel=1e-12) and sinkage > 0
+    sinkage, on_grid, static = m.demo()  # 4 nodes, 1/b = 20 /m (as test_module_one_terrain)
+    assert sinkage == pytest.approx((20e3 / (kc * 20 + kphi)) ** (1 / n), rel=1e-12)
+    assert on_grid == pytest.approx(sinkage, rel=1e-12) and sinkage > 0
+    assert static == pytest.approx((20e3 / (kc / 0.1 + kphi)) ** (1 / n), rel=1e-12)
 
 
 def test_to_local_by_hand_at_the_equator(monkeypatch, tmp_path):

@@ -11,6 +11,7 @@ from click.testing import CliRunner
 from terracone.cli import cli
 from terracone.data import CIProfile
 from terracone.inverse import Bounds
+from terracone.inverse.problem import Problem
 from terracone.inverse.sites.design import parse_candidates, plan_test
 from terracone.physics.cone import cone_index, cone_index_basis, get_cone
 
@@ -69,9 +70,9 @@ def test_fisher_ranking_agrees_with_brute_force_preposterior():
     prof = _profile()
     res = plan_test(
         prof,
+        Problem(bounds=BOUNDS),
         candidates="plate:5cm,ci,shear",
         plates=[0.05],
-        bounds=BOUNDS,
         ci_noise=SIGMA,
         sinkage=S_MID,
         plate_sinkages=S_TEST,
@@ -123,7 +124,7 @@ def test_cli_design_ci_only_profile_ranks_plate_above_ci(tmp_path):
 
 
 def test_cli_design_with_calibration(tmp_path):
-    from terracone.inverse.learning.learn import Calibration
+    from terracone.inverse.problem import Calibration
 
     cal = Calibration("sand", "rm0", None, None, 11.0, 5.0, 50.0, 1500.0, 0.9)
     cf = tmp_path / "cal.json"
@@ -148,3 +149,12 @@ def test_cli_design_with_calibration(tmp_path):
         cli, ["design", str(f), "--plates", "5cm", "--calibration", str(cf), "--prior", "terrain:x"]
     )
     assert r.exit_code != 0 and "give the calibration once" in r.output
+    # issue 28: --calibration holds the calibration's phic, cc and kc/kphi (as predict does);
+    # holding them is more information than normal priors around them, so the held design's
+    # current width is narrower than the one with the calibration given as the prior
+    prof = CIProfile("one", Z, np.round(ci, 3), cone=CONE)  # as the file holds it
+    held = plan_test(prof, Problem(calibration=cal), plates=[0.05])
+    soft = plan_test(prof, Problem(prior=cal), plates=[0.05])
+    assert held.prior == soft.prior == "calibration:sand"
+    assert d["current_width"][0] == pytest.approx(held.current_width[0], rel=1e-6)
+    assert held.current_width[0] < soft.current_width[0]

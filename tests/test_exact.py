@@ -24,7 +24,8 @@ from scipy.optimize import differential_evolution
 
 from terracone import CIProfile, cone_index
 from terracone.inverse import Bounds, predict
-from terracone.inverse.predict import rmsd_objective
+from terracone.inverse.predict import RunSettings, rmsd_objective
+from terracone.inverse.problem import Problem
 from terracone.physics.plate import pressure_law
 from terracone.physics.units import kc_from_si, kphi_from_si
 
@@ -136,7 +137,7 @@ NAMES = list(TABLE) + ["LETE"]
 def test_recovers_n_and_the_curve(name, dz):
     kc, kphi, n, cc, phic = terrain(name)
     prof = make_profile(name, dz)
-    res = predict(prof, solver="exact")
+    res = predict(prof, settings=RunSettings(solver="exact"))
     assert res.ok, res.error
     p = res.params
     assert abs(p.n - n) < 1e-3
@@ -159,7 +160,9 @@ def test_recovers_n_and_the_curve(name, dz):
 def test_fixed_phic_and_cc_recover_kc_kphi(name, dz):
     kc, kphi, n, cc, phic = terrain(name)
     prof = make_profile(name, dz)
-    res = predict(prof, solver="exact", bounds=Bounds().fixed(phic_deg=phic, cc=cc))
+    res = predict(
+        prof, Problem(bounds=Bounds().fixed(phic_deg=phic, cc=cc)), RunSettings(solver="exact")
+    )
     assert res.ok, res.error
     p = res.params
     assert p.phic_deg == phic and p.cc == cc
@@ -177,7 +180,7 @@ def test_kc_zero_terrains(name):
     kc, kphi, n, cc, phic = terrain(name)
     assert kc == 0.0
     prof = make_profile(name, 0.01)
-    res = predict(prof, bounds=Bounds().fixed(phic_deg=phic, cc=cc))
+    res = predict(prof, Problem(bounds=Bounds().fixed(phic_deg=phic, cc=cc)))
     assert 0.0 <= res.params.kc <= 1e-3
     assert res.params.kphi == pytest.approx(kphi, rel=1e-5)
     assert abs(res.params.n - n) < 1e-5
@@ -190,7 +193,7 @@ def test_recovery_with_points_above_the_surface_and_us_bounds():
     ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=cc, phic_deg=phic)
     prof = CIProfile("neg", z, ci)
     b = Bounds.parse("kc=0:100,kphi=0:100,n=0.2:1.5", "us").fixed(phic_deg=phic, cc=cc)
-    res = predict(prof, bounds=b)
+    res = predict(prof, Problem(bounds=b))
     p = res.params
     assert abs(p.n - n) < 1e-4
     assert p.kphi == pytest.approx(kphi, rel=1e-4)
@@ -206,7 +209,7 @@ def test_phic_range_spans_whole_range_when_bounds_do_not_cut_the_ridge():
     kc, kphi, n, cc, phic = terrain("LS_1")
     b = Bounds()
     assert ridge_interval(kc, kphi, phic, b) == (0.0, 45.0)  # the closed form
-    res = predict(make_profile("LS_1", 0.01), bounds=b)
+    res = predict(make_profile("LS_1", 0.01), Problem(bounds=b))
     assert res.phic_range == pytest.approx((0.0, 45.0))
     assert "phic" in res.undetermined
 
@@ -221,7 +224,7 @@ def test_phic_range_matches_closed_form_ridge(text):
     b = Bounds.parse(text)
     lo, hi = ridge_interval(kc, kphi, phic, b)
     assert 0.0 < lo or hi < 45.0  # the bounds really cut it
-    res = predict(make_profile("LS_1", 0.01), bounds=b)
+    res = predict(make_profile("LS_1", 0.01), Problem(bounds=b))
     r_lo, r_hi = res.phic_range
     step = 45.0 / 180  # the solver scans phic in 0.25 deg steps
     assert abs(r_lo - lo) <= step + 1e-9
@@ -274,8 +277,8 @@ def test_exact_never_worse_than_pso_and_de(name, dz, noise):
     prof = make_profile(name, dz, noise=noise, seed=seed)
     b = Bounds()
     f = rmsd_objective(prof, pressure_law("rm0"), b)
-    ex = predict(prof, solver="exact", bounds=b)
-    ps = predict(prof, solver="pso", bounds=b, seed=seed)
+    ex = predict(prof, Problem(bounds=b), RunSettings(solver="exact"))
+    ps = predict(prof, Problem(bounds=b), RunSettings(solver="pso", seed=seed))
     f_ex = float(f(vec(ex.params, b))[0])
     f_ps = float(f(vec(ps.params, b))[0])
     assert f_ex == pytest.approx(ex.rmsd, rel=1e-12, abs=1e-12)
@@ -288,7 +291,7 @@ def test_exact_never_worse_than_pso_and_de(name, dz, noise):
 def test_exact_never_worse_than_de_with_us_bounds():
     prof = make_profile("LS_1", 0.01, noise=0.02, seed=3)
     b = Bounds.parse("kc=0:20,kphi=0:30,n=0.3:1.2", "us")
-    ex = predict(prof, bounds=b)
+    ex = predict(prof, Problem(bounds=b))
     x = vec(ex.params, b)
     lo = np.array([b.kc[0], b.kphi[0], b.n[0], b.cc[0], b.phic_deg[0]])
     hi = np.array([b.kc[1], b.kphi[1], b.n[1], b.cc[1], b.phic_deg[1]])
@@ -309,7 +312,7 @@ def test_fixed_finite_Kc_reaches_the_truth(K_cone):
     kc, kphi, n, _, phic = TABLE["LS_1"]
     z = depths(0.025)
     ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=1.0, phic_deg=phic, K_cone=K_cone)
-    res = predict(CIProfile("Kc", z, ci), K_cone=K_cone)
+    res = predict(CIProfile("Kc", z, ci), Problem(K_cone=K_cone))
     p = res.params
     assert res.rmsd <= 1e-6 * rms(ci)
     assert p.K_cone == K_cone
@@ -325,7 +328,7 @@ def test_fit_Kc_reaches_the_truth():
     kc, kphi, n, _, phic = TABLE["LS_1"]
     z = depths(0.025)
     ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=1.0, phic_deg=phic, K_cone=0.02)
-    res = predict(CIProfile("fitKc", z, ci), fit_K_cone=True, bounds=Bounds(n=(0.5, 1.0)))
+    res = predict(CIProfile("fitKc", z, ci), Problem(fit_K_cone=True, bounds=Bounds(n=(0.5, 1.0))))
     assert res.rmsd <= 1e-6 * rms(ci)
     assert res.params.K_cone == pytest.approx(0.02, rel=1e-3)
     assert abs(res.params.n - n) < 1e-4
@@ -335,5 +338,7 @@ def test_fit_Kc_reaches_the_truth_dense_profile():
     kc, kphi, n, _, phic = TABLE["LS_1"]
     z = depths(0.01)
     ci = cone_index(z, kc=kc, kphi=kphi, n=n, cc=1.0, phic_deg=phic, K_cone=0.005)
-    res = predict(CIProfile("fitKc-dense", z, ci), fit_K_cone=True, bounds=Bounds(n=(0.5, 1.0)))
+    res = predict(
+        CIProfile("fitKc-dense", z, ci), Problem(fit_K_cone=True, bounds=Bounds(n=(0.5, 1.0)))
+    )
     assert res.rmsd <= 1e-6 * rms(ci)

@@ -27,7 +27,7 @@ import pytest
 
 from terracone import cone_index, jit
 from terracone.data import CIProfile
-from terracone.inverse import Bounds, predict
+from terracone.inverse import Bounds, Problem, predict
 from terracone.inverse.solver.boxlsq import box_lsq3, box_lsq3_reference, gram
 from terracone.inverse.solver.intervals import identify_extents, identify_scans, scan_extents
 from terracone.inverse.solver.many import (
@@ -308,7 +308,7 @@ def test_predict_same_with_and_without_kernels(case, law):
     out = {}
     for label, ctx in both_paths():
         with ctx:
-            out[label] = predict(prof, **kw)
+            out[label] = predict(prof, Problem(**kw))
     c, r = out["compiled"], out["numpy"]
     assert c.ok and r.ok
     rms = float(np.sqrt(np.mean(y * y)))

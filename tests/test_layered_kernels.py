@@ -23,6 +23,7 @@ from terracone.inverse.bounds import Bounds
 from terracone.inverse.layered import fit_layered
 from terracone.inverse.layered.fit import phic_scale
 from terracone.inverse.layered.search import LayeredProblem, search_layers
+from terracone.inverse.problem import Problem
 from terracone.inverse.solver import layered_kernels as lk
 from terracone.inverse.solver import layered_numpy as lnp
 from terracone.inverse.solver.exact import solve_exact
@@ -291,7 +292,7 @@ def test_one_layer_with_open_lower_bounds_searches_phic():
     z = Z[3:]
     y = layered_cone_index(z, [p], [], cone=CONE)
     y = y * (1 + 0.03 * np.random.default_rng(4).standard_normal(z.size))
-    res = fit_layered(CIProfile("hom", z, y, cone=CONE), layers=1, bounds=b)
+    res = fit_layered(CIProfile("hom", z, y, cone=CONE), Problem(bounds=b), layers=1)
     ref = solve_exact(z, y, cone=CONE, law=LAWS["rm0"], bounds=b, profiles=False)
     assert res.ok
     assert res.sse <= ref.sse * (1 + 1e-3)

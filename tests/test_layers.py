@@ -229,3 +229,36 @@ def test_fit_layered_errors_are_results():
     res = fit_layered(short, layers=2)
     assert not res.ok and res.error
     assert res.as_dict() == {"id": "short", "status": "error", "error": res.error}
+
+
+def test_a_calibration_is_held_in_every_layer_and_every_draw():
+    """Issue 28: a calibration's phic, cc and kc/kphi hold in every layer of a layered fit and
+    in every draw of its posterior.  Known truth: two layers sharing the calibration's phic
+    (12 deg), cc (2 kPa) and kc/kphi (0.01 m), noise-free, come back."""
+    from terracone.inverse.layered import layered_posterior
+    from terracone.inverse.problem import Calibration, Problem
+
+    ratio, cc, phic = 0.01, 2.0, 12.0
+    top = TerrainParameters(ratio * 8000.0, 8000.0, 0.4, cc, phic)
+    bot = TerrainParameters(ratio * 1500.0, 1500.0, 1.0, cc, phic)
+    ci = layered_cone_index(ZFIT, [top, bot], [D_TRUE], cone=CONE)
+    prof = CIProfile("held", ZFIT, ci, cone=CONE)
+    cal = Calibration("pan", "rm0", None, None, phic, cc, ratio * 3000.0, 3000.0, 0.8)
+    pb = Problem(calibration=cal)
+    res = fit_layered(prof, pb, layers=2)
+    assert res.ok and len(res.layers) == 2
+    for got in res.layers:
+        assert got.phic_deg == phic and got.cc == cc
+        assert got.kc == pytest.approx(ratio * got.kphi, rel=1e-12)
+    assert "phic" not in res.undetermined and res.phic_range == (phic, phic)
+    assert res.rmsd < 1e-3 * float(np.mean(ci))
+    assert abs(res.interfaces[0] - D_TRUE) < 0.25 * STEP
+    for got, truth in zip(res.layers, (top, bot)):
+        assert got.n == pytest.approx(truth.n, abs=0.05)
+    assert any("calibration 'pan'" in note for note in res.notes)
+    post = layered_posterior(prof, res, pb, draws=200, seed=1, burn=200, thin=2)
+    for j in (1, 2):
+        kc, kphi = (post.samples[:, post.names.index(f"{k}_{j}")] for k in ("kc", "kphi"))
+        np.testing.assert_array_equal(post.samples[:, post.names.index(f"cc_{j}")], cc)
+        np.testing.assert_allclose(kc, ratio * kphi, rtol=1e-12)
+    assert post.phic_deg == phic

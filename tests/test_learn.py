@@ -19,7 +19,8 @@ import pytest
 
 from terracone import CIProfile, PlateTest, cone_index, plate_pressure
 from terracone.inverse import predict
-from terracone.inverse.learning.learn import Calibration, LearnResult, learn
+from terracone.inverse.learning.learn import LearnResult, learn
+from terracone.inverse.problem import Calibration, Problem
 
 TRUTH = dict(kc=102.0, kphi=5301.0, n=0.79, cc=1.5, phic_deg=12.0)
 PAIR = (0.0375, 0.05)
@@ -196,7 +197,7 @@ def test_calibration_from_learning_round_trip_and_use(rm1_small, tmp_path):
         r_min=0.006,
         plate_pair=PAIR,
     )
-    pr = predict(CIProfile("push-2", z, ci), calibration=back)
+    pr = predict(CIProfile("push-2", z, ci), Problem(calibration=back))
     assert pr.params.kc == pytest.approx(TRUTH["kc"], rel=1e-2)
     assert pr.params.kphi == pytest.approx(TRUTH["kphi"], rel=1e-2)
     assert pr.params.n == pytest.approx(TRUTH["n"], rel=1e-3)

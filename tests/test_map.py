@@ -337,7 +337,7 @@ def test_estimation_variance_from_draws_only_under_the_fits_prior():
     # by hand: eq. (2-2) for each draw, the variance of the logs
     p = (draws[:, 0] / PLATE[0] + draws[:, 1]) * PLATE[1] ** draws[:, 2]
     for prior, want in (("calibration:generated", np.var(np.log(p), ddof=1)), ("bounds", None)):
-        r.posterior = PosteriorSummary({"n": (0.85, 0.95)}, samples=draws, prior=prior)
+        r.posterior = PosteriorSummary(intervals={"n": (0.85, 0.95)}, samples=draws, prior=prior)
         _, ev, _ = push_values(s, q)
         _, ev_n, _ = push_values(s, Quantity("n", "dimensionless", False, "n"))
         if want is None:  # the bounds posterior of a calibrated fit: not the fit's spread

@@ -29,8 +29,8 @@ from terracone.apps.vehicles import vehicle_from_dict
 from terracone.apps.workflow import predict_profiles
 from terracone.cli import cli
 from terracone.data import CIProfile, TerrainParameters
-from terracone.inverse.learning.learn import Calibration
-from terracone.inverse.uncertainty.priors import CalibrationPrior
+from terracone.inverse.predict import RunSettings
+from terracone.inverse.problem import Calibration, CalibrationPrior, Problem
 from terracone.io import read_ci_profiles
 from terracone.physics import units as u
 from terracone.physics import vehicle as v
@@ -485,13 +485,14 @@ def noisy(noise: float, seed: int) -> CIProfile:
 def test_wheel_band_contains_the_median_sinkage_and_widens_with_the_ci_noise(tmp_path):
     """LETE profiles with 2% and 20% CI noise, three seeds each, through predict's JSON.
 
-    A tight calibration prior (phic and cc fixed, ln(kc/kphi) within 2%) leaves the band to
-    what the CI determines (the strength and n), so more noise must widen it on both sides.
+    A tight calibration prior (phic and cc fixed, ln(kc/kphi) within 2%; the fit at the
+    calibration's values) leaves the band to what the CI determines (the strength and n), so
+    more noise must widen it on both sides.
     """
     items = [noisy(s, k) for s in (0.02, 0.20) for k in range(3)]
     prior = CalibrationPrior(LETE, phic_sd=0.0, cc_sd=0.0, ratio_log_sd=0.02)
-    fitted = predict_profiles(items, calibration=LETE, uncertainty=True, prior=prior, draws=600,
-                              seed=5)  # fmt: skip
+    run = RunSettings(uncertainty=True, draws=600, seed=5)
+    fitted = predict_profiles(items, Problem(prior=prior), run)
     path = write_json(tmp_path / "pred.json", fitted.results, command="predict",
                       settings={"calibration": "LETE sand"})  # fmt: skip
     results = read_results(path)  # the draws come back from the JSON
@@ -517,7 +518,9 @@ def test_wheel_band_contains_the_median_sinkage_and_widens_with_the_ci_noise(tmp
 
 
 def test_bounds_prior_band_is_labelled_set_by_prior(tmp_path):
-    fitted = predict_profiles([noisy(0.05, 1)], uncertainty=True, draws=300, seed=2)
+    fitted = predict_profiles(
+        [noisy(0.05, 1)], settings=RunSettings(uncertainty=True, draws=300, seed=2)
+    )
     path = write_json(tmp_path / "p.json", fitted.results, settings={"calibration": None})
     run_ = evaluate_mobility(read_results(path), vehicle_from_dict(VEHICLE), remolding_index=1,
                              layer=(0.0, 6 * u.INCH))  # fmt: skip

@@ -16,8 +16,8 @@ import pytest
 from conftest import paper_parameter_rows
 
 from terracone import CIProfile, InputError, TerrainParameters, cone_index
-from terracone.inverse import Bounds, predict, predict_many
-from terracone.inverse.learning.learn import Calibration
+from terracone.inverse import Bounds, Problem, RunSettings, predict, predict_many
+from terracone.inverse.problem import Calibration
 from terracone.physics import units as tu
 from terracone.result import PredictionResult
 
@@ -149,10 +149,12 @@ def test_us_units_by_hand():
     prof = generated("KRC_1", model="rm1", r_min=0.004)
     res = predict(
         prof,
-        model="rm1",
-        r_min=0.004,
-        bounds=Bounds().fixed(phic_deg=phic, cc=cc),
-        noise_floor=0.01,
+        Problem(
+            model="rm1",
+            r_min=0.004,
+            bounds=Bounds().fixed(phic_deg=phic, cc=cc),
+            noise_floor=0.01,
+        ),
     )
     si, us = res.as_dict("si"), res.as_dict("us")
     p = res.params
@@ -198,9 +200,9 @@ def test_table_us_columns(name):
 def test_pso_through_predict_is_seeded():
     prof = generated("LS_2")
     prof.ci = prof.ci * (1 + 0.02 * np.random.default_rng(0).standard_normal(prof.ci.size))
-    a = predict(prof, solver="pso", seed=7)
-    b = predict(prof, solver="pso", seed=7)
-    c = predict(prof, solver="pso", seed=8)
+    a = predict(prof, settings=RunSettings(solver="pso", seed=7))
+    b = predict(prof, settings=RunSettings(solver="pso", seed=7))
+    c = predict(prof, settings=RunSettings(solver="pso", seed=8))
     assert a.params == b.params and a.rmsd == b.rmsd
     assert a.params != c.params
     assert a.solver == "pso" and "phic" in a.undetermined
@@ -222,10 +224,9 @@ def test_rm1_prediction_with_known_r_min():
     prof = generated("LS_1", model="rm1", r_min=0.006, plate_pair=pair)
     res = predict(
         prof,
-        model="rm1",
-        r_min=0.006,
-        plate_pair=pair,
-        bounds=Bounds().fixed(phic_deg=phic, cc=cc),
+        Problem(
+            model="rm1", r_min=0.006, plate_pair=pair, bounds=Bounds().fixed(phic_deg=phic, cc=cc)
+        ),
     )
     p = res.params
     assert p.model == "rm1" and p.r_min == 0.006
@@ -302,7 +303,9 @@ def test_predict_with_calibration_fixes_model_rmin_phic_cc(tmp_path):
         plate_pair=PAIR,
     )
     prof = CIProfile("push-2", z, ci)
-    res = predict(prof, calibration=cal)  # model defaults to rm0: the calibration overrides it
+    res = predict(
+        prof, Problem(calibration=cal)
+    )  # model defaults to rm0: the calibration overrides it
     p = res.params
     assert p.model == "rm1" and p.r_min == 0.006
     assert p.phic_deg == TRUTH["phic_deg"] and p.cc == TRUTH["cc"]
@@ -315,14 +318,16 @@ def test_predict_with_calibration_fixes_model_rmin_phic_cc(tmp_path):
     assert d["model"] == "rm1" and d["r_min"] == pytest.approx(0.006 / INCH, rel=1e-12)
     assert d["cc"] == pytest.approx(TRUTH["cc"] / PSI, rel=1e-12)
     # a calibration with the wrong r_min fits this profile worse
-    wrong = predict(prof, calibration=lete_calibration(r_min=0.02))
+    wrong = predict(prof, Problem(calibration=lete_calibration(r_min=0.02)))
     assert wrong.rmsd > 100 * max(res.rmsd, 1e-9)
 
 
 def test_calibration_pso_respects_fixed_parameters():
     cal = lete_calibration(model="rm0", r_min=None)
     ci = cone_index(Z, **{k: v for k, v in TRUTH.items()})
-    res = predict(CIProfile("p", Z, ci), calibration=cal, solver="pso", seed=3)
+    res = predict(
+        CIProfile("p", Z, ci), Problem(calibration=cal), RunSettings(solver="pso", seed=3)
+    )
     assert res.params.phic_deg == TRUTH["phic_deg"] and res.params.cc == TRUTH["cc"]
     assert res.params.model == "rm0"
     assert "phic" not in res.undetermined

@@ -17,7 +17,8 @@ from scipy.optimize import lsq_linear
 
 from terracone.data import CIProfile, InputError, ProfileSet
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.predict import predict, predict_many
+from terracone.inverse.predict import RunSettings, predict, predict_many
+from terracone.inverse.problem import Problem
 from terracone.inverse.solver.many import solve_exact_many
 from terracone.inverse.solver.polish import mgs_lstsq, polish_many
 from terracone.jit import enabled
@@ -128,8 +129,8 @@ def test_set_equals_predict_one_by_one():
 
 def test_summary_equals_full_where_both_report():
     items = [it for it in mixed_items() if not isinstance(it, InputError)]
-    full = predict_many(items, detail="full")
-    summ = predict_many(items, detail="summary")
+    full = predict_many(items, settings=RunSettings(detail="full"))
+    summ = predict_many(items, settings=RunSettings(detail="summary"))
     shared = ("kc", "kphi", "n", "cc", "phic_deg", "rmsd", "r2_ci", "longest_run", "lack_of_fit")
     for f, s in zip(full, summ):
         assert f.status == s.status
@@ -225,7 +226,7 @@ def test_known_truth_recovered():
         assert tol["ratio"] < 1e-4 * t["kc"] / t["kphi"] and tol["n"] < 1e-6, p.id
     # with phic held at the truth the scale is fixed and kc, kphi come back themselves
     p, t = profiles[0], truths[0]
-    fixed = predict_many(profiles[:1], bounds=Bounds().fixed(phic_deg=t["phic_deg"]))[0]
+    fixed = predict_many(profiles[:1], Problem(bounds=Bounds().fixed(phic_deg=t["phic_deg"])))[0]
     scale = float(np.sqrt(np.mean(p.ci**2)))
     assert fixed.rmsd < 1e-9 * scale
     tol = truth_bound(p, t, math.sqrt(p.ci.size) * max(fixed.rmsd, 1e-13 * scale))
@@ -261,7 +262,7 @@ def test_a_failing_profile_is_isolated():
             raise FloatingPointError("synthetic failure")
         return solve_exact_many(depths, cis, **kw)
 
-    res = predict_many(profiles, solve_many=flaky)
+    res = predict_many(profiles, settings=RunSettings(solve_many=flaky))
     assert [r.status for r in res] == ["ok"] * 3 + ["error"] + ["ok"] * 3
     assert res[3].error == "profile s003: solver failed: synthetic failure"
     for r, t in zip(res, truths):
@@ -272,9 +273,9 @@ def test_a_failing_profile_is_isolated():
 def test_bad_settings_are_refused():
     profiles, _ = synthetic(1)
     with pytest.raises(ValueError, match="detail must be 'full' or 'summary' \\(got 'all'\\)"):
-        predict_many(profiles, detail="all")
+        predict_many(profiles, settings=RunSettings(detail="all"))
     with pytest.raises(ValueError, match="solver must be 'exact' or 'pso' \\(got 'de'\\)"):
-        predict_many(profiles, solver="de")
+        predict_many(profiles, settings=RunSettings(solver="de"))
     with pytest.raises(ValueError, match="chunk_size must be >= 1 \\(got 0\\)"):
         predict_many(profiles, chunk_size=0)
 
@@ -351,32 +352,52 @@ def test_polish_compiled_equals_its_numpy_twin(seed):
     assert not np.array_equal(a, x0)  # it did polish
 
 
-def test_one_settings_object():
-    # predict and predict_many take the fields of PredictSettings (one list), a typo is refused
+def test_one_problem_and_one_run_settings_object():
+    # what is fitted is one Problem, how it runs one RunSettings; a typo is refused
     import dataclasses
 
-    from terracone.inverse.learning.learn import Calibration
-    from terracone.inverse.predict import PredictSettings
+    from terracone.inverse.problem import Calibration
 
     with pytest.raises(TypeError, match="unexpected keyword argument 'modle'"):
-        PredictSettings(modle="rm1")
+        Problem(modle="rm1")
+    with pytest.raises(TypeError, match="unexpected keyword argument 'slover'"):
+        RunSettings(slover="pso")
     profiles, _ = synthetic(1)
-    with pytest.raises(TypeError, match="unexpected keyword argument 'modle'"):
-        predict_many(profiles, modle="rm1")
+    with pytest.raises(TypeError, match="unexpected keyword argument 'model'"):
+        predict_many(profiles, model="rm1")  # the keyword options are gone
     with pytest.raises(ValueError, match="r_min is required with model 'rm1'"):
-        PredictSettings(model="rm1")
+        Problem(model="rm1")
+    with pytest.raises(ValueError, match="model must be 'rm0' or 'rm1' \\(got 'rm2'\\)"):
+        Problem(model="rm2")
     with pytest.raises(ValueError, match="prior 'calibration' needs a calibration"):
-        PredictSettings(prior="calibration")
+        Problem(prior="calibration")
     with pytest.raises(dataclasses.FrozenInstanceError):
-        PredictSettings().model = "rm1"
-    # a calibration is applied once, by the settings: its model, r_min, plates, phic, cc, ratio
+        Problem().model = "rm1"
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        RunSettings().solver = "pso"
+    # a calibration is applied once, by the problem: its model, r_min, plates, phic, cc, ratio
     cal = Calibration("t", "rm1", 0.03, (0.05, 0.1), 12.0, 2.0, 20.0, 1000.0, 0.8)
-    s = PredictSettings(calibration=cal, prior="calibration")
-    assert (s.model, s.r_min, s.plate_pair) == ("rm1", 0.03, (0.05, 0.1))
-    assert s.fit_bounds.phic_deg == (12.0, 12.0) and s.fit_bounds.cc == (2.0, 2.0)
-    assert s.bounds == Bounds() and s.ratio == pytest.approx(20.0 / 1000.0)
-    assert s.prior is cal and s.law.r_min == 0.03
-    # the same settings given as an object or as keywords fit alike
-    a = predict_many(profiles, s)[0]
-    b = predict_many(profiles, calibration=cal)[0]
+    pb = Problem(calibration=cal, prior="calibration")
+    assert (pb.model, pb.r_min, pb.plate_pair) == ("rm1", 0.03, (0.05, 0.1))
+    assert pb.fit_bounds.phic_deg == (12.0, 12.0) and pb.fit_bounds.cc == (2.0, 2.0)
+    assert pb.bounds == Bounds() and pb.ratio == pytest.approx(20.0 / 1000.0)
+    assert pb.centre is None and pb.law.r_min == 0.03 and pb.calibrated
+    assert pb.held() == {"phic_deg": 12.0, "cc": 2.0, "kc_over_kphi": pytest.approx(0.02)}
+    assert pb.prior_label() == "calibration:t"
+    # the same calibration given as the prior: the point fit held at its values, the
+    # posterior around them (nothing held in the draws)
+    pc = Problem(prior=cal)
+    assert pc.centre is not None and pc.centre.calibration is cal and pc.calibration is None
+    assert pc.fit_bounds == pb.fit_bounds and pc.ratio == pb.ratio and pc.held() == {}
+    assert (pc.model, pc.r_min, pc.plate_pair) == ("rm1", 0.03, (0.05, 0.1))
+    other = Calibration("u", "rm1", 0.03, (0.05, 0.1), 13.0, 2.0, 20.0, 1000.0, 0.8)
+    with pytest.raises(ValueError, match="give the calibration once"):
+        Problem(calibration=cal, prior=other)
+    # the calibration held with either prior, or given as the prior, fits alike
+    a = predict_many(profiles, pb)[0]
+    b = predict_many(profiles, Problem(calibration=cal))[0]
+    c = predict_many(profiles, pc)[0]
     assert a.params == b.params and a.notes == b.notes
+    assert c.params == a.params
+    assert a.params.phic_deg == 12.0 and a.params.cc == 2.0
+    assert a.params.kc == pytest.approx(0.02 * a.params.kphi, rel=1e-12)

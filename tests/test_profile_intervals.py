@@ -29,6 +29,7 @@ from scipy.optimize import lsq_linear
 
 from terracone.data import CIProfile
 from terracone.inverse import Bounds, predict
+from terracone.inverse.problem import Problem
 from terracone.physics.cone import cone_index
 
 CHI2_1_95 = 3.841458820694124  # scipy.stats.chi2.ppf(0.95, 1)
@@ -149,7 +150,7 @@ def case(request):
     c = CASES[request.param]
     prof = generated(**c["truth"])
     b = Bounds.parse(c["bounds"])
-    res = predict(prof, bounds=b)
+    res = predict(prof, Problem(bounds=b))
     assert res.ok, res.error
     return c, prof, b, res, brute_force(prof.depth, prof.ci, b)
 

@@ -423,11 +423,13 @@ def test_a_tables_layered_columns_come_back_in_si(tmp_path):
     from terracone.result import LayeredSummary
 
     ok, bad = _result(0), _result(1)
+    nan = float("nan")  # what a table knows of a layer: its n
     ok.layered = LayeredSummary(
-        "ok", bic=-10.0, bic_single=-4.0, preferred_layers=2, r2_ci=0.99,
-        interfaces=[6 * INCH_M], layer_n=[0.4, 1.0], lack_of_fit=None,
+        status="ok", bic=-10.0, bic_single=-4.0, preferred_layers=2, r2_ci=0.99,
+        interfaces=[6 * INCH_M], lack_of_fit=None,
+        layers=[TerrainParameters(nan, nan, n, nan, nan) for n in (0.4, 1.0)],
     )  # fmt: skip
-    bad.layered = LayeredSummary("error", error="3 points; at least 9 are needed")
+    bad.layered = LayeredSummary(status="error", error="3 points; at least 9 are needed")
     path = tmp_path / "t.parquet"
     pq.write_table(to_table([ok, bad], "us"), path)
     row = pq.read_table(path).to_pylist()[0]

@@ -12,7 +12,7 @@ from conftest import require_shared
 
 from terracone.cli import cli
 from terracone.data import CIProfile
-from terracone.inverse.learning.learn import Calibration
+from terracone.inverse.problem import Calibration, Problem
 from terracone.inverse.sites.randeff import random_effects
 from terracone.inverse.sites.statistics import (
     UNCALIBRATED_NOTE,
@@ -104,7 +104,7 @@ def generated(request):
         groups[f"s{s}"] = list(range(len(profiles), len(profiles) + J))
         profiles += [CIProfile(f"s{s}-{j}", z, y[j]) for j in range(J)]
         truth.append((kc, kphi, n))
-    res = fit_sites(profiles, Grouping(groups), calibration=CAL, plates=[0.05])
+    res = fit_sites(profiles, Grouping(groups), Problem(calibration=CAL), plates=[0.05])
     return res, truth
 
 

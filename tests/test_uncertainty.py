@@ -20,7 +20,7 @@ from scipy.stats import binom
 
 from terracone.data import CIProfile
 from terracone.inverse import Bounds, predict
-from terracone.inverse.learning.learn import Calibration
+from terracone.inverse.problem import Calibration, CalibrationPrior, Problem
 from terracone.inverse.uncertainty.likelihood import spline_sse, spline_sse_compiled
 from terracone.inverse.uncertainty.noise import ar1_coefficients, ar1_noise, estimate_correlation
 from terracone.inverse.uncertainty.posterior import (
@@ -30,9 +30,8 @@ from terracone.inverse.uncertainty.posterior import (
     PosteriorOptions,
     identifiability_label,
     posterior,
-    posterior_for_result,
 )
-from terracone.inverse.uncertainty.priors import PARAM_NAMES, CalibrationPrior
+from terracone.inverse.uncertainty.priors import PARAM_NAMES
 from terracone.inverse.uncertainty.sampler import integrated_time
 from terracone.physics import units as u
 from terracone.physics.cone import cone_index_huang
@@ -110,7 +109,7 @@ def test_intervals_contain_truth(clean):
 
 
 def test_calibration_prior_fixes_the_plate_pressure():
-    res = posterior(profile(), prior=LETE, seed=3, plates=(0.05,), **FAST)
+    res = posterior(profile(), Problem(prior=LETE), seed=3, plates=(0.05,), **FAST)
     band = res.plate_bands[0]
     i = int(np.argmin(np.abs(band.sinkage - 0.025)))
     assert band.lo[i] <= plate_true(TRUTH) <= band.hi[i]
@@ -125,7 +124,7 @@ def test_calibration_prior_fixes_the_plate_pressure():
 
 def test_calibration_prior_widths_are_settable():
     tight = CalibrationPrior(LETE, phic_sd=0.5, ratio_log_sd=0.1, cc_sd=0.5)
-    res = posterior(profile(), prior=tight, seed=3, **FAST)
+    res = posterior(profile(), Problem(prior=tight), seed=3, **FAST)
     lo, hi = res.intervals["phic_deg"]
     assert hi - lo < 2.5
     with pytest.raises(ValueError):
@@ -263,10 +262,10 @@ def test_sampled_correlation():
 # ---------------------------------------------------------------------------
 
 
-def test_posterior_for_result_and_diagnostics():
+def test_posterior_started_at_a_result_and_diagnostics():
     p = profile(seed=9)
     pred = predict(p)
-    res = posterior_for_result(p, pred, draws=600, seed=1, plates=(0.0254 * 2.5,))
+    res = posterior(p, start=pred, draws=600, seed=1, plates=(0.0254 * 2.5,))
     assert res.best_fit == pred.params
     assert res.plate_bands[0].radius == pytest.approx(0.0635)
     d = res.diagnostics
@@ -274,13 +273,13 @@ def test_posterior_for_result_and_diagnostics():
     assert 0.1 < d.acceptance < 0.7
     assert d.autocorr_time is not None and d.effective_samples > 0
     assert d.time_s > 0
-    # a calibration prior with a result fitted without it: re-fitted with the calibration
-    res_cal = posterior_for_result(p, pred, prior=LETE, draws=600, seed=1)
+    # a calibration prior without a start: the start is the fit at the calibration's values
+    res_cal = posterior(p, Problem(prior=LETE), draws=600, seed=1)
     assert res_cal.prior == "calibration:LETE sand"
     assert abs(res_cal.best_fit.phic_deg - 11.0) < 1e-9
     bad = predict(CIProfile("bad", [0.0, 0.1], [1.0, 2.0]))
-    with pytest.raises(ValueError):
-        posterior_for_result(p, bad)
+    with pytest.raises(ValueError, match="profile bad: prediction failed"):
+        posterior(p, start=bad)
 
 
 def test_rm1_us_bounds_fixed_parameters_and_finite_Kc():
@@ -289,23 +288,23 @@ def test_rm1_us_bounds_fixed_parameters_and_finite_Kc():
     p = CIProfile("p", DEPTH, m * (1 + 0.03 * np.random.default_rng(2).standard_normal(DEPTH.size)))
     # US bounds: kc/kphi prior density depends on n
     b = Bounds.parse("kc=0:100,kphi=0:200", "us")
-    res = posterior(p, bounds=b, seed=1, **FAST)
+    res = posterior(p, Problem(bounds=b), seed=1, **FAST)
     n = res.samples[:, 2]
     assert np.all(res.samples[:, 0] <= u.kc_to_si(100.0, n, "us") * (1 + 1e-9))
     # phic fixed: plain coordinates, phic reported as fixed ("set by prior", ratio 1)
-    res2 = posterior(p, bounds=Bounds().fixed(phic_deg=11.0), seed=1, **FAST)
+    res2 = posterior(p, Problem(bounds=Bounds().fixed(phic_deg=11.0)), seed=1, **FAST)
     assert res2.diagnostics.coordinates == "plain"
     assert np.all(res2.samples[:, 4] == 11.0)
     assert res2.identifiability["phic_deg"] == "set by prior"
     assert res2.intervals["kphi"][0] <= TRUTH["kphi"] <= res2.intervals["kphi"][1]
     # RM1 pressure law
-    res3 = posterior(p, model="rm1", r_min=0.008, seed=1, **FAST)
+    res3 = posterior(p, Problem(model="rm1", r_min=0.008), seed=1, **FAST)
     assert res3.model == "rm1" and res3.r_min == 0.008
     # finite Kc (shear part tabulated separately)
     pk = CIProfile(
         "k", DEPTH, cone_index_huang(DEPTH, **truth, K_cone=0.01) * (1 + 0.03 * np.sin(DEPTH * 50))
     )
-    res4 = posterior(pk, K_cone=0.01, seed=1, start=predict(pk).params, **FAST)
+    res4 = posterior(pk, Problem(K_cone=0.01), seed=1, start=predict(pk).params, **FAST)
     assert res4.K_cone == 0.01 and res4.diagnostics.coordinates == "plain"
     assert np.isfinite(res4.samples).all()
 
@@ -313,7 +312,7 @@ def test_rm1_us_bounds_fixed_parameters_and_finite_Kc():
 def test_bad_input():
     p = profile()
     with pytest.raises(ValueError):
-        posterior(p, prior="terrain:LETE")
+        posterior(p, Problem(prior="terrain:LETE"))
     with pytest.raises(ValueError):
         posterior(p, options=PosteriorOptions(correlation="maybe"))
     with pytest.raises(ValueError):
@@ -380,7 +379,7 @@ def _coverage_cases(n_cases: int, *, prior: str, correlated: bool, seed: int):
         )
         res = posterior(
             p,
-            prior="bounds" if prior == "bounds" else cal,
+            Problem(prior="bounds" if prior == "bounds" else cal),
             seed=i,
             draws=COVERAGE_DRAWS,
             plates=(0.05,),
@@ -455,8 +454,8 @@ def test_reference_weight_only_under_the_bounds_prior():
     """A calibration prior keeps n uniform: n_prior changes nothing there, bit for bit."""
     p = profile()
     cal = CalibrationPrior(LETE)
-    a = posterior(p, prior=cal, seed=3, draws=600, options=_fast(n_prior="reference"))
-    b = posterior(p, prior=cal, seed=3, draws=600, options=_fast(n_prior="uniform"))
+    a = posterior(p, Problem(prior=cal), seed=3, draws=600, options=_fast(n_prior="reference"))
+    b = posterior(p, Problem(prior=cal), seed=3, draws=600, options=_fast(n_prior="uniform"))
     assert np.array_equal(a.samples, b.samples)
     c = posterior(p, seed=3, **FAST)  # the default: uniform
     d = posterior(p, seed=3, draws=600, options=_fast(n_prior="reference"))
@@ -550,3 +549,20 @@ def test_whiten_ar1_is_the_inverse_cholesky_factor():
     S = rho ** (np.abs(z[:, None] - z[None, :]) / dz0)
     W = whiten_ar1(np.eye(z.size), phi).T  # row k of the call whitens the unit vector e_k
     np.testing.assert_allclose(W @ S @ W.T, np.eye(z.size), atol=1e-12)
+
+
+def test_a_held_calibration_is_held_in_every_draw():
+    """Issue 28: with a calibration applied (not as the prior), every draw has its phic and cc
+    and kc = (kc/kphi) kphi, the calibration's ratio; the prior is named after it."""
+    p = profile(seed=4)
+    pb = Problem(calibration=LETE)
+    res = posterior(p, pb, seed=2, **FAST)
+    kc, kphi, cc, phic = (res.samples[:, j] for j in (0, 1, 3, 4))
+    assert np.all(phic == LETE.phic_deg) and np.all(cc == LETE.cc)
+    np.testing.assert_allclose(kc, (102.0 / 5301.0) * kphi, rtol=1e-12)
+    assert res.best_fit.phic_deg == 11.0 and res.best_fit.cc == 1.0
+    assert res.prior == "calibration:LETE sand"
+    # the same calibration as the prior lets phic vary around its value
+    free = posterior(p, Problem(prior=LETE), seed=2, **FAST)
+    assert np.ptp(free.samples[:, 4]) > 1.0
+    assert not np.allclose(free.samples[:, 0], (102.0 / 5301.0) * free.samples[:, 1])

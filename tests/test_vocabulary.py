@@ -20,7 +20,7 @@ from terracone.apps.library import Library, record_params, reference_records
 from terracone.apps.sensitivity import BOXES, SobolBox
 from terracone.data import TerrainParameters, TerrainShear
 from terracone.inverse.bounds import Bounds
-from terracone.inverse.learning.learn import Calibration
+from terracone.inverse.problem import Calibration
 from terracone.physics import cone, plate, shear
 from terracone.report.tables import parameters_table, shear_table
 from terracone.vocabulary import NAMES, markdown_table

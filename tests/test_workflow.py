@@ -85,14 +85,15 @@ def test_a_failing_posterior_is_recorded_on_its_profile_and_the_rest_goes_on():
     """attach_fits: a posterior that cannot run says why in lack_of_fit; the fit stays."""
     from terracone.apps.workflow import attach_fits
     from terracone.inverse import Bounds, predict_many
-    from terracone.inverse.predict import PredictSettings
+    from terracone.inverse.predict import RunSettings
+    from terracone.inverse.problem import Problem
 
     profiles = read_ci_profiles(EXAMPLE)[:2]
     fixed = Bounds().fixed(kc=20.0, kphi=1500.0, n=0.8, cc=1.0, phic_deg=10.0)
-    s = PredictSettings(bounds=fixed, uncertainty=True, draws=50)
-    results = predict_many(profiles, s)
+    pb, s = Problem(bounds=fixed), RunSettings(uncertainty=True, draws=50)
+    results = predict_many(profiles, pb, s)
     assert all(r.ok for r in results)
-    attach_fits(results, profiles, s)
+    attach_fits(results, profiles, pb, s)
     for r in results:
         assert r.ok and r.posterior is None
         assert "posterior failed: all parameters are fixed: nothing to sample" in r.lack_of_fit

@@ -689,7 +689,10 @@ def _dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
             host="127.0.0.1",
             dashboard_address=None,
             scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},  # no warning if 8787 is taken
-            silence_logs=logging.ERROR,
+            # the workers' own log: a worker's heartbeat racing the scheduler's close logs a
+            # traceback at ERROR (seen on a loaded machine); chunk failures come back through
+            # their futures, with their reason, so nothing below CRITICAL needs to reach a user
+            silence_logs=logging.CRITICAL,
         )
     try:
         client = Client(cluster, set_as_default=False)

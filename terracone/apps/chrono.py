@@ -807,12 +807,30 @@ def apply(terrain, sample=None):
     return callback
 
 
+def grid_nodes(plate, centre, spacing):
+    """The grid nodes SCM's rays find under a square plate: (count, 1/b) of the contact patch.
+
+    SCM casts a ray at every node (i * spacing, j * spacing), gives each node it finds the
+    area spacing**2 (Fn = m_area * sigma) and takes 1/b = perimeter / (2 area) of the convex
+    hull of those nodes (SCMTerrain.cpp, ComputeInternalForces).
+    """
+    half, k = plate / 2, int(plate / spacing) + 2
+    along = [[i for i in range(-k, k + 1) if abs(i * spacing - c) < half] for c in centre]
+    nx, ny = len(along[0]), len(along[1])
+    sx, sy = (nx - 1) * spacing, (ny - 1) * spacing
+    oob = (sx + sy) / (sx * sy) if sx > 0 and sy > 0 else 0.0  # perimeter / (2 area)
+    return nx * ny, oob
+
+
 def demo(sample=None, plate=0.2, pressure=20e3, seconds=1.0, step=1e-3):
     """Press a square plate (side ``plate`` [m], ``pressure`` [Pa]) into an SCM patch.
 
-    Returns the plate's sinkage [m] after ``seconds`` and Bekker's static
-    sinkage (pressure / (Kc / b + Kphi)) ** (1 / n) with b = 2 area / perimeter,
-    the width SCM uses, for the soil at the patch centre.
+    Returns the plate's sinkage [m] after ``seconds``, the static sinkage SCM's grid gives
+    (:func:`grid_nodes`: the load on the nodes under the plate, each of area
+    GRID_SPACING**2, with SCM's 1/b of their hull) and Bekker's static sinkage of the
+    plate itself, (pressure / (Kc / b + Kphi)) ** (1 / n) with b = 2 area / perimeter,
+    for the soil at the patch centre.  The plate's centre is shifted by half a grid step
+    where its edges would otherwise fall on grid lines (so that no node lies on an edge).
     """
     vec = getattr(chrono, "ChVector3d", None) or chrono.ChVectorD
     system = chrono.ChSystemSMC()
@@ -827,23 +845,29 @@ def demo(sample=None, plate=0.2, pressure=20e3, seconds=1.0, step=1e-3):
     thick = 0.02
     density = pressure * plate**2 / 9.81 / (plate**2 * thick)
     body = chrono.ChBodyEasyBox(plate, plate, thick, density, True, True, material())
-    body.SetPos(vec(0, 0, thick / 2 + 0.005))
+    steps = plate / GRID_SPACING
+    on_lines = abs(steps - round(steps)) < 1e-9 and round(steps) % 2 == 0
+    c = GRID_SPACING / 2 if on_lines else 0.0
+    body.SetPos(vec(c, c, thick / 2 + 0.005))
     system.Add(body)
     t = 0.0
     while t < seconds:
         system.DoStepDynamics(step)
         t += step
     sinkage = thick / 2 - body.GetPos().z
-    centre = 0 if ORIGIN is None else Nearest([to_local(a, b) for _, a, b in SITES])(0.0, 0.0)
+    centre = 0 if ORIGIN is None else Nearest([to_local(a, b) for _, a, b in SITES])(c, c)
     kphi, kc, n = parameters(sample)[centre][:3]
+    nodes, oob = grid_nodes(plate, (c, c), GRID_SPACING)
+    load = pressure * plate**2
+    on_grid = (load / (nodes * GRID_SPACING**2) / (kc * oob + kphi)) ** (1 / n)
     static = (pressure / (kc / (plate / 2) + kphi)) ** (1 / n)
-    return sinkage, static
+    return sinkage, on_grid, static
 
 
 if __name__ == "__main__":
-    sinkage, static = demo()
+    sinkage, on_grid, static = demo()
     soil = f"soil of {SITES[0][0]!r}" if ORIGIN is None else f"{len(SITES)} sites"
     print(f"SCM patch {PATCH[0]:g} x {PATCH[1]:g} m, grid {GRID_SPACING:g} m, {soil}")
     print(f"plate 0.2 m at 20 kPa: sinkage {sinkage:.3g} m after 1 s "
-          f"(Bekker, static: {static:.3g} m)")
+          f"(static on SCM's grid: {on_grid:.3g} m; Bekker, continuous plate: {static:.3g} m)")
 '''

@@ -42,6 +42,8 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -52,7 +54,7 @@ from terracone.apps.maps.directory import MapDirectory, read_map_directory
 from terracone.apps.maps.simulation import Simulation, simulate
 from terracone.apps.mobility import COARSE_NOTE, NO_CALIBRATION_NOTE, LayerChoice
 from terracone.apps.trafficability import critical_layer_rule
-from terracone.apps.vehicles import Vehicle
+from terracone.apps.vehicles import Vehicle, load_vehicle
 from terracone.inverse.bounds import Bounds
 from terracone.physics import units as u
 from terracone.physics import vehicle as phys
@@ -63,8 +65,11 @@ __all__ = [
     "CONFIDENCE",
     "DEFAULT_SIMULATIONS",
     "GoMap",
+    "GoMapRun",
     "go_map",
     "go_map_document",
+    "run_go_map",
+    "simulation_pool",
     "write_go_map",
 ]
 
@@ -509,3 +514,120 @@ def write_go_map(
 
     files["json"].write_text(dumps(doc) + "\n")
     return files, doc
+
+
+@contextmanager
+def simulation_pool(workers: int | None = None, scheduler: str | None = None) -> Iterator[Any]:
+    """The pool that conditions a map's simulations: None (this process), a process pool of
+    ``workers``, or a client of the Dask scheduler at ``scheduler``; closed after.
+
+    Raises
+    ------
+    ValueError
+        Both given, ``workers`` < 1, or a scheduler that cannot be reached.
+    """
+    if workers is not None and scheduler is not None:
+        raise ValueError("give workers or a scheduler, not both")
+    if workers is not None and workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    if scheduler is not None:
+        from distributed import Client
+
+        try:
+            client = Client(scheduler, timeout="20s", set_as_default=False)
+        except (OSError, TimeoutError) as exc:
+            raise ValueError(f"cannot connect to the Dask scheduler {scheduler}: {exc}") from None
+        with client:
+            yield client
+        return
+    if workers is None or workers <= 1:
+        yield None
+        return
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        yield pool
+
+
+@dataclass
+class GoMapRun:
+    """What :func:`run_go_map` computed and wrote.
+
+    ``result``: the P(GO) and sinkage map; ``files``: the files written, by
+    name; ``document``: ``mobility.json`` (the command's JSON document).
+    """
+
+    result: GoMap
+    files: dict[str, Path]
+    document: dict[str, Any]
+
+    @property
+    def evaluated_any(self) -> bool:
+        """Whether a P(GO) map or a sinkage map was made."""
+        return self.result.evaluated_any
+
+
+def run_go_map(
+    directory: str | os.PathLike[str] | MapDirectory,
+    vehicle: Vehicle | str | os.PathLike[str],
+    out: str | os.PathLike[str],
+    units: str = "si",
+    *,
+    passes: int = 1,
+    soil: str | None = None,
+    choice: LayerChoice | None = None,
+    remolding_index: float | None = None,
+    simulations: int | None = None,
+    seed: int = 0,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: Callable[[int], Any] | None = None,
+) -> GoMapRun:
+    """What ``terracone mobility MAPDIR`` computes: :func:`go_map` on a pool, then written.
+
+    Parameters
+    ----------
+    directory : path or MapDirectory
+        A ``terracone map`` output directory.
+    vehicle : Vehicle or path
+        A vehicle, or its file (:func:`~terracone.apps.vehicles.load_vehicle`).
+    out : path
+        The directory written (:func:`write_go_map`).
+    units : {"si", "us"}
+        Units of the files and the document.
+    passes, soil, choice, remolding_index, seed
+        As :func:`go_map` takes them.
+    simulations : int, optional
+        Conditional simulations (default :data:`DEFAULT_SIMULATIONS`).
+    workers, scheduler : optional
+        The pool of the conditioning (:func:`simulation_pool`).
+    progress : callable, optional
+        ``progress(k)`` after every ``k`` cells simulated (default: a tqdm
+        bar on a terminal).
+
+    Returns
+    -------
+    GoMapRun
+    """
+    from tqdm import tqdm
+
+    veh = vehicle if isinstance(vehicle, Vehicle) else load_vehicle(vehicle)
+    d = directory if isinstance(directory, MapDirectory) else read_map_directory(directory)
+    n = DEFAULT_SIMULATIONS if simulations is None else simulations
+    cells = d.grid.width * d.grid.height
+    with (
+        simulation_pool(workers, scheduler) as pool,
+        tqdm(
+            total=3 * cells,
+            desc="simulating cells",
+            unit="cell",
+            leave=False,
+            disable=None if progress is None else True,
+        ) as bar,
+    ):
+        result = go_map(d, veh, passes=passes, soil=soil, choice=choice,
+                        remolding_index=remolding_index, simulations=n, seed=seed, pool=pool,
+                        progress=bar.update if progress is None else progress)  # fmt: skip
+    given = None if isinstance(directory, MapDirectory) else str(directory)
+    files, doc = write_go_map(result, out, units, input=given)
+    return GoMapRun(result, files, doc)

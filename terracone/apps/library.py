@@ -51,6 +51,8 @@ __all__ = [
     "ImportReport",
     "Library",
     "TerrainRecord",
+    "add_calibration",
+    "add_terrain",
     "check_params",
     "record_params",
     "default_library_path",
@@ -834,3 +836,77 @@ def seed_paper(library: Library, replace: bool = False) -> ImportReport:
         library.add(rec.name, rec.kind, rec.params, rec.provenance, replace=True, notes=rec.notes)
         imported.append(rec.name)
     return ImportReport(imported, skipped)
+
+
+def add_terrain(
+    library: str | os.PathLike | None,
+    name: str,
+    kind: str = "user",
+    params: Mapping[str, Any] | None = None,
+    *,
+    from_json: str | os.PathLike | None = None,
+    source: str | None = None,
+    soil_class: str | None = None,
+    replace: bool = False,
+) -> TerrainRecord:
+    """Store a terrain in a library file (``terracone library add NAME``).
+
+    Parameters
+    ----------
+    library : path, optional
+        The library (default: ``$TERRACONE_LIBRARY`` or the user data dir).
+    name, kind : str
+    params : mapping, optional
+        SI values (library keys); they override those of ``from_json``.
+    from_json : path, optional
+        A JSON object of SI values (checked key by key, :func:`check_params`).
+    source : str, optional
+        Provenance: where the values come from.
+    soil_class : str, optional
+        A USCS symbol, or fine or coarse, kept in the provenance (the prior
+        weight of the library as a prior).
+    replace : bool
+        Replace a record of the same name.
+
+    Returns
+    -------
+    TerrainRecord
+    """
+    p: dict[str, Any] = {}
+    if from_json:
+        p.update(check_params(read_json(from_json), file=from_json))
+    p.update(params or {})
+    soil = {"soil_class": soil_class} if soil_class else {}
+    prov = {**make_provenance(source=source, method="library add"), **soil}
+    with Library(library) as lib:
+        return lib.add(name, kind, p, prov, replace=replace)
+
+
+def add_calibration(
+    library: str | os.PathLike | None,
+    path: str | os.PathLike,
+    name: str | None = None,
+    *,
+    source: str | None = None,
+    soil_class: str | None = None,
+    replace: bool = False,
+) -> TerrainRecord:
+    """Store a calibration file of ``terracone learn --save`` as kind "calibration".
+
+    Under ``name``, default the calibration's terrain; its provenance kept,
+    with ``source`` (default the file) and ``soil_class`` as :func:`add_terrain`
+    takes them.
+
+    Returns
+    -------
+    TerrainRecord
+    """
+    from terracone.inverse.problem import Calibration
+
+    cal = Calibration.load(path)
+    soil = {"soil_class": soil_class} if soil_class else {}
+    prov = {**cal.provenance, "source": source or str(path), **soil}
+    prov.setdefault("method", "terracone learn")
+    with Library(library) as lib:
+        return lib.add(name or cal.terrain, "calibration", cal.library_params(), prov,
+                       replace=replace)  # fmt: skip

@@ -210,7 +210,7 @@ def write_mavs(
             "what": what,
             "profiles": ids,
             "cone_index_of": kind,
-            "critical_layer_in": [round(v / u.INCH, 9) for v in MAVS_LAYER],
+            "critical_layer_in": [round(v, 9) for v in from_si(MAVS_LAYER, "length", "us")],
             "set_terrain_properties": {
                 **mavs_set_terrain_properties(strength, material),
                 "strength_of": kind,

@@ -44,8 +44,11 @@ References
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+import os
+import sys
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -58,12 +61,14 @@ from terracone.apps.trafficability import (
     soil_class_of,
     weakest_layer,
 )
-from terracone.apps.vehicles import Vehicle, Wheel
+from terracone.apps.vehicles import Vehicle, Wheel, load_vehicle
+from terracone.apps.workflow import Reading, repredict
 from terracone.data import CIProfile, InputError
+from terracone.inverse.problem import Problem
 from terracone.physics import units as u
 from terracone.physics import vehicle as phys
 from terracone.physics.metrics import finite_median
-from terracone.result import PredictionResult, PredictionResults
+from terracone.result import PredictionResult, PredictionResults, read_results
 from terracone.resultunits import from_si
 
 __all__ = [
@@ -76,6 +81,7 @@ __all__ = [
     "evaluate_profile",
     "evaluate_mobility",
     "ci_profiles_by_id",
+    "run_mobility",
 ]
 
 #: Name and version of the document ``terracone mobility --json`` writes.
@@ -90,6 +96,8 @@ NO_CALIBRATION_NOTE = (
     "so the wheel-sinkage band is set by the prior, not a calibrated 90% interval; give a "
     "calibration (predict --calibration or --prior terrain:NAME) for calibrated bands"
 )
+#: Mobility of at least this many profiles shows a progress bar on a terminal.
+PROGRESS_FROM = 500
 COARSE_NOTE = (
     "coarse-grained soil: rated by its critical-layer CI (it has no remolding index, so no "
     "RCI); NRMM's coarse-grained VCI relations could not be checked against a public source "
@@ -696,7 +704,7 @@ def _run_notes(vehicle: Vehicle, passes: int, choice: LayerChoice, profiles) -> 
     if vehicle.kind == "tracked" and heavy and choice.mode == "rule":
         notes.append(
             f"the critical-layer rule for tracked vehicles comes from a 46,000-lb vehicle "
-            f"(EN5341); this one weighs {vehicle.gross_weight / u.LBF:,.0f} lb, and the layer "
+            f"(EN5341); this one weighs {from_si(vehicle.gross_weight, 'force', 'us'):,.0f} lb, and the layer "
             "deepens with weight by a table that could not be read here: consider --layer"
         )
     if passes == 50 and vehicle.kind == "wheeled" and any(p.soil_class == "fine" for p in profiles):
@@ -811,3 +819,91 @@ def _sites(profiles, keys: list[str], level: float) -> list[SiteMobility]:
 def ci_profiles_by_id(items: Sequence[Any]) -> dict[str, CIProfile]:
     """CI profiles by id from a reader's list (reader errors are left out)."""
     return {p.id: p for p in items if not isinstance(p, InputError)}
+
+
+def _progress(count: int) -> Callable[[Iterable[Any]], Iterable[Any]] | None:
+    """tqdm over the profiles when there are many and stderr is a terminal."""
+    if count < PROGRESS_FROM or not sys.stderr.isatty():
+        return None
+    from tqdm.auto import tqdm
+
+    return lambda it: tqdm(it, total=count, desc="terracone mobility", unit="profile",
+                           file=sys.stderr)  # fmt: skip
+
+
+def check_results_path(path: str | os.PathLike[str]) -> None:
+    """A directory of results must be a batch directory (it holds ``part-*.parquet``).
+
+    Raises
+    ------
+    ValueError
+        A directory that is neither a terrain map nor a batch directory.
+    """
+    p = Path(path)
+    if p.is_dir() and not any(p.glob("part-*.parquet")):
+        raise ValueError(
+            f"{p}: neither a terracone map directory (no map.json) nor a batch directory "
+            "(no part-*.parquet files)"
+        )
+
+
+def run_mobility(
+    results: PredictionResults | str | os.PathLike[str],
+    vehicle: Vehicle | str | os.PathLike[str],
+    *,
+    passes: int = 1,
+    layer: tuple[float, float] | None = None,
+    choice: LayerChoice | None = None,
+    soil: str | None = None,
+    remolding_index: float | None = None,
+    by: Sequence[str] | None = None,
+    ci_file: str | os.PathLike[str] | None = None,
+    file_units: str | None = None,
+    problem: Problem | None = None,
+    units: str = "si",
+    progress: Callable[[Iterable[Any]], Iterable[Any]] | None = None,
+) -> MobilityRun:
+    """What ``terracone mobility RESULTS`` computes: read, predict again if asked, evaluate.
+
+    Parameters
+    ----------
+    results : PredictionResults or path
+        A predict JSON or Parquet file, a batch directory, or results read.
+    vehicle : Vehicle or path
+        A vehicle, or its file (:func:`~terracone.apps.vehicles.load_vehicle`).
+    passes, layer, choice, soil, remolding_index, by
+        As :func:`evaluate_mobility` takes them.
+    ci_file : path, optional
+        CI profiles of results that keep none (a batch directory), by id.
+    file_units : {"si", "us"}, optional
+        Unit system of a ``ci_file`` that states none.
+    problem : Problem, optional
+        Predict the profiles again under it first (a library as the prior,
+        :func:`~terracone.apps.workflow.repredict`), their CI from the
+        results or ``ci_file``.
+    units : {"si", "us"}
+        Units of the reading's notes.
+    progress : callable, optional
+        Wraps the loop over the profiles (default: a tqdm bar on a terminal
+        from 500 profiles).
+
+    Returns
+    -------
+    MobilityRun
+    """
+    source = None
+    if not isinstance(results, PredictionResults):
+        check_results_path(results)
+        source = str(results)
+    veh = vehicle if isinstance(vehicle, Vehicle) else load_vehicle(vehicle)
+    res = results if isinstance(results, PredictionResults) else read_results(results)
+    ci_profiles = None
+    if ci_file:
+        ci_profiles = ci_profiles_by_id(Reading(file_units=file_units).read(ci_file, units))
+    if problem is not None:
+        res = repredict(res, problem, ci_profiles)
+    return evaluate_mobility(
+        res, veh, passes=passes, layer=layer, choice=choice, soil=soil,
+        remolding_index=remolding_index, by=by, ci_profiles=ci_profiles, source=source,
+        progress=_progress(len(res)) if progress is None else progress,
+    )  # fmt: skip

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from terracone.cli.common import UNITS, emit_json, shared, store_in_library
+from terracone.cli.common import UNITS, emit_json, shared
 from terracone.report.text import plate_fit_text, shear_fit_text
 
 #: --units, --save-as, --library and --json of both commands.
@@ -18,15 +18,9 @@ fit_output_options = shared(
 )
 
 
-def _finish(fit, source, method, units, save_as, library, as_json, text) -> None:
-    """Store ``fit`` in the library when asked, then print it as JSON or as ``text``."""
-    if save_as:
-        from terracone.apps.library import make_provenance
-
-        provenance = make_provenance(source=str(source), method=method)
-        store_in_library(library, save_as, "bevameter-fit", fit.params(), provenance)
-    d = fit.as_dict(units)
-    d["saved_as"] = save_as
+def _print(run, units, as_json, text) -> None:
+    """Print a fit as JSON or as ``text``."""
+    d = run.as_dict(units)
     if as_json:
         emit_json(d)
         return
@@ -44,12 +38,10 @@ def _finish(fit, source, method, units, save_as, library, as_json, text) -> None
 @fit_output_options
 def fit_plates_cmd(plates_file, method, units, save_as, library, as_json):
     """Fit p = k z^n per plate test, and kc, kphi from k = kc/b + kphi (two or more sizes)."""
-    from terracone.inverse.bevameter.plates import fit_plates
-    from terracone.io import read_plate_tests
+    from terracone.apps.bevameter import fit_plate_file
 
-    fit = fit_plates(read_plate_tests(plates_file), method=method)
-    method = f"fit-plates ({method})"
-    _finish(fit, plates_file, method, units, save_as, library, as_json, plate_fit_text)
+    run = fit_plate_file(plates_file, method, save_as=save_as, library=library)
+    _print(run, units, as_json, plate_fit_text)
 
 
 @click.command("fit-shear")
@@ -57,8 +49,7 @@ def fit_plates_cmd(plates_file, method, units, save_as, library, as_json):
 @fit_output_options
 def fit_shear_cmd(shear_file, units, save_as, library, as_json):
     """Fit Janosi-Hanamoto tau = (c + sigma tan phi)(1 - exp(-j/K)) to shear tests."""
-    from terracone.inverse.bevameter.shear import fit_shear
-    from terracone.io import read_shear_tests
+    from terracone.apps.bevameter import fit_shear_file
 
-    fit = fit_shear(read_shear_tests(shear_file))
-    _finish(fit, shear_file, "fit-shear", units, save_as, library, as_json, shear_fit_text)
+    run = fit_shear_file(shear_file, save_as=save_as, library=library)
+    _print(run, units, as_json, shear_fit_text)

@@ -350,12 +350,3 @@ def load_prior(prior: str, library: str | None):
     if prior.startswith("terrain:"):
         return load_calibration(None, prior.split(":", 1)[1], library)
     raise click.BadParameter(f"--prior: expected bounds or terrain:NAME, got {prior!r}")
-
-
-def store_in_library(
-    library: str | None, name: str, kind: str, params: dict, provenance: dict
-) -> None:
-    from terracone.apps.library import Library
-
-    with Library(library) as lib:
-        lib.add(name, kind, params, provenance, replace=True)

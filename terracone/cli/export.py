@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
 import click
 
-from terracone.cli.common import UNITS, parse_length
+from terracone.cli.common import UNITS, emit_json, parse_length
 from terracone.physics import units as u
 
 #: ``--format`` choices; chrono-scm and pychrono take the Chrono options.
@@ -219,13 +218,11 @@ def export_cmd(
     if fmt == "geojson":
         return _export_geojson(results_path, out, units)
     if fmt == "mavs":
-        from terracone.cli.mobility import export_mavs
-
-        return export_mavs(results_path, profile, material, out, as_json)
+        return _export_mavs(results_path, profile, material, out, as_json)
     if fmt in ("json", "csv"):
         return _export_plain(terrain, results_path, profile, fmt, out, units or "si", library)
-    chrono["map_dir"], chrono["force"] = map_dir, force
-    return _export_chrono(terrain, results_path, profile, fmt, out, units or "si", library, chrono)
+    sources = {"terrain": terrain, "results": results_path, "map_dir": map_dir}
+    return _export_chrono(sources, profile, fmt, out, units or "si", library, force, chrono)
 
 
 def _check_paths(out, results_path, map_dir, library, terrain, chrono, folder) -> None:
@@ -244,36 +241,25 @@ def _check_paths(out, results_path, map_dir, library, terrain, chrono, folder) -
 
 
 def _export_plain(terrain, results_path, profile, fmt, out, units, library) -> None:
-    from terracone.apps.export import export_terrain
+    from terracone.apps.exporting import export_plain
 
-    if terrain is not None:
-        from terracone.apps.library import Library
-
-        with Library(library) as lib:
-            name, params = terrain, lib.get(terrain)
-    else:
-        from terracone.apps.export import pick_profile
-        from terracone.result import read_results
-
-        res = pick_profile(read_results(results_path), profile, str(results_path))
-        name, params = res.id, res.params
-    missing = export_terrain(params, fmt, out, units=units, name=name)
-    if missing:
-        click.echo(f"terracone: {name!r} lacks {', '.join(missing)}: left out of {out}", err=True)
+    run = export_plain(out, fmt, terrain=terrain, results=results_path, profile=profile,
+                       units=units, library=library)  # fmt: skip
+    if run.missing:
+        click.echo(
+            f"terracone: {run.name!r} lacks {', '.join(run.missing)}: left out of {out}", err=True
+        )
     click.echo(f"wrote {out}")
 
 
 def _export_geojson(results_path: str | None, out: str, units: str | None) -> None:
-    from terracone.apps.export import write_geojson
-    from terracone.result import read_results
+    from terracone.apps.exporting import export_geojson
 
     if results_path is None:
         raise click.UsageError("--format geojson needs --results (predict JSON or batch directory)")
-    results = read_results(results_path)
-    units = units or results.settings.get("units") or "si"
-    unlocated = write_geojson(results, out, units)
-    n = len(results) - len(unlocated)
-    msg = f"terracone: {out}: {n} located profile{'s' if n != 1 else ''} of {len(results)}"
+    run = export_geojson(results_path, out, units)
+    n, unlocated = run.located, run.unlocated
+    msg = f"terracone: {out}: {n} located profile{'s' if n != 1 else ''} of {run.count}"
     if unlocated:
         shown = ", ".join(unlocated[:3]) + (", ..." if len(unlocated) > 3 else "")
         msg += f"; {len(unlocated)} without coordinates (no lat/lon in their metadata: {shown})"
@@ -281,71 +267,36 @@ def _export_geojson(results_path: str | None, out: str, units: str | None) -> No
     click.echo(f"wrote {out}")
 
 
-def _shear_layers(opts: dict, units: str, library: str | None, base: tuple | None):
-    """(values, sources) of the terrain's shear values: terrain, then --shear, then options."""
-    from terracone.apps.export import merge_shear, shear_of
+def _export_mavs(
+    results_path: str | None, profile: str | None, material: str | None, out: str, as_json: bool
+) -> None:
+    """``terracone export --format mavs``: the MAVS surface entry of a profile or a site, and
+    the values of MAVS's two SetTerrainProperties calls (docs/export.md)."""
+    from terracone.apps.exporting import export_mavs
 
-    layers = [base] if base else []
-    if opts["shear"] is not None:
-        values, source = shear_of(opts["shear"], library)
-        layers.append((source, values))
-    for key, opt, parse in (
-        ("c_kpa", "cohesion", lambda t: parse_pressure(t, units, "--cohesion")),
-        ("phi_deg", "friction", lambda t: parse_angle(t, "--friction")),
-        ("K_m", "janosi", lambda t: parse_length(t, units, "--janosi")),
-    ):
-        if opts[opt] is not None:
-            layers.append((f"--{opt}", {key: parse(opts[opt])}))
-    return merge_shear(layers)
-
-
-def _chrono_soils(terrain, results_path, profile, fmt, units, library, opts):
-    """The soils to write and the lines said on stderr about them."""
-    from terracone.apps.chrono import SPEC_SOIL_KEYS
-
-    bekker = ", ".join(SPEC_SOIL_KEYS[:3])
-    source = results_path if opts["map_dir"] is None else f"map {opts['map_dir']}"
-    origin = f"library terrain {terrain!r}" if terrain else f"the cone ({source})"
-    notes, base, record = [f"{bekker} from {origin}"], None, None
-    if terrain is not None:
-        from terracone.apps.library import Library
-
-        with Library(library) as lib:
-            record = lib.get(terrain)
-        base = (f"library terrain {terrain!r}", record.params)
-    shear, sources = _shear_layers(opts, units, library, base)
-    keys = dict(zip(("c_kpa", "phi_deg", "K_m"), SPEC_SOIL_KEYS[3:6]))
-    by_source: dict[str, list[str]] = {}
-    for k, src in sources.items():
-        by_source.setdefault(src, []).append(keys[k])
-    notes += [f"{', '.join(ks)} from {src}" for src, ks in by_source.items()]
-    if record is not None:
-        from terracone.apps.export import terrain_soil
-
-        if opts["samples"] is not None:
-            raise click.UsageError("--samples needs --results with posterior draws")
-        return [terrain_soil(record, shear)], notes, []
-    if opts["map_dir"] is not None:
-        from terracone.apps.export import map_soils
-
-        if opts["samples"] is not None:
-            raise click.UsageError("--samples needs --results with posterior draws")
-        return map_soils(opts["map_dir"], shear), notes, []
-    from terracone.apps.export import result_soils
-    from terracone.result import read_results
-
-    soils, left = result_soils(
-        read_results(results_path),
-        shear,
-        profile=profile,
-        several=fmt == "pychrono",
-        source=str(results_path),
-        samples=opts["samples"],
-        seed=opts["seed"],
+    if results_path is None:
+        raise click.UsageError("--format mavs needs --results (predict JSON or batch directory)")
+    if material is None:
+        raise click.UsageError("--format mavs needs --material sand or clay (MAVS's soil type)")
+    run = export_mavs(results_path, out, material=material, profile=profile)
+    for n in run.notes:
+        click.echo(f"terracone: {n}", err=True)
+    entry, tc = run.document["Surface Mesh"][0], run.document["terracone"]
+    stp = tc["set_terrain_properties"]
+    env, veh = stp["environment"], stp["vehicle"]
+    click.echo(
+        f"terracone: {out}: Material {entry['Material']}, Cone Index {entry['Cone Index']:.4g} psi "
+        f"({tc['cone_index_of']} of the 0-6 in layer, {tc['what']}); MAVS's scene loader reads "
+        "this entry but does not pass it to the vehicle: set the soil with\n"
+        f"  env.SetTerrainProperties({env['type']!r}, {env['strength']:.6g})  # Pa\n"
+        f"  or veh.SetTerrainProperties(soil_type={veh['soil_type']!r}, "
+        f"soil_strength={veh['soil_strength']:.6g})  # psi (replaces the mesh by a flat surface)",
+        err=True,
     )
-    if opts["vehicle"] is not None:
-        soils, notes, left = _effective(results_path, soils, notes, left, opts["vehicle"])
-    return soils, notes, left
+    if as_json:
+        emit_json(run.as_dict())
+    else:
+        click.echo(f"wrote {out}")
 
 
 def _check_vehicle_source(terrain: bool, opts: dict) -> None:
@@ -368,97 +319,43 @@ def _check_vehicle_source(terrain: bool, opts: dict) -> None:
         )
 
 
-def _progress(count: int):
-    """tqdm over the profiles when there are many and stderr is a terminal."""
-    if count < 200 or not sys.stderr.isatty():
-        return None
-    from tqdm.auto import tqdm
-
-    def bar(it):
-        return tqdm(it, total=count, desc="terracone export: effective soils", unit="profile",
-                    file=sys.stderr)  # fmt: skip
-
-    return bar
-
-
-def _effective(results_path, soils, notes, left, vehicle):
-    """The soils replaced by their effective soils for the vehicle, and what is said of them."""
-    from terracone.apps.export import effective_soils, running_gear
-    from terracone.result import read_results
-
-    gear = running_gear(vehicle)
-    results = read_results(results_path)
-    soils, more = effective_soils(results, soils, gear, str(results_path), _progress(len(soils)))
-    rms = [s.effective["error"]["pressure_rms"] for s in soils]
-    worst = max((v for v in rms if v is not None), default=float("nan"))
-    notes = [
-        notes[0].replace(
-            "from the cone",
-            f"of the effective soil (kc = 0, kphi = k at the width) for {gear.describe()}, "
-            f"fitted to the layered fit of the cone",
-        ),
-        *notes[1:],
-        f"effective soil: sinkage as the layered ground's; pressure error (relative RMS over the "
-        f"sinkage) at most {worst:.3g}; per profile in the notes' 'effective'",
-    ]
-    return soils, notes, left + more
+def _chrono_values(opts: dict, units: str) -> dict:
+    """The Chrono options in SI: explicit shear values (with their option), SCM values."""
+    given = []
+    for key, opt, parse in (
+        ("c_kpa", "cohesion", lambda t: parse_pressure(t, units, "--cohesion")),
+        ("phi_deg", "friction", lambda t: parse_angle(t, "--friction")),
+        ("K_m", "janosi", lambda t: parse_length(t, units, "--janosi")),
+    ):
+        if opts[opt] is not None:
+            given.append((f"--{opt}", {key: parse(opts[opt])}))
+    spacing = opts["grid_spacing"]
+    return {
+        "shear_given": given,
+        "patch": None if opts["patch"] is None else parse_patch(opts["patch"], units),
+        "grid_spacing": None if spacing is None else parse_length(spacing, units, "--grid-spacing"),
+        "origin": None if opts["origin"] is None else parse_origin(opts["origin"]),
+    }
 
 
-def _export_chrono(terrain, results_path, profile, fmt, out, units, library, opts) -> None:
-    from terracone.apps.chrono import scm_settings
+def _export_chrono(sources, profile, fmt, out, units, library, force, opts) -> None:
+    from terracone.apps.exporting import OptionError, export_chrono
 
-    settings = scm_settings(
-        elastic_k=opts["elastic_k"],
-        damping_r=opts["damping"],
-        patch=None if opts["patch"] is None else parse_patch(opts["patch"], units),
-        grid_spacing=(
-            None
-            if opts["grid_spacing"] is None
-            else parse_length(opts["grid_spacing"], units, "--grid-spacing")
-        ),
-    )
-    soils, notes, left = _chrono_soils(terrain, results_path, profile, fmt, units, library, opts)
+    if opts["origin"] is not None and fmt != "pychrono":
+        raise click.UsageError("--origin: only with --format pychrono and several located profiles")
     try:
-        source = terrain or results_path or opts["map_dir"]
-        what = _write_chrono(soils, fmt, out, settings, opts, source, notes)
-    except ValueError as exc:
-        found = f" (found: {'; '.join(notes)})" if notes else ""
-        raise ValueError(f"{exc}{found}") from None
-    for line in (*notes, settings.defaults_text(spec=fmt == "chrono-scm")):
+        run = export_chrono(
+            out, fmt, **sources, profile=profile, library=library, shear=opts["shear"],
+            elastic_k=opts["elastic_k"], damping_r=opts["damping"], vehicle=opts["vehicle"],
+            samples=opts["samples"], seed=opts["seed"], force=force, **_chrono_values(opts, units),
+        )  # fmt: skip
+    except OptionError as exc:
+        raise click.UsageError(str(exc)) from None
+    for line in (*run.notes, run.defaults_text):
         if line:
             click.echo(f"terracone: {out}: {line}", err=True)
+    left = run.left
     if left:
         more = "; ..." if len(left) > 5 else ""
         click.echo(f"terracone: {out}: left out {len(left)}: {'; '.join(left[:5])}{more}", err=True)
-    click.echo(f"wrote {what} to {Path(out)}")
-
-
-def _write_chrono(soils, fmt, out, settings, opts, source, notes) -> str:
-    """Write the Chrono output; returns what was written, in words."""
-    from terracone.apps.chrono import write_pychrono, write_scm_spec, write_scm_specs
-
-    if opts["origin"] is not None and (fmt != "pychrono" or len(soils) < 2):
-        raise click.UsageError("--origin: only with --format pychrono and several located profiles")
-    if fmt == "pychrono":
-        origin = None if opts["origin"] is None else parse_origin(opts["origin"])
-        write_pychrono(out, soils, settings, origin=origin, source=str(source), notes=notes)
-        what = f"{len(soils)} located soils" if len(soils) > 1 else f"the soil of {soils[0].id!r}"
-        if opts["samples"]:
-            what += f" with {opts['samples']} posterior draws"
-        return what
-    if opts["samples"] is not None:
-        write_scm_specs(out, soils[0], settings, force=opts["force"])
-        return f"{opts['samples']} Chrono SCM specs and draws.csv of {soils[0].id!r}"
-    effective = soils[0].effective
-    spec_notes = (
-        None
-        if effective is None
-        else {
-            "profile": soils[0].id,
-            "source": str(source),
-            "notes": list(notes),
-            "effective": dict(effective),
-        }  # fmt: skip
-    )
-    write_scm_spec(out, soils[0].params, settings, repr(soils[0].id), spec_notes)
-    return f"the Chrono SCM spec of {soils[0].id!r}"
+    click.echo(f"wrote {run.written} to {Path(out)}")

@@ -219,25 +219,23 @@ def learn_cmd(ci_file, plates_file, r_min_range, terrain_name, save, save_as, as
 @click.option("--json", "as_json", is_flag=True)
 def evaluate_cmd(plates_file, kc, kphi, n, params_file, units, as_json):
     """R, R2, RMSD and CV of predicted against measured plate P-S curves (Tables 4-2, 4-4)."""
-    from terracone.inverse.evaluate import cross_table, parameters_from_json
-    from terracone.io import read_plate_tests
+    from terracone.apps.bevameter import evaluate_plates
 
     if params_file and any(v is not None for v in (kc, kphi, n)):
         raise click.UsageError("give either --kc/--kphi/--n or --params, not both")
     if params_file:
-        preds = parameters_from_json(params_file)
+        preds = params_file
     else:
         if kc is None or kphi is None or n is None:
             raise click.UsageError("give --kc, --kphi and --n, or --params")
         preds = [
             ("given", TerrainParameters.from_dict({"kc": kc, "kphi": kphi, "n": n, "units": units}))
         ]
-    plates = read_plate_tests(plates_file)
-    rows = cross_table(preds, plates)
+    run = evaluate_plates(plates_file, preds)
     if as_json:
-        emit_json({"plates": [r.as_dict(units) for r in rows], "units": units})
+        emit_json(run.as_dict(units))
         return
-    click.echo(evaluate_text(rows, units))
+    click.echo(evaluate_text(run.rows, units))
 
 
 @click.command("sites")

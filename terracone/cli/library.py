@@ -89,21 +89,20 @@ def library_show(ctx, name):
 @click.pass_context
 def library_add(ctx, name, kind, params, from_json, from_cal, soil_class, source, replace):
     """Add a terrain (NAME), or a calibration file (--from cal.json)."""
-    from terracone.apps.library import check_params, make_provenance
-    from terracone.io.jsonkeys import read_json
+    from terracone.apps.library import add_calibration, add_terrain
 
-    soil = {"soil_class": soil_class} if soil_class else {}
     if from_cal:
         if from_json or params:
             raise click.UsageError("give --from alone: a calibration file holds its parameters")
-        _add_calibration(ctx, name, kind, from_cal, soil, source, replace)
+        if kind not in (None, "calibration"):
+            raise click.UsageError(f"--from stores kind calibration (got --kind {kind})")
+        rec = add_calibration(ctx.obj["library"], from_cal, name, source=source,
+                              soil_class=soil_class, replace=replace)  # fmt: skip
+        click.echo(f"added {rec.name!r} ({rec.kind}) from {from_cal}")
         return
     if name is None:
         raise click.UsageError("give the terrain's NAME (or --from cal.json)")
-    kind = kind or "user"
     p: dict[str, Any] = {}
-    if from_json:
-        p.update(check_params(read_json(from_json), file=from_json))
     for kv in params:
         if "=" not in kv:
             raise click.BadParameter(f"--param: expected KEY=VALUE, got {kv!r}")
@@ -112,25 +111,9 @@ def library_add(ctx, name, kind, params, from_json, from_cal, soil_class, source
             p[k.strip()] = float(v)
         except ValueError:
             p[k.strip()] = v.strip()
-    prov = {**make_provenance(source=source, method="library add"), **soil}
-    with _open(ctx) as lib:
-        rec = lib.add(name, kind, p, prov, replace=replace)
+    rec = add_terrain(ctx.obj["library"], name, kind or "user", p, from_json=from_json,
+                      source=source, soil_class=soil_class, replace=replace)  # fmt: skip
     click.echo(f"added {rec.name!r} ({rec.kind})")
-
-
-def _add_calibration(ctx, name, kind, path, soil, source, replace) -> None:
-    """``library add --from cal.json``: a learned calibration, kind calibration."""
-    from terracone.inverse.problem import Calibration
-
-    if kind not in (None, "calibration"):
-        raise click.UsageError(f"--from stores kind calibration (got --kind {kind})")
-    cal = Calibration.load(path)
-    prov = {**cal.provenance, "source": source or str(path), **soil}
-    prov.setdefault("method", "terracone learn")
-    with _open(ctx) as lib:
-        rec = lib.add(name or cal.terrain, "calibration", cal.library_params(), prov,
-                      replace=replace)  # fmt: skip
-    click.echo(f"added {rec.name!r} ({rec.kind}) from {path}")
 
 
 @library_grp.command("seed-paper")

@@ -122,11 +122,8 @@ def map_cmd(
     leave-one-out cross-validation of each map.  DIR then holds this map only: an earlier
     map there is replaced whole, any other non-empty directory is refused unless --force.
     """
-    from tqdm import tqdm
-
-    from terracone.apps.maps import is_map_directory, map_document, map_survey, write_map
+    from terracone.apps.maps import is_map_directory, run_map
     from terracone.io.outputs import check_outputs, check_run_directory
-    from terracone.result import read_results
 
     check_outputs({"--out": out}, {"RESULTS": results}, directories=("--out",))
     check_run_directory(out, what="terracone map", is_run=is_map_directory, force=force)
@@ -143,23 +140,17 @@ def map_cmd(
             raise click.BadParameter("--plate and --sinkage must be > 0")
     layers = parse_layers(layers_ci, units)
     res = parse_length(resolution, "si", "--resolution") if resolution else None
-    data = read_results(results)
+    problem = None
     if library_path:  # the library as the prior, from the CI the results keep
-        from terracone.apps.workflow import repredict
         from terracone.cli.common import load_library_prior
         from terracone.inverse.problem import Problem
 
-        data = repredict(data, Problem(library=load_library_prior(library_path)))
-    with tqdm(desc="kriging cells", unit="cell", disable=None, leave=False) as bar:
-        result = map_survey(
-            data, plate=plate_si, layers=layers, resolution=res, crs=crs, units=units,
-            progress=bar.update,
-        )  # fmt: skip
-    write_map(result, out, units, force=force)
-    doc = map_document(result, units)
-    for note in result.notes:
+        problem = Problem(library=load_library_prior(library_path))
+    run = run_map(results, out, plate=plate_si, layers=layers, resolution=res, crs=crs,
+                  units=units, problem=problem, force=force)  # fmt: skip
+    for note in run.notes:
         click.echo(f"note: {note}", err=True)
     if as_json:
-        emit_json(doc)
+        emit_json(run.document)
     else:
-        click.echo(_summary(doc, out))
+        click.echo(_summary(run.document, out))

@@ -3,10 +3,7 @@
 from __future__ import annotations
 
 import sys
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
 
 import click
 
@@ -53,16 +50,6 @@ def parse_critical_layer(text: str | None, units: str):
         return LayerChoice("weakest", thickness=lengths[0], window=window)
     except ValueError as exc:
         raise click.BadParameter(f"--critical-layer: {exc}") from None
-
-
-def _progress(count: int):
-    """tqdm over the profiles when there are many and stderr is a terminal."""
-    if count < 500 or not sys.stderr.isatty():
-        return None
-    from tqdm.auto import tqdm
-
-    return lambda it: tqdm(it, total=count, desc="terracone mobility", unit="profile",
-                           file=sys.stderr)  # fmt: skip
 
 
 @click.command("mobility")
@@ -198,31 +185,25 @@ def mobility_cmd(
         raise click.BadParameter(
             f"{out!r} is a directory (give a file for RESULTS)", param_hint="'--out'"
         )
-    _check_results_path(results_path)
-    from terracone.apps.mobility import ci_profiles_by_id, evaluate_mobility
-    from terracone.apps.vehicles import load_vehicle
+    from terracone.apps.mobility import run_mobility
     from terracone.io.outputs import check_outputs
     from terracone.report.mobility import mobility_text
-    from terracone.result import read_results
 
     check_outputs(
         {"--out": out}, {"RESULTS": results_path, "--vehicle": vehicle_path, "--ci": ci_file}
     )
     choice = parse_critical_layer(critical_layer, units)
-    vehicle = load_vehicle(vehicle_path)
-    results = read_results(results_path)
-    ci_profiles = None
-    if ci_file:
-        from terracone.apps.workflow import Reading
+    lay = parse_layer(layer, units)
+    problem = None
+    if library_path:  # predicted again with the library as the prior
+        from terracone.cli.common import load_library_prior
+        from terracone.inverse.problem import Problem
 
-        ci_profiles = ci_profiles_by_id(Reading(file_units=file_units).read(ci_file, units))
-    if library_path:
-        results = _with_library(results, library_path, ci_profiles)
-    run = evaluate_mobility(
-        results, vehicle, passes=int(passes), layer=parse_layer(layer, units), choice=choice,
-        soil=soil, remolding_index=remolding_index,
-        by=None if by is None else [k.strip() for k in by.split(",")],
-        ci_profiles=ci_profiles, source=str(results_path), progress=_progress(len(results)),
+        problem = Problem(library=load_library_prior(library_path))
+    run = run_mobility(
+        results_path, vehicle_path, passes=int(passes), layer=lay, choice=choice, soil=soil,
+        remolding_index=remolding_index, by=None if by is None else [k.strip() for k in by.split(",")],
+        ci_file=ci_file, file_units=file_units, problem=problem, units=units,
     )  # fmt: skip
     doc = run.as_dict(units, input=str(results_path))
     if out:
@@ -235,52 +216,12 @@ def mobility_cmd(
         sys.exit(1)
 
 
-def _check_results_path(path: str) -> None:
-    """A directory must be a batch directory (a map directory was taken before)."""
-    p = Path(path)
-    if p.is_dir() and not any(p.glob("part-*.parquet")):
-        raise ValueError(
-            f"{p}: neither a terracone map directory (no map.json) nor a batch directory "
-            "(no part-*.parquet files)"
-        )
-
-
-@contextmanager
-def _pool(workers: int | None, scheduler: str | None) -> Iterator[Any]:
-    """None (this process), a process pool of ``workers``, or a Dask client of ``scheduler``."""
-    if workers is not None and scheduler is not None:
-        raise click.UsageError("give --workers or --scheduler, not both")
-    if scheduler is not None:
-        from distributed import Client
-
-        try:
-            client = Client(scheduler, timeout="20s", set_as_default=False)
-        except (OSError, TimeoutError) as exc:
-            raise ValueError(f"cannot connect to the Dask scheduler {scheduler}: {exc}") from None
-        with client:
-            yield client
-        return
-    if workers is None or workers <= 1:
-        if workers is not None and workers < 1:
-            raise click.BadParameter(f"must be >= 1, got {workers}", param_hint="'--workers'")
-        yield None
-        return
-    from concurrent.futures import ProcessPoolExecutor
-
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        yield pool
-
-
 def go_map_cmd(
     mapdir, vehicle_path, passes, soil, critical_layer, layer, remolding_index, units,
     simulations, seed, workers, scheduler, out, as_json,
 ) -> None:  # fmt: skip
     """``terracone mobility MAPDIR``: P(GO) and wheel sinkage of every cell of a map."""
-    from tqdm import tqdm
-
-    from terracone.apps.go_map import DEFAULT_SIMULATIONS, go_map, write_go_map
-    from terracone.apps.maps.directory import read_map_directory
-    from terracone.apps.vehicles import load_vehicle
+    from terracone.apps.go_map import run_go_map
     from terracone.report.mobility import go_map_text
 
     if out is None:
@@ -295,70 +236,19 @@ def go_map_cmd(
         from terracone.apps.mobility import LayerChoice
 
         choice = LayerChoice("layer", layer=lay)
-    vehicle = load_vehicle(vehicle_path)
-    d = read_map_directory(mapdir)
-    n = DEFAULT_SIMULATIONS if simulations is None else simulations
-    cells = d.grid.width * d.grid.height
-    with (
-        _pool(workers, scheduler) as pool,
-        tqdm(
-            total=3 * cells, desc="simulating cells", unit="cell", disable=None, leave=False
-        ) as bar,
-    ):
-        result = go_map(d, vehicle, passes=int(passes), soil=soil, choice=choice,
-                        remolding_index=remolding_index, simulations=n, seed=seed, pool=pool,
-                        progress=bar.update)  # fmt: skip
-    _, doc = write_go_map(result, out, units, input=str(mapdir))
+    if workers is not None and scheduler is not None:
+        raise click.UsageError("give --workers or --scheduler, not both")
+    if workers is not None and workers < 1:
+        raise click.BadParameter(f"must be >= 1, got {workers}", param_hint="'--workers'")
+    run = run_go_map(mapdir, vehicle_path, out, units, passes=int(passes), soil=soil, choice=choice,
+                     remolding_index=remolding_index, simulations=simulations, seed=seed,
+                     workers=workers, scheduler=scheduler)  # fmt: skip
+    doc = run.document
     for note in doc["notes"]:
         click.echo(f"note: {note}", err=True)
     if as_json:
         emit_json(doc)
     else:
         click.echo(go_map_text(doc, out))
-    if not result.evaluated_any:
+    if not run.evaluated_any:
         sys.exit(1)
-
-
-def _with_library(results, library_path: str, ci_profiles):
-    """The results predicted again with a library as the prior (``--library``)."""
-    from terracone.apps.workflow import repredict
-    from terracone.cli.common import load_library_prior
-    from terracone.inverse.problem import Problem
-
-    return repredict(results, Problem(library=load_library_prior(library_path)), ci_profiles)
-
-
-def export_mavs(
-    results_path: str | None, profile: str | None, material: str | None, out: str, as_json: bool
-):
-    """``terracone export --format mavs``: the MAVS surface entry of a profile or a site, and
-    the values of MAVS's two SetTerrainProperties calls (docs/export.md)."""
-    from terracone.apps.mavs import write_mavs
-    from terracone.result import read_results
-
-    if results_path is None:
-        raise click.UsageError("--format mavs needs --results (predict JSON or batch directory)")
-    if material is None:
-        raise click.UsageError("--format mavs needs --material sand or clay (MAVS's soil type)")
-    doc, notes = write_mavs(
-        read_results(results_path), out, material=material, profile=profile,
-        source=str(results_path),
-    )  # fmt: skip
-    for n in notes:
-        click.echo(f"terracone: {n}", err=True)
-    entry, tc = doc["Surface Mesh"][0], doc["terracone"]
-    stp = tc["set_terrain_properties"]
-    env, veh = stp["environment"], stp["vehicle"]
-    click.echo(
-        f"terracone: {out}: Material {entry['Material']}, Cone Index {entry['Cone Index']:.4g} psi "
-        f"({tc['cone_index_of']} of the 0-6 in layer, {tc['what']}); MAVS's scene loader reads "
-        "this entry but does not pass it to the vehicle: set the soil with\n"
-        f"  env.SetTerrainProperties({env['type']!r}, {env['strength']:.6g})  # Pa\n"
-        f"  or veh.SetTerrainProperties(soil_type={veh['soil_type']!r}, "
-        f"soil_strength={veh['soil_strength']:.6g})  # psi (replaces the mesh by a flat surface)",
-        err=True,
-    )
-    if as_json:
-        emit_json({**doc, "set_terrain_properties": stp, "out": str(out)})
-    else:
-        click.echo(f"wrote {out}")

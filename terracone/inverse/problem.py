@@ -609,8 +609,8 @@ class Problem:
         nothing in the posterior (its draws vary around it).
         """
         cal = self.calibration
-        if cal is None:
-            return {} if self.ratio is None else {"kc_over_kphi": self.ratio}
+        if cal is None:  # a calibration as the prior's centre: its draws vary around it
+            return {} if self.ratio is None or self.centre else {"kc_over_kphi": self.ratio}
         out = {"phic_deg": float(cal.phic_deg), "cc": float(cal.cc)}
         if self.ratio is not None:
             out["kc_over_kphi"] = float(self.ratio)
