@@ -91,6 +91,7 @@ def convert_array(
     square of the pressure factor, a ``"none"`` not at all.  :func:`from_si` gives the
     values as a document holds them.
     """
+    units = u.check_system(units)
     if quantity not in QUANTITIES:
         raise ValueError(f"unknown quantity {quantity!r} (known: {', '.join(QUANTITIES)})")
     a = np.asarray(values, dtype=float)
@@ -101,7 +102,7 @@ def convert_array(
         return a / f if to_si else a * f
     table = _TO_SI if to_si else _FROM_SI
     if quantity in ("kc", "kphi"):
-        if n is None and u.check_system(units) != "si":
+        if n is None and units != "si":
             raise ValueError(f"{quantity} is converted to US units with its n: give n")
         return table[quantity](a, n, units)
     return table[quantity](a, units)
