@@ -23,6 +23,7 @@ document back to SI stays with each type's reader.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
@@ -94,11 +95,16 @@ def convert_array(
     units = u.check_system(units)
     if quantity not in QUANTITIES:
         raise ValueError(f"unknown quantity {quantity!r} (known: {', '.join(QUANTITIES)})")
-    a = np.asarray(values, dtype=float)
+    return np.asarray(_convert(values, quantity, units, n, to_si), dtype=float)
+
+
+def _convert(a: Any, quantity: str, units: str, n: Any, to_si: bool) -> np.ndarray:
+    """:func:`convert_array`, the quantity and the unit system checked."""
     if quantity == "none":
-        return a
+        return np.asarray(a, dtype=float)
     if quantity == "pressure2":  # kPa^2: the square of the pressure unit's factor
         f = float(u.pressure_from_si(1.0, units)) ** 2
+        a = np.asarray(a, dtype=float)
         return a / f if to_si else a * f
     table = _TO_SI if to_si else _FROM_SI
     if quantity in ("kc", "kphi"):
@@ -116,6 +122,9 @@ def finite_or_none(v: Any) -> float | None:
 
 def _finite(v: Any) -> Any:
     return [_finite(x) for x in v] if isinstance(v, list) else finite_or_none(v)
+
+
+_SEQUENCES = (list, tuple, np.ndarray)
 
 
 def _numbers(value: Sequence[Any]) -> bool:
@@ -150,15 +159,23 @@ def from_si(
     float, list or None
     """
     units = u.check_system(units)
+    if quantity not in QUANTITIES:
+        raise ValueError(f"unknown quantity {quantity!r} (known: {', '.join(QUANTITIES)})")
+    return _from_si(value, quantity, units, n, finite)
+
+
+def _from_si(value: Any, quantity: str, units: str, n: Any, finite: bool) -> Any:
+    """:func:`from_si`, the quantity and the unit system checked."""
     if value is None:
         return None
-    if isinstance(value, list | tuple) and not _numbers(value):
-        return [from_si(v, quantity, units, n, finite=finite) for v in value]
-    out = convert_array(value, quantity, units, n)
-    if isinstance(value, list | tuple | np.ndarray) and np.ndim(out) > 0:
-        values = out.tolist()
+    sequence = isinstance(value, _SEQUENCES)
+    if sequence and not isinstance(value, np.ndarray) and not _numbers(value):
+        return [_from_si(v, quantity, units, n, finite) for v in value]
+    if quantity == "none" and not sequence:
+        values = float(value)
     else:
-        values = float(out)
+        out = _convert(value, quantity, units, n, False)
+        values = out.tolist() if sequence and np.ndim(out) > 0 else float(out)
     return _finite(values) if finite else values
 
 
@@ -218,6 +235,8 @@ def document_value(value: Any, units: str = "si") -> Any:
     tuples become lists, item by item; dicts are copied; anything else is returned
     as it is.
     """
+    if value is None or isinstance(value, str | bool | int | float):
+        return value
     if dataclasses.is_dataclass(value) and hasattr(value, "as_dict"):
         return value.as_dict(units)
     if isinstance(value, list | tuple):
@@ -227,22 +246,34 @@ def document_value(value: Any, units: str = "si") -> Any:
     return value
 
 
+@functools.cache
+def _declared(cls: type) -> dict[str, tuple[str, str | None, str | None, bool]]:
+    """{field: (JSON key, quantity, field of n, finite)} of a result dataclass, in order."""
+    out = {}
+    for f in dataclasses.fields(cls):
+        kind = f.metadata.get("quantity")
+        if kind is not None and kind not in QUANTITIES:
+            raise ValueError(f"{cls.__name__}.{f.name}: unknown quantity {kind!r}")
+        m = f.metadata
+        out[f.name] = (m.get("key") or f.name, kind, m.get("n"), m.get("finite", False))
+    return out
+
+
 def field_value(obj: Any, name: str, units: str = "si") -> Any:
     """One field of a result dataclass as a document holds it (as :func:`output` writes it)."""
-    f = next((f for f in dataclasses.fields(obj) if f.name == name), None)
-    if f is None:
+    spec = _declared(type(obj)).get(name)
+    if spec is None:
         raise ValueError(f"{type(obj).__name__} has no field {name!r}")
-    return _field_value(obj, f, u.check_system(units))
+    return _field_value(obj, name, spec, u.check_system(units))
 
 
-def _field_value(obj: Any, f: dataclasses.Field, units: str) -> Any:
-    meta = f.metadata
-    value = getattr(obj, f.name)
-    kind = meta.get("quantity")
+def _field_value(obj: Any, name: str, spec: tuple, units: str) -> Any:
+    _, kind, n_field, finite = spec
+    value = getattr(obj, name)
     if kind is None:
         return document_value(value, units)
-    n = getattr(obj, meta["n"]) if "n" in meta else None
-    return from_si(value, kind, units, n, finite=meta.get("finite", False))
+    n = None if n_field is None else getattr(obj, n_field)
+    return _from_si(value, kind, units, n, finite)
 
 
 def output(obj: Any, units: str = "si", *, fields: Sequence[str] | None = None) -> dict[str, Any]:
@@ -265,11 +296,11 @@ def output(obj: Any, units: str = "si", *, fields: Sequence[str] | None = None) 
         their ``as_dict(units)``).
     """
     units = u.check_system(units)
-    by_name = {f.name: f for f in dataclasses.fields(obj)}
+    declared = _declared(type(obj))
     out: dict[str, Any] = {}
-    for name in by_name if fields is None else fields:
-        f = by_name[name]
-        out[f.metadata.get("key") or name] = _field_value(obj, f, units)
+    for name in declared if fields is None else fields:
+        spec = declared[name]
+        out[spec[0]] = _field_value(obj, name, spec, units)
     return out
 
 
