@@ -16,6 +16,7 @@ import numpy as np
 
 from terracone.physics import units as u
 from terracone.physics.cone import Cone, get_cone
+from terracone.resultunits import Written, quantity
 
 __all__ = [
     "CI_MAX_KPA",
@@ -638,7 +639,7 @@ class ShearTest(_FileRows):
 
 
 @dataclass
-class TerrainParameters:
+class TerrainParameters(Written):
     """Bekker-Wong pressure-sinkage and cone-terrain shear parameters, SI.
 
     The cone-terrain interaction of eqs. (2-2) to (2-7) in [1]_: the Bekker
@@ -670,14 +671,15 @@ class TerrainParameters:
     .. [1] Huang, Wong, Preston-Thomas, Jayakumar, eqs. (2-2) to (2-7), section 3.2.
     """
 
-    kc: float
-    kphi: float
-    n: float
-    cc: float = 0.0
-    phic_deg: float = 0.0
-    K_cone: float | None = None
+    kc: float = quantity("kc", n="n")
+    kphi: float = quantity("kphi", n="n")
+    n: float = quantity("none")
+    cc: float = quantity("pressure", default=0.0)
+    phic_deg: float = quantity("none", default=0.0)
+    K_cone: float | None = quantity("length", key="Kc", default=None)
     model: str = "rm0"
-    r_min: float | None = None
+    r_min: float | None = quantity("length", default=None)
+    units_key = True  # as_dict(units): the JSON keys of the CLI, then "units"
 
     @property
     def kc_over_kphi(self) -> float | None:
@@ -689,21 +691,6 @@ class TerrainParameters:
         from terracone.notebook import parameters_html
 
         return parameters_html(self)
-
-    def as_dict(self, units: str = "si") -> dict[str, Any]:
-        """Parameters in a unit system, with the JSON keys of the CLI."""
-        units = u.check_system(units)
-        return {
-            "kc": float(u.kc_from_si(self.kc, self.n, units)),
-            "kphi": float(u.kphi_from_si(self.kphi, self.n, units)),
-            "n": float(self.n),
-            "cc": float(u.pressure_from_si(self.cc, units)),
-            "phic_deg": float(self.phic_deg),
-            "Kc": None if self.K_cone is None else float(u.length_from_si(self.K_cone, units)),
-            "model": self.model,
-            "r_min": None if self.r_min is None else float(u.length_from_si(self.r_min, units)),
-            "units": units,
-        }
 
     @classmethod
     def from_dict(cls, d: dict[str, Any], units: str | None = None) -> TerrainParameters:
@@ -736,7 +723,7 @@ class TerrainParameters:
 
 
 @dataclass(frozen=True)
-class TerrainShear:
+class TerrainShear(Written):
     """The terrain's internal shear strength and shear deformation, SI.
 
     Mohr-Coulomb strength and the Janosi-Hanamoto shear deformation
@@ -764,9 +751,10 @@ class TerrainShear:
        soils. Proc. 1st Int. Conf. on Terrain-Vehicle Systems, Turin.
     """
 
-    c: float | None = None
-    phi_deg: float | None = None
-    K: float | None = None
+    c: float | None = quantity("pressure", default=None)
+    phi_deg: float | None = quantity("none", default=None)
+    K: float | None = quantity("length", default=None)
+    units_key = True  # as_dict(units): c, phi_deg, K (kPa, m or psi, in), then "units"
 
     def __post_init__(self) -> None:
         for name, lo, hi in (("c", 0.0, math.inf), ("phi_deg", 0.0, 90.0), ("K", 0.0, math.inf)):
@@ -775,16 +763,6 @@ class TerrainShear:
                 continue
             if not (math.isfinite(v) and lo <= v < hi) or (name == "K" and v == 0):
                 raise ValueError(f"terrain shear {name} out of range (got {v!r})")
-
-    def as_dict(self, units: str = "si") -> dict[str, Any]:
-        """``{"c", "phi_deg", "K", "units"}`` in a unit system (kPa, m or psi, in)."""
-        units = u.check_system(units)
-        return {
-            "c": None if self.c is None else float(u.pressure_from_si(self.c, units)),
-            "phi_deg": None if self.phi_deg is None else float(self.phi_deg),
-            "K": None if self.K is None else float(u.length_from_si(self.K, units)),
-            "units": units,
-        }
 
     @classmethod
     def from_dict(cls, d: dict[str, Any], units: str | None = None) -> TerrainShear:

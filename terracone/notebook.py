@@ -18,6 +18,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from terracone.physics import units as u
+from terracone.resultunits import from_si
 
 __all__ = [
     "parameters_html",
@@ -85,15 +86,15 @@ def _f(v: Any) -> float | None:
 
 def _kpa_row(name: str, v: float) -> list[Any]:
     """A row of a pressure [kPa] with its value in psi."""
-    return [name, _f(v), "kPa", _f(u.pressure_from_si(v, "us")), "psi"]
+    return [name, _f(v), "kPa", _f(from_si(v, "pressure", "us")), "psi"]
 
 
 def _param_rows(p: Any) -> list[list[Any]]:
     """kc, kphi, n, cc, phic (and r_min) rows: name, SI value, SI unit, US value, US unit."""
-    moduli = (("kc", u.kc_from_si, u.kc_unit), ("kphi", u.kphi_from_si, u.kphi_unit))
+    moduli = (("kc", u.kc_unit), ("kphi", u.kphi_unit))
     rows = [
-        [k, getattr(p, k), unit("si"), float(to(getattr(p, k), p.n, "us")), unit("us")]
-        for k, to, unit in moduli
+        [k, getattr(p, k), unit("si"), from_si(getattr(p, k), k, "us", p.n), unit("us")]
+        for k, unit in moduli
     ]
     rows += [
         ["n", p.n, "-", p.n, "-"],

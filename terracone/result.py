@@ -29,6 +29,16 @@ import pyarrow.parquet as pq
 
 from terracone.data import InputError, TerrainParameters
 from terracone.physics import units as u
+from terracone.resultunits import (
+    Written,
+    convert_array,
+    convert_parameters,
+    finite_or_none,
+    from_si,
+    output,
+    parameter_quantity,
+    quantity,
+)
 
 __all__ = [
     "SCHEMA",
@@ -39,6 +49,7 @@ __all__ = [
     "TEXT_COLUMNS",
     "RESULT_COLUMNS",
     "UQ_PARAMS",
+    "BAND_QUANTITIES",
     "PlateCurve",
     "PredictionResult",
     "PredictionResults",
@@ -76,6 +87,15 @@ PARQUET_SCHEMA_KEY = b"terracone.schema"
 
 #: Parameters with posterior intervals and identifiability labels.
 UQ_PARAMS = ("kc", "kphi", "n", "cc", "phic_deg")
+
+#: The keys of a band of plate pressure and their quantities (``plate_bands``).
+BAND_QUANTITIES = {
+    "radius": "length",
+    "sinkage": "length",
+    "median": "pressure",
+    "lo": "pressure",
+    "hi": "pressure",
+}
 
 #: Columns of a prediction table (batch part files, ``predict --parquet``),
 #: before the metadata columns, with their Arrow types.
@@ -133,7 +153,7 @@ RESULT_COLUMNS = FLOAT_COLUMNS + TEXT_COLUMNS
 
 
 @dataclass
-class PlateCurve:
+class PlateCurve(Written):
     """A predicted plate pressure-sinkage curve (SI).
 
     Attributes
@@ -146,25 +166,18 @@ class PlateCurve:
         Predicted pressure [kPa]: Bekker's eq. (2-2), or RM1 below r_min
         (section 3.2).
 
-    ``curve["radius"]`` reads a field too (plate curves used to be dicts).
+    ``curve["radius"]`` reads a field too (plate curves used to be dicts);
+    ``as_dict(units)`` gives ``{"radius", "sinkage", "pressure"}`` (lists of floats).
     """
 
-    radius: float
-    sinkage: np.ndarray
-    pressure: np.ndarray
+    radius: float = quantity("length")
+    sinkage: np.ndarray = quantity("length")
+    pressure: np.ndarray = quantity("pressure")
 
     def __getitem__(self, key: str) -> Any:
         if key not in ("radius", "sinkage", "pressure"):
             raise KeyError(key)
         return getattr(self, key)
-
-    def as_dict(self, units: str = "si") -> dict[str, Any]:
-        """``{"radius", "sinkage", "pressure"}`` in a unit system (lists of floats)."""
-        return {
-            "radius": float(u.length_from_si(self.radius, units)),
-            "sinkage": [float(v) for v in u.length_from_si(self.sinkage, units)],
-            "pressure": [float(v) for v in u.pressure_from_si(self.pressure, units)],
-        }
 
 
 @dataclass(kw_only=True)
@@ -220,7 +233,7 @@ class PosteriorSummary:
             return {k: (float(q[0, j]), float(q[1, j]), float(q[2, j])) for j, k in
                     enumerate(self.names)}  # fmt: skip
         n = self.intervals.get("n", (1.0, 1.0))
-        iv = _intervals(self.intervals, 0.5 * (n[0] + n[1]), units, False)
+        iv = convert_parameters(self.intervals, units, 0.5 * (n[0] + n[1]))
         return {k: (lo, math.nan, hi) for k, (lo, hi) in iv.items()}
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
@@ -269,7 +282,7 @@ class LayeredSummary:
     status: str
     error: str | None = None
     layers: list[TerrainParameters] = field(default_factory=list)
-    interfaces: list[float] = field(default_factory=list)
+    interfaces: list[float] = quantity("length", default_factory=list)
     bic: float = math.nan
     bic_single: float = math.nan
     preferred_layers: int = 1
@@ -291,7 +304,7 @@ class LayeredSummary:
         if self.ok:
             d.update(
                 layers=[{"n": v} for v in self.layer_n],
-                interfaces=[float(v) for v in u.length_from_si(self.interfaces, units)],
+                interfaces=from_si(self.interfaces, "length", units),
                 r2_ci=finite_or_none(self.r2_ci),
                 lack_of_fit=self.lack_of_fit,
                 bic=finite_or_none(self.bic),
@@ -351,28 +364,17 @@ class LibrarySummary:
     def as_dict(self, units: str = "si") -> dict[str, Any]:
         """``calibration_weights``, ``outside_library`` and the ``library`` details."""
         units = u.check_system(units)
-
-        def length(v: Any) -> Any:
-            return None if v is None else float(u.length_from_si(v, units))
-
-        def pressure(v: Any) -> Any:
-            return [float(x) for x in u.pressure_from_si(np.asarray(v, float), units)]
-
         cands = []
         for c in self.candidates:
             d = dict(c)
-            d["r_min"] = length(d.get("r_min"))
-            d["kc_over_kphi"] = length(d.get("kc_over_kphi"))
+            for k in ("r_min", "kc_over_kphi"):  # written, None when unknown
+                d[k] = from_si(d.get(k), "length", units)
             if d.get("cc") is not None:
-                d["cc"] = float(u.pressure_from_si(d["cc"], units))
-            d["log_evidence"] = finite_or_none(d.get("log_evidence", math.nan))
+                d["cc"] = from_si(d["cc"], "pressure", units)
+            d["log_evidence"] = from_si(d.get("log_evidence", math.nan), "none", finite=True)
             cands.append(d)
         bands = [
-            {
-                "radius": length(b["radius"]),
-                "sinkage": [float(v) for v in u.length_from_si(np.asarray(b["sinkage"]), units)],
-                **{k: pressure(b[k]) for k in ("median", "lo", "hi")},
-            }
+            {k: from_si(b[k], q, units) for k, q in BAND_QUANTITIES.items()}
             for b in self.plate_bands
         ]
         return {
@@ -505,9 +507,9 @@ class PredictionResult:
     r2_ci: float = float("nan")
     longest_run: int = 0
     lack_of_fit: str | None = None
-    depth: np.ndarray | None = None
-    ci: np.ndarray | None = None
-    ci_model: np.ndarray | None = None
+    depth: np.ndarray | None = quantity("length", default=None)
+    ci: np.ndarray | None = quantity("pressure", default=None)
+    ci_model: np.ndarray | None = quantity("pressure", default=None)
     undetermined: list[str] = field(default_factory=list)
     phic_range: tuple[float, float] | None = None
     profile_intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
@@ -577,9 +579,7 @@ class PredictionResult:
         units = u.check_system(units)
         d = self._fit_dict(units)
         if curves and self.ok:
-            d["depth"] = [float(v) for v in u.length_from_si(self.depth, units)]
-            d["ci"] = [float(v) for v in u.pressure_from_si(self.ci, units)]
-            d["ci_model"] = [float(v) for v in u.pressure_from_si(self.ci_model, units)]
+            d.update(output(self, units, fields=("depth", "ci", "ci_model")))
         d.update(self.extra)
         if self.plate_curves:
             d["plates"] = [c.as_dict(units) for c in self.plate_curves]
@@ -605,7 +605,7 @@ class PredictionResult:
             d.update({k: p[k] for k in keys})
         else:
             d.update({k: None for k in keys})
-        d["rmsd"] = finite_or_none(u.pressure_from_si(self.rmsd, units)) if self.ok else None
+        d["rmsd"] = from_si(self.rmsd, "pressure", units, finite=True) if self.ok else None
         d["r2_ci"] = finite_or_none(self.r2_ci) if self.ok else None
         d["longest_run"] = self.longest_run if self.ok else None
         d["lack_of_fit"] = self.lack_of_fit
@@ -613,7 +613,9 @@ class PredictionResult:
         d["undetermined"] = list(self.undetermined)
         d["phic_range_deg"] = list(self.phic_range) if self.phic_range else None
         if self.ok and self.params is not None:
-            d["profile_intervals"] = _intervals(self.profile_intervals, self.params.n, units, False)
+            d["profile_intervals"] = convert_parameters(
+                self.profile_intervals, units, self.params.n
+            )
         d["solver"] = self.solver
         d["diagnostics"] = {
             "nfev": self.nfev,
@@ -655,52 +657,39 @@ class PredictionResults(list):
         return predictions_html(self)
 
 
-def finite_or_none(v: Any) -> float | None:
-    """``float(v)``, or None where it is NaN or infinite (JSON has no NaN)."""
-    v = float(v)
-    return v if math.isfinite(v) else None
-
-
-def _intervals(iv: Mapping[str, Sequence[float]], n: float, units: str, to_si: bool) -> dict:
-    """Intervals of kc, kphi (with n), cc and the unitless rest, to or from SI (lists)."""
-    kc, kphi = (u.kc_to_si, u.kphi_to_si) if to_si else (u.kc_from_si, u.kphi_from_si)
-    p = u.pressure_to_si if to_si else u.pressure_from_si
-    conv = {"kc": lambda v: kc(v, n, units), "kphi": lambda v: kphi(v, n, units)}
-    conv["cc"] = lambda v: p(v, units)
-    return {k: [float(conv.get(k, float)(v)) for v in lohi] for k, lohi in iv.items()}
-
-
 def convert_draws(
     names: Sequence[str], samples: Any, units: str, *, to_si: bool = False
 ) -> np.ndarray:
     """Posterior draws (S, len(names)) from SI into ``units`` (or back, ``to_si``).
 
-    The one conversion of draws: kc and kphi (``kc``, ``kc_1``, ...) each
-    with its own draw's n (``n``, ``n_1``, ...), cc as a pressure,
-    interfaces as lengths; n and phic are unitless.
+    The one conversion of draws: each column by the quantity of its name
+    (:func:`~terracone.resultunits.parameter_quantity`): kc and kphi (``kc``,
+    ``kc_1``, ...) each with its own draw's n (``n``, ``n_1``, ...), cc as a
+    pressure, interfaces as lengths; n and phic are unitless.
     """
     names = list(names)
     s = np.array(samples, dtype=float, copy=True).reshape(-1, len(names))
     units = u.check_system(units)
     if units == "si":
         return s
-    kc, kphi = (u.kc_to_si, u.kphi_to_si) if to_si else (u.kc_from_si, u.kphi_from_si)
-    p = u.pressure_to_si if to_si else u.pressure_from_si
-    ln = u.length_to_si if to_si else u.length_from_si
     for j, name in enumerate(names):
-        kind, _, layer = name.partition("_")
-        if kind in ("kc", "kphi"):
+        q = parameter_quantity(name)
+        n = None
+        if q in ("kc", "kphi"):
+            layer = name.partition("_")[2]
             n = s[:, names.index(f"n_{layer}" if layer else "n")]
-            s[:, j] = (kc if kind == "kc" else kphi)(s[:, j], n, units)
-        elif kind == "cc":
-            s[:, j] = p(s[:, j], units)
-        elif kind == "interface":
-            s[:, j] = ln(s[:, j], units)
+        if q != "none":
+            s[:, j] = convert_array(s[:, j], q, units, n, to_si=to_si)
     return s
 
 
 def _intervals_to_si(iv: Mapping[str, Sequence[float]], n: float, units: str) -> dict:
-    return {k: (lo, hi) for k, (lo, hi) in _intervals(iv, n, units, to_si=True).items()}
+    """Intervals of a document (``units``) back to SI: (lo, hi) per parameter name."""
+    out = {}
+    for k, lohi in iv.items():
+        lo, hi = convert_array(lohi, parameter_quantity(k), units, n, to_si=True).tolist()
+        out[k] = (lo, hi)
+    return out
 
 
 # ---------------------------------------------------------------------------
@@ -719,7 +708,7 @@ def settings_dict(settings: Mapping[str, Any], units: str = "si", **extra: Any) 
     out: dict[str, Any] = {}
     for k, v in settings.items():
         if k == "r_min" and v is not None:
-            v = float(u.length_from_si(v, units))
+            v = from_si(v, "length", units)
         elif hasattr(v, "as_dict"):
             v = v.as_dict(units)
         out[k] = v
@@ -1036,7 +1025,7 @@ def _layered_row(lr: LayeredSummary, units: str) -> dict[str, Any]:
         "bic_layered": lr.bic,
         "preferred_layers": lr.preferred_layers,
         "r2_layered": lr.r2_ci,
-        "interfaces": ",".join(f"{float(u.length_from_si(d, units)):.6g}" for d in lr.interfaces),
+        "interfaces": ",".join(f"{d:.6g}" for d in from_si(lr.interfaces, "length", units)),
         "n_layers": ",".join(f"{v:.6g}" for v in ns),
         "lack_of_fit_layered": lr.lack_of_fit,
     }
@@ -1104,13 +1093,13 @@ def result_columns(results: Sequence[PredictionResult], units: str = "si") -> di
     fitted = np.array([r.params is not None for r in results], dtype=bool)
     p = [r.params for r in results if r.params is not None]
     n = np.array([q.n for q in p], dtype=float)
-    cols["kc"][fitted] = u.kc_from_si(np.array([q.kc for q in p], dtype=float), n, units)
-    cols["kphi"][fitted] = u.kphi_from_si(np.array([q.kphi for q in p], dtype=float), n, units)
+    cols["kc"][fitted] = convert_array([q.kc for q in p], "kc", units, n)
+    cols["kphi"][fitted] = convert_array([q.kphi for q in p], "kphi", units, n)
     cols["n"][fitted] = n
-    cols["cc"][fitted] = u.pressure_from_si(np.array([q.cc for q in p], dtype=float), units)
+    cols["cc"][fitted] = convert_array([q.cc for q in p], "pressure", units)
     cols["phic_deg"][fitted] = [q.phic_deg for q in p]
-    rm = np.array([np.nan if q.r_min is None else q.r_min for q in p], dtype=float)
-    cols["r_min"][fitted] = u.length_from_si(rm, units)
+    rm = [np.nan if q.r_min is None else q.r_min for q in p]
+    cols["r_min"][fitted] = convert_array(rm, "length", units)
     ok = np.array([r.ok for r in results], dtype=bool)
     good = [r for r in results if r.ok]
     nan2 = (math.nan, math.nan)
@@ -1120,7 +1109,7 @@ def result_columns(results: Sequence[PredictionResult], units: str = "si") -> di
     cols["n_lo"][ok], cols["n_hi"][ok] = np.array(
         [r.profile_intervals.get("n", nan2) for r in good] or np.empty((0, 2)), dtype=float
     ).T
-    cols["rmsd"][ok] = u.pressure_from_si(np.array([r.rmsd for r in good], dtype=float), units)
+    cols["rmsd"][ok] = convert_array([r.rmsd for r in good], "pressure", units)
     cols["r2_ci"][ok] = [r.r2_ci for r in good]
     cols["longest_run"][ok] = [r.longest_run for r in good]
     cols["lack_of_fit"][ok] = _objects([r.lack_of_fit for r in good])

@@ -148,6 +148,7 @@ RANKS = {
     "notebook": 1,
     "io": 1,
     "result": 1,
+    "resultunits": 1,
     "__init__": 1,
     "inverse": 2,
     "apps": 3,

@@ -67,6 +67,7 @@ from terracone.result import (
     empty_columns,
     result_columns,
 )
+from terracone.resultunits import from_si
 
 __all__ = ["BatchSummary", "run_batch"]
 
@@ -268,7 +269,7 @@ def _table(chunk: Chunk, res: dict[str, Any] | None, failure: str | None, sink: 
             cols[k][idx] = res[k]
         fit_time = float(res["fit_time_s"])
     pb, units = sink.job["problem"], sink.job["units"]
-    r_min = None if pb.r_min is None else float(u.length_from_si(pb.r_min, units))
+    r_min = from_si(pb.r_min, "length", units)
     cols.update(
         profile=pa.array(chunk.ids.tolist(), pa.string()),
         n_points=pa.array(chunk.counts, pa.int64()),

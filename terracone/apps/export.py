@@ -46,6 +46,7 @@ from terracone.data import TerrainParameters, TerrainShear
 from terracone.io.tables import guard_formula
 from terracone.physics import units as u
 from terracone.result import UQ_PARAMS, PredictionResult, PredictionResults
+from terracone.resultunits import from_si
 
 __all__ = [
     "FORMATS",
@@ -85,6 +86,22 @@ PLAIN_FIELDS = (
     "r_min",
     "moisture_pct",
 )
+
+#: Each plain field's library key (SI) and quantity (None: written as stored).
+_PLAIN_FROM = {
+    "kc": ("kc", "kc"),
+    "kphi": ("kphi", "kphi"),
+    "n": ("n", None),
+    "c": ("c_kpa", "pressure"),
+    "phi_deg": ("phi_deg", None),
+    "K": ("K_m", "length"),
+    "cc": ("cc", "pressure"),
+    "phic_deg": ("phic_deg", None),
+    "Kc": ("Kc", "length"),
+    "model": ("model", None),
+    "r_min": ("r_min", "length"),
+    "moisture_pct": ("moisture_pct", None),
+}
 
 #: Formats of :func:`export_terrain` (plain parameters).
 FORMATS = ("json", "csv")
@@ -164,32 +181,17 @@ def to_plain(
     if n is None and units != "si" and ("kc" in p or "kphi" in p):
         raise ValueError("kc and kphi cannot be converted to US units without n")
 
-    def get(key, conv=None):
+    def get(name: str) -> Any:
+        key, quantity = _PLAIN_FROM[name]
         if key not in p:
             return None
-        v = p[key]
-        return float(conv(v)) if conv is not None else v
+        return p[key] if quantity is None else from_si(p[key], quantity, units, n)
 
     out: dict[str, Any] = {}
     if isinstance(record_or_params, TerrainRecord):
         out["name"] = record_or_params.name
-    out.update(
-        {
-            "kc": get("kc", lambda v: u.kc_from_si(v, n, units)),
-            "kphi": get("kphi", lambda v: u.kphi_from_si(v, n, units)),
-            "n": get("n"),
-            "c": get("c_kpa", lambda v: u.pressure_from_si(v, units)),
-            "phi_deg": get("phi_deg"),
-            "K": get("K_m", lambda v: u.length_from_si(v, units)),
-            "cc": get("cc", lambda v: u.pressure_from_si(v, units)),
-            "phic_deg": get("phic_deg"),
-            "Kc": get("Kc", lambda v: u.length_from_si(v, units)),
-            "model": get("model"),
-            "r_min": get("r_min", lambda v: u.length_from_si(v, units)),
-            "moisture_pct": get("moisture_pct"),
-            "units": units,
-        }
-    )
+    out.update({name: get(name) for name in PLAIN_FIELDS})
+    out["units"] = units
     return out
 
 

@@ -58,6 +58,7 @@ from terracone.apps.vehicles import Vehicle, load_vehicle
 from terracone.inverse.bounds import Bounds
 from terracone.physics import units as u
 from terracone.physics import vehicle as phys
+from terracone.resultunits import convert_array, from_si
 
 __all__ = [
     "SCHEMA",
@@ -387,11 +388,11 @@ P_GO_METHOD = (
 
 
 def _length(v: float | None, units: str) -> float | None:
-    return None if v is None else float(u.length_from_si(v, units))
+    return from_si(v, "length", units)
 
 
 def _pressure(v: float | None, units: str) -> float | None:
-    return None if v is None else float(u.pressure_from_si(v, units))
+    return from_si(v, "pressure", units)
 
 
 def go_map_document(result: GoMap, units: str = "si", *, input: str | None = None) -> dict:
@@ -505,7 +506,7 @@ def write_go_map(
         lu = u.length_unit(units)
         meanings = [f"median [{lu}]", f"5%, value at a point [{lu}]",
                     f"95%, value at a point [{lu}]"]  # fmt: skip
-        _write_raster(files["sinkage"], [u.length_from_si(a, units) for a in result.sinkage],
+        _write_raster(files["sinkage"], [convert_array(a, "length", units) for a in result.sinkage],
                       ["median", "lo", "hi"], meanings, lu, d, quantity="wheel sinkage",
                       vehicle=result.vehicle.name, band_names="median,lo,hi")  # fmt: skip
     files["json"] = out / "mobility.json"

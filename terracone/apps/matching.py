@@ -22,6 +22,7 @@ from terracone.inverse.library.sites import rank_groups
 from terracone.inverse.problem import Problem
 from terracone.inverse.sites.statistics import group_profiles
 from terracone.physics import units as u
+from terracone.resultunits import from_si
 
 __all__ = ["MatchRun", "match_profiles"]
 
@@ -80,7 +81,7 @@ class MatchRun:
         settings = {**self.asked, "library": lib.source, "check_level": lib.check_level,
                     "replicates": lib.replicates, "units": units}  # fmt: skip
         if radius is not None:
-            settings["radius"] = float(u.length_from_si(radius, units))
+            settings["radius"] = from_si(radius, "length", units)
         return {
             "terracone": __version__,
             "command": "match",

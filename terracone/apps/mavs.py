@@ -47,6 +47,7 @@ from terracone.apps.mobility import remolding_index_of
 from terracone.apps.trafficability import critical_layer_mean
 from terracone.physics import units as u
 from terracone.result import PredictionResults
+from terracone.resultunits import from_si
 
 __all__ = [
     "MAVS_MATERIALS",
@@ -97,7 +98,7 @@ def mavs_surface(cone_index: float, material: str) -> dict[str, Any]:
         docstring, does not pass it on to the vehicle).
     """
     _check(cone_index, material)
-    return {"Material": material, "Cone Index": float(u.pressure_from_si(cone_index, "us"))}
+    return {"Material": material, "Cone Index": from_si(cone_index, "pressure", "us")}
 
 
 def mavs_set_terrain_properties(cone_index: float, material: str) -> dict[str, Any]:
@@ -119,7 +120,7 @@ def mavs_set_terrain_properties(cone_index: float, material: str) -> dict[str, A
     """
     _check(cone_index, material)
     pa = float(cone_index) * 1000.0  # kPa -> Pa
-    psi = float(u.pressure_from_si(cone_index, "us"))
+    psi = from_si(cone_index, "pressure", "us")
     return {
         "soil_type": material,
         "environment": {"call": ENV_CALL, "type": material, "strength": pa, "unit": "Pa"},
@@ -209,7 +210,7 @@ def write_mavs(
             "what": what,
             "profiles": ids,
             "cone_index_of": kind,
-            "critical_layer_in": [round(v / u.INCH, 9) for v in MAVS_LAYER],
+            "critical_layer_in": [round(v, 9) for v in from_si(MAVS_LAYER, "length", "us")],
             "set_terrain_properties": {
                 **mavs_set_terrain_properties(strength, material),
                 "strength_of": kind,

@@ -69,6 +69,7 @@ from terracone.physics import units as u
 from terracone.physics import vehicle as phys
 from terracone.physics.metrics import finite_median
 from terracone.result import PredictionResult, PredictionResults, read_results
+from terracone.resultunits import from_si
 
 __all__ = [
     "SCHEMA",
@@ -145,14 +146,12 @@ class LayerChoice:
     def as_dict(self, units: str = "si") -> dict[str, Any]:
         """``{"mode", ...}`` of the settings, lengths in ``units``."""
 
-        def length(v):
-            return float(u.length_from_si(v, units))
-
         if self.mode == "layer":
-            return {"mode": "layer", "top": length(self.layer[0]), "bottom": length(self.layer[1])}
+            top, bottom = from_si(self.layer, "length", units)
+            return {"mode": "layer", "top": top, "bottom": bottom}
         if self.mode == "weakest":
-            return {"mode": "weakest", "thickness": length(self.thickness),
-                    "window": [length(self.window[0]), length(self.window[1])]}  # fmt: skip
+            return {"mode": "weakest", "thickness": from_si(self.thickness, "length", units),
+                    "window": from_si(self.window, "length", units)}  # fmt: skip
         return {"mode": "rule"}
 
 
@@ -276,17 +275,12 @@ class ProfileMobility:
 
 
 def _p(v: float | None, units: str) -> float | None:
-    return None if v is None else float(u.pressure_from_si(v, units))
+    return from_si(v, "pressure", units)
 
 
 def _layer_dict(layer, ci, ri, rci, units: str) -> dict[str, Any]:
-    return {
-        "top": None if layer is None else float(u.length_from_si(layer[0], units)),
-        "bottom": None if layer is None else float(u.length_from_si(layer[1], units)),
-        "ci": _p(ci, units),
-        "ri": ri,
-        "rci": _p(rci, units),
-    }
+    top, bottom = (None, None) if layer is None else from_si(layer, "length", units)
+    return {"top": top, "bottom": bottom, "ci": _p(ci, units), "ri": ri, "rci": _p(rci, units)}
 
 
 def _finite(v: float | None) -> float | None:
@@ -297,14 +291,14 @@ def _wheel_dict(sinkage, resistance, band, units: str) -> dict[str, Any]:
     z = _finite(sinkage)
     r = _finite(resistance)
     d: dict[str, Any] = {
-        "sinkage": None if z is None else float(u.length_from_si(z, units)),
-        "resistance": None if r is None else float(u.force_from_si(r, units)),
+        "sinkage": from_si(z, "length", units),
+        "resistance": from_si(r, "force", units),
     }
     if band is not None:
         for i, end in enumerate(("lo", "hi")):
             d[end] = {
-                "sinkage": float(u.length_from_si(band["sinkage"][i], units)),
-                "resistance": float(u.force_from_si(band["resistance"][i], units)),
+                "sinkage": from_si(band["sinkage"][i], "length", units),
+                "resistance": from_si(band["resistance"][i], "force", units),
             }
         d["level"] = band["level"]
         d["band"] = band["label"]
@@ -710,7 +704,7 @@ def _run_notes(vehicle: Vehicle, passes: int, choice: LayerChoice, profiles) -> 
     if vehicle.kind == "tracked" and heavy and choice.mode == "rule":
         notes.append(
             f"the critical-layer rule for tracked vehicles comes from a 46,000-lb vehicle "
-            f"(EN5341); this one weighs {vehicle.gross_weight / u.LBF:,.0f} lb, and the layer "
+            f"(EN5341); this one weighs {from_si(vehicle.gross_weight, 'force', 'us'):,.0f} lb, and the layer "
             "deepens with weight by a table that could not be read here: consider --layer"
         )
     if passes == 50 and vehicle.kind == "wheeled" and any(p.soil_class == "fine" for p in profiles):

@@ -21,7 +21,7 @@ from terracone.data import CIProfile, InputError
 from terracone.inverse.problem import Problem
 from terracone.inverse.sites.design import DesignResult, plan_test
 from terracone.inverse.sites.statistics import SiteStatistics, default_sinkages, site_statistics
-from terracone.physics import units as u
+from terracone.resultunits import from_si
 
 __all__ = ["DesignRun", "SitesRun", "plan_tests", "pool_sites"]
 
@@ -48,7 +48,7 @@ class SitesRun:
         radius = a.get("radius")
         settings = {
             "by": a.get("by"),
-            "radius": None if radius is None else float(u.length_from_si(radius, units)),
+            "radius": from_si(radius, "length", units),
             "model": pb.model,
             "calibration": pb.record()["calibration"],
             **({} if pb.library is None else {"library": pb.library.source}),

@@ -43,6 +43,7 @@ from typing import Any
 
 from terracone.physics import units as u
 from terracone.physics import vehicle as phys
+from terracone.resultunits import Written, field_value, from_si, quantity
 
 __all__ = [
     "KINDS",
@@ -165,20 +166,12 @@ def _choice(d: Mapping[str, Any], key: str, choices, default, where: str, prefix
 
 
 @dataclass(frozen=True)
-class Wheel:
+class Wheel(Written):
     """The wheel of Bekker's sinkage (SI): ``load`` [N], ``diameter`` and ``width`` [m]."""
 
-    load: float
-    diameter: float
-    width: float
-
-    def as_dict(self, units: str = "si") -> dict[str, float]:
-        """``{"load", "diameter", "width"}`` in a unit system (N, m or lbf, in)."""
-        return {
-            "load": float(u.force_from_si(self.load, units)),
-            "diameter": float(u.length_from_si(self.diameter, units)),
-            "width": float(u.length_from_si(self.width, units)),
-        }
+    load: float = quantity("force")
+    diameter: float = quantity("length")
+    width: float = quantity("length")
 
 
 NO_TRACKED_VCI50 = (
@@ -220,7 +213,7 @@ class Vehicle:
     mi_from: str = "given"
     source: str | None = None
     drive: str | None = None
-    gross_weight: float | None = None
+    gross_weight: float | None = quantity("force", default=None)
     notes: tuple[str, ...] = field(default_factory=tuple)
 
     def vci_of(self, passes: int) -> tuple[float | None, str | None]:
@@ -254,15 +247,11 @@ class Vehicle:
             "mi": self.mobility_index,
             "mobility_index": self.mobility_index,
             "mobility_index_from": self.mi_from,
-            "gross_weight": (
-                None
-                if self.gross_weight is None
-                else float(u.force_from_si(self.gross_weight, units))
-            ),
+            "gross_weight": field_value(self, "gross_weight", units),
             "tire_deflection_ratio": ratio,
             "dcf": None if ratio is None else float(phys.deflection_correction_factor(ratio)),
             "passes": passes,
-            "vci": None if vci is None else float(u.pressure_from_si(vci, units)),
+            "vci": from_si(vci, "pressure", units),
             "vci_note": why,
             "wheel": None if self.wheel is None else self.wheel.as_dict(units),
             "notes": list(self.notes),

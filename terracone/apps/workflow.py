@@ -38,6 +38,7 @@ from terracone.result import (
     to_document,
     to_table,
 )
+from terracone.resultunits import from_si
 
 __all__ = [
     "PredictRun",
@@ -108,7 +109,7 @@ class Reading:
         lo, hi = self.depth_range
         if lo is None and hi is None:
             return items
-        a, b = ("-" if x is None else f"{float(u.length_from_si(x, units)):g}" for x in (lo, hi))
+        a, b = ("-" if x is None else f"{from_si(x, 'length', units):g}" for x in (lo, hi))
         span = f"depth window {a}:{b} {u.length_unit(units)}"
         out = []
         for it in items:  # the package's one depth window (terracone.data.depth_window)

@@ -13,6 +13,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from terracone.physics import units as u
+from terracone.resultunits import from_si
 
 __all__ = ["Bounds"]
 
@@ -119,6 +120,6 @@ class Bounds:
             "kphi": list(self.kphi),
             "kphi_units": u.kphi_unit(self.kphi_units),
             "n": list(self.n),
-            "cc": [float(v) for v in u.pressure_from_si(self.cc, units)],
+            "cc": from_si(self.cc, "pressure", units),
             "phic_deg": list(self.phic_deg),
         }

@@ -24,9 +24,9 @@ from typing import Any
 import numpy as np
 
 from terracone.data import PlateTest, TerrainParameters
-from terracone.physics import units as u
 from terracone.physics.metrics import Agreement, agreement
 from terracone.physics.plate import plate_basis, pressure_law
+from terracone.resultunits import from_si
 
 __all__ = [
     "PlateEvaluation",
@@ -66,10 +66,10 @@ class PlateEvaluation:
         return {
             "prediction": self.prediction,
             "test": self.test,
-            key: float(u.length_from_si(self.b, units)),
+            key: from_si(self.b, "length", units),
             "R": a.R,
             "R2": a.R2,
-            "RMSD": float(u.pressure_from_si(a.RMSD, units)),
+            "RMSD": from_si(a.RMSD, "pressure", units),
             "CV": a.CV,
             "n_points": a.n_points,
             "units": units,

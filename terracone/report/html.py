@@ -37,6 +37,7 @@ from terracone.report.tables import (
     mark_bounds,
     parameters_table,
 )
+from terracone.resultunits import from_si
 
 __all__ = [
     "render_document",
@@ -354,7 +355,7 @@ _FIT_EXTRA = (
     (
         "RMSD of CI",
         "psi",
-        lambda r: None if r.get("rmsd") is None else float(u.pressure_from_si(r["rmsd"], "us")),
+        lambda r: from_si(r.get("rmsd"), "pressure", "us"),
     ),
     ("R2 of CI", "", lambda r: r.get("r2_ci")),
     ("model", "", lambda r: r.get("model")),
@@ -667,7 +668,7 @@ def _learn_tables(doc: Mapping[str, Any], sp: dict[str, Any], units: str) -> lis
     for x in doc.get("datasets") or []:
         rm, b = x.get("rmsd"), x.get("b")
         rm_si = None if rm is None else float(u.pressure_to_si(rm, units))
-        rm_us = None if rm_si is None else float(u.pressure_from_si(rm_si, "us"))
+        rm_us = from_si(rm_si, "pressure", "us")
         b_cm = None if b is None else float(b) * 100
         ds_rows.append([x.get("id"), x.get("kind"), b_cm, rm_si, rm_us, x.get("cv")])
     ds_tab = Table(

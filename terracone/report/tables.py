@@ -31,6 +31,7 @@ from terracone.data import TerrainParameters, TerrainShear
 from terracone.io.tables import guard_formula
 from terracone.notebook import fmt_value
 from terracone.physics import units as u
+from terracone.resultunits import from_si
 
 __all__ = [
     "Table",
@@ -286,12 +287,12 @@ def _param_cells(p: Mapping[str, Any]) -> list[Any]:
         return [kc, None, kphi, None, None, cc, None, phic]
     return [
         kc,
-        None if kc is None else float(u.kc_from_si(kc, n, "us")),
+        from_si(kc, "kc", "us", n),
         kphi,
-        None if kphi is None else float(u.kphi_from_si(kphi, n, "us")),
+        from_si(kphi, "kphi", "us", n),
         n,
         cc,
-        None if cc is None else float(u.pressure_from_si(cc, "us")),
+        from_si(cc, "pressure", "us"),
         phic,
     ]
 
@@ -446,7 +447,7 @@ def _agreement_cells(a: Mapping[str, Any] | None) -> list[Any]:
         num_or_none(a.get("R")),
         num_or_none(a.get("R2")),
         rmsd,
-        None if rmsd is None else float(u.pressure_from_si(rmsd, "us")),
+        from_si(rmsd, "pressure", "us"),
         num_or_none(a.get("CV")),
     ]
 
@@ -521,7 +522,7 @@ def flat_agreement_table(
         b_si = None if b is None else float(u.length_to_si(b, units))
         rm = num_or_none(r.get("RMSD"))
         rm_si = None if rm is None else float(u.pressure_to_si(rm, units))
-        rm_us = None if rm_si is None else float(u.pressure_from_si(rm_si, "us"))
+        rm_us = from_si(rm_si, "pressure", "us")
         b_cells = [None, None] if b_si is None else [b_si * 100, b_si / u.INCH]
         r_cells = [num_or_none(r.get("R")), num_or_none(r.get("R2")), rm_si, rm_us]
         cells = [r.get("prediction"), r.get("test"), *b_cells, *r_cells, num_or_none(r.get("CV"))]

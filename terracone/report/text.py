@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from terracone.physics import units as u
+from terracone.resultunits import from_si
 
 if TYPE_CHECKING:  # pragma: no cover - annotations only
     from terracone.apps.example import Demo
@@ -220,10 +221,8 @@ def evaluate_text(rows: Sequence[PlateEvaluation], units: str) -> str:
     """
     tab = []
     for r in rows:
-        a, b = r.agreement, float(u.length_from_si(r.b, units))
-        tab.append(
-            [r.prediction, r.test, b, a.R, a.R2, float(u.pressure_from_si(a.RMSD, units)), a.CV]
-        )
+        a, b = r.agreement, from_si(r.b, "length", units)
+        tab.append([r.prediction, r.test, b, a.R, a.R2, from_si(a.RMSD, "pressure", units), a.CV])
     heads = ["prediction", "plate test", f"b [{u.length_unit(units)}]", "R", "R2"]
     return table(heads + [f"RMSD [{u.pressure_unit(units)}]", "CV"], tab)
 
@@ -285,7 +284,7 @@ def layered_text(layered: Mapping[str, Any], units: str) -> str:
         if not lr.ok:
             rows.append([pid, "error", lr.error, "-", "-", "-", "-", "-"])
             continue
-        iface = ",".join(f"{float(u.length_from_si(v, units)):.3g}" for v in lr.interfaces)
+        iface = ",".join(f"{v:.3g}" for v in from_si(lr.interfaces, "length", units))
         ns = ",".join(f"{p.n:.3g}" for p in lr.layers)
         rows.append([pid, "ok", iface, ns, lr.r2_ci, lr.bic_single, lr.bic, lr.preferred_layers])
     heads = ["profile", "status", f"interfaces [{u.length_unit(units)}]", "n per layer", "R2 CI"]

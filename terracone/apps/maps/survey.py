@@ -42,6 +42,7 @@ from terracone.physics import units as u
 from terracone.physics.cone import cone_index_huang
 from terracone.physics.plate import plate_pressure, pressure_law
 from terracone.result import PredictionResult
+from terracone.resultunits import convert_array, from_si
 
 __all__ = [
     "CRS_SCALE_LIMIT",
@@ -104,8 +105,7 @@ class Quantity:
 
     def from_si(self, values: Any, units: str) -> np.ndarray:
         """Values [SI] in ``units``."""
-        v = np.asarray(values, dtype=float)
-        return u.pressure_from_si(v, units) if self.kind == "pressure" else v
+        return convert_array(values, "pressure" if self.kind == "pressure" else "none", units)
 
 
 @dataclass
@@ -461,7 +461,7 @@ def layer_name(lo: float, hi: float, units: str) -> str:
 def ci_quantity(lo: float, hi: float, units: str, measured: bool) -> Quantity:
     """The mean-CI quantity of the layer lo-hi [m]."""
     unit = u.length_unit(units)
-    a, b = (float(u.length_from_si(v, units)) for v in (lo, hi))
+    a, b = from_si((lo, hi), "length", units)
     source = (
         "each push's measured CI, averaged over the layer (trapezoids)"
         if measured

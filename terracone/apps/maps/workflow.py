@@ -40,6 +40,7 @@ from terracone.apps.maps.survey import (
 from terracone.physics import units as u
 from terracone.physics.metrics import finite_median
 from terracone.result import PredictionResult
+from terracone.resultunits import from_si
 
 __all__ = [
     "LEVEL",
@@ -231,7 +232,7 @@ def _quantities(
     out = []
     if plate is not None:
         b, z = plate
-        bu, zu = (f"{float(u.length_from_si(v, units)):g}" for v in plate)
+        bu, zu = (f"{v:g}" for v in from_si(plate, "length", units))
         unit = u.length_unit(units)
         out.append(
             Quantity(

@@ -35,6 +35,7 @@ import pyarrow.parquet as pq
 from terracone.apps.maps.workflow import BANDS, LEVEL, QuantityMap, TerrainMap
 from terracone.data import TerrainParameters
 from terracone.physics import units as u
+from terracone.resultunits import from_si
 
 __all__ = [
     "MAP_SCHEMA",
@@ -76,10 +77,9 @@ def _quantity_dict(m: QuantityMap, units: str) -> dict[str, Any]:
         "excluded": [{"id": i, "reason": r} for i, r in m.excluded],
     }
     if q.plate is not None:
-        d["plate_radius"] = float(u.length_from_si(q.plate[0], units))
-        d["sinkage"] = float(u.length_from_si(q.plate[1], units))
+        d["plate_radius"], d["sinkage"] = from_si(q.plate, "length", units)
     if q.layer is not None:
-        d["layer"] = [float(u.length_from_si(v, units)) for v in q.layer]
+        d["layer"] = from_si(q.layer, "length", units)
     if m.skipped:
         d["skipped"] = m.skipped
         return d

@@ -20,7 +20,7 @@ from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
-from terracone.physics import units as u
+from terracone.resultunits import convert_parameters
 
 __all__ = [
     "CITATION",
@@ -94,11 +94,7 @@ def us_column_check(tolerance: float = 0.02) -> list[dict[str, Any]]:
     for table in ("4-1", "4-3"):
         for r in published_parameters(table):
             n = r["n"]
-            calc = {
-                "kc": float(u.kc_from_si(r["kc"], n, "us")),
-                "kphi": float(u.kphi_from_si(r["kphi"], n, "us")),
-                "cc": float(u.pressure_from_si(r["cc"], "us")),
-            }
+            calc = convert_parameters({k: r[k] for k in ("kc", "kphi", "cc")}, "us", n)
             for k, v in calc.items():
                 printed = r[f"{k}_us_printed"]
                 # the paper prints cc = 1 kPa as 0.15 psi: allow rounding to 2 decimals

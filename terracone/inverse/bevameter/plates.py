@@ -32,6 +32,7 @@ from scipy import optimize, stats
 
 from terracone.data import InputError, PlateTest
 from terracone.physics import units as u
+from terracone.resultunits import field_value, output, quantity
 
 __all__ = [
     "DRIFT_LIMIT",
@@ -49,6 +50,11 @@ __all__ = [
 METHODS = ("wong", "loglog", "nonlinear")
 
 _CI_NOTE = "confidence intervals need at least 3 tests over at least 2 plate sizes"
+
+#: The keys of a :class:`PlatesFit` document before its tests, in order.
+_PLATES_KEYS = (
+    "kc", "kphi", "n", "kc_ci", "kphi_ci", "n_ci", "undetermined", "method", "ci_note", "notes",
+)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -81,14 +87,14 @@ class PlateFit:
     """
 
     test: str
-    b: float
+    b: float = quantity("length")
     shape: str
-    radius: float | None
-    k: float
-    n: float
+    radius: float | None = quantity("length")
+    k: float = quantity("kphi", n="n")
+    n: float = quantity("none")
     points_used: int
-    r2: float
-    rmsd: float
+    r2: float = quantity("none")
+    rmsd: float = quantity("pressure")
     method: str
 
     def pressure(self, sinkage: Any) -> np.ndarray:
@@ -98,22 +104,9 @@ class PlateFit:
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
         """The fit in a unit system (k converted with the fit's own n)."""
-        units = u.check_system(units)
-        r = None if self.radius is None else float(u.length_from_si(self.radius, units))
-        return {
-            "test": self.test,
-            "b": float(u.length_from_si(self.b, units)),
-            "shape": self.shape,
-            "radius": r,
-            "plate_radius": r,
-            "k": float(u.kphi_from_si(self.k, self.n, units)),
-            "n": float(self.n),
-            "points_used": int(self.points_used),
-            "r2": float(self.r2),
-            "rmsd": float(u.pressure_from_si(self.rmsd, units)),
-            "method": self.method,
-            "units": units,
-        }
+        plate = output(self, units, fields=("test", "b", "shape", "radius"))
+        fit = output(self, units, fields=("k", "n", "points_used", "r2", "rmsd", "method"))
+        return {**plate, "plate_radius": plate["radius"], **fit, "units": units}
 
 
 @dataclass(frozen=True)
@@ -147,16 +140,16 @@ class PlatesFit:
         Anything worth a warning (e.g. a negative kc).
     """
 
-    kc: float | None
-    kphi: float | None
-    n: float
-    kc_ci: tuple[float, float] | None
-    kphi_ci: tuple[float, float] | None
-    n_ci: tuple[float, float] | None
+    kc: float | None = quantity("kc", n="n")
+    kphi: float | None = quantity("kphi", n="n")
+    n: float = quantity("none")
+    kc_ci: tuple[float, float] | None = quantity("kc", n="n")
+    kphi_ci: tuple[float, float] | None = quantity("kphi", n="n")
+    n_ci: tuple[float, float] | None = quantity("none")
     tests: list[PlateFit]
     undetermined: list[str]
     method: str
-    k_common: list[float] = field(default_factory=list)
+    k_common: list[float] = quantity("kphi", n="n", default_factory=list)
     ci_note: str | None = None
     notes: list[str] = field(default_factory=list)
 
@@ -172,29 +165,11 @@ class PlatesFit:
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
         """The result in a unit system, JSON-ready (kc, kphi converted with the common n)."""
-        units = u.check_system(units)
-
-        def conv(v, f):
-            return None if v is None else float(f(v, self.n, units))
-
-        def conv_ci(ci, f):
-            return None if ci is None else [conv(ci[0], f), conv(ci[1], f)]
-
-        tests = [
-            {**t.as_dict(units), "k_common": conv(kcom, u.kphi_from_si)}
-            for t, kcom in zip(self.tests, self.k_common)
-        ]
+        d = output(self, units, fields=_PLATES_KEYS)
+        k_common = field_value(self, "k_common", units)
+        tests = [{**t.as_dict(units), "k_common": k} for t, k in zip(self.tests, k_common)]
         return {
-            "kc": conv(self.kc, u.kc_from_si),
-            "kphi": conv(self.kphi, u.kphi_from_si),
-            "n": float(self.n),
-            "kc_ci": conv_ci(self.kc_ci, u.kc_from_si),
-            "kphi_ci": conv_ci(self.kphi_ci, u.kphi_from_si),
-            "n_ci": None if self.n_ci is None else [float(v) for v in self.n_ci],
-            "undetermined": list(self.undetermined),
-            "method": self.method,
-            "ci_note": self.ci_note,
-            "notes": list(self.notes),
+            **d,
             "tests": tests,
             "units": units,
             "unit_labels": {

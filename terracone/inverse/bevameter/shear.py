@@ -35,12 +35,13 @@ from terracone.data import InputError, ShearTest, TerrainShear
 from terracone.inverse.bevameter.plates import line_fit, of_type
 from terracone.physics import units as u
 from terracone.physics.shear import shear_stress_janosi_hanamoto
+from terracone.resultunits import Written, output, quantity
 
 __all__ = ["ShearTestFit", "ShearFit", "fit_shear", "fit_shear_test"]
 
 
 @dataclass(frozen=True)
-class ShearTestFit:
+class ShearTestFit(Written):
     """Janosi-Hanamoto fit of one shear test.
 
     Attributes
@@ -63,31 +64,18 @@ class ShearTestFit:
     """
 
     test: str
-    normal_pressure: float
-    tau_max: float
-    K: float
+    normal_pressure: float = quantity("pressure")
+    tau_max: float = quantity("pressure")
+    K: float = quantity("length")
     points_used: int
-    rmsd: float
-    r2: float
-    j_end: float
+    rmsd: float = quantity("pressure")
+    r2: float = quantity("none")
+    j_end: float = quantity("length")
+    units_key = True  # as_dict(units): the fit in a unit system, then "units"
 
     def stress(self, displacement: Any) -> np.ndarray:
         """Fitted shear stress [kPa] at displacement j [m]."""
         return shear_stress_janosi_hanamoto(displacement, self.tau_max, self.K)
-
-    def as_dict(self, units: str = "si") -> dict[str, Any]:
-        units = u.check_system(units)
-        return {
-            "test": self.test,
-            "normal_pressure": float(u.pressure_from_si(self.normal_pressure, units)),
-            "tau_max": float(u.pressure_from_si(self.tau_max, units)),
-            "K": float(u.length_from_si(self.K, units)),
-            "points_used": int(self.points_used),
-            "rmsd": float(u.pressure_from_si(self.rmsd, units)),
-            "r2": float(self.r2),
-            "j_end": float(u.length_from_si(self.j_end, units)),
-            "units": units,
-        }
 
 
 @dataclass(frozen=True)
@@ -112,13 +100,13 @@ class ShearFit:
     notes : list of str
     """
 
-    c: float | None
-    phi_deg: float | None
-    K: float
+    c: float | None = quantity("pressure")
+    phi_deg: float | None = quantity("none")
+    K: float = quantity("length")
     tests: list[ShearTestFit]
     undetermined: list[str]
-    c_ci: tuple[float, float] | None = None
-    phi_deg_ci: tuple[float, float] | None = None
+    c_ci: tuple[float, float] | None = quantity("pressure", default=None)
+    phi_deg_ci: tuple[float, float] | None = quantity("none", default=None)
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -133,20 +121,9 @@ class ShearFit:
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
         """JSON-ready result in a unit system (c in kPa or psi, K in m or in)."""
-        units = u.check_system(units)
-
-        def p(v):
-            return None if v is None else float(u.pressure_from_si(v, units))
-
+        keys = ("c", "phi_deg", "K", "c_ci", "phi_deg_ci", "undetermined", "notes", "tests")
         return {
-            "c": p(self.c),
-            "phi_deg": None if self.phi_deg is None else float(self.phi_deg),
-            "K": float(u.length_from_si(self.K, units)),
-            "c_ci": None if self.c_ci is None else [p(v) for v in self.c_ci],
-            "phi_deg_ci": None if self.phi_deg_ci is None else [float(v) for v in self.phi_deg_ci],
-            "undetermined": list(self.undetermined),
-            "notes": list(self.notes),
-            "tests": [t.as_dict(units) for t in self.tests],
+            **output(self, units, fields=keys),
             "units": units,
             "unit_labels": {
                 "c": u.pressure_unit(units),

@@ -45,6 +45,7 @@ from terracone.inverse.uncertainty.noise import bin_readings
 from terracone.physics import units as u
 from terracone.physics.metrics import check_fit
 from terracone.result import LayeredSummary
+from terracone.resultunits import convert_parameters, from_si, output, quantity
 
 __all__ = ["MAX_DEPTHS", "LayeredResult", "bin_profile", "fit_layered", "max_depths", "phic_scale"]
 
@@ -107,13 +108,13 @@ class LayeredResult(LayeredSummary):
     """
 
     id: str
-    rmsd: float = float("nan")
+    rmsd: float = quantity("pressure", default=float("nan"))
     sse: float = float("nan")
     longest_run: int = 0
     phic_range: tuple[float, float] | None = None
-    depth: np.ndarray | None = None
-    ci: np.ndarray | None = None
-    ci_model: np.ndarray | None = None
+    depth: np.ndarray | None = quantity("length", default=None)
+    ci: np.ndarray | None = quantity("pressure", default=None)
+    ci_model: np.ndarray | None = quantity("pressure", default=None)
     ci_model_single: np.ndarray | None = None
     time_s: float = 0.0
     metadata: dict[str, Any] = field(default_factory=dict)
@@ -135,19 +136,13 @@ class LayeredResult(LayeredSummary):
         d: dict[str, Any] = {"id": self.id, "status": self.status, "error": self.error}
         if not self.ok:
             return d
-        iv = {}
-        for k, (lo, hi) in self.profile_intervals.items():
-            conv = k.startswith("interface_")
-            iv[k] = [float(u.length_from_si(v, units)) if conv else float(v) for v in (lo, hi)]
         cert = dict(self.certificate)
         for k in ("sse", "lower_bound"):
             if k in cert:  # kPa^2 -> the unit of pressure squared
-                cert[k] = float(cert[k] * float(u.pressure_from_si(1.0, units)) ** 2)
+                cert[k] = from_si(cert[k], "pressure2", units)
         d.update(
             {
-                "layers": [p.as_dict(units) for p in self.layers],
-                "interfaces": [float(v) for v in u.length_from_si(self.interfaces, units)],
-                "rmsd": float(u.pressure_from_si(self.rmsd, units)),
+                **output(self, units, fields=("layers", "interfaces", "rmsd")),
                 "r2_ci": self.r2_ci,
                 "longest_run": self.longest_run,
                 "lack_of_fit": self.lack_of_fit,
@@ -157,16 +152,14 @@ class LayeredResult(LayeredSummary):
                 "phic_range_deg": list(self.phic_range) if self.phic_range else None,
                 "units": units,
                 "undetermined": list(self.undetermined),
-                "profile_intervals": iv,
+                "profile_intervals": convert_parameters(self.profile_intervals, units),
                 "certificate": cert,
                 "metadata": self.metadata,
                 "notes": list(self.notes),
             }
         )
         if curves:
-            d["depth"] = [float(v) for v in u.length_from_si(self.depth, units)]
-            d["ci"] = [float(v) for v in u.pressure_from_si(self.ci, units)]
-            d["ci_model"] = [float(v) for v in u.pressure_from_si(self.ci_model, units)]
+            d.update(output(self, units, fields=("depth", "ci", "ci_model")))
         return d
 
 

@@ -46,7 +46,7 @@ from terracone.inverse.learning.search import (
 )
 from terracone.inverse.learning.varpro import descend
 from terracone.inverse.problem import Calibration
-from terracone.physics import units as u
+from terracone.resultunits import convert_parameters, from_si, output, quantity
 
 __all__ = [
     "LearnResult",
@@ -61,10 +61,10 @@ class LearnResult:
     """Result of :func:`learn` (SI inside)."""
 
     params: TerrainParameters
-    plate_pair: tuple[float, float] | None
+    plate_pair: tuple[float, float] | None = quantity("length")
     objective: float
-    rmsd_ci: float
-    rmsd_plates: float
+    rmsd_ci: float = quantity("pressure")
+    rmsd_plates: float = quantity("pressure")
     datasets: list[dict[str, Any]]
     undetermined: list[str]
     criteria: dict[str, Any]
@@ -101,54 +101,26 @@ class LearnResult:
         )
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
+        """The learned parameters and the fit in a unit system (``terracone learn --json``)."""
+        n = self.params.n
         d = self.params.as_dict(units)
         d.update(
             {
-                "rmsd_ci": float(u.pressure_from_si(self.rmsd_ci, units)),
-                "rmsd_plates": float(u.pressure_from_si(self.rmsd_plates, units)),
-                "objective": self.objective,
-                "plate_pair": None
-                if self.plate_pair is None
-                else [float(v) for v in u.length_from_si(self.plate_pair, units)],
+                **output(self, units, fields=("rmsd_ci", "rmsd_plates", "objective", "plate_pair")),
                 "datasets": [
-                    {**ds, "rmsd": float(u.pressure_from_si(ds["rmsd"], units))}
-                    for ds in self.datasets
+                    {**ds, "rmsd": from_si(ds["rmsd"], "pressure", units)} for ds in self.datasets
                 ],
                 "undetermined": self.undetermined,
-                "profile_intervals": {
-                    k: [float(v) for v in _interval_in(k, iv, self.params.n, units)]
-                    for k, iv in self.intervals.items()
-                },
+                "profile_intervals": convert_parameters(self.intervals, units, n),
                 "interval_level": 0.95,
-                "flat_sets": {
-                    k: [float(v) for v in _interval_in(k, iv, self.params.n, units)]
-                    for k, iv in self.flat_sets.items()
-                },
-                "equivalent": [
-                    {
-                        k: float(_interval_in(k, (v, v), self.params.n, units)[0])
-                        for k, v in e.items()
-                    }
-                    for e in self.equivalent
-                ],
+                "flat_sets": convert_parameters(self.flat_sets, units, n),
+                "equivalent": [convert_parameters(e, units, n) for e in self.equivalent],
                 "certificate": self.certificate,
                 "criteria": self.criteria,
                 "diagnostics": {"nfev": self.nfev, "time_s": self.time_s},
             }
         )
         return d
-
-
-def _interval_in(name: str, iv, n: float, units: str):
-    if name == "r_min":
-        return u.length_from_si(iv, units)
-    if name == "cc":
-        return u.pressure_from_si(iv, units)
-    if name == "kc":
-        return u.kc_from_si(np.asarray(iv), n, units)
-    if name == "kphi":
-        return u.kphi_from_si(np.asarray(iv), n, units)
-    return iv
 
 
 def _plate_pair(plates: list[PlateTest]) -> tuple[float, float] | None:

@@ -39,15 +39,20 @@ from terracone.inverse.problem import CalibrationPrior, Problem
 from terracone.inverse.sites.statistics import ci_error_covariance, default_sinkages
 from terracone.physics import units as u
 from terracone.physics.cone import cone_index_huang
+from terracone.resultunits import Written, output, quantity
 
 __all__ = ["CandidateResult", "DesignResult", "parse_candidates", "plan_test"]
 
 _NAMES = ("kc", "kphi", "n", "cc", "phic_deg")
 _LEN = re.compile(r"^\s*([0-9.eE+-]+)\s*(m|cm|mm|in)?\s*$")
+#: The keys of a :class:`DesignResult` document before ``best``, in order.
+_PLAN_KEYS = (
+    "id", "status", "error", "prior", "plates", "sinkage", "median", "current_width", "candidates",
+)  # fmt: skip
 
 
 @dataclass
-class CandidateResult:
+class CandidateResult(Written):
     """One candidate test.
 
     Attributes
@@ -69,22 +74,11 @@ class CandidateResult:
 
     test: str
     kind: str
-    radius: float | None
-    expected_width: np.ndarray
+    radius: float | None = quantity("length")
+    expected_width: np.ndarray = quantity("pressure")
     width_ratio: float
     rank: int = 0
     note: str = ""
-
-    def as_dict(self, units: str = "si") -> dict[str, Any]:
-        return {
-            "test": self.test,
-            "kind": self.kind,
-            "radius": None if self.radius is None else float(u.length_from_si(self.radius, units)),
-            "expected_width": [float(v) for v in u.pressure_from_si(self.expected_width, units)],
-            "width_ratio": self.width_ratio,
-            "rank": self.rank,
-            "note": self.note,
-        }
 
 
 @dataclass
@@ -115,10 +109,10 @@ class DesignResult:
     status: str
     error: str | None = None
     prior: str = "bounds"
-    plates: list[float] = field(default_factory=list)
-    sinkage: float = float("nan")
-    median: np.ndarray | None = None
-    current_width: np.ndarray | None = None
+    plates: list[float] = quantity("length", default_factory=list)
+    sinkage: float = quantity("length", default=float("nan"))
+    median: np.ndarray | None = quantity("pressure", default=None)
+    current_width: np.ndarray | None = quantity("pressure", default=None)
     candidates: list[CandidateResult] = field(default_factory=list)
     lack_of_fit: str | None = None
     notes: list[str] = field(default_factory=list)
@@ -128,24 +122,11 @@ class DesignResult:
         return self.status == "ok"
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
-        def p(a):
-            return None if a is None else [float(v) for v in u.pressure_from_si(a, units)]
-
-        return {
-            "id": self.id,
-            "status": self.status,
-            "error": self.error,
-            "prior": self.prior,
-            "plates": [float(u.length_from_si(r, units)) for r in self.plates],
-            "sinkage": float(u.length_from_si(self.sinkage, units)),
-            "median": p(self.median),
-            "current_width": p(self.current_width),
-            "candidates": [c.as_dict(units) for c in self.candidates],
-            "best": self.candidates[0].test if self.candidates else None,
-            "lack_of_fit": self.lack_of_fit,
-            "notes": list(self.notes),
-            "units": units,
-        }
+        """JSON-ready plan (plates and sinkage in m or in, pressures in kPa or psi)."""
+        plan = output(self, units, fields=_PLAN_KEYS)
+        best = self.candidates[0].test if self.candidates else None
+        tail = output(self, units, fields=("lack_of_fit", "notes"))
+        return {**plan, "best": best, **tail, "units": units}
 
 
 def parse_candidates(text: str, units: str = "si") -> list[tuple[str, str, float | None]]:

@@ -40,6 +40,7 @@ from terracone.physics.cone import cone_index_basis
 from terracone.physics.metrics import check_fit
 from terracone.physics.plate import PressureLaw, plate_basis
 from terracone.result import LibrarySummary, finite_or_none
+from terracone.resultunits import Written, convert_parameters, from_si, quantity
 
 __all__ = [
     "PushFits",
@@ -427,7 +428,7 @@ def _solve_primed(zs, ys, cone, law, b, ratio):
 
 
 @dataclass
-class SitePlate:
+class SitePlate(Written):
     """Site P-S curve of one plate (SI).
 
     Attributes
@@ -450,28 +451,16 @@ class SitePlate:
         RMS estimation CV of one push [-].
     """
 
-    radius: float
-    sinkage: np.ndarray
-    median: np.ndarray
-    lo: np.ndarray
-    hi: np.ndarray
-    between_cv: np.ndarray
-    between_cv_lo: np.ndarray
-    between_cv_hi: np.ndarray
-    naive_cv: np.ndarray
-    estimation_cv: np.ndarray
-
-    def as_dict(self, units: str = "si") -> dict[str, Any]:
-        cvs = ("between_cv", "between_cv_lo", "between_cv_hi", "naive_cv", "estimation_cv")
-        return {
-            "radius": float(u.length_from_si(self.radius, units)),
-            "sinkage": [float(v) for v in u.length_from_si(self.sinkage, units)],
-            **{
-                k: [finite_or_none(v) for v in u.pressure_from_si(getattr(self, k), units)]
-                for k in ("median", "lo", "hi")
-            },
-            **{k: [finite_or_none(v) for v in getattr(self, k)] for k in cvs},
-        }
+    radius: float = quantity("length")
+    sinkage: np.ndarray = quantity("length")
+    median: np.ndarray = quantity("pressure", finite=True)
+    lo: np.ndarray = quantity("pressure", finite=True)
+    hi: np.ndarray = quantity("pressure", finite=True)
+    between_cv: np.ndarray = quantity("none", finite=True)
+    between_cv_lo: np.ndarray = quantity("none", finite=True)
+    between_cv_hi: np.ndarray = quantity("none", finite=True)
+    naive_cv: np.ndarray = quantity("none", finite=True)
+    estimation_cv: np.ndarray = quantity("none", finite=True)
 
 
 @dataclass
@@ -545,33 +534,24 @@ class SiteResult:
         """JSON-ready dict (the ``sites --json`` contract)."""
         units = u.check_system(units)
         n = self.params.get("n", float("nan"))
-        conv = {
-            "kc": lambda v: u.kc_from_si(v, n, units),
-            "kphi": lambda v: u.kphi_from_si(v, n, units),
-            "cc": lambda v: u.pressure_from_si(v, units),
-        }
-
-        def c(k, v):
-            return (
-                finite_or_none(conv.get(k, lambda x: x)(v)) if np.isfinite(n) else finite_or_none(v)
-            )
-
+        # no finite n: the parameters are written unconverted (kc, kphi have no US value)
+        in_units = units if np.isfinite(n) else "si"
         return {
             "site": self.site,
             "profiles": list(self.profiles),
             "n_profiles": self.n_profiles,
             "failed": [{"id": i, "error": e} for i, e in self.failed],
-            "params": {k: c(k, v) for k, v in self.params.items()},
-            "intervals": {k: [c(k, lo), c(k, hi)] for k, (lo, hi) in self.intervals.items()},
+            "params": convert_parameters(self.params, in_units, n, finite=True),
+            "intervals": convert_parameters(self.intervals, in_units, n, finite=True),
             "between": {k: finite_or_none(v) for k, v in self.between.items()},
             "plate_pressure": [pl.as_dict(units) for pl in self.plate_pressure],
             "profiles_needed": self.profiles_needed,
             "profiles_needed_hi": self.profiles_needed_hi,
             "target_cv": self.target_cv,
-            "middle_sinkage": float(u.length_from_si(self.middle_sinkage, units)),
+            "middle_sinkage": from_si(self.middle_sinkage, "length", units),
             "lack_of_fit": self.lack_of_fit,
             "pushes": [
-                {**d, "rmsd": finite_or_none(u.pressure_from_si(d["rmsd"], units))}
+                {**d, "rmsd": from_si(d["rmsd"], "pressure", units, finite=True)}
                 for d in self.pushes
             ],
             "notes": list(self.notes),

@@ -28,9 +28,9 @@ from numpy.typing import ArrayLike
 
 from terracone.data import CIProfile, TerrainParameters
 from terracone.inverse.bounds import Bounds
-from terracone.physics import units as u
 from terracone.physics.cone import Cone, cone_index_basis
 from terracone.physics.plate import PressureLaw
+from terracone.resultunits import from_si, output, quantity
 
 __all__ = [
     "POSTERIOR_MAX_POINTS",
@@ -90,12 +90,12 @@ class NoiseModel:
         Whether rho was a sampled parameter (``correlation="sample"``).
     """
 
-    kind: str
-    sigma: float
-    sigma_interval: tuple[float, float] | None
+    kind: str = quantity(key="model")
+    sigma: float = quantity("pressure")
+    sigma_interval: tuple[float, float] | None = quantity("pressure")
     sigma_rel: float | None
     rho: float
-    spacing: float
+    spacing: float = quantity("length")
     floor: float
     sigma_estimated: bool
     rho_estimated: bool
@@ -112,28 +112,18 @@ class NoiseModel:
         return -self.spacing / math.log(self.rho)
 
     def as_dict(self, units: str = "si") -> dict[str, Any]:
-        units = u.check_system(units)
+        """The ``noise`` of a posterior in a document (sigma in kPa or psi, lengths in m or in)."""
+        d = output(self, units, fields=_WRITTEN)
+        d["correlation_length"] = from_si(self.correlation_length, "length", units)
+        d["floor"] = self.floor
+        return d
 
-        def p(v):
-            return float(u.pressure_from_si(v, units))
 
-        return {
-            "model": self.kind,
-            "sigma": p(self.sigma),
-            "sigma_interval": None
-            if self.sigma_interval is None
-            else [p(v) for v in self.sigma_interval],
-            "sigma_rel": self.sigma_rel,
-            "sigma_estimated": self.sigma_estimated,
-            "rho": self.rho,
-            "rho_estimated": self.rho_estimated,
-            "rho_sampled": self.rho_sampled,
-            "rho_interval": None if self.rho_interval is None else list(self.rho_interval),
-            "rho_raw": self.rho_raw,
-            "spacing": float(u.length_from_si(self.spacing, units)),
-            "correlation_length": float(u.length_from_si(self.correlation_length, units)),
-            "floor": self.floor,
-        }
+#: The fields of a noise model written before its correlation length, in order.
+_WRITTEN = (
+    "kind", "sigma", "sigma_interval", "sigma_rel", "sigma_estimated", "rho", "rho_estimated",
+    "rho_sampled", "rho_interval", "rho_raw", "spacing",
+)  # fmt: skip
 
 
 def ar1_coefficients(depth: ArrayLike, rho: float, spacing: float | None = None) -> np.ndarray:

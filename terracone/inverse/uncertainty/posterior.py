@@ -57,6 +57,7 @@ from terracone.inverse.uncertainty.sampler import (
 from terracone.physics import units as u
 from terracone.physics.plate import PressureLaw, plate_basis, pressure_law
 from terracone.result import PosteriorSummary, PredictionResult, finite_or_none
+from terracone.resultunits import Written, output, quantity
 
 __all__ = [
     "LABELS",
@@ -104,7 +105,7 @@ def identifiability_label(ratio: float) -> str:
 
 
 @dataclass
-class PlateBand:
+class PlateBand(Written):
     """Band of predicted plate pressure against sinkage.
 
     Attributes
@@ -118,26 +119,11 @@ class PlateBand:
         the pressure at each sinkage [kPa].
     """
 
-    radius: float
-    sinkage: np.ndarray
-    median: np.ndarray
-    lo: np.ndarray
-    hi: np.ndarray
-
-    def as_dict(self, units: str = "si") -> dict[str, Any]:
-        """JSON-ready dict (lengths in m or in, pressures in kPa or psi)."""
-        units = u.check_system(units)
-
-        def p(a):
-            return [float(v) for v in u.pressure_from_si(a, units)]
-
-        return {
-            "radius": float(u.length_from_si(self.radius, units)),
-            "sinkage": [float(v) for v in u.length_from_si(self.sinkage, units)],
-            "median": p(self.median),
-            "lo": p(self.lo),
-            "hi": p(self.hi),
-        }
+    radius: float = quantity("length")
+    sinkage: np.ndarray = quantity("length")
+    median: np.ndarray = quantity("pressure")
+    lo: np.ndarray = quantity("pressure")
+    hi: np.ndarray = quantity("pressure")
 
 
 @dataclass
@@ -248,8 +234,8 @@ class PosteriorResult(PosteriorSummary):
     noise: NoiseModel
     diagnostics: SamplerDiagnostics
     model: str
-    r_min: float | None
-    K_cone: float | None
+    r_min: float | None = quantity("length")
+    K_cone: float | None = quantity("length", key="Kc")
     best_fit: TerrainParameters
     prior_samples: np.ndarray | None = field(default=None, repr=False)
 
@@ -279,11 +265,7 @@ class PosteriorResult(PosteriorSummary):
         else:
             prior_iv = None
         d["posterior"] = {
-            "level": self.level,
-            "prior": self.prior,
-            "model": self.model,
-            "r_min": None if self.r_min is None else float(u.length_from_si(self.r_min, units)),
-            "Kc": None if self.K_cone is None else float(u.length_from_si(self.K_cone, units)),
+            **output(self, units, fields=("level", "prior", "model", "r_min", "K_cone")),
             "width_ratio": {k: finite_or_none(v) for k, v in self.width_ratio.items()},
             "thresholds": {"determined": DETERMINED_BELOW, "weakly determined": WEAKLY_BELOW},
             "prior_intervals": prior_iv,
