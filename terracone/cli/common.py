@@ -94,6 +94,16 @@ def emit_json(obj: Any, out: str | None = None) -> None:
         click.echo(text)
 
 
+def emit_document(doc: dict, *, out: str | None, as_json: bool, text: Any) -> None:
+    """Write ``doc`` to ``out`` when given, then print it as JSON or as ``text(doc)``."""
+    if out:
+        emit_json(doc, out)
+    if as_json:
+        emit_json(doc)
+    else:
+        click.echo(text(doc))
+
+
 def echo_curve(xkey, x, ykey, y, units: str, as_json: bool) -> None:
     """A length-pressure curve as JSON ``{x, y, "units"}`` or as a two-column table."""
     if as_json:

@@ -9,6 +9,7 @@ import click
 
 from terracone.cli.common import (
     UNITS,
+    emit_document,
     emit_json,
     fit_options,
     json_options,
@@ -308,18 +309,17 @@ def sites_cmd(
         source=str(ci_file),
     )
     doc = run.as_dict(units, input=str(ci_file))
-    if out:
-        emit_json(doc, out)
-    if as_json:
-        emit_json(doc)
-    else:
-        click.echo(sites_text(doc["sites"], units))
-        for d in doc["unassigned"]:
-            click.echo(f"not in a site: {d['id']}: {d['reason']}")
-        for e in doc["errors"]:
-            click.echo(f"not read: {e}")
+    emit_document(doc, out=out, as_json=as_json, text=lambda d: _sites_document_text(d, units))
     if not run.fitted_any:
         sys.exit(1)
+
+
+def _sites_document_text(doc: dict, units: str) -> str:
+    """The sites table, then the pushes in no site and the records not read."""
+    lines = [sites_text(doc["sites"], units)]
+    lines += [f"not in a site: {d['id']}: {d['reason']}" for d in doc["unassigned"]]
+    lines += [f"not read: {e}" for e in doc["errors"]]
+    return "\n".join(lines)
 
 
 @click.command("design")

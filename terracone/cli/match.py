@@ -8,7 +8,7 @@ import click
 
 from terracone.cli.common import (
     UNITS,
-    emit_json,
+    emit_document,
     json_options,
     load_library_prior,
     parse_length,
@@ -60,11 +60,6 @@ def match_cmd(ci_file, library_path, by, radius, seed, file_units, out, as_json,
         source=str(ci_file),
     )
     doc = run.as_dict(units, input=str(ci_file))
-    if out:
-        emit_json(doc, out)
-    if as_json:
-        emit_json(doc)
-    else:
-        click.echo(match_text(doc))
+    emit_document(doc, out=out, as_json=as_json, text=match_text)
     if not run.matched_any:
         sys.exit(1)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from terracone.cli.common import UNITS, emit_json, parse_length
+from terracone.cli.common import UNITS, emit_document, emit_json, parse_length
 
 
 def parse_layer(text: str | None, units: str) -> tuple[float, float] | None:
@@ -206,12 +206,7 @@ def mobility_cmd(
         ci_file=ci_file, file_units=file_units, problem=problem, units=units,
     )  # fmt: skip
     doc = run.as_dict(units, input=str(results_path))
-    if out:
-        emit_json(doc, out)
-    if as_json:
-        emit_json(doc)
-    else:
-        click.echo(mobility_text(doc))
+    emit_document(doc, out=out, as_json=as_json, text=mobility_text)
     if not run.evaluated_any:
         sys.exit(1)
 
