@@ -942,16 +942,9 @@ def from_document(doc: Mapping[str, Any], source: str | None = None) -> Predicti
 
 def read_json(path: PathLike) -> PredictionResults:
     """The results (SI) of a prediction JSON file (:func:`write_json`, ``predict --json``)."""
-    p = Path(path)
-    try:
-        doc = json.loads(p.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"file {p}: cannot read JSON ({exc})") from exc
-    except RecursionError:
-        from terracone.io.jsonkeys import JSON_TOO_DEEP
+    from terracone.io.jsonkeys import read_json as read_json_file
 
-        raise ValueError(f"file {p}: {JSON_TOO_DEEP}") from None
-    return from_document(doc, source=f"file {p}")
+    return from_document(read_json_file(path), source=f"file {Path(path)}")
 
 
 # ---------------------------------------------------------------------------

@@ -682,6 +682,7 @@ TOO_DEEP = (
         "library import {deep}",
         "map {deep} --out {tmp}/m",
         "export --terrain LETE_sand --format chrono-scm --shear {deep} --out {tmp}/x.json",
+        "mobility {deep} --vehicle {deep}",
     ],
 )
 def test_json_nested_100000_deep_is_refused_naming_the_file(workspace, tmp_path, library, args):

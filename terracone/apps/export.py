@@ -43,6 +43,7 @@ import numpy as np
 from terracone.apps.chrono import SHEAR_KEYS, LocatedSoil
 from terracone.apps.library import Library, TerrainRecord, check_params, record_params
 from terracone.data import TerrainParameters, TerrainShear
+from terracone.io.jsonkeys import FileKeyError, read_json
 from terracone.io.tables import guard_formula
 from terracone.physics import units as u
 from terracone.result import UQ_PARAMS, PredictionResult, PredictionResults
@@ -433,13 +434,9 @@ def shear_of(text: str, library: str | os.PathLike | None = None) -> tuple[dict[
     path = Path(text)
     if path.is_file():
         try:
-            doc = json.loads(path.read_text(encoding="utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise ValueError(f"--shear {text}: not a JSON file ({exc})") from None
-        except RecursionError:
-            from terracone.io.jsonkeys import JSON_TOO_DEEP
-
-            raise ValueError(f"--shear {text}: {JSON_TOO_DEEP}") from None
+            doc = read_json(path)
+        except FileKeyError as exc:
+            raise ValueError(f"--shear {text}: {exc.reason}") from None
         if not isinstance(doc, Mapping) or "K" not in doc or "phi_deg" not in doc:
             raise ValueError(
                 f"--shear {text}: not the output of `terracone fit-shear --json` "
@@ -621,7 +618,7 @@ def running_gear(path: str | os.PathLike) -> RunningGear:
     if vehicle.kind == "wheeled":
         w = vehicle.wheel  # required of a wheeled vehicle by load_vehicle
         return RunningGear("wheel", w.width, w.load, diameter=w.diameter, vehicle=vehicle.name)
-    raw = json.loads(Path(path).read_text())
+    raw = read_json(path)  # readable: load_vehicle read it
     inputs = raw.get("mobility_index_inputs")
     if not isinstance(inputs, Mapping):
         raise ValueError(

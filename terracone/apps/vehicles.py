@@ -33,7 +33,6 @@ References
 from __future__ import annotations
 
 import difflib
-import json
 import math
 import os
 from collections.abc import Mapping
@@ -41,6 +40,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from terracone.io.jsonkeys import FileKeyError, read_json
 from terracone.physics import units as u
 from terracone.physics import vehicle as phys
 from terracone.resultunits import Written, field_value, from_si, quantity
@@ -361,9 +361,8 @@ def vehicle_from_dict(d: Any, source: str | None = None) -> Vehicle:
 
 def load_vehicle(path: PathLike) -> Vehicle:
     """Read a vehicle file (JSON, :func:`vehicle_from_dict`)."""
-    p = Path(path)
     try:
-        d = json.loads(p.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise VehicleFileError(f"vehicle file {p}: cannot read JSON ({exc})") from exc
-    return vehicle_from_dict(d, str(p))
+        d = read_json(path)
+    except FileKeyError as exc:
+        raise VehicleFileError(f"vehicle file {Path(path)}: {exc.reason}") from None
+    return vehicle_from_dict(d, str(Path(path)))

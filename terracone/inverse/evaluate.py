@@ -15,7 +15,6 @@ References
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from terracone.data import PlateTest, TerrainParameters
+from terracone.io.jsonkeys import read_json
 from terracone.physics.metrics import Agreement, agreement
 from terracone.physics.plate import plate_basis, pressure_law
 from terracone.resultunits import from_si
@@ -144,14 +144,7 @@ def parameters_from_json(path: str | os.PathLike[str]) -> list[tuple[str, Terrai
         a bad value (naming the file and the profile or terrain), or the
         file holds no fitted parameters.
     """
-    try:
-        doc = json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ValueError(f"file {path}: cannot read JSON ({exc})") from exc
-    except RecursionError:
-        from terracone.io.jsonkeys import JSON_TOO_DEEP
-
-        raise ValueError(f"file {path}: {JSON_TOO_DEEP}") from None
+    doc = read_json(path)
 
     def params(d: dict, where: str) -> TerrainParameters:
         try:

@@ -9,10 +9,10 @@ Figures: :mod:`terracone.report.figures`; tables: :mod:`terracone.report.tables`
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
+from terracone.io.jsonkeys import read_json
 from terracone.report.html import (
     batch_document,
     evaluate_document,
@@ -59,17 +59,6 @@ def result_kind(doc: Any) -> str:
     )
 
 
-def _read_json(path: Path) -> Any:
-    try:
-        return json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"file {path}: cannot read JSON ({exc})") from exc
-    except RecursionError:
-        from terracone.io.jsonkeys import JSON_TOO_DEEP
-
-        raise ValueError(f"file {path}: {JSON_TOO_DEEP}") from None
-
-
 def load_document(
     results_path: str | Path, *, map_by: str = "n"
 ) -> tuple[dict[str, Any], Path | None]:
@@ -86,7 +75,7 @@ def load_document(
 
             return map_document(p), p
         if (p / "reproduce.json").exists():
-            doc = _read_json(p / "reproduce.json")
+            doc = read_json(p / "reproduce.json")
             if result_kind(doc) != "reproduce":
                 raise ValueError(f"{p / 'reproduce.json'}: not written by terracone reproduce")
             return doc["document"], p
@@ -95,7 +84,7 @@ def load_document(
         docs = []
         for f in sorted(p.glob("*.json")):
             try:
-                d = _read_json(f)
+                d = read_json(f)
                 kind = result_kind(d)
             except ValueError:
                 continue
@@ -124,7 +113,7 @@ def load_document(
         }, p
     if p.suffix.lower() in (".parquet", ".pq"):
         return batch_document(read_results(p), p, map_by=map_by), p.parent
-    doc = _read_json(p)
+    doc = read_json(p)
     try:
         kind = result_kind(doc)
     except ValueError as exc:
