@@ -694,6 +694,19 @@ def test_json_nested_100000_deep_is_refused_naming_the_file(workspace, tmp_path,
     assert str(deep) in why and TOO_DEEP in why, why
 
 
+def test_a_map_json_nested_100000_deep_is_refused_naming_the_file(tmp_path):
+    (tmp_path / "m").mkdir()
+    deep = tmp_path / "m" / "map.json"
+    deep.write_text(DEEP)
+    vehicle = tmp_path / "v.json"
+    vehicle.write_text(json.dumps({"kind": "wheeled", "name": "v", "mobility_index": 50,
+                                   "wheel": {"width": "0.3 m", "diameter": "0.9 m",
+                                             "load": "10 kN"}}))  # fmt: skip
+    for args in (["report", deep.parent, "--out", tmp_path / "r.html"],
+                 ["mobility", deep.parent, "--vehicle", vehicle, "--out", tmp_path / "o"]):  # fmt: skip
+        assert error_line(run(*args)) == f"file {deep}: {TOO_DEEP}"
+
+
 def test_a_corrupt_or_foreign_library_is_named_and_spares_the_builtin_terrains(tmp_path):
     bad = tmp_path / "bad.sqlite"
     bad.write_bytes(b"this is not a database\n" * 100)

@@ -10,7 +10,6 @@ calibration, no spatial structure, pushes left out).
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -19,6 +18,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from terracone.io.jsonkeys import read_json
 from terracone.report.html import figure_part, kv_part, list_part, table_part, text_part
 from terracone.report.tables import Table
 
@@ -101,10 +101,7 @@ def _table(quantities: Mapping[str, Any]) -> Table:
 def map_document(directory: str | Path) -> dict[str, Any]:
     """Report document of a ``terracone map`` output directory (``map.json`` and its files)."""
     d = Path(directory)
-    try:
-        doc = json.loads((d / "map.json").read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{d / 'map.json'}: cannot read the map ({exc})") from exc
+    doc = read_json(d / "map.json")
     import pyarrow.parquet as pq
 
     pts = pq.read_table(d / doc.get("points", "points.parquet"), columns=["x", "y"])

@@ -10,7 +10,6 @@ kriging exactly.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import dataclass
@@ -22,6 +21,7 @@ import numpy as np
 from terracone.apps.maps.geostat import Variogram, variogram_from_dict
 from terracone.apps.maps.grid import Grid
 from terracone.apps.maps.writers import MAP_SCHEMA
+from terracone.io.jsonkeys import read_json
 from terracone.physics import units as u
 
 __all__ = ["MapDirectory", "StoredQuantity", "is_map_directory", "read_map_directory"]
@@ -147,10 +147,7 @@ def read_map_directory(path: PathLike) -> MapDirectory:
     if not f.is_file():
         raise ValueError(f"{p}: no map.json (not a terracone map directory: make one with "
                          "terracone map RESULTS --out DIR)")  # fmt: skip
-    try:
-        doc = json.loads(f.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"file {f}: cannot read JSON ({exc})") from None
+    doc = read_json(f)
     if not isinstance(doc, dict) or doc.get("schema") != MAP_SCHEMA:
         got = doc.get("schema") if isinstance(doc, dict) else None
         raise ValueError(f"file {f}: not a terracone map (schema {got!r}, expected {MAP_SCHEMA!r})")
