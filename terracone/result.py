@@ -936,8 +936,26 @@ def from_document(doc: Mapping[str, Any], source: str | None = None) -> Predicti
         raise ValueError(f"{where}not a prediction document: no list 'profiles'")
     units = doc.get("units") or (doc.get("settings") or {}).get("units") or "si"
     header = {k: v for k, v in doc.items() if k not in ("profiles", "settings")}
-    results = (_result_from_dict(p, units) for p in profiles)
+    results = (_profile_from_document(p, units, i, source) for i, p in enumerate(profiles))
     return PredictionResults(results, doc.get("settings"), header)
+
+
+def _profile_from_document(p: Any, units: str, index: int, source: str | None) -> PredictionResult:
+    """One profile of a document, or ValueError naming the file, the profile and the key."""
+    where = f"{source}, profile {index + 1}" if source else f"profile {index + 1}"
+    if not isinstance(p, Mapping):
+        raise ValueError(f"{where}: not a JSON object (a profile of a prediction document)")
+    if "id" in p:
+        where += f" (id {p['id']!r})"
+    for key in ("id", "status") + (("n",) if p.get("status") == "ok" else ()):
+        if p.get(key) is None:
+            raise ValueError(f"{where}: key {key!r}: missing")
+    try:
+        return _result_from_dict(p, units)
+    except KeyError as exc:
+        raise ValueError(f"{where}: key {exc.args[0]!r}: missing") from None
+    except (TypeError, ValueError, AttributeError, IndexError) as exc:
+        raise ValueError(f"{where}: not a profile as terracone writes it ({exc})") from None
 
 
 def read_json(path: PathLike) -> PredictionResults:

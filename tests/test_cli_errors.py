@@ -371,7 +371,7 @@ def test_evaluate_params_file_and_options(tmp_path, good):
     partial = tmp_path / "partial.json"
     partial.write_text('{"profiles": [{"id": "P7", "status": "ok", "kc": 1.0}]}')
     assert error_line(run("evaluate", "--plates", pl, "--params", partial)) == (
-        f"file {partial}, profile P7: missing key 'n'"
+        f"file {partial}, profile 1 (id 'P7'): key 'n': missing"
     )
     notnum = tmp_path / "site.json"
     notnum.write_text('{"kc": "x", "kphi": 3000, "n": 0.8}')

@@ -707,6 +707,32 @@ def test_a_map_json_nested_100000_deep_is_refused_naming_the_file(tmp_path):
         assert error_line(run(*args)) == f"file {deep}: {TOO_DEEP}"
 
 
+@pytest.mark.parametrize(
+    "profiles, why",
+    [
+        ("[null]", "profile 1: not a JSON object (a profile of a prediction document)"),
+        ('[{"id": "a"}]', "profile 1 (id 'a'): key 'status': missing"),
+        ('[{"id": "a", "status": "ok", "kc": 1}]', "profile 1 (id 'a'): key 'n': missing"),
+        (
+            '[{"id": "a", "status": "ok", "n": "x"}]',
+            "profile 1 (id 'a'): not a profile as terracone writes it "
+            "(could not convert string to float: 'x')",
+        ),
+    ],
+)
+def test_a_broken_profile_of_a_results_file_is_named_in_every_reader(
+    workspace, tmp_path, profiles, why
+):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"units": "si", "profiles": ' + profiles + "}")
+    plates = workspace / "lete_sand_synthetic_plates.csv"
+    for args in (["report", bad, "--out", tmp_path / "r.html"],
+                 ["export", "--results", bad, "--format", "csv", "--out", tmp_path / "x.csv"],
+                 ["map", bad, "--out", tmp_path / "m"],
+                 ["evaluate", "--plates", plates, "--params", bad]):  # fmt: skip
+        assert error_line(run(*args)) == f"file {bad}, {why}", args
+
+
 def test_a_corrupt_or_foreign_library_is_named_and_spares_the_builtin_terrains(tmp_path):
     bad = tmp_path / "bad.sqlite"
     bad.write_bytes(b"this is not a database\n" * 100)

@@ -26,6 +26,7 @@ from terracone.data import PlateTest, TerrainParameters
 from terracone.io.jsonkeys import read_json
 from terracone.physics.metrics import Agreement, agreement
 from terracone.physics.plate import plate_basis, pressure_law
+from terracone.result import from_document
 from terracone.resultunits import from_si
 
 __all__ = [
@@ -156,8 +157,8 @@ def parameters_from_json(path: str | os.PathLike[str]) -> list[tuple[str, Terrai
 
     out = []
     if isinstance(doc, dict) and "profiles" in doc:
-        oks = [p for p in doc["profiles"] if p.get("status") == "ok"]
-        out = [(str(p["id"]), params(p, f"profile {p['id']}")) for p in oks]
+        results = from_document(doc, source=f"file {path}")
+        out = [(r.id, r.params) for r in results if r.status == "ok" and r.params is not None]
     elif isinstance(doc, dict) and "kc" in doc:
         name = str(doc.get("terrain", Path(path).stem))
         out.append((name, params(doc, f"terrain {name}")))
