@@ -572,6 +572,29 @@ def test_cone_out_of_range_is_refused_naming_cone(workspace, tmp_path, cone, why
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize(
+    "args, why",
+    [
+        ("predict {ci} --r-min -1", "--r-min: must be a finite length > 0, got '-1'"),
+        ("predict {ci} --model rm1 --r-min 0", "--r-min: must be a finite length > 0, got '0'"),
+        ("predict {ci} --r-min 1e999", "--r-min: must be a finite length > 0, got '1e999'"),
+        (
+            "predict {ci} --r-min nan",
+            "--r-min: expected a length such as 0.05, 5cm or 2in, got 'nan'",
+        ),
+        ("design {ci} --plates -1,5cm", "--plates: must be a finite length > 0, got '-1'"),
+        ("sites {ci} --by site --plates 0", "--plates: must be a finite length > 0, got '0'"),
+        (
+            "predict {ci} --depth-range -1:0.2",
+            "--depth-range: must be a finite length >= 0, got '-1'",
+        ),
+    ],
+)
+def test_a_length_option_that_is_negative_zero_or_infinite_is_refused(workspace, args, why):
+    r = run(*args.format(ci=workspace / "lete_sand_synthetic_ci.csv").split())
+    assert error_line(r, code=2) == f"Invalid value: {why}"
+
+
 def test_cone_range_by_hand_and_in_a_file(tmp_path):
     assert get_cone("20mm:10").angle_deg == 10 and get_cone("20mm:120").angle_deg == 120
     assert get_cone("1mm:30").radius == pytest.approx(5e-4, rel=1e-12)

@@ -681,7 +681,8 @@ def test_cli_map_units_us_converts_the_rasters_only(located_json, tmp_path):
         (["--layers-ci", "15cm"], "--layers-ci: expected LO:HI (e.g. 0:15cm), got '15cm'"),
         (["--layers-ci", "30:15cm"], "--layers-ci: need 0 <= LO < HI, got '30:15cm'"),
         (["--crs", "EPSG:4326"], "--crs 'EPSG:4326': a map needs a projected CRS in metres"),
-        (["--resolution", "-5m"], "--resolution must be > 0 (got -5)"),
+        (["--resolution", "-5m"], "--resolution: must be a finite length > 0, got '-5m'"),
+        (["--resolution", "0"], "--resolution: must be a finite length > 0, got '0'"),
     ],
 )
 def test_cli_map_option_errors(located_json, tmp_path, extra, message):

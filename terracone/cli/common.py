@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import math
 import os
 import re
 from pathlib import Path
@@ -34,23 +35,36 @@ def parse_floats(text: str, what: str) -> np.ndarray:
     return np.array(vals)
 
 
-def parse_length(text: str, units: str, what: str) -> float:
-    """'1.5in' or '3.75cm' or a bare number in the unit system's length unit -> m."""
+def parse_length(text: str, units: str, what: str, *, positive: bool = False) -> float:
+    """'1.5in' or '3.75cm' or a bare number in the unit system's length unit -> m.
+
+    A length is finite and not negative; with ``positive`` (a radius, a spacing) above 0.
+    """
     m = LEN_RE.match(text)
-    if not m:
+    try:
+        v = float(m.group(1)) if m else math.nan
+    except ValueError:
+        v = math.nan
+    if not m or math.isnan(v):
         raise click.BadParameter(
             f"{what}: expected a length such as 0.05, 5cm or 2in, got {text!r}"
         )
-    v = float(m.group(1))
+    if not math.isfinite(v) or v < 0 or (positive and v == 0):
+        raise click.BadParameter(
+            f"{what}: must be a finite length {'> 0' if positive else '>= 0'}, got {text!r}"
+        )
     if m.group(2):
         return v * u.LENGTH_UNITS[m.group(2)]
     return float(u.length_to_si(v, units))
 
 
-def parse_lengths(text: str | None, units: str, what: str) -> list[float]:
+def parse_lengths(
+    text: str | None, units: str, what: str, *, positive: bool = False
+) -> list[float]:
+    """Comma-separated lengths (:func:`parse_length`) -> m."""
     if not text:
         return []
-    return [parse_length(s, units, what) for s in text.split(",") if s.strip()]
+    return [parse_length(s, units, what, positive=positive) for s in text.split(",") if s.strip()]
 
 
 def _length_range(text: str, units: str, what: str, both: bool = False) -> list[float | None]:
@@ -296,7 +310,7 @@ def problem_from(
     lib = None
     if library_prior and opts["library"] and cal is None and prior in ("bounds", None):
         lib = load_library_prior(opts["library"])
-    r_min = parse_length(opts["r_min"], units, "--r-min") if opts["r_min"] else None
+    r_min = parse_length(opts["r_min"], units, "--r-min", positive=True) if opts["r_min"] else None
     if opts["model"] == "rm1" and r_min is None and cal is None and isinstance(prior, str):
         raise click.UsageError("--model rm1 needs --r-min (or a --calibration / --terrain)")
     return Problem(

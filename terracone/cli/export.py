@@ -54,7 +54,9 @@ def parse_patch(text: str, units: str) -> tuple[float, float]:
         raise click.BadParameter(
             f"--patch: expected LENGTHxWIDTH such as 4x1 or 4mx1m, got {text!r}"
         )
-    return parse_length(parts[0], units, "--patch"), parse_length(parts[1], units, "--patch")
+    return parse_length(parts[0], units, "--patch", positive=True), parse_length(
+        parts[1], units, "--patch", positive=True
+    )
 
 
 def parse_origin(text: str) -> tuple[float, float]:
@@ -325,7 +327,7 @@ def _chrono_values(opts: dict, units: str) -> dict:
     for key, opt, parse in (
         ("c_kpa", "cohesion", lambda t: parse_pressure(t, units, "--cohesion")),
         ("phi_deg", "friction", lambda t: parse_angle(t, "--friction")),
-        ("K_m", "janosi", lambda t: parse_length(t, units, "--janosi")),
+        ("K_m", "janosi", lambda t: parse_length(t, units, "--janosi", positive=True)),
     ):
         if opts[opt] is not None:
             given.append((f"--{opt}", {key: parse(opts[opt])}))
@@ -333,7 +335,9 @@ def _chrono_values(opts: dict, units: str) -> dict:
     return {
         "shear_given": given,
         "patch": None if opts["patch"] is None else parse_patch(opts["patch"], units),
-        "grid_spacing": None if spacing is None else parse_length(spacing, units, "--grid-spacing"),
+        "grid_spacing": None
+        if spacing is None
+        else parse_length(spacing, units, "--grid-spacing", positive=True),
         "origin": None if opts["origin"] is None else parse_origin(opts["origin"]),
     }
 

@@ -94,7 +94,7 @@ def predict_cmd(ci_file, plates, file_units, out, parquet_path, as_json, **opts)
     settings = run_from(
         opts, solver=opts["solver"], seed=opts["seed"], uncertainty=uncertainty, draws=opts["draws"]
     )
-    radii = parse_lengths(plates, units, "--plates")
+    radii = parse_lengths(plates, units, "--plates", positive=True)
     items = reading_from(opts, file_units).read(ci_file, units)
     run = predict_profiles(
         items,
@@ -299,8 +299,8 @@ def sites_cmd(
         reading_from(opts, file_units).read(ci_file, units),
         problem_from(opts, library_prior=True),
         by=by,
-        radius=parse_length(radius, units, "--radius") if radius else None,
-        plates=parse_lengths(plates, units, "--plates") or DEFAULT_SITE_PLATES,
+        radius=parse_length(radius, units, "--radius", positive=True) if radius else None,
+        plates=parse_lengths(plates, units, "--plates", positive=True) or DEFAULT_SITE_PLATES,
         sinkage=default_sinkages(units),
         target_cv=target_cv,
         bootstrap=bootstrap,
@@ -366,7 +366,7 @@ def design_cmd(ci_file, prior, plates, candidates, plate_noise, as_json, **opts)
         reading_from(opts).read(ci_file, units),
         problem_from(opts, prior=load_prior(prior, opts["library"])),
         candidates=cands,
-        plates=parse_lengths(plates, units, "--plates"),
+        plates=parse_lengths(plates, units, "--plates", positive=True),
         plate_noise=plate_noise,
         asked={"candidates": candidates, "plate_noise": plate_noise},
     )

@@ -139,7 +139,7 @@ def map_cmd(
         if not (plate_si[0] > 0 and plate_si[1] > 0):
             raise click.BadParameter("--plate and --sinkage must be > 0")
     layers = parse_layers(layers_ci, units)
-    res = parse_length(resolution, "si", "--resolution") if resolution else None
+    res = parse_length(resolution, "si", "--resolution", positive=True) if resolution else None
     problem = None
     if library_path:  # the library as the prior, from the CI the results keep
         from terracone.cli.common import load_library_prior

@@ -55,7 +55,7 @@ def match_cmd(ci_file, library_path, by, radius, seed, file_units, out, as_json,
         reading_from(opts, file_units).read(ci_file, units),
         problem,
         by=by,
-        radius=parse_length(radius, units, "--radius") if radius else None,
+        radius=parse_length(radius, units, "--radius", positive=True) if radius else None,
         seed=seed,
         source=str(ci_file),
     )
