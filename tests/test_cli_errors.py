@@ -511,11 +511,15 @@ CALIBRATION_DEFECTS = [
     ("text for a number", {"kphi": "5359"}, 'key kphi: must be a number (got "5359")'),
     ("true for a number", {"n": True}, "key n: must be a number (got true)"),
     ("null for a required key", {"cc": None}, "key cc: missing (cone-terrain adhesion)"),
-    ("n = 0", {"n": 0}, "key n: must be > 0 (got 0)"),
+    ("n = 0", {"n": 0}, "key n: must be in (0, 5] (got 0)"),
     ("phic = 90", {"phic_deg": 90}, "key phic_deg: must be in [0, 90) deg (got 90)"),
-    ("negative cc", {"cc": -1.5}, "key cc: must be >= 0 kPa (got -1.5)"),
-    ("r_min = 0", {"r_min": 0.0}, "key r_min: must be > 0 m (got 0)"),
-    ("negative Kc", {"Kc": -0.01}, "key Kc: must be > 0 m (got -0.01)"),
+    ("negative cc", {"cc": -1.5}, "key cc: must be in [0, 100000] kPa (got -1.5)"),
+    ("r_min = 0", {"r_min": 0.0}, "key r_min: must be in (0, 100] m (got 0)"),
+    ("n = 1e300", {"n": 1e300}, "key n: must be in (0, 5] (got 1e+300)"),
+    ("kc = 1e300", {"kc": 1e300}, "key kc: must be in [-1e+09, 1e+09] kN/m^(n+1) (got 1e+300)"),
+    ("cc = 1e300", {"cc": 1e300}, "key cc: must be in [0, 100000] kPa (got 1e+300)"),
+    ("r_min = 1e300", {"r_min": 1e300}, "key r_min: must be in (0, 100] m (got 1e+300)"),
+    ("negative Kc", {"Kc": -0.01}, "key Kc: must be in (0, 100] m (got -0.01)"),
     ("rm1 without r_min", {"r_min": DROP}, 'key r_min: missing (model "rm1" needs r_min)'),
     (
         "model",
@@ -638,7 +642,7 @@ LIBRARY_DEFECTS = [
     (
         "n < 0",
         {"name": "b", "kind": "user", "params": {"n": -0.5}},
-        "item 1 (b), key params.n: must be > 0 (got -0.5)",
+        "item 1 (b), key params.n: must be in (0, 5] (got -0.5)",
     ),
     (
         "phi = 95",
@@ -648,7 +652,7 @@ LIBRARY_DEFECTS = [
     (
         "negative cohesion",
         {"name": "b", "kind": "user", "params": {"c_kpa": -2}},
-        "item 1 (b), key params.c_kpa: must be >= 0 kPa (got -2)",
+        "item 1 (b), key params.c_kpa: must be in [0, 100000] kPa (got -2)",
     ),
     (
         "zero density",

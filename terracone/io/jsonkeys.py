@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from terracone.data import CI_MAX_KPA
 from terracone.physics.cone import get_cone
 
 __all__ = ["FileKeyError", "Key", "TERRAIN_KEYS", "check_keys", "check_value", "read_json"]
@@ -274,24 +275,31 @@ def read_json(path: str | os.PathLike) -> Any:
 
 
 #: The terrain parameter keys of calibrations and library records (all SI).  kc and kphi
-#: may be negative (a bevameter fit of k = kc/b + kphi can give one); the others are held
-#: to their physical ranges.
+#: may be negative (a bevameter fit of k = kc/b + kphi can give one); every value is held
+#: to a range far wider than any soil's (Wong's tables, ``data/wong_terrain_values.csv``:
+#: n 0.11-1.6, kc up to 102, kphi up to 5,880), so that only a unit error or a corrupt
+#: value is refused: |kc|, |kphi| <= 1e9, n <= 5, cc and c <= 100 MPa (the largest cone
+#: index of :data:`terracone.data.CI_MAX_KPA`), lengths <= 100 m (learn searches r_min up
+#: to 3 times the larger plate).
+_MODULUS = 1.0e9
+_STRESS = CI_MAX_KPA
+_LENGTH = 100.0
 TERRAIN_KEYS: dict[str, Key] = {
-    "kc": Key("number", "kN/m^(n+1)", meaning="Bekker cohesive modulus"),
-    "kphi": Key("number", "kN/m^(n+2)", meaning="Bekker frictional modulus"),
-    "n": Key("number", lo=0.0, lo_open=True, meaning="sinkage exponent"),
-    "k": Key("number", "kN/m^(n+2)", lo=0.0, lo_open=True, meaning="kc/b + kphi at b_m"),
-    "b_m": Key("number", "m", lo=0.0, lo_open=True, meaning="plate size of k"),
-    "c_kpa": Key("number", "kPa", lo=0.0, meaning="terrain internal cohesion"),
+    "kc": Key("number", "kN/m^(n+1)", -_MODULUS, _MODULUS, meaning="Bekker cohesive modulus"),
+    "kphi": Key("number", "kN/m^(n+2)", -_MODULUS, _MODULUS, meaning="Bekker frictional modulus"),
+    "n": Key("number", lo=0.0, hi=5.0, lo_open=True, meaning="sinkage exponent"),
+    "k": Key("number", "kN/m^(n+2)", 0.0, _MODULUS, lo_open=True, meaning="kc/b + kphi at b_m"),
+    "b_m": Key("number", "m", 0.0, _LENGTH, lo_open=True, meaning="plate size of k"),
+    "c_kpa": Key("number", "kPa", 0.0, _STRESS, meaning="terrain internal cohesion"),
     "phi_deg": Key("number", "deg", 0.0, 90.0, hi_open=True, meaning="internal friction"),
-    "K_m": Key("number", "m", lo=0.0, lo_open=True, meaning="shear deformation modulus"),
-    "cc": Key("number", "kPa", lo=0.0, meaning="cone-terrain adhesion"),
+    "K_m": Key("number", "m", 0.0, _LENGTH, lo_open=True, meaning="shear deformation modulus"),
+    "cc": Key("number", "kPa", 0.0, _STRESS, meaning="cone-terrain adhesion"),
     "phic_deg": Key("number", "deg", 0.0, 90.0, hi_open=True, meaning="cone-terrain friction"),
-    "Kc": Key("number", "m", lo=0.0, lo_open=True, meaning="cone-terrain shear deformation"),
+    "Kc": Key("number", "m", 0.0, _LENGTH, lo_open=True, meaning="cone-terrain shear deformation"),
     "model": Key(
         "choice", choices=("rm0", "rm1"), requires={"rm1": "r_min"}, meaning="pressure law"
     ),
-    "r_min": Key("number", "m", lo=0.0, lo_open=True, meaning="RM1 transition radius"),
+    "r_min": Key("number", "m", 0.0, _LENGTH, lo_open=True, meaning="RM1 transition radius"),
     "plate_pair": Key("radii", "m", meaning="plate radii [r1, r2] of an RM1 calibration"),
     "cone": Key("cone", meaning="cone name or spec, e.g. asabe-large"),
     "moisture_pct": Key("number", "%", lo=0.0, meaning="moisture content"),
