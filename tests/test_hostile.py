@@ -756,6 +756,27 @@ def test_a_broken_profile_of_a_results_file_is_named_in_every_reader(
         assert error_line(run(*args)) == f"file {bad}, {why}", args
 
 
+@pytest.mark.parametrize(
+    "rows, column, why",
+    [
+        ("A,0.05,0.01,10\nA,0.05,1e300,20\nA,0.05,0.03,30", "sinkage_m",
+         "sinkage 1e+300 m is beyond 5 m"),
+        ("A,0.05,0.01,10\nA,0.05,0.02,1e300\nA,0.05,0.03,30", "pressure_kpa",
+         "pressure 1e+300 kPa is beyond 100000 kPa"),
+        ("A,6,0.01,10\nA,6,0.02,20\nA,6,0.03,30", "plate_radius_m",
+         "plate size 6 m is beyond 5 m"),
+    ],
+)  # fmt: skip
+def test_a_plate_value_beyond_any_bevameter_is_refused_naming_the_cell(tmp_path, rows, column, why):
+    f = tmp_path / "plates.csv"
+    f.write_text("test,plate_radius_m,sinkage_m,pressure_kpa\n" + rows + "\n")
+    row = 2 if column == "plate_radius_m" else 3
+    assert error_line(run("fit-plates", f)) == (
+        f"file {f}, test A, row {row}, column {column}: {why}, which no bevameter test reaches "
+        "(a unit error or a corrupt cell?)"
+    )
+
+
 def test_a_corrupt_or_foreign_library_is_named_and_spares_the_builtin_terrains(tmp_path):
     bad = tmp_path / "bad.sqlite"
     bad.write_bytes(b"this is not a database\n" * 100)

@@ -6,7 +6,7 @@ import os
 
 import numpy as np
 
-from terracone.data import InputError, PlateTest, ShearTest
+from terracone.data import CI_MAX_KPA, DEPTH_MAX_M, InputError, PlateTest, ShearTest
 from terracone.io.tables import (
     PLATE_SCHEMA,
     SHEAR_SCHEMA,
@@ -73,12 +73,17 @@ def read_plate_tests(
             b /= 2.0
         if not b > 0:
             raise _error("plate size must be > 0", table, tid, int(idx[0]), scol.name)
+        _check_within(np.array([b]), idx[:1], DEPTH_MAX_M, "plate size", "m", table, tid, scol)
+        z = sink.values[idx] * zcol.factor
+        p = pres.values[idx] * pcol.factor
+        _check_within(z, idx, DEPTH_MAX_M, "sinkage", "m", table, tid, zcol)
+        _check_within(p, idx, CI_MAX_KPA, "pressure", "kPa", table, tid, pcol)
         return PlateTest(
             id=tid,
             b=b,
             shape="circular" if circular else "rectangular",
-            sinkage=sink.values[idx] * zcol.factor,
-            pressure=pres.values[idx] * pcol.factor,
+            sinkage=z,
+            pressure=p,
             metadata=row_metadata(table, layout, int(idx[0])),
             source=source,
             rows=table.lines[idx].copy(),
@@ -123,12 +128,18 @@ def read_shear_tests(
     def build(group: tuple[str, np.ndarray]) -> ShearTest:
         tid, idx = group
         check_group(table, layout, tid, idx, [(ncol, normal), (jcol, disp), (tcol, stress)], "test")
-        sigma = _constant(tid, table, idx, ncol, normal, "normal pressure")
+        sigma = _constant(tid, table, idx, ncol, normal, "normal pressure") * ncol.factor
+        j = disp.values[idx] * jcol.factor
+        tau = stress.values[idx] * tcol.factor
+        _check_within(np.array([sigma]), idx[:1], CI_MAX_KPA, "normal pressure", "kPa", table,
+                      tid, ncol)  # fmt: skip
+        _check_within(j, idx, DEPTH_MAX_M, "shear displacement", "m", table, tid, jcol)
+        _check_within(tau, idx, CI_MAX_KPA, "shear stress", "kPa", table, tid, tcol)
         return ShearTest(
             id=tid,
-            normal_pressure=sigma * ncol.factor,
-            displacement=disp.values[idx] * jcol.factor,
-            stress=stress.values[idx] * tcol.factor,
+            normal_pressure=sigma,
+            displacement=j,
+            stress=tau,
             metadata=row_metadata(table, layout, int(idx[0])),
             source=source,
             rows=table.lines[idx].copy(),
@@ -140,6 +151,27 @@ def read_shear_tests(
 def _error(why: str, table: Table, tid: str, i: int, column: str) -> InputError:
     line = int(table.lines[i])
     return InputError(why, file=table.path, profile=tid, item="test", row=line, column=column)
+
+
+def _check_within(
+    values: np.ndarray,
+    idx: np.ndarray,
+    limit: float,
+    what: str,
+    unit: str,
+    table: Table,
+    tid: str,
+    col: Column,
+) -> None:
+    """Refuse the first value beyond +-limit (SI): a unit error or a corrupt cell, not soil."""
+    big = np.flatnonzero(np.abs(values) > limit)
+    if big.size:
+        i = int(idx[big[0]])
+        why = (
+            f"{what} {values[big[0]]:g} {unit} is beyond {limit:g} {unit}, which no bevameter "
+            "test reaches (a unit error or a corrupt cell?)"
+        )
+        raise _error(why, table, tid, i, col.name)
 
 
 def _constant(
