@@ -21,6 +21,7 @@ import json
 import math
 import os
 import re
+import shutil
 import sqlite3
 import subprocess
 import sys
@@ -715,6 +716,60 @@ def test_json_nested_100000_deep_is_refused_naming_the_file(workspace, tmp_path,
                         plates=workspace / "lete_sand_synthetic_plates.csv").split()  # fmt: skip
     why = error_line(run(*[w.replace("LETE_sand", "LETE sand") for w in words]))
     assert str(deep) in why and TOO_DEEP in why, why
+
+
+@pytest.fixture(scope="module")
+def chile_map(chile, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("chile_map") / "m"
+    r = run("map", chile, "--out", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+MAP_EDITS = [
+    (("grid",), 5, "key grid: expected an object (got a number)"),
+    (("grid", "width"), -3, "key grid: expected width, height (> 0) and a transform of 6 numbers, "
+     "as terracone map writes them"),
+    (("pushes",), 5, "key pushes: expected an object (got a number)"),
+    (("notes",), 5, "key notes: expected an array (got a number)"),
+    (("quantities", "n", "variogram"), "x",
+     "key quantities.n.variogram: expected an object (got text)"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("keys, value, why", MAP_EDITS)
+def test_a_hand_edited_map_json_is_refused_naming_the_key(chile_map, tmp_path, keys, value, why):
+    d = tmp_path / "m"
+    shutil.copytree(chile_map, d)
+    doc = json.loads((d / "map.json").read_text())
+    node = doc
+    for k in keys[:-1]:
+        node = node[k]
+    node[keys[-1]] = value
+    (d / "map.json").write_text(json.dumps(doc))
+    vehicle = tmp_path / "v.json"
+    vehicle.write_text(json.dumps({"kind": "wheeled", "name": "v", "mobility_index": 50,
+                                   "wheel": {"width": "0.3 m", "diameter": "0.9 m",
+                                             "load": "10 kN"}}))  # fmt: skip
+    for args in (["report", d, "--out", tmp_path / "r.html"],
+                 ["mobility", d, "--vehicle", vehicle, "--out", tmp_path / "o"]):  # fmt: skip
+        assert error_line(run(*args)) == f"file {d / 'map.json'}, {why}", args
+
+
+def test_a_map_variogram_with_a_bad_value_is_refused_naming_it(chile_map, tmp_path):
+    d = tmp_path / "m"
+    shutil.copytree(chile_map, d)
+    doc = json.loads((d / "map.json").read_text())
+    doc["quantities"]["n"]["variogram"]["nugget"] = "x"
+    (d / "map.json").write_text(json.dumps(doc))
+    vehicle = tmp_path / "v.json"
+    vehicle.write_text(json.dumps({"kind": "wheeled", "name": "v", "mobility_index": 50,
+                                   "wheel": {"width": "0.3 m", "diameter": "0.9 m",
+                                             "load": "10 kN"}}))  # fmt: skip
+    why = error_line(run("mobility", d, "--vehicle", vehicle, "--out", tmp_path / "o",
+                         "--remolding-index", "1", "--layer", "0:45cm"))  # fmt: skip
+    assert why == (f"file {d / 'map.json'}, variogram of n: not as terracone map writes it "
+                   "(could not convert string to float: 'x')")  # fmt: skip
 
 
 def test_a_map_json_nested_100000_deep_is_refused_naming_the_file(tmp_path):

@@ -18,7 +18,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from terracone.io.jsonkeys import read_json
+from terracone.apps.maps.directory import read_map_directory
 from terracone.report.html import figure_part, kv_part, list_part, table_part, text_part
 from terracone.report.tables import Table
 
@@ -101,11 +101,9 @@ def _table(quantities: Mapping[str, Any]) -> Table:
 def map_document(directory: str | Path) -> dict[str, Any]:
     """Report document of a ``terracone map`` output directory (``map.json`` and its files)."""
     d = Path(directory)
-    doc = read_json(d / "map.json")
-    import pyarrow.parquet as pq
-
-    pts = pq.read_table(d / doc.get("points", "points.parquet"), columns=["x", "y"])
-    points = np.column_stack([pts["x"].to_numpy(), pts["y"].to_numpy()])
+    stored = read_map_directory(d)
+    doc = stored.doc
+    points = np.column_stack([stored.points["x"], stored.points["y"]])
     quantities = doc.get("quantities") or {}
     parts: list[dict[str, Any]] = [
         kv_part(
@@ -113,7 +111,7 @@ def map_document(directory: str | Path) -> dict[str, Any]:
                 "map directory": str(d),
                 "CRS": f"{doc.get('crs')} ({doc.get('crs_name')})",
                 "cell size [m]": doc.get("resolution"),
-                "located pushes": doc.get("pushes", {}).get("located"),
+                "located pushes": (doc.get("pushes") or {}).get("located"),
                 "calibration": doc.get("calibration") or "none (bounds)",
             }
         ),

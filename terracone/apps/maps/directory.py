@@ -24,7 +24,13 @@ from terracone.apps.maps.writers import MAP_SCHEMA
 from terracone.io.jsonkeys import read_json
 from terracone.physics import units as u
 
-__all__ = ["MapDirectory", "StoredQuantity", "is_map_directory", "read_map_directory"]
+__all__ = [
+    "MapDirectory",
+    "StoredQuantity",
+    "check_map_document",
+    "is_map_directory",
+    "read_map_directory",
+]
 
 PathLike = str | os.PathLike[str]
 
@@ -99,9 +105,14 @@ class MapDirectory:
             v = u.pressure_to_si(v, self.units)
         ok = np.isfinite(v) & ((v > 0) if log else True)
         z = np.log(v[ok]) if log else v[ok]
-        return StoredQuantity(
-            name, log, self.points["x"][ok], self.points["y"][ok], z, variogram_from_dict(vg)
-        )
+        try:
+            variogram = variogram_from_dict(vg)
+        except (TypeError, ValueError, AttributeError) as exc:
+            raise ValueError(
+                f"file {self.path / 'map.json'}, variogram of {name}: not as terracone map "
+                f"writes it ({exc})"
+            ) from None
+        return StoredQuantity(name, log, self.points["x"][ok], self.points["y"][ok], z, variogram)
 
     def quantity(self, name: str) -> StoredQuantity:
         """A mapped quantity (``n``, ``plate_pressure``, ``ci_...``) as it was kriged."""
@@ -128,6 +139,84 @@ def is_map_directory(path: PathLike) -> bool:
     return p.is_dir() and (p / "map.json").is_file()
 
 
+#: The keys of ``map.json`` that readers use, with their JSON type (others are not read).
+_MAP_KEYS: dict[str, tuple[type, ...]] = {
+    "grid": (dict,),
+    "points": (str,),
+    "cells": (str,),
+    "pushes": (dict,),
+    "quantities": (dict,),
+    "parameters": (dict,),
+    "notes": (list,),
+    "calibration": (str, dict),
+}
+
+
+#: The keys of each quantity of ``map.json`` that readers use, with their JSON type.
+_QUANTITY_KEYS: dict[str, tuple[type, ...]] = {
+    "file": (str,),
+    "units": (str,),
+    "description": (str,),
+    "message": (str,),
+    "space": (str,),
+    "variogram": (dict,),
+    "cross_validation": (dict,),
+    "point_cross_validation": (dict,),
+    "bands": (dict,),
+    "pooled": (dict,),
+    "cells": (dict,),
+    "layer": (list,),
+    "excluded": (list,),
+}
+
+
+def _json_type(value: Any) -> str:
+    names = {dict: "an object", list: "an array", str: "text", bool: "true or false"}
+    return next((w for t, w in names.items() if isinstance(value, t)), "a number")
+
+
+def check_map_document(doc: Any, file: PathLike) -> dict[str, Any]:
+    """``map.json`` as written by ``terracone map``, or ValueError naming the file and key.
+
+    Checks the schema and the JSON type of every key a reader uses (the grid's
+    size and transform, the file names, each quantity an object); a hand-edited
+    or corrupt file is refused here rather than failing inside a reader.
+    """
+    where = f"file {file}"
+    if not isinstance(doc, dict) or doc.get("schema") != MAP_SCHEMA:
+        got = doc.get("schema") if isinstance(doc, dict) else None
+        raise ValueError(f"{where}: not a terracone map (schema {got!r}, expected {MAP_SCHEMA!r})")
+    for key, types in _MAP_KEYS.items():
+        value = doc.get(key)
+        if value is not None and not isinstance(value, types):
+            want = " or ".join(_json_type(t()) for t in types)
+            raise ValueError(f"{where}, key {key}: expected {want} (got {_json_type(value)})")
+    g = doc.get("grid")
+    t = g.get("transform") if isinstance(g, dict) else None
+    ok = (
+        isinstance(t, list) and len(t) == 6
+        and all(isinstance(v, int | float) and math.isfinite(v) for v in t)
+        and all(isinstance(g.get(k), int) and g[k] > 0 for k in ("width", "height"))
+    )  # fmt: skip
+    if not ok:
+        raise ValueError(f"{where}, key grid: expected width, height (> 0) and a transform of "
+                         "6 numbers, as terracone map writes them")  # fmt: skip
+    for name, q in (doc.get("quantities") or {}).items():
+        if not isinstance(q, dict):
+            raise ValueError(f"{where}, key quantities.{name}: expected an object")
+        for key, types in _QUANTITY_KEYS.items():
+            value = q.get(key)
+            if value is not None and not isinstance(value, types):
+                want = " or ".join(_json_type(t()) for t in types)
+                got = _json_type(value)
+                raise ValueError(
+                    f"{where}, key quantities.{name}.{key}: expected {want} (got {got})"
+                )
+    if not all(isinstance(n, str) for n in doc.get("notes") or []):
+        raise ValueError(f"{where}, key notes: expected an array of text")
+    return doc
+
+
 def read_map_directory(path: PathLike) -> MapDirectory:
     """Read ``map.json`` and ``points.parquet`` of a ``terracone map`` output directory.
 
@@ -147,11 +236,8 @@ def read_map_directory(path: PathLike) -> MapDirectory:
     if not f.is_file():
         raise ValueError(f"{p}: no map.json (not a terracone map directory: make one with "
                          "terracone map RESULTS --out DIR)")  # fmt: skip
-    doc = read_json(f)
-    if not isinstance(doc, dict) or doc.get("schema") != MAP_SCHEMA:
-        got = doc.get("schema") if isinstance(doc, dict) else None
-        raise ValueError(f"file {f}: not a terracone map (schema {got!r}, expected {MAP_SCHEMA!r})")
-    pts = p / str(doc.get("points") or "points.parquet")
+    doc = check_map_document(read_json(f), f)
+    pts = p / (doc.get("points") or "points.parquet")
     try:
         table = pq.read_table(pts)
     except (OSError, pa.ArrowInvalid) as exc:
@@ -160,7 +246,7 @@ def read_map_directory(path: PathLike) -> MapDirectory:
               if k != "geometry"}  # fmt: skip
     g = doc["grid"]
     t = g["transform"]
-    grid = Grid(float(t[2]), float(t[5]), float(t[0]), int(g["width"]), int(g["height"]))
+    grid = Grid(float(t[2]), float(t[5]), float(t[0]), g["width"], g["height"])
     if not math.isclose(-float(t[4]), grid.resolution):
         raise ValueError(f"file {f}: the grid's cells are not square ({t})")
     return MapDirectory(p, doc, grid, points)
