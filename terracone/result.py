@@ -1252,12 +1252,16 @@ def _result_from_row(row: Mapping[str, Any], meta_names: Mapping[str, str]) -> P
     )
 
 
-def from_table(table: pa.Table, settings: Mapping[str, Any] | None = None) -> PredictionResults:
+def from_table(
+    table: pa.Table, settings: Mapping[str, Any] | None = None, source: str | None = None
+) -> PredictionResults:
     """The results (SI) of a prediction table (:func:`to_table`, batch part files).
 
     Columns other than :data:`PARQUET_COLUMNS` are the profiles' metadata
     (a ``meta_`` prefix that :func:`to_table` added to avoid a clash is
     removed).  The layered columns become a :class:`LayeredSummary` (SI).
+    A row that cannot be read back raises ValueError naming ``source`` (the
+    file or directory), the row and the profile.
     """
     known = {k for k, _ in PARQUET_COLUMNS} | {"reader_error"}
     meta_names = {}
@@ -1268,8 +1272,22 @@ def from_table(table: pa.Table, settings: Mapping[str, Any] | None = None) -> Pr
         while name.startswith("meta_") and name[5:].lower() in known | set(meta_names.values()):
             name = name[5:]
         meta_names[c] = name
+    if "profile" not in table.column_names:
+        raise ValueError(f"{source or 'table'}: no column 'profile' (not a terracone prediction)")
     rows = table.to_pylist()
-    return PredictionResults((_result_from_row(r, meta_names) for r in rows), settings)
+    results = (_row_from_table(r, i, meta_names, source) for i, r in enumerate(rows))
+    return PredictionResults(results, settings)
+
+
+def _row_from_table(
+    row: Mapping[str, Any], index: int, meta_names: Mapping[str, str], source: str | None
+) -> PredictionResult:
+    try:
+        return _result_from_row(row, meta_names)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        where = f"{source or 'table'}, row {index + 1} (profile {row.get('profile')!r})"
+        why = f"column {exc.args[0]!r} missing" if isinstance(exc, KeyError) else str(exc)
+        raise ValueError(f"{where}: not a row as terracone writes it ({why})") from None
 
 
 def read_results(path: PathLike) -> PredictionResults:
@@ -1308,10 +1326,10 @@ def read_results(path: PathLike) -> PredictionResults:
         for f in parts:
             check_table_schema(f)
         table = pa.concat_tables([pq.read_table(f) for f in parts], promote_options="permissive")
-        return from_table(table, settings)
+        return from_table(table, settings, source=str(p))
     if not p.exists():
         raise ValueError(f"{p}: file not found")
     if p.suffix.lower() in (".parquet", ".pq"):
         check_table_schema(p)
-        return from_table(pq.read_table(p))
+        return from_table(pq.read_table(p), source=f"file {p}")
     return read_json(p)

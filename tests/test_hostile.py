@@ -832,6 +832,29 @@ def test_a_plate_value_beyond_any_bevameter_is_refused_naming_the_cell(tmp_path,
     )
 
 
+def test_a_broken_row_of_a_results_table_is_named_in_every_reader(workspace, tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    good = tmp_path / "good.parquet"
+    r = run("predict", workspace / "lete_sand_synthetic_ci.csv", "--parquet", good)
+    assert r.exit_code == 0, r.output
+    table = pq.read_table(good)
+    text = table.set_column(table.column_names.index("kc"), "kc", pa.array(["x"] * len(table)))
+    cases = [
+        (text, "row 1 (profile 'LS_syn_1'): not a row as terracone writes it (could not "
+               "convert string to float: 'x')"),
+        (table.drop_columns(["profile"]), "no column 'profile' (not a terracone prediction)"),
+    ]  # fmt: skip
+    for t, why in cases:
+        bad = tmp_path / "bad.parquet"
+        pq.write_table(t.replace_schema_metadata(table.schema.metadata), bad)
+        for args in (["report", bad, "--out", tmp_path / "r.html"],
+                     ["export", "--results", bad, "--format", "csv", "--out", tmp_path / "x.csv"]):  # fmt: skip
+            sep = ", " if why.startswith("row") else ": "
+            assert error_line(run(*args)) == f"file {bad}{sep}{why}", args
+
+
 def test_a_corrupt_or_foreign_library_is_named_and_spares_the_builtin_terrains(tmp_path):
     bad = tmp_path / "bad.sqlite"
     bad.write_bytes(b"this is not a database\n" * 100)
